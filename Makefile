@@ -1,0 +1,42 @@
+# Two commands do all set-up on a fresh machine:
+#   make run    the soft-PLC daemon with the drawing-table program and its simulated table
+#   make test   the whole test suite
+PY      ?= python3
+VENV    := .venv
+BIN     := $(VENV)/bin
+STAMP   := $(VENV)/.installed
+PORT    ?= 5020
+
+.PHONY: run test bench lint draw clean
+
+$(STAMP): pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -e '.[test]'
+	touch $(STAMP)
+
+# Debian tools the end-to-end tests use as independent Modbus clients / terminals.
+sysdeps:
+	@command -v mbpoll >/dev/null 2>&1 && command -v tmux >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq mbpoll tmux >/dev/null; \
+	  else echo "note: mbpoll/tmux not installed (need root); tests that use them are skipped"; fi; }
+
+run: $(STAMP)
+	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT)
+
+draw: $(STAMP)
+	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png
+
+test: $(STAMP) sysdeps
+	$(BIN)/ruff check softplc tests tools
+	$(BIN)/python -m pytest -q
+
+bench: $(STAMP)
+	$(BIN)/pip install -q -e '.[test,bench]'
+	$(BIN)/python tools/bench.py
+
+lint: $(STAMP)
+	$(BIN)/ruff check softplc tests tools
+
+clean:
+	rm -rf $(VENV) *.egg-info .pytest_cache .ruff_cache results out

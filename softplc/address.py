@@ -1,0 +1,183 @@
+"""Twido object addresses: the one parser for `%MW3`, `%I0.12`, `%MF40`, `%TM0.Q`...
+
+The grammar, the PLC API, the Modbus tools and the debugger all turn address text into a
+`Ref` here, so the address syntax lives in one place.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from .errors import AddressError
+from .profile import DEFAULT_PROFILE, Profile
+
+BOOL, INT16, INT32, REAL = "bool", "int16", "int32", "real"
+
+# Plain indexed objects: kind -> value type.
+SIMPLE_KINDS = {
+    "M": BOOL, "S": BOOL, "X": BOOL,
+    "MW": INT16, "KW": INT16, "SW": INT16,
+    "MD": INT32, "KD": INT32,
+    "MF": REAL, "KF": REAL,
+}
+IO_KINDS = {"I": BOOL, "Q": BOOL}
+# Function-block objects: kind -> {field: (type, writable by the program)}.
+BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
+    "TM": {"Q": (BOOL, False), "V": (INT16, False), "P": (INT16, True)},
+    "C": {"V": (INT16, False), "P": (INT16, True), "D": (BOOL, False),
+          "E": (BOOL, False), "F": (BOOL, False)},
+    "DR": {"S": (INT16, False), "F": (BOOL, False)},
+    "SBR": {},  # bits %SBRi.Jk
+    "SC": {},  # bits %SCi.Jk
+    "R": {"I": (INT16, True), "O": (INT16, True), "E": (BOOL, False), "F": (BOOL, False)},
+}
+# Objects the program may never write.
+READ_ONLY_KINDS = {"I", "KW", "KD", "KF"}
+# Word-backed kinds: the 16-bit family a 32-bit or float object overlays.
+WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF": "KW",
+               "SW": "SW"}
+# How many words an object occupies in its family.
+WIDTH = {"MW": 1, "KW": 1, "SW": 1, "MD": 2, "MF": 2, "KD": 2, "KF": 2}
+
+_ADDR = re.compile(
+    r"""%(?P<kind>SBR|SC|TM|DR|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
+        (?P<a>\d+)
+        (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
+        (?:\.(?P<field>[A-Z])(?P<fbit>\d+)?)?   # %TM0.Q, %SBR0.J3
+        (?::X(?P<bit>\d+))?                     # %MW3:X5
+        (?::(?P<length>\d+))?                   # %MW0:10 table / bit string
+        (?:\[(?P<offset>%MW\d+)\])?             # %MW2[%MW5]
+    $""",
+    re.X | re.I,
+)
+
+
+@dataclass(frozen=True)
+class Ref:
+    """A resolved object address."""
+
+    kind: str
+    index: int  # object number; for %I/%Q the flat channel (module * stride + channel)
+    module: int | None = None
+    channel: int | None = None
+    field: str | None = None  # function-block field: Q V P D E F S I O J
+    bit: int | None = None  # %MWi:Xk or %SBRi.Jk
+    length: int | None = None  # %MWi:L tables, %Mi:L bit strings
+    offset: Ref | None = None  # %MWi[%MWj]
+
+    @property
+    def type(self) -> str:
+        if self.bit is not None:
+            return BOOL
+        if self.kind in BLOCK_FIELDS:
+            if self.field is None:
+                return "block"
+            return BLOCK_FIELDS[self.kind][self.field][0]
+        if self.kind in IO_KINDS:
+            return BOOL
+        return SIMPLE_KINDS[self.kind]
+
+    @property
+    def writable(self) -> bool:
+        if self.kind in READ_ONLY_KINDS:
+            return False
+        if self.kind in BLOCK_FIELDS:
+            return self.field is not None and BLOCK_FIELDS[self.kind].get(
+                self.field, (BOOL, False))[1]
+        return True
+
+    @property
+    def is_block(self) -> bool:
+        return self.kind in BLOCK_FIELDS and self.field is None
+
+    def __str__(self) -> str:
+        if self.kind in IO_KINDS:
+            s = f"%{self.kind}{self.module}.{self.channel}"
+        else:
+            s = f"%{self.kind}{self.index}"
+        if self.field is not None:
+            s += f".{self.field}"
+            if self.bit is not None:
+                s += str(self.bit)
+        elif self.bit is not None:
+            s += f":X{self.bit}"
+        if self.length is not None:
+            s += f":{self.length}"
+        if self.offset is not None:
+            s += f"[{self.offset}]"
+        return s
+
+
+def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
+    """Parse and range-check an address. Raises AddressError with a readable message."""
+    t = text.strip().replace(" ", "")
+    m = _ADDR.match(t)
+    if not m:
+        raise AddressError(f"malformed address {text!r}")
+    kind = m["kind"].upper()
+    a = int(m["a"])
+    field = m["field"].upper() if m["field"] else None
+    bit = int(m["bit"]) if m["bit"] is not None else None
+    length = int(m["length"]) if m["length"] is not None else None
+    offset = parse_address(m["offset"], profile) if m["offset"] else None
+    if kind in ("IW", "QW"):
+        raise AddressError(f"analog objects like {text!r} are not emulated")
+    if kind == "L":
+        raise AddressError(f"{text!r} is a label, not an object")
+
+    if kind in IO_KINDS:
+        if m["b"] is None:
+            raise AddressError(f"{text!r}: I/O addresses are %{kind}module.channel")
+        module, channel = a, int(m["b"])
+        if module > profile.expansion_slots:
+            raise AddressError(f"{text!r}: module {module} beyond the "
+                               f"{profile.expansion_slots} expansion slots of {profile.name}")
+        limit = (profile.inputs_base if kind == "I" else profile.outputs_base) if module == 0 \
+            else profile.channels_per_module
+        if channel >= limit:
+            raise AddressError(f"{text!r}: module {module} has {limit} "
+                               f"{'inputs' if kind == 'I' else 'outputs'}")
+        if field or bit is not None or offset or length:
+            raise AddressError(f"{text!r}: I/O bits take no suffix")
+        return Ref(kind, module * profile.channels_per_module + channel, module, channel)
+
+    if m["b"] is not None:
+        raise AddressError(f"malformed address {text!r}")
+    base_kind = WORD_FAMILY.get(kind, kind)
+    count = profile.count(base_kind)
+    width = WIDTH.get(kind, 1)
+    top = a + (length or 1) * width if length else a + width
+    if top > count:
+        raise AddressError(f"{text!r} is beyond the controller profile "
+                           f"({profile.name} has %{base_kind}0..%{base_kind}{count - 1})")
+
+    if kind in BLOCK_FIELDS:
+        fields = BLOCK_FIELDS[kind]
+        if field is not None:
+            if kind in ("SBR", "SC"):
+                if field != "J" or m["fbit"] is None:
+                    raise AddressError(f"{text!r}: %{kind} bits are .Jk")
+                k = int(m["fbit"])
+                if k >= (16 if kind == "SBR" else 256):
+                    raise AddressError(f"{text!r}: bit {k} out of range")
+                return Ref(kind, a, field="J", bit=k)
+            if field not in fields or m["fbit"] is not None:
+                raise AddressError(f"{text!r}: %{kind} has fields "
+                                   f"{', '.join('.' + f for f in fields)}")
+        if bit is not None or offset or length:
+            raise AddressError(f"malformed address {text!r}")
+        return Ref(kind, a, field=field)
+
+    if field is not None:
+        raise AddressError(f"{text!r}: %{kind} has no field .{field}")
+    if bit is not None:
+        if kind not in ("MW", "KW", "SW") or bit > 15:
+            raise AddressError(f"{text!r}: bit selection is %MWi:Xk with k in 0..15")
+        if offset or length:
+            raise AddressError(f"malformed address {text!r}")
+    if offset is not None and (kind not in ("MW", "MD", "MF", "KW", "KD", "KF", "M")
+                               or offset.kind != "MW"):
+        raise AddressError(f"{text!r}: only %M, %MW, %MD, %MF, %KW, %KD, %KF can be indexed "
+                           f"by a %MW")
+    return Ref(kind, a, bit=bit, length=length, offset=offset)

@@ -1,0 +1,1 @@
+"""Subcommands of the `softplc` command (see softplc/cli.py)."""

@@ -1,0 +1,138 @@
+"""`softplc run PROGRAM.il`: a soft Twido on the real clock that Modbus hosts can talk to.
+
+Settings come from the command line, else from the machine config, else defaults:
+
+    scan_period = "10ms"                 # --period
+    [modbus]  host = "127.0.0.1"  port = 5020  max_clients = 32
+              frame_timeout = "2s"  idle_timeout = "0s"      # 0 = never
+              read_only = ["%MW100:20", "%M0:8"]             # writes there get exception 02
+    [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "5s"
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+from ..config import duration
+from ..errors import ConfigError, SoftPLCError
+
+_BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
+
+
+def _duration(text: str, bare_unit: str = "s") -> float:
+    if _BARE_NUMBER.match(text):
+        text += bare_unit
+    try:
+        return duration(text)
+    except ConfigError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _period(text: str) -> float:
+    return _duration(text, "ms")
+
+
+def _speed(text: str) -> float:
+    if text.strip().lower() == "max":
+        return math.inf
+    try:
+        v = float(text)
+    except ValueError:
+        v = -1.0
+    if not 0 < v < math.inf:
+        raise argparse.ArgumentTypeError(f"bad speed {text!r}: a positive factor or 'max'")
+    return v
+
+
+def _port(value: Any) -> int:
+    try:
+        v = int(value)
+    except (TypeError, ValueError):
+        v = -1
+    if not 0 <= v <= 65535:
+        raise argparse.ArgumentTypeError(f"bad port {value!r} (0..65535; 0 = any free port)")
+    return v
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "run", help="run a program with a Modbus TCP server (a soft Twido)",
+        description="Run PROGRAM.il periodically on the real clock and serve its memory over "
+                    "Modbus TCP: %%MWn = holding/input register n (FC 3/4/6/16/23), %%Mn = "
+                    "coil/discrete input n (FC 1/2/5/15), FC 43/14 device identification. "
+                    "Host writes are applied at the start of the next scan; reads return the "
+                    "image of the last scan. Stop with Ctrl-C or SIGTERM: the scan finishes, "
+                    "outputs go to 0, the state file is saved.")
+    p.add_argument("program", type=Path, help="Instruction List program (.il)")
+    p.add_argument("--config", type=Path, help="machine configuration (TOML)")
+    p.add_argument("--host", help="address to listen on (default 127.0.0.1; 0.0.0.0 for all)")
+    p.add_argument("--port", type=_port,
+                   help="TCP port (default 5020; a real Twido uses 502; 0 = any free port)")
+    p.add_argument("--period", type=_period,
+                   help="scan period = %%SW0, whole ms (default: config scan_period, or 10ms)")
+    p.add_argument("--state", type=Path,
+                   help="retained-state file: warm restart from it, saved periodically and "
+                        "at shutdown")
+    p.add_argument("--cold", action="store_true",
+                   help="cold start even if the state file holds data (or is damaged)")
+    p.add_argument("--save-interval", type=_duration,
+                   help="how often to save the state file (default 5s; 0 = only at shutdown)")
+    p.add_argument("--speed", type=_speed, default=None,
+                   help="virtual clock N times faster than real time, or 'max'")
+    p.add_argument("--stats-interval", type=_duration,
+                   help="statistics line every ... (default 5s; 0 = none)")
+    p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
+    p.add_argument("--log-level", default="warning",
+                   choices=["debug", "info", "warning", "error"],
+                   help="level of server log messages on stderr (default warning)")
+    p.set_defaults(func=run)
+
+
+def _pick(cli: Any, table: dict[str, Any], key: str, default: Any, conv=lambda v: v) -> Any:
+    if cli is not None:
+        return cli
+    if key in table:
+        try:
+            return conv(table[key])
+        except (argparse.ArgumentTypeError, ValueError, TypeError) as e:
+            raise ConfigError(f"config {key}: {e}") from None
+    return default
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..daemon import Daemon, DaemonOptions
+    from ..plc import PLC
+
+    logging.basicConfig(level=getattr(logging, args.log_level.upper()),
+                        format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    plc = PLC.from_file(args.program, config=args.config,
+                        clock="real" if args.speed is None else "virtual")
+    cfg = getattr(plc, "config", None) or {}
+    mb, dm = cfg.get("modbus", {}) or {}, cfg.get("daemon", {}) or {}
+    if not isinstance(mb, dict) or not isinstance(dm, dict):
+        raise ConfigError("[modbus] and [daemon] must be tables")
+    dur = duration
+    period = args.period if args.period is not None else (
+        duration(cfg["scan_period"], "scan_period") if "scan_period" in cfg else 0.010)
+    state = _pick(args.state, dm, "state", None, Path)
+    opts = DaemonOptions(
+        host=_pick(args.host, mb, "host", "127.0.0.1", str),
+        port=_pick(args.port, mb, "port", 5020, _port),
+        period=period,
+        state=state,
+        cold=args.cold,
+        save_interval=_pick(args.save_interval, dm, "save_interval", 5.0, dur),
+        speed=args.speed,
+        stats_interval=_pick(args.stats_interval, dm, "stats_interval", 5.0, dur),
+        max_clients=_pick(args.max_clients, mb, "max_clients", 32, int),
+        frame_timeout=_pick(None, mb, "frame_timeout", 2.0, dur),
+        idle_timeout=_pick(None, mb, "idle_timeout", 0.0, dur) or None,
+    )
+    if opts.max_clients < 1:
+        raise SoftPLCError("max_clients must be at least 1")
+    return Daemon(plc, opts, program_name=str(args.program)).run()

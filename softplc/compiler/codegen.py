@@ -1,0 +1,913 @@
+"""Compile a parsed program to Python source, once, and exec it.
+
+Fast build: each rung's boolean logic becomes one fused Python expression over the memory
+buffers (`_M[5] = _I[3] and not _M[7]`), so the scan loop runs straight-line code with no
+per-instruction dispatch. Memory buffers and helpers are bound as default arguments
+(LOAD_FAST). Labels split a function into blocks run by a small dispatcher (`_pc`); a
+backward jump checks the watchdog so an endless loop ends in HALT, not a hang.
+
+Debug build (`debug=True`): the same code generator with the accumulator materialised
+after every instruction and `yield (rung, k)` before instruction k, so the debugger can
+step by rung or by instruction and read the power flow (`_log[rung][k]`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..address import BOOL, INT16, INT32, REAL, Ref
+from ..errors import CompileError, Diagnostic
+from ..il import ast as A
+from ..semantics import FUNCTIONS
+
+ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
+CMP = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
+BIT_BUFFERS = {"I": "_I", "Q": "_Q", "M": "_M", "S": "_S", "X": "_X"}
+WORD_BUFFERS = {"MW": "_MW", "KW": "_KW", "SW": "_SW"}
+PAIR_VIEWS = {"MD": ("_MDE", "_MDO"), "KD": ("_KDE", "_KDO"),
+              "MF": ("_MFE", "_MFO"), "KF": ("_KFE", "_KFO")}
+FAMILY = {"MW": "_MWF", "MD": "_MWF", "MF": "_MWF", "KW": "_KWF", "KD": "_KWF",
+          "KF": "_KWF", "SW": "_SWF"}
+FLOAT_FUNCS = {"SQRT": "_fsqrt", "ABS": "_fabs", "TRUNC": "_ftrunc", "LOG": "_flog",
+               "LN": "_fln", "EXP": "_fexp", "EXPT": "_fexpt", "SIN": "_fsin",
+               "COS": "_fcos", "TAN": "_ftan", "ASIN": "_fasin", "ACOS": "_facos",
+               "ATAN": "_fatan", "DEG_TO_RAD": "_fdeg_to_rad", "RAD_TO_DEG": "_frad_to_deg"}
+MAX_EXPR = 2000  # characters of a fused expression before it is materialised
+BLOCK_PIN_METHODS = {"IN": "in_", "R": "r", "S": "s", "CU": "cu", "CD": "cd", "U": "u",
+                     "I": "i", "O": "o"}
+BLOCK_KIND_PINS = {"TM": ("IN",), "C": ("R", "S", "CU", "CD"), "DR": ("R", "U"),
+                   "SBR": ("R", "CU", "CD"), "SC": ("R", "CU", "CD"), "R": ("R", "I", "O")}
+BLOCK_OUTPUTS = {"TM": ("Q",), "C": ("D", "E", "F"), "DR": ("F",), "R": ("E", "F")}
+
+
+class Watchdog(Exception):
+    """Raised by compiled code when a scan overruns the watchdog inside a loop."""
+
+
+@dataclass
+class CompiledProgram:
+    program: A.Program
+    source: str
+    main: Callable[[], Any]
+    namespace: dict[str, Any]
+    debug: bool = False
+    log: list[list[Any]] = field(default_factory=list)  # debug: accumulator per instruction
+    instruction_count: int = 0
+
+    @property
+    def rungs(self) -> list[A.Rung]:
+        return self.program.rungs
+
+
+@dataclass
+class _Acc:
+    code: str
+    kind: str = "atom"  # atom | and | or
+
+    @property
+    def simple(self) -> bool:  # safe to evaluate again after memory changed
+        return self.code in ("0", "1", "True", "False") or (
+            self.code.startswith("_t") and self.code[2:].isdigit())
+
+
+class _Fn:
+    """Code of one function being generated."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.lines: list[str] = []
+        self.names: set[str] = set()
+        self.blocks: list[int] = []  # rung index starting each dispatcher block
+
+
+class Compiler:
+    def __init__(self, program: A.Program, env: dict[str, Any], profile_counts: dict[str, int],
+                 debug: bool = False):
+        self.program = program
+        self.env = env  # name -> object for the generated namespace
+        self.counts = profile_counts
+        self.debug = debug
+        self.diags: list[Diagnostic] = []
+        self.tmp = itertools.count()
+        self.edge = itertools.count()
+        self.fn: _Fn
+        self.indent = 1
+        self.ninstr = 0
+
+    # ---- diagnostics ----------------------------------------------------------------------
+    def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "") -> None:
+        p = pos or A.NOPOS
+        if not text and p.line:
+            lines = self.program.source.splitlines()
+            text = lines[p.line - 1].strip() if p.line <= len(lines) else ""
+        self.diags.append(Diagnostic(msg, self.program.file, p.line, p.column, text, expected))
+
+    # ---- emission helpers -----------------------------------------------------------------
+    def use(self, *names: str) -> None:
+        self.fn.names.update(names)
+
+    def emit(self, line: str) -> None:
+        self.fn.lines.append("    " * self.indent + line)
+
+    def new_tmp(self) -> str:
+        return f"_t{next(self.tmp)}"
+
+    def materialize(self, acc: _Acc) -> _Acc:
+        if acc.simple:
+            return acc
+        t = self.new_tmp()
+        self.emit(f"{t} = {acc.code}")
+        return _Acc(t)
+
+    # ---- object access --------------------------------------------------------------------
+    def block_name(self, ref: Ref, pos: A.Pos | None) -> str:
+        name = f"_{ref.kind}{ref.index}"
+        if name not in self.env:
+            factory = self.env["_block_factory"]
+            problem = factory(ref)
+            if problem:
+                self.err(problem, pos)
+                self.env[name] = None
+            else:
+                self.env[name] = self.env["_mem"].blocks[ref.kind][ref.index]
+        self.use(name)
+        return name
+
+    def index_code(self, ref: Ref, count: int) -> str:
+        """Index expression for a possibly indexed object."""
+        if ref.offset is None:
+            return str(ref.index)
+        self.use("_ix", "_MW")
+        return f"_ix({ref.index}, _MW[{ref.offset.index}], {count})"
+
+    def read_bit(self, ref: Ref, pos: A.Pos | None) -> str:
+        k = ref.kind
+        if k in BIT_BUFFERS:
+            buf = BIT_BUFFERS[k]
+            self.use(buf)
+            if k in ("I", "Q"):
+                return f"{buf}[{ref.index}]"
+            return f"{buf}[{self.index_code(ref, self.counts[k])}]"
+        if ref.bit is not None and ref.kind in WORD_BUFFERS:
+            buf = WORD_BUFFERS[k]
+            self.use(buf)
+            return f"({buf}[{ref.index}] >> {ref.bit} & 1)"
+        if ref.type == BOOL and ref.kind in BLOCK_OUTPUTS or ref.field == "J":
+            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            if ref.field == "J":
+                return f"{b}.bit({ref.bit})"
+            return f"{b}.{ref.field}"
+        self.err(f"{ref} is a {ref.type}, not a bit: use a comparison block, e.g. "
+                 f"[ {ref} <> 0 ]", pos, str(ref))
+        return "0"
+
+    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[str, str]:
+        """(code, type) of a word/dword/float object."""
+        k = ref.kind
+        if ref.length is not None:
+            self.err(f"{ref}: a table cannot be used in an expression", pos, str(ref))
+            return "0", INT16
+        if ref.bit is not None or ref.type == BOOL:
+            self.err(f"{ref} is a bit; expressions take words, double words or floats",
+                     pos, str(ref))
+            return "0", INT16
+        if k in WORD_BUFFERS:
+            buf = WORD_BUFFERS[k]
+            self.use(buf)
+            return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
+        if k in PAIR_VIEWS:
+            typ = REAL if k in ("MF", "KF") else INT32
+            if ref.offset is not None:
+                fam = FAMILY[k]
+                self.use(fam)
+                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                return f"{fam}.get_{'f' if typ == REAL else 'd'}({idx})", typ
+            view = PAIR_VIEWS[k][ref.index & 1]
+            self.use(view)
+            return f"{view}[{ref.index >> 1}]", typ
+        if k in BLOCK_OUTPUTS or k in ("TM", "C", "DR", "R"):
+            if ref.field is None:
+                self.err(f"{ref} is a function block; name a field like {ref}.V", pos, str(ref))
+                return "0", INT16
+            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            return f"{b}.{ref.field}", INT16
+        self.err(f"{ref} cannot be used in an expression", pos, str(ref))
+        return "0", INT16
+
+    def check_writable(self, ref: Ref, pos: A.Pos | None) -> bool:
+        if not ref.writable:
+            what = {"I": "an input: the program cannot write inputs",
+                    "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
+                ref.kind, "read-only")
+            self.err(f"cannot write {ref}: it is {what}", pos, str(ref))
+            return False
+        return True
+
+    def write_bit(self, ref: Ref, value: str, pos: A.Pos | None) -> None:
+        """Emit `ref := value` for a bit target."""
+        if not self.check_writable(ref, pos):
+            return
+        k = ref.kind
+        if k in BIT_BUFFERS:
+            buf = BIT_BUFFERS[k]
+            self.use(buf)
+            idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
+            self.emit(f"{buf}[{idx}] = {value}")
+        elif ref.bit is not None and k in WORD_BUFFERS:
+            u = "_U" + WORD_BUFFERS[k][1:]
+            self.use(u)
+            mask = 1 << ref.bit
+            self.emit(f"{u}[{ref.index}] = ({u}[{ref.index}] | {mask}) if {value} else "
+                      f"({u}[{ref.index}] & {0xFFFF ^ mask})")
+        else:
+            self.err(f"{ref} is not a bit that can be stored to", pos, str(ref))
+
+    # ---- expressions ----------------------------------------------------------------------
+    def expr(self, e: A.Expr, want: str | None = None) -> tuple[str, str]:
+        """(code, type). `want` adapts integer literals to the context's type."""
+        if isinstance(e, A.Num):
+            if e.is_float:
+                return repr(float(e.value)), REAL
+            v = int(e.value)
+            if want == REAL:
+                return repr(float(v)), REAL
+            if e.text.startswith(("#", "16#")) and want != INT32 and 0x8000 <= v <= 0xFFFF:
+                v -= 0x10000  # hex word constants are bit patterns
+            if want == INT32 or not -32768 <= v <= 32767:
+                if not -2147483648 <= v <= 2147483647:
+                    self.err(f"constant {e.text or v} does not fit 32 bits", e.pos)
+                return str(v), INT32
+            return str(v), INT16
+        if isinstance(e, A.Addr):
+            return self.read_word(e.ref, e.pos)
+        if isinstance(e, A.Neg):
+            code, t = self.expr(e.operand, want)
+            if t == REAL:
+                return f"(-{code})", REAL
+            h = "_neg16" if t == INT16 else "_neg32"
+            self.use(h)
+            return f"{h}({code})", t
+        if isinstance(e, A.BinOp):
+            return self.binop(e, want)
+        if isinstance(e, A.Call):
+            return self.call(e, want)
+        self.err("unsupported expression", getattr(e, "pos", None))
+        return "0", INT16
+
+    def unify(self, a: tuple[str, str], b: tuple[str, str], pos: A.Pos | None,
+              what: str) -> str | None:
+        ta, tb = a[1], b[1]
+        if ta == tb:
+            return ta
+        if REAL in (ta, tb):
+            self.err(f"{what} mixes a float with a {'word' if INT16 in (ta, tb) else 'double word'}"
+                     f" without conversion: use INT_TO_REAL / DINT_TO_REAL / REAL_TO_INT",
+                     pos)
+            return None
+        return INT32
+
+    def operand_pair(self, left: A.Expr, right: A.Expr, want: str | None
+                     ) -> tuple[tuple[str, str], tuple[str, str]]:
+        # Literals take the type of the other side.
+        lhint = None if isinstance(left, A.Num) else want
+        a = self.expr(left, lhint if not isinstance(right, A.Num) else want)
+        b = self.expr(right, a[1] if isinstance(right, A.Num) else want)
+        if isinstance(left, A.Num) and not isinstance(right, A.Num):
+            a = self.expr(left, b[1])
+        return a, b
+
+    def binop(self, e: A.BinOp, want: str | None) -> tuple[str, str]:
+        a, b = self.operand_pair(e.left, e.right, want)
+        t = self.unify(a, b, e.pos, f"'{e.op}'")
+        if t is None:
+            return "0", INT16
+        if e.op in ("AND", "OR", "XOR"):
+            if t == REAL:
+                self.err(f"word logic {e.op} needs words, not floats", e.pos)
+                return "0", INT16
+            py = {"AND": "&", "OR": "|", "XOR": "^"}[e.op]
+            return f"({a[0]} {py} {b[0]})", t
+        if e.op not in ARITH:
+            self.err(f"unknown operator {e.op}", e.pos)
+            return "0", t
+        if t == REAL:
+            if e.op == "REM":
+                self.err("REM takes words, not floats", e.pos)
+                return "0", REAL
+            if e.op == "/":
+                self.use("_fdiv")
+                return f"_fdiv({a[0]}, {b[0]})", REAL
+            return f"({a[0]} {e.op} {b[0]})", REAL
+        h = f"_{ARITH[e.op]}{16 if t == INT16 else 32}"
+        self.use(h)
+        return f"{h}({a[0]}, {b[0]})", t
+
+    def call(self, e: A.Call, want: str | None) -> tuple[str, str]:
+        if e.func not in FUNCTIONS:
+            self.err(f"unknown function {e.func}", e.pos, e.func,
+                     ", ".join(sorted(FUNCTIONS)))
+            return "0", INT16
+        params, result = FUNCTIONS[e.func]
+        if len(e.args) != len(params):
+            self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos)
+            return "0", INT16
+        args = []
+        for p, arg in zip(params, e.args, strict=True):
+            hint = p if p in (INT16, INT32, REAL) else (want if p in ("num", "int") else None)
+            code, t = self.expr(arg, hint)
+            if p in (INT16, INT32, REAL) and t != p and not (p == INT32 and t == INT16) and \
+                    not (p == INT16 and isinstance(arg, A.Num) and t == INT16):
+                if {t, p} & {REAL} or p == INT16:
+                    self.err(f"{e.func} takes a {self.tname(p)}, got a {self.tname(t)}",
+                             e.pos)
+            if p == "int" and t == REAL:
+                self.err(f"{e.func} takes words or double words, not floats", e.pos)
+            args.append((code, t))
+        t0 = args[0][1]
+        f = e.func
+        if f in ("SHL", "SHR", "ROL", "ROR"):
+            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+        elif f == "NOT":
+            return f"(~{args[0][0]})", t0
+        elif f in ("SQRT", "ABS") and t0 != REAL:
+            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+        elif f in FLOAT_FUNCS:
+            h = FLOAT_FUNCS[f]
+        elif f in ("INT_TO_REAL", "DINT_TO_REAL"):
+            return f"float({args[0][0]})", REAL
+        else:  # REAL_TO_INT / REAL_TO_DINT
+            h = "_" + f.lower()
+        self.use(h)
+        rtype = t0 if result == "same" else result
+        return f"{h}({', '.join(c for c, _ in args)})", rtype
+
+    @staticmethod
+    def tname(t: str) -> str:
+        return {INT16: "word", INT32: "double word", REAL: "float", BOOL: "bit"}.get(t, t)
+
+    # ---- operation blocks -----------------------------------------------------------------
+    def statement(self, st: A.Statement) -> None:
+        if isinstance(st, A.IncDec):
+            ref = st.target
+            if not self.check_writable(ref, st.pos):
+                return
+            code, t = self.read_word(ref, st.pos)
+            if t == REAL:
+                self.err(f"{st.op} takes a word or double word", st.pos, str(ref))
+                return
+            h = ("_add" if st.op == "INC" else "_sub") + ("16" if t == INT16 else "32")
+            self.use(h)
+            self.store_value(ref, f"{h}({code}, 1)", t, st.pos)
+            return
+        ref, e = st.target, st.expr
+        if not self.check_writable(ref, st.pos):
+            return
+        if ref.length is not None:
+            self.table_assign(ref, e, st.pos)
+            return
+        if ref.type == BOOL or ref.is_block:
+            self.err(f"cannot assign to {ref}: assignments take words, double words or "
+                     f"floats (use ST for bits)", st.pos, str(ref))
+            return
+        _, tt = self.read_word(ref, st.pos)
+        code, t = self.expr(e, tt)
+        if tt == REAL and t != REAL or tt != REAL and t == REAL:
+            self.err(f"assignment of a {self.tname(t)} to the {self.tname(tt)} {ref} needs a "
+                     f"conversion (INT_TO_REAL, DINT_TO_REAL, REAL_TO_INT, REAL_TO_DINT)",
+                     st.pos, str(ref))
+            return
+        if tt == INT16 and t == INT32:
+            if isinstance(e, A.Num):
+                self.err(f"constant {e.text or e.value} does not fit the word {ref}", st.pos)
+                return
+            self.use("_narrow16")
+            code = f"_narrow16({code})"
+        self.store_value(ref, code, tt, st.pos)
+
+    def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
+        k = ref.kind
+        if k in WORD_BUFFERS:
+            buf = WORD_BUFFERS[k]
+            self.use(buf)
+            self.emit(f"{buf}[{self.index_code(ref, self.counts[k])}] = {code}")
+        elif k in PAIR_VIEWS:
+            if ref.offset is not None:
+                fam = FAMILY[k]
+                self.use(fam)
+                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                self.emit(f"{fam}.set_{'f' if t == REAL else 'd'}({idx}, {code})")
+                return
+            view = PAIR_VIEWS[k][ref.index & 1]
+            self.use(view)
+            if t == REAL:
+                self.use("_stf")
+                self.emit(f"_stf({view}, {ref.index >> 1}, {code})")
+            else:
+                self.emit(f"{view}[{ref.index >> 1}] = {code}")
+        elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
+            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            if ref.field == "P":
+                self.emit(f"{b}.P = min(max({code}, 0), 9999)")
+            else:
+                self.emit(f"{b}.{ref.field} = {code}")
+        else:
+            self.err(f"cannot assign to {ref}", pos, str(ref))
+
+    def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
+        """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,
+        %MW3 := %M0:16 is handled by the caller as an expression error (rare)."""
+        self.use("_mem")
+        if isinstance(e, A.Addr) and e.ref.length is not None:
+            src = e.ref
+            if src.length != ref.length:
+                self.err(f"table lengths differ: {ref} := {src}", pos)
+                return
+            self.emit(f"_mem.write({str(ref)!r}, _mem.read({str(src)!r}))")
+            return
+        if ref.kind == "M":
+            code, t = self.expr(e, INT16)
+            if t == REAL:
+                self.err("a bit string takes a word", pos)
+                return
+            self.emit(f"_mem.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
+                      f"range({ref.length})])")
+            return
+        _, tt = self.read_word(Ref(ref.kind, ref.index), pos)
+        code, t = self.expr(e, tt)
+        if (t == REAL) != (tt == REAL):
+            self.err(f"table {ref} and value types differ", pos)
+            return
+        self.emit(f"_mem.write({str(ref)!r}, [{code}] * {ref.length})")
+
+    # ---- boolean operands -----------------------------------------------------------------
+    def operand(self, op: A.BoolOperand | None, blk: Ref | None, pos: A.Pos | None) -> str:
+        if op is None:
+            return "1"
+        if isinstance(op, A.Const):
+            return str(op.value)
+        if isinstance(op, A.Operand):
+            return self.read_bit(op.ref, op.pos)
+        if isinstance(op, A.BlockOutput):
+            if blk is None:
+                self.err(f"block output {op.name} outside BLK ... OUT_BLK", op.pos, op.name)
+                return "0"
+            outs = BLOCK_OUTPUTS.get(blk.kind, ())
+            if op.name not in outs:
+                self.err(f"%{blk.kind} has no output {op.name} (it has "
+                         f"{', '.join(outs) or 'none'})", op.pos, op.name)
+                return "0"
+            return f"{self.block_name(blk, pos)}.{op.name}"
+        if isinstance(op, A.Compare):
+            a, b = self.operand_pair(op.left, op.right, None)
+            if self.unify(a, b, op.pos, "comparison") is None:
+                return "0"
+            code = f"({a[0]} {CMP[op.op]} {b[0]})"
+            if "(" in a[0] or "(" in b[0]:  # helpers may set %S18: evaluate exactly once
+                t = self.new_tmp()
+                self.emit(f"{t} = {code}")
+                return t
+            return code
+        self.err("unsupported operand", pos)
+        return "0"
+
+    def modified(self, code: str, mod: str) -> _Acc:
+        if mod == "N":
+            return _Acc(f"(not {code})")
+        if mod in ("R", "F"):
+            self.use("_EDGE")
+            k = next(self.edge)
+            v, r = self.new_tmp(), self.new_tmp()
+            self.emit(f"{v} = {code}")
+            self.emit(f"{r} = {v} {'>' if mod == 'R' else '<'} _EDGE[{k}]")
+            self.emit(f"_EDGE[{k}] = {v}")
+            return _Acc(r)
+        return _Acc(code)
+
+    @staticmethod
+    def combine(op: str, left: _Acc, right: _Acc) -> _Acc:
+        if op == "XOR":
+            return _Acc(f"({left.code} != {right.code})")
+        if op == "AND":
+            lc = f"({left.code})" if left.kind == "or" else left.code
+            rc = f"({right.code})" if right.kind == "or" else right.code
+            return _Acc(f"{lc} and {rc}", "and")
+        return _Acc(f"{left.code} or {right.code}", "or")
+
+    # ---- rungs ----------------------------------------------------------------------------
+    def rung(self, rung: A.Rung, ctx: dict[str, Any]) -> None:
+        """Emit one rung. ctx carries function-level facts (labels -> blocks, Grafcet step)."""
+        ins = rung.instructions
+        acc: _Acc | None = None
+        parens: list[tuple[str, str, _Acc, A.Pos]] = []
+        mps: list[str] = []
+        blk: Ref | None = None  # current BLK
+        blk_pins: dict[str, str] = {}
+        blk_phase = ""  # "in" before OUT_BLK, "out" after
+        base_indent = self.indent
+        step = ctx.get("step")
+        if step is not None:
+            self.use("_XS")
+            self.emit(f"if _XS[{step}]:")
+            self.indent += 1
+            base_indent = self.indent
+        if not ins:
+            self.emit("pass")
+
+        def acc_used_later(k: int) -> bool:
+            for nxt in ins[k + 1:]:
+                if isinstance(nxt, A.BoolInstr) and nxt.is_load:
+                    return False
+                if isinstance(nxt, (A.Blk, A.OutBlk, A.EndBlk, A.Nop, A.Grafcet)) and \
+                        not (isinstance(nxt, A.Grafcet) and nxt.op in ("#", "#D")):
+                    continue
+                return True
+            return False
+
+        def need(instr: A.Instruction) -> _Acc:
+            nonlocal acc
+            if acc is None:
+                self.err(f"{self.describe(instr)} needs a preceding load (LD)",
+                         getattr(instr, "pos", None))
+                acc = _Acc("0")
+            return acc
+
+        def close_block_inputs() -> None:
+            nonlocal blk_phase
+            if blk is None or blk_phase != "in":
+                return
+            b = self.block_name(blk, None)
+            pins = BLOCK_KIND_PINS.get(blk.kind, ())
+            args = ", ".join(blk_pins.get(p, "0") for p in pins)
+            self.emit(f"{b}.run({args})")
+            blk_phase = "out"
+
+        for k, instr in enumerate(ins):
+            self.ninstr += 1
+            pos = getattr(instr, "pos", None)
+            if self.debug:
+                self.indent = base_indent
+                self.emit(f"yield ({rung.index}, {k})")
+            if isinstance(instr, A.BoolInstr):
+                code = self.operand(instr.operand, blk, pos)
+                val = self.modified(code, instr.modifier)
+                if instr.op == "LD":
+                    acc = val
+                else:
+                    acc = self.combine(instr.op, need(instr), val)
+            elif isinstance(instr, A.ParenOpen):
+                outer = need(instr)
+                if len(parens) >= self.counts["PAREN"]:
+                    self.err(f"parentheses nested deeper than {self.counts['PAREN']}", pos)
+                if not outer.simple and len(outer.code) > MAX_EXPR // 2:
+                    outer = self.materialize(outer)
+                parens.append((instr.op, instr.modifier, outer, pos))
+                code = self.operand(instr.operand, blk, pos) if instr.operand else None
+                if instr.operand is None:
+                    self.err(f"{instr.op}( needs an operand", pos)
+                    code = "0"
+                acc = self.modified(code, instr.modifier if instr.modifier == "N" else "")
+                if instr.modifier in ("R", "F"):
+                    acc = self.modified(code, instr.modifier)
+            elif isinstance(instr, A.ParenClose):
+                if not parens:
+                    self.err("')' without a matching '('", pos, ")")
+                    continue
+                op, _mod, outer, _p = parens.pop()
+                inner = need(instr)
+                acc = self.combine(op, outer, _Acc(f"({inner.code})") if inner.kind != "atom"
+                                   else inner)
+            elif isinstance(instr, A.Negate):
+                a = need(instr)
+                acc = _Acc(f"(not {a.code})")
+            elif isinstance(instr, A.Stack):
+                if instr.op == "MPS":
+                    a = self.materialize(need(instr))
+                    if len(mps) >= self.counts["STACK"]:
+                        self.err(f"MPS stack deeper than {self.counts['STACK']}", pos)
+                    mps.append(a.code)
+                    acc = a
+                elif not mps:
+                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op)
+                else:
+                    acc = _Acc(mps[-1] if instr.op == "MRD" else mps.pop())
+            elif isinstance(instr, A.Store):
+                a = need(instr)
+                if acc_used_later(k) or self.debug:
+                    a = acc = self.materialize(a)
+                if instr.op == "ST":
+                    self.write_bit(instr.target, a.code, pos)
+                elif instr.op == "STN":
+                    self.write_bit(instr.target, f"not {a.code}", pos)
+                else:
+                    if instr.target.is_block:
+                        self.err(f"{instr.op} {instr.target}: use R/S as block inputs", pos)
+                        continue
+                    value = "1" if instr.op == "S" else "0"
+                    if a.code in ("1", "True"):
+                        self.write_bit(instr.target, value, pos)
+                    elif a.code not in ("0", "False"):
+                        self.emit(f"if {a.code}:")
+                        self.indent += 1
+                        self.write_bit(instr.target, value, pos)
+                        self.indent -= 1
+            elif isinstance(instr, A.OpBlock):
+                a = need(instr)
+                if acc_used_later(k) or self.debug:
+                    a = acc = self.materialize(a)
+                cond = a.code not in ("1", "True")
+                if cond:
+                    self.emit(f"if {a.code}:")
+                    self.indent += 1
+                self.statement(instr.stmt)
+                if cond:
+                    self.indent -= 1
+            elif isinstance(instr, A.Jump):
+                self.jump(instr, acc, ctx, rung)
+            elif isinstance(instr, A.SRCall):
+                a = need(instr)
+                if instr.number not in ctx["subroutines"]:
+                    self.err(f"SR{instr.number} is called but not defined (no 'SR"
+                             f"{instr.number}:' after END)", pos, f"SR{instr.number}")
+                    continue
+                if acc_used_later(k) or self.debug:
+                    a = acc = self.materialize(a)
+                call = f"yield from _sr{instr.number}()" if self.debug else \
+                    f"_sr{instr.number}()"
+                self.conditional(a.code, call)
+            elif isinstance(instr, A.Return):
+                if ctx["function"] == "main":
+                    self.err("RET outside a subroutine", pos, instr.op)
+                    continue
+                self.end_like(instr.op, acc, "RET", "return")
+            elif isinstance(instr, A.End):
+                if ctx["function"] != "main":
+                    self.err(f"{instr.op} inside a subroutine (use RET)", pos, instr.op)
+                    continue
+                self.end_like(instr.op, acc, "END", ctx["end_code"])
+            elif isinstance(instr, A.Nop):
+                pass
+            elif isinstance(instr, A.Blk):
+                if blk is not None:
+                    self.err("BLK inside a BLK", pos)
+                if not instr.block.is_block:
+                    self.err(f"BLK needs a function block (%TM, %C, %DR, %SBR, %SC, %R), got "
+                             f"{instr.block}", pos, str(instr.block))
+                    continue
+                blk, blk_pins, blk_phase = instr.block, {}, "in"
+                self.block_name(blk, pos)
+                acc = None
+            elif isinstance(instr, A.OutBlk):
+                if blk is None:
+                    self.err("OUT_BLK outside a BLK ... END_BLK block", pos, "OUT_BLK")
+                    continue
+                close_block_inputs()
+                acc = None
+            elif isinstance(instr, A.EndBlk):
+                if blk is None:
+                    self.err("END_BLK without BLK", pos, "END_BLK")
+                    continue
+                close_block_inputs()
+                blk, blk_phase = None, ""
+                acc = None
+            elif isinstance(instr, A.Pin):
+                self.pin(instr, need(instr), blk, blk_phase, blk_pins)
+                if acc_used_later(k) or self.debug:
+                    acc = self.materialize(acc)
+            elif isinstance(instr, A.Grafcet):
+                self.grafcet(instr, acc, ctx)
+            else:  # pragma: no cover - the parser makes no other nodes
+                self.err(f"unsupported instruction {instr}", pos)
+            if self.debug and acc is not None:
+                acc = self.materialize(acc)
+                self.use("_LOG")
+                self.emit(f"_LOG[{rung.index}][{k}] = {acc.code}")
+        if parens:
+            self.err("'(' not closed before the end of the rung", parens[-1][3])
+        if blk is not None:
+            self.err(f"BLK {blk} not closed by END_BLK", rung.instructions[0].pos
+                     if rung.instructions else None)
+        self.indent = base_indent - (1 if step is not None else 0)
+
+    def describe(self, instr: A.Instruction) -> str:
+        return type(instr).__name__.upper() if not hasattr(instr, "op") else instr.op
+
+    def conditional(self, cond: str, stmt: str) -> None:
+        if cond in ("1", "True"):
+            self.emit(stmt)
+        elif cond not in ("0", "False"):
+            self.emit(f"if {cond}:")
+            self.emit(f"    {stmt}")
+
+    def end_like(self, op: str, acc: _Acc | None, base: str, code: str) -> None:
+        if op == base:
+            self.emit(code)
+            return
+        if acc is None:
+            self.err(f"{op} needs a preceding load (LD)", None)
+            return
+        cond = acc.code if op.endswith("CN") is False else f"not {acc.code}"
+        if op.endswith("CN"):
+            cond = f"not ({acc.code})"
+        self.emit(f"if {cond}:")
+        self.emit(f"    {code}")
+
+    def pin(self, instr: A.Pin, acc: _Acc, blk: Ref | None, phase: str,
+            pins: dict[str, str]) -> None:
+        target = instr.block or blk
+        if target is None:
+            self.err(f"input {instr.name} outside a BLK and without a block (e.g. "
+                     f"{instr.name} %C0)", instr.pos, instr.name)
+            return
+        allowed = BLOCK_KIND_PINS.get(target.kind, ())
+        if instr.name not in allowed:
+            self.err(f"%{target.kind} has no input {instr.name} (inputs: "
+                     f"{', '.join(allowed)})", instr.pos, instr.name)
+            return
+        if instr.block is None:  # inside BLK: remember, run at OUT_BLK / END_BLK
+            if phase != "in":
+                self.err(f"input {instr.name} after OUT_BLK", instr.pos, instr.name)
+                return
+            a = self.materialize(acc)
+            pins[instr.name] = a.code
+            return
+        b = self.block_name(target, instr.pos)
+        method = BLOCK_PIN_METHODS[instr.name]
+        if target.kind == "TM":
+            method = "run"
+        self.emit(f"{b}.{method}({acc.code})")
+
+    def grafcet(self, instr: A.Grafcet, acc: _Acc | None, ctx: dict[str, Any]) -> None:
+        if instr.op in ("=*=", "-*-"):
+            return  # step markers are handled by the function generator
+        if instr.op == "POST":
+            return
+        cur = ctx.get("step")
+        if cur is None:
+            self.err(f"{instr.op} outside a Grafcet step", instr.pos, instr.op)
+            return
+        self.use("_GA", "_GD")
+        if instr.op == "#":
+            stmts = [f"_GD.append({cur})"] + ([f"_GA.append({instr.step})"]
+                                               if instr.step is not None else [])
+        else:  # "#D i": deactivate step i and the current step [manual, unsure]
+            stmts = [f"_GD.append({cur})", f"_GD.append({instr.step})"]
+        code = acc.code if acc is not None else "1"
+        if code not in ("1", "True"):
+            self.emit(f"if {code}:")
+            self.indent += 1
+            for s in stmts:
+                self.emit(s)
+            self.indent -= 1
+        else:
+            for s in stmts:
+                self.emit(s)
+
+    def jump(self, instr: A.Jump, acc: _Acc | None, ctx: dict[str, Any], rung: A.Rung) -> None:
+        labels = ctx["labels"]
+        if instr.label not in labels:
+            where = ctx["all_labels"].get(instr.label)
+            msg = (f"%L{instr.label} is in {where}; a jump cannot leave its program or "
+                   f"subroutine") if where else f"unknown label %L{instr.label}"
+            self.err(msg, instr.pos, f"%L{instr.label}")
+            return
+        target = labels[instr.label]
+        here = ctx["block_of"][rung.index]
+        stmts = [f"_pc = {target}"]
+        if target <= here:  # backward: a loop, watch the watchdog
+            self.use("_wd")
+            stmts += ["_n += 1", "if not _n & 1023 and _wd():", "    raise _Watchdog()"]
+        stmts.append("continue")
+        if instr.op == "JMP":
+            cond = "1"
+        else:
+            if acc is None:
+                self.err(f"{instr.op} needs a preceding load (LD)", instr.pos)
+                return
+            cond = acc.code if instr.op == "JMPC" else f"not ({acc.code})"
+        if cond != "1":
+            self.emit(f"if {cond}:")
+            self.indent += 1
+        for s in stmts:
+            self.emit(s)
+        if cond != "1":
+            self.indent -= 1
+
+    # ---- functions ------------------------------------------------------------------------
+    def function(self, name: str, rungs: list[A.Rung], ctx: dict[str, Any]) -> _Fn:
+        self.fn = fn = _Fn(name)
+        labels: dict[int, int] = {}
+        block_of: dict[int, int] = {}
+        blocks: list[list[A.Rung]] = [[]]
+        for r in rungs:
+            if r.label is not None:
+                if r.label in labels or r.label in ctx["seen_labels"]:
+                    self.err(f"label %L{r.label} defined twice", A.Pos(r.first_line, 1),
+                             f"%L{r.label}:")
+                if blocks[-1]:
+                    blocks.append([])
+                labels[r.label] = len(blocks) - 1
+                ctx["seen_labels"].add(r.label)
+            blocks[-1].append(r)
+            block_of[r.index] = len(blocks) - 1
+        ctx = dict(ctx, labels=labels, block_of=block_of, function=name,
+                   end_code="return" if not ctx.get("grafcet") else "_gpost(); return")
+        dispatch = any(isinstance(i, A.Jump) for r in rungs for i in r.instructions)
+        self.indent = 1
+        if dispatch:
+            self.emit("_pc = 0")
+            self.emit("_n = 0")
+            self.emit("while True:")
+            self.indent = 2
+        step: int | None = None
+        for bi, block in enumerate(blocks):
+            if dispatch:
+                self.indent = 2
+                self.emit(f"if _pc == {bi}:")
+                self.indent = 3
+            for r in block:
+                marker = next((i for i in r.instructions if isinstance(i, A.Grafcet)
+                               and i.op in ("=*=", "-*-", "POST")), None)
+                if marker is not None:
+                    if marker.op == "POST" or step is None and name == "main":
+                        if step is None:
+                            self.use("_XS", "_X")
+                            self.emit("_XS = bytes(_X)")
+                    if marker.op == "POST":
+                        self.use("_gpost")
+                        self.emit("_gpost()")
+                        step = None
+                        ctx["post_done"] = True
+                    else:
+                        step = marker.step
+                        if step is not None and step >= self.counts["X"]:
+                            self.err(f"Grafcet step {step} beyond %X{self.counts['X'] - 1}",
+                                     marker.pos)
+                    if self.debug:
+                        self.emit(f"yield ({r.index}, 0)")
+                    continue
+                self.rung(r, dict(ctx, step=step))
+            if dispatch:
+                self.indent = 3
+                self.emit(f"_pc = {bi + 1}")
+        if dispatch:
+            self.indent = 2
+            self.emit("return")
+        if name == "main" and ctx.get("grafcet") and not ctx.get("post_done"):
+            self.indent = 1
+            self.use("_gpost")
+            self.emit("_gpost()")
+        return fn
+
+    def render(self, fn: _Fn, fname: str) -> str:
+        names = sorted(fn.names)
+        args = ", ".join(f"{n}={n}" for n in names)
+        body = fn.lines or ["    pass"]
+        if self.debug and not any("yield" in ln for ln in body):
+            body = body + ["    yield from ()"]
+        return f"def {fname}({args}):\n" + "\n".join(body) + "\n"
+
+
+FAMILY_COUNT = {"MD": "MW", "MF": "MW", "KD": "KW", "KF": "KW"}
+
+
+def compile_program(program: A.Program, env: dict[str, Any], counts: dict[str, int],
+                    debug: bool = False) -> CompiledProgram:
+    """Generate, check and exec the program. Raises CompileError with every problem."""
+    c = Compiler(program, env, counts, debug)
+    subs = program.subroutines
+    all_labels: dict[int, str] = {}
+    for r in program.rungs:
+        if r.label is not None:
+            all_labels.setdefault(r.label, f"SR{r.subroutine}" if r.subroutine is not None
+                                  else "the main program")
+    grafcet = any(isinstance(i, A.Grafcet) for r in program.rungs for i in r.instructions)
+    for n in subs:
+        if n >= counts["SR"]:
+            c.err(f"SR{n} beyond the {counts['SR']} subroutines of the profile",
+                  A.Pos(program.subroutine(n)[0].first_line, 1))
+    base_ctx = {"subroutines": set(subs), "all_labels": all_labels, "seen_labels": set(),
+                "grafcet": grafcet}
+    for r in program.rungs:
+        if r.label is not None and r.label >= counts["L"]:
+            c.err(f"label %L{r.label} beyond %L{counts['L'] - 1}", A.Pos(r.first_line, 1))
+    parts = []
+    for n in subs:
+        fn = c.function(f"SR{n}", program.subroutine(n), dict(base_ctx, seen_labels=set()))
+        parts.append(c.render(fn, f"_sr{n}"))
+    fn = c.function("main", program.main, base_ctx)
+    parts.append(c.render(fn, "_main"))
+    if c.diags:
+        uniq = sorted(set(c.diags), key=lambda d: (d.line, d.column, d.message))
+        raise CompileError(uniq)
+    source = "\n".join(parts)
+    ns = dict(env)
+    ns["_Watchdog"] = Watchdog
+    if debug:
+        ns["_LOG"] = [[None] * len(r.instructions) for r in program.rungs]
+    code = compile(source, f"<softplc:{program.file}>", "exec")
+    exec(code, ns)
+    return CompiledProgram(program, source, ns["_main"], ns, debug, ns.get("_LOG", []),
+                           c.ninstr)

@@ -1,0 +1,240 @@
+"""`softplc run`: the scan engine on a periodic clock plus a Modbus TCP server.
+
+Threads: the main thread runs the scan loop (precise absolute-deadline sleeps, signal
+handling, statistics, retained-state snapshots); the Modbus server runs its asyncio loop
+in a background thread (`ServerThread`); retained state is written by a third thread so
+an fsync never delays a scan. Modbus traffic meets the scan only through `ModbusImage`:
+writes are queued and applied by a `before_scan` hook, reads come from the snapshot an
+`after_scan` hook takes.
+
+Periodic mode [manual]: a scan starts every %SW0 ms; a scan longer than the period sets
+%S19 (through `plc.note_overrun()`) and the next scan starts at once. A program that
+writes another value to %SW0 changes the period (2..150 ms on a Twido; 1..10000 here).
+
+`speed` runs the virtual clock: each scan advances PLC time by the period but starts
+every period/speed seconds of real time (`math.inf`: back to back), for simulations.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import signal
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+from .errors import SoftPLCError
+from .modbus import ModbusImage, ServerThread, parse_read_only
+from .modbus.regmap import describe
+from .runtime import retain
+
+log = logging.getLogger("softplc.daemon")
+
+MIN_PERIOD_MS, MAX_PERIOD_MS = 1, 10000
+SWITCH_INTERVAL = 0.0002  # seconds; see Daemon.run
+
+
+@dataclass
+class DaemonOptions:
+    host: str = "127.0.0.1"
+    port: int = 5020
+    period: float = 0.010  # seconds, a whole number of ms
+    state: Path | None = None
+    cold: bool = False
+    save_interval: float = 5.0  # seconds; 0 = save only at shutdown
+    speed: float | None = None  # None: real time; N: N x real time; math.inf: max
+    stats_interval: float = 5.0  # seconds; 0 = no statistics lines
+    max_clients: int = 32
+    frame_timeout: float = 2.0
+    idle_timeout: float | None = None
+
+
+def percentiles(samples: list[float], *ps: float) -> list[float]:
+    """Nearest-rank percentiles (0 for no samples)."""
+    if not samples:
+        return [0.0 for _ in ps]
+    s = sorted(samples)
+    return [s[min(len(s) - 1, max(0, math.ceil(p / 100 * len(s)) - 1))] for p in ps]
+
+
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1000:.3f}ms"
+
+
+class Daemon:
+    """Runs a PLC periodically with a Modbus server until `request_stop` (or a signal)."""
+
+    def __init__(self, plc: Any, options: DaemonOptions, *, program_name: str = "",
+                 out: TextIO | None = None):
+        self.plc = plc
+        self.opt = options
+        self.program_name = program_name
+        self.out = out or sys.stdout
+        self._stop = False
+        self.overruns = 0
+        self.jitter: list[float] = []  # scan start lateness, current stats window
+        self.jitter_max = 0.0
+        self.start_mode = ""
+        ms = options.period * 1000
+        if abs(ms - round(ms)) > 1e-9 or not MIN_PERIOD_MS <= round(ms) <= MAX_PERIOD_MS:
+            raise SoftPLCError(f"period {ms:g} ms: must be a whole number of ms from "
+                               f"{MIN_PERIOD_MS} to {MAX_PERIOD_MS}")
+        self.period_ms = round(ms)
+
+    def request_stop(self, *_: Any) -> None:
+        """Ask the loop to stop after the current scan (signal handler, other threads)."""
+        self._stop = True
+
+    def say(self, text: str) -> None:
+        print(text, file=self.out, flush=True)
+
+    # -- set-up --------------------------------------------------------------------------
+    def _set_period(self, ms: int) -> None:
+        self.period_ms = ms
+        self.period = ms / 1000
+        self.interval = 0.0 if self.opt.speed == math.inf else self.period / (self.opt.speed or 1)
+        self.plc.mem.sw.w[0] = ms
+        self.plc.scan_period = self.period
+        engine = getattr(self.plc, "engine", None)
+        if engine is not None:  # the virtual clock advances by the engine's period
+            engine.period_us = ms * 1000
+
+    def _banner(self, server: ServerThread, image: ModbusImage) -> None:
+        plc, opt = self.plc, self.opt
+        rungs = len(getattr(plc.program, "rungs", ()))
+        clock = "real time" if opt.speed is None else (
+            "virtual clock, as fast as possible" if opt.speed == math.inf
+            else f"virtual clock x{opt.speed:g}")
+        self.say(f"softplc run: {self.program_name} ({rungs} rungs), period {self.period_ms} ms "
+                 f"({clock}), {self.start_mode} start, state {plc.state}")
+        if opt.state is not None:
+            every = f"every {opt.save_interval:g} s and " if opt.save_interval else ""
+            self.say(f"retained state: {opt.state} (saved {every}at shutdown)")
+        if getattr(plc, "devices", None):
+            self.say("simulated devices: " + ", ".join(plc.devices))
+        for line in describe(image.n_registers, image.n_coils, image.read_only):
+            self.say("  " + line)
+        # The last banner line: tools and tests wait for it.
+        self.say(f"Modbus TCP server listening on {opt.host}:{server.port}")
+
+    # -- the loop ------------------------------------------------------------------------
+    def run(self) -> int:
+        plc, opt = self.plc, self.opt
+        self.start_mode = retain.restart(plc, opt.state, opt.cold, self.program_name)
+        self._set_period(self.period_ms)
+        image = ModbusImage(plc.mem, parse_read_only(getattr(plc, "config", None),
+                                                     plc.mem.profile))
+        plc.before_scan.append(image.apply_writes)
+        plc.after_scan.append(image.take_snapshot)
+        server = ServerThread(image, opt.host, opt.port, max_clients=opt.max_clients,
+                              frame_timeout=opt.frame_timeout, idle_timeout=opt.idle_timeout)
+        try:
+            server.start()
+        except OSError as e:
+            raise SoftPLCError(f"cannot listen on {opt.host}:{opt.port}: "
+                               f"{e.strerror or e}") from None
+        writer = retain.RetainWriter(opt.state) if opt.state is not None else None
+        old_handlers = {s: signal.signal(s, self.request_stop)
+                        for s in (signal.SIGINT, signal.SIGTERM)}
+        # The scan thread and the Modbus thread share the GIL. A thread that wants it waits
+        # up to the switch interval (5 ms by default) for a busy holder to let go: that
+        # would be scan-start jitter under Modbus load (and Modbus latency during
+        # back-to-back scans at --speed max). 0.2 ms keeps both well under 1 ms.
+        old_switch = sys.getswitchinterval()
+        sys.setswitchinterval(SWITCH_INTERVAL)
+        try:
+            self._banner(server, image)
+            self._loop(server, writer)
+        finally:
+            for s, h in old_handlers.items():
+                signal.signal(s, h)
+            sys.setswitchinterval(old_switch)
+            self._shutdown(server, image, writer)
+        return 0
+
+    def _loop(self, server: ServerThread, writer: retain.RetainWriter | None) -> None:
+        plc, opt = self.plc, self.opt
+        clock = time.perf_counter
+        sleep = time.sleep
+        state = plc.state
+        now = clock()
+        next_start = now
+        next_stats = now + opt.stats_interval if opt.stats_interval else math.inf
+        next_save = now + opt.save_interval if writer and opt.save_interval else math.inf
+        last_requests, last_stats_t = 0, now
+        while not self._stop:
+            delay = next_start - clock()
+            if delay > 0.1:  # long periods: stay responsive to signals
+                sleep(0.1)
+                continue
+            if delay > 0:
+                sleep(delay)
+                if self._stop:
+                    break
+            start = clock()
+            if self.interval:
+                late = start - next_start
+                self.jitter.append(late)
+                if late > self.jitter_max:
+                    self.jitter_max = late
+            plc.scan()  # in HALT or STOP it still applies writes and refreshes the snapshot
+            if plc.state != state:
+                state = plc.state
+                if state == "HALT":
+                    log.error("controller halted: %s", getattr(plc, "fault", ""))
+                    self.say(f"controller in HALT: {getattr(plc, 'fault', '')}")
+            end = clock()
+            next_start += self.interval
+            if end > next_start:
+                if self.interval and opt.speed is None and end - start > self.interval:
+                    self.overruns += 1
+                    note = getattr(plc, "note_overrun", None)
+                    if note is not None:
+                        note()
+                    else:
+                        plc.mem.s[19] = 1
+                next_start = end  # start at once; re-anchor the schedule
+            sw0 = plc.mem.sw.w[0]
+            if sw0 != self.period_ms:  # the program changed the period
+                if MIN_PERIOD_MS <= sw0 <= MAX_PERIOD_MS:
+                    log.info("program set %%SW0: period %d ms", sw0)
+                    self._set_period(sw0)
+                else:
+                    plc.mem.sw.w[0] = self.period_ms
+            if end >= next_save:
+                writer.submit(retain.capture(plc.mem, self.program_name))  # type: ignore
+                next_save = end + opt.save_interval
+            if end >= next_stats:
+                req = server.stats.requests
+                rate = (req - last_requests) / (end - last_stats_t)
+                last_requests, last_stats_t = req, end
+                next_stats = end + opt.stats_interval
+                self.say(self._stats_line(server, rate))
+
+    def _stats_line(self, server: ServerThread, rate: float) -> str:
+        st = self.plc.stats
+        p50, p99 = percentiles(self.jitter, 50, 99)
+        jmax = max(self.jitter, default=0.0)
+        self.jitter = []
+        return (f"stats scans={st.scans} scan_last={_ms(st.last)} scan_max={_ms(st.max)} "
+                f"overruns={self.overruns} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
+                f"jitter_max={_ms(jmax)} clients={server.stats.clients} req/s={rate:.0f} "
+                f"exceptions={server.stats.exceptions} state={self.plc.state}")
+
+    def _shutdown(self, server: ServerThread, image: ModbusImage,
+                  writer: retain.RetainWriter | None) -> None:
+        plc = self.plc
+        plc.stop_outputs()
+        server.stop()  # closes every client: nothing more can be acknowledged
+        # Writes acknowledged since the last scan are applied, so the saved state has them.
+        image.apply_writes()
+        image.take_snapshot()
+        saved = ""
+        if writer is not None:
+            writer.close(retain.capture(plc.mem, self.program_name))
+            saved = f", state saved to {self.opt.state}"
+        self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns, "
+                 f"jitter max {_ms(self.jitter_max)}, outputs 0{saved}")

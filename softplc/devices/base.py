@@ -1,0 +1,96 @@
+"""The device interface: the whole contract between the scan engine and a simulated machine.
+
+After every scan the engine calls `update(t, dt)` on each device, in configuration order.
+A device reads the field outputs (`mem.q_field`, published at the end of the scan), moves
+its physics on by `dt` seconds to time `t`, and writes field inputs (`mem.i_field`), which
+the next scan latches into its input image. Devices resolve their addresses once, in
+`bind`, into (buffer, index) pairs, so `update` costs a few list lookups per scan.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from ..address import parse_address
+from ..errors import AddressError, ConfigError
+from ..runtime.memory import MemoryImage
+
+
+class Device:
+    """Base class of simulated devices. `name` is the key in the machine config."""
+
+    type_name = "device"
+
+    def __init__(self, name: str, **options: Any):
+        self.name = name
+
+    def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
+        """Resolve addresses (and other devices this one depends on) once."""
+
+    def update(self, t: float, dt: float) -> None:
+        """Read field outputs, advance the physics by dt, write field inputs."""
+
+    def reset(self) -> None:
+        """Back to the configured initial state."""
+
+    def status(self) -> dict[str, Any]:
+        """A short state summary for the daemon's statistics line and the debugger."""
+        return {}
+
+    def close(self) -> None:
+        """End of the run: flush files (e.g. the trace CSV). Called once by the owner."""
+
+    # -- helpers for bind() ------------------------------------------------------------------
+    def io_index(self, mem: MemoryImage, address: Any, kind: str, option: str) -> int:
+        """Flat index of an `%I` or `%Q` (kind) bit, with a config error naming the option."""
+        if not isinstance(address, str):
+            raise ConfigError(f"device {self.name!r}: {option} must be an address string, "
+                              f"not {address!r}")
+        try:
+            ref = parse_address(address, mem.profile)
+        except AddressError as e:
+            raise ConfigError(f"device {self.name!r}: {option}: {e}") from None
+        if ref.kind != kind:
+            raise ConfigError(f"device {self.name!r}: {option} must be a %{kind} address, "
+                              f"not {address!r}")
+        return ref.index
+
+    def peer(self, devices: dict[str, Device], name: Any, cls: type, option: str) -> Any:
+        """The device called `name`, checked to be a `cls` (e.g. a switch's axis)."""
+        dev = devices.get(name) if isinstance(name, str) else None
+        if not isinstance(dev, cls):
+            kind = getattr(cls, "type_name", cls.__name__)
+            raise ConfigError(f"device {self.name!r}: {option} = {name!r} is not a {kind} "
+                              f"device of this machine")
+        return dev
+
+
+DEVICE_TYPES: dict[str, Callable[..., Device]] = {}
+
+
+def register_device(type_name: str) -> Callable[[type[Device]], type[Device]]:
+    def deco(cls: type[Device]) -> type[Device]:
+        cls.type_name = type_name
+        DEVICE_TYPES[type_name] = cls
+        return cls
+
+    return deco
+
+
+def build_devices(config: dict[str, dict[str, Any]], mem: MemoryImage) -> dict[str, Device]:
+    """Create and bind the devices of a machine config's `[devices.NAME]` tables, in order."""
+    devices: dict[str, Device] = {}
+    for name, opts in config.items():
+        opts = dict(opts)
+        type_name = opts.pop("type", None)
+        if type_name not in DEVICE_TYPES:
+            raise ConfigError(f"device {name!r}: unknown type {type_name!r}; known: "
+                              f"{', '.join(sorted(DEVICE_TYPES))}")
+        try:
+            devices[name] = DEVICE_TYPES[type_name](name, **opts)
+        except TypeError as e:
+            raise ConfigError(f"device {name!r} ({type_name}): {e}") from None
+    for dev in devices.values():
+        dev.bind(mem, devices)
+    return devices

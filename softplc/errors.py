@@ -1,0 +1,82 @@
+"""Errors users see. Bad input never reaches them as a Python traceback."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+class SoftPLCError(Exception):
+    """Base of every error softplc raises on purpose."""
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """One problem in a program, with where it is."""
+
+    message: str
+    file: str = "<string>"
+    line: int = 0
+    column: int = 0
+    text: str = ""  # the offending text
+    expected: str = ""  # what would have been accepted
+
+    def __str__(self) -> str:
+        s = f"{self.file}:{self.line}:{self.column}: {self.message}"
+        if self.text:
+            s += f" (at {self.text!r})"
+        if self.expected:
+            s += f"; expected {self.expected}"
+        return s
+
+
+class ProgramError(SoftPLCError):
+    """A program cannot be loaded. Carries every problem found, not only the first."""
+
+    def __init__(self, diagnostics: list[Diagnostic] | Diagnostic | str):
+        if isinstance(diagnostics, str):
+            diagnostics = [Diagnostic(diagnostics)]
+        elif isinstance(diagnostics, Diagnostic):
+            diagnostics = [diagnostics]
+        self.diagnostics: list[Diagnostic] = list(diagnostics)
+        super().__init__("\n".join(str(d) for d in self.diagnostics))
+
+    # Convenience accessors for the first problem.
+    @property
+    def file(self) -> str:
+        return self.diagnostics[0].file
+
+    @property
+    def line(self) -> int:
+        return self.diagnostics[0].line
+
+    @property
+    def column(self) -> int:
+        return self.diagnostics[0].column
+
+    @property
+    def text(self) -> str:
+        return self.diagnostics[0].text
+
+    @property
+    def expected(self) -> str:
+        return self.diagnostics[0].expected
+
+
+class ParseError(ProgramError):
+    """The program text does not follow the Instruction List syntax."""
+
+
+class CompileError(ProgramError):
+    """The program parses but breaks a rule: unknown object, bad label, type mix..."""
+
+
+class ConfigError(SoftPLCError):
+    """A configuration (dict or TOML) is wrong."""
+
+
+class AddressError(SoftPLCError, ValueError):
+    """An address string is malformed or outside the controller profile."""
+
+
+class PLCHalt(SoftPLCError):
+    """The controller went to HALT (watchdog, runtime fault)."""

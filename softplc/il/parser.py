@@ -1,0 +1,415 @@
+"""Instruction List text -> typed AST (`Program` of `Rung`s).
+
+Parsing is line-oriented: a syntax error blanks its line and parsing goes on, so one run
+reports every bad line. Rung boundaries are derived the way Twido's list/ladder
+reversibility does: a rung starts with a load (or BLK, a label, a Grafcet step) that comes
+after the previous rung's outputs.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from lark import Lark, Token, Transformer, v_args
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from ..address import Ref, parse_address
+from ..errors import AddressError, Diagnostic, ParseError
+from . import ast as A
+
+GRAMMAR = Path(__file__).with_name("twido_il.lark")
+
+# Function aliases accepted as written in real programs.
+FUNC_ALIASES = {"INTO_TO_REAL": "INT_TO_REAL"}
+
+# Human names for grammar terminals, for "expected ..." in error messages.
+TERMINAL_NAMES = {
+    "ADDRESS": "an address (%M0, %MW3, %I0.1...)", "INT": "a number", "FLOAT": "a number",
+    "HEX": "a number", "LABEL": "a label (%Ln)", "CMP_OP": "a comparison (> >= < <= = <>)",
+    "ASSIGN": "':='", "RSQB": "']'", "LSQB": "'['", "RPAR": "')'", "LPAR": "'('",
+    "_NL": "end of line", "$END": "end of file", "LOAD_KW": "LD/LDN/LDR/LDF",
+    "LOGIC_KW": "AND/OR/XOR", "STORE_KW": "ST/STN", "FUNC": "a function",
+    "ADD_OP": "an operator", "MUL_OP": "an operator", "REM_KW": "REM", "COMMA": "','",
+    "PIN_NAME": "a block output (Q, D, E, F)", "POST_KW": "POST",
+}
+
+
+@lru_cache(maxsize=1)
+def _lark() -> Lark:
+    return Lark(GRAMMAR.read_text(), parser="lalr", lexer="contextual",
+                propagate_positions=True, maybe_placeholders=False)
+
+
+def _pos(tok: Token | object) -> A.Pos:
+    return A.Pos(getattr(tok, "line", 0) or 0, getattr(tok, "column", 0) or 0,
+                 getattr(tok, "end_line", 0) or 0, getattr(tok, "end_column", 0) or 0)
+
+
+@dataclass(frozen=True)
+class _Section:
+    number: int
+    pos: A.Pos
+
+
+@dataclass(frozen=True)
+class _SRDef:
+    number: int
+    pos: A.Pos
+
+
+class _ToAST(Transformer):
+    """Parse tree -> AST nodes. Address errors are collected, not raised."""
+
+    def __init__(self, file: str, lines: list[str]):
+        super().__init__()
+        self.file = file
+        self.lines = lines
+        self.diags: list[Diagnostic] = []
+
+    def _ref(self, tok: Token) -> Ref:
+        try:
+            return parse_address(str(tok))
+        except AddressError as e:
+            self.diags.append(Diagnostic(str(e), self.file, tok.line, tok.column, str(tok)))
+            return Ref("M", 0)  # placeholder; the program is rejected anyway
+
+    # -- operands --
+    def address(self, items):
+        (tok,) = items
+        return A.Operand(self._ref(tok), _pos(tok))
+
+    def bool_const(self, items):
+        (tok,) = items
+        if str(tok) not in ("0", "1"):
+            self.diags.append(Diagnostic("a boolean operand constant is 0 or 1", self.file,
+                                         tok.line, tok.column, str(tok), "0 or 1"))
+        return A.Const(int(str(tok) == "1"), _pos(tok))
+
+    def block_output(self, items):
+        (tok,) = items
+        return A.BlockOutput(str(tok).upper(), _pos(tok))
+
+    @v_args(meta=True)
+    def compare(self, meta, items):
+        left, op, right = items
+        return A.Compare(str(op), left, right, _pos(meta))
+
+    # -- expressions --
+    def ref(self, items):
+        (tok,) = items
+        return A.Addr(self._ref(tok), _pos(tok))
+
+    def int_lit(self, items):
+        (tok,) = items
+        return A.Num(int(str(tok)), str(tok), _pos(tok))
+
+    def hex_lit(self, items):
+        (tok,) = items
+        text = str(tok)
+        return A.Num(int(text.split("#", 1)[1], 16), text, _pos(tok))
+
+    def float_lit(self, items):
+        (tok,) = items
+        return A.Num(float(str(tok)), str(tok), _pos(tok))
+
+    @v_args(meta=True)
+    def binop(self, meta, items):
+        left, op, right = items
+        return A.BinOp(str(op).upper(), left, right, _pos(meta))
+
+    @v_args(meta=True)
+    def neg(self, meta, items):
+        op, operand = items
+        if str(op) == "+":
+            return operand
+        if isinstance(operand, A.Num):  # fold: -5 is a constant
+            return A.Num(-operand.value, "-" + (operand.text or str(operand.value)),
+                         operand.pos)
+        return A.Neg(operand, _pos(meta))
+
+    @v_args(meta=True)
+    def call(self, meta, items):
+        name, *args = items
+        func = str(name).upper()
+        return A.Call(FUNC_ALIASES.get(func, func), tuple(a for a in args if a is not None),
+                      _pos(meta))
+
+    @v_args(meta=True)
+    def assign(self, meta, items):
+        target, _, expr = items
+        return A.Assign(self._ref(target), expr, _pos(meta))
+
+    @v_args(meta=True)
+    def incdec(self, meta, items):
+        op, target = items
+        return A.IncDec(str(op).upper(), self._ref(target), _pos(meta))
+
+    # -- instructions --
+    @v_args(meta=True)
+    def bool_instr(self, meta, items):
+        kw, operand = items
+        word = str(kw).upper()
+        op = "LD" if word.startswith("LD") else re.match(r"AND|OR|XOR", word).group(0)
+        return A.BoolInstr(op, word[len(op):], operand, _pos(meta))
+
+    @v_args(meta=True)
+    def paren_open(self, meta, items):
+        kw = str(items[0]).upper().replace(" ", "").replace("\t", "")
+        op, mod = kw.split("(")
+        return A.ParenOpen(op, mod, items[1] if len(items) > 1 else None, _pos(meta))
+
+    @v_args(meta=True)
+    def paren_close(self, meta, items):
+        return A.ParenClose(_pos(meta))
+
+    @v_args(meta=True)
+    def store(self, meta, items):
+        kw, target = items
+        return A.Store(str(kw).upper(), self._ref(target), _pos(meta))
+
+    @v_args(meta=True)
+    def set_reset(self, meta, items):
+        kw = str(items[0]).upper()
+        if len(items) == 1:  # a bare R / S is a block input pin
+            return A.Pin(kw, None, _pos(meta))
+        ref = self._ref(items[1])
+        if ref.is_block:  # R %C0: short-form block input
+            return A.Pin(kw, ref, _pos(meta))
+        return A.Store(kw, ref, _pos(meta))
+
+    @v_args(meta=True)
+    def negate(self, meta, items):
+        return A.Negate(_pos(meta))
+
+    @v_args(meta=True)
+    def stack(self, meta, items):
+        return A.Stack(str(items[0]).upper(), _pos(meta))
+
+    @v_args(meta=True)
+    def op_block(self, meta, items):
+        return A.OpBlock(items[0], _pos(meta))
+
+    @v_args(meta=True)
+    def jump(self, meta, items):
+        kw, label = items
+        return A.Jump(str(kw).upper(), int(str(label)[2:]), _pos(meta))
+
+    @v_args(meta=True)
+    def sr_call(self, meta, items):
+        return A.SRCall(int(str(items[0])[2:]), _pos(meta))
+
+    @v_args(meta=True)
+    def ret(self, meta, items):
+        return A.Return(str(items[0]).upper(), _pos(meta))
+
+    @v_args(meta=True)
+    def end(self, meta, items):
+        return A.End(str(items[0]).upper(), _pos(meta))
+
+    @v_args(meta=True)
+    def nop(self, meta, items):
+        return A.Nop(_pos(meta))
+
+    @v_args(meta=True)
+    def blk(self, meta, items):
+        return A.Blk(self._ref(items[1]), _pos(meta))
+
+    @v_args(meta=True)
+    def out_blk(self, meta, items):
+        return A.OutBlk(_pos(meta))
+
+    @v_args(meta=True)
+    def end_blk(self, meta, items):
+        return A.EndBlk(_pos(meta))
+
+    @v_args(meta=True)
+    def pin(self, meta, items):
+        name = str(items[0]).upper()
+        return A.Pin(name, self._ref(items[1]) if len(items) > 1 else None, _pos(meta))
+
+    @v_args(meta=True)
+    def grafcet(self, meta, items):
+        kw = str(items[0]).upper()
+        arg = str(items[1]).upper() if len(items) > 1 else None
+        if kw == "=*=" and arg == "POST":
+            return A.Grafcet("POST", None, _pos(meta))
+        return A.Grafcet(kw, int(arg) if arg is not None else None, _pos(meta))
+
+    # -- structure --
+    @v_args(meta=True)
+    def section(self, meta, items):
+        return _Section(int(str(items[1])), _pos(meta))
+
+    @v_args(meta=True)
+    def sr_def(self, meta, items):
+        return _SRDef(int(re.match(r"SR(\d+)", str(items[0]), re.I).group(1)), _pos(meta))
+
+    @v_args(meta=True)
+    def label_def(self, meta, items):
+        return A.Label(int(re.match(r"%L(\d+)", str(items[0]), re.I).group(1)), _pos(meta))
+
+    def start(self, items):
+        return items
+
+
+def _syntax_diag(e: UnexpectedInput, file: str, lines: list[str]) -> Diagnostic:
+    line = getattr(e, "line", 0) or len(lines)
+    col = getattr(e, "column", 0) or 1
+    src = lines[line - 1] if 0 < line <= len(lines) else ""
+    if isinstance(e, UnexpectedToken):
+        tok = e.token
+        text = str(tok) if tok.type != "$END" else ""
+        what = "unexpected end of line" if tok.type == "_NL" else (
+            "unexpected end of file" if tok.type == "$END" else f"unexpected {text.strip()!r}")
+        expected = sorted({TERMINAL_NAMES.get(t, t.strip("_").replace("_KW", "").lower())
+                           for t in e.expected})
+    elif isinstance(e, UnexpectedCharacters):
+        text = src[col - 1:].split()[0] if src[col - 1:].split() else src[col - 1:col]
+        what = f"unexpected {text!r}"
+        expected = sorted({TERMINAL_NAMES.get(t, t.strip("_").replace("_KW", "").lower())
+                           for t in (e.allowed or ())})
+    else:  # UnexpectedEOF
+        text, what, expected = "", "unexpected end of file", []
+    exp = ", ".join(expected[:12]) + (" ..." if len(expected) > 12 else "")
+    return Diagnostic(f"syntax error: {what}", file, line, col, src.strip(), exp)
+
+
+def parse_lines(text: str, file: str = "<string>") -> tuple[list, list, list[Diagnostic]]:
+    """Parse to a flat list of line items (instructions, sections, SR defs, labels).
+
+    Returns (items, comments, diagnostics); comments are (line, column, text)."""
+    lines = text.splitlines()
+    work = list(lines)
+    diags: list[Diagnostic] = []
+    for _ in range(200):  # each pass blanks one bad line
+        comments: list[tuple[int, int, str]] = []
+        parser = _lark()
+        src = "\n".join(work) + "\n"
+        try:
+            tree = parser.parse(src)
+        except UnexpectedInput as e:
+            d = _syntax_diag(e, file, lines)
+            diags.append(d)
+            line = d.line
+            if not (0 < line <= len(work)) or not work[line - 1].strip():
+                break
+            work[line - 1] = ""
+            continue
+        # comments: re-scan (the lexer ignores them)
+        for m in re.finditer(r"\(\*(.|\n)*?\*\)", src):
+            ln = src.count("\n", 0, m.start()) + 1
+            col = m.start() - (src.rfind("\n", 0, m.start()) + 1) + 1
+            comments.append((ln, col, m.group(0)[2:-2].strip()))
+        tx = _ToAST(file, lines)
+        items = tx.transform(tree)
+        diags.extend(tx.diags)
+        diags.sort(key=lambda d: (d.line, d.column))
+        return items, comments, diags
+    diags.sort(key=lambda d: (d.line, d.column))
+    return [], [], diags
+
+
+# Instructions that end a rung: after one of these, the next load starts a new rung.
+_OUTPUTS = (A.Store, A.OpBlock, A.Jump, A.SRCall, A.Return, A.End, A.EndBlk, A.Pin, A.Nop)
+_TITLE_PREFIX = re.compile(r"^(RUNG|RUNGTITLE|RUNGCOMMENT|TITLE|COMMENT)\s*:\s*", re.I)
+
+
+def _is_start(instr: A.Instruction) -> bool:
+    return (isinstance(instr, A.BoolInstr) and instr.is_load) or isinstance(instr, A.Blk)
+
+
+def segment(items: list, comments: list[tuple[int, int, str]], file: str, source: str
+            ) -> A.Program:
+    """Group a flat item list into rungs."""
+    instr_lines = {getattr(it, "pos", A.NOPOS).line for it in items}
+    # own-line comments (not SECTTITLE) become the title of the rung that follows them
+    own: dict[int, str] = {}
+    section_titles: dict[int, str] = {}
+    pending_titles: list[tuple[int, str]] = []
+    for ln, _col, text in comments:
+        if text.upper().startswith("SECTTITLE:"):
+            pending_titles.append((ln, text.split(":", 1)[1].strip()))
+        elif text.upper().startswith("SECTCOMMENT:"):
+            continue
+        elif ln not in instr_lines and text:
+            own[ln] = _TITLE_PREFIX.sub("", text)
+
+    rungs: list[A.Rung] = []
+    section: int | None = None
+    sr: int | None = None
+    cur: A.Rung | None = None
+    in_blk = False
+    label: int | None = None
+    last_line = 0
+
+    def title_before(line: int) -> str:
+        # the nearest own-line comment between the previous instruction and this line
+        for ln in range(line - 1, last_line, -1):
+            if ln in own:
+                return own[ln]
+        return ""
+
+    def new_rung(first_line: int) -> A.Rung:
+        nonlocal cur, label
+        cur = A.Rung(len(rungs), [], title_before(first_line), section, sr, label,
+                     first_line, first_line)
+        label = None
+        rungs.append(cur)
+        return cur
+
+    for it in items:
+        if isinstance(it, _Section):
+            section, sr, cur = it.number, None, None
+            for ln, t in pending_titles:
+                if ln > it.pos.line and section not in section_titles:
+                    section_titles[section] = t
+            last_line = it.pos.line
+            continue
+        if isinstance(it, _SRDef):
+            sr, cur = it.number, None
+            last_line = it.pos.line
+            continue
+        if isinstance(it, A.Label):
+            label, cur = it.number, None
+            last_line = it.pos.line
+            continue
+        starts = (cur is None or isinstance(it, A.Grafcet) or
+                  (not in_blk and _is_start(it) and cur.instructions
+                   and isinstance(cur.instructions[-1], _OUTPUTS)))
+        if starts:
+            new_rung(it.pos.line)
+        cur.instructions.append(it)
+        cur.last_line = it.pos.line
+        last_line = it.pos.line
+        if isinstance(it, A.Blk):
+            in_blk = True
+        elif isinstance(it, A.EndBlk):
+            in_blk = False
+        if isinstance(it, A.Grafcet) and it.op in ("=*=", "-*-", "POST"):
+            cur = None  # a step marker is a rung of its own
+    if label is not None:  # a label at the very end: an empty rung to jump to
+        rungs.append(A.Rung(len(rungs), [], "", section, sr, label, last_line, last_line))
+    # section titles that came before any SECTION line
+    for ln, t in pending_titles:
+        section_titles.setdefault(section if section is not None else 0, t)
+    return A.Program(file, source, rungs, section_titles)
+
+
+def parse(text: str, file: str = "<string>") -> A.Program:
+    """Parse a whole program. Raises ParseError listing every syntax problem."""
+    items, comments, diags = parse_lines(text, file)
+    if diags:
+        raise ParseError(diags)
+    return segment(items, comments, file, text)
+
+
+def parse_file(path: str | Path) -> A.Program:
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig", errors="replace")
+    except OSError as e:
+        raise ParseError(Diagnostic(f"cannot read program: {e.strerror}", str(p))) from None
+    return parse(text, str(p))

@@ -1,0 +1,379 @@
+"""The `PLC` facade: program + configuration -> a running soft Twido.
+
+    plc = PLC.from_file("ladder_programs/x.il", config="x.toml")
+    plc.scan(); plc.run(seconds=1.5); plc["%MW3"] = 120; plc["%Q0.14"]
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from .address import BLOCK_FIELDS, Ref, parse_address
+from .compiler.codegen import CompiledProgram, compile_program
+from .config import duration, load_config, time_base
+from .errors import AddressError, ConfigError, SoftPLCError
+from .il import ast as A
+from .il.parser import parse, parse_file
+from .profile import DEFAULT_PROFILE, MODULES, PROFILES, Profile
+from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
+from .runtime.clock import Clock, make_clock
+from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
+from .runtime.memory import MemoryImage
+from .semantics import Ops
+
+
+class PLC:
+    def __init__(self, program: A.Program, config: str | Path | dict[str, Any] | None = None,
+                 *, clock: str | Clock = "virtual", devices: bool = True):
+        cfg, self.config_dir = load_config(config)
+        self.config = cfg
+        prof_name = cfg.get("profile", DEFAULT_PROFILE.name)
+        if prof_name not in PROFILES:
+            raise ConfigError(f"unknown profile {prof_name!r}; known: {', '.join(PROFILES)}")
+        self.profile: Profile = PROFILES[prof_name]
+        self.ast = program
+        self.mem = MemoryImage(self.profile)
+        self.time_source = TimeSource()
+        self.scan_period = duration(cfg.get("scan_period", "10ms"), "scan_period")
+        if self.scan_period <= 0:
+            raise ConfigError("scan_period must be > 0")
+        watchdog = duration(cfg.get("watchdog", DEFAULT_WATCHDOG_S), "watchdog")
+        self._clock = make_clock(clock)
+        self._modules = self._load_modules(cfg.get("modules"))
+        self._configure_blocks(cfg)
+        self._configure_constants(cfg.get("constants", {}))
+        self.ops = Ops(self.mem.s)
+        self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
+        self.program: CompiledProgram = self._compile(program)
+        self.engine.load(self.program)
+        self._initial_steps = self.program.namespace.get("_INITIAL_STEPS", ())
+        self.devices: dict[str, Any] = {}
+        if devices and cfg.get("devices"):
+            from .devices import build_devices
+
+            self.devices = build_devices(self._device_config(cfg["devices"]), self.mem)
+            self.engine.devices = self.devices
+        self._forced: dict[Ref, Any] = {}
+        self.engine.cold_start()
+
+    # -- construction ---------------------------------------------------------------------------
+    @classmethod
+    def from_file(cls, path: str | Path, config: str | Path | dict[str, Any] | None = None,
+                  **kw: Any) -> PLC:
+        return cls(parse_file(path), config, **kw)
+
+    @classmethod
+    def from_source(cls, text: str, config: str | Path | dict[str, Any] | None = None,
+                    *, file: str = "<string>", **kw: Any) -> PLC:
+        return cls(parse(text, file), config, **kw)
+
+    def _device_config(self, devs: dict[str, Any]) -> dict[str, Any]:
+        out = {}
+        for name, opts in devs.items():
+            opts = dict(opts)
+            # relative output files are relative to the config file's folder
+            if self.config_dir is not None and isinstance(opts.get("csv"), str):
+                p = Path(opts["csv"])
+                if not p.is_absolute():
+                    opts["csv"] = str(self.config_dir / p)
+            out[name] = opts
+        return out
+
+    def _load_modules(self, mods: dict[str, Any] | None) -> dict[int, tuple[int, int]] | None:
+        if mods is None:
+            return None
+        out = {}
+        for k, name in mods.items():
+            try:
+                slot = int(k)
+            except ValueError:
+                raise ConfigError(f"modules: slot {k!r} is not a number") from None
+            if not 1 <= slot <= self.profile.expansion_slots:
+                raise ConfigError(f"modules: slot {slot} outside 1..{self.profile.expansion_slots}")
+            if str(name).upper() not in MODULES:
+                raise ConfigError(f"modules: unknown module {name!r}; known: "
+                                  f"{', '.join(sorted(MODULES))}")
+            out[slot] = MODULES[str(name).upper()]
+        return out
+
+    def _cfg_ref(self, text: str, kind: str, section: str) -> Ref:
+        try:
+            ref = parse_address(text, self.profile)
+        except AddressError as e:
+            raise ConfigError(f"{section}: {e}") from None
+        if ref.kind != kind or not (ref.is_block or kind in ("KW", "KD", "KF")):
+            raise ConfigError(f"{section}: {text!r} is not a %{kind} object")
+        return ref
+
+    def _configure_blocks(self, cfg: dict[str, Any]) -> None:
+        blocks = self.mem.blocks
+        for text, o in cfg.get("timers", {}).items():
+            ref = self._cfg_ref(text, "TM", "timers")
+            try:
+                blocks["TM"][ref.index] = Timer(self.time_source, o.get("type", "TON"),
+                                                time_base(o.get("base", "1s")),
+                                                int(o.get("preset", 0)))
+            except (ValueError, TypeError) as e:
+                raise ConfigError(f"timers.{text}: {e}") from None
+        for text, o in cfg.get("counters", {}).items():
+            ref = self._cfg_ref(text, "C", "counters")
+            try:
+                blocks["C"][ref.index] = Counter(int(o.get("preset", 9999)))
+            except (ValueError, TypeError) as e:
+                raise ConfigError(f"counters.{text}: {e}") from None
+        for text, o in cfg.get("drums", {}).items():
+            ref = self._cfg_ref(text, "DR", "drums")
+            outs = []
+            for a in o.get("outputs", []):
+                r = parse_address(a, self.profile)
+                if r.type != "bool" or r.kind not in ("Q", "M"):
+                    raise ConfigError(f"drums.{text}: outputs are %Q or %M bits, not {a!r}")
+                outs.append((self.mem.bits(r.kind), r.index))
+            try:
+                blocks["DR"][ref.index] = Drum(o.get("steps", [0]), outs, None)
+            except (ValueError, TypeError) as e:
+                raise ConfigError(f"drums.{text}: {e}") from None
+        for text, o in cfg.get("registers", {}).items():
+            ref = self._cfg_ref(text, "R", "registers")
+            try:
+                blocks["R"][ref.index] = Register(o.get("type", "FIFO"),
+                                                  self.profile.count("FIFO_DEPTH"))
+            except (ValueError, TypeError) as e:
+                raise ConfigError(f"registers.{text}: {e}") from None
+
+    def _block_factory(self, ref: Ref) -> str | None:
+        """Create a block the program uses but the configuration does not name, where
+        Twido has an obvious default; otherwise say what to configure."""
+        count = self.profile.count(ref.kind)
+        if ref.index >= count:
+            return f"{ref} beyond the {count} %{ref.kind} of {self.profile.name}"
+        blocks = self.mem.blocks[ref.kind]
+        if ref.index not in blocks:
+            if ref.kind == "C":
+                blocks[ref.index] = Counter()
+            elif ref.kind == "SBR":
+                blocks[ref.index] = ShiftRegister()
+            elif ref.kind == "SC":
+                blocks[ref.index] = StepCounter()
+            elif ref.kind == "R":
+                blocks[ref.index] = Register("FIFO", self.profile.count("FIFO_DEPTH"))
+            elif ref.kind == "TM":
+                return (f"timer {ref} is used but not configured: give its type, time base "
+                        f"and preset, e.g. timers = {{\"{ref}\" = {{type = \"TON\", "
+                        f"base = \"100ms\", preset = 10}}}}")
+            else:
+                return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
+        b = blocks[ref.index]
+        b._initial = b.state()
+        return None
+
+    def _configure_constants(self, consts: dict[str, Any]) -> None:
+        for text, v in consts.items():
+            try:
+                ref = parse_address(text, self.profile)
+            except AddressError as e:
+                raise ConfigError(f"constants: {e}") from None
+            if ref.kind not in ("KW", "KD", "KF"):
+                raise ConfigError(f"constants: {text!r} is not a %KW/%KD/%KF constant")
+            if ref.kind == "KW" and not -32768 <= int(v) <= 65535:
+                raise ConfigError(f"constants: {text} = {v} does not fit a word")
+            self.mem.write(ref, v)
+
+    def _io_check(self, ref: Ref) -> str | None:
+        if ref.module and self._modules is not None:
+            mod = self._modules.get(ref.module)
+            n = None if mod is None else (mod[0] if ref.kind == "I" else mod[1])
+            if not n:
+                return f"{ref}: no module in slot {ref.module} with {'inputs' if ref.kind == 'I' else 'outputs'} (see [modules])"
+            if ref.channel >= n:
+                return f"{ref}: the module in slot {ref.module} has {n} channels"
+        return None
+
+    def env(self) -> dict[str, Any]:
+        """Names the compiled code sees."""
+        m = self.mem
+        env: dict[str, Any] = {
+            "_I": m.i, "_Q": m.q, "_M": m.m, "_S": m.s, "_X": m.x,
+            "_MW": m.mw.w, "_UMW": m.mw.uw, "_KW": m.kw.w, "_UKW": m.kw.uw,
+            "_SW": m.sw.w, "_USW": m.sw.uw,
+            "_MDE": m.mw.d[0], "_MDO": m.mw.d[1], "_MFE": m.mw.f[0], "_MFO": m.mw.f[1],
+            "_KDE": m.kw.d[0], "_KDO": m.kw.d[1], "_KFE": m.kw.f[0], "_KFO": m.kw.f[1],
+            "_MWF": m.mw, "_KWF": m.kw, "_SWF": m.sw, "_mem": m,
+            "_EDGE": [0] * 4096, "_wd": self.engine.watchdog_expired,
+            "_block_factory": self._block_factory, "_io_check": self._io_check,
+            "_GA": [], "_GD": [],
+        }
+        for name, f in self.ops.table().items():
+            env["_" + name] = f
+        for kind, blocks in m.blocks.items():
+            for i, b in blocks.items():
+                env[f"_{kind}{i}"] = b
+                b._initial = b.state()
+
+        ga, gd, x = env["_GA"], env["_GD"], m.x
+
+        def gpost() -> None:  # apply Grafcet transitions at the end of sequential processing
+            for k in gd:
+                x[k] = 0
+            for k in ga:
+                x[k] = 1
+            ga.clear()
+            gd.clear()
+
+        env["_gpost"] = gpost
+        return env
+
+    def _compile(self, program: A.Program, debug: bool = False) -> CompiledProgram:
+        env = self.env()
+        compiled = compile_program(program, env, dict(self.profile.counts), debug)
+        # bind blocks created during compilation (defaults) into the namespace
+        for kind, blocks in self.mem.blocks.items():
+            for i, b in blocks.items():
+                compiled.namespace.setdefault(f"_{kind}{i}", b)
+        compiled.namespace["_INITIAL_STEPS"] = tuple(
+            i.step for r in program.rungs for i in r.instructions
+            if isinstance(i, A.Grafcet) and i.op == "=*=" and i.step is not None)
+        return compiled
+
+    def compile_debug(self) -> CompiledProgram:
+        """The debug build: `main()` is a generator yielding (rung, instruction) before each
+        instruction; `log[rung][k]` holds the accumulator after instruction k."""
+        return self._compile(self.ast, debug=True)
+
+    # -- running --------------------------------------------------------------------------------
+    def scan(self, n: int = 1) -> None:
+        """Run n scans (on the virtual clock each advances time by scan_period)."""
+        scan = self.engine.scan
+        for _ in range(n):
+            scan()
+
+    def run(self, seconds: float) -> None:
+        """Run for `seconds` of virtual time (whole scans)."""
+        n = max(0, round(seconds / self.scan_period))
+        self.scan(n)
+
+    def run_until(self, condition: Any, timeout: float = 10.0) -> bool:
+        """Scan until condition(plc) is true or `timeout` seconds of PLC time pass."""
+        limit = max(1, round(timeout / self.scan_period))
+        for _ in range(limit):
+            if condition(self):
+                return True
+            self.scan()
+        return bool(condition(self))
+
+    # -- memory access --------------------------------------------------------------------------
+    def __getitem__(self, address: str) -> Any:
+        return self.mem.read(self._ref(address))
+
+    def __setitem__(self, address: str, value: Any) -> None:
+        ref = self._ref(address)
+        if ref.kind in ("KW", "KD", "KF"):
+            raise AddressError(f"{address} is a constant: set it in the configuration "
+                               f"([constants])")
+        if ref.kind in BLOCK_FIELDS and (ref.field is None or
+                                         not BLOCK_FIELDS[ref.kind].get(ref.field, ("", 0))[1]):
+            raise AddressError(f"{address} is read-only")
+        self.mem.write(ref, value)
+
+    def _ref(self, address: str | Ref) -> Ref:
+        return address if isinstance(address, Ref) else parse_address(address, self.profile)
+
+    def force(self, address: str, value: Any) -> None:
+        """Hold an object at a value every scan, whatever the program or the field does."""
+        ref = self._ref(address)
+        self._forced[ref] = value
+        self.engine.set_forced(dict(self._forced))
+        self.mem.write(ref, value, field_inputs=False)
+
+    def unforce(self, address: str | None = None) -> None:
+        """Release one forced object, or all of them."""
+        if address is None:
+            self._forced.clear()
+        else:
+            self._forced.pop(self._ref(address), None)
+        self.engine.set_forced(dict(self._forced))
+
+    @property
+    def forced(self) -> dict[str, Any]:
+        return {str(r): v for r, v in self._forced.items()}
+
+    # -- state ----------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """PLC time in seconds (virtual: scans x scan_period)."""
+        return self._clock.seconds
+
+    @property
+    def clock(self) -> Clock:
+        return self._clock
+
+    @property
+    def scan_count(self) -> int:
+        return self.engine.stats.scans
+
+    @property
+    def state(self) -> str:
+        return self.engine.state
+
+    @property
+    def fault(self) -> str:
+        return self.engine.fault
+
+    @property
+    def stats(self) -> Any:
+        return self.engine.stats
+
+    @property
+    def before_scan(self) -> list:
+        return self.engine.before_scan
+
+    @property
+    def after_scan(self) -> list:
+        return self.engine.after_scan
+
+    @property
+    def rungs(self) -> list[A.Rung]:
+        return self.ast.rungs
+
+    @property
+    def trace(self) -> list:
+        """Samples of the machine's trace recorder (empty without one)."""
+        for dev in self.devices.values():
+            if getattr(dev, "type_name", "") == "trace":
+                return dev.samples
+        return []
+
+    def cold_start(self) -> None:
+        self.engine.cold_start()
+
+    def warm_start(self) -> None:
+        self.engine.warm_start()
+
+    def stop(self) -> None:
+        self.engine.stop()
+
+    def start(self) -> None:
+        self.engine.start()
+
+    def stop_outputs(self) -> None:
+        self.engine.stop_outputs()
+
+    def note_overrun(self) -> None:
+        self.engine.note_overrun()
+
+    def close(self) -> None:
+        """Flush and close devices (trace files)."""
+        for dev in self.devices.values():
+            close = getattr(dev, "close", None)
+            if close:
+                close()
+
+    def __enter__(self) -> PLC:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+__all__ = ["PLC", "SoftPLCError"]

@@ -1,0 +1,68 @@
+"""Controller profiles: how many of each object a Twido model has.
+
+This table is the one place that knows object counts. A larger controller is one more
+entry. Counts are the documented TWDLCAE40DRF figures (TWD USE 10AE) [manual].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Profile:
+    name: str
+    inputs_base: int  # %I0.0 .. %I0.(n-1)
+    outputs_base: int  # %Q0.0 .. %Q0.(n-1)
+    expansion_slots: int  # modules 1..n
+    channels_per_module: int  # widest expansion module (TM2 DDI32/DDO32)
+    counts: dict[str, int] = field(default_factory=dict)
+
+    def count(self, kind: str) -> int:
+        return self.counts[kind]
+
+
+TWDLCAE40DRF = Profile(
+    name="TWDLCAE40DRF",
+    inputs_base=24,
+    outputs_base=16,
+    expansion_slots=7,
+    channels_per_module=32,
+    counts={
+        "M": 256,
+        "MW": 3000,
+        "KW": 256,
+        "S": 128,
+        "SW": 128,
+        "TM": 128,
+        "C": 128,
+        "DR": 8,
+        "SBR": 8,
+        "SC": 8,
+        "R": 4,
+        "L": 64,
+        "SR": 64,
+        "X": 96,  # Grafcet steps %X0..%X95
+        "FIFO_DEPTH": 16,  # %Ri register depth
+        "DRUM_STEPS": 8,
+        "STACK": 8,  # MPS depth [m221]
+        "PAREN": 8,  # parenthesis nesting [manual]
+    },
+)
+
+# Known expansion modules: digital inputs / outputs per module.
+MODULES: dict[str, tuple[int, int]] = {
+    "TM2DDI8DT": (8, 0),
+    "TM2DDI16DT": (16, 0),
+    "TM2DDI32DK": (32, 0),
+    "TM2DDO8TT": (0, 8),
+    "TM2DDO8UT": (0, 8),
+    "TM2DRA8RT": (0, 8),
+    "TM2DDO16TK": (0, 16),
+    "TM2DDO32TK": (0, 32),
+    "TM2DMM8DRT": (4, 4),
+    "TM2DMM24DRF": (16, 8),
+}
+
+PROFILES = {TWDLCAE40DRF.name: TWDLCAE40DRF}
+DEFAULT_PROFILE = TWDLCAE40DRF

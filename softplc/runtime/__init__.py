@@ -1,0 +1,1 @@
+"""Run time: memory image, function blocks, clocks, the scan engine."""

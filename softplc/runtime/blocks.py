@@ -1,0 +1,321 @@
+"""Twido function blocks: %TM timers, %C counters, %DR drums, %SBR shift registers,
+%SC step counters, %R FIFO/LIFO registers.
+
+Type, time base and preset are configuration, never program text [m221]. Each block
+exposes its fields as attributes named like the Twido fields (`.Q`, `.V`, `.P` ...), one
+method per input pin for the short form (`IN %TM0` -> `in_`), and `run(...)` taking all
+input pins at once for the `BLK ... END_BLK` form. Values are 0..9999 as on Twido [manual].
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+MAX_VALUE = 9999  # %TMi.P/.V, %Ci.P/.V range [manual]
+
+TIME_BASES_US = {"1ms": 1_000, "10ms": 10_000, "100ms": 100_000, "1s": 1_000_000,
+                 "1min": 60_000_000}
+
+
+class TimeSource:
+    """Shared with the engine: the current scan's start time."""
+
+    now_us: int = 0
+
+
+class Block:
+    PINS: tuple[str, ...] = ()
+    FIELDS: tuple[str, ...] = ()
+
+    def state(self) -> dict[str, Any]:
+        return {f: getattr(self, f) for f in self.FIELDS}
+
+    def set_state(self, d: dict[str, Any]) -> None:
+        for k, v in d.items():
+            setattr(self, k, v)
+
+
+class Timer(Block):
+    """%TMi: TON (on delay), TOF (off delay), TP (pulse) [manual].
+
+    TON: V counts while IN = 1, Q = 1 once V reaches P, IN = 0 resets V and Q.
+    TOF: Q = 1 while IN = 1; when IN falls V counts and Q drops when V reaches P.
+    TP: a rising edge of IN gives a pulse of length P; V counts during the pulse."""
+
+    PINS = ("IN",)
+    FIELDS = ("P", "V", "Q", "_in", "_t0", "_on")
+
+    def __init__(self, clock: TimeSource, type: str = "TON", base: str = "1s", preset: int = 0):
+        type = type.upper()
+        if type not in ("TON", "TOF", "TP"):
+            raise ValueError(f"timer type {type!r}: TON, TOF or TP")
+        if base not in TIME_BASES_US:
+            raise ValueError(f"time base {base!r}: one of {', '.join(TIME_BASES_US)}")
+        if not 0 <= int(preset) <= MAX_VALUE:
+            raise ValueError(f"preset {preset}: 0..{MAX_VALUE}")
+        self.clock, self.type, self.base = clock, type, base
+        self.base_us = TIME_BASES_US[base]
+        self.P, self.V, self.Q = int(preset), 0, 0
+        self._in, self._t0, self._on = 0, 0, 0  # last IN, start time, timing in progress
+        self.run = {"TON": self._ton, "TOF": self._tof, "TP": self._tp}[type]
+        self.in_ = self.run
+
+    def _elapsed(self) -> int:
+        v = (self.clock.now_us - self._t0) // self.base_us
+        return v if v < self.P else self.P
+
+    def _ton(self, IN: Any) -> None:
+        if IN:
+            if not self._in:
+                self._t0 = self.clock.now_us
+            v = self._elapsed()
+            self.V, self.Q = v, 1 if v >= self.P else 0
+        else:
+            self.V = self.Q = 0
+        self._in = 1 if IN else 0
+
+    def _tof(self, IN: Any) -> None:
+        if IN:
+            self.V, self.Q, self._on = 0, 1, 0
+        else:
+            if self._in:  # falling edge: start counting
+                self._t0, self._on = self.clock.now_us, 1
+            if self._on:
+                v = self._elapsed()
+                self.V = v
+                if v >= self.P:
+                    self.Q, self._on = 0, 0
+        self._in = 1 if IN else 0
+
+    def _tp(self, IN: Any) -> None:
+        if IN and not self._in and not self._on:
+            self._t0, self._on, self.Q = self.clock.now_us, 1, 1
+        if self._on:
+            v = self._elapsed()
+            self.V = v
+            if v >= self.P:
+                self.Q, self._on = 0, 0
+        if not self._on and not IN:
+            self.V = 0
+        self._in = 1 if IN else 0
+
+
+class Counter(Block):
+    """%Ci up/down counter [m221]: R (priority) V := 0; S V := P; CU / CD count on rising
+    edges (both in one scan cancel); D = (V = P); F set on the 9999 -> 0 wrap going up,
+    E on the 0 -> 9999 wrap going down; E and F clear at the next count."""
+
+    PINS = ("R", "S", "CU", "CD")
+    FIELDS = ("P", "V", "D", "E", "F", "_cu", "_cd")
+
+    def __init__(self, preset: int = MAX_VALUE):
+        if not 0 <= int(preset) <= MAX_VALUE:
+            raise ValueError(f"preset {preset}: 0..{MAX_VALUE}")
+        self.P, self.V, self.D, self.E, self.F = int(preset), 0, 0, 0, 0
+        self._cu = self._cd = 0
+
+    def _done(self) -> None:
+        self.D = 1 if self.V == self.P else 0
+
+    def r(self, v: Any) -> None:
+        if v:
+            self.V, self.E, self.F = 0, 0, 0
+        self._done()
+
+    def s(self, v: Any) -> None:
+        if v:
+            self.V = self.P
+        self._done()
+
+    def _count(self, up: int, down: int) -> None:
+        if up == down:
+            return
+        self.E = self.F = 0
+        if up:
+            self.V += 1
+            if self.V > MAX_VALUE:
+                self.V, self.F = 0, 1
+        else:
+            self.V -= 1
+            if self.V < 0:
+                self.V, self.E = MAX_VALUE, 1
+
+    def cu(self, v: Any) -> None:
+        v = 1 if v else 0
+        self._count(v > self._cu, 0)
+        self._cu = v
+        self._done()
+
+    def cd(self, v: Any) -> None:
+        v = 1 if v else 0
+        self._count(0, v > self._cd)
+        self._cd = v
+        self._done()
+
+    def run(self, R: Any = 0, S: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
+        cu, cd = (1 if CU else 0), (1 if CD else 0)
+        up, down = cu > self._cu, cd > self._cd
+        self._cu, self._cd = cu, cd
+        if R:
+            self.V, self.E, self.F = 0, 0, 0
+        elif S:
+            self.V = self.P
+        else:
+            self._count(up, down)
+        self._done()
+
+
+class Drum(Block):
+    """%DRi drum controller [m221]: up to 8 steps of 16 control bits; U advances on a rising
+    edge (wrapping), R (level) goes back to step 0; .S current step, .F on the last step.
+    The current step's bits are written to the configured bit objects at each execution."""
+
+    PINS = ("R", "U")
+    FIELDS = ("S", "F", "_u")
+
+    def __init__(self, steps: list[int], outputs: list[Any], writer: Any):
+        if not 1 <= len(steps) <= 8:
+            raise ValueError("a drum has 1 to 8 steps")
+        self.steps = [int(s) & 0xFFFF for s in steps]
+        self.outputs = outputs  # resolved (buffer, index) pairs
+        self.S, self.F, self._u = 0, 0, 0
+
+    def _apply(self) -> None:
+        bits = self.steps[self.S]
+        for k, (buf, idx) in enumerate(self.outputs):
+            buf[idx] = (bits >> k) & 1
+        self.F = 1 if self.S == len(self.steps) - 1 else 0
+
+    def r(self, v: Any) -> None:
+        if v:
+            self.S = 0
+        self._apply()
+
+    def u(self, v: Any) -> None:
+        v = 1 if v else 0
+        if v and not self._u:
+            self.S = (self.S + 1) % len(self.steps)
+        self._u = v
+        self._apply()
+
+    def run(self, R: Any = 0, U: Any = 0) -> None:
+        u = 1 if U else 0
+        if R:
+            self.S = 0
+        elif u and not self._u:
+            self.S = (self.S + 1) % len(self.steps)
+        self._u = u
+        self._apply()
+
+
+class ShiftRegister(Block):
+    """%SBRi 16-bit shift register [manual]: R clears, CU shifts left (bit k -> k+1),
+    CD shifts right, both on rising edges. Bits %SBRi.J0..J15."""
+
+    PINS = ("R", "CU", "CD")
+    FIELDS = ("W", "_cu", "_cd")
+
+    def __init__(self) -> None:
+        self.W, self._cu, self._cd = 0, 0, 0
+
+    def bit(self, k: int) -> int:
+        return (self.W >> k) & 1
+
+    def run(self, R: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
+        cu, cd = (1 if CU else 0), (1 if CD else 0)
+        if R:
+            self.W = 0
+        else:
+            if cu > self._cu:
+                self.W = (self.W << 1) & 0xFFFF
+            if cd > self._cd:
+                self.W >>= 1
+        self._cu, self._cd = cu, cd
+
+    def r(self, v: Any) -> None:
+        self.run(R=v, CU=self._cu, CD=self._cd)
+
+    def cu(self, v: Any) -> None:
+        self.run(CU=v, CD=self._cd)
+
+    def cd(self, v: Any) -> None:
+        self.run(CU=self._cu, CD=v)
+
+
+class StepCounter(Block):
+    """%SCi step counter [manual]: one active bit out of 256 (%SCi.Jk); CU steps up, CD
+    down (rising edges, wrapping), R back to step 0."""
+
+    PINS = ("R", "CU", "CD")
+    FIELDS = ("V", "_cu", "_cd")
+
+    def __init__(self) -> None:
+        self.V, self._cu, self._cd = 0, 0, 0
+
+    def bit(self, k: int) -> int:
+        return 1 if self.V == k else 0
+
+    def run(self, R: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
+        cu, cd = (1 if CU else 0), (1 if CD else 0)
+        if R:
+            self.V = 0
+        else:
+            if cu > self._cu:
+                self.V = (self.V + 1) % 256
+            if cd > self._cd:
+                self.V = (self.V - 1) % 256
+        self._cu, self._cd = cu, cd
+
+    def r(self, v: Any) -> None:
+        self.run(R=v, CU=self._cu, CD=self._cd)
+
+    def cu(self, v: Any) -> None:
+        self.run(CU=v, CD=self._cd)
+
+    def cd(self, v: Any) -> None:
+        self.run(CU=self._cu, CD=v)
+
+
+class Register(Block):
+    """%Ri FIFO or LIFO of 16 words [manual]: a rising edge on I stores .I, on O retrieves
+    into .O; R empties; .E empty, .F full."""
+
+    PINS = ("R", "I", "O")
+    FIELDS = ("I", "O", "E", "F", "_i", "_o", "_data")
+
+    def __init__(self, type: str = "FIFO", depth: int = 16):
+        type = type.upper()
+        if type not in ("FIFO", "LIFO"):
+            raise ValueError(f"register type {type!r}: FIFO or LIFO")
+        self.type, self.depth = type, depth
+        self.I = self.O = 0
+        self.E, self.F = 1, 0
+        self._i = self._o = 0
+        self._data: list[int] = []
+
+    def state(self) -> dict[str, Any]:
+        d = super().state()
+        d["_data"] = list(self._data)
+        return d
+
+    def run(self, R: Any = 0, I: Any = 0, O: Any = 0) -> None:
+        i, o = (1 if I else 0), (1 if O else 0)
+        if R:
+            self._data.clear()
+        else:
+            if i > self._i and len(self._data) < self.depth:
+                self._data.append(self.I)
+            if o > self._o and self._data:
+                self.O = self._data.pop(0 if self.type == "FIFO" else -1)
+        self._i, self._o = i, o
+        self.E = 0 if self._data else 1
+        self.F = 1 if len(self._data) >= self.depth else 0
+
+    def r(self, v: Any) -> None:
+        self.run(R=v, I=self._i, O=self._o)
+
+    def i(self, v: Any) -> None:
+        self.run(I=v, O=self._o)
+
+    def o(self, v: Any) -> None:
+        self.run(I=self._i, O=v)

@@ -1,0 +1,238 @@
+"""The scan cycle: read inputs -> execute -> write outputs, on a clock.
+
+One `scan()`:
+  1. `before_scan` hooks (the daemon applies queued Modbus writes here)
+  2. system objects: %S0/%S1/%S13 first-scan bits, %S4-%S7 clocks, %SW0, %SW11
+  3. latch the field inputs into the input image, apply forced values
+  4. run the compiled program (a watchdog overrun or fault -> HALT, %S11)
+  5. re-assert forced values, publish the output image to the field
+  6. simulated devices read field outputs / write field inputs
+  7. scan time statistics (%SW30-%SW32), `after_scan` hooks
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from ..address import BLOCK_FIELDS, Ref
+from ..compiler.codegen import CompiledProgram, Watchdog
+from .clock import Clock
+from .memory import MemoryImage
+
+RUN, STOP, HALT = "RUN", "STOP", "HALT"
+S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
+S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}  # period in us [manual]
+S_WATCHDOG, S_OVERRUN = 11, 19
+SW_PERIOD, SW_WATCHDOG, SW_LAST, SW_MAX, SW_MIN = 0, 11, 30, 31, 32
+DEFAULT_WATCHDOG_S = 0.150  # [manual]
+
+
+@dataclass
+class ScanStats:
+    scans: int = 0
+    last: float = 0.0  # seconds, measured wall time of the program execution
+    max: float = 0.0
+    min: float = 0.0
+    total: float = 0.0
+    overruns: int = 0
+
+
+class Engine:
+    def __init__(self, mem: MemoryImage, clock: Clock, period_s: float, watchdog_s: float,
+                 time_source: Any = None):
+        self.mem = mem
+        self.time_source = time_source  # timers read the scan's start time from it
+        self.clock = clock
+        self.period_us = max(1, round(period_s * 1e6))
+        self.watchdog_s = watchdog_s
+        self.program: CompiledProgram | None = None
+        self.main: Callable[[], Any] | None = None
+        self.state = RUN
+        self.fault = ""
+        self.stats = ScanStats()
+        self.before_scan: list[Callable[[], None]] = []
+        self.after_scan: list[Callable[[], None]] = []
+        self.devices: dict[str, Any] = {}
+        self.forced: dict[Ref, Any] = {}
+        self._forced_bits: list[tuple[list[int], int, int]] = []
+        self._forced_inputs: list[tuple[list[int], int, int]] = []
+        self._forced_other: list[tuple[Ref, Any]] = []
+        self._first = {S_COLD: 1, S_FIRST: 1}  # first-scan system bits to raise
+        self._deadline = 0.0
+        mem.sw.w[SW_PERIOD] = min(32767, round(period_s * 1000))
+        mem.sw.w[SW_WATCHDOG] = min(32767, round(watchdog_s * 1000))
+
+    # -- lifecycle ----------------------------------------------------------------------------
+    def load(self, program: CompiledProgram) -> None:
+        self.program = program
+        self.main = program.main
+
+    def watchdog_expired(self) -> bool:
+        return time.perf_counter() > self._deadline
+
+    def cold_start(self) -> None:
+        """Reset %M, %MW, %Q, timers, counters, Grafcet; %S0 and %S13 on the next scan."""
+        m = self.mem
+        for buf in (m.m, m.q, m.q_field, m.x):
+            buf[:] = [0] * len(buf)
+        m.mw.buf[:] = bytes(len(m.mw.buf))
+        for kind, blocks in m.blocks.items():
+            for b in blocks.values():
+                init = getattr(b, "_initial", None)
+                if init is not None:
+                    b.set_state(init)
+        if self.program is not None:
+            edge = self.program.namespace.get("_EDGE")
+            if edge is not None:
+                edge[:] = [0] * len(edge)
+            for step in self.program.namespace.get("_INITIAL_STEPS", ()):
+                m.x[step] = 1
+        self._first = {S_COLD: 1, S_FIRST: 1}
+        self.state, self.fault = RUN, ""
+        self.mem.s[S_WATCHDOG] = 0
+
+    def warm_start(self) -> None:
+        """Keep data; %S1 and %S13 on the next scan."""
+        self._first = {S_WARM: 1, S_FIRST: 1}
+        self.state, self.fault = RUN, ""
+        self.mem.s[S_WATCHDOG] = 0
+
+    def stop(self) -> None:
+        self.state = STOP
+
+    def start(self) -> None:
+        """STOP -> RUN (%S13 on the first scan). A HALT needs cold_start/warm_start."""
+        if self.state == STOP:
+            self.state = RUN
+            self._first = {S_FIRST: 1}
+
+    def halt(self, reason: str) -> None:
+        self.state, self.fault = HALT, reason
+        self.stop_outputs()
+
+    def stop_outputs(self) -> None:
+        """Outputs to their fallback value 0, image and field."""
+        self.mem.q[:] = [0] * len(self.mem.q)
+        self.mem.q_field[:] = [0] * len(self.mem.q_field)
+
+    # -- forcing ------------------------------------------------------------------------------
+    def set_forced(self, forced: dict[Ref, Any]) -> None:
+        self.forced = forced
+        self._forced_bits, self._forced_inputs, self._forced_other = [], [], []
+        for ref, v in forced.items():
+            if ref.kind in ("I", "Q", "M", "S", "X") and ref.offset is None:
+                entry = (self.mem.bits(ref.kind), ref.index, 1 if v else 0)
+                (self._forced_inputs if ref.kind == "I" else self._forced_bits).append(entry)
+            else:
+                self._forced_other.append((ref, v))
+
+    def _apply_forced(self) -> None:
+        for buf, i, v in self._forced_bits:
+            buf[i] = v
+        for ref, v in self._forced_other:
+            self.mem.write(ref, v, field_inputs=False)
+
+    # -- the scan -----------------------------------------------------------------------------
+    def scan(self) -> None:
+        if not self._begin():
+            return
+        t0 = time.perf_counter()
+        self._deadline = t0 + self.watchdog_s
+        try:
+            self.main()
+        except Watchdog:
+            self._watchdog_trip(time.perf_counter() - t0)
+        except RecursionError:
+            self.halt("subroutine calls nested too deep (recursion)")
+        dt = time.perf_counter() - t0
+        if self.state == RUN and dt > self.watchdog_s:
+            self._watchdog_trip(dt)
+        self._finish(dt)
+
+    def scan_stepwise(self, debug_main: Callable[[], Iterator[tuple[int, int]]]
+                      ) -> Iterator[tuple[int, int]]:
+        """One scan of a debug build, yielding (rung, instruction) before each instruction.
+        The watchdog is off (a person is stepping); the scan completes when exhausted."""
+        if not self._begin():
+            return
+        self._deadline = float("inf")
+        t0 = time.perf_counter()
+        try:
+            yield from debug_main()
+        except RecursionError:
+            self.halt("subroutine calls nested too deep (recursion)")
+        self._finish(time.perf_counter() - t0)
+
+    def _begin(self) -> bool:
+        """Steps 1-3 of the scan. False when not in RUN (the scan is then complete)."""
+        mem, clock, period = self.mem, self.clock, self.period_us
+        for h in self.before_scan:
+            h()
+        if self.state != RUN:
+            clock.start_scan(period)
+            clock.end_scan(period)
+            for h in self.after_scan:
+                h()
+            return False
+        now = clock.start_scan(period)
+        if self.time_source is not None:
+            self.time_source.now_us = now
+        s = mem.s
+        for bit, p in S_CLOCKS.items():
+            s[bit] = 1 if (now % p) < p // 2 else 0
+        for bit, v in self._first.items():
+            s[bit] = v
+        mem.latch_inputs()
+        for buf, i, v in self._forced_inputs:
+            buf[i] = v
+        if self.forced:
+            self._apply_forced()
+        return True
+
+    def _finish(self, dt: float) -> None:
+        """Steps 5-7 of the scan; dt is the measured execution time."""
+        mem, s = self.mem, self.mem.s
+        if self._first:
+            for bit in self._first:
+                s[bit] = 0
+            self._first = {}
+        if self.forced:
+            self._apply_forced()
+        if self.state == RUN:
+            mem.publish_outputs()
+        st = self.stats
+        st.scans += 1
+        st.last = dt
+        st.total += dt
+        if dt > st.max:
+            st.max = dt
+        if st.min == 0.0 or dt < st.min:
+            st.min = dt
+        sw = mem.sw.w
+        sw[SW_LAST] = min(32767, round(dt * 1000))
+        sw[SW_MAX] = min(32767, round(st.max * 1000))
+        sw[SW_MIN] = min(32767, round(st.min * 1000))
+        self.clock.end_scan(self.period_us)
+        if self.devices:
+            t = self.clock.now_us / 1e6
+            dts = self.period_us / 1e6
+            for dev in self.devices.values():
+                dev.update(t, dts)
+        for h in self.after_scan:
+            h()
+
+    def _watchdog_trip(self, dt: float) -> None:
+        self.mem.s[S_WATCHDOG] = 1
+        self.halt(f"watchdog: scan took {dt * 1000:.1f} ms > {self.watchdog_s * 1000:.0f} ms")
+
+    def note_overrun(self) -> None:
+        """Periodic mode: the scan did not finish within the period (%S19) [manual]."""
+        self.stats.overruns += 1
+        self.mem.s[S_OVERRUN] = 1
+
+
+def block_kinds() -> tuple[str, ...]:
+    return tuple(BLOCK_FIELDS)

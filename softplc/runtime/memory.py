@@ -1,0 +1,214 @@
+"""The Twido memory image.
+
+Words: each word family (%MW, %KW, %SW) is one `bytearray`. Compiled rungs index
+`memoryview` casts of it; numpy arrays are `np.frombuffer` views of the same bytes, for
+bulk work (Modbus, snapshots, the debugger). `%MDi`/`%MFi` overlay `%MWi` (low word) and
+`%MWi+1` (high word): they are 32-bit casts of the word buffer at an even or an odd word
+offset, so a write through one view is seen by all the others with no copying.
+
+Bits (%I, %Q, %M, %S, %X) are plain Python lists of 0/1: CPython specialises list
+indexing, and boolean rungs run 3.3x faster over lists than over a bytearray (3.3 vs
+10.9 ns per instruction on the generated 1,000-instruction program, this machine). Bulk
+numpy access to bits is by copy (`bits_np`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
+from ..errors import AddressError
+from ..profile import DEFAULT_PROFILE, Profile
+
+
+class WordFamily:
+    """A run of 16-bit words with 32-bit integer and float overlays (e.g. %MW/%MD/%MF)."""
+
+    def __init__(self, n: int):
+        self.n = n
+        self.buf = bytearray(2 * n)
+        mv = memoryview(self.buf)
+        self.w = mv.cast("h")  # signed 16-bit words
+        self.uw = mv.cast("H")  # the same words, unsigned (Modbus)
+        n_even, n_odd = n // 2, (n - 1) // 2
+        # index i of a 32-bit object -> (view, i >> 1): even i in the first, odd in the second
+        self.d = (mv[: 4 * n_even].cast("i"), mv[2 : 2 + 4 * n_odd].cast("i"))
+        self.f = (mv[: 4 * n_even].cast("f"), mv[2 : 2 + 4 * n_odd].cast("f"))
+        self.np = np.frombuffer(self.buf, dtype=np.int16)
+
+    def np_dword(self, i: int) -> np.ndarray:
+        return np.frombuffer(self.buf, dtype=np.int32, count=1, offset=2 * i)
+
+    def get_d(self, i: int) -> int:
+        return self.d[i & 1][i >> 1]
+
+    def set_d(self, i: int, v: int) -> None:
+        self.d[i & 1][i >> 1] = wrap32(v)
+
+    def get_f(self, i: int) -> float:
+        return self.f[i & 1][i >> 1]
+
+    def set_f(self, i: int, v: float) -> None:
+        self.f[i & 1][i >> 1] = to_f32(v)
+
+
+def wrap16(v: int) -> int:
+    return ((int(v) + 0x8000) & 0xFFFF) - 0x8000
+
+
+def wrap32(v: int) -> int:
+    return ((int(v) + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+
+
+F32_MAX = 3.4028234663852886e38
+
+
+def to_f32(v: float) -> float:
+    """Clamp a Python float to what an IEEE single can hold (overflow -> +-inf)."""
+    v = float(v)
+    if v != v or -F32_MAX <= v <= F32_MAX:
+        return v
+    return math.copysign(math.inf, v)
+
+
+class MemoryImage:
+    """All PLC data: bits, words, I/O images, system objects and function blocks."""
+
+    def __init__(self, profile: Profile = DEFAULT_PROFILE):
+        self.profile = profile
+        c = profile.count
+        self.stride = profile.channels_per_module
+        n_io = (profile.expansion_slots + 1) * self.stride
+        # Input/output images and what the field (devices, API) sees. Inputs are copied
+        # field -> image at the start of a scan, outputs image -> field at its end.
+        self.i = [0] * n_io
+        self.i_field = [0] * n_io
+        self.q = [0] * n_io
+        self.q_field = [0] * n_io
+        self.m = [0] * c("M")
+        self.s = [0] * c("S")
+        self.x = [0] * c("X")
+        self.mw = WordFamily(c("MW"))
+        self.kw = WordFamily(c("KW"))
+        self.sw = WordFamily(c("SW"))
+        # Function blocks, filled in by the engine from the configuration.
+        self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
+        self.np = {"MW": self.mw.np, "KW": self.kw.np, "SW": self.sw.np}
+
+    def bits_np(self, kind: str) -> np.ndarray:
+        """A numpy copy of a bit family."""
+        return np.array(self.bits(kind), dtype=np.uint8)
+
+    # -- address resolution ---------------------------------------------------------------
+    def ref(self, address: str | Ref) -> Ref:
+        return address if isinstance(address, Ref) else parse_address(address, self.profile)
+
+    def bits(self, kind: str) -> list[int]:
+        return {"I": self.i, "Q": self.q, "M": self.m, "S": self.s, "X": self.x}[kind]
+
+    def words(self, kind: str) -> WordFamily:
+        return {"MW": self.mw, "MD": self.mw, "MF": self.mw, "KW": self.kw,
+                "KD": self.kw, "KF": self.kw, "SW": self.sw}[kind]
+
+    def block(self, ref: Ref) -> Any:
+        try:
+            return self.blocks[ref.kind][ref.index]
+        except KeyError:
+            raise AddressError(f"%{ref.kind}{ref.index} is not configured") from None
+
+    def _effective_index(self, ref: Ref) -> int:
+        idx = ref.index
+        if ref.offset is not None:
+            idx += self.mw.w[ref.offset.index]
+        return idx
+
+    # -- generic (slow path) access for tools, the API and the debugger --------------------
+    def read(self, address: str | Ref) -> Any:
+        """Read any object: bool for bits, int for words, float for %MF/%KF, list for tables."""
+        ref = self.ref(address)
+        if ref.kind in BLOCK_FIELDS:
+            b = self.block(ref)
+            if ref.field is None:
+                return b
+            if ref.field == "J":
+                return bool(b.bit(ref.bit))
+            v = getattr(b, ref.field)
+            return bool(v) if BLOCK_FIELDS[ref.kind][ref.field][0] == "bool" else int(v)
+        if ref.length is not None:
+            step = 2 if ref.kind in ("MD", "MF", "KD", "KF") else 1
+            return [self.read(Ref(ref.kind, ref.index + k * step)) for k in range(ref.length)]
+        idx = self._effective_index(ref)
+        if ref.kind in IO_KINDS or ref.kind in ("M", "S", "X"):
+            return bool(self.bits(ref.kind)[idx])
+        fam = self.words(ref.kind)
+        if ref.bit is not None:
+            return bool((fam.w[idx] >> ref.bit) & 1)
+        if ref.kind in ("MD", "KD"):
+            return fam.get_d(idx)
+        if ref.kind in ("MF", "KF"):
+            return fam.get_f(idx)
+        return fam.w[idx]
+
+    def write(self, address: str | Ref, value: Any, *, field_inputs: bool = True) -> None:
+        """Write any object. `%I` writes go to the field inputs (seen at the next scan)
+        unless `field_inputs` is False. No read-only check: that is the caller's policy."""
+        ref = self.ref(address)
+        if ref.kind in BLOCK_FIELDS:
+            b = self.block(ref)
+            if ref.field is None or ref.field == "J":
+                raise AddressError(f"{ref} cannot be written")
+            setattr(b, ref.field, int(value))
+            return
+        if ref.length is not None:
+            step = 2 if ref.kind in ("MD", "MF", "KD", "KF") else 1
+            for k, v in enumerate(value):
+                self.write(Ref(ref.kind, ref.index + k * step), v, field_inputs=field_inputs)
+            return
+        idx = self._effective_index(ref)
+        if ref.kind == "I" and field_inputs:
+            self.i_field[idx] = 1 if value else 0
+            return
+        if ref.kind in IO_KINDS or ref.kind in ("M", "S", "X"):
+            self.bits(ref.kind)[idx] = 1 if value else 0
+            return
+        fam = self.words(ref.kind)
+        if ref.bit is not None:
+            w = fam.uw[idx]
+            fam.uw[idx] = (w | (1 << ref.bit)) if value else (w & ~(1 << ref.bit) & 0xFFFF)
+        elif ref.kind in ("MD", "KD"):
+            fam.set_d(idx, int(value))
+        elif ref.kind in ("MF", "KF"):
+            fam.set_f(idx, float(value))
+        else:
+            fam.w[idx] = wrap16(int(value))
+
+    # -- scan boundary ----------------------------------------------------------------------
+    def latch_inputs(self) -> None:
+        self.i[:] = self.i_field
+
+    def publish_outputs(self) -> None:
+        self.q_field[:] = self.q
+
+    # -- snapshots (debugger history, retained state) -------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        snap: dict[str, Any] = {
+            name: bytes(getattr(self, name))
+            for name in ("i", "i_field", "q", "q_field", "m", "s", "x")
+        }
+        for name in ("mw", "kw", "sw"):
+            snap[name] = bytes(getattr(self, name).buf)
+        snap["blocks"] = {k: {i: b.state() for i, b in d.items()} for k, d in self.blocks.items()}
+        return snap
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        for name in ("i", "i_field", "q", "q_field", "m", "s", "x"):
+            getattr(self, name)[:] = snap[name]
+        for name in ("mw", "kw", "sw"):
+            getattr(self, name).buf[:] = snap[name]
+        for k, d in snap["blocks"].items():
+            for i, st in d.items():
+                if i in self.blocks[k]:
+                    self.blocks[k][i].set_state(st)

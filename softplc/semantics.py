@@ -1,0 +1,295 @@
+"""Instruction semantics: the one place that says what each Twido operation computes.
+
+Compiled rungs call these helpers for anything that can overflow or fault; the helpers set
+the system bits the way Twido documents: %S17 carry (last bit shifted out), %S18
+arithmetic error (overflow, divide by zero, domain error, bad conversion; set by the
+system, reset only by the program), %S20 index overflow. Tags as in the reference:
+[sure] seen on a real Twido, [m221] checked on the M221, [manual] documented only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from .address import INT16, INT32, REAL
+from .runtime.memory import F32_MAX, wrap16, wrap32
+
+S_CARRY, S_ARITH, S_INDEX = 17, 18, 20  # system bit numbers
+
+# Function name -> (argument types, result type). "num" means int16/int32/real, result
+# of the same type as the argument; "int" means int16 or int32.
+FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
+    "SQRT": (("num",), "same"), "ABS": (("num",), "same"),
+    "SHL": (("int", INT16), "same"), "SHR": (("int", INT16), "same"),
+    "ROL": (("int", INT16), "same"), "ROR": (("int", INT16), "same"),
+    "NOT": (("int",), "same"),
+    "TRUNC": ((REAL,), REAL),
+    "LOG": ((REAL,), REAL), "LN": ((REAL,), REAL), "EXP": ((REAL,), REAL),
+    "EXPT": ((REAL, REAL), REAL),
+    "SIN": ((REAL,), REAL), "COS": ((REAL,), REAL), "TAN": ((REAL,), REAL),
+    "ASIN": ((REAL,), REAL), "ACOS": ((REAL,), REAL), "ATAN": ((REAL,), REAL),
+    "DEG_TO_RAD": ((REAL,), REAL), "RAD_TO_DEG": ((REAL,), REAL),
+    "INT_TO_REAL": ((INT16,), REAL), "DINT_TO_REAL": ((INT32,), REAL),
+    "REAL_TO_INT": ((REAL,), INT16), "REAL_TO_DINT": ((REAL,), INT32),
+}
+
+
+def _tdiv(a: int, b: int) -> int:
+    """Integer division truncating towards zero, as the Twido (and C) does [manual]."""
+    q = abs(a) // abs(b)
+    return q if (a >= 0) == (b >= 0) else -q
+
+
+class Ops:
+    """Helpers bound to one memory image's system bits (`s`)."""
+
+    def __init__(self, s: list[int]):
+        self.s = s
+
+    def table(self) -> dict[str, Callable]:
+        """Name -> helper, bound into compiled code's namespace."""
+        return {name: getattr(self, name) for name in dir(self)
+                if not name.startswith("_") and name not in ("table", "s")}
+
+    # -- overflow bookkeeping ---------------------------------------------------------------
+    def _chk16(self, v: int) -> int:
+        if -32768 <= v <= 32767:
+            return v
+        self.s[S_ARITH] = 1
+        return wrap16(v)
+
+    def _chk32(self, v: int) -> int:
+        if -2147483648 <= v <= 2147483647:
+            return v
+        self.s[S_ARITH] = 1
+        return wrap32(v)
+
+    # -- 16-bit word arithmetic (%S18 on overflow; the result wraps) [sure: %S18] --------------
+    def add16(self, a: int, b: int) -> int:
+        return self._chk16(a + b)
+
+    def sub16(self, a: int, b: int) -> int:
+        return self._chk16(a - b)
+
+    def mul16(self, a: int, b: int) -> int:
+        return self._chk16(a * b)
+
+    def div16(self, a: int, b: int) -> int:
+        if b == 0:  # divide by zero: %S18, result 0 [manual: "result not significant"]
+            self.s[S_ARITH] = 1
+            return 0
+        return self._chk16(_tdiv(a, b))  # -32768 / -1 overflows
+
+    def rem16(self, a: int, b: int) -> int:
+        if b == 0:
+            self.s[S_ARITH] = 1
+            return 0
+        return a - _tdiv(a, b) * b  # sign of the dividend
+
+    def neg16(self, a: int) -> int:
+        return self._chk16(-a)
+
+    def abs16(self, a: int) -> int:
+        return self._chk16(abs(a))
+
+    def sqrt16(self, a: int) -> int:
+        if a < 0:
+            self.s[S_ARITH] = 1
+            return 0
+        return math.isqrt(a)
+
+    def narrow16(self, a: int) -> int:
+        """A 32-bit value stored in a word: %S18 if it does not fit."""
+        return self._chk16(a)
+
+    # -- 32-bit ------------------------------------------------------------------------------
+    def add32(self, a: int, b: int) -> int:
+        return self._chk32(a + b)
+
+    def sub32(self, a: int, b: int) -> int:
+        return self._chk32(a - b)
+
+    def mul32(self, a: int, b: int) -> int:
+        return self._chk32(a * b)
+
+    def div32(self, a: int, b: int) -> int:
+        if b == 0:
+            self.s[S_ARITH] = 1
+            return 0
+        return self._chk32(_tdiv(a, b))
+
+    def rem32(self, a: int, b: int) -> int:
+        return self.rem16(a, b)
+
+    def neg32(self, a: int) -> int:
+        return self._chk32(-a)
+
+    def abs32(self, a: int) -> int:
+        return self._chk32(abs(a))
+
+    def sqrt32(self, a: int) -> int:
+        return self.sqrt16(a)
+
+    def narrow32(self, a: int) -> int:
+        return self._chk32(a)
+
+    # -- shifts and rotations: %S17 = last bit shifted out [sure] ----------------------------
+    def _shift(self, a: int, n: int, bits: int, kind: str) -> int:
+        mask = (1 << bits) - 1
+        u = a & mask
+        n = max(0, n)
+        if n == 0:
+            return a
+        if kind == "SHL":
+            self.s[S_CARRY] = (u >> (bits - n)) & 1 if n <= bits else 0
+            u = (u << n) & mask
+        elif kind == "SHR":  # logical shift: zeros come in on the left [manual]
+            self.s[S_CARRY] = (u >> (n - 1)) & 1 if n <= bits else 0
+            u >>= n
+        elif kind == "ROL":
+            n %= bits
+            u = ((u << n) | (u >> (bits - n))) & mask
+            self.s[S_CARRY] = u & 1
+        else:  # ROR
+            n %= bits
+            u = ((u >> n) | (u << (bits - n))) & mask
+            self.s[S_CARRY] = (u >> (bits - 1)) & 1
+        return u - (1 << bits) if u >> (bits - 1) else u
+
+    def shl16(self, a: int, n: int) -> int:
+        return self._shift(a, n, 16, "SHL")
+
+    def shr16(self, a: int, n: int) -> int:
+        return self._shift(a, n, 16, "SHR")
+
+    def rol16(self, a: int, n: int) -> int:
+        return self._shift(a, n, 16, "ROL")
+
+    def ror16(self, a: int, n: int) -> int:
+        return self._shift(a, n, 16, "ROR")
+
+    def shl32(self, a: int, n: int) -> int:
+        return self._shift(a, n, 32, "SHL")
+
+    def shr32(self, a: int, n: int) -> int:
+        return self._shift(a, n, 32, "SHR")
+
+    def rol32(self, a: int, n: int) -> int:
+        return self._shift(a, n, 32, "ROL")
+
+    def ror32(self, a: int, n: int) -> int:
+        return self._shift(a, n, 32, "ROR")
+
+    # -- floats (IEEE single on store; %S18 on domain errors) [manual] -----------------------
+    def fdiv(self, a: float, b: float) -> float:
+        if b == 0:
+            self.s[S_ARITH] = 1
+            if a == 0 or a != a:
+                return math.nan
+            return math.copysign(math.inf, a) * math.copysign(1.0, b)
+        return a / b
+
+    def fmul(self, a: float, b: float) -> float:
+        try:
+            return a * b
+        except OverflowError:  # pragma: no cover - floats give inf, not an error
+            self.s[S_ARITH] = 1
+            return math.inf
+
+    def _dom(self, f: Callable[[float], float], x: float) -> float:
+        try:
+            r = f(x)
+        except (ValueError, OverflowError):
+            self.s[S_ARITH] = 1
+            return math.nan
+        return r
+
+    def fsqrt(self, x: float) -> float:
+        return self._dom(math.sqrt, x)
+
+    def fabs(self, x: float) -> float:
+        return abs(x)
+
+    def ftrunc(self, x: float) -> float:
+        return float(math.trunc(x)) if math.isfinite(x) else x
+
+    def flog(self, x: float) -> float:
+        return self._dom(math.log10, x)
+
+    def fln(self, x: float) -> float:
+        return self._dom(math.log, x)
+
+    def fexp(self, x: float) -> float:
+        return self._dom(math.exp, x)
+
+    def fexpt(self, x: float, y: float) -> float:
+        try:
+            r = x ** y
+        except (ZeroDivisionError, OverflowError):
+            self.s[S_ARITH] = 1
+            return math.nan
+        if isinstance(r, complex):
+            self.s[S_ARITH] = 1
+            return math.nan
+        return r
+
+    def fsin(self, x: float) -> float:
+        return self._dom(math.sin, x)
+
+    def fcos(self, x: float) -> float:
+        return self._dom(math.cos, x)
+
+    def ftan(self, x: float) -> float:
+        return self._dom(math.tan, x)
+
+    def fasin(self, x: float) -> float:
+        return self._dom(math.asin, x)
+
+    def facos(self, x: float) -> float:
+        return self._dom(math.acos, x)
+
+    def fatan(self, x: float) -> float:
+        return self._dom(math.atan, x)
+
+    def fdeg_to_rad(self, x: float) -> float:
+        return math.radians(x)
+
+    def frad_to_deg(self, x: float) -> float:
+        return math.degrees(x)
+
+    # -- conversions -------------------------------------------------------------------------
+    def _round(self, x: float, lo: int, hi: int) -> int:
+        """REAL_TO_INT/DINT round to nearest, halves away from zero [manual]; %S18 out of range."""
+        if not math.isfinite(x):
+            self.s[S_ARITH] = 1
+            return 0
+        r = int(math.floor(abs(x) + 0.5)) * (1 if x >= 0 else -1)
+        if lo <= r <= hi:
+            return r
+        self.s[S_ARITH] = 1
+        return 0
+
+    def real_to_int(self, x: float) -> int:
+        return self._round(x, -32768, 32767)
+
+    def real_to_dint(self, x: float) -> int:
+        return self._round(x, -2147483648, 2147483647)
+
+    # -- stores ------------------------------------------------------------------------------
+    def stf(self, view: memoryview, k: int, v: float) -> None:
+        """Store a float in an IEEE single: out of range -> +-inf and %S18."""
+        if v != v or -F32_MAX <= v <= F32_MAX:
+            view[k] = v
+        else:
+            self.s[S_ARITH] = 1
+            view[k] = math.copysign(math.inf, v)
+
+    def ix(self, base: int, offset: int, count: int) -> int:
+        """Indexed address base[offset]: outside the object range -> %S20 and the object is
+        processed as if the index were 0 [manual]."""
+        i = base + offset
+        if 0 <= i < count:
+            return i
+        self.s[S_INDEX] = 1
+        return base

@@ -1,0 +1,82 @@
+"""pytest plugin: test your own ladder logic in a few lines.
+
+Installed with softplc (entry point `pytest11`), so in any project:
+
+    import pytest
+
+    @pytest.mark.plc_program("ladder_programs/motor.il", config="ladder_programs/motor.toml")
+    def test_start_stop(plc):
+        plc["%I0.0"] = 1
+        plc.scan()
+        assert plc["%Q0.0"]
+
+    def test_inline(plc_from_source):
+        plc = plc_from_source("LD %I0.0\\nST %Q0.0\\n")
+        ...
+
+Helpers: `pulse(plc, "%I0.1")` (one-scan pulse), `scan_until(plc, cond, timeout)`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from .plc import PLC
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        "markers", "plc_program(path, config=None): the program the `plc` fixture loads")
+
+
+@pytest.fixture
+def plc_from_source() -> Callable[..., PLC]:
+    """Factory: plc_from_source(text, config=None) -> PLC on the virtual clock."""
+    made: list[PLC] = []
+
+    def make(text: str, config: Any = None, **kw: Any) -> PLC:
+        p = PLC.from_source(text, config, **kw)
+        made.append(p)
+        return p
+
+    yield make
+    for p in made:
+        p.close()
+
+
+@pytest.fixture
+def plc(request: pytest.FixtureRequest) -> PLC:
+    """The PLC named by the test's `plc_program` marker, cold-started, virtual clock."""
+    marker = request.node.get_closest_marker("plc_program")
+    if marker is None:
+        pytest.fail("the `plc` fixture needs @pytest.mark.plc_program(path, config=...)")
+    path = Path(marker.args[0])
+    config = marker.kwargs.get("config", marker.args[1] if len(marker.args) > 1 else None)
+    root = Path(str(request.config.rootpath))
+    if not path.is_absolute() and not path.exists():
+        path = root / path
+    if isinstance(config, str) and not Path(config).is_absolute() and not Path(config).exists():
+        config = root / config
+    p = PLC.from_file(path, config)
+    yield p
+    p.close()
+
+
+def pulse(plc: PLC, address: str, scans: int = 1) -> None:
+    """Hold a bit at 1 for `scans` scans, then release it to 0 and scan once more."""
+    plc[address] = 1
+    plc.scan(scans)
+    plc[address] = 0
+    plc.scan()
+
+
+def scan_until(plc: PLC, condition: Callable[[PLC], Any], timeout: float = 10.0) -> PLC:
+    """Scan until condition(plc) holds; fail the test after `timeout` s of PLC time."""
+    if not plc.run_until(condition, timeout):
+        pytest.fail(f"condition not met within {timeout} s of PLC time "
+                    f"(t = {plc.time:.3f} s, {plc.scan_count} scans)")
+    return plc
