@@ -83,6 +83,8 @@ class Ref:
         if self.kind in READ_ONLY_KINDS:
             return False
         if self.kind in BLOCK_FIELDS:
+            if self.kind == "SBR" and self.field == "J":
+                return True  # the program loads bits into a shift register [manual]
             return self.field is not None and BLOCK_FIELDS[self.kind].get(
                 self.field, (BOOL, False))[1]
         return True

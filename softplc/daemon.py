@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import signal
 import sys
 import time
@@ -50,6 +51,7 @@ class DaemonOptions:
     max_clients: int = 32
     frame_timeout: float = 2.0
     idle_timeout: float | None = None
+    rt_priority: int = 10  # SCHED_FIFO priority of the scan thread; 0 = normal scheduling
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -78,6 +80,7 @@ class Daemon:
         self.jitter: list[float] = []  # scan start lateness, current stats window
         self.jitter_max = 0.0
         self.start_mode = ""
+        self.priority = ""
         ms = options.period * 1000
         if abs(ms - round(ms)) > 1e-9 or not MIN_PERIOD_MS <= round(ms) <= MAX_PERIOD_MS:
             raise SoftPLCError(f"period {ms:g} ms: must be a whole number of ms from "
@@ -113,6 +116,7 @@ class Daemon:
         if opt.state is not None:
             every = f"every {opt.save_interval:g} s and " if opt.save_interval else ""
             self.say(f"retained state: {opt.state} (saved {every}at shutdown)")
+        self.say(f"scan thread: {self.priority}")
         if getattr(plc, "devices", None):
             self.say("simulated devices: " + ", ".join(plc.devices))
         for line in describe(image.n_registers, image.n_coils, image.read_only):
@@ -146,6 +150,7 @@ class Daemon:
         old_switch = sys.getswitchinterval()
         sys.setswitchinterval(SWITCH_INTERVAL)
         try:
+            self.priority = self._realtime()  # after the other threads started
             self._banner(server, image)
             self._loop(server, writer)
         finally:
@@ -154,6 +159,23 @@ class Daemon:
             sys.setswitchinterval(old_switch)
             self._shutdown(server, image, writer)
         return 0
+
+    def _realtime(self) -> str:
+        """Put the calling (scan) thread in SCHED_FIFO, if allowed. Threads started before
+        keep their normal priority. Without it, a busy machine delays wake-ups by
+        several ms (CFS scheduling latency)."""
+        prio = self.opt.rt_priority
+        if not prio:
+            return "normal priority"
+        if self.opt.speed == math.inf:  # back-to-back scans would hog a CPU at RT priority
+            return "normal priority (--speed max)"
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(prio))
+        except (AttributeError, OSError) as e:
+            log.warning("no real-time priority for the scan thread: %s", e)
+            return (f"normal priority (real-time priority not permitted: "
+                    f"{getattr(e, 'strerror', None) or e})")
+        return f"real-time priority SCHED_FIFO {prio}"
 
     def _loop(self, server: ServerThread, writer: retain.RetainWriter | None) -> None:
         plc, opt = self.plc, self.opt
@@ -177,7 +199,8 @@ class Daemon:
             start = clock()
             if self.interval:
                 late = start - next_start
-                self.jitter.append(late)
+                if opt.stats_interval:
+                    self.jitter.append(late)
                 if late > self.jitter_max:
                     self.jitter_max = late
             plc.scan()  # in HALT or STOP it still applies writes and refreshes the snapshot

@@ -12,7 +12,7 @@ from typing import Any
 from .address import BLOCK_FIELDS, Ref, parse_address
 from .compiler.codegen import CompiledProgram, compile_program
 from .config import duration, load_config, time_base
-from .errors import AddressError, ConfigError, SoftPLCError
+from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLCError
 from .il import ast as A
 from .il.parser import parse, parse_file
 from .profile import DEFAULT_PROFILE, MODULES, PROFILES, Profile
@@ -33,6 +33,7 @@ class PLC:
             raise ConfigError(f"unknown profile {prof_name!r}; known: {', '.join(PROFILES)}")
         self.profile: Profile = PROFILES[prof_name]
         self.ast = program
+        self._refs: dict[str, Ref] = {}
         self.mem = MemoryImage(self.profile)
         self.time_source = TimeSource()
         self.scan_period = duration(cfg.get("scan_period", "10ms"), "scan_period")
@@ -61,12 +62,32 @@ class PLC:
     @classmethod
     def from_file(cls, path: str | Path, config: str | Path | dict[str, Any] | None = None,
                   **kw: Any) -> PLC:
-        return cls(parse_file(path), config, **kw)
+        return cls._checked(lambda: parse_file(path), config, kw)
 
     @classmethod
     def from_source(cls, text: str, config: str | Path | dict[str, Any] | None = None,
                     *, file: str = "<string>", **kw: Any) -> PLC:
-        return cls(parse(text, file), config, **kw)
+        return cls._checked(lambda: parse(text, file), config, kw)
+
+    @classmethod
+    def _checked(cls, parser: Any, config: Any, kw: dict[str, Any]) -> PLC:
+        """Parse; on syntax errors still run the semantic checks on the lines that parsed,
+        so one run reports every problem of the file."""
+        try:
+            program = parser()
+        except ParseError as e:
+            partial = getattr(e, "program", None)
+            if partial is not None:
+                try:
+                    cls(partial, config, **{**kw, "devices": False})
+                except ProgramError as more:
+                    diags = sorted(e.diagnostics + more.diagnostics,
+                                   key=lambda d: (d.line, d.column))
+                    raise ParseError(diags) from None
+                except SoftPLCError:
+                    pass
+            raise
+        return cls(program, config, **kw)
 
     def _device_config(self, devs: dict[str, Any]) -> dict[str, Any]:
         out = {}
@@ -209,7 +230,8 @@ class PLC:
         for kind, blocks in m.blocks.items():
             for i, b in blocks.items():
                 env[f"_{kind}{i}"] = b
-                b._initial = b.state()
+                if getattr(b, "_initial", None) is None:  # a later build keeps the cold state
+                    b._initial = b.state()
 
         ga, gd, x = env["_GA"], env["_GD"], m.x
 
@@ -224,8 +246,11 @@ class PLC:
         env["_gpost"] = gpost
         return env
 
-    def _compile(self, program: A.Program, debug: bool = False) -> CompiledProgram:
+    def _compile(self, program: A.Program, debug: bool = False,
+                 edge: list[int] | None = None) -> CompiledProgram:
         env = self.env()
+        if edge is not None:  # share the edge memory (LDR/LDF) with another build
+            env["_EDGE"] = edge
         compiled = compile_program(program, env, dict(self.profile.counts), debug)
         # bind blocks created during compilation (defaults) into the namespace
         for kind, blocks in self.mem.blocks.items():
@@ -239,7 +264,15 @@ class PLC:
     def compile_debug(self) -> CompiledProgram:
         """The debug build: `main()` is a generator yielding (rung, instruction) before each
         instruction; `log[rung][k]` holds the accumulator after instruction k."""
-        return self._compile(self.ast, debug=True)
+        return self._compile(self.ast, debug=True, edge=self.program.namespace.get("_EDGE"))
+
+    def replace_program(self, program: A.Program) -> None:
+        """Run `program` from the next scan on, keeping memory (the debugger's reload).
+        Raises CompileError, leaving the running program in place, if it does not compile."""
+        compiled = self._compile(program)
+        self.ast, self.program = program, compiled
+        self.engine.load(compiled)
+        self._initial_steps = compiled.namespace.get("_INITIAL_STEPS", ())
 
     # -- running --------------------------------------------------------------------------------
     def scan(self, n: int = 1) -> None:
@@ -277,7 +310,12 @@ class PLC:
         self.mem.write(ref, value)
 
     def _ref(self, address: str | Ref) -> Ref:
-        return address if isinstance(address, Ref) else parse_address(address, self.profile)
+        if isinstance(address, Ref):
+            return address
+        ref = self._refs.get(address)
+        if ref is None:  # parsed once per address string: hosts poll the same words
+            ref = self._refs[address] = parse_address(address, self.profile)
+        return ref
 
     def force(self, address: str, value: Any) -> None:
         """Hold an object at a value every scan, whatever the program or the field does."""

@@ -102,7 +102,7 @@ def draw(plc: PLC, x: int, z: int, y: int = 1) -> dict:
     return {"start": start, "samples": samples(plc)[n0:], "scans": scans, "steps": steps}
 
 
-def test_homing_first_both_axes_to_zero():
+def test_homing_comes_first_and_a_segment_waits_for_it():
     p = PLC.from_file(CORRECTED, config=CONFIG)
     x0, z0 = pos(p)
     assert x0 > 100 and z0 > 100, "the config starts the carriage away from home"

@@ -405,3 +405,25 @@ def test_map_table_and_read_only_config():
             parse_read_only({"modbus": {"read_only": bad}})
     assert "| 16 | Write Multiple Registers | %MWn | 123 |" in markdown_table()
     assert any("read-only registers: %MW100..%MW109" in line for line in describe(3000, 256, ro))
+
+
+def test_client_that_never_reads_replies_is_throttled_not_buffered(rig):
+    """Pipelined requests with no reads: the server stops reading from that client once
+    its replies back up (memory stays bounded) and keeps serving the others."""
+    s = socket.create_connection(("127.0.0.1", rig.port))
+    frame = pack_mbap(1, 1, struct.pack(">BHH", 3, 0, 125))  # 12 bytes in, 259 out
+    s.setblocking(False)
+    sent = 0
+    end = time.monotonic() + 3
+    while time.monotonic() < end and sent < 4_000_000:  # 86 MB of replies, if all answered
+        try:
+            sent += s.send(frame * 1000)
+        except BlockingIOError:
+            time.sleep(0.01)
+    time.sleep(0.2)
+    (conn,) = rig.server.server.connections
+    backlog = conn.transport.get_write_buffer_size() + len(conn.buf)
+    assert backlog < 2_000_000
+    with rig.raw() as c:
+        assert c.read_registers(0, 1) == [0]
+    s.close()

@@ -97,12 +97,12 @@ class DaemonProcess:
 
     STATS = re.compile(r"^stats (.*)$")
 
-    def __init__(self, program: Path, period_ms: int):
+    def __init__(self, program: Path, period_ms: int, extra: tuple[str, ...] = ()):
         env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get(
             "PYTHONPATH", ""))
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "softplc", "run", str(program), "--port", "0",
-             "--period", f"{period_ms}ms", "--stats-interval", "1s"],
+             "--period", f"{period_ms}ms", "--stats-interval", "1s", *extra],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
         self.stats: list[tuple[float, dict[str, str]]] = []
         self.port = 0
@@ -171,15 +171,17 @@ def _load(daemon: DaemonProcess, clients: int, duration: float) -> dict[str, flo
 
 
 def run(clients: tuple[int, ...] = (1, 8), duration: float = 3.0, period_ms: int = 10,
-        program: Path | None = None) -> dict[str, dict[str, float]]:
-    """Benchmark a fresh daemon per client count; returns {"1": {...}, "8": {...}}."""
+        program: Path | None = None, daemon_args: tuple[str, ...] = ()
+        ) -> dict[str, dict[str, float]]:
+    """Benchmark a fresh daemon per client count; returns {"1": {...}, "8": {...}}.
+    `daemon_args` go to `softplc run` (e.g. ("--rt-priority", "0"))."""
     results: dict[str, dict[str, float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         if program is None:
             program = Path(tmp) / "bench.il"
             program.write_text(DEFAULT_PROGRAM)
         for n in clients:
-            daemon = DaemonProcess(program, period_ms)
+            daemon = DaemonProcess(program, period_ms, daemon_args)
             try:
                 time.sleep(1.0)  # let it settle
                 idle = [f for _, f in daemon.stats]
@@ -200,8 +202,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=3.0, help="seconds of load per case")
     ap.add_argument("--period", type=int, default=10, help="scan period, ms")
     ap.add_argument("--program", type=Path, help="IL program (default: a small built-in one)")
+    ap.add_argument("--daemon-args", default="",
+                    help="extra `softplc run` arguments, e.g. \"--rt-priority 0\"")
     a = ap.parse_args(argv)
-    res = run(tuple(a.clients), a.duration, a.period, a.program)
+    res = run(tuple(a.clients), a.duration, a.period, a.program, tuple(a.daemon_args.split()))
     keys = ["requests_per_s", "latency_p50_ms", "latency_p99_ms", "latency_max_ms",
             "jitter_p50_ms", "jitter_p99_ms", "jitter_max_ms", "scan_max_ms", "overruns"]
     print(f"FC 3 x 10 registers, scan period {a.period} ms, {a.duration:g} s per case, "

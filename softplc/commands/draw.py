@@ -5,9 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
 from ..gcode import DrawClient, GCodeConfig, max_deviation, parse_file, preview
-from ..gcode.deviation import last_sample
+from ..gcode.deviation import last_sample, load_trace
 
 _EXAMPLES = """\
 examples:
@@ -24,6 +25,20 @@ def _table(text: str) -> tuple[float, float]:
     except ValueError:
         raise argparse.ArgumentTypeError(f"table size {text!r}: expected WxH in cm, "
                                          "e.g. 25x25") from None
+
+
+def _plot_drawn(trace: str, since: float | None, steps: list, out: str) -> None:
+    """The drawing recorded by the daemon (this run only) over the programmed path."""
+    from ..devices.trace import plot_samples
+
+    rows = load_trace(trace)
+    if since is not None:
+        rows = rows[rows[:, 0] > since]
+    programmed = [(s.start, s.end) for s in steps if s.pen_down and s.start != s.end]
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    plot_samples(rows, out, programmed, title=f"{Path(trace).name}: drawn (black) "
+                 f"over programmed (red)")
+    print(f"drawing plotted to {out}", file=sys.stderr)
 
 
 def _wait_for_trace(path: str, since: float | None, timeout: float) -> None:
@@ -68,6 +83,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--trace", metavar="FILE.csv",
                    help="after drawing, read the daemon's trace (t,x,z,pen,missed) and "
                         "report the largest deviation from the programmed path")
+    g.add_argument("--plot", metavar="OUT.png|OUT.svg",
+                   help="with --trace: plot what was drawn over the programmed path")
     g.add_argument("--trace-wait", type=float, default=3.0, metavar="SECONDS",
                    help="how long to wait for the daemon to flush the trace (default "
                         "%(default)s)")
@@ -131,4 +148,6 @@ def run(args: argparse.Namespace) -> int:
         _wait_for_trace(args.trace, since, args.trace_wait)
         dev = max_deviation(steps, args.trace, cfg.steps_per_unit, since=since)
         print(dev)
+        if args.plot:
+            _plot_drawn(args.trace, since, steps, args.plot)
     return 0

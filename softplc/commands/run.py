@@ -7,6 +7,7 @@ Settings come from the command line, else from the machine config, else defaults
               frame_timeout = "2s"  idle_timeout = "0s"      # 0 = never
               read_only = ["%MW100:20", "%M0:8"]             # writes there get exception 02
     [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "5s"
+              rt_priority = 10                               # 0 = normal scheduling
 """
 
 from __future__ import annotations
@@ -87,6 +88,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--stats-interval", type=_duration,
                    help="statistics line every ... (default 5s; 0 = none)")
     p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
+    p.add_argument("--rt-priority", type=int,
+                   help="SCHED_FIFO priority of the scan thread, 1..99 (default 10; 0 = "
+                        "normal scheduling); needs root or CAP_SYS_NICE, else ignored")
     p.add_argument("--log-level", default="warning",
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
@@ -120,6 +124,9 @@ def run(args: argparse.Namespace) -> int:
     period = args.period if args.period is not None else (
         duration(cfg["scan_period"], "scan_period") if "scan_period" in cfg else 0.010)
     state = _pick(args.state, dm, "state", None, Path)
+    base = getattr(plc, "config_dir", None)
+    if args.state is None and state is not None and base is not None and not state.is_absolute():
+        state = base / state  # a path in the config is relative to the config file
     opts = DaemonOptions(
         host=_pick(args.host, mb, "host", "127.0.0.1", str),
         port=_pick(args.port, mb, "port", 5020, _port),
@@ -132,7 +139,10 @@ def run(args: argparse.Namespace) -> int:
         max_clients=_pick(args.max_clients, mb, "max_clients", 32, int),
         frame_timeout=_pick(None, mb, "frame_timeout", 2.0, dur),
         idle_timeout=_pick(None, mb, "idle_timeout", 0.0, dur) or None,
+        rt_priority=_pick(args.rt_priority, dm, "rt_priority", 10, int),
     )
     if opts.max_clients < 1:
         raise SoftPLCError("max_clients must be at least 1")
+    if not 0 <= opts.rt_priority <= 99:
+        raise SoftPLCError("rt_priority must be 0..99")
     return Daemon(plc, opts, program_name=str(args.program)).run()

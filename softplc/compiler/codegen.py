@@ -143,8 +143,16 @@ class Compiler:
         self.use("_ix", "_MW")
         return f"_ix({ref.index}, _MW[{ref.offset.index}], {count})"
 
+    def io_check(self, ref: Ref, pos: A.Pos | None) -> None:
+        """Expansion-module I/O exists when the configuration lists modules."""
+        if ref.kind in ("I", "Q"):
+            problem = self.env["_io_check"](ref)
+            if problem:
+                self.err(problem, pos, str(ref))
+
     def read_bit(self, ref: Ref, pos: A.Pos | None) -> str:
         k = ref.kind
+        self.io_check(ref, pos)
         if k in BIT_BUFFERS:
             buf = BIT_BUFFERS[k]
             self.use(buf)
@@ -160,7 +168,7 @@ class Compiler:
             if ref.field == "J":
                 return f"{b}.bit({ref.bit})"
             return f"{b}.{ref.field}"
-        self.err(f"{ref} is a {ref.type}, not a bit: use a comparison block, e.g. "
+        self.err(f"{ref} is a {self.tname(ref.type)}, not a bit: use a comparison block, e.g. "
                  f"[ {ref} <> 0 ]", pos, str(ref))
         return "0"
 
@@ -210,12 +218,16 @@ class Compiler:
         """Emit `ref := value` for a bit target."""
         if not self.check_writable(ref, pos):
             return
+        self.io_check(ref, pos)
         k = ref.kind
         if k in BIT_BUFFERS:
             buf = BIT_BUFFERS[k]
             self.use(buf)
             idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
             self.emit(f"{buf}[{idx}] = {value}")
+        elif k == "SBR" and ref.field == "J":
+            b = self.block_name(Ref(k, ref.index), pos)
+            self.emit(f"{b}.set_bit({ref.bit}, {value})")
         elif ref.bit is not None and k in WORD_BUFFERS:
             u = "_U" + WORD_BUFFERS[k][1:]
             self.use(u)
@@ -488,8 +500,10 @@ class Compiler:
 
     @staticmethod
     def combine(op: str, left: _Acc, right: _Acc) -> _Acc:
-        if op == "XOR":
-            return _Acc(f"({left.code} != {right.code})")
+        if op == "XOR":  # != binds tighter than and/or: parenthesise compound operands
+            lc = f"({left.code})" if left.kind != "atom" else left.code
+            rc = f"({right.code})" if right.kind != "atom" else right.code
+            return _Acc(f"({lc} != {rc})")
         if op == "AND":
             lc = f"({left.code})" if left.kind == "or" else left.code
             rc = f"({right.code})" if right.kind == "or" else right.code
@@ -568,9 +582,9 @@ class Compiler:
                 if instr.operand is None:
                     self.err(f"{instr.op}( needs an operand", pos)
                     code = "0"
-                acc = self.modified(code, instr.modifier if instr.modifier == "N" else "")
-                if instr.modifier in ("R", "F"):
-                    acc = self.modified(code, instr.modifier)
+                # the modifier applies to the first operand inside the parenthesis, as
+                # LDN/LDR/LDF would [manual, see NOTES]
+                acc = self.modified(code, instr.modifier)
             elif isinstance(instr, A.ParenClose):
                 if not parens:
                     self.err("')' without a matching '('", pos, ")")
@@ -581,7 +595,7 @@ class Compiler:
                                    else inner)
             elif isinstance(instr, A.Negate):
                 a = need(instr)
-                acc = _Acc(f"(not {a.code})")
+                acc = _Acc(f"(not ({a.code}))" if a.kind != "atom" else f"(not {a.code})")
             elif isinstance(instr, A.Stack):
                 if instr.op == "MPS":
                     a = self.materialize(need(instr))
@@ -600,7 +614,7 @@ class Compiler:
                 if instr.op == "ST":
                     self.write_bit(instr.target, a.code, pos)
                 elif instr.op == "STN":
-                    self.write_bit(instr.target, f"not {a.code}", pos)
+                    self.write_bit(instr.target, f"not ({a.code})", pos)
                 else:
                     if instr.target.is_block:
                         self.err(f"{instr.op} {instr.target}: use R/S as block inputs", pos)
@@ -702,15 +716,14 @@ class Compiler:
             self.emit(f"    {stmt}")
 
     def end_like(self, op: str, acc: _Acc | None, base: str, code: str) -> None:
+        """END/RET (unconditional), ENDC/RETC (if the accumulator is 1), ENDCN/RETCN (if 0)."""
         if op == base:
             self.emit(code)
             return
         if acc is None:
             self.err(f"{op} needs a preceding load (LD)", None)
             return
-        cond = acc.code if op.endswith("CN") is False else f"not {acc.code}"
-        if op.endswith("CN"):
-            cond = f"not ({acc.code})"
+        cond = f"not ({acc.code})" if op.endswith("CN") else acc.code
         self.emit(f"if {cond}:")
         self.emit(f"    {code}")
 

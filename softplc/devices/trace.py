@@ -140,70 +140,82 @@ class Trace(Device):
     def plot(self, path: str | os.PathLike[str], programmed: list[Segment] | None = None,
              units: str = "steps", title: str | None = None,
              full_area: bool = False) -> None:
-        """Draw the trace to a PNG or SVG file (chosen by the extension).
+        """Draw the trace to a PNG or SVG file (see `plot_samples`)."""
+        plot_samples(self.samples, path, programmed, units=units,
+                     steps_per_unit=(self._x.steps_per_unit, self._z.steps_per_unit),
+                     travel_steps=(self._x.travel_steps, self._z.travel_steps),
+                     title=title or None, name=self.name, full_area=full_area)
 
-        Pen-down moves are solid black, pen-up travel thin dashed grey, the optional
-        `programmed` path (segments ((x0, z0), (x1, z1)) in steps) thin red on top. The
-        axes are in motor steps, or in drawing units with `units="units"`, equal aspect.
-        The view fits the drawing; `full_area=True` shows the whole table (0..travel).
-        """
-        ext = os.path.splitext(os.fspath(path))[1].lower()
-        if ext not in (".png", ".svg"):
-            raise ConfigError(f"trace plot: {os.fspath(path)!r} must end in .png or .svg")
-        if units not in ("steps", "units"):
-            raise ConfigError(f"trace plot: units must be 'steps' or 'units', not {units!r}")
-        import numpy as np
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.collections import LineCollection
-        from matplotlib.figure import Figure
-        from matplotlib.lines import Line2D
 
-        sx = sz = 1.0
-        if units == "units":
-            sx, sz = 1 / self._x.steps_per_unit, 1 / self._z.steps_per_unit
-        scale = np.array([sx, sz])
+def plot_samples(samples: Any, path: str | os.PathLike[str],
+                 programmed: list[Segment] | None = None, *, units: str = "steps",
+                 steps_per_unit: tuple[float, float] = (111.11, 111.11),
+                 travel_steps: tuple[float, float] = (2778, 2778), title: str | None = None,
+                 name: str = "trace", full_area: bool = False) -> None:
+    """Draw trace samples (t, x, z, pen, missed) to a PNG or SVG file (by the extension).
 
-        fig = Figure(figsize=(7, 7))
-        FigureCanvasAgg(fig)
-        ax = fig.add_subplot()
-        # the table's drawing area, dotted; add_artist keeps it out of the autoscale
-        w, h = self._x.travel_steps * sx, self._z.travel_steps * sz
-        ax.add_artist(_rectangle((0, 0), w, h))
-        handles = []
-        if self.samples:
-            pts = np.array([(s[1], s[2]) for s in self.samples], dtype=float) * scale
-            pen = np.array([s[3] for s in self.samples], dtype=bool)
-            segs = np.stack([pts[:-1], pts[1:]], axis=1)
-            moved = np.any(segs[:, 0] != segs[:, 1], axis=1)
-            down = pen[:-1] & pen[1:]  # drawn only if the pen was down at both ends
-            ax.add_collection(LineCollection(segs[moved & ~down], colors="0.55",
-                                             linewidths=0.6, linestyles="--", zorder=2))
-            ax.add_collection(LineCollection(segs[moved & down], colors="black",
-                                             linewidths=1.5, zorder=3))
-            ax.plot(*pts[0], "o", color="tab:green", ms=5, zorder=5)
-            ax.plot(*pts[-1], "s", color="tab:blue", ms=5, zorder=5)
-            handles += [Line2D([], [], color="black", lw=1.5, label="pen down"),
-                        Line2D([], [], color="0.55", lw=0.6, ls="--", label="pen up"),
-                        Line2D([], [], color="tab:green", marker="o", ls="", label="start"),
-                        Line2D([], [], color="tab:blue", marker="s", ls="", label="end")]
-        if programmed:
-            prog = np.array(programmed, dtype=float).reshape(-1, 2, 2) * scale
-            ax.add_collection(LineCollection(prog, colors="tab:red", linewidths=0.8,
-                                             alpha=0.7, zorder=4))
-            handles.append(Line2D([], [], color="tab:red", lw=0.8, label="programmed"))
-        if full_area:
-            ax.update_datalim([(0, 0), (w, h)])
-        ax.autoscale_view()
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel(f"x ({units})")
-        ax.set_ylabel(f"z ({units})")
-        missed = self.samples[-1][4] if self.samples else 0
-        ax.set_title(title or f"{self.name}: {len(self.samples)} samples, "
-                              f"{missed} missed steps")
-        if handles:
-            ax.legend(handles=handles, loc="best", fontsize="small")
-        ax.grid(True, lw=0.3)
-        fig.savefig(path)
+    Pen-down moves are solid black, pen-up travel thin dashed grey, the optional
+    `programmed` path (segments ((x0, z0), (x1, z1)) in steps) thin red on top. The
+    axes are in motor steps, or in drawing units with `units="units"`, equal aspect.
+    The view fits the drawing; `full_area=True` shows the whole table (0..travel).
+    """
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext not in (".png", ".svg"):
+        raise ConfigError(f"trace plot: {os.fspath(path)!r} must end in .png or .svg")
+    if units not in ("steps", "units"):
+        raise ConfigError(f"trace plot: units must be 'steps' or 'units', not {units!r}")
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import LineCollection
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    samples = [tuple(s) for s in samples]
+    sx = sz = 1.0
+    if units == "units":
+        sx, sz = 1 / steps_per_unit[0], 1 / steps_per_unit[1]
+    scale = np.array([sx, sz])
+
+    fig = Figure(figsize=(7, 7))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    # the table's drawing area, dotted; add_artist keeps it out of the autoscale
+    w, h = travel_steps[0] * sx, travel_steps[1] * sz
+    ax.add_artist(_rectangle((0, 0), w, h))
+    handles = []
+    if samples:
+        pts = np.array([(s[1], s[2]) for s in samples], dtype=float) * scale
+        pen = np.array([s[3] for s in samples], dtype=bool)
+        segs = np.stack([pts[:-1], pts[1:]], axis=1)
+        moved = np.any(segs[:, 0] != segs[:, 1], axis=1)
+        down = pen[:-1] & pen[1:]  # drawn only if the pen was down at both ends
+        ax.add_collection(LineCollection(segs[moved & ~down], colors="0.55",
+                                         linewidths=0.6, linestyles="--", zorder=2))
+        ax.add_collection(LineCollection(segs[moved & down], colors="black",
+                                         linewidths=1.5, zorder=3))
+        ax.plot(*pts[0], "o", color="tab:green", ms=5, zorder=5)
+        ax.plot(*pts[-1], "s", color="tab:blue", ms=5, zorder=5)
+        handles += [Line2D([], [], color="black", lw=1.5, label="pen down"),
+                    Line2D([], [], color="0.55", lw=0.6, ls="--", label="pen up"),
+                    Line2D([], [], color="tab:green", marker="o", ls="", label="start"),
+                    Line2D([], [], color="tab:blue", marker="s", ls="", label="end")]
+    if programmed:
+        prog = np.array(programmed, dtype=float).reshape(-1, 2, 2) * scale
+        ax.add_collection(LineCollection(prog, colors="tab:red", linewidths=0.8,
+                                         alpha=0.7, zorder=4))
+        handles.append(Line2D([], [], color="tab:red", lw=0.8, label="programmed"))
+    if full_area:
+        ax.update_datalim([(0, 0), (w, h)])
+    ax.autoscale_view()
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(f"x ({units})")
+    ax.set_ylabel(f"z ({units})")
+    missed = samples[-1][4] if samples else 0
+    ax.set_title(title or f"{name}: {len(samples)} samples, {int(missed)} missed steps")
+    if handles:
+        ax.legend(handles=handles, loc="best", fontsize="small")
+    ax.grid(True, lw=0.3)
+    fig.savefig(path)
 
 
 def _rectangle(xy: tuple[float, float], w: float, h: float) -> Any:

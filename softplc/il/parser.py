@@ -34,7 +34,16 @@ TERMINAL_NAMES = {
     "LOGIC_KW": "AND/OR/XOR", "STORE_KW": "ST/STN", "FUNC": "a function",
     "ADD_OP": "an operator", "MUL_OP": "an operator", "REM_KW": "REM", "COMMA": "','",
     "PIN_NAME": "a block output (Q, D, E, F)", "POST_KW": "POST",
+    "BLK_KW": "BLK", "OUT_BLK_KW": "OUT_BLK", "END_BLK_KW": "END_BLK", "END_KW": "END",
+    "GRAF_INIT": "=*=", "GRAF_STEP": "-*-", "GRAF_JUMP": "#", "JUMP_KW": "JMP",
+    "RET_KW": "RET", "NOP_KW": "NOP", "NEG_KW": "N", "STACK_KW": "MPS/MRD/MPP",
+    "SETRESET_KW": "S/R", "PIN_KW": "a block input (IN, CU, CD...)", "PAREN_KW": "AND(/OR(",
+    "INCDEC_KW": "INC/DEC", "SR_CALL": "SRn", "SR_DEF": "SRn:", "LABEL_DEF": "%Ln:",
+    "SECTION_KW": "SECTION",
 }
+INSTRUCTIONS = ("LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR XORF ST STN S R "
+                "N AND( OR( XOR( ) MPS MRD MPP [ ] JMP JMPC JMPCN SRn RET END ENDC ENDCN NOP "
+                "BLK OUT_BLK END_BLK IN CU CD U")
 
 
 @lru_cache(maxsize=1)
@@ -274,6 +283,11 @@ def _syntax_diag(e: UnexpectedInput, file: str, lines: list[str]) -> Diagnostic:
     else:  # UnexpectedEOF
         text, what, expected = "", "unexpected end of file", []
     exp = ", ".join(expected[:12]) + (" ..." if len(expected) > 12 else "")
+    stripped = src.lstrip()
+    if src and col == len(src) - len(stripped) + 1 and text and not text.startswith(("%", "(")):
+        word = stripped.split()[0]
+        return Diagnostic(f"unknown instruction {word!r}", file, line, col, src.strip(),
+                          f"an instruction ({INSTRUCTIONS})")
     return Diagnostic(f"syntax error: {what}", file, line, col, src.strip(), exp)
 
 
@@ -399,10 +413,13 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
 
 
 def parse(text: str, file: str = "<string>") -> A.Program:
-    """Parse a whole program. Raises ParseError listing every syntax problem."""
+    """Parse a whole program. Raises ParseError listing every syntax problem; the error's
+    `program` holds what parsed (bad lines left out) so later checks can still run."""
     items, comments, diags = parse_lines(text, file)
     if diags:
-        raise ParseError(diags)
+        err = ParseError(diags)
+        err.program = segment(items, comments, file, text) if items else None
+        raise err
     return segment(items, comments, file, text)
 
 

@@ -52,6 +52,7 @@ class _Connection(asyncio.Protocol):
         self.peer: Any = None
         self.last_rx = time.monotonic()
         self.partial_since: float | None = None
+        self.paused = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
@@ -78,6 +79,20 @@ class _Connection(asyncio.Protocol):
             else:
                 log.info("client %s disconnected", self.peer)
 
+    # A client that pipelines requests without reading the replies: once its replies pass
+    # the transport's high-water mark, stop decoding and reading until they drain, so
+    # memory stays bounded (high-water mark + one read chunk).
+    def pause_writing(self) -> None:
+        self.paused = True
+        if self.transport is not None:
+            self.transport.pause_reading()
+
+    def resume_writing(self) -> None:
+        self.paused = False
+        if self.transport is not None and not self.transport.is_closing():
+            self.transport.resume_reading()
+            self._process(time.monotonic())
+
     def drop(self, reason: str) -> None:
         log.warning("closing client %s: %s", self.peer, reason)
         self.stats.dropped += 1
@@ -87,16 +102,17 @@ class _Connection(asyncio.Protocol):
 
     def data_received(self, data: bytes) -> None:
         self.last_rx = now = time.monotonic()
+        self.buf += data
+        self._process(now)
+
+    def _process(self, now: float) -> None:
         buf = self.buf
-        buf += data
-        out = []
         img = self.image
         stats = self.stats
-        while len(buf) >= 7:
+        write = self.transport.write  # type: ignore[union-attr]
+        while len(buf) >= 7 and not self.paused:
             tid, pid, length, unit = unpack_from(">HHHB", buf)
             if pid != 0 or not 2 <= length <= MAX_PDU_LENGTH + 1:
-                if out:
-                    self.transport.write(b"".join(out))  # type: ignore[union-attr]
                 self.drop(f"bad MBAP header (protocol id {pid}, length {length})")
                 return
             end = 6 + length
@@ -112,9 +128,7 @@ class _Connection(asyncio.Protocol):
             if resp[0] & 0x80:
                 stats.exceptions += 1
             stats.requests += 1
-            out.append(pack_mbap(tid, unit, resp))
-        if out:
-            self.transport.write(out[0] if len(out) == 1 else b"".join(out))  # type: ignore
+            write(pack_mbap(tid, unit, resp))
         self.partial_since = now if buf else None
 
 

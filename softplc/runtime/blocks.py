@@ -208,11 +208,30 @@ class Drum(Block):
         self._apply()
 
 
-class ShiftRegister(Block):
+class _UpDownBlock(Block):
+    """Blocks with R / CU / CD inputs counted on rising edges: the short-form pins feed
+    `run` one input at a time, holding the others at their last value."""
+
+    PINS = ("R", "CU", "CD")
+    _cu = _cd = 0
+
+    def run(self, R: Any = 0, CU: Any = 0, CD: Any = 0) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def r(self, v: Any) -> None:
+        self.run(R=v, CU=self._cu, CD=self._cd)
+
+    def cu(self, v: Any) -> None:
+        self.run(CU=v, CD=self._cd)
+
+    def cd(self, v: Any) -> None:
+        self.run(CU=self._cu, CD=v)
+
+
+class ShiftRegister(_UpDownBlock):
     """%SBRi 16-bit shift register [manual]: R clears, CU shifts left (bit k -> k+1),
     CD shifts right, both on rising edges. Bits %SBRi.J0..J15."""
 
-    PINS = ("R", "CU", "CD")
     FIELDS = ("W", "_cu", "_cd")
 
     def __init__(self) -> None:
@@ -220,6 +239,9 @@ class ShiftRegister(Block):
 
     def bit(self, k: int) -> int:
         return (self.W >> k) & 1
+
+    def set_bit(self, k: int, v: Any) -> None:
+        self.W = (self.W | (1 << k)) if v else (self.W & ~(1 << k))
 
     def run(self, R: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
         cu, cd = (1 if CU else 0), (1 if CD else 0)
@@ -232,21 +254,11 @@ class ShiftRegister(Block):
                 self.W >>= 1
         self._cu, self._cd = cu, cd
 
-    def r(self, v: Any) -> None:
-        self.run(R=v, CU=self._cu, CD=self._cd)
 
-    def cu(self, v: Any) -> None:
-        self.run(CU=v, CD=self._cd)
-
-    def cd(self, v: Any) -> None:
-        self.run(CU=self._cu, CD=v)
-
-
-class StepCounter(Block):
+class StepCounter(_UpDownBlock):
     """%SCi step counter [manual]: one active bit out of 256 (%SCi.Jk); CU steps up, CD
     down (rising edges, wrapping), R back to step 0."""
 
-    PINS = ("R", "CU", "CD")
     FIELDS = ("V", "_cu", "_cd")
 
     def __init__(self) -> None:
@@ -265,15 +277,6 @@ class StepCounter(Block):
             if cd > self._cd:
                 self.V = (self.V - 1) % 256
         self._cu, self._cd = cu, cd
-
-    def r(self, v: Any) -> None:
-        self.run(R=v, CU=self._cu, CD=self._cd)
-
-    def cu(self, v: Any) -> None:
-        self.run(CU=v, CD=self._cd)
-
-    def cd(self, v: Any) -> None:
-        self.run(CU=self._cu, CD=v)
 
 
 class Register(Block):

@@ -158,6 +158,9 @@ class MemoryImage:
         ref = self.ref(address)
         if ref.kind in BLOCK_FIELDS:
             b = self.block(ref)
+            if ref.kind == "SBR" and ref.field == "J":
+                b.set_bit(ref.bit, value)
+                return
             if ref.field is None or ref.field == "J":
                 raise AddressError(f"{ref} cannot be written")
             setattr(b, ref.field, int(value))

@@ -1,0 +1,60 @@
+"""`softplc check PROGRAM.il`: parse and compile a program, report every problem."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+
+from ..errors import ProgramError
+from ..il import ast as A
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "check", help="parse and compile a program; list its rungs or every error",
+        description="Parse and compile an Instruction List program with its configuration. "
+                    "Prints every error as FILE:LINE:COL (exit 1), else a summary.")
+    p.add_argument("program", help="Instruction List file (.il), TwidoSuite List export")
+    p.add_argument("--config", help="machine/PLC configuration (TOML)")
+    p.add_argument("--rungs", action="store_true", help="list the rungs with their titles")
+    p.add_argument("--python", action="store_true",
+                   help="print the Python code the rungs compile to")
+    p.add_argument("--format", action="store_true",
+                   help="print the program re-formatted in TwidoSuite export layout")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..plc import PLC
+
+    try:
+        plc = PLC.from_file(args.program, args.config, devices=False)
+    except ProgramError as e:
+        for d in e.diagnostics:
+            print(d, file=sys.stderr)
+        n = len(e.diagnostics)
+        print(f"{n} error{'s' if n != 1 else ''}", file=sys.stderr)
+        return 1
+    prog = plc.ast
+    kinds = Counter(type(i).__name__ for r in prog.rungs for i in r.instructions)
+    n_instr = sum(kinds.values())
+    subs = prog.subroutines
+    print(f"{args.program}: OK - {len(prog.rungs)} rungs, {n_instr} instructions"
+          + (f", subroutines {', '.join(f'SR{n}' for n in subs)}" if subs else ""))
+    if args.rungs:
+        for r in prog.rungs:
+            where = f"SR{r.subroutine}" if r.subroutine is not None else "main"
+            label = f" %L{r.label}:" if r.label is not None else ""
+            print(f"  rung {r.index:3d}  lines {r.first_line:4d}-{r.last_line:<4d} {where:5s}"
+                  f"{label} {r.title}")
+    if args.format:
+        from ..il.printer import format_program
+
+        print(format_program(prog), end="")
+    if args.python:
+        print(plc.program.source)
+    return 0
+
+
+__all__ = ["register", "A"]

@@ -1,0 +1,167 @@
+"""Scan-engine benchmark (issue 2): ns per boolean instruction, us per scan.
+
+Figures, best of `repeat` timed loops, warm-up excluded:
+  * a generated 1,000-instruction boolean program (tools/gen_programs.boolean_program):
+    ns per instruction of the compiled main function alone, and of the full `plc.scan()`
+    (system bits, input latch, output publish, statistics: the engine's overhead);
+  * a generated 40-rung mixed program (booleans, comparisons, words, a timer, a counter);
+  * every program in ladder_programs/*.il with its .toml if there is one: us per scan of
+    main() alone, plc.scan() without devices, and plc.scan() with the configured simulated
+    devices. A program that does not load yet gets an error line instead.
+
+Targets on the 2-core reference machine: <= 10 ns per boolean instruction, <= 20 us per
+scan of a 40-rung program.
+
+    .venv/bin/python tools/bench_engine.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+TOOLS = Path(__file__).resolve().parent
+ROOT = TOOLS.parent
+for _p in (str(ROOT), str(TOOLS)):
+    if _p not in sys.path:
+        sys.path.insert(0, _p)
+
+from gen_programs import boolean_program  # noqa: E402
+from peers.common import best_per_batch, best_per_call, progress  # noqa: E402
+from peers.programs import mixed_program  # noqa: E402
+
+from softplc.errors import SoftPLCError  # noqa: E402
+from softplc.plc import PLC  # noqa: E402
+
+TARGET_NS_PER_BOOL = 10.0
+TARGET_US_PER_SCAN_40 = 20.0
+
+
+def time_plc(plc: PLC, number: int, repeat: int) -> dict[str, float]:
+    """us per call of the compiled main() alone and of the full plc.scan()."""
+    main = plc.program.main
+    t_main = best_per_call(main, number, repeat)
+    plc.cold_start()
+    t_scan = best_per_batch(plc.scan, number, repeat)
+    return {"main_us": t_main * 1e6, "scan_us": t_scan * 1e6}
+
+
+def _scale(quick: bool, tiny: bool) -> tuple[int, int]:
+    if tiny:
+        return 20, 2
+    return (500, 3) if quick else (5000, 7)
+
+
+def run(quick: bool = False, tiny: bool = False,
+        programs_dir: Path = ROOT / "ladder_programs") -> dict[str, Any]:
+    """All engine figures as a dict (see the module docstring). `tiny` is for the smoke
+    test: a few calls, a 40-instruction program, structure only."""
+    number, repeat = _scale(quick, tiny)
+    n_instr = 40 if tiny else 1000
+    progress(f"engine: boolean program, {n_instr} instructions, {number} calls x {repeat}")
+    plc = PLC.from_source(boolean_program(n_instr), file="<boolean>")
+    t = time_plc(plc, number, repeat)
+    boolean = {
+        "instructions": plc.program.instruction_count, "rungs": len(plc.rungs), **t,
+        "main_ns_per_instr": t["main_us"] * 1e3 / n_instr,
+        "scan_ns_per_instr": t["scan_us"] * 1e3 / n_instr,
+    }
+    progress("engine: 40-rung mixed program")
+    text, cfg = mixed_program(40)
+    plc = PLC.from_source(text, cfg, file="<mixed40>")
+    mixed = {"instructions": plc.program.instruction_count, "rungs": len(plc.rungs),
+             **time_plc(plc, number, repeat)}
+    files = []
+    for il in sorted(programs_dir.glob("*.il")):
+        progress(f"engine: {il.relative_to(ROOT) if il.is_relative_to(ROOT) else il}")
+        files.append(_time_file(il, number, repeat))
+    return {
+        "boolean": boolean, "mixed40": mixed, "programs": files,
+        "settings": {"number": number, "repeat": repeat},
+        "targets": {"ns_per_bool_instr": TARGET_NS_PER_BOOL,
+                    "us_per_scan_40_rungs": TARGET_US_PER_SCAN_40},
+    }
+
+
+def config_for(il: Path) -> Path | None:
+    """x.toml for x.il; else the .toml whose name is the longest prefix of the program's
+    (drawing_table_seed.il runs with drawing_table.toml, which says it serves both)."""
+    exact = il.with_suffix(".toml")
+    if exact.exists():
+        return exact
+    cands = [t for t in il.parent.glob("*.toml") if il.stem.startswith(t.stem + "_")]
+    return max(cands, key=lambda t: len(t.stem)) if cands else None
+
+
+def _time_file(il: Path, number: int, repeat: int) -> dict[str, Any]:
+    cfg = config_for(il)
+    entry: dict[str, Any] = {"program": il.name, "config": cfg.name if cfg else None}
+    try:
+        plc = PLC.from_file(il, cfg, devices=False)
+        entry.update(instructions=plc.program.instruction_count, rungs=len(plc.rungs),
+                     **time_plc(plc, number, repeat))
+        if plc.config.get("devices"):
+            with PLC.from_file(il, cfg, devices=True) as dev:
+                entry["scan_devices_us"] = best_per_batch(dev.scan, number, repeat) * 1e6
+    except (SoftPLCError, OSError, ValueError) as e:
+        entry["error"] = f"{type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}"
+    return entry
+
+
+def verdicts(res: dict[str, Any]) -> list[tuple[str, float, str, bool]]:
+    """(figure, value, target text, met) for the engine targets."""
+    b, m = res["boolean"], res["mixed40"]
+    return [
+        ("ns/boolean instruction, main()", b["main_ns_per_instr"],
+         f"<= {TARGET_NS_PER_BOOL:g}", b["main_ns_per_instr"] <= TARGET_NS_PER_BOOL),
+        ("ns/boolean instruction, plc.scan()", b["scan_ns_per_instr"],
+         f"<= {TARGET_NS_PER_BOOL:g}", b["scan_ns_per_instr"] <= TARGET_NS_PER_BOOL),
+        ("us/scan, 40-rung program, plc.scan()", m["scan_us"],
+         f"<= {TARGET_US_PER_SCAN_40:g}", m["scan_us"] <= TARGET_US_PER_SCAN_40),
+    ]
+
+
+def report(res: dict[str, Any]) -> str:
+    b, m = res["boolean"], res["mixed40"]
+    lines = [
+        "Scan engine (best of {repeat} x {number} calls, warm-up excluded)".format(
+            **res["settings"]),
+        f"  boolean program, {b['instructions']} instructions / {b['rungs']} rungs: "
+        f"main() {b['main_us']:.2f} us = {b['main_ns_per_instr']:.2f} ns/instr; "
+        f"plc.scan() {b['scan_us']:.2f} us = {b['scan_ns_per_instr']:.2f} ns/instr",
+        f"  mixed program, {m['rungs']} rungs / {m['instructions']} instructions: "
+        f"main() {m['main_us']:.2f} us; plc.scan() {m['scan_us']:.2f} us",
+        f"  {'program':28}{'rungs':>6}{'instr':>7}{'main us':>10}{'scan us':>10}"
+        f"{'+devices us':>13}",
+    ]
+    for e in res["programs"]:
+        if "error" in e:
+            lines.append(f"  {e['program']:28}error: {e['error']}")
+            continue
+        dev = f"{e['scan_devices_us']:13.2f}" if "scan_devices_us" in e else f"{'-':>13}"
+        lines.append(f"  {e['program']:28}{e['rungs']:6}{e['instructions']:7}"
+                     f"{e['main_us']:10.2f}{e['scan_us']:10.2f}{dev}")
+    lines.append("  targets:")
+    for name, v, target, ok in verdicts(res):
+        lines.append(f"    {name:40}{v:8.2f}  target {target:8} {'met' if ok else 'MISSED'}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer calls and repeats")
+    ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
+    a = ap.parse_args(argv)
+    res = run(quick=a.quick)
+    print(report(res))
+    if a.json:
+        a.json.parent.mkdir(parents=True, exist_ok=True)
+        a.json.write_text(json.dumps(res, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

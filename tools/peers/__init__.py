@@ -1,0 +1,1 @@
+"""Peer comparisons for tools/bench_peers.py: pyrung, awlsim, Modbus servers, libmodbus."""

@@ -1,0 +1,83 @@
+"""Timing and machine-description helpers shared by the benchmarks."""
+
+from __future__ import annotations
+
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable
+from importlib import metadata
+from typing import Any
+
+
+def progress(msg: str) -> None:
+    """Progress goes to stderr so stdout carries only the figures."""
+    print(f"[bench] {msg}", file=sys.stderr, flush=True)
+
+
+def best_per_call(fn: Callable[[], Any], number: int, repeat: int = 5,
+                  warmup: int | None = None) -> float:
+    """Best-of-`repeat` seconds per call of fn, each repeat timing `number` calls in a tight
+    loop. Warm-up calls (default: number // 10, at least 1) run first and are not timed."""
+    for _ in range(max(1, number // 10) if warmup is None else warmup):
+        fn()
+    clock = time.perf_counter
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = clock()
+        for _ in range(number):
+            fn()
+        best = min(best, clock() - t0)
+    return best / number
+
+
+def best_per_batch(batch: Callable[[int], Any], number: int, repeat: int = 5,
+                   warmup: int | None = None) -> float:
+    """Like best_per_call for an API that runs n iterations itself (`plc.scan(n)`)."""
+    w = max(1, number // 10) if warmup is None else warmup
+    if w:
+        batch(w)
+    clock = time.perf_counter
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = clock()
+        batch(number)
+        best = min(best, clock() - t0)
+    return best / number
+
+
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def version_of(dist: str) -> str | None:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def machine_info() -> dict[str, Any]:
+    return {
+        "cpus": os.cpu_count(),
+        "cpu_model": cpu_model(),
+        "python": platform.python_version(),
+        "implementation": platform.python_implementation(),
+        "platform": platform.platform(),
+        "softplc": version_of("softplc"),
+        "pymodbus": version_of("pymodbus"),
+        "numpy": version_of("numpy"),
+    }
+
+
+def describe_machine(info: dict[str, Any]) -> str:
+    return (f"{info['cpus']} CPUs, {info['cpu_model']}, {info['implementation']} "
+            f"{info['python']}, {info['platform']}")
