@@ -22,7 +22,7 @@ sysdeps:
 	  else echo "note: mbpoll/tmux not installed (need root); tests that use them are skipped"; fi; }
 
 run: $(STAMP)
-	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT)
+	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT) --trace out/trace.csv
 
 draw: $(STAMP)
 	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png
@@ -33,6 +33,8 @@ test: $(STAMP) sysdeps
 
 bench: $(STAMP)
 	$(BIN)/pip install -q -e '.[test,bench]'
+	# --no-deps: pyrung's pyclickplc pins pymodbus<3.13 (pyrung's core runs with ours)
+	$(BIN)/pip install -q --no-deps 'pyrung==0.15.2' 'pyclickplc==0.4.1'
 	$(BIN)/python tools/bench.py
 
 lint: $(STAMP)

@@ -259,5 +259,8 @@ class Daemon:
         if writer is not None:
             writer.close(retain.capture(plc.mem, self.program_name))
             saved = f", state saved to {self.opt.state}"
+        close = getattr(plc, "close", None)
+        if close is not None:  # devices flush their files (the trace CSV)
+            close()
         self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns, "
                  f"jitter max {_ms(self.jitter_max)}, outputs 0{saved}")

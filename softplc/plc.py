@@ -81,7 +81,11 @@ class PLC:
                 try:
                     cls(partial, config, **{**kw, "devices": False})
                 except ProgramError as more:
-                    diags = sorted(e.diagnostics + more.diagnostics,
+                    # a line with a syntax/address error holds placeholders: drop the
+                    # semantic follow-ups reported on it
+                    bad = {d.line for d in e.diagnostics}
+                    diags = sorted(e.diagnostics + [d for d in more.diagnostics
+                                                    if d.line not in bad],
                                    key=lambda d: (d.line, d.column))
                     raise ParseError(diags) from None
                 except SoftPLCError:

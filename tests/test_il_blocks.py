@@ -44,7 +44,7 @@ def step(plc: PLC, m0: int, n: int = 1) -> None:
     plc.scan(n)
 
 
-# ---- timers [manual] -------------------------------------------------------------------------
+# ---- timers [manual] ------------------------------------------------------------------------
 @pytest.mark.parametrize("form", ["blk", "short"])
 @pytest.mark.parametrize("base", list(BASES_S))
 def test_ton_on_delay(plc_from_source, form, base):
@@ -177,7 +177,7 @@ ST    %Q0.0
     assert plc["%Q0.0"]
 
 
-# ---- counters [m221] -----------------------------------------------------------------------
+# ---- counters [m221] ------------------------------------------------------------------------
 COUNTER_BLK = """
 BLK   %C0
 LD    %M0
@@ -322,7 +322,7 @@ def test_counter_preset_written_by_the_program(plc_from_source):
     assert outs(plc) == (2, 1, 0, 0)
 
 
-# ---- drums [m221] ----------------------------------------------------------------------------
+# ---- drums [m221] ---------------------------------------------------------------------------
 DRUM_CFG = {"drums": {"%DR0": {"steps": [0b001, 0b010, 0b100, 0b110],
                                "outputs": ["%Q0.0", "%Q0.1", "%Q0.2"]}}}
 
@@ -373,7 +373,7 @@ def test_drum_steps_wraps_and_resets(plc_from_source, form):
         assert drum(plc, r=1, u=1) == (0, [1, 0, 0], 0)
 
 
-# ---- shift register %SBR [manual] ----------------------------------------------------------------
+# ---- shift register %SBR [manual] -----------------------------------------------------------
 SBR_BLK = """
 BLK   %SBR0
 LD    %M0
@@ -430,7 +430,7 @@ def test_shift_register_bits_are_writable(plc_from_source):
     assert plc["%SBR0.J1"] and not plc["%SBR0.J0"]
 
 
-# ---- step counter %SC [manual] ---------------------------------------------------------------
+# ---- step counter %SC [manual] --------------------------------------------------------------
 def test_step_counter(plc_from_source):
     plc = plc_from_source("""
 BLK   %SC0
@@ -465,7 +465,7 @@ ST    %Q0.2
     assert sc(cu=1) == [0]
 
 
-# ---- FIFO / LIFO registers %R [manual] ----------------------------------------------------------
+# ---- FIFO / LIFO registers %R [manual] ------------------------------------------------------
 REG_BLK = """
 BLK   %R0
 LD    %M0

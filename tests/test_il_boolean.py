@@ -25,7 +25,7 @@ def run(plc: PLC, **bits: int) -> PLC:
 BITS3 = list(itertools.product((0, 1), repeat=3))
 
 
-# ---- loads and logic [sure] ---------------------------------------------------------------
+# ---- loads and logic [sure] -----------------------------------------------------------------
 def test_ld_ldn_st_stn(plc_from_source):
     plc = plc_from_source("""
 LD    %M0
@@ -225,7 +225,7 @@ ST   %M0
     assert not plc["%Q0.15"] and not plc["%M0"]
 
 
-# ---- edges [sure] -------------------------------------------------------------------------
+# ---- edges [sure] ---------------------------------------------------------------------------
 def test_rising_and_falling_edges_last_one_scan(plc_from_source):
     plc = plc_from_source("""
 LDR  %M0
@@ -367,7 +367,7 @@ def test_nested_parentheses_eight_deep(plc_from_source):
         assert plc["%M20"] == model(bits), bits
 
 
-# ---- MPS / MRD / MPP [m221] --------------------------------------------------------------------
+# ---- MPS / MRD / MPP [m221] -----------------------------------------------------------------
 @pytest.mark.parametrize("a,b,c", BITS3)
 def test_stack_instructions(plc_from_source, a, b, c):
     plc = plc_from_source("""
@@ -407,7 +407,7 @@ ST   %M12
     assert not plc["%M10"] and not plc["%M11"] and plc["%M12"]
 
 
-# ---- comparisons as operands [sure] ----------------------------------------------------------
+# ---- comparisons as operands [sure] ---------------------------------------------------------
 @pytest.mark.parametrize("op,expected", [(">", [0, 0, 1]), (">=", [0, 1, 1]),
                                          ("<", [1, 0, 0]), ("<=", [1, 1, 0]),
                                          ("=", [0, 1, 0]), ("<>", [1, 0, 1])])
@@ -439,7 +439,7 @@ ST  %M1
     assert not plc["%M0"] and plc["%M1"]
 
 
-# ---- syntax details [sure] ----------------------------------------------------------------------
+# ---- syntax details [sure] ------------------------------------------------------------------
 def test_case_insensitive_comments_and_blank_lines(plc_from_source):
     plc = plc_from_source("""
 (* a comment on its own line *)

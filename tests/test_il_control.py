@@ -299,7 +299,7 @@ RET
     assert not plc["%M0"] and not plc["%M1"] and plc["%M2"]
 
 
-# ---- END / ENDC / ENDCN [sure] ----------------------------------------------------------------
+# ---- END / ENDC / ENDCN [sure] --------------------------------------------------------------
 def test_end_variants(plc_from_source):
     plc = plc_from_source("""
 LD    1
@@ -337,7 +337,7 @@ def test_nop(plc_from_source):
     assert plc["%M0"]
 
 
-# ---- Grafcet [manual] -------------------------------------------------------------------------
+# ---- Grafcet [manual] -----------------------------------------------------------------------
 GRAFCET = """
 =*=   0
 LD    %M0

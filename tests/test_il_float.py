@@ -26,7 +26,7 @@ def fcalc(plc_from_source, expr: str, target: str = "%MF100", **objs) -> PLC:
     return plc
 
 
-# ---- arithmetic -------------------------------------------------------------------------
+# ---- arithmetic -----------------------------------------------------------------------------
 @pytest.mark.parametrize("expr,a,b,expected", [
     ("%MF0 + %MF2", 1.5, 2.25, 3.75),
     ("%MF0 - %MF2", 1.5, 2.25, -0.75),
@@ -59,7 +59,7 @@ def test_float_overflow_sets_s18(plc_from_source):
     assert math.isinf(plc["%MF100"])
 
 
-# ---- float functions [manual] ------------------------------------------------------------
+# ---- float functions [manual] ---------------------------------------------------------------
 @pytest.mark.parametrize("func,x,expected", [
     ("SQRT", 2.0, math.sqrt(2.0)),
     ("ABS", -3.5, 3.5),
@@ -101,7 +101,7 @@ def test_float_domain_errors_set_s18(plc_from_source, expr, x):
     assert plc["%S18"]
 
 
-# ---- conversions [manual] ----------------------------------------------------------------
+# ---- conversions [manual] -------------------------------------------------------------------
 def test_int_to_real_and_the_seed_alias(plc_from_source):
     plc = plc_from_source("""
 LD 1
@@ -153,7 +153,7 @@ ST   %M0
         assert plc["%M0"] == exp, x
 
 
-# ---- %MF / %MD over %MW [sure; odd indices manual] --------------------------------------------
+# ---- %MF / %MD over %MW [sure; odd indices manual] ------------------------------------------
 def words(plc: PLC, i: int) -> tuple[int, int]:
     return plc[f"%MW{i}"] & 0xFFFF, plc[f"%MW{i + 1}"] & 0xFFFF
 

@@ -20,7 +20,7 @@ def calc(plc_from_source, expr: str, target: str = "%MW100", **words: int) -> PL
     return plc
 
 
-# ---- assignments and constants ------------------------------------------------------------
+# ---- assignments and constants --------------------------------------------------------------
 def test_assign_constants_and_words(plc_from_source):
     plc = plc_from_source("""
 LD   1
@@ -71,7 +71,7 @@ def test_inc_overflow_sets_s18(plc_from_source):
     assert plc["%S18"]
 
 
-# ---- arithmetic and %S18 [sure] --------------------------------------------------------------
+# ---- arithmetic and %S18 [sure] -------------------------------------------------------------
 @pytest.mark.parametrize("expr,a,b,expected", [
     ("%MW0 + %MW1", 1200, 34, 1234),
     ("%MW0 - %MW1", 5, 9, -4),
@@ -168,7 +168,7 @@ def test_double_word_result_too_big_for_a_word_sets_s18(plc_from_source):
     assert plc["%S18"]
 
 
-# ---- word logic [sure] ------------------------------------------------------------------------
+# ---- word logic [sure] ----------------------------------------------------------------------
 @pytest.mark.parametrize("expr,expected", [
     ("%MW0 AND %MW1", 0x0F00 & 0x3C3C),
     ("%MW0 OR %MW1", 0x0F00 | 0x3C3C),
@@ -189,7 +189,7 @@ def test_word_logic_on_negative_words(plc_from_source):
     assert plc["%MW100"] == 0
 
 
-# ---- shifts and rotations, carry into %S17 [sure] ---------------------------------------------
+# ---- shifts and rotations, carry into %S17 [sure] -------------------------------------------
 @pytest.mark.parametrize("func,value,n,expected,carry", [
     ("SHL", 0x4001, 1, 0x8002, 0),
     ("SHL", 0x8001, 1, 0x0002, 1),
@@ -245,7 +245,7 @@ def test_shift_of_a_double_word(plc_from_source):
     assert not plc["%S17"]
 
 
-# ---- indexed words, %S20 [manual] ------------------------------------------------------------
+# ---- indexed words, %S20 [manual] -----------------------------------------------------------
 def test_indexed_read_and_write(plc_from_source):
     plc = plc_from_source("""
 LD 1
@@ -297,7 +297,7 @@ def test_negative_index_out_of_range_sets_s20(plc_from_source):
     assert plc["%S20"]
 
 
-# ---- tables and bit strings [manual] -----------------------------------------------------------
+# ---- tables and bit strings [manual] --------------------------------------------------------
 def test_table_copy_and_fill(plc_from_source):
     plc = plc_from_source("""
 LD 1

@@ -91,6 +91,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--rt-priority", type=int,
                    help="SCHED_FIFO priority of the scan thread, 1..99 (default 10; 0 = "
                         "normal scheduling); needs root or CAP_SYS_NICE, else ignored")
+    p.add_argument("--trace", type=Path, metavar="FILE.csv",
+                   help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
+                        "this CSV file (flushed every simulated second and at shutdown)")
     p.add_argument("--log-level", default="warning",
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
@@ -116,6 +119,13 @@ def run(args: argparse.Namespace) -> int:
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
     plc = PLC.from_file(args.program, config=args.config,
                         clock="real" if args.speed is None else "virtual")
+    if args.trace is not None:
+        recorder = next((d for d in plc.devices.values()
+                         if getattr(d, "type_name", "") == "trace"), None)
+        if recorder is None:
+            raise ConfigError("--trace: the machine config has no trace device")
+        args.trace.parent.mkdir(parents=True, exist_ok=True)
+        recorder.record_to(args.trace)
     cfg = getattr(plc, "config", None) or {}
     mb, dm = cfg.get("modbus", {}) or {}, cfg.get("daemon", {}) or {}
     if not isinstance(mb, dict) or not isinstance(dm, dict):

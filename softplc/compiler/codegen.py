@@ -295,11 +295,11 @@ class Compiler:
         a, b = self.operand_pair(e.left, e.right, want)
         t = self.unify(a, b, e.pos, f"'{e.op}'")
         if t is None:
-            return "0", INT16
+            return self.poison(want)
         if e.op in ("AND", "OR", "XOR"):
             if t == REAL:
                 self.err(f"word logic {e.op} needs words, not floats", e.pos)
-                return "0", INT16
+                return self.poison(want)
             py = {"AND": "&", "OR": "|", "XOR": "^"}[e.op]
             return f"({a[0]} {py} {b[0]})", t
         if e.op not in ARITH:
@@ -317,15 +317,21 @@ class Compiler:
         self.use(h)
         return f"{h}({a[0]}, {b[0]})", t
 
+    @staticmethod
+    def poison(want: str | None) -> tuple[str, str]:
+        """Stand-in for an expression already reported: of the type the context wants, so
+        one mistake gives one diagnostic, not a cascade."""
+        return ("0.0", REAL) if want == REAL else ("0", want or INT16)
+
     def call(self, e: A.Call, want: str | None) -> tuple[str, str]:
         if e.func not in FUNCTIONS:
             self.err(f"unknown function {e.func}", e.pos, e.func,
                      ", ".join(sorted(FUNCTIONS)))
-            return "0", INT16
+            return self.poison(want)
         params, result = FUNCTIONS[e.func]
         if len(e.args) != len(params):
             self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos)
-            return "0", INT16
+            return self.poison(want)
         args = []
         for p, arg in zip(params, e.args, strict=True):
             hint = p if p in (INT16, INT32, REAL) else (want if p in ("num", "int") else None)
@@ -523,10 +529,10 @@ class Compiler:
         base_indent = self.indent
         step = ctx.get("step")
         if step is not None:
-            self.use("_XS")
-            self.emit(f"if _XS[{step}]:")
+            self.emit(f"if _XS[{step}]:")  # _XS: a local, the step bits at the start
             self.indent += 1
             base_indent = self.indent
+        body_start = len(self.fn.lines)
         if not ins:
             self.emit("pass")
 
@@ -703,6 +709,9 @@ class Compiler:
         if blk is not None:
             self.err(f"BLK {blk} not closed by END_BLK", rung.instructions[0].pos
                      if rung.instructions else None)
+        if len(self.fn.lines) == body_start:  # e.g. a lone LD in a step: keep `if` valid
+            self.indent = base_indent
+            self.emit("pass")
         self.indent = base_indent - (1 if step is not None else 0)
 
     def describe(self, instr: A.Instruction) -> str:
@@ -817,7 +826,8 @@ class Compiler:
         for r in rungs:
             if r.label is not None:
                 if r.label in labels or r.label in ctx["seen_labels"]:
-                    self.err(f"label %L{r.label} defined twice", A.Pos(r.first_line, 1),
+                    self.err(f"label %L{r.label} defined twice",
+                             A.Pos(r.label_line or r.first_line, 1),
                              f"%L{r.label}:")
                 if blocks[-1]:
                     blocks.append([])
@@ -846,7 +856,7 @@ class Compiler:
                 if marker is not None:
                     if marker.op == "POST" or step is None and name == "main":
                         if step is None:
-                            self.use("_XS", "_X")
+                            self.use("_X")
                             self.emit("_XS = bytes(_X)")
                     if marker.op == "POST":
                         self.use("_gpost")
@@ -905,7 +915,8 @@ def compile_program(program: A.Program, env: dict[str, Any], counts: dict[str, i
                 "grafcet": grafcet}
     for r in program.rungs:
         if r.label is not None and r.label >= counts["L"]:
-            c.err(f"label %L{r.label} beyond %L{counts['L'] - 1}", A.Pos(r.first_line, 1))
+            c.err(f"label %L{r.label} beyond %L{counts['L'] - 1}",
+                  A.Pos(r.label_line or r.first_line, 1), f"%L{r.label}:")
     parts = []
     for n in subs:
         fn = c.function(f"SR{n}", program.subroutine(n), dict(base_ctx, seen_labels=set()))

@@ -25,7 +25,7 @@ from ..il.printer import format_expr, format_instruction, format_statement
 
 CONTACT = {"": "┤ ├", "N": "┤/├", "R": "┤P├", "F": "┤N├"}
 COIL = {"ST": "( )", "STN": "(/)", "S": "(S)", "R": "(R)"}
-ASCII = str.maketrans("─═│║┤├┬┴┼┌┐└┘╠╣╦╩╬╔╗╚╝", "-=|#||+++++++" "#########")
+ASCII = str.maketrans("─═│║┤├┬┴┼┌┐└┘╠╣╦╩╬╔╗╚╝", "-=|#||+++++++" "+++++++++")
 
 
 # ---- the rung as a tree ----------------------------------------------------------------------
@@ -232,7 +232,7 @@ class Live:
     """What the live view reads: memory, the rung's accumulator log, forced objects."""
 
     def __init__(self, read: Callable[[Ref], Any], log: list[Any] | None,
-                 forced: set[Ref] | None = None):
+                 forced: set[str] | None = None):
         self.read = read
         self.log = log
         self.forced = forced or set()
@@ -253,7 +253,7 @@ class Live:
             return block_summary(v)
         s = str(int(v)) if isinstance(v, bool) else (f"{v:g}" if isinstance(v, float)
                                                       else str(v))
-        return s + ("F" if ref in self.forced else "")
+        return s + ("F" if str(ref) in self.forced else "")
 
     def expr_text(self, e: A.Expr) -> str:
         """An expression with its objects replaced by their values."""
@@ -380,7 +380,7 @@ class _Layout:
             starts.append(row)
             if isinstance(ch, Elem):
                 p = p_in
-                if self.live is not None and ch.k >= 0:
+                if self.live is not None and ch.k >= 0 and j.path is not None:
                     acc = self.live.acc(ch.k)
                     p = acc if acc is not None else p_in
                 self.outs.append((row, c, ch, p))
@@ -502,6 +502,8 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
                 label = ">" + label
             rows[0].append(_center(label, w))
             sym = el.symbol
+            if sym == "───":  # a constant 1: a plain wire
+                sym = _wire(cell.p_out and pw) * 3
             left = (w - len(sym)) // 2
             rows[1].append(_wire(cell.p_in and pw) * left + sym + _wire(cell.p_out and pw) *
                            (w - len(sym) - left))
@@ -545,7 +547,7 @@ def _sections(program: A.Program) -> list[tuple[str, list[A.Rung]]]:
     return out
 
 
-# ---- SVG ------------------------------------------------------------------------------------------
+# ---- SVG -----------------------------------------------------------------------------
 CH, ROW_H, PAD = 7.2, 48, 20  # pixels per character, per row, margin
 
 
@@ -561,7 +563,7 @@ def render_program_svg(program: A.Program) -> str:
         for r in rungs:
             h, w = _svg_rung(r, PAD, y, body)
             y += h + 16
-            width = max(width, w + 2 * PAD)
+            width = max(width, w + PAD, PAD + (len(r.title) + 12) * CH)
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{y + PAD:.0f}" '
             f'viewBox="0 0 {width:.0f} {y + PAD:.0f}" font-family="monospace" font-size="12">\n'
             f'<rect width="100%" height="100%" fill="white"/>\n' + "\n".join(body) + "\n</svg>\n")

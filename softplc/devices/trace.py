@@ -117,6 +117,14 @@ class Trace(Device):
         return {"samples": len(self.samples)}
 
     # -- files ------------------------------------------------------------------------------
+    def record_to(self, path: str | os.PathLike[str]) -> None:
+        """From now on keep `path` (CSV) up to date with every sample (e.g. the daemon's
+        `--trace`)."""
+        self.csv_path = os.fspath(path)
+        self._written = 0
+        self._next_flush = 0.0
+        self.flush()
+
     def to_csv(self, path: str | os.PathLike[str]) -> None:
         """Write every sample, with the header `t,x,z,pen,missed`."""
         with open(path, "w", encoding="ascii") as f:

@@ -263,6 +263,7 @@ class Rung:
     label: int | None = None  # %Li: at the start of the rung
     first_line: int = 0
     last_line: int = 0
+    label_line: int = 0  # line of the `%Li:` that starts the rung
 
     @property
     def name(self) -> str:

@@ -327,7 +327,9 @@ def parse_lines(text: str, file: str = "<string>") -> tuple[list, list, list[Dia
 
 
 # Instructions that end a rung: after one of these, the next load starts a new rung.
-_OUTPUTS = (A.Store, A.OpBlock, A.Jump, A.SRCall, A.Return, A.End, A.EndBlk, A.Pin, A.Nop)
+_OUTPUTS = (A.Store, A.OpBlock, A.Jump, A.SRCall, A.Return, A.End, A.EndBlk, A.Pin, A.Nop,
+            A.Grafcet)
+_STEP_MARKERS = ("=*=", "-*-", "POST")
 _TITLE_PREFIX = re.compile(r"^(RUNG|RUNGTITLE|RUNGCOMMENT|TITLE|COMMENT)\s*:\s*", re.I)
 
 
@@ -357,6 +359,7 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
     cur: A.Rung | None = None
     in_blk = False
     label: int | None = None
+    label_line = 0
     last_line = 0
 
     def title_before(line: int) -> str:
@@ -369,7 +372,7 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
     def new_rung(first_line: int) -> A.Rung:
         nonlocal cur, label
         cur = A.Rung(len(rungs), [], title_before(first_line), section, sr, label,
-                     first_line, first_line)
+                     first_line, first_line, label_line if label is not None else 0)
         label = None
         rungs.append(cur)
         return cur
@@ -387,10 +390,11 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
             last_line = it.pos.line
             continue
         if isinstance(it, A.Label):
-            label, cur = it.number, None
+            label, label_line, cur = it.number, it.pos.line, None
             last_line = it.pos.line
             continue
-        starts = (cur is None or isinstance(it, A.Grafcet) or
+        # a step marker starts a rung; '# i' is an output of its transition rung
+        starts = (cur is None or (isinstance(it, A.Grafcet) and it.op in _STEP_MARKERS) or
                   (not in_blk and _is_start(it) and cur.instructions
                    and isinstance(cur.instructions[-1], _OUTPUTS)))
         if starts:
@@ -402,10 +406,11 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
             in_blk = True
         elif isinstance(it, A.EndBlk):
             in_blk = False
-        if isinstance(it, A.Grafcet) and it.op in ("=*=", "-*-", "POST"):
+        if isinstance(it, A.Grafcet) and it.op in _STEP_MARKERS:
             cur = None  # a step marker is a rung of its own
     if label is not None:  # a label at the very end: an empty rung to jump to
-        rungs.append(A.Rung(len(rungs), [], "", section, sr, label, last_line, last_line))
+        rungs.append(A.Rung(len(rungs), [], "", section, sr, label, last_line, last_line,
+                            label_line))
     # section titles that came before any SECTION line
     for ln, t in pending_titles:
         section_titles.setdefault(section if section is not None else 0, t)

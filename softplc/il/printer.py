@@ -11,6 +11,8 @@ from . import ast as A
 
 def format_expr(e: A.Expr, top: bool = True) -> str:
     if isinstance(e, A.Num):
+        if e.text:  # as written: #FFFF is a bit pattern (-1 in a word), 65535 does not fit
+            return e.text
         if e.is_float:
             return repr(float(e.value))
         return str(e.value)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import base64
 import hashlib
 import json
+import logging
 import os
 import threading
 import time
@@ -29,6 +30,8 @@ from typing import Any
 
 from ..errors import SoftPLCError
 from .memory import MemoryImage
+
+log = logging.getLogger("softplc.retain")
 
 MAGIC = "SOFTPLC-STATE"
 FORMAT_VERSION = 1
@@ -207,6 +210,9 @@ def restart(plc: Any, path: str | os.PathLike[str] | None, cold: bool = False,
         state = load(path)
         if state is not None:
             check_compatible(state, plc.mem, f"state file {path}")
+            if program and state.program and state.program != program:
+                log.warning("state file %s was saved by %s; warm restart of %s anyway",
+                            path, state.program, program)
             apply(plc.mem, state)
             plc.warm_start()
             return "warm"

@@ -75,9 +75,11 @@ def machine_info() -> dict[str, Any]:
         "softplc": version_of("softplc"),
         "pymodbus": version_of("pymodbus"),
         "numpy": version_of("numpy"),
+        "load_average": os.getloadavg(),
     }
 
 
 def describe_machine(info: dict[str, Any]) -> str:
     return (f"{info['cpus']} CPUs, {info['cpu_model']}, {info['implementation']} "
-            f"{info['python']}, {info['platform']}")
+            f"{info['python']}, {info['platform']}; load average at start "
+            f"{info['load_average'][0]:.2f}")

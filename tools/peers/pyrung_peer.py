@@ -8,12 +8,21 @@ its default history settings). pyrung is driven through its public API (`PLC.ste
 from __future__ import annotations
 
 import random
+from pathlib import Path
 from typing import Any
 
+from softplc.errors import SoftPLCError
 from softplc.plc import PLC
 
+from . import drawing_table_pyrung
 from .common import best_per_batch, best_per_call, version_of
-from .programs import chain_program, timer_counter_program, timer_counter_pyrung, to_pyrung
+from .programs import (
+    ROOT,
+    chain_program,
+    timer_counter_program,
+    timer_counter_pyrung,
+    to_pyrung,
+)
 
 
 def available() -> str | None:
@@ -58,7 +67,9 @@ def crosscheck_chain(il: str, trials: int = 3) -> bool:
     return ok
 
 
-def run(scans: int = 200, repeat: int = 3, warmup: int = 20) -> dict[str, Any]:
+def run(scans: int = 200, repeat: int = 3, warmup: int = 20,
+        drawing_table: Path | None = ROOT / "ladder_programs" / "drawing_table.il"
+        ) -> dict[str, Any]:
     """{case: {softplc_us, pyrung_us, ratio, ...}} for the chain and timer/counter programs."""
     reason = available()
     if reason:
@@ -90,7 +101,31 @@ def run(scans: int = 200, repeat: int = 3, warmup: int = 20) -> dict[str, Any]:
     t_py, _ = _pyrung_time(logic, 0.01, scans, repeat, warmup)
     out["timers_counters"] = _row("50 TON timers + 50 up-counters", plc, t_soft, t_py,
                                   same=None)
+    out["drawing_table"] = _drawing_table(drawing_table, scans, repeat, warmup)
     return out
+
+
+def _drawing_table(il: Path | None, scans: int, repeat: int, warmup: int) -> dict[str, Any]:
+    """The drawing-table logic (no simulated devices on either side), moving a segment."""
+    label = "drawing_table.il logic (Bresenham moving)"
+    cfg = il.with_suffix(".toml") if il else None
+    if il is None or not il.exists():
+        return {"label": label, "error": f"{il} not found"}
+    try:
+        plc = PLC.from_file(il, cfg, devices=False)
+    except SoftPLCError as e:
+        return {"label": label, "error": f"softplc cannot load it yet: {e}"}
+    dt = drawing_table_pyrung
+    dt.apply_stimulus_softplc(plc)
+    t_soft = best_per_batch(plc.scan, scans, repeat, warmup)
+    logic, tags = dt.build()
+    t_py, _ = _pyrung_time(logic, plc.scan_period, scans, repeat, warmup,
+                           lambda py: dt.apply_stimulus_pyrung(tags))
+    diff = dt.crosscheck(str(il), str(cfg))
+    row = _row(label, plc, t_soft, t_py, same=not diff)
+    if diff:
+        row["differs"] = diff
+    return row
 
 
 def _row(label: str, plc: PLC, t_soft: float, t_py: float, same: bool | None) -> dict:

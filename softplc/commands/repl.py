@@ -1,0 +1,43 @@
+"""`softplc repl PROGRAM.il [--config machine.toml]`: the interactive debugger, on the
+virtual clock, with the machine's simulated devices attached."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "repl", help="debug a program interactively (breakpoints, stepping, ladder view)",
+        description="Load PROGRAM.il on the virtual clock (with the simulated devices of the "
+                    "machine configuration) and debug it: scan/step/stepi/run/continue, "
+                    "breakpoints on rungs, labels and conditions, watches, print/set/force, "
+                    "the live ladder view of a rung, going back in time. 'help' inside "
+                    "lists the commands.")
+    p.add_argument("program", type=Path, help="Instruction List program (.il)")
+    p.add_argument("--config", type=Path, help="machine configuration (TOML)")
+    p.add_argument("-x", "--execute", action="append", default=[], metavar="CMD",
+                   help="run this debugger command first (repeatable); end with -x quit "
+                        "for a batch run")
+    p.add_argument("--history", type=int, default=1000,
+                   help="scans kept for 'back' (default 1000)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..debug.repl import run_repl
+    from ..debug.session import Session
+    from ..plc import PLC
+
+    plc = PLC.from_file(args.program, config=args.config, clock="virtual")
+    session = Session(plc, args.program, history=max(1, args.history))
+    n = len(plc.ast.rungs)
+    intro = (f"softplc debugger: {args.program} ({n} rungs), scan period "
+             f"{plc.scan_period * 1000:g} ms, virtual clock"
+             + (f", devices: {', '.join(plc.devices)}" if plc.devices else "")
+             + "\ntype 'help' for the commands, 'quit' to leave")
+    try:
+        return run_repl(session, intro, args.execute)
+    finally:
+        plc.close()

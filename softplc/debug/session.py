@@ -1,0 +1,976 @@
+"""The debugger's command API, independent of the terminal.
+
+    s = Session(plc, program_path="x.il")
+    print(s.execute("break 13"))      # every command returns the text to show
+    print(s.execute("continue"))
+
+Execution: one scan in progress at most, kept as a generator over the debug build
+(`plc.engine.scan_stepwise(dbg.main)`), which stops *before* each instruction. `stepi` /
+`step` advance it by one instruction / to the start of the next rung; `scan`, `run` and
+`continue` finish it and run whole scans, with the fast build when no rung breakpoint needs
+the debug build (watches and conditions are then checked once per scan). The last scan of
+a batch always runs the debug build so that `rung N` shows this scan's power flow.
+
+History: a bounded ring of snapshots taken at the start of every scan (memory, clock, scan
+statistics, edge memory, device state); `back N` restores one.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import difflib
+import math
+import re
+import struct
+from collections import deque
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+from ..address import IO_KINDS, Ref, parse_address
+from ..config import duration
+from ..errors import ConfigError, SoftPLCError
+from ..il import ast as A
+from ..il.parser import parse_file
+from ..il.printer import format_instruction
+from ..plc import PLC
+from . import ladder
+
+HISTORY = 1000  # scans kept for `back`
+CONTINUE_LIMIT = 100_000  # scans `continue` runs before giving up
+WORDS = ("MW", "KW", "SW")
+DWORDS = ("MD", "KD")
+FLOATS = ("MF", "KF")
+CMP_OPS = {"=": lambda a, b: a == b, "==": lambda a, b: a == b, "<>": lambda a, b: a != b,
+           "!=": lambda a, b: a != b, "<": lambda a, b: a < b, "<=": lambda a, b: a <= b,
+           ">": lambda a, b: a > b, ">=": lambda a, b: a >= b}
+_COND = re.compile(r"^\s*(\S+)\s*(==|=|<>|!=|<=|>=|<|>)\s*(\S+)\s*$")
+_IO_RANGE = re.compile(r"^(%[IQ]\d+\.\d+):(\d+)$", re.I)
+
+
+class DebugError(SoftPLCError):
+    """A command the debugger cannot do (bad argument, unknown rung...)."""
+
+
+@dataclasses.dataclass
+class Breakpoint:
+    id: int
+    kind: str  # rung | cond | watch
+    text: str  # as shown in the list
+    rung: int | None = None
+    key: str = ""  # how the rung was named (re-resolved after reload)
+    test: Callable[[], Any] | None = None  # cond: -> bool; watch: -> value
+    mode: str = ""  # cond: "" (becomes true) | rises | falls | changes
+    enabled: bool = True
+    hits: int = 0
+    last: Any = None
+
+
+@dataclasses.dataclass
+class Change:
+    scan: int
+    time: float
+    where: str
+    old: Any
+    new: Any
+
+
+def parse_value(text: str) -> int | float:
+    """A number as the user types it: 12, -3, 16#FF, 0xFF, 2#1010, 1.5, true/false."""
+    t = text.strip().lower().replace("_", "")
+    if t in ("true", "on"):
+        return 1
+    if t in ("false", "off"):
+        return 0
+    try:
+        if t.startswith("16#"):
+            return int(t[3:], 16)
+        if t.startswith("2#"):
+            return int(t[2:], 2)
+        if t.startswith(("0x", "-0x")):
+            return int(t, 16)
+        return int(t)
+    except ValueError:
+        pass
+    try:
+        v = float(t)
+    except ValueError:
+        raise DebugError(f"bad value {text!r}: a number (12, -3, 16#FF, 2#1010, 1.5)") from None
+    if not math.isfinite(v):
+        raise DebugError(f"bad value {text!r}")
+    return v
+
+
+class Session:
+    """A debugging session over one PLC. `execute(line)` runs a command, returns text."""
+
+    def __init__(self, plc: PLC, program_path: str | Path | None = None,
+                 history: int = HISTORY):
+        self.plc = plc
+        self.path = Path(program_path) if program_path else None
+        self.dbg = plc.compile_debug()
+        self.gen: Iterator[tuple[int, int]] | None = None
+        self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
+        self.ring: deque[dict[str, Any]] = deque(maxlen=history)
+        self.breaks: list[Breakpoint] = []
+        self.next_id = 1
+        self.changes: dict[str, deque[Change]] = {}
+        self.pending: list[tuple[Ref, Any]] = []
+        self.trace_file: Any = None
+        self.trace_writer: Any = None
+        self.trace_refs: list[Ref] = []
+        self.done = False
+        self.interrupted = False
+        self.last_rung = 0
+        self.ran = ""  # what the last step ran, for the watch history
+        self.continue_limit = CONTINUE_LIMIT
+        self._rung_bp: dict[int | None, Breakpoint] = {}
+        self._data = False
+        plc.before_scan.append(self._apply_pending)
+        self.commands: dict[str, tuple[Callable[[str], str], str]] = {}
+        for name in dir(self):
+            if name.startswith("cmd_"):
+                fn = getattr(self, name)
+                self.commands[name[4:]] = (fn, (fn.__doc__ or "").strip())
+        self.aliases = {"c": "continue", "cont": "continue", "s": "step", "si": "stepi",
+                        "p": "print", "b": "break", "q": "quit", "exit": "quit",
+                        "info": "status", "bt": "where", "l": "rungs", "r": "run",
+                        "breaks": "breakpoints", "tb": "breakpoints", "d": "delete"}
+
+    # ---- the command line -------------------------------------------------------------------
+    def execute(self, line: str) -> str:
+        """Run one command line. Errors come back as text: the session never dies of one."""
+        line = line.strip()
+        if not line or line.startswith("#"):
+            return ""
+        word, _, rest = line.partition(" ")
+        fmt = ""
+        if "/" in word and not word.startswith("%"):
+            word, _, fmt = word.partition("/")
+            if not fmt:
+                return "error: a format after / (d u x b f), e.g. print/x %MW0"
+        name = self.aliases.get(word.lower(), word.lower())
+        if name not in self.commands:
+            close = difflib.get_close_matches(name, list(self.commands), 1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            return f"error: unknown command {word!r}{hint}; 'help' lists the commands"
+        fn = self.commands[name][0]
+        try:
+            if name == "print":
+                return fn(rest, fmt)
+            if fmt:
+                raise DebugError(f"{name} takes no /format")
+            return fn(rest.strip())
+        except (SoftPLCError, ValueError, KeyError, IndexError, TypeError, OSError) as e:
+            msg = e.args[0] if isinstance(e, KeyError) and e.args else e
+            return f"error: {msg}"
+
+    def complete_words(self) -> list[str]:
+        """Command names (for tab completion)."""
+        return sorted(self.commands)
+
+    def addresses(self) -> list[str]:
+        """Every object the program names, for tab completion."""
+        found: set[str] = set()
+
+        def walk(x: Any) -> None:
+            if isinstance(x, Ref):
+                found.add(str(x))
+                if x.field is not None or x.bit is not None:
+                    found.add(str(Ref(x.kind, x.index, x.module, x.channel)))
+                if x.offset is not None:
+                    walk(x.offset)
+            elif dataclasses.is_dataclass(x) and not isinstance(x, type):
+                for f in dataclasses.fields(x):
+                    walk(getattr(x, f.name))
+            elif isinstance(x, (list, tuple)):
+                for y in x:
+                    walk(y)
+
+        for r in self.plc.ast.rungs:
+            walk(r.instructions)
+        for kind, blocks in self.plc.mem.blocks.items():
+            for i in blocks:
+                found.add(f"%{kind}{i}")
+        return sorted(found)
+
+    def interrupt(self) -> None:
+        """Ask a running `run`/`continue` to stop at the next scan or instruction (Ctrl-C)."""
+        self.interrupted = True
+
+    # ---- objects -------------------------------------------------------------------------
+    def parse_obj(self, text: str) -> list[Ref]:
+        """An address or a range: `%MW0:15` (15 words), `%Q1.0:8` (8 bits from %Q1.0)."""
+        text = text.strip()
+        m = _IO_RANGE.match(text)
+        if m:
+            first = parse_address(m[1], self.plc.profile)
+            n = int(m[2])
+            refs = []
+            for k in range(n):
+                refs.append(parse_address(f"%{first.kind}{first.module}.{first.channel + k}",
+                                          self.plc.profile))
+            return refs
+        if not text.startswith("%"):
+            raise DebugError(f"{text!r} is not an address (addresses start with %, e.g. %MW3)")
+        ref = parse_address(text, self.plc.profile)
+        if ref.length is not None:
+            step = 2 if ref.kind in DWORDS + FLOATS else 1
+            return [Ref(ref.kind, ref.index + k * step) for k in range(ref.length)]
+        return [ref]
+
+    def read(self, ref: Ref) -> Any:
+        return self.plc.mem.read(ref)
+
+    def fmt(self, ref: Ref, v: Any, f: str = "") -> str:
+        """One value in a format: d (default), u, x, b, f."""
+        if ref.is_block:
+            return ladder.block_summary(v)
+        if isinstance(v, bool) or ref.type == "bool":
+            return "1" if v else "0"
+        bits = 32 if ref.kind in DWORDS + FLOATS else 16
+        if isinstance(v, float):
+            raw = int.from_bytes(struct.pack("<f", v), "little")
+        else:
+            raw = int(v) & ((1 << bits) - 1)
+        if f in ("", "d"):
+            return f"{v:.7g}" if isinstance(v, float) else str(v)
+        if f == "u":
+            return str(raw)
+        if f == "x":
+            return f"16#{raw:0{bits // 4}X}"
+        if f == "b":
+            s = f"{raw:0{bits}b}"
+            return "2#" + "_".join(s[i:i + 4] for i in range(0, bits, 4))
+        if f == "f":
+            if isinstance(v, float):
+                return f"{v:.7g}"
+            if ref.kind in WORDS and ref.bit is None:
+                fam = self.plc.mem.words(ref.kind)
+                if ref.index + 1 >= fam.n:
+                    raise DebugError(f"{ref} is the last word: no float there")
+                return f"{fam.get_f(ref.index):.7g}"
+            return f"{struct.unpack('<f', raw.to_bytes(4, 'little'))[0]:.7g}"
+        raise DebugError(f"unknown format /{f}: use /d /u /x /b /f")
+
+    def show(self, ref: Ref, f: str = "") -> str:
+        v = self.read(ref)
+        s = self.fmt(ref, v, f)
+        if str(ref) in self.plc.forced:
+            s += "  [forced]"
+        if ref.kind in IO_KINDS:
+            fld = (self.plc.mem.i_field if ref.kind == "I" else self.plc.mem.q_field)[ref.index]
+            if bool(fld) != bool(v):
+                s += f"  (field {int(fld)})"
+        return s
+
+    # ---- snapshots ----------------------------------------------------------------------------
+    def _edge(self) -> list[int]:
+        return self.plc.program.namespace.get("_EDGE", [])
+
+    def _snapshot(self) -> dict[str, Any]:
+        eng = self.plc.engine
+        devs = {}
+        for name, dev in self.plc.devices.items():
+            st = {}
+            for k, v in vars(dev).items():
+                if isinstance(v, (bool, int, float, str, tuple)) or v is None:
+                    st[k] = v
+                elif isinstance(v, list):  # append-only records (samples, events)
+                    st[k] = ("__len__", len(v))
+            devs[name] = st
+        return {"mem": self.plc.mem.snapshot(), "now": eng.clock.now_us,
+                "ts": getattr(eng.time_source, "now_us", 0),
+                "stats": dataclasses.replace(eng.stats), "first": dict(eng._first),
+                "state": (eng.state, eng.fault), "edge": list(self._edge()), "devs": devs,
+                "pending": list(self.pending)}
+
+    def _restore(self, snap: dict[str, Any]) -> None:
+        eng = self.plc.engine
+        self.plc.mem.restore(snap["mem"])
+        eng.clock.now_us = snap["now"]
+        if eng.time_source is not None:
+            eng.time_source.now_us = snap["ts"]
+        eng.stats = dataclasses.replace(snap["stats"])
+        eng._first = dict(snap["first"])
+        eng.state, eng.fault = snap["state"]
+        self._edge()[:] = snap["edge"]
+        self.pending = list(snap["pending"])
+        for name, st in snap["devs"].items():
+            dev = self.plc.devices[name]
+            for k, v in st.items():
+                if isinstance(v, tuple) and len(v) == 2 and v[0] == "__len__":
+                    lst = getattr(dev, k)
+                    del lst[v[1]:]
+                else:
+                    setattr(dev, k, v)
+        for name in ("_GA", "_GD"):  # Grafcet transitions of an abandoned scan
+            for ns in (self.plc.program.namespace, self.dbg.namespace):
+                if name in ns:
+                    ns[name].clear()
+
+    # ---- running ---------------------------------------------------------------------------------
+    def _apply_pending(self) -> None:
+        pending, self.pending = self.pending, []
+        for ref, v in pending:
+            self.plc[str(ref)] = v
+
+    def _begin(self) -> None:
+        self.ring.append(self._snapshot())
+
+    def _scan_done(self) -> None:
+        if self.trace_writer is not None:
+            self.trace_writer.writerow([self.plc.scan_count, f"{self.plc.time:.6f}"] +
+                                       [self._trace_value(r) for r in self.trace_refs])
+
+    def _trace_value(self, ref: Ref) -> Any:
+        v = self.read(ref)
+        return int(v) if isinstance(v, bool) else v
+
+    def _tick(self) -> bool:
+        """One step of the debug build: enter a scan (stop before its first instruction) or
+        run the next instruction. True when a scan ended."""
+        if self.gen is None:
+            self._begin()
+            self.gen = self.plc.engine.scan_stepwise(self.dbg.main)
+            self.ran = "scan start"
+        else:
+            r, k = self.pos
+            self.ran = f"rung {r} instr {k}"
+        try:
+            self.pos = next(self.gen)
+            self.last_rung = self.pos[0]
+            return False
+        except StopIteration:
+            self.gen, self.pos = None, None
+            self.ran += " + scan end" if self.ran != "scan start" else ""
+            self._scan_done()
+            return True
+
+    def _fast_scan(self) -> None:
+        self._begin()
+        self.plc.engine.scan()
+        self.ran = "scan"
+        self._scan_done()
+
+    def _check_data(self, commit: bool = True) -> list[str]:
+        """Watches and conditions after a step or a scan: messages of those that hit.
+        With commit False only tell whether one would hit (no state changes)."""
+        hits: list[str] = []
+        for b in self.breaks:
+            if b.kind == "rung" or b.test is None:
+                continue
+            try:
+                v = b.test()
+            except SoftPLCError:
+                continue
+            old = b.last
+            if not commit:
+                if b.enabled and (v != old if b.kind == "watch" or b.mode == "changes" else
+                                  (bool(old) and not v) if b.mode == "falls" else
+                                  (bool(v) and not old)):
+                    return ["hit"]
+                continue
+            b.last = v
+            if b.kind == "watch":
+                if v != old:
+                    self.changes.setdefault(b.text, deque(maxlen=HISTORY)).append(
+                        Change(self.plc.scan_count, self.plc.time, self.ran, old, v))
+                    if b.enabled:
+                        b.hits += 1
+                        hits.append(f"watch #{b.id} {b.text}: {old} -> {v} (in {self.ran})")
+            elif b.enabled:
+                hit = (b.mode in ("", "rises") and v and not old) or \
+                    (b.mode == "falls" and old and not v) or (b.mode == "changes" and v != old)
+                if hit:
+                    b.hits += 1
+                    hits.append(f"breakpoint #{b.id} when {b.text} (in {self.ran})")
+        return hits
+
+    def _hits(self) -> str:
+        hits = self._check_data() if self._data else []
+        if self.pos is not None and self.pos[1] == 0:
+            b = self._rung_bp.get(self.pos[0])
+            if b is not None:
+                b.hits += 1
+                hits.insert(0, f"breakpoint #{b.id} at {b.text}")
+        return "; ".join(hits)
+
+    def _arm(self) -> None:
+        """Index the breakpoints for the per-instruction checks of a run."""
+        self._rung_bp = {}
+        for b in self.breaks:
+            if b.kind == "rung" and b.enabled:
+                self._rung_bp.setdefault(b.rung, b)
+        self._data = any(b.kind != "rung" for b in self.breaks)
+
+    def _debug_scan(self) -> str:
+        """Run the debug build to the end of the scan (starting one if needed); a hit or an
+        interrupt stops it early. Returns why it stopped early, else ''."""
+        while True:
+            done = self._tick()
+            stop = self._hits()
+            if stop or done:
+                return stop
+            if self.interrupted:
+                return "interrupted"
+
+    def _run(self, scans: int | None, *, until_rung_change: bool = False,
+             one_instr: bool = False) -> str:
+        """The one driver. `scans`: whole scans to run after finishing the one in progress;
+        None: a step (one instruction, or to the next rung). Stops at breakpoints."""
+        self.interrupted = False
+        self._arm()
+        stop = ""
+        if scans is None:
+            start_rung = self.pos[0] if self.pos else None
+            while True:
+                done = self._tick()
+                stop = self._hits()
+                if stop:
+                    break
+                if done:
+                    stop = f"scan {self.plc.scan_count} complete"
+                    break
+                if one_instr or self.pos[0] != start_rung or self.interrupted:
+                    break
+        else:
+            if self.gen is not None:
+                stop = self._debug_scan()
+            remaining = scans
+            debug = bool(self._rung_bp)
+            while remaining > 0 and not stop:
+                if self.interrupted:
+                    stop = "interrupted"
+                elif debug or remaining == 1:  # the last scan feeds the power-flow view
+                    stop = self._debug_scan()
+                    if self.gen is None:
+                        remaining -= 1
+                else:
+                    self._fast_scan()
+                    if self._data and self._check_data(commit=False):
+                        # replay the scan on the debug build to stop where it happened
+                        self._restore(self.ring.pop())
+                        stop = self._debug_scan()
+                        if self.gen is None:
+                            remaining -= 1
+                    else:
+                        remaining -= 1
+                        stop = self._hits()
+        msgs = [stop] if stop else []
+        if self.plc.state != "RUN":
+            msgs.append(f"PLC in {self.plc.state}" + (f": {self.plc.fault}"
+                                                        if self.plc.fault else ""))
+        msgs.append(self._position())
+        return "\n".join(msgs)
+
+    def _position(self) -> str:
+        t = f"scan {self.plc.scan_count}, t = {self.plc.time:.3f} s"
+        if self.pos is None:
+            return f"[{t}] at the scan boundary"
+        r, k = self.pos
+        rung = self.plc.ast.rungs[r]
+        ins = rung.instructions[k] if k < len(rung.instructions) else None
+        text = format_instruction(ins) if ins is not None else ""
+        title = f" ({rung.title})" if rung.title else ""
+        return f"[{t}] before rung {r}{title} instr {k}: {text}"
+
+    # ---- commands: execution -----------------------------------------------------------------
+    def cmd_scan(self, arg: str) -> str:
+        """scan [N]: finish the scan in progress, then run N more scans (default 1; 0 when a
+        scan is in progress). Stops at breakpoints."""
+        n = self._count(arg, 0 if self.gen is not None else 1)
+        return self._run(n)
+
+    def cmd_step(self, arg: str) -> str:
+        """step [N]: run to the start of the next rung (entering a scan if at the boundary)."""
+        out = ""
+        for _ in range(self._count(arg, 1)):
+            out = self._run(None, until_rung_change=True)
+            if "breakpoint" in out or "watch" in out:
+                break
+        return out
+
+    def cmd_stepi(self, arg: str) -> str:
+        """stepi [N]: run one instruction (entering a scan if at the boundary)."""
+        out = ""
+        for _ in range(self._count(arg, 1)):
+            out = self._run(None, one_instr=True)
+            if "breakpoint" in out or "watch" in out:
+                break
+        return out
+
+    def cmd_run(self, arg: str) -> str:
+        """run N | run Ts: run N scans (run 100) or T seconds of PLC time (run 2s, run 500ms).
+        Stops at breakpoints."""
+        a = arg.strip()
+        if not a:
+            raise DebugError("run N (scans) or run T (seconds, e.g. 2s, 500ms)")
+        if re.fullmatch(r"\d+", a):
+            n = int(a)
+        else:
+            try:
+                secs = duration(a, "run")
+            except ConfigError as e:
+                raise DebugError(str(e)) from None
+            n = max(1, round(secs / self.plc.scan_period))
+        if self.gen is not None:
+            n = max(0, n - 1)  # the scan in progress counts as one
+        return self._run(n)
+
+    def cmd_continue(self, arg: str) -> str:
+        """continue: run until a breakpoint or watch stops it (at most 100000 scans;
+        Ctrl-C stops it)."""
+        if not self.breaks or not any(b.enabled for b in self.breaks):
+            raise DebugError("no breakpoint is enabled: continue would never stop "
+                             "(use 'run N' or set one with 'break')")
+        out = self._run(self.continue_limit)
+        if "breakpoint" not in out and "watch" not in out and "interrupted" not in out:
+            out = f"no breakpoint hit in {self.continue_limit} scans\n" + out
+        return out
+
+    def _count(self, arg: str, default: int) -> int:
+        if not arg:
+            return default
+        try:
+            n = int(arg)
+        except ValueError:
+            raise DebugError(f"{arg!r} is not a count") from None
+        if n < 0:
+            raise DebugError("the count must be >= 0")
+        return n
+
+    def cmd_back(self, arg: str) -> str:
+        """back [N]: go back N scans (default 1; a scan in progress counts as one)."""
+        n = self._count(arg, 1)
+        if n == 0:
+            return self._position()
+        if n > len(self.ring):
+            raise DebugError(f"only {len(self.ring)} scans of history")
+        if self.gen is not None:
+            self.gen.close()
+            self.gen, self.pos = None, None
+        snap = None
+        for _ in range(n):
+            snap = self.ring.pop()
+        queued = self.pending  # sets typed since the last scan stay queued
+        self._restore(snap)
+        self.pending += [q for q in queued if q not in self.pending]
+        for hist in self.changes.values():  # changes from the undone scans are gone
+            while hist and hist[-1].scan >= self.plc.scan_count:
+                hist.pop()
+        for b in self.breaks:
+            if b.test is not None:
+                try:
+                    b.last = b.test()
+                except SoftPLCError:
+                    pass
+        return self._position()
+
+    # ---- commands: breakpoints -----------------------------------------------------------------
+    def _resolve_rung(self, key: str) -> A.Rung:
+        key = key.strip()
+        m = re.fullmatch(r"%L(\d+):?", key, re.I)
+        if m:
+            for r in self.plc.ast.rungs:
+                if r.label == int(m[1]):
+                    return r
+            raise DebugError(f"no label %L{m[1]} in the program")
+        if not key:
+            raise DebugError("which rung? a number, a title or a label %Li")
+        try:
+            return self.plc.ast.rung(key)
+        except (KeyError, IndexError):
+            raise DebugError(f"no rung {key!r} (rungs are 0..{len(self.plc.ast.rungs) - 1}; "
+                             f"'rungs' lists the titles)") from None
+
+    def _add(self, **kw: Any) -> Breakpoint:
+        b = Breakpoint(self.next_id, **kw)
+        self.next_id += 1
+        if b.test is not None:
+            b.last = b.test()
+        self.breaks.append(b)
+        return b
+
+    def cmd_break(self, arg: str) -> str:
+        """break RUNG | break %Li | break when COND: stop before a rung (number or title), at a
+        label, or when a condition becomes true: `break when %MW32 = 100` (= <> < <= > >=, a
+        value or an address on the right), `break when %M33 rises` (falls, changes).
+        Without argument: list the breakpoints."""
+        if not arg:
+            return self.cmd_breakpoints("")
+        m = re.match(r"when\s+(.*)$", arg, re.I)
+        if m:
+            return self._break_when(m[1])
+        r = self._resolve_rung(arg)
+        b = self._add(kind="rung", text=r.name, rung=r.index, key=arg)
+        return f"breakpoint #{b.id} at {r.name}"
+
+    def _break_when(self, text: str) -> str:
+        parts = text.split()
+        if len(parts) == 2 and parts[1].lower() in ("rises", "falls", "changes"):
+            refs = self.parse_obj(parts[0])
+            if len(refs) != 1:
+                raise DebugError("a condition names one object, not a range")
+            ref = refs[0]
+            b = self._add(kind="cond", text=f"{ref} {parts[1].lower()}",
+                          test=lambda: self.read(ref), mode=parts[1].lower())
+            return f"breakpoint #{b.id} when {b.text}"
+        m = _COND.match(text)
+        if not m:
+            raise DebugError("condition: ADDR OP VALUE (e.g. %MW32 = 100) or ADDR rises / "
+                             "falls / changes")
+        left = self.parse_obj(m[1])
+        if len(left) != 1:
+            raise DebugError("a condition names one object, not a range")
+        lref, op = left[0], CMP_OPS[m[2]]
+        if m[3].startswith("%"):
+            rref = self.parse_obj(m[3])[0]
+
+            def right() -> Any:
+                return self.read(rref)
+        else:
+            val = parse_value(m[3])
+
+            def right() -> Any:
+                return val
+        b = self._add(kind="cond", text=f"{lref} {m[2]} {m[3]}",
+                      test=lambda: bool(op(self.read(lref), right())))
+        return f"breakpoint #{b.id} when {b.text}" + (" (true now: stops when it becomes "
+                                                      "true again)" if b.last else "")
+
+    def cmd_watch(self, arg: str) -> str:
+        """watch ADDR: stop when the object changes (a data breakpoint); its changes are
+        kept for `history`."""
+        refs = self.parse_obj(arg) if arg else []
+        if len(refs) != 1:
+            raise DebugError("watch one object, e.g. watch %MW32")
+        ref = refs[0]
+        b = self._add(kind="watch", text=str(ref), test=lambda: self.read(ref))
+        self.changes.setdefault(b.text, deque(maxlen=HISTORY))
+        return f"watch #{b.id} {ref} (now {self.fmt(ref, b.last)})"
+
+    def cmd_breakpoints(self, arg: str) -> str:
+        """breakpoints: list breakpoints and watches."""
+        if not self.breaks:
+            return "no breakpoints"
+        lines = []
+        for b in self.breaks:
+            what = {"rung": "at", "cond": "when", "watch": "watch"}[b.kind]
+            lines.append(f"#{b.id:<3} {what} {b.text}{'' if b.enabled else '  (disabled)'}"
+                         f"  hits {b.hits}")
+        return "\n".join(lines)
+
+    def _ids(self, arg: str) -> list[Breakpoint]:
+        if not arg or arg == "all":
+            return list(self.breaks)
+        out = []
+        for t in arg.replace(",", " ").split():
+            try:
+                i = int(t.lstrip("#"))
+            except ValueError:
+                raise DebugError(f"{t!r} is not a breakpoint number") from None
+            b = next((b for b in self.breaks if b.id == i), None)
+            if b is None:
+                raise DebugError(f"no breakpoint #{i}")
+            out.append(b)
+        return out
+
+    def cmd_delete(self, arg: str) -> str:
+        """delete [ID...]: delete breakpoints/watches (all without argument)."""
+        gone = self._ids(arg)
+        self.breaks = [b for b in self.breaks if b not in gone]
+        return f"deleted {len(gone)} breakpoint(s)"
+
+    def cmd_disable(self, arg: str) -> str:
+        """disable [ID...]: disable breakpoints (all without argument)."""
+        for b in self._ids(arg):
+            b.enabled = False
+        return self.cmd_breakpoints("")
+
+    def cmd_enable(self, arg: str) -> str:
+        """enable [ID...]: enable breakpoints (all without argument)."""
+        for b in self._ids(arg):
+            b.enabled = True
+        return self.cmd_breakpoints("")
+
+    def cmd_history(self, arg: str) -> str:
+        """history [ADDR]: the recorded changes of watched objects (watch them first)."""
+        keys = [str(self.parse_obj(arg)[0])] if arg else list(self.changes)
+        if not keys:
+            return "nothing watched: 'watch ADDR' records the changes of an object"
+        lines = []
+        for key in keys:
+            if key not in self.changes:
+                raise DebugError(f"{key} is not watched: 'watch {key}' first")
+            hist = self.changes[key]
+            lines.append(f"{key}: {len(hist)} change(s)")
+            for c in hist:
+                lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {c.where:<18} "
+                             f"{c.old} -> {c.new}")
+        return "\n".join(lines)
+
+    # ---- commands: data -----------------------------------------------------------------------
+    def cmd_print(self, arg: str, fmt: str = "") -> str:
+        """print[/FMT] ADDR...: show objects or ranges: %MW0:15 (15 words from %MW0),
+        %Q1.0:8 (8 bits), %MF40, %TM0, %C0. FMT: d decimal, u unsigned, x hex, b binary,
+        f float (a word pair as %MF). Forced values are marked [forced]."""
+        if not arg.strip():
+            raise DebugError("print what? e.g. print %MW0, print/x %MW0:8")
+        fmt = fmt.lower()
+        if fmt not in ("", "d", "u", "x", "b", "f"):
+            raise DebugError(f"unknown format /{fmt}: use /d /u /x /b /f")
+        lines = []
+        for a in arg.split():
+            refs = self.parse_obj(a)
+            if len(refs) == 1:
+                lines.append(f"{refs[0]} = {self.show(refs[0], fmt)}")
+                continue
+            per = 8 if fmt in ("", "d", "u", "f") else 4
+            for i in range(0, len(refs), per):
+                chunk = refs[i:i + per]
+                vals = []
+                for r in chunk:
+                    s = self.fmt(r, self.read(r), fmt)
+                    vals.append(s + ("F" if str(r) in self.plc.forced else ""))
+                lines.append(f"{str(chunk[0]) + ':':<9} " + " ".join(f"{v:>6}" for v in vals))
+        return "\n".join(lines)
+
+    def _check_set(self, refs: list[Ref], values: list[str]) -> list[tuple[Ref, Any]]:
+        if len(values) != len(refs):
+            raise DebugError(f"{len(refs)} object(s) but {len(values)} value(s)")
+        out = []
+        for ref, t in zip(refs, values, strict=True):
+            if not (ref.writable or ref.kind == "I"):
+                raise DebugError(f"{ref} is read-only" + (" (a constant: set it in the "
+                                                          "configuration)" if ref.kind in
+                                                          ("KW", "KD", "KF") else ""))
+            v = parse_value(t)
+            if ref.type == "bool":
+                if v not in (0, 1):
+                    raise DebugError(f"{ref} is a bit: 0 or 1, not {t}")
+            elif ref.type == "int16" and not -32768 <= v <= 65535:
+                raise DebugError(f"{t} does not fit the word {ref}")
+            elif ref.type == "int32" and not -2**31 <= v < 2**32:
+                raise DebugError(f"{t} does not fit the double word {ref}")
+            if ref.type != "real" and isinstance(v, float):
+                if v != int(v):
+                    raise DebugError(f"{ref} holds integers, not {t}")
+                v = int(v)
+            out.append((ref, v))
+        return out
+
+    def cmd_set(self, arg: str) -> str:
+        """set ADDR VALUE...: write an object at the start of the next scan (a range takes
+        one value per object: set %MW0:3 1 2 3). %I writes go to the field input."""
+        parts = arg.split()
+        if len(parts) < 2:
+            raise DebugError("set ADDR VALUE, e.g. set %MW3 120")
+        items = self._check_set(self.parse_obj(parts[0]), parts[1:])
+        self.pending.extend(items)
+        return "queued for the next scan: " + ", ".join(f"{r} := {v}" for r, v in items)
+
+    def cmd_force(self, arg: str) -> str:
+        """force ADDR VALUE: hold an object at a value every scan (force alone lists)."""
+        parts = arg.split()
+        if not parts:
+            f = self.plc.forced
+            return "\n".join(f"{k} = {v}" for k, v in f.items()) if f else "nothing forced"
+        refs = self.parse_obj(parts[0])
+        if len(refs) != 1:
+            raise DebugError("force one object at a time")
+        (ref, v), = self._check_set(refs, parts[1:])
+        if ref.offset is not None:
+            raise DebugError("an indexed object cannot be forced")
+        self.plc.force(str(ref), v)
+        return f"{ref} forced to {v}"
+
+    def cmd_unforce(self, arg: str) -> str:
+        """unforce [ADDR | all]: release a forced object (all without argument)."""
+        if not arg or arg == "all":
+            n = len(self.plc.forced)
+            self.plc.unforce()
+            return f"released {n} forced object(s)"
+        ref = self.parse_obj(arg)[0]
+        if str(ref) not in self.plc.forced:
+            raise DebugError(f"{ref} is not forced")
+        self.plc.unforce(str(ref))
+        return f"{ref} released"
+
+    def cmd_timers(self, arg: str) -> str:
+        """timers: every timer with its type, base, preset, value and output."""
+        tms = self.plc.mem.blocks.get("TM", {})
+        if not tms:
+            return "no timers"
+        lines = []
+        for i, t in sorted(tms.items()):
+            lines.append(f"%TM{i:<3} {t.type:<3} base {t.base:<5} P={t.P:<5} V={t.V:<5} "
+                         f"Q={int(t.Q)} IN={int(t._in)}")
+        return "\n".join(lines)
+
+    def cmd_counters(self, arg: str) -> str:
+        """counters: every counter with its preset, value and outputs (D done, E/F
+        underflow/overflow)."""
+        cs = self.plc.mem.blocks.get("C", {})
+        if not cs:
+            return "no counters"
+        return "\n".join(f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} "
+                         f"F={int(c.F)}" for i, c in sorted(cs.items()))
+
+    def cmd_status(self, arg: str) -> str:
+        """status: PLC state, scan count, virtual time, scan times, position, forced."""
+        st = self.plc.stats
+        n = max(1, st.scans)
+        lines = [f"state    {self.plc.state}" + (f" ({self.plc.fault})" if self.plc.fault
+                                                  else ""),
+                 f"scans    {st.scans}   time {self.plc.time:.3f} s   period "
+                 f"{self.plc.scan_period * 1000:g} ms",
+                 f"scan     last {st.last * 1e6:.0f} us  min {st.min * 1e6:.0f} us  max "
+                 f"{st.max * 1e6:.0f} us  mean {st.total / n * 1e6:.0f} us (execution, wall)",
+                 f"position {self._position()}",
+                 f"history  {len(self.ring)} scans (back)",
+                 f"forced   {', '.join(f'{k}={v}' for k, v in self.plc.forced.items()) or '-'}"]
+        if self.pending:
+            lines.append("pending  " + ", ".join(f"{r} := {v}" for r, v in self.pending))
+        if self.breaks:
+            lines.append(f"breaks   {len(self.breaks)}")
+        if self.trace_writer is not None:
+            lines.append(f"trace    {', '.join(map(str, self.trace_refs))} -> "
+                         f"{self.trace_file.name}")
+        for name, dev in self.plc.devices.items():
+            info = dev.status()
+            if info:
+                lines.append(f"device   {name}: " + " ".join(f"{k}={v}" for k, v in info.items()))
+        return "\n".join(lines)
+
+    def cmd_where(self, arg: str) -> str:
+        """where: the current position (the next instruction to run)."""
+        return self._position()
+
+    def cmd_trace(self, arg: str) -> str:
+        """trace ADDR... to FILE.csv: record these objects at the end of every scan from now
+        on (trace off: stop)."""
+        if arg.strip().lower() in ("off", "stop"):
+            if self.trace_file is None:
+                return "no trace running"
+            name = self.trace_file.name
+            self._close_trace()
+            return f"trace to {name} stopped"
+        m = re.match(r"(.+?)\s+to\s+(\S+)$", arg)
+        if not m:
+            raise DebugError("trace ADDR... to FILE.csv")
+        refs = [r for a in m[1].split() for r in self.parse_obj(a)]
+        self._close_trace()
+        self.trace_file = open(m[2], "w", newline="", encoding="utf-8")  # noqa: SIM115
+        self.trace_writer = csv.writer(self.trace_file)
+        self.trace_refs = refs
+        self.trace_writer.writerow(["scan", "t"] + [str(r) for r in refs])
+        return f"tracing {', '.join(map(str, refs))} to {m[2]} every scan"
+
+    def _close_trace(self) -> None:
+        if self.trace_file is not None:
+            self.trace_file.close()
+        self.trace_file = self.trace_writer = None
+        self.trace_refs = []
+
+    # ---- commands: program --------------------------------------------------------------------
+    def cmd_rung(self, arg: str) -> str:
+        """rung [N | TITLE]: the rung as a ladder with live power flow (double lines) and
+        values (F = forced); > marks the next instruction. Default: the current rung."""
+        r = self._resolve_rung(arg) if arg else self.plc.ast.rungs[self.last_rung]
+        live = ladder.Live(self.read, self.dbg.log[r.index] if r.index < len(self.dbg.log)
+                           else None, set(self.plc.forced))
+        marker = self.pos[1] if self.pos and self.pos[0] == r.index else None
+        text = ladder.render_text(r, live, marker=marker)
+        if self.pos is not None and (r.index > self.pos[0] or marker is not None):
+            text += "(power flow of the previous scan where this scan has not run yet)\n"
+        return text.rstrip("\n")
+
+    def cmd_rungs(self, arg: str) -> str:
+        """rungs: list the rungs (* breakpoint, > current)."""
+        bp = {b.rung for b in self.breaks if b.kind == "rung" and b.enabled}
+        lines = []
+        for r in self.plc.ast.rungs:
+            mark = (">" if self.pos and self.pos[0] == r.index else " ") + \
+                ("*" if r.index in bp else " ")
+            where = f"SR{r.subroutine} " if r.subroutine is not None else ""
+            lbl = f"%L{r.label}: " if r.label is not None else ""
+            lines.append(f"{mark}{r.index:>4}  {where}{lbl}{r.title or '(no title)'}")
+        return "\n".join(lines)
+
+    def cmd_reload(self, arg: str) -> str:
+        """reload: re-read the program file, keep memory, report the rungs added, removed,
+        modified. A scan in progress is finished first."""
+        if self.path is None:
+            raise DebugError("the program was not loaded from a file")
+        new = parse_file(self.path)
+        pre = ""
+        if self.gen is not None:
+            self._run(0)
+            pre = "finished the scan in progress\n"
+        old = self.plc.ast
+        self.plc.replace_program(new)
+        self.dbg = self.plc.compile_debug()
+        report = diff_programs(old, new)
+        for b in self.breaks:
+            if b.kind == "rung":
+                try:
+                    r = self._resolve_rung(b.key)
+                    b.rung, b.text = r.index, r.name
+                except DebugError:
+                    b.enabled = False
+                    report.append(f"breakpoint #{b.id} ({b.key}) disabled: no such rung now")
+        self.last_rung = min(self.last_rung, max(0, len(new.rungs) - 1))
+        return pre + (f"reloaded {self.path}: " + ("; ".join(report) if report else
+                                                   "no change"))
+
+    def cmd_help(self, arg: str) -> str:
+        """help [COMMAND]: list the commands, or explain one."""
+        if arg:
+            name = self.aliases.get(arg, arg)
+            if name not in self.commands:
+                raise DebugError(f"no command {arg!r}")
+            return self.commands[name][1]
+        lines = ["commands (help NAME for details):"]
+        for name, (_, doc) in sorted(self.commands.items()):
+            lines.append(f"  {doc.splitlines()[0] if doc else name}")
+        lines.append("aliases: " + ", ".join(f"{a}={n}" for a, n in sorted(self.aliases.items())))
+        return "\n".join(lines)
+
+    def cmd_quit(self, arg: str) -> str:
+        """quit: leave the debugger."""
+        self.close()
+        self.done = True
+        return "bye"
+
+    def close(self) -> None:
+        self._close_trace()
+        if self.gen is not None:
+            self.gen.close()
+            self.gen = None
+        if self._apply_pending in self.plc.before_scan:
+            self.plc.before_scan.remove(self._apply_pending)
+
+
+def diff_programs(old: A.Program, new: A.Program) -> list[str]:
+    """What changed between two versions of a program, rung by rung."""
+    def sig(r: A.Rung) -> tuple[Any, ...]:
+        return (r.title, r.label, r.subroutine, tuple(r.instructions))
+
+    a, b = [sig(r) for r in old.rungs], [sig(r) for r in new.rungs]
+    added, removed, modified = [], [], []
+    sm = difflib.SequenceMatcher(None, a, b, autojunk=False)
+    for op, i1, i2, j1, j2 in sm.get_opcodes():
+        if op == "equal":
+            continue
+        olds, news = old.rungs[i1:i2], new.rungs[j1:j2]
+        paired = min(len(olds), len(news)) if op == "replace" else 0
+        modified += [n.name for n in news[:paired]]
+        removed += [o.name for o in olds[paired:]]
+        added += [n.name for n in news[paired:]]
+    out = []
+    for what, names in (("added", added), ("removed", removed), ("modified", modified)):
+        if names:
+            out.append(f"{what}: " + ", ".join(names))
+    return out

@@ -1,0 +1,72 @@
+"""`python -m softplc run` as a subprocess on a free loopback port, for end-to-end tests."""
+
+from __future__ import annotations
+
+import os
+import queue
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from softplc.modbus.rawclient import RawClient
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class Daemon:
+    """`python -m softplc run` on a free port; stdout lines collected by a thread."""
+
+    def __init__(self, tmp: Path, *args: str, program: str | Path = "", wait: bool = True):
+        if isinstance(program, Path):  # an existing program file
+            prog = program
+        else:
+            prog = tmp / "prog.il"
+            prog.write_text(program)
+        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get(
+            "PYTHONPATH", ""))
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "softplc", "run", str(prog), "--port", "0", *args],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp)
+        self.lines: queue.Queue[str] = queue.Queue()
+        self.out: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+        self.port = 0
+        if wait:
+            line = self.wait_for(r"listening on 127\.0\.0\.1:(\d+)")
+            self.port = int(re.search(r":(\d+)$", line.strip())[1])
+
+    def _read(self) -> None:
+        for line in self.proc.stdout:  # type: ignore[union-attr]
+            self.lines.put(line)
+        self.lines.put("")
+
+    def wait_for(self, pattern: str, timeout: float = 15.0) -> str:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            try:
+                line = self.lines.get(timeout=max(0.01, end - time.monotonic()))
+            except queue.Empty:
+                break
+            if line == "":
+                raise AssertionError(f"daemon exited; output: {''.join(self.out)}; "
+                                     f"stderr: {self.proc.stderr.read()}")  # type: ignore
+            self.out.append(line)
+            if re.search(pattern, line):
+                return line
+        raise AssertionError(f"no line matching {pattern!r} in {''.join(self.out)}")
+
+    def client(self) -> RawClient:
+        return RawClient("127.0.0.1", self.port, timeout=5)
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 10.0) -> int:
+        self.proc.send_signal(sig)
+        return self.proc.wait(timeout)
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait(10)

@@ -1,0 +1,82 @@
+"""Smoke test of the benchmarks: they run and return well-formed figures.
+
+Never asserts a time threshold (CONTRIBUTING: tests check behaviour, not speed)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+TOOLS = Path(__file__).resolve().parents[1] / "tools"
+sys.path.insert(0, str(TOOLS))
+
+import bench_engine  # noqa: E402
+import bench_peers  # noqa: E402
+from peers.programs import chain_program, mixed_program, to_stl  # noqa: E402
+
+from softplc.plc import PLC  # noqa: E402
+
+
+def _positive(x: object) -> bool:
+    return isinstance(x, float) and math.isfinite(x) and x > 0
+
+
+def test_engine_benchmark_tiny(tmp_path: Path) -> None:
+    (tmp_path / "good.il").write_text("LD %M0\nANDN %M1\nST %Q0.0\n")
+    (tmp_path / "bad.il").write_text("LD %M0\nFROB %M1\n")
+    res = bench_engine.run(tiny=True, programs_dir=tmp_path)
+    b = res["boolean"]
+    assert b["instructions"] == 40
+    for key in ("main_us", "scan_us", "main_ns_per_instr", "scan_ns_per_instr"):
+        assert _positive(b[key]), key
+    assert res["mixed40"]["rungs"] == 40 and _positive(res["mixed40"]["scan_us"])
+    by_name = {p["program"]: p for p in res["programs"]}
+    assert set(by_name) == {"good.il", "bad.il"}
+    assert by_name["good.il"]["instructions"] == 3 and _positive(by_name["good.il"]["scan_us"])
+    assert "error" in by_name["bad.il"] and "main_us" not in by_name["bad.il"]
+    text = bench_engine.report(res)
+    assert "bad.il" in text and "error" in text
+    assert len(bench_engine.verdicts(res)) == 3
+
+
+def test_generated_programs_have_the_announced_size() -> None:
+    plc = PLC.from_source(chain_program(3))
+    assert plc.program.instruction_count == 15 and len(plc.rungs) == 3
+    text, cfg = mixed_program(40)
+    assert len(PLC.from_source(text, cfg).rungs) == 40
+    stl, n = to_stl(chain_program(2))
+    assert n == 12 and stl.count("U(") == 2 and stl.startswith("ORGANIZATION_BLOCK OB 1")
+
+
+def test_peer_table_ratios_and_unavailable_peers() -> None:
+    res = {
+        "pyrung": {"unavailable": "ModuleNotFoundError: No module named 'pyrung'"},
+        "awlsim": {"boolean": {"label": "b", "il_instructions": 10, "stl_instructions": 12,
+                               "softplc_us": 2.0, "awlsim_us": 200.0,
+                               "softplc_instr_per_s": 5e6, "awlsim_instr_per_s": 6e4,
+                               "ratio": 100.0},
+                   "words": {"label": "w", "error": "AwlSimError: x"}},
+        "modbus": {"softplc": {q: {n: {"requests_per_s": 900.0, "p50_ms": 1.0, "p99_ms": 2.0,
+                                       "errors": 0} for n in ("1", "8")}
+                               for q in ("fc3", "fc16")},
+                   "pymodbus": {q: {n: {"requests_per_s": 1000.0, "p50_ms": 1.0,
+                                        "p99_ms": 2.0, "errors": 0} for n in ("1", "8")}
+                                for q in ("fc3", "fc16")},
+                   "libmodbus": {"unavailable": "gcc not installed"}},
+    }
+    rows = bench_peers.rows(res)
+    assert rows[0]["note"].startswith("unavailable: ModuleNotFoundError")
+    mb = [r for r in rows if r["peer"] == "pymodbus"]
+    assert len(mb) == 4 and all(r["advantage"] == pytest.approx(0.9) and r["met"] for r in mb)
+    assert any(r["peer"] == "libmodbus" and "gcc" in r["note"] for r in rows)
+    assert "unavailable" in bench_peers.report(res)
+
+
+def test_bench_rejects_unknown_section() -> None:
+    r = subprocess.run([sys.executable, str(TOOLS / "bench.py"), "--sections", "engine,warp"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "unknown section" in r.stderr

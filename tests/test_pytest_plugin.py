@@ -1,0 +1,127 @@
+"""The pytest plugin (softplc.testing, entry point pytest11): the `plc` fixture with
+@pytest.mark.plc_program, the `plc_from_source` factory, and the pulse / scan_until
+helpers; both used directly here and in a separate pytest run (pytester).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from softplc import PLC
+from softplc.testing import pulse, scan_until
+
+pytest_plugins = ["pytester"]
+
+MOTOR = """\
+(* start / stop with self-hold *)
+LD    %I0.0
+OR    %Q0.0
+ANDN  %I0.1
+ST    %Q0.0
+LD    %Q0.0
+IN    %TM0
+LD    %TM0.Q
+ST    %Q0.1
+"""
+
+MOTOR_TOML = """\
+scan_period = "10ms"
+[timers."%TM0"]
+type = "TON"
+base = "100ms"
+preset = 5
+"""
+
+
+# ---- used directly --------------------------------------------------------------------------
+@pytest.mark.plc_program("ladder_programs/drawing_table.il",
+                         config="ladder_programs/drawing_table.toml")
+def test_plc_fixture_loads_a_program_relative_to_the_root(plc):
+    assert isinstance(plc, PLC)
+    assert plc.scan_count == 0 and plc.state == "RUN"
+    plc.scan(3)
+    assert plc.scan_count == 3
+    assert plc.rungs
+
+
+def test_plc_from_source_factory(plc_from_source):
+    plc = plc_from_source(MOTOR, {"timers": {"%TM0": {"type": "TON", "base": "100ms",
+                                                       "preset": 5}}})
+    pulse(plc, "%I0.0")
+    assert plc["%Q0.0"] and not plc["%Q0.1"]
+    scan_until(plc, lambda p: p["%Q0.1"], timeout=1)
+    assert 0.45 <= plc.time <= 0.6
+    pulse(plc, "%I0.1")
+    assert not plc["%Q0.0"] and not plc["%Q0.1"]
+
+
+def test_plc_from_source_gives_independent_plcs(plc_from_source):
+    a = plc_from_source("LD 1\n[ INC %MW0 ]\n")
+    b = plc_from_source("LD 1\n[ INC %MW0 ]\n")
+    a.scan(3)
+    assert a["%MW0"] == 3 and b["%MW0"] == 0
+
+
+def test_pulse_holds_for_n_scans(plc_from_source):
+    plc = plc_from_source("LD %I0.0\n[ INC %MW0 ]\n")
+    pulse(plc, "%I0.0", scans=4)
+    assert plc["%MW0"] == 4 and not plc["%I0.0"]
+
+
+# ---- in a separate pytest run ---------------------------------------------------------------
+def test_plugin_in_a_user_project(pytester):
+    pytester.makefile(".il", motor=MOTOR)
+    pytester.makefile(".toml", motor=MOTOR_TOML)
+    pytester.makepyfile(test_motor="""
+import pytest
+from softplc.testing import pulse, scan_until
+
+@pytest.mark.plc_program("motor.il", config="motor.toml")
+def test_start_stop(plc):
+    pulse(plc, "%I0.0")
+    assert plc["%Q0.0"]
+    scan_until(plc, lambda p: p["%Q0.1"], timeout=1.0)
+    pulse(plc, "%I0.1")
+    assert not plc["%Q0.0"]
+
+@pytest.mark.plc_program("motor.il", "motor.toml")
+def test_positional_config(plc):
+    assert plc.scan_period == 0.01
+
+def test_inline(plc_from_source):
+    plc = plc_from_source("LD %I0.0\\nST %Q0.0\\n")
+    pulse(plc, "%I0.0")
+    assert not plc["%Q0.0"]
+
+@pytest.mark.plc_program("motor.il", config="motor.toml")
+def test_times_out(plc):
+    scan_until(plc, lambda p: p["%Q0.1"], timeout=0.2)
+
+def test_needs_the_marker(plc):
+    pass
+""")
+    result = pytester.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(passed=3, failed=1, errors=1)  # a fixture failure is an error
+    result.stdout.fnmatch_lines([
+        "*condition not met within 0.2 s of PLC time*",
+    ])
+    result.stdout.fnmatch_lines(["*needs @pytest.mark.plc_program*"])
+
+
+def test_plugin_reports_program_errors_clearly(pytester):
+    pytester.makefile(".il", bad="LD %M0\nST %I0.0\n")
+    pytester.makepyfile(test_bad="""
+import pytest
+
+@pytest.mark.plc_program("bad.il")
+def test_bad(plc):
+    pass
+""")
+    result = pytester.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(errors=1)
+    result.stdout.fnmatch_lines(["*bad.il:2:1: cannot write %I0.0*"])
+
+
+def test_plugin_registers_the_marker(pytester):
+    result = pytester.runpytest("--markers")
+    result.stdout.fnmatch_lines(["*plc_program(path, config=None)*"])

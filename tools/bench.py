@@ -1,0 +1,181 @@
+"""softplc benchmarks: scan engine, peers side by side, Modbus server load.
+
+    .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
+                                    [--png results/bench.png] [--sections engine,peers,modbus]
+
+Sections:
+  engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
+  peers   one table against pyrung, awlsim, a bare pymodbus server and libmodbus
+          (bench_peers.py; `make bench` installs the optional peers)
+  modbus  the daemon under Modbus load: throughput, latency, scan jitter (bench_modbus.py,
+          skipped with a note if that file is absent)
+
+Figures go to stdout, progress to stderr; the JSON and the bar chart go under results/.
+Absolute numbers vary from run to run and with whatever else the machine is doing (the
+load average at the start is printed): compare ratios, and rerun before concluding.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+TOOLS = Path(__file__).resolve().parent
+ROOT = TOOLS.parent
+for _p in (str(ROOT), str(TOOLS)):
+    if _p not in sys.path:
+        sys.path.insert(0, _p)
+
+import bench_engine  # noqa: E402
+import bench_peers  # noqa: E402
+from peers.common import describe_machine, machine_info, progress  # noqa: E402
+
+SECTIONS = ("engine", "peers", "modbus")
+
+
+def run_modbus_section(quick: bool) -> dict[str, Any]:
+    """bench_modbus.run(...) if another part of the project provides it."""
+    try:
+        bench_modbus = importlib.import_module("bench_modbus")
+    except ModuleNotFoundError as e:
+        if e.name != "bench_modbus":
+            raise
+        return {"skipped": "tools/bench_modbus.py not present"}
+    try:
+        return {"results": bench_modbus.run(clients=(1, 8), duration=2.0 if quick else 3.0)}
+    except Exception as e:  # a failing section is reported, the others still print
+        return {"error": f"{type(e).__name__}: {e}"}
+
+
+def modbus_report(res: dict[str, Any]) -> str:
+    if "skipped" in res or "error" in res:
+        return "Modbus load (bench_modbus): " + res.get("skipped", res.get("error", ""))
+    r = res["results"]
+    first = next(iter(r.values()), {})
+    keys = [k for k, v in first.items() if isinstance(v, (int, float)) and k != "clients"]
+    lines = ["Modbus load on the daemon (tools/bench_modbus.py, its built-in program, FC 3)",
+             f"  {'':18}" + "".join(f"{n + ' client(s)':>14}" for n in r)]
+    for k in keys:
+        lines.append(f"  {k:18}" + "".join(
+            f"{r[n].get(k, float('nan')):>14.3f}" if isinstance(r[n].get(k), float)
+            else f"{r[n].get(k, '-'):>14}" for n in r))
+    return "\n".join(lines)
+
+
+def plot(res: dict[str, Any], path: Path) -> None:
+    """Bar charts: softplc vs peer scan time (log scale), Modbus requests/s per server."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    table = bench_peers.rows(res["peers"]) if "peers" in res else []
+    scans = [r for r in table if r["unit"] == "us/scan" and r["softplc"] and r["peer_value"]]
+    mb = (res.get("peers") or {}).get("modbus") or {}
+    servers = [s for s in ("libmodbus", "softplc", "pymodbus") if "fc3" in mb.get(s, {})]
+    eng = res.get("engine")
+    panels = [p for p, ok in (("scan", scans), ("modbus", servers), ("engine", eng)) if ok]
+    if not panels:
+        return
+    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 3.6 * len(panels)), squeeze=False)
+    for ax, panel in zip(axes[:, 0], panels, strict=True):
+        if panel == "scan":
+            labels = [f"{r['short']}\nvs {r['peer']}" for r in scans]
+            x = range(len(scans))
+            ax.bar([i - 0.2 for i in x], [r["softplc"] for r in scans], 0.4, label="softplc")
+            ax.bar([i + 0.2 for i in x], [r["peer_value"] for r in scans], 0.4, label="peer")
+            for i, r in enumerate(scans):
+                ax.annotate(f"{r['advantage']:.0f}x", (i + 0.2, r["peer_value"]),
+                            ha="center", va="bottom", fontsize=8)
+            ax.set_yscale("log")
+            ax.set_ylabel("us per scan (log)")
+            ax.set_xticks(list(x), labels, fontsize=7)
+            ax.set_title("Same logic, same scans: time per scan (lower is better)")
+        elif panel == "modbus":
+            cases = [(q, n) for q in ("fc3", "fc16") for n in ("1", "8")]
+            w = 0.8 / len(servers)
+            for k, s in enumerate(servers):
+                ax.bar([i + (k - (len(servers) - 1) / 2) * w for i in range(len(cases))],
+                       [mb[s][q][n]["requests_per_s"] for q, n in cases], w, label=s)
+            ax.set_xticks(range(len(cases)), [f"{q.upper()} x10, {n} client(s)"
+                                              for q, n in cases])
+            ax.set_ylabel("requests/s")
+            ax.set_title("Modbus TCP server, 127.0.0.1 (higher is better)")
+        else:
+            progs = [p for p in eng["programs"] if "error" not in p]
+            names = ["boolean 1000 instr", "mixed 40 rungs"] + [p["program"] for p in progs]
+            main = [eng["boolean"]["main_us"], eng["mixed40"]["main_us"]] + \
+                [p["main_us"] for p in progs]
+            scan = [eng["boolean"]["scan_us"], eng["mixed40"]["scan_us"]] + \
+                [p["scan_us"] for p in progs]
+            x = range(len(names))
+            ax.bar([i - 0.2 for i in x], main, 0.4, label="compiled main()")
+            ax.bar([i + 0.2 for i in x], scan, 0.4, label="plc.scan()")
+            ax.set_xticks(list(x), names, fontsize=8)
+            ax.set_ylabel("us per scan")
+            ax.set_title("softplc scan engine")
+        ax.legend(fontsize=8)
+    info = res["machine"]
+    fig.suptitle(f"softplc benchmarks - {info['cpus']} CPUs {info['cpu_model']}, Python "
+                 f"{info['python']}", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        epilog="Absolute numbers vary from run to run; compare ratios.")
+    ap.add_argument("--quick", action="store_true",
+                    help="fewer scans and repeats, shorter Modbus load (about a minute)")
+    ap.add_argument("--json", type=Path, default=ROOT / "results" / "bench.json",
+                    help="write all figures as JSON here (default results/bench.json)")
+    ap.add_argument("--png", type=Path, default=ROOT / "results" / "bench.png",
+                    help="write the bar chart here (default results/bench.png)")
+    ap.add_argument("--sections", default=",".join(SECTIONS),
+                    help=f"comma-separated subset of {','.join(SECTIONS)}")
+    a = ap.parse_args(argv)
+    sections = [s.strip() for s in a.sections.split(",") if s.strip()]
+    unknown = [s for s in sections if s not in SECTIONS]
+    if unknown:
+        ap.error(f"unknown section(s) {', '.join(unknown)}; known: {', '.join(SECTIONS)}")
+    info = machine_info()
+    res: dict[str, Any] = {"machine": info, "quick": a.quick, "sections": sections,
+                           "started": time.strftime("%Y-%m-%d %H:%M:%S")}
+    print(f"Machine: {describe_machine(info)}")
+    print(f"softplc {info['softplc']}, pymodbus {info['pymodbus']}"
+          + (" (quick run)" if a.quick else ""))
+    t0 = time.monotonic()
+    if "engine" in sections:
+        progress("section engine")
+        res["engine"] = bench_engine.run(quick=a.quick)
+        print("\n" + bench_engine.report(res["engine"]))
+    if "peers" in sections:
+        progress("section peers")
+        res["peers"] = bench_peers.run(quick=a.quick)
+        print("\n" + bench_peers.report(res["peers"]))
+    if "modbus" in sections:
+        progress("section modbus")
+        res["modbus"] = run_modbus_section(a.quick)
+        print("\n" + modbus_report(res["modbus"]))
+    res["seconds"] = time.monotonic() - t0
+    res["load_average_end"] = __import__("os").getloadavg()
+    if a.json:
+        a.json.parent.mkdir(parents=True, exist_ok=True)
+        a.json.write_text(json.dumps(res, indent=2, default=str))
+        progress(f"wrote {a.json}")
+    if a.png:
+        plot(res, a.png)
+        progress(f"wrote {a.png}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
