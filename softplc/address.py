@@ -140,9 +140,12 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         if channel >= limit:
             raise AddressError(f"{text!r}: module {module} has {limit} "
                                f"{'inputs' if kind == 'I' else 'outputs'}")
-        if field or bit is not None or offset or length:
-            raise AddressError(f"{text!r}: I/O bits take no suffix")
-        return Ref(kind, module * profile.channels_per_module + channel, module, channel)
+        if field or bit is not None or offset:
+            raise AddressError(f"{text!r}: I/O bits take no suffix but a length (:L)")
+        if length is not None and channel + length > limit:
+            raise AddressError(f"{text!r}: the bit string runs past channel {limit - 1}")
+        return Ref(kind, module * profile.channels_per_module + channel, module, channel,
+                   length=length)
 
     if m["b"] is not None:
         raise AddressError(f"malformed address {text!r}")

@@ -99,11 +99,7 @@ class Daemon:
         self.period_ms = ms
         self.period = ms / 1000
         self.interval = 0.0 if self.opt.speed == math.inf else self.period / (self.opt.speed or 1)
-        self.plc.mem.sw.w[0] = ms
-        self.plc.scan_period = self.period
-        engine = getattr(self.plc, "engine", None)
-        if engine is not None:  # the virtual clock advances by the engine's period
-            engine.period_us = ms * 1000
+        self.plc.set_scan_period(self.period)
 
     def _banner(self, server: ServerThread, image: ModbusImage) -> None:
         plc, opt = self.plc, self.opt

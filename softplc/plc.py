@@ -49,6 +49,7 @@ class PLC:
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
         self._initial_steps = self.program.namespace.get("_INITIAL_STEPS", ())
+        self.program_version = 0  # bumped when the running code is rebuilt
         self.devices: dict[str, Any] = {}
         if devices and cfg.get("devices"):
             from .devices import build_devices
@@ -210,7 +211,8 @@ class PLC:
             mod = self._modules.get(ref.module)
             n = None if mod is None else (mod[0] if ref.kind == "I" else mod[1])
             if not n:
-                return f"{ref}: no module in slot {ref.module} with {'inputs' if ref.kind == 'I' else 'outputs'} (see [modules])"
+                what = "inputs" if ref.kind == "I" else "outputs"
+                return f"{ref}: no module in slot {ref.module} with {what} (see [modules])"
             if ref.channel >= n:
                 return f"{ref}: the module in slot {ref.module} has {n} channels"
         return None
@@ -255,7 +257,9 @@ class PLC:
         env = self.env()
         if edge is not None:  # share the edge memory (LDR/LDF) with another build
             env["_EDGE"] = edge
-        compiled = compile_program(program, env, dict(self.profile.counts), debug)
+        forced = frozenset(r for r in getattr(self, "_forced", {})
+                           if r.kind in ("I", "Q", "M", "S", "X") and r.offset is None)
+        compiled = compile_program(program, env, dict(self.profile.counts), debug, forced)
         # bind blocks created during compilation (defaults) into the namespace
         for kind, blocks in self.mem.blocks.items():
             for i, b in blocks.items():
@@ -273,10 +277,11 @@ class PLC:
     def replace_program(self, program: A.Program) -> None:
         """Run `program` from the next scan on, keeping memory (the debugger's reload).
         Raises CompileError, leaving the running program in place, if it does not compile."""
-        compiled = self._compile(program)
+        compiled = self._compile(program, edge=self.program.namespace.get("_EDGE"))
         self.ast, self.program = program, compiled
         self.engine.load(compiled)
         self._initial_steps = compiled.namespace.get("_INITIAL_STEPS", ())
+        self.program_version += 1
 
     # -- running --------------------------------------------------------------------------------
     def scan(self, n: int = 1) -> None:
@@ -322,11 +327,16 @@ class PLC:
         return ref
 
     def force(self, address: str, value: Any) -> None:
-        """Hold an object at a value every scan, whatever the program or the field does."""
+        """Hold an object at a value, whatever the program or the field does. A forced bit
+        keeps its value all through the scan (the program's stores to it are compiled out);
+        a forced word is re-asserted at the start and end of every scan."""
         ref = self._ref(address)
+        new_bit = ref not in self._forced
         self._forced[ref] = value
         self.engine.set_forced(dict(self._forced))
         self.mem.write(ref, value, field_inputs=False)
+        if new_bit:
+            self._forced_changed()
 
     def unforce(self, address: str | None = None) -> None:
         """Release one forced object, or all of them."""
@@ -335,6 +345,11 @@ class PLC:
         else:
             self._forced.pop(self._ref(address), None)
         self.engine.set_forced(dict(self._forced))
+        self._forced_changed()
+
+    def _forced_changed(self) -> None:
+        """Recompile so that stores to the forced bits are left out (or back in)."""
+        self.replace_program(self.ast)
 
     @property
     def forced(self) -> dict[str, Any]:
@@ -400,6 +415,14 @@ class PLC:
 
     def stop_outputs(self) -> None:
         self.engine.stop_outputs()
+
+    def set_scan_period(self, seconds: float) -> None:
+        """Change the scan period (the virtual clock's step, %SW0)."""
+        if seconds <= 0:
+            raise ConfigError("scan period must be > 0")
+        self.scan_period = seconds
+        self.engine.period_us = max(1, round(seconds * 1e6))
+        self.mem.sw.w[0] = min(32767, round(seconds * 1000))
 
     def note_overrun(self) -> None:
         self.engine.note_overrun()

@@ -276,6 +276,22 @@ class Ops:
     def real_to_dint(self, x: float) -> int:
         return self._round(x, -2147483648, 2147483647)
 
+    # -- bit strings -------------------------------------------------------------------------
+    def bitstr16(self, bits: list[int], start: int, n: int) -> int:
+        """%Mi:L as a word: bit i is bit 0 [manual]."""
+        v = 0
+        for k in range(n):
+            if bits[start + k]:
+                v |= 1 << k
+        return wrap16(v)
+
+    def bitstr32(self, bits: list[int], start: int, n: int) -> int:
+        v = 0
+        for k in range(n):
+            if bits[start + k]:
+                v |= 1 << k
+        return wrap32(v)
+
     # -- stores ------------------------------------------------------------------------------
     def stf(self, view: memoryview, k: int, v: float) -> None:
         """Store a float in an IEEE single: out of range -> +-inf and %S18."""

@@ -407,3 +407,18 @@ def test_grafcet_cold_start_resets_steps(plc_from_source):
     assert steps(plc) == [1]
     plc.cold_start()
     assert steps(plc) == [0]
+
+
+def test_endless_loop_with_the_default_watchdog(plc_from_source):
+    plc = plc_from_source("%L1:\nLD 1\nJMP %L1\n")
+    t0 = time.perf_counter()
+    plc.scan()
+    assert time.perf_counter() - t0 < 5  # 150 ms watchdog [manual], not a hang
+    assert plc.state == "HALT" and plc["%S11"]
+
+
+def test_grafcet_step_with_a_rung_without_output(plc_from_source):
+    """A step whose rung only loads compiles (it does nothing)."""
+    plc = plc_from_source("=*= 0\nLD %M0\n-*- 1\nLD %M1\n# 0\n")
+    plc.scan()
+    assert steps(plc) == [0]

@@ -320,7 +320,6 @@ def test_bit_string_from_a_word(plc_from_source):
     assert not plc["%M7"] and not plc["%M16"]
 
 
-@pytest.mark.xfail(strict=True, reason="word := bit string (%MW := %Mi:L) is not compiled")
 def test_word_from_a_bit_string(plc_from_source):
     plc = plc_from_source("LD 1\n[ %MW0 := %M8:8 ]\n")
     plc["%M8"] = 1

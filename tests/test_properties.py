@@ -371,7 +371,8 @@ def test_printed_program_behaves_like_the_original(rungs):
 TOKENS = ["LD", "ST", "AND(", ")", "[", "]", ":=", "%MW3", "%M1", "%Q0.0", "%L1:", "JMP",
           "%L1", "SR1", "SR1:", "RET", "END", "BLK", "%TM0", "%C0", "OUT_BLK", "END_BLK",
           "IN", "CU", "Q", "1", "0", "-", "+", "1.5", "#FF", "(*", "*)", "MPS", "MPP",
-          "SHL(", ",", "=*=", "#", "-*-", "\n", "\n", "\n", " ", "%MF1", "INT_TO_REAL("]
+          "SHL(", ",", "=*=", "#", "-*-", "\n", "\n", "\n", " ", "%MF1", "INT_TO_REAL(",
+          "\n=*= 0\n", "\n-*- 1\n", "\n# 1\n", "\n=*= POST\n", "\nLD %M0\n", "\nST %M1\n"]
 
 
 @settings(max_examples=200, deadline=None)

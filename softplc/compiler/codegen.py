@@ -85,8 +85,9 @@ class _Fn:
 
 class Compiler:
     def __init__(self, program: A.Program, env: dict[str, Any], profile_counts: dict[str, int],
-                 debug: bool = False):
+                 debug: bool = False, forced: frozenset[Ref] = frozenset()):
         self.program = program
+        self.forced = forced  # bits the program may not change (forced from outside)
         self.env = env  # name -> object for the generated namespace
         self.counts = profile_counts
         self.debug = debug
@@ -129,7 +130,7 @@ class Compiler:
             factory = self.env["_block_factory"]
             problem = factory(ref)
             if problem:
-                self.err(problem, pos)
+                self.err(problem, pos, str(ref), "a configured block within the profile")
                 self.env[name] = None
             else:
                 self.env[name] = self.env["_mem"].blocks[ref.kind][ref.index]
@@ -148,7 +149,7 @@ class Compiler:
         if ref.kind in ("I", "Q"):
             problem = self.env["_io_check"](ref)
             if problem:
-                self.err(problem, pos, str(ref))
+                self.err(problem, pos, str(ref), "an I/O channel of a configured module")
 
     def read_bit(self, ref: Ref, pos: A.Pos | None) -> str:
         k = ref.kind
@@ -168,19 +169,30 @@ class Compiler:
             if ref.field == "J":
                 return f"{b}.bit({ref.bit})"
             return f"{b}.{ref.field}"
-        self.err(f"{ref} is a {self.tname(ref.type)}, not a bit: use a comparison block, e.g. "
-                 f"[ {ref} <> 0 ]", pos, str(ref))
+        self.err(f"{ref} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
+                 f"a bit (%I, %Q, %M, %S, %MWi:Xk, block output) or a comparison block "
+                 f"such as [ {ref} <> 0 ]")
         return "0"
 
     def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[str, str]:
         """(code, type) of a word/dword/float object."""
         k = ref.kind
+        if ref.length is not None and k in BIT_BUFFERS and ref.offset is None:
+            if ref.length > 32:  # a bit string read as a word (<= 16) or double word
+                self.err(f"{ref}: a bit string of {ref.length} bits", pos, str(ref),
+                         "at most 16 bits for a word, 32 for a double word")
+                return "0", INT16
+            h = "_bitstr16" if ref.length <= 16 else "_bitstr32"
+            self.use(h, BIT_BUFFERS[k])
+            return f"{h}({BIT_BUFFERS[k]}, {ref.index}, {ref.length})", \
+                INT16 if ref.length <= 16 else INT32
         if ref.length is not None:
-            self.err(f"{ref}: a table cannot be used in an expression", pos, str(ref))
+            self.err(f"{ref}: a word table cannot be used in an expression", pos, str(ref),
+                     "a single word, double word or float, or a bit string %Mi:L")
             return "0", INT16
         if ref.bit is not None or ref.type == BOOL:
-            self.err(f"{ref} is a bit; expressions take words, double words or floats",
-                     pos, str(ref))
+            self.err(f"{ref} is a bit, not a number", pos, str(ref),
+                     "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)")
             return "0", INT16
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
@@ -198,11 +210,13 @@ class Compiler:
             return f"{view}[{ref.index >> 1}]", typ
         if k in BLOCK_OUTPUTS or k in ("TM", "C", "DR", "R"):
             if ref.field is None:
-                self.err(f"{ref} is a function block; name a field like {ref}.V", pos, str(ref))
+                self.err(f"{ref} is a function block, not a value", pos, str(ref),
+                         f"a field of it, such as {ref}.V or {ref}.P")
                 return "0", INT16
             b = self.block_name(Ref(ref.kind, ref.index), pos)
             return f"{b}.{ref.field}", INT16
-        self.err(f"{ref} cannot be used in an expression", pos, str(ref))
+        self.err(f"{ref} cannot be used in an expression", pos, str(ref),
+                 "a word, double word or float")
         return "0", INT16
 
     def check_writable(self, ref: Ref, pos: A.Pos | None) -> bool:
@@ -210,7 +224,8 @@ class Compiler:
             what = {"I": "an input: the program cannot write inputs",
                     "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
                 ref.kind, "read-only")
-            self.err(f"cannot write {ref}: it is {what}", pos, str(ref))
+            self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
+                     "a writable object (%Q, %M, %MW, %MD, %MF, %TMi.P, %Ci.P...)")
             return False
         return True
 
@@ -219,6 +234,9 @@ class Compiler:
         if not self.check_writable(ref, pos):
             return
         self.io_check(ref, pos)
+        if ref in self.forced:  # a forced bit keeps its value all through the scan
+            self.emit(f"pass  # {ref} is forced")
+            return
         k = ref.kind
         if k in BIT_BUFFERS:
             buf = BIT_BUFFERS[k]
@@ -235,7 +253,8 @@ class Compiler:
             self.emit(f"{u}[{ref.index}] = ({u}[{ref.index}] | {mask}) if {value} else "
                       f"({u}[{ref.index}] & {0xFFFF ^ mask})")
         else:
-            self.err(f"{ref} is not a bit that can be stored to", pos, str(ref))
+            self.err(f"{ref} is not a bit that can be stored to", pos, str(ref),
+                     "%Q, %M, %S, %X or %MWi:Xk")
 
     # ---- expressions ----------------------------------------------------------------------
     def expr(self, e: A.Expr, want: str | None = None) -> tuple[str, str]:
@@ -250,7 +269,8 @@ class Compiler:
                 v -= 0x10000  # hex word constants are bit patterns
             if want == INT32 or not -32768 <= v <= 32767:
                 if not -2147483648 <= v <= 2147483647:
-                    self.err(f"constant {e.text or v} does not fit 32 bits", e.pos)
+                    self.err(f"constant {e.text or v} does not fit 32 bits", e.pos,
+                             e.text or str(v), "-2147483648 .. 2147483647")
                 return str(v), INT32
             return str(v), INT16
         if isinstance(e, A.Addr):
@@ -266,7 +286,8 @@ class Compiler:
             return self.binop(e, want)
         if isinstance(e, A.Call):
             return self.call(e, want)
-        self.err("unsupported expression", getattr(e, "pos", None))
+        self.err("unsupported expression", getattr(e, "pos", None), "",
+                 "a number, an object, an operator or a function")
         return "0", INT16
 
     def unify(self, a: tuple[str, str], b: tuple[str, str], pos: A.Pos | None,
@@ -276,8 +297,9 @@ class Compiler:
             return ta
         if REAL in (ta, tb):
             self.err(f"{what} mixes a float with a {'word' if INT16 in (ta, tb) else 'double word'}"
-                     f" without conversion: use INT_TO_REAL / DINT_TO_REAL / REAL_TO_INT",
-                     pos)
+                     f" without conversion", pos, "",
+                     "operands of one type: convert with INT_TO_REAL, DINT_TO_REAL, "
+                     "REAL_TO_INT or REAL_TO_DINT")
             return None
         return INT32
 
@@ -298,16 +320,17 @@ class Compiler:
             return self.poison(want)
         if e.op in ("AND", "OR", "XOR"):
             if t == REAL:
-                self.err(f"word logic {e.op} needs words, not floats", e.pos)
+                self.err(f"word logic {e.op} needs words, not floats", e.pos, e.op,
+                         "words or double words")
                 return self.poison(want)
             py = {"AND": "&", "OR": "|", "XOR": "^"}[e.op]
             return f"({a[0]} {py} {b[0]})", t
         if e.op not in ARITH:
-            self.err(f"unknown operator {e.op}", e.pos)
+            self.err(f"unknown operator {e.op}", e.pos, e.op, "+ - * / REM AND OR XOR")
             return "0", t
         if t == REAL:
             if e.op == "REM":
-                self.err("REM takes words, not floats", e.pos)
+                self.err("REM on floats", e.pos, "REM", "words or double words")
                 return "0", REAL
             if e.op == "/":
                 self.use("_fdiv")
@@ -330,7 +353,8 @@ class Compiler:
             return self.poison(want)
         params, result = FUNCTIONS[e.func]
         if len(e.args) != len(params):
-            self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos)
+            self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos,
+                     e.func, f"{len(params)} argument(s)")
             return self.poison(want)
         args = []
         for p, arg in zip(params, e.args, strict=True):
@@ -340,9 +364,9 @@ class Compiler:
                     not (p == INT16 and isinstance(arg, A.Num) and t == INT16):
                 if {t, p} & {REAL} or p == INT16:
                     self.err(f"{e.func} takes a {self.tname(p)}, got a {self.tname(t)}",
-                             e.pos)
+                             e.pos, e.func, f"a {self.tname(p)} argument")
             if p == "int" and t == REAL:
-                self.err(f"{e.func} takes words or double words, not floats", e.pos)
+                self.err(f"{e.func} on a float", e.pos, e.func, "a word or double word")
             args.append((code, t))
         t0 = args[0][1]
         f = e.func
@@ -374,7 +398,7 @@ class Compiler:
                 return
             code, t = self.read_word(ref, st.pos)
             if t == REAL:
-                self.err(f"{st.op} takes a word or double word", st.pos, str(ref))
+                self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word")
                 return
             h = ("_add" if st.op == "INC" else "_sub") + ("16" if t == INT16 else "32")
             self.use(h)
@@ -387,19 +411,21 @@ class Compiler:
             self.table_assign(ref, e, st.pos)
             return
         if ref.type == BOOL or ref.is_block:
-            self.err(f"cannot assign to {ref}: assignments take words, double words or "
-                     f"floats (use ST for bits)", st.pos, str(ref))
+            self.err(f"cannot assign to {ref} with :=", st.pos, str(ref),
+                     "a word, double word or float target (use ST / S / R for bits)")
             return
         _, tt = self.read_word(ref, st.pos)
         code, t = self.expr(e, tt)
         if tt == REAL and t != REAL or tt != REAL and t == REAL:
             self.err(f"assignment of a {self.tname(t)} to the {self.tname(tt)} {ref} needs a "
-                     f"conversion (INT_TO_REAL, DINT_TO_REAL, REAL_TO_INT, REAL_TO_DINT)",
-                     st.pos, str(ref))
+                     f"conversion", st.pos, str(ref),
+                     f"a {self.tname(tt)} value: INT_TO_REAL, DINT_TO_REAL, REAL_TO_INT, "
+                     f"REAL_TO_DINT convert")
             return
         if tt == INT16 and t == INT32:
             if isinstance(e, A.Num):
-                self.err(f"constant {e.text or e.value} does not fit the word {ref}", st.pos)
+                self.err(f"constant {e.text or e.value} does not fit the word {ref}", st.pos,
+                         e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)")
                 return
             self.use("_narrow16")
             code = f"_narrow16({code})"
@@ -432,7 +458,8 @@ class Compiler:
             else:
                 self.emit(f"{b}.{ref.field} = {code}")
         else:
-            self.err(f"cannot assign to {ref}", pos, str(ref))
+            self.err(f"cannot assign to {ref}", pos, str(ref),
+                     "a word, double word, float or block preset")
 
     def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
         """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,
@@ -441,14 +468,15 @@ class Compiler:
         if isinstance(e, A.Addr) and e.ref.length is not None:
             src = e.ref
             if src.length != ref.length:
-                self.err(f"table lengths differ: {ref} := {src}", pos)
+                self.err(f"table lengths differ: {ref} := {src}", pos, str(src),
+                         f"a table of {ref.length}")
                 return
             self.emit(f"_mem.write({str(ref)!r}, _mem.read({str(src)!r}))")
             return
         if ref.kind == "M":
             code, t = self.expr(e, INT16)
             if t == REAL:
-                self.err("a bit string takes a word", pos)
+                self.err("a bit string from a float", pos, str(ref), "a word value")
                 return
             self.emit(f"_mem.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
                       f"range({ref.length})])")
@@ -456,7 +484,8 @@ class Compiler:
         _, tt = self.read_word(Ref(ref.kind, ref.index), pos)
         code, t = self.expr(e, tt)
         if (t == REAL) != (tt == REAL):
-            self.err(f"table {ref} and value types differ", pos)
+            self.err(f"table {ref} and value types differ", pos, str(ref),
+                     f"a {self.tname(tt)} value")
             return
         self.emit(f"_mem.write({str(ref)!r}, [{code}] * {ref.length})")
 
@@ -470,12 +499,13 @@ class Compiler:
             return self.read_bit(op.ref, op.pos)
         if isinstance(op, A.BlockOutput):
             if blk is None:
-                self.err(f"block output {op.name} outside BLK ... OUT_BLK", op.pos, op.name)
+                self.err(f"block output {op.name} outside BLK ... OUT_BLK", op.pos, op.name,
+                         "a full address such as %TM0.Q")
                 return "0"
             outs = BLOCK_OUTPUTS.get(blk.kind, ())
             if op.name not in outs:
-                self.err(f"%{blk.kind} has no output {op.name} (it has "
-                         f"{', '.join(outs) or 'none'})", op.pos, op.name)
+                self.err(f"%{blk.kind} has no output {op.name}", op.pos, op.name,
+                         ", ".join(outs) or "no output")
                 return "0"
             return f"{self.block_name(blk, pos)}.{op.name}"
         if isinstance(op, A.Compare):
@@ -488,7 +518,7 @@ class Compiler:
                 self.emit(f"{t} = {code}")
                 return t
             return code
-        self.err("unsupported operand", pos)
+        self.err("unsupported operand", pos, "", "a bit, 0/1 or a comparison block")
         return "0"
 
     def modified(self, code: str, mod: str) -> _Acc:
@@ -549,8 +579,8 @@ class Compiler:
         def need(instr: A.Instruction) -> _Acc:
             nonlocal acc
             if acc is None:
-                self.err(f"{self.describe(instr)} needs a preceding load (LD)",
-                         getattr(instr, "pos", None))
+                self.err(f"{self.describe(instr)} needs a preceding load", getattr(instr, "pos", None),
+                         "", "LD / LDN / LDR / LDF (or BLK) before it")
                 acc = _Acc("0")
             return acc
 
@@ -580,20 +610,21 @@ class Compiler:
             elif isinstance(instr, A.ParenOpen):
                 outer = need(instr)
                 if len(parens) >= self.counts["PAREN"]:
-                    self.err(f"parentheses nested deeper than {self.counts['PAREN']}", pos)
+                    self.err(f"parentheses nested deeper than {self.counts['PAREN']}", pos, "",
+                             f"at most {self.counts['PAREN']} levels")
                 if not outer.simple and len(outer.code) > MAX_EXPR // 2:
                     outer = self.materialize(outer)
                 parens.append((instr.op, instr.modifier, outer, pos))
                 code = self.operand(instr.operand, blk, pos) if instr.operand else None
                 if instr.operand is None:
-                    self.err(f"{instr.op}( needs an operand", pos)
+                    self.err(f"{instr.op}( needs an operand", pos, "", "a bit or a comparison")
                     code = "0"
                 # the modifier applies to the first operand inside the parenthesis, as
                 # LDN/LDR/LDF would [manual, see NOTES]
                 acc = self.modified(code, instr.modifier)
             elif isinstance(instr, A.ParenClose):
                 if not parens:
-                    self.err("')' without a matching '('", pos, ")")
+                    self.err("')' without a matching '('", pos, ")", "AND( / OR( / XOR( first")
                     continue
                 op, _mod, outer, _p = parens.pop()
                 inner = need(instr)
@@ -606,11 +637,12 @@ class Compiler:
                 if instr.op == "MPS":
                     a = self.materialize(need(instr))
                     if len(mps) >= self.counts["STACK"]:
-                        self.err(f"MPS stack deeper than {self.counts['STACK']}", pos)
+                        self.err(f"MPS stack deeper than {self.counts['STACK']}", pos, "MPS",
+                                 f"at most {self.counts['STACK']} MPS without MPP")
                     mps.append(a.code)
                     acc = a
                 elif not mps:
-                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op)
+                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op, "MPS first")
                 else:
                     acc = _Acc(mps[-1] if instr.op == "MRD" else mps.pop())
             elif isinstance(instr, A.Store):
@@ -623,7 +655,8 @@ class Compiler:
                     self.write_bit(instr.target, f"not ({a.code})", pos)
                 else:
                     if instr.target.is_block:
-                        self.err(f"{instr.op} {instr.target}: use R/S as block inputs", pos)
+                        self.err(f"{instr.op} {instr.target} on a block", pos, str(instr.target),
+                                 "a bit; a block's inputs are R / S / CU / CD / IN pins")
                         continue
                     value = "1" if instr.op == "S" else "0"
                     if a.code in ("1", "True"):
@@ -649,8 +682,8 @@ class Compiler:
             elif isinstance(instr, A.SRCall):
                 a = need(instr)
                 if instr.number not in ctx["subroutines"]:
-                    self.err(f"SR{instr.number} is called but not defined (no 'SR"
-                             f"{instr.number}:' after END)", pos, f"SR{instr.number}")
+                    self.err(f"SR{instr.number} is called but not defined", pos,
+                             f"SR{instr.number}", f"a subroutine 'SR{instr.number}:' after END")
                     continue
                 if acc_used_later(k) or self.debug:
                     a = acc = self.materialize(a)
@@ -659,35 +692,36 @@ class Compiler:
                 self.conditional(a.code, call)
             elif isinstance(instr, A.Return):
                 if ctx["function"] == "main":
-                    self.err("RET outside a subroutine", pos, instr.op)
+                    self.err("RET outside a subroutine", pos, instr.op, "END in the main program")
                     continue
                 self.end_like(instr.op, acc, "RET", "return")
             elif isinstance(instr, A.End):
                 if ctx["function"] != "main":
-                    self.err(f"{instr.op} inside a subroutine (use RET)", pos, instr.op)
+                    self.err(f"{instr.op} inside a subroutine", pos, instr.op, "RET")
                     continue
                 self.end_like(instr.op, acc, "END", ctx["end_code"])
             elif isinstance(instr, A.Nop):
                 pass
             elif isinstance(instr, A.Blk):
                 if blk is not None:
-                    self.err("BLK inside a BLK", pos)
+                    self.err("BLK inside a BLK", pos, "BLK", "END_BLK first")
                 if not instr.block.is_block:
-                    self.err(f"BLK needs a function block (%TM, %C, %DR, %SBR, %SC, %R), got "
-                             f"{instr.block}", pos, str(instr.block))
+                    self.err(f"BLK {instr.block}: not a function block", pos, str(instr.block),
+                             "%TM, %C, %DR, %SBR, %SC or %R")
                     continue
                 blk, blk_pins, blk_phase = instr.block, {}, "in"
                 self.block_name(blk, pos)
                 acc = None
             elif isinstance(instr, A.OutBlk):
                 if blk is None:
-                    self.err("OUT_BLK outside a BLK ... END_BLK block", pos, "OUT_BLK")
+                    self.err("OUT_BLK outside a BLK ... END_BLK block", pos, "OUT_BLK",
+                             "BLK %TMi (or another block) before it")
                     continue
                 close_block_inputs()
                 acc = None
             elif isinstance(instr, A.EndBlk):
                 if blk is None:
-                    self.err("END_BLK without BLK", pos, "END_BLK")
+                    self.err("END_BLK without BLK", pos, "END_BLK", "BLK before it")
                     continue
                 close_block_inputs()
                 blk, blk_phase = None, ""
@@ -699,16 +733,16 @@ class Compiler:
             elif isinstance(instr, A.Grafcet):
                 self.grafcet(instr, acc, ctx)
             else:  # pragma: no cover - the parser makes no other nodes
-                self.err(f"unsupported instruction {instr}", pos)
+                self.err(f"unsupported instruction {instr}", pos, "", "an instruction")
             if self.debug and acc is not None:
                 acc = self.materialize(acc)
                 self.use("_LOG")
                 self.emit(f"_LOG[{rung.index}][{k}] = {acc.code}")
         if parens:
-            self.err("'(' not closed before the end of the rung", parens[-1][3])
+            self.err("'(' not closed before the end of the rung", parens[-1][3], "", "')'")
         if blk is not None:
-            self.err(f"BLK {blk} not closed by END_BLK", rung.instructions[0].pos
-                     if rung.instructions else None)
+            self.err(f"BLK {blk} not closed", rung.instructions[0].pos
+                     if rung.instructions else None, "", "END_BLK")
         if len(self.fn.lines) == body_start:  # e.g. a lone LD in a step: keep `if` valid
             self.indent = base_indent
             self.emit("pass")
@@ -730,7 +764,7 @@ class Compiler:
             self.emit(code)
             return
         if acc is None:
-            self.err(f"{op} needs a preceding load (LD)", None)
+            self.err(f"{op} needs a preceding load", None, op, "LD before it")
             return
         cond = f"not ({acc.code})" if op.endswith("CN") else acc.code
         self.emit(f"if {cond}:")
@@ -740,17 +774,18 @@ class Compiler:
             pins: dict[str, str]) -> None:
         target = instr.block or blk
         if target is None:
-            self.err(f"input {instr.name} outside a BLK and without a block (e.g. "
-                     f"{instr.name} %C0)", instr.pos, instr.name)
+            self.err(f"input {instr.name} outside a BLK and without a block", instr.pos,
+                     instr.name, f"BLK ... {instr.name} ... END_BLK, or {instr.name} %C0")
             return
         allowed = BLOCK_KIND_PINS.get(target.kind, ())
         if instr.name not in allowed:
-            self.err(f"%{target.kind} has no input {instr.name} (inputs: "
-                     f"{', '.join(allowed)})", instr.pos, instr.name)
+            self.err(f"%{target.kind} has no input {instr.name}", instr.pos, instr.name,
+                     ", ".join(allowed))
             return
         if instr.block is None:  # inside BLK: remember, run at OUT_BLK / END_BLK
             if phase != "in":
-                self.err(f"input {instr.name} after OUT_BLK", instr.pos, instr.name)
+                self.err(f"input {instr.name} after OUT_BLK", instr.pos, instr.name,
+                         "inputs between BLK and OUT_BLK")
                 return
             a = self.materialize(acc)
             pins[instr.name] = a.code
@@ -768,7 +803,8 @@ class Compiler:
             return
         cur = ctx.get("step")
         if cur is None:
-            self.err(f"{instr.op} outside a Grafcet step", instr.pos, instr.op)
+            self.err(f"{instr.op} outside a Grafcet step", instr.pos, instr.op,
+                     "a step first (=*= i or -*- i)")
             return
         self.use("_GA", "_GD")
         if instr.op == "#":
@@ -793,7 +829,8 @@ class Compiler:
             where = ctx["all_labels"].get(instr.label)
             msg = (f"%L{instr.label} is in {where}; a jump cannot leave its program or "
                    f"subroutine") if where else f"unknown label %L{instr.label}"
-            self.err(msg, instr.pos, f"%L{instr.label}")
+            self.err(msg, instr.pos, f"%L{instr.label}",
+                     f"a label %L{instr.label}: in the same program or subroutine")
             return
         target = labels[instr.label]
         here = ctx["block_of"][rung.index]
@@ -806,7 +843,8 @@ class Compiler:
             cond = "1"
         else:
             if acc is None:
-                self.err(f"{instr.op} needs a preceding load (LD)", instr.pos)
+                self.err(f"{instr.op} needs a preceding load", instr.pos, instr.op,
+                         "LD before it (or JMP, unconditional)")
                 return
             cond = acc.code if instr.op == "JMPC" else f"not ({acc.code})"
         if cond != "1":
@@ -828,7 +866,7 @@ class Compiler:
                 if r.label in labels or r.label in ctx["seen_labels"]:
                     self.err(f"label %L{r.label} defined twice",
                              A.Pos(r.label_line or r.first_line, 1),
-                             f"%L{r.label}:")
+                             f"%L{r.label}:", "each label defined once")
                 if blocks[-1]:
                     blocks.append([])
                 labels[r.label] = len(blocks) - 1
@@ -867,7 +905,7 @@ class Compiler:
                         step = marker.step
                         if step is not None and step >= self.counts["X"]:
                             self.err(f"Grafcet step {step} beyond %X{self.counts['X'] - 1}",
-                                     marker.pos)
+                                     marker.pos, str(step), f"0 .. {self.counts['X'] - 1}")
                     if self.debug:
                         self.emit(f"yield ({r.index}, 0)")
                     continue
@@ -897,9 +935,11 @@ FAMILY_COUNT = {"MD": "MW", "MF": "MW", "KD": "KW", "KF": "KW"}
 
 
 def compile_program(program: A.Program, env: dict[str, Any], counts: dict[str, int],
-                    debug: bool = False) -> CompiledProgram:
-    """Generate, check and exec the program. Raises CompileError with every problem."""
-    c = Compiler(program, env, counts, debug)
+                    debug: bool = False, forced: frozenset[Ref] = frozenset()
+                    ) -> CompiledProgram:
+    """Generate, check and exec the program. Raises CompileError with every problem.
+    Stores to the `forced` bits are left out, so forcing holds all through a scan."""
+    c = Compiler(program, env, counts, debug, forced)
     subs = program.subroutines
     all_labels: dict[int, str] = {}
     for r in program.rungs:
@@ -910,13 +950,15 @@ def compile_program(program: A.Program, env: dict[str, Any], counts: dict[str, i
     for n in subs:
         if n >= counts["SR"]:
             c.err(f"SR{n} beyond the {counts['SR']} subroutines of the profile",
-                  A.Pos(program.subroutine(n)[0].first_line, 1))
+                  A.Pos(program.subroutine(n)[0].first_line, 1), f"SR{n}:",
+                  f"SR0 .. SR{counts['SR'] - 1}")
     base_ctx = {"subroutines": set(subs), "all_labels": all_labels, "seen_labels": set(),
                 "grafcet": grafcet}
     for r in program.rungs:
         if r.label is not None and r.label >= counts["L"]:
             c.err(f"label %L{r.label} beyond %L{counts['L'] - 1}",
-                  A.Pos(r.label_line or r.first_line, 1), f"%L{r.label}:")
+                  A.Pos(r.label_line or r.first_line, 1), f"%L{r.label}:",
+                  f"%L0 .. %L{counts['L'] - 1}")
     parts = []
     for n in subs:
         fn = c.function(f"SR{n}", program.subroutine(n), dict(base_ctx, seen_labels=set()))

@@ -40,6 +40,8 @@ class Repl(cmd.Cmd):
         old = signal.signal(signal.SIGINT, lambda *_: self.session.interrupt())
         try:
             out = self.session.execute(line)
+        except Exception as e:  # a bug must not end the session and lose its state
+            out = f"internal error: {type(e).__name__}: {e}"
         finally:
             signal.signal(signal.SIGINT, old)
         if line.strip().split(" ")[0] == "reload":

@@ -110,6 +110,7 @@ class Session:
         self.plc = plc
         self.path = Path(program_path) if program_path else None
         self.dbg = plc.compile_debug()
+        self.dbg_version = plc.program_version
         self.gen: Iterator[tuple[int, int]] | None = None
         self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
         self.ring: deque[dict[str, Any]] = deque(maxlen=history)
@@ -226,7 +227,8 @@ class Session:
     def fmt(self, ref: Ref, v: Any, f: str = "") -> str:
         """One value in a format: d (default), u, x, b, f."""
         if ref.is_block:
-            return ladder.block_summary(v)
+            kind = f"{v.type} base {v.base} " if ref.kind == "TM" else ""
+            return kind + ladder.block_summary(v)
         if isinstance(v, bool) or ref.type == "bool":
             return "1" if v else "0"
         bits = 32 if ref.kind in DWORDS + FLOATS else 16
@@ -333,6 +335,9 @@ class Session:
         run the next instruction. True when a scan ended."""
         if self.gen is None:
             self._begin()
+            if self.dbg_version != self.plc.program_version:  # rebuilt (force, reload)
+                self.dbg = self.plc.compile_debug()
+                self.dbg_version = self.plc.program_version
             self.gen = self.plc.engine.scan_stepwise(self.dbg.main)
             self.ran = "scan start"
         else:
@@ -912,6 +917,7 @@ class Session:
         old = self.plc.ast
         self.plc.replace_program(new)
         self.dbg = self.plc.compile_debug()
+        self.dbg_version = self.plc.program_version
         report = diff_programs(old, new)
         for b in self.breaks:
             if b.kind == "rung":

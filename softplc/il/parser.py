@@ -14,9 +14,10 @@ from functools import lru_cache
 from pathlib import Path
 
 from lark import Lark, Token, Transformer, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 
 from ..address import Ref, parse_address
+from ..profile import DEFAULT_PROFILE
 from ..errors import AddressError, Diagnostic, ParseError
 from . import ast as A
 
@@ -82,7 +83,8 @@ class _ToAST(Transformer):
         try:
             return parse_address(str(tok))
         except AddressError as e:
-            self.diags.append(Diagnostic(str(e), self.file, tok.line, tok.column, str(tok)))
+            self.diags.append(Diagnostic(str(e), self.file, tok.line, tok.column, str(tok),
+                                         f"an address within the {DEFAULT_PROFILE.name} profile"))
             return Ref("M", 0)  # placeholder; the program is rejected anyway
 
     # -- operands --
@@ -412,7 +414,7 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
         rungs.append(A.Rung(len(rungs), [], "", section, sr, label, last_line, last_line,
                             label_line))
     # section titles that came before any SECTION line
-    for ln, t in pending_titles:
+    for _ln, t in pending_titles:
         section_titles.setdefault(section if section is not None else 0, t)
     return A.Program(file, source, rungs, section_titles)
 

@@ -79,7 +79,7 @@ class Engine:
         for buf in (m.m, m.q, m.q_field, m.x):
             buf[:] = [0] * len(buf)
         m.mw.buf[:] = bytes(len(m.mw.buf))
-        for kind, blocks in m.blocks.items():
+        for blocks in m.blocks.values():
             for b in blocks.values():
                 init = getattr(b, "_initial", None)
                 if init is not None:

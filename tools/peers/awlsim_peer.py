@@ -4,7 +4,7 @@ The same boolean program (tools/gen_programs.boolean_program) and a word program
 translated from IL to STL (peers/programs.py) and run as OB1. Reported: time per scan /
 cycle, instructions per second on each side counting each side's own instructions (an IL
 `AND( %M1` is one instruction, in STL `U(` + `U M 0.1` are two), and the ratio of the time
-per scan of the same logic, the fair figure.
+per scan of the same logic, the fair figure. Timed runs of both sides alternate.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from gen_programs import boolean_program
 
 from softplc.plc import PLC
 
-from .common import best_per_batch, best_per_call, version_of
+from .common import best_interleaved, loop, version_of
 from .programs import to_stl, word_program, word_to_stl
 
 
@@ -61,15 +61,16 @@ def run(scans: int = 500, repeat: int = 3, warmup: int = 50) -> dict[str, Any]:
                        word_to_stl)}
     for key, (label, il, translate) in cases.items():
         stl, n_stl = translate(il)
+        plc = PLC.from_source(il)
+        n_il = plc.program.instruction_count
         try:
             sim = load_stl(stl)
-            t_awl = best_per_call(sim.runCycle, scans, repeat, warmup)
+            t = best_interleaved({"softplc": plc.scan, "awlsim": loop(sim.runCycle)}, scans,
+                                 repeat, warmup)
         except Exception as e:  # awlsim raises its own error classes; report, don't crash
             out[key] = {"label": label, "error": f"{type(e).__name__}: {e}"}
             continue
-        plc = PLC.from_source(il)
-        n_il = plc.program.instruction_count
-        t_soft = best_per_batch(plc.scan, scans, repeat, warmup)
+        t_soft, t_awl = t["softplc"], t["awlsim"]
         out[key] = {"label": label, "il_instructions": n_il, "stl_instructions": n_stl,
                     "softplc_us": t_soft * 1e6, "awlsim_us": t_awl * 1e6,
                     "softplc_instr_per_s": n_il / t_soft, "awlsim_instr_per_s": n_stl / t_awl,

@@ -47,6 +47,34 @@ def best_per_batch(batch: Callable[[int], Any], number: int, repeat: int = 5,
     return best / number
 
 
+def best_interleaved(batches: dict[str, Callable[[int], Any]], number: int, repeat: int = 5,
+                     warmup: int | None = None) -> dict[str, float]:
+    """Best-of seconds per iteration for several contestants, their timed runs alternating
+    (A, B, A, B, ...) so that a burst of load from elsewhere hits both sides alike."""
+    w = max(1, number // 10) if warmup is None else warmup
+    for batch in batches.values():
+        if w:
+            batch(w)
+    clock = time.perf_counter
+    best = dict.fromkeys(batches, float("inf"))
+    for _ in range(repeat):
+        for name, batch in batches.items():
+            t0 = clock()
+            batch(number)
+            best[name] = min(best[name], clock() - t0)
+    return {name: t / number for name, t in best.items()}
+
+
+def loop(fn: Callable[[], Any]) -> Callable[[int], None]:
+    """fn -> batch(n) calling it n times."""
+
+    def batch(n: int) -> None:
+        for _ in range(n):
+            fn()
+
+    return batch
+
+
 def cpu_model() -> str:
     try:
         with open("/proc/cpuinfo") as f:

@@ -1,8 +1,9 @@
 """softplc vs pyrung (a Python ladder simulator, PyPI `pyrung`): us per scan, same logic.
 
 Both sides: build the program, `warmup` scans untimed, then best of `repeat` runs of
-`scans` scans with a fixed dt (softplc: virtual clock, scan_period; pyrung: PLC(dt=...),
-its default history settings). pyrung is driven through its public API (`PLC.step()`).
+`scans` scans, the two sides' runs alternating, with the same fixed dt (softplc: virtual
+clock, scan_period; pyrung: PLC(dt=...), its default history settings). pyrung is driven
+through its public API (`PLC.step()`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from softplc.errors import SoftPLCError
 from softplc.plc import PLC
 
 from . import drawing_table_pyrung
-from .common import best_per_batch, best_per_call, version_of
+from .common import best_interleaved, loop, version_of
 from .programs import (
     ROOT,
     chain_program,
@@ -34,15 +35,17 @@ def available() -> str | None:
     return None
 
 
-def _pyrung_time(logic: Any, dt: float, scans: int, repeat: int, warmup: int,
-                 setup: Any = None) -> tuple[float, Any]:
+def _versus(plc: PLC, logic: Any, scans: int, repeat: int, warmup: int,
+            setup: Any = None) -> tuple[float, float]:
+    """(softplc, pyrung) seconds per scan, timed runs interleaved, same dt and scan count."""
     from pyrung import PLC as PyrungPLC
 
-    with PyrungPLC(logic, dt=dt) as plc:
+    with PyrungPLC(logic, dt=plc.scan_period) as py:
         if setup:
-            setup(plc)
-        t = best_per_call(plc.step, scans, repeat, warmup)
-        return t, plc
+            setup(py)
+        t = best_interleaved({"softplc": plc.scan, "pyrung": loop(py.step)}, scans, repeat,
+                             warmup)
+    return t["softplc"], t["pyrung"]
 
 
 def crosscheck_chain(il: str, trials: int = 3) -> bool:
@@ -89,16 +92,14 @@ def run(scans: int = 200, repeat: int = 3, warmup: int = 20,
         for i, v in pattern.items():
             tags[i].value = v
 
-    t_soft = best_per_batch(plc.scan, scans, repeat, warmup)
-    t_py, _ = _pyrung_time(logic, 0.01, scans, repeat, warmup, set_inputs)
+    t_soft, t_py = _versus(plc, logic, scans, repeat, warmup, set_inputs)
     out["chain250"] = _row("250 rungs A AND (B OR C) -> Q", plc, t_soft, t_py,
                            same=crosscheck_chain(il))
     # 50 timers + 50 counters
     text, cfg = timer_counter_program(50)
     plc = PLC.from_source(text, cfg)
-    t_soft = best_per_batch(plc.scan, scans, repeat, warmup)
     logic, _ = timer_counter_pyrung(50)
-    t_py, _ = _pyrung_time(logic, 0.01, scans, repeat, warmup)
+    t_soft, t_py = _versus(plc, logic, scans, repeat, warmup)
     out["timers_counters"] = _row("50 TON timers + 50 up-counters", plc, t_soft, t_py,
                                   same=None)
     out["drawing_table"] = _drawing_table(drawing_table, scans, repeat, warmup)
@@ -117,9 +118,8 @@ def _drawing_table(il: Path | None, scans: int, repeat: int, warmup: int) -> dic
         return {"label": label, "error": f"softplc cannot load it yet: {e}"}
     dt = drawing_table_pyrung
     dt.apply_stimulus_softplc(plc)
-    t_soft = best_per_batch(plc.scan, scans, repeat, warmup)
     logic, tags = dt.build()
-    t_py, _ = _pyrung_time(logic, plc.scan_period, scans, repeat, warmup,
+    t_soft, t_py = _versus(plc, logic, scans, repeat, warmup,
                            lambda py: dt.apply_stimulus_pyrung(tags))
     diff = dt.crosscheck(str(il), str(cfg))
     row = _row(label, plc, t_soft, t_py, same=not diff)
