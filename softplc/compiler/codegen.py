@@ -579,8 +579,8 @@ class Compiler:
         def need(instr: A.Instruction) -> _Acc:
             nonlocal acc
             if acc is None:
-                self.err(f"{self.describe(instr)} needs a preceding load", getattr(instr, "pos", None),
-                         "", "LD / LDN / LDR / LDF (or BLK) before it")
+                self.err(f"{self.describe(instr)} needs a preceding load",
+                         getattr(instr, "pos", None), "", "LD / LDN / LDR / LDF (or BLK) before it")
                 acc = _Acc("0")
             return acc
 

@@ -17,8 +17,8 @@ from lark import Lark, Token, Transformer, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 
 from ..address import Ref, parse_address
-from ..profile import DEFAULT_PROFILE
 from ..errors import AddressError, Diagnostic, ParseError
+from ..profile import DEFAULT_PROFILE
 from . import ast as A
 
 GRAMMAR = Path(__file__).with_name("twido_il.lark")
