@@ -7,7 +7,7 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 PORT    ?= 5020
 
-.PHONY: run test bench lint draw clean
+.PHONY: run test bench lint draw clean sysdeps
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -15,11 +15,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install -q -e '.[test]'
 	touch $(STAMP)
 
-# Debian tools the end-to-end tests use as independent Modbus clients / terminals.
+# mbpoll (Debian): the independent Modbus client the end-to-end tests also use.
 sysdeps:
-	@command -v mbpoll >/dev/null 2>&1 && command -v tmux >/dev/null 2>&1 || { \
-	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq mbpoll tmux >/dev/null; \
-	  else echo "note: mbpoll/tmux not installed (need root); tests that use them are skipped"; fi; }
+	@command -v mbpoll >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq mbpoll >/dev/null; \
+	  else echo "note: mbpoll not installed (needs root); the tests that use it are skipped"; fi; }
 
 run: $(STAMP)
 	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT) --trace out/trace.csv

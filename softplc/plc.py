@@ -155,6 +155,7 @@ class PLC:
                 r = parse_address(a, self.profile)
                 if r.type != "bool" or r.kind not in ("Q", "M"):
                     raise ConfigError(f"drums.{text}: outputs are %Q or %M bits, not {a!r}")
+                self.mem.use_io(r)
                 outs.append((self.mem.bits(r.kind), r.index))
             try:
                 blocks["DR"][ref.index] = Drum(o.get("steps", [0]), outs, None)

@@ -145,8 +145,10 @@ class Compiler:
         return f"_ix({ref.index}, _MW[{ref.offset.index}], {count})"
 
     def io_check(self, ref: Ref, pos: A.Pos | None) -> None:
-        """Expansion-module I/O exists when the configuration lists modules."""
+        """Expansion-module I/O exists when the configuration lists modules; the scan
+        boundary copies cover every module the program uses."""
         if ref.kind in ("I", "Q"):
+            self.env["_mem"].use_io(ref)
             problem = self.env["_io_check"](ref)
             if problem:
                 self.err(problem, pos, str(ref), "an I/O channel of a configured module")
@@ -183,6 +185,7 @@ class Compiler:
                          "at most 16 bits for a word, 32 for a double word")
                 return "0", INT16
             h = "_bitstr16" if ref.length <= 16 else "_bitstr32"
+            self.io_check(ref, pos)
             self.use(h, BIT_BUFFERS[k])
             return f"{h}({BIT_BUFFERS[k]}, {ref.index}, {ref.length})", \
                 INT16 if ref.length <= 16 else INT32

@@ -54,6 +54,7 @@ class Device:
         if ref.kind != kind:
             raise ConfigError(f"device {self.name!r}: {option} must be a %{kind} address, "
                               f"not {address!r}")
+        mem.use_io(ref)
         return ref.index
 
     def peer(self, devices: dict[str, Device], name: Any, cls: type, option: str) -> Any:

@@ -181,21 +181,27 @@ class Engine:
         if self.time_source is not None:
             self.time_source.now_us = now
         s = mem.s
-        for bit, p in S_CLOCKS.items():
-            s[bit] = 1 if (now % p) < p // 2 else 0
-        for bit, v in self._first.items():
-            s[bit] = v
+        # %S4..%S7: 50 % clocks of 10 ms, 100 ms, 1 s, 1 min (periods in S_CLOCKS)
+        s[4] = 1 if now % 10_000 < 5_000 else 0
+        s[5] = 1 if now % 100_000 < 50_000 else 0
+        s[6] = 1 if now % 1_000_000 < 500_000 else 0
+        s[7] = 1 if now % 60_000_000 < 30_000_000 else 0
+        if self._first:
+            for bit, v in self._first.items():
+                s[bit] = v
         mem.latch_inputs()
-        for buf, i, v in self._forced_inputs:
-            buf[i] = v
+        if self._forced_inputs:
+            for buf, i, v in self._forced_inputs:
+                buf[i] = v
         if self.forced:
             self._apply_forced()
         return True
 
     def _finish(self, dt: float) -> None:
         """Steps 5-7 of the scan; dt is the measured execution time."""
-        mem, s = self.mem, self.mem.s
+        mem = self.mem
         if self._first:
+            s = mem.s
             for bit in self._first:
                 s[bit] = 0
             self._first = {}
@@ -207,14 +213,15 @@ class Engine:
         st.scans += 1
         st.last = dt
         st.total += dt
+        sw = mem.sw.w
+        ms = int(dt * 1000 + 0.5)
+        sw[SW_LAST] = ms if ms < 32767 else 32767
         if dt > st.max:
             st.max = dt
-        if st.min == 0.0 or dt < st.min:
+            sw[SW_MAX] = sw[SW_LAST]
+        if dt < st.min or st.scans == 1:
             st.min = dt
-        sw = mem.sw.w
-        sw[SW_LAST] = min(32767, round(dt * 1000))
-        sw[SW_MAX] = min(32767, round(st.max * 1000))
-        sw[SW_MIN] = min(32767, round(st.min * 1000))
+            sw[SW_MIN] = sw[SW_LAST]
         self.clock.end_scan(self.period_us)
         if self.devices:
             t = self.clock.now_us / 1e6

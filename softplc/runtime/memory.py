@@ -88,6 +88,14 @@ class MemoryImage:
         self.i_field = [0] * n_io
         self.q = [0] * n_io
         self.q_field = [0] * n_io
+        # The scan-boundary copies (field -> input image, output image -> field) cover the
+        # channels in use only: those the program, the configuration, a device or an API
+        # write names (`use_io`). They are generated straight-line code, rebuilt when the
+        # set grows: a list slice of one 32-channel module costs more than the whole
+        # drawing-table program's I/O.
+        self._in_used: set[int] = set()
+        self._out_used: set[int] = set()
+        self._build_copiers()
         self.m = [0] * c("M")
         self.s = [0] * c("S")
         self.x = [0] * c("X")
@@ -141,6 +149,8 @@ class MemoryImage:
             step = 2 if ref.kind in ("MD", "MF", "KD", "KF") else 1
             return [self.read(Ref(ref.kind, ref.index + k * step)) for k in range(ref.length)]
         idx = self._effective_index(ref)
+        if ref.kind == "I" and idx not in self._in_used:
+            return bool(self.i_field[idx])  # not latched: what a latch would copy
         if ref.kind in IO_KINDS or ref.kind in ("M", "S", "X"):
             return bool(self.bits(ref.kind)[idx])
         fam = self.words(ref.kind)
@@ -171,6 +181,8 @@ class MemoryImage:
                 self.write(Ref(ref.kind, ref.index + k * step), v, field_inputs=field_inputs)
             return
         idx = self._effective_index(ref)
+        if ref.kind in IO_KINDS:
+            self.use_io(ref)
         if ref.kind == "I" and field_inputs:
             self.i_field[idx] = 1 if value else 0
             return
@@ -189,11 +201,27 @@ class MemoryImage:
             fam.w[idx] = wrap16(int(value))
 
     # -- scan boundary ----------------------------------------------------------------------
-    def latch_inputs(self) -> None:
-        self.i[:] = self.i_field
+    def use_io(self, ref: Ref) -> None:
+        """Make sure the scan-boundary copies cover an I/O address (or bit string)."""
+        used = self._in_used if ref.kind == "I" else self._out_used
+        new = set(range(ref.index, ref.index + (ref.length or 1))) - used
+        if new:
+            used |= new
+            self._build_copiers()
 
-    def publish_outputs(self) -> None:
-        self.q_field[:] = self.q
+    def _build_copiers(self) -> None:
+        def copier(name: str, dst: str, src: str, used: set[int]) -> object:
+            body = "".join(f"    {dst}[{k}] = {src}[{k}]\n" for k in sorted(used)) or "    pass\n"
+            ns = {dst: getattr(self, dst), src: getattr(self, src)}
+            exec(f"def {name}({dst}={dst}, {src}={src}):\n{body}", ns)
+            return ns[name]
+
+        self.latch_inputs = copier("latch_inputs", "i", "i_field", self._in_used)
+        self.publish_outputs = copier("publish_outputs", "q_field", "q", self._out_used)
+
+    def latched(self, index: int) -> bool:
+        """Whether an input channel is copied into the image at each scan."""
+        return index in self._in_used
 
     # -- snapshots (debugger history, retained state) -------------------------------------
     def snapshot(self) -> dict[str, Any]:
