@@ -94,3 +94,43 @@ def test_unreachable_daemon_is_a_clear_error(tmp_path, capsys):
     assert rc == 1
     err = capsys.readouterr().err
     assert f"127.0.0.1:{port}" in err and "Traceback" not in err
+
+
+def test_ctrl_c_lifts_the_pen_and_the_drawing_resumes(table, tmp_path):
+    """Ctrl-C in `softplc draw` stops after the current segment with the pen up and says
+    where to resume; `--start-at` finishes the drawing as if never interrupted."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    d, trace = table("drawing_table.il")
+    gcode = SAMPLES / "circle.gcode"
+    cmd = [sys.executable, "-m", "softplc", "draw", str(gcode), "--port", str(d.port),
+           "--poll", "0.01"]
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, env=env)
+    seen = b""
+    deadline = time.monotonic() + 30
+    while b"] 5/" not in seen and time.monotonic() < deadline:  # a few segments in
+        chunk = os.read(proc.stderr.fileno(), 4096)
+        if not chunk:
+            break
+        seen += chunk
+    proc.send_signal(signal.SIGINT)
+    _, rest = proc.communicate(timeout=30)
+    err = (seen + rest).decode(errors="replace")
+    assert proc.returncode == 130, err
+    m = re.search(r"resume with --start-at (\d+)", err)
+    assert m, err
+    with d.client() as c:
+        assert c.read_registers(5, 1) == [0]  # the last frame lifted the pen
+    rc = softplc(["draw", str(gcode), "--port", str(d.port), "--no-progress", "--poll",
+                  "0.01", "--start-at", m[1]])
+    assert rc == 0
+    assert d.stop() == 0
+    rows = load_trace(trace)
+    dev = max_deviation(parse_file(gcode).steps(), rows)
+    assert dev.max_steps <= 1.0 and dev.missed_steps == 0, dev
