@@ -1,7 +1,8 @@
 """softplc benchmarks: scan engine, peers side by side, Modbus server load.
 
     .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
-                                    [--png results/bench.png] [--sections engine,peers,modbus]
+                                    [--png results/bench.png]
+                                    [--sections engine,peers,modbus,drawing]
 
 Sections:
   engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
@@ -9,6 +10,8 @@ Sections:
           (bench_peers.py; `make bench` installs the optional peers)
   modbus  the daemon under Modbus load: throughput, latency, scan jitter (bench_modbus.py,
           skipped with a note if that file is absent)
+  drawing simulated drawing speed: a 100-segment figure on the drawing table at a 1 ms
+          scan, in simulated seconds per wall second (bench_drawing.py; target >= 50x)
 
 Figures go to stdout, progress to stderr; the JSON and the bar chart go under results/.
 Absolute numbers vary from run to run and with whatever else the machine is doing (the
@@ -31,11 +34,12 @@ for _p in (str(ROOT), str(TOOLS)):
     if _p not in sys.path:
         sys.path.insert(0, _p)
 
+import bench_drawing  # noqa: E402
 import bench_engine  # noqa: E402
 import bench_peers  # noqa: E402
 from peers.common import describe_machine, machine_info, progress  # noqa: E402
 
-SECTIONS = ("engine", "peers", "modbus")
+SECTIONS = ("engine", "peers", "modbus", "drawing")
 
 
 def run_modbus_section(quick: bool) -> dict[str, Any]:
@@ -165,6 +169,14 @@ def main(argv: list[str] | None = None) -> int:
         progress("section modbus")
         res["modbus"] = run_modbus_section(a.quick)
         print("\n" + modbus_report(res["modbus"]))
+    if "drawing" in sections:
+        progress("section drawing")
+        r = res["drawing"] = bench_drawing.run(segments=30 if a.quick else 100)
+        print(f"\nSimulated drawing: {r['segments']} segments at a 1 ms scan, "
+              f"{r['simulated_s']:.1f} simulated s in {r['wall_s']:.2f} wall s = "
+              f"{r['speedup']:.0f}x real time ({r['us_per_scan']:.2f} us per scan with the "
+              f"machine and the host loop; {r['missed_steps']} missed steps)  "
+              f"target >= 50x  {'met' if r['speedup'] >= 50 else 'MISSED'}")
     res["seconds"] = time.monotonic() - t0
     res["load_average_end"] = __import__("os").getloadavg()
     if a.json:
