@@ -29,6 +29,17 @@ _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+)\s*(us|ms|s|min)?\s*$", re.I)
 _UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0, None: 1.0}
 
 
+def check_keys(section: str, table: Any, allowed: tuple[str, ...]) -> dict[str, Any]:
+    """A config table with only known keys: a typo is an error, not a silent default."""
+    if not isinstance(table, dict):
+        raise ConfigError(f"{section} must be a table, not {table!r}")
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise ConfigError(f"{section}: unknown key(s) {', '.join(unknown)}; known: "
+                          f"{', '.join(allowed)}")
+    return table
+
+
 def duration(value: Any, what: str = "duration") -> float:
     """'10ms', '1.5s', '1min', 0.01 -> seconds."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):

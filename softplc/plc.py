@@ -11,7 +11,7 @@ from typing import Any
 
 from .address import BLOCK_FIELDS, Ref, parse_address
 from .compiler.codegen import CompiledProgram, compile_program
-from .config import duration, load_config, time_base
+from .config import check_keys, duration, load_config, time_base
 from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLCError
 from .il import ast as A
 from .il.parser import parse, parse_file
@@ -136,6 +136,7 @@ class PLC:
         blocks = self.mem.blocks
         for text, o in cfg.get("timers", {}).items():
             ref = self._cfg_ref(text, "TM", "timers")
+            check_keys(f"timers.{text}", o, ("type", "base", "preset"))
             try:
                 blocks["TM"][ref.index] = Timer(self.time_source, o.get("type", "TON"),
                                                 time_base(o.get("base", "1s")),
@@ -144,12 +145,14 @@ class PLC:
                 raise ConfigError(f"timers.{text}: {e}") from None
         for text, o in cfg.get("counters", {}).items():
             ref = self._cfg_ref(text, "C", "counters")
+            check_keys(f"counters.{text}", o, ("preset",))
             try:
                 blocks["C"][ref.index] = Counter(int(o.get("preset", 9999)))
             except (ValueError, TypeError) as e:
                 raise ConfigError(f"counters.{text}: {e}") from None
         for text, o in cfg.get("drums", {}).items():
             ref = self._cfg_ref(text, "DR", "drums")
+            check_keys(f"drums.{text}", o, ("steps", "outputs"))
             outs = []
             for a in o.get("outputs", []):
                 r = parse_address(a, self.profile)
@@ -163,6 +166,7 @@ class PLC:
                 raise ConfigError(f"drums.{text}: {e}") from None
         for text, o in cfg.get("registers", {}).items():
             ref = self._cfg_ref(text, "R", "registers")
+            check_keys(f"registers.{text}", o, ("type",))
             try:
                 blocks["R"][ref.index] = Register(o.get("type", "FIFO"),
                                                   self.profile.count("FIFO_DEPTH"))

@@ -19,7 +19,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from ..config import duration
+from ..config import check_keys, duration
 from ..errors import ConfigError, SoftPLCError
 
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
@@ -127,9 +127,10 @@ def run(args: argparse.Namespace) -> int:
         args.trace.parent.mkdir(parents=True, exist_ok=True)
         recorder.record_to(args.trace)
     cfg = getattr(plc, "config", None) or {}
-    mb, dm = cfg.get("modbus", {}) or {}, cfg.get("daemon", {}) or {}
-    if not isinstance(mb, dict) or not isinstance(dm, dict):
-        raise ConfigError("[modbus] and [daemon] must be tables")
+    mb = check_keys("[modbus]", cfg.get("modbus", {}) or {},
+                    ("host", "port", "read_only", "max_clients", "frame_timeout", "idle_timeout"))
+    dm = check_keys("[daemon]", cfg.get("daemon", {}) or {},
+                    ("state", "save_interval", "stats_interval", "rt_priority"))
     dur = duration
     period = args.period if args.period is not None else (
         duration(cfg["scan_period"], "scan_period") if "scan_period" in cfg else 0.010)

@@ -1,0 +1,50 @@
+"""Configuration mistakes are clear errors, never silent defaults."""
+
+from __future__ import annotations
+
+import pytest
+
+from softplc import PLC
+from softplc.cli import main as softplc
+from softplc.errors import ConfigError
+
+PROG = "LD %I0.0\nIN %TM0\nLD %TM0.Q\nST %Q0.0\n"
+TM0 = {"type": "TON", "base": "10ms", "preset": 3}
+
+
+@pytest.mark.parametrize("config, message", [
+    ({"timers": {"%TM0": {"type": "TON", "base": "10ms", "prest": 3}}}, "unknown key(s) prest"),
+    ({"timers": {"%TM0": {"type": "TOX", "base": "10ms"}}}, "TON, TOF or TP"),
+    ({"timers": {"%TM0": {"type": "TON", "base": "20ms"}}}, "1ms, 10ms, 100ms, 1s, 1min"),
+    ({"timers": {"%TM0": {"type": "TON", "preset": 10000}}}, "0..9999"),
+    ({"timers": {"%C0": TM0}}, "not a %TM object"),
+    ({"timers": {"%TM0": TM0}, "counters": {"%C0": {"preset": 5, "up": 1}}}, "unknown key"),
+    ({"timers": {"%TM0": TM0}, "scan_period": "fast"}, "not a duration"),
+    ({"timers": {"%TM0": TM0}, "scan_periode": "10ms"}, "unknown configuration key"),
+    ({"timers": {"%TM0": TM0}, "constants": {"%MW0": 3}}, "not a %KW/%KD/%KF constant"),
+    ({"timers": {"%TM0": TM0}, "modules": {"9": "TM2DDO8TT"}}, "slot 9 outside 1..7"),
+    ({"timers": {"%TM0": TM0}, "modules": {"1": "TM2XYZ"}}, "unknown module"),
+    ({"timers": {"%TM0": TM0}, "devices": {"X": {"type": "servo"}}}, "unknown type 'servo'"),
+    ({"timers": {"%TM0": TM0}, "profile": "TWDLCAE99"}, "unknown profile"),
+])
+def test_config_mistakes_are_named(config, message):
+    with pytest.raises(ConfigError) as e:
+        PLC.from_source(PROG, config)
+    assert message in str(e.value)
+
+
+def test_toml_syntax_error_names_the_file(tmp_path):
+    cfg = tmp_path / "m.toml"
+    cfg.write_text('scan_period = "10ms\n')
+    with pytest.raises(ConfigError, match="m.toml"):
+        PLC.from_source(PROG, cfg)
+
+
+def test_daemon_rejects_an_unknown_modbus_key(tmp_path, capsys):
+    prog = tmp_path / "p.il"
+    prog.write_text("LD 1\nST %M0\n")
+    cfg = tmp_path / "m.toml"
+    cfg.write_text("[modbus]\nprot = 5021\n")
+    assert softplc(["run", str(prog), "--config", str(cfg), "--port", "0"]) == 1
+    err = capsys.readouterr().err
+    assert "[modbus]: unknown key(s) prot" in err and "Traceback" not in err
