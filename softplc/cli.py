@@ -19,7 +19,6 @@ COMMAND_MODULES = [
     "softplc.commands.repl",
     "softplc.commands.ladder",
     "softplc.commands.draw",
-    "softplc.commands.bench",
 ]
 
 
@@ -28,15 +27,12 @@ def build_parser() -> argparse.ArgumentParser:
         prog="softplc",
         description="A soft-PLC for Telemecanique Twido Instruction List programs.",
     )
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"softplc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for modname in COMMAND_MODULES:
-        try:
-            mod = importlib.import_module(modname)
-        except ModuleNotFoundError as e:
-            if e.name == modname:  # subcommand not built yet
-                continue
-            raise
-        mod.register(sub)
+        importlib.import_module(modname).register(sub)
     return parser
 
 

@@ -64,11 +64,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "run", help="run a program with a Modbus TCP server (a soft Twido)",
         description="Run PROGRAM.il periodically on the real clock and serve its memory over "
-                    "Modbus TCP: %%MWn = holding/input register n (FC 3/4/6/16/23), %%Mn = "
+                    "Modbus TCP: %MWn = holding/input register n (FC 3/4/6/16/23), %Mn = "
                     "coil/discrete input n (FC 1/2/5/15), FC 43/14 device identification. "
                     "Host writes are applied at the start of the next scan; reads return the "
-                    "image of the last scan. Stop with Ctrl-C or SIGTERM: the scan finishes, "
-                    "outputs go to 0, the state file is saved.")
+                    "image of the last scan with the writes acknowledged since. Stop with "
+                    "Ctrl-C or SIGTERM: the scan finishes, outputs go to 0, the state file is "
+                    "saved.")
     p.add_argument("program", type=Path, help="Instruction List program (.il)")
     p.add_argument("--config", type=Path, help="machine configuration (TOML)")
     p.add_argument("--host", help="address to listen on (default 127.0.0.1; 0.0.0.0 for all)")
