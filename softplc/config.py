@@ -1,16 +1,17 @@
 """Configuration: a dict or a TOML file with the same keys.
 
-    scan_period = "10ms"          # virtual scan length / periodic-mode period
-    watchdog = "150ms"            # %SW11
+    scan_period = "10ms"     # virtual scan length / periodic-mode period
+    watchdog = "150ms"       # %SW11
     profile = "TWDLCAE40DRF"
-    [timers."%TM0"]  type = "TON"  base = "10ms"  preset = 50
-    [counters."%C0"] preset = 10
-    [drums."%DR0"]   steps = [1, 2, 4]  outputs = ["%Q0.0", "%Q0.1", "%Q0.2"]
-    [registers."%R0"] type = "FIFO"
-    [constants] "%KW0" = 100  "%KF2" = 1.5
-    [modules] 1 = "TM2DDO8TT"     # expansion modules; when given, I/O addresses are checked
-    [devices.NAME] type = "..."   # simulated machine (softplc.devices)
-    [modbus] ...                  # the daemon's server options
+    timers."%TM0" = { type = "TON", base = "10ms", preset = 50 }
+    counters."%C0" = { preset = 10 }
+    drums."%DR0" = { steps = [1, 2, 4], outputs = ["%Q0.0", "%Q0.1", "%Q0.2"] }
+    registers."%R0" = { type = "FIFO" }
+    constants = { "%KW0" = 100, "%KF2" = 1.5 }
+    modules = { 1 = "TM2DDO8TT" }    # expansion modules; when given, I/O addresses are checked
+    [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
+    [modbus]                 # the daemon's server options (softplc run)
+    [daemon]                 # the daemon's state file, save and statistics intervals
 """
 
 from __future__ import annotations
