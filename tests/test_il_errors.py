@@ -241,3 +241,12 @@ def test_configured_module_outputs_are_accepted():
     plc = PLC.from_source("LD 1\nST %Q1.7\n", {"modules": {"1": "TM2DDO8TT"}})
     plc.scan()
     assert plc["%Q1.7"]
+
+
+@pytest.mark.parametrize("src, lines", [
+    ("LDX   %M0\nST    %Q0.0\n", [1]),                      # the bad line was the load
+    ("LD    %M1\nAND(  %M2\n)x\nST    %Q0.1\n", [3]),         # the bad line was the ')'
+    ("LD    1\n[ %MW1 := ]\nLD    %M0\nMPP\nST    %M3\n", [2, 4]),  # MPP error is real
+])
+def test_a_skipped_line_causes_no_follow_up_errors(src, lines):
+    assert [d.line for d in errors_of(src).diagnostics] == lines
