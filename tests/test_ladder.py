@@ -14,6 +14,7 @@ import pytest
 from softplc.cli import main
 from softplc.debug import ladder
 from softplc.debug.session import Session
+from softplc.il import ast as A
 from softplc.il.parser import parse, parse_file
 from softplc.plc import PLC
 
@@ -89,8 +90,192 @@ def test_svg_is_well_formed_with_titles_and_elements() -> None:
     root = ET.fromstring(svg)
     texts = [t.text for t in root.iter("{http://www.w3.org/2000/svg}text")]
     assert "rung 2  branches" in texts and "%Q0.0" in texts
-    assert "[ INC %MW0 ]" in texts and "[%C0 CU]" in texts
+    assert "[ INC %MW0 ]" in texts and "[%C0 CU]" not in texts
+    # the counter block is one box: its name once, its pins inside
+    assert texts.count("%C0") == 1 and {"R", "CU", "CD", "S", "E", "D", "F"} <= set(texts)
     assert len(list(root.iter("{http://www.w3.org/2000/svg}path"))) >= 10  # coil arcs
+
+
+BLOCKS = """(*RUNG: timer block*)
+BLK   %TM0
+LD    %I0.1
+IN
+OUT_BLK
+LD    Q
+ST    %Q0.3
+END_BLK
+
+(*RUNG: counter block*)
+BLK   %C0
+LD    %I0.0
+R
+LD    %I0.1
+AND   %M1
+CU
+LDN   %I0.2
+CD
+OUT_BLK
+LD    D
+ST    %Q0.1
+LD    F
+AND   %M2
+S     %M3
+END_BLK
+
+(*RUNG: OR after an output*)
+LD    %I0.3
+ST    %Q0.4
+OR    %I0.4
+ST    %Q0.5
+
+(*RUNG: ORN after an output and more logic*)
+LD    %I0.5
+AND   %M4
+ST    %Q0.6
+ORN   %I0.6
+AND   %M5
+ST    %Q0.7
+"""
+BLOCKS_CONFIG = {"scan_period": "10ms",
+                 "timers": {"%TM0": {"type": "TON", "base": "10ms", "preset": 5}},
+                 "counters": {"%C0": {"preset": 1}}}
+
+
+def test_blocks_and_or_after_output_snapshot() -> None:
+    check_snapshot("blocks.txt", ladder.render_program_text(parse(BLOCKS)))
+
+
+def test_blocks_live_snapshot() -> None:
+    """%I0.1 forced on for 10 scans: the timer is done, the counter counted once (D)."""
+    s = Session(PLC.from_source(BLOCKS, config=BLOCKS_CONFIG))
+    for cmd in ("force %I0.1 1", "force %I0.2 1", "set %M1 1", "set %M5 1",
+                "force %I0.6 1", "scan 10"):
+        s.execute(cmd)
+    views = "\n".join(s.execute(f"rung {i}") for i in range(len(s.plc.rungs)))
+    check_snapshot("blocks_live.txt", views + "\n")
+    timer = views.split("rung 1")[0]
+    # power through the IN pin, out of Q to the coil; type, base, preset inside the box
+    assert "┤IN" in timer and "═┤IN" in timer and "Q├════( )" in timer
+    assert "TON 10ms" in timer and "P=5 V=5" in timer
+
+
+def test_function_block_is_one_box() -> None:
+    rung = parse(BLOCKS).rungs[1]
+    text = ladder.render_text(rung, header=False)
+    lines = text.splitlines()
+    assert text.count("%C0") == 1 and "[%C0" not in text  # one box, titled once
+    assert lines[0].split("┌")[1].startswith("─%C0") and "└" in lines[-1]
+    # the pins in TwidoSuite's order, each input's network on its left
+    row = {pin: next(i for i, ln in enumerate(lines) if f"┤{pin} " in ln or f"│{pin} " in ln)
+           for pin in ("R", "S", "CU", "CD")}
+    assert row["R"] < row["S"] < row["CU"] < row["CD"]
+    assert "%I0.1" in lines[row["CU"] - 1] and "%M1" in lines[row["CU"] - 1]
+    assert "┤/├" in lines[row["CD"]] and "│S " in lines[row["S"]]  # S is not wired
+    # the outputs on the right, leading to the coils that use them
+    assert "D├" in lines[row["S"]] and "( )" in lines[row["S"]]
+    assert "F├" in lines[row["CU"]] and "(S)" in lines[row["CU"]]
+    assert "E│" in lines[row["R"]]  # E is not used
+
+
+def test_or_after_an_output_draws_each_contact_once() -> None:
+    for rung in parse(BLOCKS).rungs[2:]:
+        text = ladder.render_text(rung, header=False)
+        for ins in rung.instructions:
+            if hasattr(ins, "operand"):
+                assert text.count(str(ins.operand.ref)) == 1, (str(ins.operand.ref), text)
+    # LD a / ST b / OR c / ST d: a feeds b alone, (a OR c) feeds d
+    lines = ladder.render_text(parse(BLOCKS).rungs[2], header=False).splitlines()
+    assert lines[1].startswith("├──┤ ├──┬") and lines[1].endswith("( )──┤")
+    assert lines[3].lstrip("│ ").startswith("└─────┬") and "( )" in lines[3]
+    assert lines[5].startswith("├──┤ ├────────┘")
+
+
+def test_or_after_an_output_that_would_cross_is_drawn_apart() -> None:
+    # MPS / ST / OR / ST / MPP / ST: the OR is drawn after the MPP branch, not across it
+    rung = parse("LD %I0.0\nMPS\nST %Q0.0\nOR %I0.1\nST %Q0.1\nMPP\nST %Q0.2\n").rungs[0]
+    text = ladder.render_text(rung, header=False)
+    assert text.count("%I0.0") == 1 and "┼" not in text
+    assert text.index("%Q0.2") < text.index("%Q0.1")
+
+
+def _drawn_coils(g: ladder.Grid, state: dict[str, bool]) -> dict[int, bool]:
+    """Power at each coil of a laid-out rung, read the ladder way (power flows left to
+    right; a vertical link joins the rows it spans into one node)."""
+    power: dict[tuple[int, int], bool] = {}
+    coils: dict[int, bool] = {}
+    for b in range(g.outcol + 2):
+        into: dict[int, bool] = {}
+        for r in range(g.rows):
+            cell = g.cells.get((r, b - 1))
+            if b == 0:
+                into[r] = True
+            elif cell is not None and cell.box is not None:
+                if cell.box.right_wired:
+                    into[r] = state[f"{cell.elem.symbol}.{cell.box.right}"]
+            elif cell is not None and (cell.elem is None or cell.elem.kind == "contact"):
+                on = cell.elem is None or state[str(cell.elem.ref)] != (cell.elem.symbol == "┤/├")
+                into[r] = power[(r, b - 1)] and on
+        node = list(range(g.rows))
+        for col, r1, r2, _ in g.vlinks:
+            if col == b:
+                for r in range(r1 + 1, r2 + 1):
+                    old, new = node[r], node[r1]
+                    node = [new if n == old else n for n in node]
+        for r in range(g.rows):
+            power[(r, b)] = any(p for rr, p in into.items() if node[rr] == node[r])
+            cell = g.cells.get((r, b))
+            if cell is not None and cell.elem is not None and cell.elem.kind == "coil":
+                coils[cell.elem.k] = power[(r, b)]
+    return coils
+
+
+@pytest.mark.parametrize("src", [
+    BLOCKS,
+    "LD %I0.0\nST %Q0.0\nOR %I0.1\nAND %M1\nORN %I0.2\nST %Q0.1\nST %Q0.2\n",
+    "LD %I0.0\nOR %M1\nST %Q0.0\nAND %M3\nOR( %I0.1\nAND %M4\n)\nST %Q0.1\n",
+    "LD %I0.0\nMPS\nAND %M0\nST %Q0.0\nOR %M1\nST %Q0.1\nMPP\nST %Q0.2\n",
+    "LD %I0.0\nMPS\nST %Q0.0\nOR %I0.1\nST %Q0.1\nMPP\nAND %M2\nST %Q0.2\n",
+    "BLK %C0\nLD %I0.0\nCU\nOUT_BLK\nLD D\nST %Q0.0\nOR %M1\nST %Q0.1\nEND_BLK\n",
+])
+def test_the_drawing_computes_what_the_il_computes(src: str) -> None:
+    """Every coil, for every state of the contacts and block outputs, gets the power the
+    IL's accumulator has at its ST: the drawing connects exactly what the IL connects."""
+    for rung in PLC.from_source(src + "END\n", config=BLOCKS_CONFIG).ast.rungs:  # it compiles
+        names = sorted({str(i.operand.ref) for i in rung.instructions
+                        if isinstance(getattr(i, "operand", None), A.Operand)} |
+                       {f"{i.block}.{f}" for i in rung.instructions
+                        if isinstance(i, A.Blk) for f in ladder.BOX_PINS[i.block.kind][1]})
+        grid = ladder.layout(rung)
+        for bits in range(1 << len(names)):
+            state = {n: bool(bits >> i & 1) for i, n in enumerate(names)}
+            drawn, acc = _drawn_coils(grid, state), _il_accumulator(rung, state)
+            assert acc and drawn == acc, (rung.index, state)
+
+
+def _il_accumulator(rung: A.Rung, state: dict[str, bool]) -> dict[int, bool]:
+    """The accumulator at each output, by the IL's rules (LD AND OR, parentheses, MPS)."""
+    acc, stack, parens, blk, out = False, [], [], None, {}
+    for k, ins in enumerate(rung.instructions):
+        if isinstance(ins, (A.BoolInstr, A.ParenOpen)):
+            op = ins.operand
+            v = state[f"{blk}.{op.name}" if isinstance(op, A.BlockOutput) else str(op.ref)]
+            v = v != (ins.modifier == "N")
+            if isinstance(ins, A.ParenOpen):
+                parens.append((ins.op, acc))
+                acc = v
+            else:
+                acc = v if ins.op == "LD" else (acc and v) if ins.op == "AND" else (acc or v)
+        elif isinstance(ins, A.ParenClose):
+            op, outer = parens.pop()
+            acc = (outer and acc) if op == "AND" else (outer or acc)
+        elif isinstance(ins, A.Stack):
+            acc = stack.append(acc) or acc if ins.op == "MPS" else \
+                stack[-1] if ins.op == "MRD" else stack.pop()
+        elif isinstance(ins, A.Blk):
+            blk = ins.block
+        elif isinstance(ins, A.Store):
+            out[k] = acc
+    return out
 
 
 def test_cli_ladder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

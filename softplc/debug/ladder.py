@@ -2,14 +2,20 @@
 
 A rung's instructions become a tree: the accumulator is a series/parallel expression of
 contacts hanging from a *junction* (the left rail, or the point where an earlier output or
-an MPS branched off); outputs (coils, operation blocks, jumps, block inputs) attach to
-junctions. The tree is laid out on a grid of cells (one element per cell, vertical links
-on the boundaries between columns), and the grid is drawn as text or SVG.
+an MPS branched off); outputs (coils, operation blocks, jumps, short-form block inputs)
+attach to junctions. An OR after an output is a *merge*: the wire from the junction and
+the ORed logic, coming from the rail underneath, meet at a new junction, so each contact
+is drawn once (power flows left to right, as in any PLC ladder). BLK ... END_BLK is one
+box with the block's pins in TwidoSuite's order: each input's network on the left, what
+each output feeds on the right. The tree is laid out on a grid of cells (one element per
+cell, vertical links on the boundaries between columns; a box takes one cell per row), and
+the grid is drawn as text or SVG.
 
 Live view: give `Live` (memory reader, the debug build's accumulator log for the rung,
 forced objects). Wires that carry power are drawn double (═), values go under each
-element, forced values are marked `F`. Power comes from the log (the accumulator after
-each instruction) where the instruction fixes it, else from the contacts' current values.
+element (a block's configuration and values inside its box), forced values are marked
+`F`. Power comes from the log (the accumulator after each instruction) where the
+instruction fixes it, else from the contacts' current values.
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ ASCII = str.maketrans("─═│║┤├┬┴┼┌┐└┘╠╣╦╩╬╔
 class Elem:
     """One drawn element: a contact, coil, box..."""
 
-    kind: str  # contact | compare | coil | box | text
+    kind: str  # contact | compare | coil | box | pin (a block input, drawn on the block) | block
     symbol: str  # "┤ ├", "( )", or a box's text
     label: str = ""  # above the element (its address)
     k: int = -1  # instruction index in the rung
@@ -63,13 +69,44 @@ class Par:
 @dataclass
 class Junction:
     path: Any = None  # expression from the rail to here (None: the rail)
-    children: list[Any] = field(default_factory=list)  # Elem (an output) or Branch
+    children: list[Any] = field(default_factory=list)  # Elem (an output), Branch, Merge, Block
+    merge: Merge | None = None  # the Merge this junction is the meeting point of
 
 
 @dataclass
 class Branch:
     logic: Any
     to: Junction
+
+
+@dataclass
+class Merge:
+    """An OR after an output: the power at a junction (through `tap`, the logic since the
+    output) ORed with `join`, logic from the left rail; the two meet at `to`."""
+
+    tap: Any  # None: straight from the junction
+    join: Any
+    to: Junction
+    k: int  # the OR: the accumulator after it is the power at `to`
+
+
+# A function block's pins in TwidoSuite's order (inputs on the left, outputs on the right).
+# Counter outputs E D F top to bottom as TwidoSuite draws the block [unsure, from memory].
+BOX_PINS = {"TM": (("IN",), ("Q",)), "C": (("R", "S", "CU", "CD"), ("E", "D", "F")),
+            "DR": (("R", "U"), ("F",)), "SBR": (("R", "CU", "CD"), ()),
+            "SC": (("R", "CU", "CD"), ()), "R": (("R", "I", "O"), ("E", "F"))}
+
+
+@dataclass
+class Block:
+    """BLK ... END_BLK drawn as one box: input networks from the rail end on the pins (Elem
+    kind "pin"), each output pin feeds its own junction."""
+
+    ref: Ref
+    elem: Elem  # the box (k: the BLK instruction)
+    ins: Junction = field(default_factory=Junction)
+    outs: dict[str, Junction] = field(default_factory=dict)
+    ks: set[int] = field(default_factory=set)  # BLK OUT_BLK END_BLK: a marker on the title
 
 
 def _ser(a: Any, b: Any, k: int) -> Any:
@@ -129,6 +166,8 @@ def _output_elem(instr: A.Instruction, k: int, blk: Ref | None) -> Elem | None:
     if isinstance(instr, (A.Return, A.End)):
         return Elem("box", f"<{instr.op}>", "", k, instr)
     if isinstance(instr, A.Pin):
+        if instr.block is None and blk is not None:  # inside BLK: a pin of the box
+            return Elem("pin", instr.name, "", k, instr)
         b = instr.block or blk
         return Elem("box", f"[{b} {instr.name}]", "", k, instr,
                     Ref(b.kind, b.index) if b is not None else None)
@@ -137,13 +176,35 @@ def _output_elem(instr: A.Instruction, k: int, blk: Ref | None) -> Elem | None:
     return None
 
 
-def build(rung: A.Rung) -> Junction:
-    """The rung as a tree of junctions (see the module docstring)."""
+def _block_output(ins: A.BoolInstr, blk: Ref) -> str | None:
+    """The output pin a plain `LD Q` (or `LD %C0.D`) after OUT_BLK reads, else None."""
+    op = ins.operand
+    if ins.modifier:
+        return None  # LDN Q and the like: a contact from the rail
+    if isinstance(op, A.BlockOutput):
+        return op.name
+    if (isinstance(op, A.Operand) and op.ref.kind == blk.kind and op.ref.index == blk.index
+            and op.ref.field in BOX_PINS.get(blk.kind, ((), ()))[1]):
+        return op.ref.field
+    return None
+
+
+def _has_merge(j: Junction) -> bool:
+    return any(isinstance(ch, Merge) or (isinstance(ch, Branch) and _has_merge(ch.to))
+               for ch in j.children)
+
+
+def build(rung: A.Rung, merge: bool = True) -> Junction:
+    """The rung as a tree of junctions (see the module docstring). `merge=False` draws an OR
+    after an output by drawing the logic before it again (the fallback when a merge would
+    cross other wires)."""
     root = Junction()
+    rail = root  # where a load starts (inside BLK ... OUT_BLK: the block's input side)
     cur, pend = root, None  # the accumulator = power at `cur`, then through `pend`
     mps: list[Junction] = []
     parens: list[tuple[str, str, Junction, Any]] = []
     blk: Ref | None = None
+    block: Block | None = None
 
     def attach() -> Junction:
         nonlocal cur, pend
@@ -158,8 +219,20 @@ def build(rung: A.Rung) -> Junction:
         if op == "AND":
             pend = _ser(pend, e, k)
         elif op == "OR":
-            if cur is not root and cur.path is not None:  # OR after an output: redraw the path
-                pend, cur = _full(cur, pend, k), root
+            if cur.path is not None:  # OR after an output (or an MPS)
+                if pend is None and cur.merge is not None and not cur.children:
+                    cur.merge.join = _par(cur.merge.join, e, k)  # OR c / OR d: c // d
+                    cur.merge.k = k
+                    cur.path = _par(cur.path, e, k)
+                    return
+                at_pin = block is not None and any(cur is j for j in block.outs.values())
+                if merge and not (at_pin and not cur.children):  # LD Q / OR c: Q // c
+                    m = Junction(_par(_full(cur, pend, k), e, k))
+                    m.merge = Merge(pend, e, m, k)
+                    cur.children.append(m.merge)
+                    cur, pend = m, None
+                    return
+                pend, cur = _full(cur, pend, k), rail  # draw the logic again from the rail
             pend = _par(pend, e, k)
         else:  # XOR: drawn as a series box
             pend = _ser(pend, Leaf(Elem("box", "[XOR]", "", k, None)), k)
@@ -167,9 +240,16 @@ def build(rung: A.Rung) -> Junction:
 
     for k, ins in enumerate(rung.instructions):
         if isinstance(ins, A.BoolInstr):
-            e = Leaf(_operand_elem(ins.operand, ins.modifier, k, ins, blk, ins.op), k)
-            if ins.op == "LD":
-                cur, pend = root, e
+            # an OR operand's own state is not the accumulator after it
+            e = Leaf(_operand_elem(ins.operand, ins.modifier, k, ins, blk, ins.op),
+                     None if ins.op == "OR" else k)
+            pin = (_block_output(ins, blk) if block is not None and rail is root
+                   and ins.op == "LD" else None)
+            if pin is not None:
+                j = block.outs.setdefault(pin, Junction(e))
+                cur, pend = j, None
+            elif ins.op == "LD":
+                cur, pend = rail, e
             else:
                 combine(ins.op, e, k)
         elif isinstance(ins, A.ParenOpen):
@@ -192,31 +272,72 @@ def build(rung: A.Rung) -> Junction:
             elif mps:
                 cur, pend = (mps[-1] if ins.op == "MRD" else mps.pop()), None
         elif isinstance(ins, A.Blk):
+            if pend is not None:
+                attach()
             blk = ins.block
-        elif isinstance(ins, A.EndBlk):
-            blk = None
+            block = Block(blk, Elem("block", str(blk), "", k, ins, Ref(blk.kind, blk.index)))
+            block.ks.add(k)
+            root.children.append(block)
+            rail = cur = block.ins
+            pend = None
+        elif isinstance(ins, (A.OutBlk, A.EndBlk)):
+            if block is not None:
+                block.ks.add(k)
+                if isinstance(ins, A.EndBlk):
+                    _close_block(block, root, merge)
+                    blk = block = None
+            rail = cur = root
+            pend = None
         else:
             el = _output_elem(ins, k, blk)
             if el is None:
                 continue
             unconditional = (isinstance(ins, (A.Jump, A.Return, A.End)) and
                              ins.op in ("JMP", "RET", "END"))
-            if unconditional or (pend is None and cur is root):
-                root.children.append(el)
+            if unconditional or (pend is None and cur is rail):
+                rail.children.append(el)
             else:
                 attach().children.append(el)
+    if block is not None:
+        _close_block(block, root, merge)
     if pend is not None:  # logic with no output (an unfinished rung)
         attach()
     return root
 
 
+def _close_block(block: Block, root: Junction, merge: bool) -> None:
+    """Output networks that OR in logic from the rail are drawn from the rail below the box,
+    starting with the output's contact (%C0.D), so the rail logic does not cross the box."""
+    for name, j in list(block.outs.items()):
+        if not j.children:
+            del block.outs[name]
+        elif merge and _has_merge(j):
+            del block.outs[name]
+            root.children.append(Branch(j.path, j))
+
+
 # ---- layout ------------------------------------------------------------------------------------
+@dataclass
+class BoxRow:
+    """One row of a function block's box: the pins on its two sides."""
+
+    first: bool
+    last: bool
+    left: str = ""  # input pin
+    left_wired: bool = False
+    right: str = ""  # output pin
+    right_wired: bool = False
+    info: str = ""  # live values, on the row's value line
+    marked: str = ""  # the next instruction is: "title" BLK/OUT_BLK/END_BLK, "left", "right"
+
+
 @dataclass
 class Cell:
     elem: Elem | None  # None: a plain wire
     p_in: bool = False
     p_out: bool = False
     value: str = ""  # under the element (live view)
+    box: BoxRow | None = None  # a row of a function block's box
 
 
 @dataclass
@@ -312,11 +433,45 @@ def block_summary(b: Any) -> str:
     return " ".join(parts)
 
 
+def _measure(e: Any) -> tuple[int, int]:
+    """Width and height of an expression, as `_Layout.expr` places it."""
+    if isinstance(e, Leaf):
+        return 1, 1
+    sizes = [_measure(it) for it in e.items]
+    if isinstance(e, Ser):
+        return sum(w for w, _ in sizes), max(h for _, h in sizes)
+    return max(w for w, _ in sizes), sum(h for _, h in sizes)
+
+
+def _pins_in(ch: Any) -> list[str]:
+    if isinstance(ch, Elem):
+        return [ch.symbol] if ch.kind == "pin" else []
+    if isinstance(ch, (Branch, Merge)):
+        return [n for c in ch.to.children for n in _pins_in(c)]
+    return []
+
+
+def _box_info(b: Any) -> list[str]:
+    """A block's configuration and values for the inside of its box (live view)."""
+    out = []
+    if hasattr(b, "type") and hasattr(b, "base"):
+        out.append(f"{b.type} {b.base}")
+    vals = [f"{f}={int(getattr(b, f))}" for f in ("P", "V", "S", "W")
+            if hasattr(b, f) and not callable(getattr(b, f))]
+    out += [" ".join(vals[i:i + 2]) for i in range(0, len(vals), 2)]
+    return out
+
+
 class _Layout:
-    def __init__(self, live: Live | None):
+    def __init__(self, live: Live | None, marker: int | None = None):
         self.g = Grid()
         self.live = live
+        self.marker = marker
         self.outs: list[tuple[int, int, Elem, bool]] = []
+        self.pins: list[tuple[int, int, Elem, bool]] | None = None  # inside a block's inputs
+        # merges to check for crossings: join row, merge column, the join's own vlinks, the
+        # first row under the tap
+        self.joins: list[tuple[int, int, set[int], int]] = []
 
     def put(self, r: int, c: int, cell: Cell) -> None:
         self.g.cells[(r, c)] = cell
@@ -376,22 +531,134 @@ class _Layout:
         """Place a junction's children from (r, c); returns the height."""
         h, starts = 0, []
         for ch in j.children:
-            row = r + h
-            starts.append(row)
-            if isinstance(ch, Elem):
-                p = p_in
-                if self.live is not None and ch.k >= 0 and j.path is not None:
-                    acc = self.live.acc(ch.k)
-                    p = acc if acc is not None else p_in
-                self.outs.append((row, c, ch, p))
-                h += 1
-            else:
-                w, hl, p = self.expr(ch.logic, row, c, p_in)
-                hj = self.junction(ch.to, row, c + w, p) if ch.to.children else 1
-                h += max(hl, hj)
+            starts.append(r + h)
+            h += self.child(ch, j, r + h, c, p_in)
         if len(starts) > 1:  # the link reaches the last child's first row
             self.g.vlinks.append((c, r, starts[-1], p_in))
         return max(h, 1)
+
+    def child(self, ch: Any, j: Junction, row: int, c: int, p_in: bool) -> int:
+        if isinstance(ch, Elem):
+            p = p_in
+            if self.live is not None and ch.k >= 0 and j.path is not None:
+                acc = self.live.acc(ch.k)
+                p = acc if acc is not None else p_in
+            (self.pins if ch.kind == "pin" and self.pins is not None else self.outs).append(
+                (row, c, ch, p))
+            return 1
+        if isinstance(ch, Block):
+            return self.block(ch, row, c)
+        if isinstance(ch, Merge):
+            return self.merge(ch, row, c, p_in)
+        w, hl, p = self.expr(ch.logic, row, c, p_in)
+        hj = self.junction(ch.to, row, c + w, p) if ch.to.children else 1
+        return max(hl, hj)
+
+    def free_row(self, start: int, height: int, cols: int) -> int:
+        """The first row from `start` where `height` rows are free left of column `cols`
+        (no element, no vertical link a wire there would touch)."""
+        r = start
+        while True:
+            rows = range(r, r + height)
+            if not any((x, cc) in self.g.cells for x in rows for cc in range(cols)) and \
+                    not any(1 <= b < cols and r1 <= x <= r2 for b, r1, r2, _ in self.g.vlinks
+                            for x in rows):
+                return r
+            r += 1
+
+    def merge(self, m: Merge, row: int, c: int, p_in: bool) -> int:
+        """An OR after an output: the tap goes right from the junction, the rail logic comes
+        in from below, both meet at one column; what follows the OR starts there."""
+        wt, ht, pt = self.expr(m.tap, row, c, p_in) if m.tap is not None else (0, 1, p_in)
+        we, he = _measure(m.join)
+        cm = max(c + max(wt, 1), we)
+        for cc in range(c + wt, cm):
+            self.put(row, cc, Cell(None, pt, pt))
+        r_e = self.free_row(row + 1, he, cm)
+        nv = len(self.g.vlinks)
+        _, _, pj = self.expr(m.join, r_e, 0, True)
+        own = set(range(nv, len(self.g.vlinks)))
+        for cc in range(we, cm):
+            self.put(r_e, cc, Cell(None, pj, pj))
+        pm = pt or pj
+        if self.live is not None:
+            acc = self.live.acc(m.k)
+            pm = acc if acc is not None else pm
+        self.g.vlinks.append((cm, row, r_e, pm))
+        self.joins.append((r_e, cm, own, row + ht))
+        hm = self.junction(m.to, row, cm, pm) if m.to.children else 1
+        return max(ht, hm, r_e + he - row)
+
+    def crossed(self) -> bool:
+        """Whether a merge's rail logic crosses a vertical link, or its vertical link a
+        wire: then the drawing would connect what the IL does not."""
+        for r_e, cm, own, below_tap in self.joins:
+            if any(i not in own and 1 <= b < cm and r1 <= r_e <= r2
+                   for i, (b, r1, r2, _) in enumerate(self.g.vlinks)):
+                return True
+            if any((x, cm - 1) in self.g.cells for x in range(below_tap, r_e)):
+                return True
+        return False
+
+    def block(self, b: Block, r: int, c0: int) -> int:
+        """A function block: its input networks, the box, what its outputs feed."""
+        in_names, out_names = BOX_PINS.get(b.ref.kind, ((), ()))
+        order = {n: i for i, n in enumerate(in_names)}
+        wired = {n for ch in b.ins.children for n in _pins_in(ch)}
+        items: list[tuple[int, Any]] = [
+            (min((order.get(n, len(order)) for n in _pins_in(ch)), default=len(order)), ch)
+            for ch in b.ins.children]
+        items += [(order[n], n) for n in in_names if n not in wired]
+        items.sort(key=lambda t: t[0])
+        # the input side
+        left: dict[int, tuple[str, bool, bool, int]] = {}  # row -> pin, wired, power, k
+        before, nv = set(self.g.cells), len(self.g.vlinks)
+        self.pins, row = [], r
+        for _key, it in items:
+            if isinstance(it, str):
+                left[row] = (it, False, False, -1)
+                row += 1
+            else:
+                row += self.child(it, b.ins, row, c0, True)
+        pins, self.pins = self.pins, None
+        h_in = row - r
+        cb = max([c for _, c, _, _ in pins] + [cc + 1 for (_, cc) in self.g.cells.keys() - before]
+                 + [v[0] + 1 for v in self.g.vlinks[nv:]] + [c0])
+        for x, c, el, p in pins:
+            for cc in range(c, cb):
+                self.put(x, cc, Cell(None, p, p))
+            left[x] = (el.symbol, True, p, el.k)
+        # the output side
+        right: dict[int, tuple[str, bool, bool, int]] = {}  # row -> pin, wired, power, k
+        row = r
+        for n in list(out_names) + [n for n in b.outs if n not in out_names]:
+            j = b.outs.get(n)
+            p = True
+            if self.live is not None:
+                try:
+                    p = bool(self.live.read(Ref(b.ref.kind, b.ref.index, field=n)))
+                except Exception:  # an unconfigured block: no power shown
+                    p = False
+            k = j.path.elem.k if j is not None and isinstance(j.path, Leaf) else -1
+            right[row] = (n, j is not None, p, k)
+            row += self.junction(j, row, cb + 1, p) if j is not None else 1
+        info: list[str] = []
+        if self.live is not None:
+            try:
+                info = _box_info(self.live.read(b.elem.ref))
+            except Exception:
+                info = []
+        height = max(h_in, row - r, len(info), 1)
+        for i in range(height):
+            ln, lw, lp, lk = left.get(r + i, ("", False, False, -1))
+            rn, rw, rp, rk = right.get(r + i, ("", False, False, -1))
+            marked = ("title" if i == 0 and self.marker in b.ks else
+                      "left" if self.marker is not None and lk == self.marker else
+                      "right" if self.marker is not None and rk == self.marker else "")
+            self.put(r + i, cb, Cell(b.elem, lp, rp, "", BoxRow(
+                i == 0, i == height - 1, ln, lw, rn, rw, info[i] if i < len(info) else "",
+                marked)))
+        return height
 
     def finish(self) -> Grid:
         g = self.g
@@ -404,10 +671,29 @@ class _Layout:
         return g
 
 
-def layout(rung: A.Rung, live: Live | None = None) -> Grid:
-    lay = _Layout(live)
-    lay.junction(build(rung), 0, 0, True)
+def layout(rung: A.Rung, live: Live | None = None, marker: int | None = None) -> Grid:
+    """The rung on a grid. An OR after an output is drawn once, its rail logic coming up
+    from below; where that would cross other wires, the junction's merges are drawn after
+    its other outputs, and failing that the logic before the OR is drawn again."""
+    for tree in (build(rung), _merges_last(build(rung)), build(rung, merge=False)):
+        lay = _Layout(live, marker)
+        lay.junction(tree, 0, 0, True)
+        if not lay.crossed():
+            break
     return lay.finish()
+
+
+def _merges_last(j: Junction) -> Junction:
+    """The tree with each junction's merges after its other children."""
+    j.children.sort(key=lambda ch: isinstance(ch, Merge))
+    for ch in j.children:
+        if isinstance(ch, (Branch, Merge)):
+            _merges_last(ch.to)
+        elif isinstance(ch, Block):
+            _merges_last(ch.ins)
+            for o in ch.outs.values():
+                _merges_last(o)
+    return j
 
 
 # ---- text ---------------------------------------------------------------------------------------
@@ -429,11 +715,43 @@ def _center(s: str, w: int, fill: str = " ") -> str:
     return fill * left + s + fill * (w - len(s) - left)
 
 
+def _box_inner(cell: Cell) -> int:
+    """Characters inside a box row (between its two sides)."""
+    b = cell.box
+    assert b is not None and cell.elem is not None
+    return max(len(cell.elem.symbol) + 3, len(b.left) + len(b.right) + 3, len(b.info))
+
+
+def _box_lines(cell: Cell, w: int, pw: bool) -> list[str]:
+    """A box row in a cell `w` wide: label (top border), wire, value and bottom lines."""
+    b = cell.box
+    assert b is not None and cell.elem is not None
+    iw = w - 4
+    title = (">" if b.marked == "title" else "") + cell.elem.symbol
+    left = (">" if b.marked == "left" else "") + b.left
+    right = (">" if b.marked == "right" else "") + b.right
+    top = (" ┌" + _center(title, iw, "─") + "┐ ") if b.first else " │" + " " * iw + "│ "
+    wire = ((_wire(cell.p_in and pw) + "┤") if b.left_wired else " │") + left + \
+        " " * (iw - len(left) - len(right)) + right + \
+        (("├" + _wire(cell.p_out and pw)) if b.right_wired else "│ ")
+    bottom = (" └" + "─" * iw + "┘ ") if b.last else " │" + " " * iw + "│ "
+    return [top, wire, " │" + _center(b.info, iw) + "│ ", bottom]
+
+
+def _joins(cell: Cell | None, side: str) -> bool:
+    """Whether a cell has a wire on that side (a box only where a pin is wired)."""
+    if cell is None:
+        return False
+    if cell.box is not None:
+        return cell.box.left_wired if side == "left" else cell.box.right_wired
+    return True
+
+
 def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
                 header: bool = True, marker: int | None = None) -> str:
     """The rung as terminal text. `marker`: instruction index of the next instruction to
     run (drawn `>` before its element)."""
-    g = layout(rung, live)
+    g = layout(rung, live, marker)
     out: list[str] = []
     if header:
         where = f" SR{rung.subroutine}" if rung.subroutine is not None else ""
@@ -447,7 +765,9 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
     width = [3] * ncols
     for (_, c), cell in g.cells.items():
         el = cell.elem
-        if el is not None:
+        if cell.box is not None:
+            width[c] = max(width[c], _box_inner(cell) + 2)
+        elif el is not None:
             width[c] = max(width[c], len(el.symbol), len(el.label) + (1 if marker is not None
                                                                        else 0), len(cell.value))
     width = [w + 2 for w in width]
@@ -456,25 +776,26 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
         for r in range(r1, r2 + 1):
             up, down, o = vert.get((r, col), (False, False, False))
             vert[(r, col)] = (up or r > r1, down or r < r2, o or on)
-    lines_per_row = 3 if live is not None else 2
     pw = live is not None  # power is drawn only in the live view
     for r in range(g.rows):
-        rows = [[], [], []]
-        # the left rail
-        rail_right = (r, 0) in g.cells
+        # label, wire, value (live view), the bottom of a box that ends on this row
+        rows: list[list[str]] = [[], [], [], []]
+        rail_right = _joins(g.cells.get((r, 0)), "left")
         rows[0].append("│")
         rows[1].append("├" if rail_right else "│")
         rows[2].append("│")
+        rows[3].append("│")
         for c in range(ncols + 1):
             # the boundary before column c (the left rail is boundary 0)
             if c > 0:
                 up, down, on = vert.get((r, c), (False, False, False))
-                left = (r, c - 1) in g.cells
-                right = (r, c) in g.cells and c < ncols
+                left = _joins(g.cells.get((r, c - 1)), "right")
+                right = c < ncols and _joins(g.cells.get((r, c)), "left")
                 if c == ncols:  # the right rail
                     rows[0].append("│")
                     rows[1].append("┤" if left else "│")
                     rows[2].append("│")
+                    rows[3].append("│")
                     break
                 ch = _GLYPH[(int(up), int(down), int(left), int(right))]
                 on = on and pw
@@ -485,17 +806,23 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
                 rows[0].append("│" if up else " ")
                 rows[1].append(ch)
                 rows[2].append(("║" if on else "│") if down else " ")
+                rows[3].append(rows[2][-1])
             w = width[c]
             cell = g.cells.get((r, c))
             if cell is None:
-                for i in range(3):
+                for i in range(4):
                     rows[i].append(" " * w)
+                continue
+            if cell.box is not None:
+                for i, s in enumerate(_box_lines(cell, w, pw)):
+                    rows[i].append(s)
                 continue
             el = cell.elem
             if el is None:
                 rows[0].append(" " * w)
                 rows[1].append(_wire(cell.p_out and pw) * w)
                 rows[2].append(" " * w)
+                rows[3].append(" " * w)
                 continue
             label = el.label
             if marker is not None and el.k == marker:
@@ -508,11 +835,14 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
             rows[1].append(_wire(cell.p_in and pw) * left + sym + _wire(cell.p_out and pw) *
                            (w - len(sym) - left))
             rows[2].append(_center(cell.value, w))
-        for i in range(lines_per_row):
-            if i == 2 or i == 0:
-                if not "".join(rows[i]).strip(" │║"):
-                    if i == 0 and r > 0:
-                        continue
+            rows[3].append(" " * w)
+        box_ends = any(cell.box is not None and cell.box.last
+                       for (rr, _), cell in g.cells.items() if rr == r)
+        for i in (0, 1, 2, 3):
+            if (i == 2 and not pw) or (i == 3 and not box_ends):
+                continue
+            if i in (0, 2) and r > 0 and not "".join(rows[i]).strip(" │║"):
+                continue
             out.append("".join(rows[i]).rstrip())
     text = "\n".join(out) + "\n"
     return text.translate(ASCII) if ascii else text
@@ -593,7 +923,9 @@ def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str]) -> tuple[floa
     ncols = g.outcol + 1
     widths = [3] * ncols
     for (_, c), cell in g.cells.items():
-        if cell.elem is not None:
+        if cell.box is not None:
+            widths[c] = max(widths[c], _box_inner(cell) + 2)
+        elif cell.elem is not None:
             widths[c] = max(widths[c], len(cell.elem.symbol), len(cell.elem.label))
     xs = [x0 + 10]
     for w in widths:
@@ -612,6 +944,9 @@ def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str]) -> tuple[floa
             body.append(_line(xa, y, xb, y))
             continue
         xm = (xa + xb) / 2
+        if cell.box is not None:
+            _svg_box_row(cell, xa + 2 * CH, xb - 2 * CH, xa, xb, y, body)
+            continue
         if el.kind == "contact" and el.symbol != "───":
             body += [_line(xa, y, xm - 6, y), _line(xm + 6, y, xb, y),
                      _line(xm - 6, y - 10, xm - 6, y + 10), _line(xm + 6, y - 10, xm + 6, y + 10)]
@@ -639,7 +974,29 @@ def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str]) -> tuple[floa
             body.append(_text(xm, y - 14, el.label, size=11, anchor="middle"))
     for col, r1, r2, _on in g.vlinks:
         body.append(_line(xs[col], wy(r1), xs[col], wy(r2)))
-    for r in range(g.rows):
-        if (r, 0) in g.cells:
-            pass  # the rail meets the wire at x0 + 10
     return height + 24, xs[-1]
+
+
+def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y: float,
+                 body: list[str]) -> None:
+    """One row of a function block: its sides (top and title on the first row, bottom on
+    the last), its pins and their wires."""
+    b = cell.box
+    assert b is not None and cell.elem is not None
+    y1 = y - 26 if b.first else y - ROW_H + 14
+    y2 = y + 14  # meets the next row's y1
+    body += [_line(left, y1, left, y2), _line(right, y1, right, y2)]
+    if b.first:
+        body += [_line(left, y1, right, y1),
+                 _text((left + right) / 2, y - 12, cell.elem.symbol, anchor="middle",
+                       weight="bold")]
+    if b.last:
+        body.append(_line(left, y2, right, y2))
+    if b.left:
+        body.append(_text(left + 4, y + 4, b.left, size=11))
+    if b.right:
+        body.append(_text(right - 4, y + 4, b.right, size=11, anchor="end"))
+    if b.left_wired:
+        body.append(_line(xa, y, left, y))
+    if b.right_wired:
+        body.append(_line(right, y, xb, y))
