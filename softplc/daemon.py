@@ -103,7 +103,7 @@ class Daemon:
 
     def _banner(self, server: ServerThread, image: ModbusImage) -> None:
         plc, opt = self.plc, self.opt
-        rungs = len(getattr(plc.program, "rungs", ()))
+        rungs = len(plc.program.rungs)
         clock = "real time" if opt.speed is None else (
             "virtual clock, as fast as possible" if opt.speed == math.inf
             else f"virtual clock x{opt.speed:g}")
@@ -113,7 +113,7 @@ class Daemon:
             every = f"every {opt.save_interval:g} s and " if opt.save_interval else ""
             self.say(f"retained state: {opt.state} (saved {every}at shutdown)")
         self.say(f"scan thread: {self.priority}")
-        if getattr(plc, "devices", None):
+        if plc.devices:
             self.say("simulated devices: " + ", ".join(plc.devices))
         for line in describe(image.n_registers, image.n_coils, image.read_only):
             self.say("  " + line)
@@ -125,7 +125,7 @@ class Daemon:
         plc, opt = self.plc, self.opt
         self.start_mode = retain.restart(plc, opt.state, opt.cold, self.program_name)
         self._set_period(self.period_ms)
-        image = ModbusImage(plc.mem, parse_read_only(getattr(plc, "config", None),
+        image = ModbusImage(plc.mem, parse_read_only(plc.config,
                                                      plc.mem.profile))
         plc.before_scan.append(image.apply_writes)
         plc.after_scan.append(image.take_snapshot)
@@ -203,18 +203,14 @@ class Daemon:
             if plc.state != state:
                 state = plc.state
                 if state == "HALT":
-                    log.error("controller halted: %s", getattr(plc, "fault", ""))
-                    self.say(f"controller in HALT: {getattr(plc, 'fault', '')}")
+                    log.error("controller halted: %s", plc.fault)
+                    self.say(f"controller in HALT: {plc.fault}")
             end = clock()
             next_start += self.interval
             if end > next_start:
                 if self.interval and opt.speed is None and end - start > self.interval:
                     self.overruns += 1
-                    note = getattr(plc, "note_overrun", None)
-                    if note is not None:
-                        note()
-                    else:
-                        plc.mem.s[19] = 1
+                    plc.note_overrun()  # %S19
                 next_start = end  # start at once; re-anchor the schedule
             sw0 = plc.mem.sw.w[0]
             if sw0 != self.period_ms:  # the program changed the period
@@ -255,8 +251,6 @@ class Daemon:
         if writer is not None:
             writer.close(retain.capture(plc.mem, self.program_name))
             saved = f", state saved to {self.opt.state}"
-        close = getattr(plc, "close", None)
-        if close is not None:  # devices flush their files (the trace CSV)
-            close()
+        plc.close()  # devices flush their files (the trace CSV)
         self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns, "
                  f"jitter max {_ms(self.jitter_max)}, outputs 0{saved}")

@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError("--trace: the machine config has no trace device")
         args.trace.parent.mkdir(parents=True, exist_ok=True)
         recorder.record_to(args.trace)
-    cfg = getattr(plc, "config", None) or {}
+    cfg = plc.config
     mb = check_keys("[modbus]", cfg.get("modbus", {}) or {},
                     ("host", "port", "read_only", "max_clients", "frame_timeout", "idle_timeout"))
     dm = check_keys("[daemon]", cfg.get("daemon", {}) or {},
@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
     period = args.period if args.period is not None else (
         duration(cfg["scan_period"], "scan_period") if "scan_period" in cfg else 0.010)
     state = _pick(args.state, dm, "state", None, Path)
-    base = getattr(plc, "config_dir", None)
+    base = plc.config_dir
     if args.state is None and state is not None and base is not None and not state.is_absolute():
         state = base / state  # a path in the config is relative to the config file
     opts = DaemonOptions(
