@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..address import Ref
+from ..compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
 from ..il import ast as A
 from ..il.printer import format_expr, format_instruction, format_statement
 
@@ -90,11 +91,11 @@ class Merge:
     k: int  # the OR: the accumulator after it is the power at `to`
 
 
-# A function block's pins in TwidoSuite's order (inputs on the left, outputs on the right).
-# Counter outputs E D F top to bottom as TwidoSuite draws the block [unsure, from memory].
-BOX_PINS = {"TM": (("IN",), ("Q",)), "C": (("R", "S", "CU", "CD"), ("E", "D", "F")),
-            "DR": (("R", "U"), ("F",)), "SBR": (("R", "CU", "CD"), ()),
-            "SC": (("R", "CU", "CD"), ()), "R": (("R", "I", "O"), ("E", "F"))}
+# A function block's pins (inputs on the left, outputs on the right), from the compiler's
+# tables; counter outputs drawn E D F top to bottom as TwidoSuite does [unsure, from memory].
+_DRAW_ORDER = {"C": ("E", "D", "F")}
+BOX_PINS = {k: (pins, _DRAW_ORDER.get(k, BLOCK_OUTPUTS.get(k, ())))
+            for k, pins in BLOCK_KIND_PINS.items()}
 
 
 @dataclass

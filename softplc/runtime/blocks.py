@@ -322,3 +322,8 @@ class Register(Block):
 
     def o(self, v: Any) -> None:
         self.run(I=self._i, O=v)
+
+
+# Block classes by address kind: each declares its input pins (`PINS`) once.
+BLOCK_CLASSES: dict[str, type[Block]] = {"TM": Timer, "C": Counter, "DR": Drum,
+                                         "SBR": ShiftRegister, "SC": StepCounter, "R": Register}

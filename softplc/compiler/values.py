@@ -1,0 +1,472 @@
+"""Compiling values: object access, expressions and operation blocks.
+
+`ValueCompiler` turns addresses and `[ ... ]` expressions into Python expressions over the
+memory buffers, with their Twido type (word, double word, float, bit), and checks the
+rules: read-only objects, word/float mixing, function signatures. The rung compiler
+(`codegen.Compiler`) builds on it for the boolean accumulator and program control.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+from ..address import BLOCK_FIELDS, BOOL, INT16, INT32, REAL, Ref
+from ..errors import Diagnostic
+from ..il import ast as A
+from ..runtime.blocks import BLOCK_CLASSES
+from ..semantics import FUNCTIONS
+
+ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
+CMP = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
+BIT_BUFFERS = {"I": "_I", "Q": "_Q", "M": "_M", "S": "_S", "X": "_X"}
+WORD_BUFFERS = {"MW": "_MW", "KW": "_KW", "SW": "_SW"}
+PAIR_VIEWS = {"MD": ("_MDE", "_MDO"), "KD": ("_KDE", "_KDO"),
+              "MF": ("_MFE", "_MFO"), "KF": ("_KFE", "_KFO")}
+FAMILY = {"MW": "_MWF", "MD": "_MWF", "MF": "_MWF", "KW": "_KWF", "KD": "_KWF",
+          "KF": "_KWF", "SW": "_SWF"}
+FLOAT_FUNCS = {"SQRT": "_fsqrt", "ABS": "_fabs", "TRUNC": "_ftrunc", "LOG": "_flog",
+               "LN": "_fln", "EXP": "_fexp", "EXPT": "_fexpt", "SIN": "_fsin",
+               "COS": "_fcos", "TAN": "_ftan", "ASIN": "_fasin", "ACOS": "_facos",
+               "ATAN": "_fatan", "DEG_TO_RAD": "_fdeg_to_rad", "RAD_TO_DEG": "_frad_to_deg"}
+BLOCK_PIN_METHODS = {"IN": "in_", "R": "r", "S": "s", "CU": "cu", "CD": "cd", "U": "u",
+                     "I": "i", "O": "o"}
+# A block's input pins (as its class declares them) and its bit outputs (its bit fields).
+BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
+BLOCK_OUTPUTS = {kind: tuple(f for f, (t, _w) in fields.items() if t == BOOL)
+                 for kind, fields in BLOCK_FIELDS.items() if fields}
+FAMILY_COUNT = {"MD": "MW", "MF": "MW", "KD": "KW", "KF": "KW"}
+
+
+@dataclass
+class _Acc:
+    code: str
+    kind: str = "atom"  # atom | and | or
+
+    @property
+    def simple(self) -> bool:  # safe to evaluate again after memory changed
+        return self.code in ("0", "1", "True", "False") or (
+            self.code.startswith("_t") and self.code[2:].isdigit())
+
+
+class _Fn:
+    """Code of one function being generated."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.lines: list[str] = []
+        self.names: set[str] = set()
+        self.blocks: list[int] = []  # rung index starting each dispatcher block
+
+
+class ValueCompiler:
+    """Shared state of one compilation, diagnostics, emission, object access, expressions."""
+
+    def __init__(self, program: A.Program, env: dict[str, Any], profile_counts: dict[str, int],
+                 debug: bool = False, forced: frozenset[Ref] = frozenset()):
+        self.program = program
+        self.forced = forced  # bits the program may not change (forced from outside)
+        self.env = env  # name -> object for the generated namespace
+        self.counts = profile_counts
+        self.debug = debug
+        self.diags: list[Diagnostic] = []
+        self.tmp = itertools.count()
+        self.edge = itertools.count()
+        self.fn: _Fn
+        self.indent = 1
+        self.ninstr = 0
+
+    # ---- diagnostics ----------------------------------------------------------------------
+    def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "") -> None:
+        p = pos or A.NOPOS
+        if not text and p.line:
+            lines = self.program.source.splitlines()
+            text = lines[p.line - 1].strip() if p.line <= len(lines) else ""
+        self.diags.append(Diagnostic(msg, self.program.file, p.line, p.column, text, expected))
+
+    # ---- emission helpers -----------------------------------------------------------------
+    def use(self, *names: str) -> None:
+        self.fn.names.update(names)
+
+    def emit(self, line: str) -> None:
+        self.fn.lines.append("    " * self.indent + line)
+
+    def new_tmp(self) -> str:
+        return f"_t{next(self.tmp)}"
+
+    def materialize(self, acc: _Acc) -> _Acc:
+        if acc.simple:
+            return acc
+        t = self.new_tmp()
+        self.emit(f"{t} = {acc.code}")
+        return _Acc(t)
+
+    # ---- object access --------------------------------------------------------------------
+    def block_name(self, ref: Ref, pos: A.Pos | None) -> str:
+        name = f"_{ref.kind}{ref.index}"
+        if name not in self.env:
+            factory = self.env["_block_factory"]
+            problem = factory(ref)
+            if problem:
+                self.err(problem, pos, str(ref), "a configured block within the profile")
+                self.env[name] = None
+            else:
+                self.env[name] = self.env["_mem"].blocks[ref.kind][ref.index]
+        self.use(name)
+        return name
+
+    def index_code(self, ref: Ref, count: int) -> str:
+        """Index expression for a possibly indexed object."""
+        if ref.offset is None:
+            return str(ref.index)
+        self.use("_ix", "_MW")
+        return f"_ix({ref.index}, _MW[{ref.offset.index}], {count})"
+
+    def io_check(self, ref: Ref, pos: A.Pos | None) -> None:
+        """Expansion-module I/O exists when the configuration lists modules; the scan
+        boundary copies cover every module the program uses."""
+        if ref.kind in ("I", "Q"):
+            self.env["_mem"].use_io(ref)
+            problem = self.env["_io_check"](ref)
+            if problem:
+                self.err(problem, pos, str(ref), "an I/O channel of a configured module")
+
+    def read_bit(self, ref: Ref, pos: A.Pos | None) -> str:
+        k = ref.kind
+        self.io_check(ref, pos)
+        if k in BIT_BUFFERS:
+            buf = BIT_BUFFERS[k]
+            self.use(buf)
+            if k in ("I", "Q"):
+                return f"{buf}[{ref.index}]"
+            return f"{buf}[{self.index_code(ref, self.counts[k])}]"
+        if ref.bit is not None and ref.kind in WORD_BUFFERS:
+            buf = WORD_BUFFERS[k]
+            self.use(buf)
+            return f"({buf}[{ref.index}] >> {ref.bit} & 1)"
+        if ref.type == BOOL and ref.kind in BLOCK_OUTPUTS or ref.field == "J":
+            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            if ref.field == "J":
+                return f"{b}.bit({ref.bit})"
+            return f"{b}.{ref.field}"
+        self.err(f"{ref} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
+                 f"a bit (%I, %Q, %M, %S, %MWi:Xk, block output) or a comparison block "
+                 f"such as [ {ref} <> 0 ]")
+        return "0"
+
+    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[str, str]:
+        """(code, type) of a word/dword/float object."""
+        k = ref.kind
+        if ref.length is not None and k in BIT_BUFFERS and ref.offset is None:
+            if ref.length > 32:  # a bit string read as a word (<= 16) or double word
+                self.err(f"{ref}: a bit string of {ref.length} bits", pos, str(ref),
+                         "at most 16 bits for a word, 32 for a double word")
+                return "0", INT16
+            h = "_bitstr16" if ref.length <= 16 else "_bitstr32"
+            self.io_check(ref, pos)
+            self.use(h, BIT_BUFFERS[k])
+            return f"{h}({BIT_BUFFERS[k]}, {ref.index}, {ref.length})", \
+                INT16 if ref.length <= 16 else INT32
+        if ref.length is not None:
+            self.err(f"{ref}: a word table cannot be used in an expression", pos, str(ref),
+                     "a single word, double word or float, or a bit string %Mi:L")
+            return "0", INT16
+        if ref.bit is not None or ref.type == BOOL:
+            self.err(f"{ref} is a bit, not a number", pos, str(ref),
+                     "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)")
+            return "0", INT16
+        if k in WORD_BUFFERS:
+            buf = WORD_BUFFERS[k]
+            self.use(buf)
+            return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
+        if k in PAIR_VIEWS:
+            typ = REAL if k in ("MF", "KF") else INT32
+            if ref.offset is not None:
+                fam = FAMILY[k]
+                self.use(fam)
+                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                return f"{fam}.get_{'f' if typ == REAL else 'd'}({idx})", typ
+            view = PAIR_VIEWS[k][ref.index & 1]
+            self.use(view)
+            return f"{view}[{ref.index >> 1}]", typ
+        if k in BLOCK_OUTPUTS or k in ("TM", "C", "DR", "R"):
+            if ref.field is None:
+                self.err(f"{ref} is a function block, not a value", pos, str(ref),
+                         f"a field of it, such as {ref}.V or {ref}.P")
+                return "0", INT16
+            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            return f"{b}.{ref.field}", INT16
+        self.err(f"{ref} cannot be used in an expression", pos, str(ref),
+                 "a word, double word or float")
+        return "0", INT16
+
+    def check_writable(self, ref: Ref, pos: A.Pos | None) -> bool:
+        if not ref.writable:
+            what = {"I": "an input: the program cannot write inputs",
+                    "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
+                ref.kind, "read-only")
+            self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
+                     "a writable object (%Q, %M, %MW, %MD, %MF, %TMi.P, %Ci.P...)")
+            return False
+        return True
+
+    def write_bit(self, ref: Ref, value: str, pos: A.Pos | None) -> None:
+        """Emit `ref := value` for a bit target."""
+        if not self.check_writable(ref, pos):
+            return
+        self.io_check(ref, pos)
+        if ref in self.forced:  # a forced bit keeps its value all through the scan
+            self.emit(f"pass  # {ref} is forced")
+            return
+        k = ref.kind
+        if k in BIT_BUFFERS:
+            buf = BIT_BUFFERS[k]
+            self.use(buf)
+            idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
+            self.emit(f"{buf}[{idx}] = {value}")
+        elif k == "SBR" and ref.field == "J":
+            b = self.block_name(Ref(k, ref.index), pos)
+            self.emit(f"{b}.set_bit({ref.bit}, {value})")
+        elif ref.bit is not None and k in WORD_BUFFERS:
+            u = "_U" + WORD_BUFFERS[k][1:]
+            self.use(u)
+            mask = 1 << ref.bit
+            self.emit(f"{u}[{ref.index}] = ({u}[{ref.index}] | {mask}) if {value} else "
+                      f"({u}[{ref.index}] & {0xFFFF ^ mask})")
+        else:
+            self.err(f"{ref} is not a bit that can be stored to", pos, str(ref),
+                     "%Q, %M, %S, %X or %MWi:Xk")
+
+    # ---- expressions ----------------------------------------------------------------------
+    def expr(self, e: A.Expr, want: str | None = None) -> tuple[str, str]:
+        """(code, type). `want` adapts integer literals to the context's type."""
+        if isinstance(e, A.Num):
+            if e.is_float:
+                return repr(float(e.value)), REAL
+            v = int(e.value)
+            if want == REAL:
+                return repr(float(v)), REAL
+            if e.text.startswith(("#", "16#")) and want != INT32 and 0x8000 <= v <= 0xFFFF:
+                v -= 0x10000  # hex word constants are bit patterns
+            if want == INT32 or not -32768 <= v <= 32767:
+                if not -2147483648 <= v <= 2147483647:
+                    self.err(f"constant {e.text or v} does not fit 32 bits", e.pos,
+                             e.text or str(v), "-2147483648 .. 2147483647")
+                return str(v), INT32
+            return str(v), INT16
+        if isinstance(e, A.Addr):
+            return self.read_word(e.ref, e.pos)
+        if isinstance(e, A.Neg):
+            code, t = self.expr(e.operand, want)
+            if t == REAL:
+                return f"(-{code})", REAL
+            h = "_neg16" if t == INT16 else "_neg32"
+            self.use(h)
+            return f"{h}({code})", t
+        if isinstance(e, A.BinOp):
+            return self.binop(e, want)
+        if isinstance(e, A.Call):
+            return self.call(e, want)
+        self.err("unsupported expression", getattr(e, "pos", None), "",
+                 "a number, an object, an operator or a function")
+        return "0", INT16
+
+    def unify(self, a: tuple[str, str], b: tuple[str, str], pos: A.Pos | None,
+              what: str) -> str | None:
+        ta, tb = a[1], b[1]
+        if ta == tb:
+            return ta
+        if REAL in (ta, tb):
+            self.err(f"{what} mixes a float with a {'word' if INT16 in (ta, tb) else 'double word'}"
+                     f" without conversion", pos, "",
+                     "operands of one type: convert with INT_TO_REAL, DINT_TO_REAL, "
+                     "REAL_TO_INT or REAL_TO_DINT")
+            return None
+        return INT32
+
+    def operand_pair(self, left: A.Expr, right: A.Expr, want: str | None
+                     ) -> tuple[tuple[str, str], tuple[str, str]]:
+        # Literals take the type of the other side.
+        lhint = None if isinstance(left, A.Num) else want
+        a = self.expr(left, lhint if not isinstance(right, A.Num) else want)
+        b = self.expr(right, a[1] if isinstance(right, A.Num) else want)
+        if isinstance(left, A.Num) and not isinstance(right, A.Num):
+            a = self.expr(left, b[1])
+        return a, b
+
+    def binop(self, e: A.BinOp, want: str | None) -> tuple[str, str]:
+        a, b = self.operand_pair(e.left, e.right, want)
+        t = self.unify(a, b, e.pos, f"'{e.op}'")
+        if t is None:
+            return self.poison(want)
+        if e.op in ("AND", "OR", "XOR"):
+            if t == REAL:
+                self.err(f"word logic {e.op} needs words, not floats", e.pos, e.op,
+                         "words or double words")
+                return self.poison(want)
+            py = {"AND": "&", "OR": "|", "XOR": "^"}[e.op]
+            return f"({a[0]} {py} {b[0]})", t
+        if e.op not in ARITH:
+            self.err(f"unknown operator {e.op}", e.pos, e.op, "+ - * / REM AND OR XOR")
+            return "0", t
+        if t == REAL:
+            if e.op == "REM":
+                self.err("REM on floats", e.pos, "REM", "words or double words")
+                return "0", REAL
+            if e.op == "/":
+                self.use("_fdiv")
+                return f"_fdiv({a[0]}, {b[0]})", REAL
+            return f"({a[0]} {e.op} {b[0]})", REAL
+        h = f"_{ARITH[e.op]}{16 if t == INT16 else 32}"
+        self.use(h)
+        return f"{h}({a[0]}, {b[0]})", t
+
+    @staticmethod
+    def poison(want: str | None) -> tuple[str, str]:
+        """Stand-in for an expression already reported: of the type the context wants, so
+        one mistake gives one diagnostic, not a cascade."""
+        return ("0.0", REAL) if want == REAL else ("0", want or INT16)
+
+    def call(self, e: A.Call, want: str | None) -> tuple[str, str]:
+        if e.func not in FUNCTIONS:
+            self.err(f"unknown function {e.func}", e.pos, e.func,
+                     ", ".join(sorted(FUNCTIONS)))
+            return self.poison(want)
+        params, result = FUNCTIONS[e.func]
+        if len(e.args) != len(params):
+            self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos,
+                     e.func, f"{len(params)} argument(s)")
+            return self.poison(want)
+        args = []
+        for p, arg in zip(params, e.args, strict=True):
+            hint = p if p in (INT16, INT32, REAL) else (want if p in ("num", "int") else None)
+            code, t = self.expr(arg, hint)
+            if p in (INT16, INT32, REAL) and t != p and not (p == INT32 and t == INT16) and \
+                    not (p == INT16 and isinstance(arg, A.Num) and t == INT16):
+                if {t, p} & {REAL} or p == INT16:
+                    self.err(f"{e.func} takes a {self.tname(p)}, got a {self.tname(t)}",
+                             e.pos, e.func, f"a {self.tname(p)} argument")
+            if p == "int" and t == REAL:
+                self.err(f"{e.func} on a float", e.pos, e.func, "a word or double word")
+            args.append((code, t))
+        t0 = args[0][1]
+        f = e.func
+        if f in ("SHL", "SHR", "ROL", "ROR"):
+            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+        elif f == "NOT":
+            return f"(~{args[0][0]})", t0
+        elif f in ("SQRT", "ABS") and t0 != REAL:
+            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+        elif f in FLOAT_FUNCS:
+            h = FLOAT_FUNCS[f]
+        elif f in ("INT_TO_REAL", "DINT_TO_REAL"):
+            return f"float({args[0][0]})", REAL
+        else:  # REAL_TO_INT / REAL_TO_DINT
+            h = "_" + f.lower()
+        self.use(h)
+        rtype = t0 if result == "same" else result
+        return f"{h}({', '.join(c for c, _ in args)})", rtype
+
+    @staticmethod
+    def tname(t: str) -> str:
+        return {INT16: "word", INT32: "double word", REAL: "float", BOOL: "bit"}.get(t, t)
+
+    # ---- operation blocks -----------------------------------------------------------------
+    def statement(self, st: A.Statement) -> None:
+        if isinstance(st, A.IncDec):
+            ref = st.target
+            if not self.check_writable(ref, st.pos):
+                return
+            code, t = self.read_word(ref, st.pos)
+            if t == REAL:
+                self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word")
+                return
+            h = ("_add" if st.op == "INC" else "_sub") + ("16" if t == INT16 else "32")
+            self.use(h)
+            self.store_value(ref, f"{h}({code}, 1)", t, st.pos)
+            return
+        ref, e = st.target, st.expr
+        if not self.check_writable(ref, st.pos):
+            return
+        if ref.length is not None:
+            self.table_assign(ref, e, st.pos)
+            return
+        if ref.type == BOOL or ref.is_block:
+            self.err(f"cannot assign to {ref} with :=", st.pos, str(ref),
+                     "a word, double word or float target (use ST / S / R for bits)")
+            return
+        _, tt = self.read_word(ref, st.pos)
+        code, t = self.expr(e, tt)
+        if tt == REAL and t != REAL or tt != REAL and t == REAL:
+            self.err(f"assignment of a {self.tname(t)} to the {self.tname(tt)} {ref} needs a "
+                     f"conversion", st.pos, str(ref),
+                     f"a {self.tname(tt)} value: INT_TO_REAL, DINT_TO_REAL, REAL_TO_INT, "
+                     f"REAL_TO_DINT convert")
+            return
+        if tt == INT16 and t == INT32:
+            if isinstance(e, A.Num):
+                self.err(f"constant {e.text or e.value} does not fit the word {ref}", st.pos,
+                         e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)")
+                return
+            self.use("_narrow16")
+            code = f"_narrow16({code})"
+        self.store_value(ref, code, tt, st.pos)
+
+    def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
+        k = ref.kind
+        if k in WORD_BUFFERS:
+            buf = WORD_BUFFERS[k]
+            self.use(buf)
+            self.emit(f"{buf}[{self.index_code(ref, self.counts[k])}] = {code}")
+        elif k in PAIR_VIEWS:
+            if ref.offset is not None:
+                fam = FAMILY[k]
+                self.use(fam)
+                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                self.emit(f"{fam}.set_{'f' if t == REAL else 'd'}({idx}, {code})")
+                return
+            view = PAIR_VIEWS[k][ref.index & 1]
+            self.use(view)
+            if t == REAL:
+                self.use("_stf")
+                self.emit(f"_stf({view}, {ref.index >> 1}, {code})")
+            else:
+                self.emit(f"{view}[{ref.index >> 1}] = {code}")
+        elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
+            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            if ref.field == "P":
+                self.emit(f"{b}.P = min(max({code}, 0), 9999)")
+            else:
+                self.emit(f"{b}.{ref.field} = {code}")
+        else:
+            self.err(f"cannot assign to {ref}", pos, str(ref),
+                     "a word, double word, float or block preset")
+
+    def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
+        """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,
+        %MW3 := %M0:16 is handled by the caller as an expression error (rare)."""
+        self.use("_mem")
+        if isinstance(e, A.Addr) and e.ref.length is not None:
+            src = e.ref
+            if src.length != ref.length:
+                self.err(f"table lengths differ: {ref} := {src}", pos, str(src),
+                         f"a table of {ref.length}")
+                return
+            self.emit(f"_mem.write({str(ref)!r}, _mem.read({str(src)!r}))")
+            return
+        if ref.kind == "M":
+            code, t = self.expr(e, INT16)
+            if t == REAL:
+                self.err("a bit string from a float", pos, str(ref), "a word value")
+                return
+            self.emit(f"_mem.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
+                      f"range({ref.length})])")
+            return
+        _, tt = self.read_word(Ref(ref.kind, ref.index), pos)
+        code, t = self.expr(e, tt)
+        if (t == REAL) != (tt == REAL):
+            self.err(f"table {ref} and value types differ", pos, str(ref),
+                     f"a {self.tname(tt)} value")
+            return
+        self.emit(f"_mem.write({str(ref)!r}, [{code}] * {ref.length})")
