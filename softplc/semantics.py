@@ -32,6 +32,11 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
     "DEG_TO_RAD": ((REAL,), REAL), "RAD_TO_DEG": ((REAL,), REAL),
     "INT_TO_REAL": ((INT16,), REAL), "DINT_TO_REAL": ((INT32,), REAL),
     "REAL_TO_INT": ((REAL,), INT16), "REAL_TO_DINT": ((REAL,), INT32),
+    "BCD_TO_INT": ((INT16,), INT16), "INT_TO_BCD": ((INT16,), INT16),
+    "GRAY_TO_INT": ((INT16,), INT16),
+    # table functions: one argument, a table %MWi:L, %MDi:L or %MFi:L [manual]
+    "SUM": (("table",), "element"), "MAX": (("table",), "element"),
+    "MIN": (("table",), "element"), "MEAN": (("table",), REAL),
 }
 
 
@@ -275,6 +280,56 @@ class Ops:
 
     def real_to_dint(self, x: float) -> int:
         return self._round(x, -2147483648, 2147483647)
+
+    # -- BCD and Gray codes [manual] -------------------------------------------------------
+    def bcd_to_int(self, w: int) -> int:
+        """A BCD word (#0000..#9999) to its value; a nibble above 9 is %S18, result 0."""
+        u, v = w & 0xFFFF, 0
+        for shift in (12, 8, 4, 0):
+            d = (u >> shift) & 0xF
+            if d > 9:
+                self.s[S_ARITH] = 1
+                return 0
+            v = v * 10 + d
+        return v
+
+    def int_to_bcd(self, v: int) -> int:
+        """0..9999 to a BCD word; out of range is %S18, result 0."""
+        if not 0 <= v <= 9999:
+            self.s[S_ARITH] = 1
+            return 0
+        u = 0
+        for shift in (0, 4, 8, 12):
+            u |= (v % 10) << shift
+            v //= 10
+        return wrap16(u)
+
+    def gray_to_int(self, w: int) -> int:
+        u = w & 0xFFFF
+        v = u
+        while u:
+            u >>= 1
+            v ^= u
+        return wrap16(v)
+
+    # -- table functions: SUM MAX MIN over a table, MEAN of a float table [manual] ----------
+    def tsum16(self, values: list[int]) -> int:
+        return self._chk16(sum(values))
+
+    def tsum32(self, values: list[int]) -> int:
+        return self._chk32(sum(values))
+
+    def tsumf(self, values: list[float]) -> float:
+        return float(sum(values))
+
+    def tmax(self, values: list) -> int | float:
+        return max(values)
+
+    def tmin(self, values: list) -> int | float:
+        return min(values)
+
+    def tmean(self, values: list[float]) -> float:
+        return float(sum(values)) / len(values)
 
     # -- bit strings -------------------------------------------------------------------------
     def bitstr16(self, bits: list[int], start: int, n: int) -> int:

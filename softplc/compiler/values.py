@@ -338,6 +338,8 @@ class ValueCompiler:
             self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos,
                      e.func, f"{len(params)} argument(s)")
             return self.poison(want)
+        if params == ("table",):
+            return self.table_function(e, want)
         args = []
         for p, arg in zip(params, e.args, strict=True):
             hint = p if p in (INT16, INT32, REAL) else (want if p in ("num", "int") else None)
@@ -362,11 +364,34 @@ class ValueCompiler:
             h = FLOAT_FUNCS[f]
         elif f in ("INT_TO_REAL", "DINT_TO_REAL"):
             return f"float({args[0][0]})", REAL
-        else:  # REAL_TO_INT / REAL_TO_DINT
+        else:  # REAL_TO_INT / REAL_TO_DINT, BCD and Gray conversions
             h = "_" + f.lower()
         self.use(h)
         rtype = t0 if result == "same" else result
         return f"{h}({', '.join(c for c, _ in args)})", rtype
+
+    def table_function(self, e: A.Call, want: str | None) -> tuple[str, str]:
+        """SUM / MAX / MIN / MEAN over a table %MWi:L, %MDi:L, %MFi:L (or %KW...)."""
+        arg = e.args[0]
+        kinds = ("MW", "MD", "MF", "KW", "KD", "KF")
+        if not (isinstance(arg, A.Addr) and arg.ref.length and arg.ref.kind in kinds
+                and arg.ref.offset is None):
+            self.err(f"{e.func} takes a table", e.pos, e.func,
+                     "a table such as %MW0:10, %MD0:5 or %MF0:5")
+            return self.poison(want)
+        ref = arg.ref
+        t = {"MW": INT16, "KW": INT16, "MD": INT32, "KD": INT32}.get(ref.kind, REAL)
+        if e.func == "MEAN" and t != REAL:
+            self.err("MEAN takes a float table", e.pos, str(ref), "a table such as %MF0:5")
+            return self.poison(want)
+        self.use("_mem")
+        values = f"_mem.read({str(ref)!r})"
+        if e.func == "SUM":
+            h = {INT16: "_tsum16", INT32: "_tsum32", REAL: "_tsumf"}[t]
+        else:
+            h = "_t" + e.func.lower()
+        self.use(h)
+        return f"{h}({values})", t
 
     @staticmethod
     def tname(t: str) -> str:
