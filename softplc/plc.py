@@ -48,7 +48,6 @@ class PLC:
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
-        self._initial_steps = self.program.namespace.get("_INITIAL_STEPS", ())
         self.program_version = 0  # bumped when the running code is rebuilt
         self.devices: dict[str, Any] = {}
         if devices and cfg.get("devices"):
@@ -159,7 +158,7 @@ class PLC:
                 self.mem.use_io(r)
                 outs.append((self.mem.bits(r.kind), r.index))
             try:
-                blocks["DR"][ref.index] = Drum(o.get("steps", [0]), outs, None)
+                blocks["DR"][ref.index] = Drum(o.get("steps", [0]), outs)
             except (ValueError, TypeError) as e:
                 raise ConfigError(f"drums.{text}: {e}") from None
         for text, o in cfg.get("registers", {}).items():
@@ -283,7 +282,6 @@ class PLC:
         compiled = self._compile(program, edge=self.program.namespace.get("_EDGE"))
         self.ast, self.program = program, compiled
         self.engine.load(compiled)
-        self._initial_steps = compiled.namespace.get("_INITIAL_STEPS", ())
         self.program_version += 1
 
     # -- running --------------------------------------------------------------------------------

@@ -357,8 +357,6 @@ class Compiler(ValueCompiler):
             return
         b = self.block_name(target, instr.pos)
         method = BLOCK_PIN_METHODS[instr.name]
-        if target.kind == "TM":
-            method = "run"
         self.emit(f"{b}.{method}({acc.code})")
 
     def grafcet(self, instr: A.Grafcet, acc: _Acc | None, ctx: dict[str, Any]) -> None:

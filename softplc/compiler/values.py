@@ -30,7 +30,7 @@ FLOAT_FUNCS = {"SQRT": "_fsqrt", "ABS": "_fabs", "TRUNC": "_ftrunc", "LOG": "_fl
                "LN": "_fln", "EXP": "_fexp", "EXPT": "_fexpt", "SIN": "_fsin",
                "COS": "_fcos", "TAN": "_ftan", "ASIN": "_fasin", "ACOS": "_facos",
                "ATAN": "_fatan", "DEG_TO_RAD": "_fdeg_to_rad", "RAD_TO_DEG": "_frad_to_deg"}
-BLOCK_PIN_METHODS = {"IN": "in_", "R": "r", "S": "s", "CU": "cu", "CD": "cd", "U": "u",
+BLOCK_PIN_METHODS = {"IN": "run", "R": "r", "S": "s", "CU": "cu", "CD": "cd", "U": "u",
                      "I": "i", "O": "o"}
 # A block's input pins (as its class declares them) and its bit outputs (its bit fields).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}

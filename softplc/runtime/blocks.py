@@ -3,8 +3,9 @@
 
 Type, time base and preset are configuration, never program text [m221]. Each block
 exposes its fields as attributes named like the Twido fields (`.Q`, `.V`, `.P` ...), one
-method per input pin for the short form (`IN %TM0` -> `in_`), and `run(...)` taking all
-input pins at once for the `BLK ... END_BLK` form. Values are 0..9999 as on Twido [manual].
+method per input pin for the short form (`CU %C0` -> `cu`; a timer's one pin is `run`), and
+`run(...)` taking all input pins at once for the `BLK ... END_BLK` form. Values are 0..9999
+as on Twido [manual].
 """
 
 from __future__ import annotations
@@ -58,7 +59,6 @@ class Timer(Block):
         self.P, self.V, self.Q = int(preset), 0, 0
         self._in, self._t0, self._on = 0, 0, 0  # last IN, start time, timing in progress
         self.run = {"TON": self._ton, "TOF": self._tof, "TP": self._tp}[type]
-        self.in_ = self.run
 
     def _elapsed(self) -> int:
         v = (self.clock.now_us - self._t0) // self.base_us
@@ -173,7 +173,7 @@ class Drum(Block):
     PINS = ("R", "U")
     FIELDS = ("S", "F", "_u")
 
-    def __init__(self, steps: list[int], outputs: list[Any], writer: Any):
+    def __init__(self, steps: list[int], outputs: list[Any]):
         if not 1 <= len(steps) <= 8:
             raise ValueError("a drum has 1 to 8 steps")
         self.steps = [int(s) & 0xFFFF for s in steps]

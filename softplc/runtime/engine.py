@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from ..address import BLOCK_FIELDS, Ref
+from ..address import Ref
 from ..compiler.codegen import CompiledProgram, Watchdog
 from .clock import Clock
 from .memory import MemoryImage
@@ -61,6 +61,7 @@ class Engine:
         self._forced_inputs: list[tuple[list[int], int, int]] = []
         self._forced_other: list[tuple[Ref, Any]] = []
         self._first = {S_COLD: 1, S_FIRST: 1}  # first-scan system bits to raise
+        self._clocks = tuple((bit, p, p // 2) for bit, p in S_CLOCKS.items())
         self._deadline = 0.0
         mem.sw.w[SW_PERIOD] = min(32767, round(period_s * 1000))
         mem.sw.w[SW_WATCHDOG] = min(32767, round(watchdog_s * 1000))
@@ -181,11 +182,8 @@ class Engine:
         if self.time_source is not None:
             self.time_source.now_us = now
         s = mem.s
-        # %S4..%S7: 50 % clocks of 10 ms, 100 ms, 1 s, 1 min (periods in S_CLOCKS)
-        s[4] = 1 if now % 10_000 < 5_000 else 0
-        s[5] = 1 if now % 100_000 < 50_000 else 0
-        s[6] = 1 if now % 1_000_000 < 500_000 else 0
-        s[7] = 1 if now % 60_000_000 < 30_000_000 else 0
+        for bit, p, half in self._clocks:  # %S4..%S7: 50 % clocks
+            s[bit] = 1 if now % p < half else 0
         if self._first:
             for bit, v in self._first.items():
                 s[bit] = v
@@ -240,6 +238,3 @@ class Engine:
         self.stats.overruns += 1
         self.mem.s[S_OVERRUN] = 1
 
-
-def block_kinds() -> tuple[str, ...]:
-    return tuple(BLOCK_FIELDS)

@@ -39,9 +39,6 @@ class WordFamily:
         self.f = (mv[: 4 * n_even].cast("f"), mv[2 : 2 + 4 * n_odd].cast("f"))
         self.np = np.frombuffer(self.buf, dtype=np.int16)
 
-    def np_dword(self, i: int) -> np.ndarray:
-        return np.frombuffer(self.buf, dtype=np.int32, count=1, offset=2 * i)
-
     def get_d(self, i: int) -> int:
         return self.d[i & 1][i >> 1]
 
@@ -219,9 +216,6 @@ class MemoryImage:
         self.latch_inputs = copier("latch_inputs", "i", "i_field", self._in_used)
         self.publish_outputs = copier("publish_outputs", "q_field", "q", self._out_used)
 
-    def latched(self, index: int) -> bool:
-        """Whether an input channel is copied into the image at each scan."""
-        return index in self._in_used
 
     # -- snapshots (debugger history, retained state) -------------------------------------
     def snapshot(self) -> dict[str, Any]:
