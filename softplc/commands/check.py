@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections import Counter
+from dataclasses import asdict
 
 from ..errors import ProgramError
-from ..il import ast as A
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,6 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="print the Python code the rungs compile to")
     p.add_argument("--format", action="store_true",
                    help="print the program re-formatted in TwidoSuite export layout")
+    p.add_argument("--json", action="store_true",
+                   help="print the result as JSON (errors with file, line, column, text, "
+                        "expected; or the rung list) for editors and CI")
     p.set_defaults(func=run)
 
 
@@ -31,12 +35,22 @@ def run(args: argparse.Namespace) -> int:
     try:
         plc = PLC.from_file(args.program, args.config, devices=False)
     except ProgramError as e:
+        if args.json:
+            print(json.dumps({"ok": False, "errors": [asdict(d) for d in e.diagnostics]},
+                             indent=2))
+            return 1
         for d in e.diagnostics:
             print(d, file=sys.stderr)
         n = len(e.diagnostics)
         print(f"{n} error{'s' if n != 1 else ''}", file=sys.stderr)
         return 1
     prog = plc.ast
+    if args.json:
+        print(json.dumps({"ok": True, "file": str(args.program), "rungs": [
+            {"index": r.index, "title": r.title, "first_line": r.first_line,
+             "last_line": r.last_line, "subroutine": r.subroutine, "label": r.label,
+             "instructions": len(r.instructions)} for r in prog.rungs]}, indent=2))
+        return 0
     kinds = Counter(type(i).__name__ for r in prog.rungs for i in r.instructions)
     n_instr = sum(kinds.values())
     subs = prog.subroutines
@@ -56,5 +70,3 @@ def run(args: argparse.Namespace) -> int:
         print(plc.program.source)
     return 0
 
-
-__all__ = ["register", "A"]

@@ -1,0 +1,52 @@
+"""`softplc check`: the command-line face of the parser and compiler."""
+
+from __future__ import annotations
+
+import json
+
+from softplc.cli import main as softplc
+from softplc.il.parser import parse
+
+
+def test_errors_are_listed_with_positions(tmp_path, capsys):
+    prog = tmp_path / "bad.il"
+    prog.write_text("LDX %M0\nST %Q0.0\nLD 1\nST %I0.0\nLD %M999\n")
+    assert softplc(["check", str(prog)]) == 1
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith(f"{prog}:1:1: unknown instruction 'LDX'")
+    assert err[1].startswith(f"{prog}:4:1: cannot write %I0.0")
+    assert err[2].startswith(f"{prog}:5:4: '%M999' is beyond the controller profile")
+    assert err[-1] == "3 errors"
+
+
+def test_json_errors(tmp_path, capsys):
+    prog = tmp_path / "bad.il"
+    prog.write_text("LD 1\n[ %MW0 := %MF2 ]\n")
+    assert softplc(["check", str(prog), "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    (e,) = out["errors"]
+    assert out["ok"] is False and (e["line"], e["column"], e["text"]) == (2, 3, "%MW0")
+    assert "INT_TO_REAL" in e["expected"]
+
+
+def test_summary_rungs_json_format_and_python(capsys):
+    args = ["check", "ladder_programs/drawing_table.il", "--config",
+            "ladder_programs/drawing_table.toml"]
+    assert softplc([*args, "--rungs"]) == 0
+    out = capsys.readouterr().out
+    assert "OK - 29 rungs" in out and "rung   9" in out and "INICIO > 100 while idle" in out
+    assert softplc([*args, "--json"]) == 0
+    rungs = json.loads(capsys.readouterr().out)["rungs"]
+    assert len(rungs) == 29 and rungs[0]["title"].startswith("PULSOS")
+    assert softplc([*args, "--format"]) == 0
+    text = capsys.readouterr().out.split("\n", 1)[1]  # after the summary line
+    original = parse(open("ladder_programs/drawing_table.il").read())
+    again = parse(text)
+    assert [r.instructions for r in again.rungs] == [r.instructions for r in original.rungs]
+    assert softplc([*args, "--python"]) == 0
+    assert "def _main(" in capsys.readouterr().out
+
+
+def test_missing_file(capsys):
+    assert softplc(["check", "no/such/program.il"]) == 1
+    assert "cannot read program" in capsys.readouterr().err
