@@ -110,26 +110,25 @@ class Block:
     ks: set[int] = field(default_factory=set)  # BLK OUT_BLK END_BLK: a marker on the title
 
 
-def _ser(a: Any, b: Any, k: int) -> Any:
+def _join(cls: type, a: Any, b: Any, k: int) -> Any:
+    """a then b in series (`Ser`) or in parallel (`Par`); a run of the same kind is
+    extended rather than nested (a parallel group only while it is still open)."""
     if a is None:
         out = b
-    elif isinstance(a, Ser):
-        out = Ser(a.items + [b])
+    elif isinstance(a, cls) and (cls is Ser or a.k_out is not None):
+        out = cls(a.items + [b])
     else:
-        out = Ser([a, b])
+        out = cls([a, b])
     out.k_out = k
     return out
+
+
+def _ser(a: Any, b: Any, k: int) -> Any:
+    return _join(Ser, a, b, k)
 
 
 def _par(a: Any, b: Any, k: int) -> Any:
-    if a is None:
-        out = b
-    elif isinstance(a, Par) and a.k_out is not None:
-        out = Par(a.items + [b])
-    else:
-        out = Par([a, b])
-    out.k_out = k
-    return out
+    return _join(Par, a, b, k)
 
 
 def _full(j: Junction, pend: Any, k: int) -> Any:
