@@ -192,8 +192,7 @@ class PLC:
                         f"base = \"100ms\", preset = 10}}}}")
             else:
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
-        b = blocks[ref.index]
-        b._initial = b.state()
+            blocks[ref.index]._initial = blocks[ref.index].state()  # its cold-start state
         return None
 
     def _configure_constants(self, consts: dict[str, Any]) -> None:

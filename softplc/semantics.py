@@ -332,20 +332,20 @@ class Ops:
         return float(sum(values)) / len(values)
 
     # -- bit strings -------------------------------------------------------------------------
-    def bitstr16(self, bits: list[int], start: int, n: int) -> int:
-        """%Mi:L as a word: bit i is bit 0 [manual]."""
+    @staticmethod
+    def _bits_value(bits: list[int], start: int, n: int) -> int:
+        """%Mi:L as a number: bit i is bit 0 [manual]."""
         v = 0
         for k in range(n):
             if bits[start + k]:
                 v |= 1 << k
-        return wrap16(v)
+        return v
+
+    def bitstr16(self, bits: list[int], start: int, n: int) -> int:
+        return wrap16(self._bits_value(bits, start, n))
 
     def bitstr32(self, bits: list[int], start: int, n: int) -> int:
-        v = 0
-        for k in range(n):
-            if bits[start + k]:
-                v |= 1 << k
-        return wrap32(v)
+        return wrap32(self._bits_value(bits, start, n))
 
     # -- stores ------------------------------------------------------------------------------
     def stf(self, view: memoryview, k: int, v: float) -> None:

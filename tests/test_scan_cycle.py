@@ -459,3 +459,15 @@ def test_bad_toml_is_a_config_error(plc_from_source, tmp_path):
         plc_from_source(COPY, path)
     with pytest.raises(ConfigError):
         plc_from_source(COPY, tmp_path / "missing.toml")
+
+
+def test_cold_start_after_forcing_resets_blocks(plc_from_source):
+    """Forcing recompiles the program; the blocks' cold-start state must not move with it."""
+    plc = plc_from_source("LD %I0.0\nCU %C0\n")
+    for v in (1, 0, 1):
+        plc["%I0.0"] = v
+        plc.scan()
+    assert plc["%C0.V"] == 2
+    plc.force("%M5", True)
+    plc.cold_start()
+    assert plc["%C0.V"] == 0

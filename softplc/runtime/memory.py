@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
+from ..address import BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
 from ..errors import AddressError
 from ..profile import DEFAULT_PROFILE, Profile
 
@@ -143,7 +143,7 @@ class MemoryImage:
             v = getattr(b, ref.field)
             return bool(v) if BLOCK_FIELDS[ref.kind][ref.field][0] == "bool" else int(v)
         if ref.length is not None:
-            step = 2 if ref.kind in ("MD", "MF", "KD", "KF") else 1
+            step = WIDTH.get(ref.kind, 1)
             return [self.read(Ref(ref.kind, ref.index + k * step)) for k in range(ref.length)]
         idx = self._effective_index(ref)
         if ref.kind == "I" and idx not in self._in_used:
@@ -173,7 +173,7 @@ class MemoryImage:
             setattr(b, ref.field, int(value))
             return
         if ref.length is not None:
-            step = 2 if ref.kind in ("MD", "MF", "KD", "KF") else 1
+            step = WIDTH.get(ref.kind, 1)
             for k, v in enumerate(value):
                 self.write(Ref(ref.kind, ref.index + k * step), v, field_inputs=field_inputs)
             return
