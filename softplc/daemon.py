@@ -96,6 +96,7 @@ class Daemon:
         self.interrupted = False  # a scan was cut short by a stop request
         self.signals = 0
         self.image: ModbusImage | None = None
+        self._server: ServerThread | None = None
         self.overruns = 0
         self.jitter: list[float] = []  # scan start lateness, current stats window
         self.jitter_max = 0.0
@@ -220,6 +221,7 @@ class Daemon:
                                   max_clients=opt.max_clients, frame_timeout=opt.frame_timeout,
                                   idle_timeout=opt.idle_timeout, allow=opt.allow)
             server.start()
+            self._server = server
         except BaseException:
             for s in sockets:
                 s.close()
@@ -263,11 +265,14 @@ class Daemon:
             return "normal priority (--speed max)"
         try:
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(prio))
+            if self._server is not None and prio > 1:
+                self._server.set_priority(prio - 1)
         except (AttributeError, OSError) as e:
             log.warning("no real-time priority for the scan thread: %s", e)
             return (f"normal priority (real-time priority not permitted: "
                     f"{getattr(e, 'strerror', None) or e})")
-        return f"real-time priority SCHED_FIFO {prio}"
+        return (f"real-time priority SCHED_FIFO {prio}"
+                + (f" (Modbus thread {prio - 1})" if prio > 1 else ""))
 
     def _loop(self, server: ServerThread) -> None:
         plc, opt = self.plc, self.opt

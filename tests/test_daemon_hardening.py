@@ -82,8 +82,8 @@ def test_second_daemon_on_same_port_leaves_the_trace_alone(daemons, tmp_path):
     before = trace.read_text()
     err = failed_start(daemons, tmp_path, *args, "--port", str(d.port),
                        program=table / "drawing_table.il")
-    assert "cannot listen" in err and "--port" in err
     assert trace.read_text().startswith(before)  # nothing truncated
+    assert "cannot listen" in err and "--port" in err
     assert d.stop() == 0
     assert trace.read_text().startswith(before)
 
@@ -250,14 +250,13 @@ def test_read_only_refuses_every_write_with_01(daemons, tmp_path):
 
 
 def _refused_before_reading(port: int, host: str = "127.0.0.1") -> bool:
-    s = socket.create_connection((host, port), timeout=5)
+    """True if the server closes a new connection without answering a request."""
     try:
-        s.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 3, 0, 1))
-        return s.recv(100) == b""
-    except (ConnectionResetError, BrokenPipeError):
+        with socket.create_connection((host, port), timeout=5) as s:
+            s.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 3, 0, 1))
+            return s.recv(100) == b""
+    except (ConnectionResetError, BrokenPipeError):  # the reset may come before connect returns
         return True
-    finally:
-        s.close()
 
 
 def test_allow_list(daemons, tmp_path):
@@ -294,3 +293,63 @@ def test_localhost_listens_on_both_loopbacks(daemons, tmp_path):
     with RawClient("::1", d.port, timeout=5) as c:
         assert c.read_registers(0, 1) == [9]
     assert d.stop() == 0
+
+
+# -- 9, 10: refusals are cheap and not logged one by one -------------------------------------
+def test_rate_limited_log_counts_and_summarises(caplog):
+    import logging
+
+    from softplc.modbus.server import RateLimitedLog
+
+    now = [0.0]
+    rl = RateLimitedLog(logging.getLogger("softplc.test"), 10.0, clock=lambda: now[0])
+    with caplog.at_level(logging.WARNING, "softplc.test"):
+        for i in range(1000):
+            rl.warning("limit", "refusals", "refusing client %d", i)
+            rl.warning("header", "bad headers", "bad header from %d", i)
+        now[0] = 5.0
+        rl.flush()  # interval not over: nothing yet
+        assert [r.getMessage() for r in caplog.records] == ["refusing client 0",
+                                                            "bad header from 0"]
+        now[0] = 10.0
+        rl.flush()
+        rl.warning("limit", "refusals", "refusing client %d", 1000)
+    msgs = [r.getMessage() for r in caplog.records]
+    assert msgs[2:] == ["999 more refusals in the last 10 s",
+                        "999 more bad headers in the last 10 s", "refusing client 1000"]
+
+
+def test_storm_is_refused_before_any_protocol_object_or_log(caplog, monkeypatch):
+    """Past the client limit a connection is reset straight after accept(): no transport,
+    no protocol object, no byte read, one warning per interval."""
+    import logging
+
+    from softplc.modbus import ModbusImage, ServerThread
+    from softplc.modbus import server as srv
+    from softplc.runtime.memory import MemoryImage
+
+    made = [0]
+    init = srv._Connection.__init__
+
+    def counting_init(self, server):
+        made[0] += 1
+        init(self, server)
+
+    monkeypatch.setattr(srv._Connection, "__init__", counting_init)
+    th = ServerThread(ModbusImage(MemoryImage()), "127.0.0.1", 0, max_clients=2).start()
+    try:
+        with caplog.at_level(logging.WARNING, "softplc.modbus"):
+            with RawClient("127.0.0.1", th.port) as a, RawClient("127.0.0.1", th.port) as b:
+                assert a.read_registers(0, 1) == [0] and b.read_registers(0, 1) == [0]
+                refused = 0
+                for _ in range(60):
+                    if _refused_before_reading(th.port):
+                        refused += 1
+                assert refused == 60
+                assert a.read_registers(0, 1) == [0]  # still served
+        assert made[0] == 2  # only the two accepted clients
+        assert th.stats.rejected == 60
+        warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
+        assert len(warnings) == 1 and "2 clients already connected" in warnings[0].getMessage()
+    finally:
+        th.stop()

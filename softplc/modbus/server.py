@@ -19,6 +19,7 @@ import asyncio
 import errno
 import ipaddress
 import logging
+import os
 import socket
 import threading
 import time
@@ -35,8 +36,12 @@ log = logging.getLogger("softplc.modbus")
 IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
 MAX_PDU_LENGTH = 253  # MBAP length field = unit id + PDU <= 254
 LISTEN_BACKLOG = 128
-ACCEPT_BATCH = 64  # connections accepted per event-loop turn
+ACCEPT_BATCH = 16  # connections accepted per event-loop turn
 ACCEPT_PAUSE = 0.1  # seconds without accepting after accept() fails (e.g. out of fds)
+# After a batch with refusals, stop accepting for this long: the kernel holds the rest in
+# the listen backlog, so a storm costs at most ACCEPT_BATCH refusals per pause of CPU
+# (and of GIL time the scan thread might wait for), however many clients storm.
+REFUSE_PAUSE = 0.010
 LOG_INTERVAL = 10.0  # seconds: at most one warning of a kind per interval, then a summary
 _LINGER_RESET = pack("ii", 1, 0)  # SO_LINGER on, 0 s: close() sends an RST
 
@@ -179,6 +184,9 @@ class _Connection(asyncio.Protocol):
         self.peer = transport.get_extra_info("peername")
         srv = self.server
         srv.connections.add(self)
+        sock = transport.get_extra_info("socket")
+        if sock is not None:
+            srv._adopting.discard(sock.fileno())  # counted once, as a connection now
         self.stats.connections += 1
         self.stats.clients = len(srv.connections)
         log.info("client %s connected", self.peer)
@@ -273,7 +281,7 @@ class ModbusTcpServer:
         self.stats = ServerStats()
         self.warn = RateLimitedLog(log, log_interval)
         self.connections: set[_Connection] = set()
-        self._adopting = 0  # accepted, transport being built
+        self._adopting: set[int] = set()  # fds accepted, transport being built
         self._loop: asyncio.AbstractEventLoop | None = None
         self._sweeper: asyncio.Task | None = None
         self._allowed_cache: dict[str, bool] = {}
@@ -303,10 +311,21 @@ class ModbusTcpServer:
             self._allowed_cache[host] = ok
         return ok
 
+    def _pause_accepting(self, lsock: socket.socket, seconds: float) -> None:
+        loop = self._loop
+        assert loop is not None
+        loop.remove_reader(lsock.fileno())
+        loop.call_later(seconds, self._resume_accepting, lsock)
+
+    def _resume_accepting(self, lsock: socket.socket) -> None:
+        if self._loop is not None and lsock.fileno() >= 0:
+            self._loop.add_reader(lsock.fileno(), self._accept, lsock)
+
     def _accept(self, lsock: socket.socket) -> None:
         """Accept what is waiting (a bounded batch, so the loop stays fair)."""
         loop = self._loop
         assert loop is not None
+        refused = False
         for _ in range(ACCEPT_BATCH):
             try:
                 conn, peer = lsock.accept()
@@ -314,26 +333,29 @@ class ModbusTcpServer:
                 return
             except OSError as e:  # e.g. EMFILE: pause accepting instead of spinning
                 self.warn.warning("accept", "failed accepts", "accept failed: %s", e)
-                loop.remove_reader(lsock.fileno())
-                loop.call_later(ACCEPT_PAUSE, loop.add_reader, lsock.fileno(),
-                                self._accept, lsock)
+                self._pause_accepting(lsock, ACCEPT_PAUSE)
                 return
             if self.allow is not None and not self._allowed(peer[0]):
                 self.stats.denied += 1
                 self.warn.warning("deny", "connections refused (not in --allow)",
                                   "refusing %s: address not in the allow list", peer[0])
                 _reset(conn)
-            elif len(self.connections) + self._adopting >= self.max_clients:
+                refused = True
+            elif len(self.connections) + len(self._adopting) >= self.max_clients:
                 self.stats.rejected += 1
                 self.warn.warning("limit", "connections refused (client limit)",
                                   "refusing %s: %d clients already connected", peer[0],
                                   self.max_clients)
                 _reset(conn)
+                refused = True
             else:
-                self._adopting += 1
+                self._adopting.add(conn.fileno())
                 loop.create_task(self._adopt(conn))
+        if refused:
+            self._pause_accepting(lsock, REFUSE_PAUSE)
 
     async def _adopt(self, conn: socket.socket) -> None:
+        fd = conn.fileno()
         try:
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             await self._loop.connect_accepted_socket(  # type: ignore[union-attr]
@@ -341,7 +363,7 @@ class ModbusTcpServer:
         except OSError:
             conn.close()
         finally:
-            self._adopting -= 1
+            self._adopting.discard(fd)
 
     async def _sweep(self) -> None:
         """Close clients stuck mid-frame or silent for too long; summarise warnings."""
@@ -426,6 +448,26 @@ class ServerThread:
         if self._error is not None:
             raise self._error
         return self
+
+    def set_priority(self, prio: int) -> None:
+        """Put the server thread in SCHED_FIFO at `prio` (below the scan thread's). The
+        scan thread waits for the GIL whenever this thread holds it: at normal priority a
+        busy machine can preempt it while it holds the GIL, and the scan waits for the
+        whole time slice (priority inversion: tens of ms under a connection storm)."""
+        done = threading.Event()
+        error: list[OSError] = []
+
+        def apply() -> None:
+            try:
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(prio))
+            except OSError as e:
+                error.append(e)
+            done.set()
+
+        self.loop.call_soon_threadsafe(apply)
+        done.wait(5)
+        if error:
+            raise error[0]
 
     def stop(self, timeout: float = 5.0) -> None:
         if self._thread.is_alive():
