@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from daemon_util import Daemon
+from daemon_util import Daemon, started
 
 from softplc.modbus.rawclient import ModbusExceptionReply, RawClient
 from softplc.runtime import retain
@@ -41,19 +41,9 @@ END
 TIMER = '[timers."%TM0"]\ntype = "TON"\nbase = "100ms"\npreset = {}\n'
 
 
-@pytest.fixture
-def daemons():
-    started: list[Daemon] = []
-    yield started
-    for d in started:
-        d.kill()
-
-
 def start(daemons, tmp, *args, **kw) -> Daemon:
     kw.setdefault("program", PROGRAM)
-    d = Daemon(tmp, *args, **kw)
-    daemons.append(d)
-    return d
+    return started(daemons, tmp, *args, **kw)
 
 
 def failed_start(daemons, tmp, *args, **kw) -> str:
@@ -220,7 +210,7 @@ def test_signal_stops_an_endless_loop_at_once(daemons, tmp_path, sig):
 
 def test_repeated_sigint_during_shutdown(daemons, tmp_path):
     state = tmp_path / "plc.state"
-    for _ in range(3):
+    for _ in range(2):
         d = start(daemons, tmp_path, "--state", str(state), "--period", "1ms")
         with d.client() as c:
             c.write_registers(7, [1234])

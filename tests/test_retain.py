@@ -44,6 +44,17 @@ class FakePLC:
 APP = b"\x01" * 32
 
 
+def started_store(path, mem: MemoryImage) -> StateStore:
+    """A store on `path`, laid out for `mem` and holding it."""
+    store = StateStore.open(path)
+    store.start(retain.capture(mem))
+    return store
+
+
+def commit(store: StateStore, mem: MemoryImage) -> None:
+    store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m))
+
+
 def test_round_trip(tmp_path):
     path = tmp_path / "plc.state"
     src = image_with_data()
@@ -153,10 +164,9 @@ def test_damaged_file_is_an_error_unless_cold(tmp_path, case):
 def test_newest_copy_damaged_falls_back_to_the_previous(tmp_path):
     path = tmp_path / "plc.state"
     mem = image_with_data()
-    store = StateStore.open(path)
-    store.start(retain.capture(mem))
+    store = started_store(path, mem)
     mem.mw.w[1] = 11
-    store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m))
+    commit(store, mem)
     mem.mw.w[1] = 22
     store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m))  # newest: slot seq 3
     newest = store._layout.slot_offset(store._slot)
@@ -179,8 +189,7 @@ def test_other_controller_is_an_error(tmp_path):
 def test_checksummed_slot_with_bad_content(tmp_path):
     path = tmp_path / "plc.state"
     mem = image_with_data()
-    store = StateStore.open(path)
-    store.start(retain.capture(mem))
+    store = started_store(path, mem)
     store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m), b"not json")
     store.close()
     with pytest.raises(StateFileError, match="unreadable content"):
@@ -212,8 +221,7 @@ def test_acknowledged_writes_survive_the_process_dying(tmp_path):
     includes them. The file as left at any point holds every acknowledged write."""
     path = tmp_path / "plc.state"
     mem = image_with_data()
-    store = StateStore.open(path)
-    store.start(retain.capture(mem))
+    store = started_store(path, mem)
     img = ModbusImage(mem, store=store, blocks=lambda: b"{}")
     img.write_words(100, [1, 2, 3])
     img.write_bits(7, [1])
@@ -237,8 +245,7 @@ def test_acknowledged_writes_survive_the_process_dying(tmp_path):
 def test_a_write_cut_off_mid_journal_entry_is_ignored(tmp_path):
     path = tmp_path / "plc.state"
     mem = image_with_data()
-    store = StateStore.open(path)
-    store.start(retain.capture(mem))
+    store = started_store(path, mem)
     store.journal(retain.REGISTERS, 5, b"\x00\x05")
     pos = store._layout.journal_offset + store._jpos
     store.journal(retain.REGISTERS, 6, b"\x00\x06")
@@ -253,13 +260,12 @@ def test_persist_keeps_a_durable_copy(tmp_path):
     """Power loss: the durable slots are only written by persist (then msync'ed)."""
     path = tmp_path / "plc.state"
     mem = image_with_data()
-    store = StateStore.open(path)
-    store.start(retain.capture(mem))
+    store = started_store(path, mem)
     mem.mw.w[9] = 99
-    store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m))
+    commit(store, mem)
     store.persist()
     mem.mw.w[9] = 100
-    store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m))
+    commit(store, mem)
     lay = store._layout
     data = bytearray(_kill_copy(path, tmp_path).read_bytes())
     store.close()

@@ -102,8 +102,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "comma-separated, repeatable); others are disconnected before any "
                         "byte is read")
     p.add_argument("--rt-priority", type=int,
-                   help="SCHED_FIFO priority of the scan thread, 1..99 (default 10; 0 = "
-                        "normal scheduling); needs root or CAP_SYS_NICE, else ignored")
+                   help="SCHED_FIFO priority of the scan thread, 1..99, the Modbus thread "
+                        "one below (default 10; 0 = normal scheduling); needs root or "
+                        "CAP_SYS_NICE, else ignored")
     p.add_argument("--trace", type=Path, metavar="FILE.csv",
                    help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
                         "this CSV file (flushed every simulated second and at shutdown)")
