@@ -215,6 +215,11 @@ class Daemon:
             image = self.image = ModbusImage(
                 plc.mem, parse_read_only(plc.config, plc.mem.profile), store=store,
                 blocks=blocks, writes_allowed=not opt.read_only)
+            for dev in plc.devices.values():  # e.g. a drive's status words
+                ranges = getattr(dev, "modbus_read_only", None)
+                if ranges:
+                    image.protect(parse_read_only({"modbus": {"read_only": list(ranges)}},
+                                                  plc.mem.profile))
             plc.before_scan.append(image.apply_writes)
             plc.after_scan.append(image.take_snapshot)
             server = ServerThread(image, opt.host, opt.port, sockets=sockets,

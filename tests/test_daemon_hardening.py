@@ -343,3 +343,29 @@ def test_storm_is_refused_before_any_protocol_object_or_log(caplog, monkeypatch)
         assert len(warnings) == 1 and "2 clients already connected" in warnings[0].getMessage()
     finally:
         th.stop()
+
+
+def test_front_end_write_path_and_protect():
+    """The write path any front-end uses: same checks and codes as Modbus."""
+    from softplc.modbus import ModbusImage, ReadOnly
+    from softplc.modbus.image import WriteRefused
+    from softplc.runtime.memory import MemoryImage
+
+    mem = MemoryImage()
+    img = ModbusImage(mem)
+    img.protect(ReadOnly(registers=((200, 204),)))
+    img.write_words(10, [-1, 7])
+    img.write_bits(3, [True])
+    with pytest.raises(WriteRefused) as e:
+        img.write_words(203, [1])
+    assert e.value.code == 2 and "read-only" in str(e.value)
+    with pytest.raises(WriteRefused) as e:
+        img.write_bits(256, [1])
+    assert e.value.code == 2
+    assert mem.mw.w[10] == 0 and img.read_registers_wire(10, 2) == b"\xff\xff\x00\x07"
+    img.apply_writes()
+    assert (mem.mw.w[10], mem.mw.w[11], mem.m[3]) == (-1, 7, 1)
+    img.writes_allowed = False
+    with pytest.raises(WriteRefused) as e:
+        img.write_words(0, [1])
+    assert e.value.code == 1
