@@ -344,7 +344,8 @@ class Daemon:
         return (f"stats scans={st.scans} scan_last={_ms(st.last)} scan_max={_ms(st.max)} "
                 f"overruns={self.overruns} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
                 f"jitter_max={_ms(jmax)} clients={server.stats.clients} req/s={rate:.0f} "
-                f"exceptions={server.stats.exceptions} state={self.plc.state}")
+                f"exceptions={server.stats.exceptions} "
+                f"refused={server.stats.rejected + server.stats.denied} state={self.plc.state}")
 
     def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
                   persister: retain.Persister | None) -> None:

@@ -337,10 +337,17 @@ def test_storm_is_refused_before_any_protocol_object_or_log(caplog, monkeypatch)
                         refused += 1
                 assert refused == 60
                 assert a.read_registers(0, 1) == [0]  # still served
-        assert made[0] == 2  # only the two accepted clients
+            wait_until(lambda: th.stats.clients == 0)
+            for _ in range(30):  # bad headers: each closes its connection, one warning
+                with socket.create_connection(("127.0.0.1", th.port)) as s:
+                    s.sendall(b"\x00\x01\x00\x07\x00\x06\x01\x03\x00\x00\x00\x01")
+                    assert s.recv(100) == b""
+                wait_until(lambda: th.stats.clients == 0)
+        assert made[0] == 2 + 30  # the two accepted clients, then the bad-header ones
         assert th.stats.rejected == 60
-        warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
-        assert len(warnings) == 1 and "2 clients already connected" in warnings[0].getMessage()
+        warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+        assert len(warnings) == 2 and "2 clients already connected" in warnings[0]
+        assert "bad MBAP header" in warnings[1]
     finally:
         th.stop()
 

@@ -11,6 +11,11 @@ frames and decodes itself. pymodbus stays the reference client in the tests.
 Framing errors (protocol id not 0, length field outside 2..254) close the connection:
 the stream cannot be resynchronised. A frame left incomplete for `frame_timeout`
 seconds, or a client silent for `idle_timeout` seconds, is closed too.
+
+Connections are accepted by the server itself: one from an address outside the allow
+list, or past the client limit, is reset right after `accept()`, before a byte is read
+or any asyncio object exists for it (see `ModbusTcpServer`). Warnings a client can
+repeat at will go through `RateLimitedLog`: one per kind per 10 s, then a count.
 """
 
 from __future__ import annotations
