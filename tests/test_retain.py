@@ -274,3 +274,26 @@ def test_persist_keeps_a_durable_copy(tmp_path):
         data[off:off + lay.slot_size] = bytes(lay.slot_size)
     path.write_bytes(bytes(data))
     assert struct.unpack_from("<h", retain.load(path).mw, 18)[0] == 99
+
+
+def test_persist_alternates_durable_copies(tmp_path):
+    """A power cut during an msync tears at most the copy being written: the other
+    durable copy holds the previous flush."""
+    path = tmp_path / "plc.state"
+    mem = image_with_data()
+    store = started_store(path, mem)
+    written = []
+    for v in (1, 2, 3):
+        mem.mw.w[9] = v
+        commit(store, mem)
+        store.persist()
+        written.append(store._durable_seq.index(store.persisted_seq))
+    assert written == [0, 1, 0]
+    lay = store._layout
+    data = bytearray(_kill_copy(path, tmp_path).read_bytes())
+    store.close()
+    for i in (*retain.VOLATILE, retain.DURABLE[0]):  # volatile lost, last flush torn
+        off = lay.slot_offset(i)
+        data[off + 200] ^= 0xFF
+    path.write_bytes(bytes(data))
+    assert struct.unpack_from("<h", retain.load(path).mw, 18)[0] == 2

@@ -237,6 +237,7 @@ class StateStore:
         self.persisted_seq = 0
         self.commits = 0
         self._loaded = False  # load() succeeded: self.seq is the newest slot's
+        self._durable_seq = [0, 0]  # of the durable slots (0: none that verifies)
 
     # -- opening -------------------------------------------------------------------------
     @classmethod
@@ -309,6 +310,7 @@ class StateStore:
         if replayed:
             log.info("%s: %d acknowledged writes replayed from the journal", where, replayed)
         self.seq, self._slot = seq, (off - lay.slot_offset(0)) // lay.slot_size
+        self._durable_seq = [self._slot_seq(i) for i in DURABLE]
         self.app = app
         self._loaded = True
         return RetainedState(lay.profile, be_to_words(regs), bytes(coils), blocks, app)
@@ -387,6 +389,7 @@ class StateStore:
         _fsync_dir(self.path.parent)
         self._map(want)
         self.seq = 0
+        self._durable_seq = [0, 0]
         self.commit(words_to_be(state.mw), state.m, blocks)
 
     # -- running -------------------------------------------------------------------------
@@ -455,17 +458,17 @@ class StateStore:
         disk write happens outside the commit lock."""
         lay, mm = self._layout, self._mm
         assert lay is not None and mm is not None
-        size = lay.slot_size
+        k = 0 if self._durable_seq[0] <= self._durable_seq[1] else 1
+        dst = lay.slot_offset(DURABLE[k])
         with self._lock:
             if self.seq == self.persisted_seq:
                 return
-            dst_slot = min(DURABLE, key=self._slot_seq)
             src = lay.slot_offset(self._slot)
-            dst = lay.slot_offset(dst_slot)
-            mm[dst:dst + size] = mm[src:src + size]
+            used = _SLOT.size + 2 * lay.n_regs + lay.n_coils + _SLOT.unpack_from(mm, src)[2]
+            mm[dst:dst + used] = mm[src:src + used]
             seq = self.seq
-        mm.flush(dst, size)
-        self.persisted_seq = seq
+        mm.flush(dst, lay.slot_size)
+        self._durable_seq[k] = self.persisted_seq = seq
 
     def close(self) -> None:
         """msync everything and unlock."""
