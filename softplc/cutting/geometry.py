@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 from ..errors import SoftPLCError
@@ -119,6 +119,8 @@ class Arc:
     centre: Point
     start: Point
     sweep: float
+    #: The exact end when the arc was given by its end point (`through`), else computed.
+    given_end: Point | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if self.radius <= SAME_POINT:
@@ -145,7 +147,7 @@ class Arc:
         if distance(start, end) <= SAME_POINT:
             return cls(centre, start, TAU if ccw else -TAU)
         sweep = (a1 - a0) % TAU  # the CCW sweep; CW goes the other way round
-        return cls(centre, start, sweep if ccw else sweep - TAU)
+        return cls(centre, start, sweep if ccw else sweep - TAU, end)
 
     @cached_property
     def radius(self) -> float:
@@ -164,6 +166,8 @@ class Arc:
     def end(self) -> Point:
         if self.full_circle:
             return self.start
+        if self.given_end is not None:
+            return self.given_end
         return self.point_at(self.sweep)
 
     @property

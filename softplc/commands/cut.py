@@ -1,0 +1,140 @@
+"""`softplc cut PIECE`: check a cutting-table piece, preview it, list the PLC words.
+
+Today the command validates (schema, geometry, work area), reports, previews and writes the
+segment words the host will send; streaming to the PLC comes with the cutting-table device
+(issue 13, device round) and plugs in at `_stream`, with the connection options already
+parsed here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+
+from ..cutting import (
+    CuttingError,
+    Piece,
+    load_piece,
+    preview,
+    segment_words,
+)
+from ..cutting.regmap import SEG_BASE
+
+_EXAMPLES = """\
+examples:
+  softplc cut ladder_programs/pieces/achaflanado.toml --dry-run --preview out/e3.png
+  softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed --preview out/e5.svg
+  softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run --frames out/e3.csv
+"""
+
+
+def _area(text: str) -> tuple[float, float]:
+    try:
+        w, _, h = text.lower().partition("x")
+        return float(w), float(h or w)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"work area {text!r}: expected WxH in mm, "
+                                         "e.g. 240x240") from None
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "cut", help="check, preview and (device round) stream a piece to the cutting table",
+        description="Read a cutting-table piece (.toml, or G-code: XY plane, mm, G00 move,\n"
+                    "G01-G03 cut), check its geometry and the work area, report it, plot it\n"
+                    "and list the segment words the host sends (%MD100/%MD102 end in um,\n"
+                    "%MF104 speed, %MW106 kind, %MW107 number, %MW108 INICIO).\n"
+                    "Streaming to the PLC comes with the cutting-table device: use --dry-run.",
+        epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("piece", metavar="PIECE", help="the piece: FILE.toml or FILE.gcode")
+    r = p.add_argument_group("reading G-code (TOML pieces carry their own values)")
+    r.add_argument("--speed", type=float, default=2.0, metavar="MM/S",
+                   help="cutting speed when the program has no F (default %(default)s)")
+    r.add_argument("--move-speed", type=float, default=None, metavar="MM/S",
+                   help="G00 positioning speed (default: --speed)")
+    r.add_argument("--accel", type=float, default=100.0, metavar="MM/S2",
+                   help="path acceleration (default %(default)s)")
+    r.add_argument("--tolerance", type=float, default=0.01, metavar="MM",
+                   help="chord tolerance of arcs (default %(default)s)")
+    r.add_argument("--work-area", type=_area, default=(240.0, 240.0), metavar="WxH",
+                   help="work area in mm (default 240x240)")
+    o = p.add_argument_group("output")
+    o.add_argument("--preview", metavar="OUT.png|OUT.svg",
+                   help="plot the piece in mm (cuts solid, moves dashed)")
+    o.add_argument("--seed", action="store_true",
+                   help="also compute the thesis's path (seed mode: arcs by round(θ/α), "
+                        "Newton without its last term) and overlay it on the preview")
+    o.add_argument("--frames", metavar="OUT.csv",
+                   help="write every segment's words (%%MW100-%%MW108) to a CSV file")
+    o.add_argument("--dry-run", action="store_true",
+                   help="check, report and write outputs only; do not connect")
+    g = p.add_argument_group("connection (used from the device round on)")
+    g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
+    g.add_argument("--port", type=int, default=5020, help="Modbus TCP port (default %(default)s)")
+    g.add_argument("--start-at", type=int, default=1, metavar="N",
+                   help="resume from segment N (1-based)")
+    p.set_defaults(func=run)
+
+
+def _load(args: argparse.Namespace) -> Piece:
+    if Path(args.piece).suffix.lower() == ".toml":
+        return load_piece(args.piece)
+    for name in ("speed", "accel", "tolerance"):
+        if not getattr(args, name) > 0:
+            raise CuttingError(f"--{name} must be positive, not {getattr(args, name)!r}")
+    return load_piece(args.piece, speed=args.speed, move_speed=args.move_speed,
+                      accel=args.accel, tolerance=args.tolerance, work_area=args.work_area)
+
+
+def _write_frames(piece: Piece, out: str) -> None:
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with open(out, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["segment", "kind", "x_mm", "y_mm", "speed_mm_s", "where",
+                        "x_um", "y_um", "kind_code", "seg_no",
+                        *(f"MW{SEG_BASE + i}" for i in range(9))])
+            for s in piece.segments():
+                sw = segment_words(s)
+                w.writerow([s.number, s.kind, f"{s.end[0]:.6f}", f"{s.end[1]:.6f}",
+                            f"{s.speed:g}", s.where, sw.x_um, sw.y_um, sw.kind, sw.number,
+                            *sw.frame()])
+    except OSError as e:
+        raise CuttingError(f"cannot write {out}: {e.strerror or e}") from None
+
+
+def _stream(piece: Piece, args: argparse.Namespace) -> int:
+    """The device round's streaming client plugs in here (handshake of regmap.py)."""
+    raise CuttingError("streaming to the PLC needs the cutting-table device and program "
+                       "(issue 13, device round); run with --dry-run to check and preview")
+
+
+def run(args: argparse.Namespace) -> int:
+    piece = _load(args)
+    for w in piece.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    segs = piece.segments()
+    cuts = sum(1 for s in segs if s.cut)
+    print(f"{args.piece}: {piece.name}: {len(segs)} segments ({cuts} cut), cut "
+          f"{piece.length('cut'):.5f} mm, move {piece.length('move'):.5f} mm, ends at "
+          f"({piece.end[0]:.6g}, {piece.end[1]:.6g}), motion about {piece.duration():.2f} s")
+    if args.seed:
+        seed = piece.segments(seed=True)
+        print(f"seed mode (thesis algorithms): {len(seed)} segments, cut "
+              f"{piece.length('cut', seed=True):.5f} mm, ends at "
+              f"({seed[-1].end[0]:.6g}, {seed[-1].end[1]:.6g})" if seed else
+              "seed mode: no segments")
+    if not 1 <= args.start_at <= max(len(segs), 1):
+        raise CuttingError(f"--start-at {args.start_at}: the piece has {len(segs)} segments")
+    if args.preview:
+        Path(args.preview).parent.mkdir(parents=True, exist_ok=True)
+        print(f"preview written to {preview(piece, args.preview, seed=args.seed)}",
+              file=sys.stderr)
+    if args.frames:
+        _write_frames(piece, args.frames)
+        print(f"segment words written to {args.frames}", file=sys.stderr)
+    if args.dry_run:
+        return 0
+    return _stream(piece, args)

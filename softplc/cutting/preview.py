@@ -1,0 +1,80 @@
+"""Plot a piece: cuts solid, positioning moves dashed, optionally the thesis's (seed) path."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import SoftPLCError
+from .piece import Piece, Segment
+
+FORMATS = {".png", ".svg", ".pdf"}
+
+
+def _runs(segments: list[Segment], kind: str) -> list[list[tuple[float, float]]]:
+    """Polylines of consecutive segments of one kind (one plot call per run)."""
+    runs: list[list[tuple[float, float]]] = []
+    for s in segments:
+        if s.kind != kind:
+            continue
+        if runs and runs[-1][-1] == s.start:
+            runs[-1].append(s.end)
+        else:
+            runs.append([s.start, s.end])
+    return runs
+
+
+def preview(piece: Piece, out: str | Path, seed: bool = False, title: str | None = None
+            ) -> Path:
+    """Draw `piece` into `out` (.png, .svg, .pdf) in mm; seed=True overlays the path the
+    thesis's algorithms would cut (arcs by round(θ/α), Newton without its last term)."""
+    out = Path(out)
+    if out.suffix.lower() not in FORMATS:
+        raise SoftPLCError(f"preview {out}: unsupported format {out.suffix!r}; "
+                           f"use one of {', '.join(sorted(FORMATS))}")
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure  # no pyplot: no global state, no display
+
+    segs = piece.segments()
+    fig = Figure(figsize=(8, 6))
+    ax = fig.add_subplot()
+    styles = {"move": dict(linestyle="--", color="tab:gray", linewidth=0.9,
+                           label="move (torch off)"),
+              "cut": dict(linestyle="-", color="tab:blue", linewidth=1.6,
+                          label="cut (torch on)")}
+    for kind, style in styles.items():
+        for i, run in enumerate(_runs(segs, kind)):
+            xs, ys = zip(*run, strict=True)
+            ax.plot(xs, ys, **(style if i == 0 else {**style, "label": None}))
+    if seed:
+        for i, run in enumerate(_runs(piece.segments(seed=True), "cut")):
+            xs, ys = zip(*run, strict=True)
+            ax.plot(xs, ys, color="tab:red", linewidth=0.9, linestyle=":",
+                    label="thesis (seed mode)" if i == 0 else None)
+    ax.plot(*piece.start, "o", color="tab:green", label="start")
+    ax.plot(*piece.end, "s", color="black", markersize=4, label="end")
+    w, h = piece.work_area
+    ax.plot([0, w, w, 0, 0], [0, 0, h, h, 0], color="0.75", linewidth=0.8,
+            label=f"work area {w:g} x {h:g} mm")
+    pts = [piece.start, *(s.end for s in segs)]
+    xs, ys = zip(*pts, strict=True)
+    span = max(max(xs) - min(xs), max(ys) - min(ys), 1.0)
+    m = 0.06 * span
+    ax.set_xlim(min(xs) - m, max(xs) + m)
+    ax.set_ylim(min(ys) - m, max(ys) + m)
+    ax.set_aspect("equal")
+    ax.set_xlabel("X (mm)")
+    ax.set_ylabel("Y (mm)")
+    ax.grid(True, color="0.92")
+    cut = piece.length("cut")
+    ax.set_title(f"{title or piece.name}\n{len(segs)} segments, cut {cut:.3f} mm, "
+                 f"move {piece.length('move'):.3f} mm, about {piece.duration():.1f} s",
+                 fontsize="medium")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small",
+              borderaxespad=0.0)
+    try:
+        fig.savefig(out, bbox_inches="tight", dpi=110)
+    except OSError as e:
+        raise SoftPLCError(f"cannot write preview {out}: {e.strerror or e}") from None
+    return out
