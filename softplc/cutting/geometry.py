@@ -425,6 +425,18 @@ def _max_on_chord(curve: NewtonCurve, a: Point, b: Point) -> tuple[float, float]
     return f(x), x
 
 
+def green_term(shape: Line | Arc) -> float:
+    """∮(x dy - y dx) along a line or arc: half the sum over a closed path is its area."""
+    if isinstance(shape, Line):
+        (x0, y0), (x1, y1) = shape.start, shape.end
+        return x0 * y1 - x1 * y0
+    (ox, oy), R = shape.centre, shape.radius
+    a0 = shape.start_angle
+    a1 = a0 + shape.sweep
+    return (R * ox * (math.sin(a1) - math.sin(a0)) - R * oy * (math.cos(a1) - math.cos(a0))
+            + R * R * shape.sweep)
+
+
 def polyline_length(points: Sequence[Point]) -> float:
     return sum(distance(a, b) for a, b in zip(points, points[1:], strict=False))
 

@@ -53,6 +53,7 @@ from .geometry import (
     Point,
     distance,
     fillet,
+    green_term,
 )
 from .motion import DEFAULT_ACCEL, DEFAULT_SPEED, MATLAB_CYCLE, split_line
 
@@ -263,6 +264,16 @@ class Piece:
 
     def length(self, kind: str = CUT, seed: bool = False) -> float:
         return sum(s.length for s in self.segments(seed) if s.kind == kind)
+
+    def area(self) -> float:
+        """Signed area enclosed by the cut lines and arcs as designed (not their chords),
+        for a piece that cuts one closed contour (CCW > 0)."""
+        cuts = [e.shape for e in self.elements if e.cut]
+        if any(isinstance(c, NewtonCurve) for c in cuts):
+            raise GeometryError("area: a Newton curve is not a closed contour")
+        if not cuts or distance(cuts[0].start, cuts[-1].end) > 1e-6:
+            raise GeometryError("area: the cuts do not form a closed contour")
+        return sum(green_term(c) for c in cuts) / 2.0
 
     def duration(self) -> float:
         """Motion time of all segments with the corrected split (no handshake time)."""
