@@ -222,6 +222,11 @@ class Segment:
     def cut(self) -> bool:
         return self.kind == CUT
 
+    @property
+    def pen_down(self) -> bool:
+        """The torch is on (the drawing host's name, so its path helpers read segments)."""
+        return self.kind == CUT
+
 
 @dataclass
 class Piece:

@@ -5,22 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import SoftPLCError
-from .piece import Piece, Segment
-
-FORMATS = {".png", ".svg", ".pdf"}
-
-
-def _runs(segments: list[Segment], kind: str) -> list[list[tuple[float, float]]]:
-    """Polylines of consecutive segments of one kind (one plot call per run)."""
-    runs: list[list[tuple[float, float]]] = []
-    for s in segments:
-        if s.kind != kind:
-            continue
-        if runs and runs[-1][-1] == s.start:
-            runs[-1].append(s.end)
-        else:
-            runs.append([s.start, s.end])
-    return runs
+from ..gcode.preview import _FORMATS as FORMATS
+from ..gcode.preview import _runs  # polylines of consecutive segments with one pen state
+from .piece import Piece
 
 
 def preview(piece: Piece, out: str | Path, seed: bool = False, title: str | None = None
@@ -39,16 +26,16 @@ def preview(piece: Piece, out: str | Path, seed: bool = False, title: str | None
     segs = piece.segments()
     fig = Figure(figsize=(8, 6))
     ax = fig.add_subplot()
-    styles = {"move": dict(linestyle="--", color="tab:gray", linewidth=0.9,
+    styles = {False: dict(linestyle="--", color="tab:gray", linewidth=0.9,
                            label="move (torch off)"),
-              "cut": dict(linestyle="-", color="tab:blue", linewidth=1.6,
+              True: dict(linestyle="-", color="tab:blue", linewidth=1.6,
                           label="cut (torch on)")}
-    for kind, style in styles.items():
-        for i, run in enumerate(_runs(segs, kind)):
+    for torch, style in styles.items():
+        for i, run in enumerate(_runs(segs, torch)):
             xs, ys = zip(*run, strict=True)
             ax.plot(xs, ys, **(style if i == 0 else {**style, "label": None}))
     if seed:
-        for i, run in enumerate(_runs(piece.segments(seed=True), "cut")):
+        for i, run in enumerate(_runs(piece.segments(seed=True), True)):
             xs, ys = zip(*run, strict=True)
             ax.plot(xs, ys, color="tab:red", linewidth=0.9, linestyle=":",
                     label="thesis (seed mode)" if i == 0 else None)
