@@ -15,6 +15,8 @@ from softplc.cutting.seed import (
     run_trigger_chain,
     thesis_arc_points,
     thesis_arc_step,
+    thesis_beta,
+    thesis_cpu_arc,
     thesis_line_steps,
     thesis_split,
 )
@@ -70,6 +72,36 @@ def test_b6_arc_step_undefined_for_small_radius():
     with pytest.raises(GeometryError, match="asin"):
         thesis_arc_step(0.05, 2.0, 0.025)  # 3·v·T = 0.15 > 2R = 0.1
     assert Arc((0, 0), (0.05, 0), math.pi).chord_count(0.01) >= 1  # corrected: fine
+
+
+@pytest.mark.parametrize("vector, matlab, cpu", [
+    ((1, 0), 0, 0), ((1, 1), 45, 135), ((-1, 1), 135, 135), ((-1, 0), 180, 90),
+    ((-1, -1), 225, 135), ((0, -1), 270, 90), ((1, -1), 315, 45), ((-2, 1), 116.565, 116.565)])
+def test_b5_quadrant_of_the_start_angle(vector, matlab, cpu):
+    assert math.degrees(thesis_beta(vector)) == pytest.approx(matlab, abs=1e-3)
+    assert math.degrees(thesis_beta(vector, cpu=True)) == pytest.approx(cpu, abs=1e-3)
+    true = math.degrees(math.atan2(vector[1], vector[0])) % 360
+    right = {(1, 0), (-1, 1)}  # the CPU: the +x ray and, by chance, 135°
+    assert (abs(math.degrees(thesis_beta(vector, cpu=True)) - true) < 1e-9) == (
+        vector in right)
+
+
+def test_b5_cpu_arc_starts_on_the_wrong_side():
+    # E3's first arc starts below its centre (270°); the CPU's β is 90°: the first chord
+    # crosses the whole circle, 20 mm through the piece.
+    run = thesis_cpu_arc((40, 20), (40, 10), math.pi / 2, quadrant_bug=True)
+    assert distance((40, 10), run.points[0]) > 19.9
+    assert Arc((40, 20), (40, 10), math.pi / 2).chords(0.01)[0][1] < 10.2
+
+
+def test_b8_end_box_full_circle_ends_at_once_and_arcs_stop_short():
+    full = thesis_cpu_arc((50, 50), (65, 50), 2 * math.pi)
+    assert len(full.points) == 1  # no arc point at all: just "the line to Pf" (the start)
+    assert len(Arc((50, 50), (65, 50), 2 * math.pi).chords(0.01)) == 87
+    quarter = thesis_cpu_arc((40, 20), (40, 10), math.pi / 2)
+    assert quarter.ended and quarter.points[-1] == pytest.approx((50, 20))
+    stop = quarter.points[-2]  # where the carriage entered the 0.1 box
+    assert max(abs(stop[0] - 50), abs(stop[1] - 20)) == pytest.approx(0.1, abs=1e-9)
 
 
 def test_b7_round_overshoots_the_arc_end_and_cuts_back():

@@ -9,6 +9,11 @@ difference. Nothing here is used to cut a piece unless the user asks for seed mo
 - `thesis_split`: FB_TrazarLinea, B3 (equal accelerations bend the line).
 - `thesis_arc_points`: TrazarArco2 / FB_TrazarCirculo, B6 (3·v·T or 0.03 rad step), B7
   (round overshoots the arc end, CW impossible), B9 (TRUNC to 0.001 on the CPU).
+- `thesis_beta`: the start angle from atan(|y/x|) plus quadrant offsets, B5 (Matlab wrong in
+  the 2nd quadrant; the CPU right only on the +x ray and, by chance, at 135°).
+- `thesis_cpu_arc`: the CPU's circle loop, B8 (next point when within 0.005, the arc ends
+  when both axes are within 0.1 of Pf: a full circle ends at once, an arc that misses the
+  box goes round again), with B5 and B9 optional.
 - `ThesisNewton`: ClcDifPolNwt + TrazarPolinomio, B12 (h = x1 - x0 assumed), B13 (the last
   term dropped: wrong value at the last node), B16 (sampling stops at the penultimate node).
 - `run_trigger_chain`: the piece programs' trigger chains, B19 (end tests not gated by
@@ -21,7 +26,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from .geometry import GeometryError, NewtonCurve, Point, distance, forward_coefficients
+from .geometry import TAU, GeometryError, NewtonCurve, Point, distance, forward_coefficients
 from .motion import DEFAULT_ACCEL, DEFAULT_SPEED, MATLAB_CYCLE, LineSplit, axis_move
 
 #: The CPU's fixed arc step (F_ClcCirculo), rad, and its setpoint truncation (0.001).
@@ -130,6 +135,91 @@ def thesis_arc_points(centre: Point, start: Point, sweep: float, speed: float = 
     pts = [at(beta + i * alpha) for i in range(1, k + 1)]
     pts.append(at(beta + sweep))
     return ThesisArc(pts, alpha, k, k * alpha - sweep if k else 0.0)
+
+
+def thesis_beta(vector: Point, cpu: bool = False) -> float:
+    """β of TrazarArco2 (Matlab) or F_ClcCirculo (CPU), as printed (B5), in [0, 2π) terms.
+
+    Both take atan(|y/x|) (x = 0 gives π/2) and add a quadrant offset. Matlab: 2nd +π/2
+    (should be π - β), 3rd +π, 4th 2π - β (its conditions name `vectOP1`, read here as the
+    variable `vctOP1`). CPU: +π/2 in the 2nd and 3rd quadrants and for x >= 0, y > 0 (the
+    1st, labelled "4th"); the 4th quadrant gets no offset."""
+    x, y = vector
+    beta = math.pi / 2 if x == 0 else math.atan(abs(y / x))
+    if cpu:
+        if (x < 0 and y > 0) or (x < 0 and y <= 0) or (x >= 0 and y > 0):
+            beta += math.pi / 2
+        return beta
+    if x < 0 and y > 0:
+        beta += math.pi / 2
+    if x < 0 and y <= 0:
+        beta += math.pi
+    if x >= 0 and y < 0:
+        beta = 2 * math.pi - beta
+    return beta
+
+
+#: The CPU circle loop's windows: next point within NEXT_WINDOW, arc end within END_BOX.
+NEXT_WINDOW = 0.005
+END_BOX = 0.1
+
+
+@dataclass(frozen=True)
+class CpuArcRun:
+    points: list[Point]  # where the axes went: the arc points, the box entry, then Pf
+    ended: bool  # False: the end box was never met within max_points (it would go on)
+    turns: float  # how far the generated points went round, in full turns
+
+
+def _box_entry(a: Point, b: Point, centre: Point, half: float) -> float | None:
+    """Fraction of the way from a to b where the segment enters the square centre ± half
+    (Liang-Barsky clipping); None if it misses."""
+    t0, t1 = 0.0, 1.0
+    for i in (0, 1):
+        d = b[i] - a[i]
+        lo, hi = centre[i] - half - a[i], centre[i] + half - a[i]
+        if d == 0.0:
+            if lo > 0.0 or hi < 0.0:
+                return None
+            continue
+        e0, e1 = sorted((lo / d, hi / d))
+        t0, t1 = max(t0, e0), min(t1, e1)
+        if t0 > t1:
+            return None
+    return t0
+
+
+def thesis_cpu_arc(centre: Point, start: Point, sweep: float, quadrant_bug: bool = False,
+                   truncate: bool = True, max_points: int = 100_000) -> CpuArcRun:
+    """The CPU's circle (FB_TrazarCirculo + F_ClcCirculo): points O + R·(cos(β + k·α),
+    sin(β + k·α)), α = ±0.03, k = 1, 2, ..., each sent when the axes reach the previous one;
+    the end test "both axes within 0.1 of Pf" runs every cycle (B8), so the arc ends where
+    the carriage enters that box, then the next operation goes to Pf. The axes follow the
+    chords exactly and the test is taken as continuous (a fast CPU cycle). Counting with its
+    own counter (the printed code increments PosX_0, B11). Pf is the true end point."""
+    R = distance(centre, start)
+    vec = (start[0] - centre[0], start[1] - centre[1])
+    true_beta = math.atan2(vec[1], vec[0])
+    beta = thesis_beta(vec, cpu=True) if quadrant_bug else true_beta
+    pf = (centre[0] + R * math.cos(true_beta + sweep), centre[1] + R * math.sin(true_beta + sweep))
+    alpha = math.copysign(CPU_ARC_STEP, sweep)
+    pos, pts, k = start, [], 0
+    while _box_entry(pos, pos, pf, END_BOX) is None:
+        if k >= max_points:
+            return CpuArcRun(pts, False, k * CPU_ARC_STEP / TAU)
+        k += 1
+        a = beta + k * alpha
+        p = (centre[0] + R * math.cos(a), centre[1] + R * math.sin(a))
+        if truncate:
+            p = (math.trunc(p[0] / CPU_SETPOINT_STEP) * CPU_SETPOINT_STEP,
+                 math.trunc(p[1] / CPU_SETPOINT_STEP) * CPU_SETPOINT_STEP)
+        t = _box_entry(pos, p, pf, END_BOX)
+        if t is not None:  # the carriage enters the box on the way: the arc ends there
+            p = (pos[0] + t * (p[0] - pos[0]), pos[1] + t * (p[1] - pos[1]))
+        pts.append(p)
+        pos = p
+    pts.append(pf)
+    return CpuArcRun(pts, True, k * CPU_ARC_STEP / TAU)
 
 
 @dataclass(frozen=True)
