@@ -14,7 +14,9 @@ import sys
 from pathlib import Path
 
 from ..cutting import (
+    Arc,
     CuttingError,
+    NewtonCurve,
     Piece,
     load_piece,
     preview,
@@ -121,6 +123,9 @@ def run(args: argparse.Namespace) -> int:
           f"{piece.length('cut'):.5f} mm, move {piece.length('move'):.5f} mm, ends at "
           f"({piece.end[0]:.6g}, {piece.end[1]:.6g}), motion about {piece.duration():.2f} s")
     if args.seed:
+        if not any(isinstance(e.shape, Arc | NewtonCurve) for e in piece.elements):
+            print("note: seed mode changes arcs and Newton curves only; this piece has none "
+                  "(G-code arcs arrive as chords from the reader)", file=sys.stderr)
         seed = piece.segments(seed=True)
         print(f"seed mode (thesis algorithms): {len(seed)} segments, cut "
               f"{piece.length('cut', seed=True):.5f} mm, ends at "
