@@ -24,7 +24,7 @@ from softplc.cutting import (
     piece_from_dict,
     segment_words,
 )
-from softplc.cutting.geometry import distance, unit
+from softplc.cutting.geometry import distance, distance_to, unit
 from softplc.cutting.regmap import FRAME_LEN, SEG_BASE, seg_no, words_dint, words_real
 
 PIECES = Path(__file__).resolve().parents[1] / "ladder_programs" / "pieces"
@@ -259,3 +259,36 @@ def test_cut_command_errors(tmp_path, capsys):
         main(["cut", "--help"])
     assert e.value.code == 0
     assert "--dry-run" in capsys.readouterr().out
+
+
+# -- deviation from the ideal shape (the device round's trace check) -------------------------
+
+def test_deviation_from_the_ideal_shape():
+    p = load_piece(PIECES / "achaflanado.toml")
+    cuts = [s for s in p.segments() if s.cut]
+    assert max(p.deviation(s.end) for s in cuts) < 1e-9
+    mids = [((s.start[0] + s.end[0]) / 2, (s.start[1] + s.end[1]) / 2) for s in cuts]
+    worst = max(p.deviation(m) for m in mids)
+    assert worst == pytest.approx(10 * (1 - math.cos(math.radians(2.5))), abs=1e-9)
+    assert worst <= p.tolerance
+    assert p.deviation((30, 30)) == pytest.approx(20.0)  # the middle of the piece
+    arc = Arc((40, 20), (40, 10), math.pi / 2)
+    inside = (40 + 10 * math.cos(-1.0), 20 + 10 * math.sin(-1.0))  # on the circle, in the sweep
+    outside = (40 + 10 * math.cos(4.0), 20 + 10 * math.sin(4.0))  # on the circle, not
+    assert distance_to(arc, inside) < 1e-12
+    assert distance_to(arc, outside) == pytest.approx(distance(outside, (40, 10)))
+    cw = Arc((40, 20), (50, 20), -math.pi / 2)  # the same quarter, clockwise
+    assert distance_to(cw, inside) < 1e-12
+    assert distance_to(cw, outside) == pytest.approx(distance(outside, (40, 10)))
+
+
+def test_deviation_from_a_newton_curve():
+    p = load_piece(PIECES / "newton5.toml")
+    c = NewtonCurve((0, 10, 20, 30, 40), (0, 5, 3, 8, 2))
+    for x in (0.0, 7.3, 21.1, 33.472, 40.0):
+        assert p.deviation((x, c(x))) < 1e-9
+        h = 1e-6
+        slope = (c(x + h) - c(x - h)) / (2 * h)
+        n = (-slope / math.hypot(1, slope), 1 / math.hypot(1, slope))
+        off = (x + 0.05 * n[0], c(x) + 0.05 * n[1])
+        assert p.deviation(off) == pytest.approx(0.05, abs=1e-4)  # curvature is small

@@ -414,15 +414,38 @@ def _max_on_chord(curve: NewtonCurve, a: Point, b: Point) -> tuple[float, float]
     xs = [a[0] + (b[0] - a[0]) * i / 16 for i in range(17)]
     i = max(range(17), key=lambda k: f(xs[k]))
     lo, hi = xs[max(i - 1, 0)], xs[min(i + 1, 16)]
+    x = _golden_min(lambda x: -f(x), min(lo, hi), max(lo, hi), 60)
+    return f(x), x
+
+
+def _golden_min(f, lo: float, hi: float, iterations: int = 80) -> float:
+    """x in [lo, hi] minimising a unimodal f."""
     g = (math.sqrt(5) - 1) / 2
-    for _ in range(60):
+    for _ in range(iterations):
         m1, m2 = hi - g * (hi - lo), lo + g * (hi - lo)
-        if f(m1) > f(m2):
+        if f(m1) < f(m2):
             hi = m2
         else:
             lo = m1
-    x = (lo + hi) / 2
-    return f(x), x
+    return (lo + hi) / 2
+
+
+def distance_to(shape: Line | Arc | NewtonCurve, p: Point) -> float:
+    """Distance from p to the ideal shape (not its chords)."""
+    if isinstance(shape, Line):
+        return point_to_segment(p, shape.start, shape.end)
+    if isinstance(shape, Arc):
+        d = distance(p, shape.centre)
+        phi = math.atan2(p[1] - shape.centre[1], p[0] - shape.centre[0]) - shape.start_angle
+        along = phi % TAU if shape.sweep > 0 else -(-phi % TAU)
+        if shape.full_circle or abs(along) <= abs(shape.sweep):
+            return abs(d - shape.radius)
+        return min(distance(p, shape.start), distance(p, shape.end))
+    xs = shape.sample_x(256)
+    i = min(range(len(xs)), key=lambda k: distance(p, (xs[k], shape(xs[k]))))
+    lo, hi = xs[max(i - 1, 0)], xs[min(i + 1, len(xs) - 1)]
+    x = _golden_min(lambda x: distance(p, (x, shape(x))), min(lo, hi), max(lo, hi))
+    return distance(p, (x, shape(x)))
 
 
 def green_term(shape: Line | Arc) -> float:

@@ -52,6 +52,7 @@ from .geometry import (
     NewtonCurve,
     Point,
     distance,
+    distance_to,
     fillet,
     green_term,
 )
@@ -269,6 +270,11 @@ class Piece:
 
     def length(self, kind: str = CUT, seed: bool = False) -> float:
         return sum(s.length for s in self.segments(seed) if s.kind == kind)
+
+    def deviation(self, p: Point) -> float:
+        """Distance from p to the nearest cut shape as designed (arcs and curves, not their
+        chords): the trace check of the device round (<= chord tolerance + 1 µm)."""
+        return min(distance_to(e.shape, p) for e in self.elements if e.cut)
 
     def area(self) -> float:
         """Signed area enclosed by the cut lines and arcs as designed (not their chords),
