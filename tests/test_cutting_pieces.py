@@ -244,6 +244,13 @@ def test_cut_command_dry_run_preview_and_frames(tmp_path, capsys):
     assert "X (mm)" in svg.read_text()
 
 
+def test_cut_command_seed_reports_the_endless_shield(capsys):
+    assert main(["cut", str(PIECES / "escudo.toml"), "--dry-run", "--seed"]) == 0
+    assert "would repeat segments 2-8 forever" in capsys.readouterr().out
+    assert main(["cut", str(PIECES / "cuadrado.toml"), "--dry-run", "--seed"]) == 0
+    assert "runs this piece once" in capsys.readouterr().out
+
+
 def test_cut_command_errors(tmp_path, capsys):
     bad = write(tmp_path, '[[op]]\nkind = "line"\nto = [1, 2]\nspeeed = 3\n')
     assert main(["cut", str(bad), "--dry-run"]) == 1

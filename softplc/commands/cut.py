@@ -23,6 +23,7 @@ from ..cutting import (
     segment_words,
 )
 from ..cutting.regmap import SEG_BASE
+from ..cutting.seed import run_trigger_chain
 
 _EXAMPLES = """\
 examples:
@@ -107,6 +108,24 @@ def _write_frames(piece: Piece, out: str) -> None:
         raise CuttingError(f"cannot write {out}: {e.strerror or e}") from None
 
 
+def _report_chain(piece: Piece) -> None:
+    """The thesis sequences a piece as a trigger chain whose end tests are not gated (B19):
+    say whether this piece would run once or repeat forever that way."""
+    segs = piece.segments()
+    run = run_trigger_chain([s.end for s in segs], piece.start, gated=False,
+                            max_passes=4 * len(segs) + 10)
+    if run.runs_forever:
+        cycle = run.ops[-run.cycle_moves:]
+        print(f"seed mode: the thesis's trigger chain (ungated end tests, B19) would repeat "
+              f"segments {min(cycle)}-{max(cycle)} forever (cycle found after "
+              f"{run.passes} passes)")
+    elif run.finished:
+        print("seed mode: the thesis's trigger chain runs this piece once")
+    else:
+        print(f"seed mode: the thesis's trigger chain did not end within {run.passes} "
+              "passes")
+
+
 def _stream(piece: Piece, args: argparse.Namespace) -> int:
     """The device round's streaming client plugs in here (handshake of regmap.py)."""
     raise CuttingError("streaming to the PLC needs the cutting-table device and program "
@@ -127,6 +146,7 @@ def run(args: argparse.Namespace) -> int:
             print("note: seed mode changes arcs and Newton curves only; this piece has none "
                   "(G-code arcs arrive as chords from the reader)", file=sys.stderr)
         seed = piece.segments(seed=True)
+        _report_chain(piece)
         print(f"seed mode (thesis algorithms): {len(seed)} segments, cut "
               f"{piece.length('cut', seed=True):.5f} mm, ends at "
               f"({seed[-1].end[0]:.6g}, {seed[-1].end[1]:.6g})" if seed else
