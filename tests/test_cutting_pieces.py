@@ -142,6 +142,11 @@ def test_geometry_errors_in_pieces_name_the_op(ops, message):
         piece_from_dict({"op": ops}, "piece.toml")
 
 
+def test_start_outside_the_work_area():
+    with pytest.raises(PieceError, match=r"start: point \(-1, 0\) mm is outside"):
+        piece_from_dict({"start": [-1, 0], "op": [{"kind": "move", "to": [1, 1]}]})
+
+
 def test_piece_options_speeds_and_automatic_moves():
     p = piece_from_dict({"speed": 4, "move_speed": 20, "start": [1, 1], "op": [
         {"kind": "circle", "centre": [50, 50], "radius": 5, "direction": "cw",

@@ -257,10 +257,10 @@ class Piece:
         """Every point inside the work area; PieceError naming the op otherwise."""
         w, h = self.work_area
         eps = 1e-9
-        for s in self.segments():
-            x, y = s.end
+        for where, (x, y) in [("start", self.start),
+                              *((s.where, s.end) for s in self.segments())]:
             if not (-eps <= x <= w + eps and -eps <= y <= h + eps):
-                raise PieceError(f"{self.file}: {s.where}: point ({x:.6g}, {y:.6g}) mm is "
+                raise PieceError(f"{self.file}: {where}: point ({x:.6g}, {y:.6g}) mm is "
                                  f"outside the {w:g} x {h:g} mm work area")
 
     @property
