@@ -304,3 +304,14 @@ def test_deviation_from_a_newton_curve():
         n = (-slope / math.hypot(1, slope), 1 / math.hypot(1, slope))
         off = (x + 0.05 * n[0], c(x) + 0.05 * n[1])
         assert p.deviation(off) == pytest.approx(0.05, abs=1e-4)  # curvature is small
+
+
+def test_command_line_values_override_a_toml_piece(tmp_path, capsys):
+    assert main(["cut", str(PIECES / "achaflanado.toml"), "--dry-run", "--tolerance", "0.5"]) == 0
+    assert "17 segments (16 cut)" in capsys.readouterr().out  # 4 chords per quarter arc
+    assert main(["cut", str(PIECES / "achaflanado.toml"), "--dry-run", "--work-area",
+                 "30x60"]) == 1
+    assert "outside the 30 x 60 mm work area" in capsys.readouterr().err
+    assert main(["cut", str(PIECES / "rounded_rectangle.gcode"), "--dry-run", "--speed",
+                 "0"]) == 1
+    assert "speed must be a positive number" in capsys.readouterr().err

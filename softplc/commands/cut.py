@@ -24,6 +24,7 @@ from ..cutting import (
 )
 from ..cutting.regmap import SEG_BASE
 from ..cutting.seed import run_trigger_chain
+from ._args import size_arg
 
 _EXAMPLES = """\
 examples:
@@ -33,13 +34,7 @@ examples:
 """
 
 
-def _area(text: str) -> tuple[float, float]:
-    try:
-        w, _, h = text.lower().partition("x")
-        return float(w), float(h or w)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"work area {text!r}: expected WxH in mm, "
-                                         "e.g. 240x240") from None
+_area = size_arg("work area", "mm", "240x240")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -52,16 +47,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "Streaming to the PLC comes with the cutting-table device: use --dry-run.",
         epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("piece", metavar="PIECE", help="the piece: FILE.toml or FILE.gcode")
-    r = p.add_argument_group("reading G-code (TOML pieces carry their own values)")
-    r.add_argument("--speed", type=float, default=2.0, metavar="MM/S",
-                   help="cutting speed when the program has no F (default %(default)s)")
-    r.add_argument("--move-speed", type=float, default=None, metavar="MM/S",
-                   help="G00 positioning speed (default: --speed)")
-    r.add_argument("--accel", type=float, default=100.0, metavar="MM/S2",
-                   help="path acceleration (default %(default)s)")
-    r.add_argument("--tolerance", type=float, default=0.01, metavar="MM",
-                   help="chord tolerance of arcs (default %(default)s)")
-    r.add_argument("--work-area", type=_area, default=(240.0, 240.0), metavar="WxH",
+    r = p.add_argument_group("piece values (G-code: these or the defaults; TOML: override "
+                             "the file's keys when given)")
+    r.add_argument("--speed", type=float, metavar="MM/S",
+                   help="cutting speed (G-code: when the program has no F; default 2)")
+    r.add_argument("--move-speed", type=float, metavar="MM/S",
+                   help="positioning (G00) speed (default: the cutting speed)")
+    r.add_argument("--accel", type=float, metavar="MM/S2",
+                   help="path acceleration (default 100)")
+    r.add_argument("--tolerance", type=float, metavar="MM",
+                   help="chord tolerance of arcs and Newton curves (default 0.01)")
+    r.add_argument("--work-area", type=_area, metavar="WxH",
                    help="work area in mm (default 240x240)")
     o = p.add_argument_group("output")
     o.add_argument("--preview", metavar="OUT.png|OUT.svg",
@@ -82,11 +78,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _load(args: argparse.Namespace) -> Piece:
-    if Path(args.piece).suffix.lower() == ".toml":
-        return load_piece(args.piece)
-    for name in ("speed", "accel", "tolerance"):
-        if not getattr(args, name) > 0:
-            raise CuttingError(f"--{name} must be positive, not {getattr(args, name)!r}")
     return load_piece(args.piece, speed=args.speed, move_speed=args.move_speed,
                       accel=args.accel, tolerance=args.tolerance, work_area=args.work_area)
 

@@ -409,17 +409,30 @@ def piece_from_dict(data: dict, file: str = "<dict>") -> Piece:
     return _Builder(model, file).piece()
 
 
-def load_piece(path: str | Path, **gcode_options: float) -> Piece:
-    """A piece from a `.toml` file, or from G-code (any other suffix)."""
+#: Options a caller (the command line) may impose on a piece, and their TOML keys.
+OPTION_KEYS = {"speed": "speed", "move_speed": "move_speed", "accel": "accel",
+               "tolerance": "chord_tolerance", "work_area": "work_area"}
+
+
+def load_piece(path: str | Path, **options: float | Point | None) -> Piece:
+    """A piece from a `.toml` file, or from G-code (any other suffix).
+
+    `options` (speed, move_speed, accel, tolerance, work_area; None = not given) are the
+    G-code reading values, and override the TOML file's keys."""
     p = Path(path)
+    given = {k: v for k, v in options.items() if v is not None}
+    unknown = set(given) - set(OPTION_KEYS)
+    if unknown:
+        raise TypeError(f"unknown piece options {sorted(unknown)}")
     if p.suffix.lower() != ".toml":
-        return piece_from_gcode(p, **gcode_options)
+        return piece_from_gcode(p, **given)
     try:
         data = tomllib.loads(p.read_text(encoding="utf-8"))
     except OSError as e:
         raise PieceError(f"{p}: cannot read the file: {e.strerror or e}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise PieceError(f"{p}: not valid TOML: {e}") from None
+    data.update({OPTION_KEYS[k]: v for k, v in given.items()})
     return piece_from_dict(data, str(p))
 
 
@@ -433,6 +446,13 @@ def piece_from_gcode(path: str | Path, speed: float = DEFAULT_SPEED,
     the motion codes. G04 dwells are dropped with a warning."""
     from ..gcode import GCodeConfig, parse_file
     from ..gcode.parser import UNIT_CM
+
+    values = {"speed": speed, "move_speed": move_speed or speed, "accel": accel,
+              "tolerance": tolerance, "work_area": work_area[0], "work_area height":
+              work_area[1]}
+    for name, v in values.items():
+        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+            raise PieceError(f"{path}: {name} must be a positive number, not {v!r}")
 
     mm_per_cm = 1.0 / UNIT_CM["mm"]
     # The reader works in cm; its table check is replaced by the work-area check below
