@@ -315,3 +315,11 @@ def test_command_line_values_override_a_toml_piece(tmp_path, capsys):
     assert main(["cut", str(PIECES / "rounded_rectangle.gcode"), "--dry-run", "--speed",
                  "0"]) == 1
     assert "speed must be a positive number" in capsys.readouterr().err
+
+
+def test_seed_mode_error_names_the_op():
+    p = piece_from_dict({"op": [{"kind": "move", "to": [10, 10]},
+                                {"kind": "circle", "centre": [10, 10], "radius": 0.05}]})
+    assert len(p.segments()) > 3  # the corrected arc is fine
+    with pytest.raises(PieceError, match=r"op\[1\]: thesis arc step: asin"):
+        p.segments(seed=True)

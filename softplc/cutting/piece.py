@@ -245,7 +245,11 @@ class Piece:
         out: list[Segment] = []
         pos = self.start
         for el in self.elements:
-            for p in _points(el, self.tolerance, seed):
+            try:
+                points = _points(el, self.tolerance, seed)
+            except GeometryError as e:
+                raise PieceError(f"{self.file}: {el.where}: {e}") from None
+            for p in points:
                 if distance(pos, p) <= SAME_POINT:
                     continue
                 out.append(Segment(len(out) + 1, CUT if el.cut else MOVE, pos, p, el.speed,
