@@ -244,6 +244,10 @@ def test_cut_command_dry_run_preview_and_frames(tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     rows = list(csv.DictReader(frames.open()))
     assert len(rows) == 77 and rows[0]["kind"] == "move" and rows[-1]["x_um"] == "20000"
+    first = rows[0]  # the move (0,0) -> (20,10): split 2/sqrt(5), 1/sqrt(5)
+    assert float(first["vx_mm_s"]) == pytest.approx(4 / math.sqrt(5))
+    assert float(first["ay_mm_s2"]) == pytest.approx(100 / math.sqrt(5))
+    assert float(first["duration_s"]) == pytest.approx(math.sqrt(500) / 2 + 2 / 100)
     assert main(["cut", str(PIECES / "polinomio.toml"), "--dry-run", "--preview",
                  str(svg)]) == 0
     assert "X (mm)" in svg.read_text()

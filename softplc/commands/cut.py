@@ -21,8 +21,9 @@ from ..cutting import (
     load_piece,
     preview,
     segment_words,
+    split_line,
 )
-from ..cutting.regmap import SEG_BASE
+from ..cutting.regmap import FRAME_LEN, SEG_BASE
 from ..cutting.seed import run_trigger_chain
 from ._args import size_arg
 
@@ -66,7 +67,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="also compute the thesis's path (seed mode: arcs by round(θ/α), "
                         "Newton without its last term) and overlay it on the preview")
     o.add_argument("--frames", metavar="OUT.csv",
-                   help="write every segment's words (%%MW100-%%MW108) to a CSV file")
+                   help="write every segment's words (%%MW100-%%MW108) and the axis split "
+                        "the PLC should compute (speeds, accelerations, time) to a CSV file")
     o.add_argument("--dry-run", action="store_true",
                    help="check, report and write outputs only; do not connect")
     g = p.add_argument_group("connection (used from the device round on)")
@@ -89,12 +91,18 @@ def _write_frames(piece: Piece, out: str) -> None:
             w = csv.writer(f)
             w.writerow(["segment", "kind", "x_mm", "y_mm", "speed_mm_s", "where",
                         "x_um", "y_um", "kind_code", "seg_no",
-                        *(f"MW{SEG_BASE + i}" for i in range(9))])
+                        *(f"MW{SEG_BASE + i}" for i in range(FRAME_LEN)),
+                        "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2", "duration_s"])
             for s in piece.segments():
                 sw = segment_words(s)
+                # what the PLC should compute for this segment (the corrected split)
+                split = split_line(s.start, s.end, s.speed, piece.accel)
                 w.writerow([s.number, s.kind, f"{s.end[0]:.6f}", f"{s.end[1]:.6f}",
                             f"{s.speed:g}", s.where, sw.x_um, sw.y_um, sw.kind, sw.number,
-                            *sw.frame()])
+                            *sw.frame(),
+                            *(f"{v:.9g}" for v in (split.x.speed, split.y.speed,
+                                                   split.x.accel, split.y.accel,
+                                                   split.duration))])
     except OSError as e:
         raise CuttingError(f"cannot write {out}: {e.strerror or e}") from None
 
