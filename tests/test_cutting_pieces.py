@@ -191,6 +191,26 @@ def test_gcode_moves_cuts_feed_and_cw_arc(tmp_path):
     assert any("G04" in w for w in p.warnings)
 
 
+def test_gcode_arcs_are_rebuilt_as_arcs(tmp_path):
+    p = load_piece(PIECES / "rounded_rectangle.gcode")
+    arcs = [e.shape for e in p.elements if isinstance(e.shape, Arc)]
+    assert [a.centre for a in arcs] == [
+        pytest.approx(c, abs=1e-9) for c in [(40, 20), (40, 40), (20, 40), (20, 20)]]
+    assert all(a.sweep == pytest.approx(math.pi / 2, abs=1e-12) for a in arcs)
+    assert p.segments(seed=True) != p.segments()  # seed mode reaches G-code arcs
+    f = write(tmp_path, "G00 X30 Y20\nG02 X30 Y20 I-10 J0\n"  # full circle, clockwise
+                        "G00 X100 Y100\nN1 G03 X110 Y110 I10 N2 G03 X130 Y110 I10\n",
+              "c.gcode")
+    p = load_piece(f)
+    kinds = [(type(e.shape).__name__, e.where) for e in p.elements if e.cut]
+    assert kinds[0] == ("Arc", "line 2")
+    full = p.elements[1].shape
+    assert full.full_circle and full.sweep < 0 and full.centre == pytest.approx((20, 20))
+    # two arcs with different centres on one line: kept as the reader's chords
+    assert {k for k, w in kinds if w == "line 4"} == {"Line"}
+    assert p.segments()[-1].end == pytest.approx((130, 110), abs=1e-12)
+
+
 @pytest.mark.parametrize("text, message", [
     ("G00 X10 Y10\nG01 Z-1\n", "line 2: a Z \\(pen\\) word"),
     ("G00 X10 Y10\nG01 X300\n", "line 2: point \\(300, 10\\) mm is outside"),

@@ -142,8 +142,8 @@ def run(args: argparse.Namespace) -> int:
           f"({piece.end[0]:.6g}, {piece.end[1]:.6g}), motion about {piece.duration():.2f} s")
     if args.seed:
         if not any(isinstance(e.shape, Arc | NewtonCurve) for e in piece.elements):
-            print("note: seed mode changes arcs and Newton curves only; this piece has none "
-                  "(G-code arcs arrive as chords from the reader)", file=sys.stderr)
+            print("note: seed mode changes arcs and Newton curves only; this piece has none",
+                  file=sys.stderr)
         seed = piece.segments(seed=True)
         _report_chain(piece)
         print(f"seed mode (thesis algorithms): {len(seed)} segments, cut "

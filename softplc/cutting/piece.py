@@ -445,9 +445,11 @@ def piece_from_gcode(path: str | Path, speed: float = DEFAULT_SPEED,
                      tolerance: float = DEFAULT_TOLERANCE,
                      work_area: Point = WORK_AREA) -> Piece:
     """A piece from G-code read by `softplc.gcode` in the XY plane, in mm (G20 switches to
-    inches): G00 -> move, G01/G02/G03 -> cut (arcs as chords within `tolerance`), F in mm/min
-    sets the cutting speed. A Z word (the drawing table's pen) is an error: the torch follows
-    the motion codes. G04 dwells are dropped with a warning."""
+    inches): G00 -> move, G01/G02/G03 -> cut, F in mm/min sets the cutting speed. The reader
+    linearises arcs within `tolerance`; each G02/G03 is rebuilt into an `Arc` from its
+    chords (so seed mode and the ideal-shape deviation see arcs), or kept as chords. A Z
+    word (the drawing table's pen) is an error: the torch follows the motion codes. G04
+    dwells are dropped with a warning."""
     from ..gcode import GCodeConfig, parse_file
     from ..gcode.parser import UNIT_CM
 
@@ -471,18 +473,81 @@ def piece_from_gcode(path: str | Path, speed: float = DEFAULT_SPEED,
     if pen_lines:
         raise PieceError(f"{file}: line {pen_lines[0]}: a Z (pen) word: the cutting table "
                          "has no pen axis; G00 moves with the torch off, G01-G03 cut")
+    def mm(p: Point) -> Point:
+        return (p[0] * mm_per_cm, p[1] * mm_per_cm)
+
+    segs = []
     for s in prog.segments:
         if s.kind == "dwell":
             warnings.append(f"{file}:{s.line}: G04 dwell is not supported by the cutting "
                             "table; dropped")
-            continue
-        a = (s.start[0] * mm_per_cm, s.start[1] * mm_per_cm)
-        b = (s.end[0] * mm_per_cm, s.end[1] * mm_per_cm)
+        else:
+            segs.append(s)
+    i = 0
+    while i < len(segs):
+        s = segs[i]
         cut = s.kind != "rapid"
         v = (s.feed * mm_per_cm / 60.0 if cut and s.feed else
              speed if cut else move_speed or speed)
-        elements.append(Element(Line(a, b, cut), cut, v, f"line {s.line}"))
+        j = i + 1
+        if s.kind == "arc":  # the chords of one G02/G03 block: rebuild the arc
+            while j < len(segs) and segs[j].kind == "arc" and segs[j].line == s.line \
+                    and segs[j].start == segs[j - 1].end:
+                j += 1
+            arc = _arc_from_chords([mm(s.start), *(mm(g.end) for g in segs[i:j])], tolerance)
+            if arc is not None:
+                elements.append(Element(arc, True, v, f"line {s.line}"))
+                i = j
+                continue
+        for g in segs[i:j]:  # a straight move, or the chords of an arc not rebuilt
+            elements.append(Element(Line(mm(g.start), mm(g.end), cut), cut, v,
+                                    f"line {g.line}"))
+        i = j
     piece = Piece(Path(file).stem, elements, (0.0, 0.0), accel, tolerance, work_area, file,
                   warnings)
     piece.check()
     return piece
+
+
+def _circumcentre(a: Point, b: Point, c: Point) -> Point | None:
+    d = 2.0 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]))
+    if d == 0.0:
+        return None
+    sa, sb, sc = a[0] ** 2 + a[1] ** 2, b[0] ** 2 + b[1] ** 2, c[0] ** 2 + c[1] ** 2
+    return ((sa * (b[1] - c[1]) + sb * (c[1] - a[1]) + sc * (a[1] - b[1])) / d,
+            (sa * (c[0] - b[0]) + sb * (a[0] - c[0]) + sc * (b[0] - a[0])) / d)
+
+
+#: How far a reader's chord point may be from the rebuilt circle (mm) for the arc to be kept.
+ARC_FIT = 1e-6
+
+
+def _arc_from_chords(pts: list[Point], tolerance: float) -> Arc | None:
+    """The arc whose chords (by our rule) are `pts`, or None (then they stay lines).
+
+    The G-code reader hands over an arc's chords only; the centre comes back as the
+    circumcentre of three of them, the sweep as the sum of the chords' turns. Kept only when
+    every point lies on that circle and the chord count matches, so two arcs written in one
+    line, or I/J/K arcs whose radius drifts, stay as the reader's chords."""
+    n = len(pts) - 1
+    if n < 2:
+        return None
+    full = distance(pts[0], pts[-1]) <= SAME_POINT
+    trio = (pts[0], pts[1], pts[2]) if full else (pts[0], pts[n // 2], pts[-1])
+    centre = _circumcentre(*trio)
+    if centre is None:
+        return None
+    r = distance(centre, pts[0])
+    if any(abs(distance(centre, p) - r) > ARC_FIT for p in pts):
+        return None
+    sweep = 0.0
+    for a, b in zip(pts, pts[1:], strict=False):
+        u, w = (a[0] - centre[0], a[1] - centre[1]), (b[0] - centre[0], b[1] - centre[1])
+        sweep += math.atan2(u[0] * w[1] - u[1] * w[0], u[0] * w[0] + u[1] * w[1])
+    if full:
+        sweep = math.copysign(2 * math.pi, sweep)
+    try:
+        arc = Arc(centre, pts[0], sweep, None if full else pts[-1])
+    except GeometryError:
+        return None
+    return arc if arc.chord_count(tolerance) == n else None
