@@ -280,6 +280,13 @@ def test_cut_command_seed_reports_the_endless_shield(capsys):
     assert "runs this piece once" in capsys.readouterr().out
 
 
+def test_cut_command_simulates(capsys):
+    assert main(["cut", str(PIECES / "achaflanado.toml"), "--dry-run", "--simulate"]) == 0
+    out = capsys.readouterr().out
+    assert "84.126 s of motion" in out
+    assert "at most 0.009517 mm from the ideal shape" in out  # the 18-chord sagitta
+
+
 def test_cut_command_errors(tmp_path, capsys):
     bad = write(tmp_path, '[[op]]\nkind = "line"\nto = [1, 2]\nspeeed = 3\n')
     assert main(["cut", str(bad), "--dry-run"]) == 1

@@ -193,3 +193,20 @@ def test_seed_piece_versus_corrected():
     assert len(seed) > 5 * len(fixed)  # the 0.15 chord of v·T vs the 0.01 mm tolerance
     assert fixed[-1].end == (20.0, 10.0)
     assert seed[-1].end == pytest.approx((20.0, 10.0), abs=1e-12)
+
+
+def test_b3_on_a_whole_piece_simulated_with_ideal_axes():
+    from softplc.cutting.motion import simulate
+
+    p = load_piece(PIECES / "escudo.toml", speed=50.0)
+    segs = p.segments()
+    fixed = simulate(segs, p.accel, 0.002)
+    assert max(p.deviation((s.x, s.y)) for s in fixed if s.torch) < 1e-9
+    assert fixed[-1].t == pytest.approx(p.duration()) and (fixed[-1].x, fixed[-1].y) == (5, 5)
+    assert [s.t for s in fixed] == sorted(s.t for s in fixed)
+    seed = simulate(segs, p.accel, 0.002, thesis_split)
+    worst = max(p.deviation((s.x, s.y)) for s in seed if s.torch)
+    per_segment = max(thesis_split(s.start, s.end, s.speed, p.accel).cross_track()[0]
+                      for s in segs if s.cut)
+    assert 0.3 < worst <= per_segment + 1e-9
+    assert worst == pytest.approx(per_segment, rel=1e-3)

@@ -23,8 +23,9 @@ from ..cutting import (
     segment_words,
     split_line,
 )
+from ..cutting.motion import simulate
 from ..cutting.regmap import FRAME_LEN, SEG_BASE
-from ..cutting.seed import run_trigger_chain
+from ..cutting.seed import run_trigger_chain, thesis_split
 from ._args import size_arg
 
 _EXAMPLES = """\
@@ -69,6 +70,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     o.add_argument("--frames", metavar="OUT.csv",
                    help="write every segment's words (%%MW100-%%MW108) and the axis split "
                         "the PLC should compute (speeds, accelerations, time) to a CSV file")
+    o.add_argument("--simulate", type=float, nargs="?", const=0.01, default=None,
+                   metavar="DT",
+                   help="run the segments on ideal axes (trapezoids, the corrected split; "
+                        "with --seed also the thesis's path and split), sampled every DT s "
+                        "(default 0.01), and report the largest distance of the torch-on "
+                        "path from the ideal shape")
     o.add_argument("--dry-run", action="store_true",
                    help="check, report and write outputs only; do not connect")
     g = p.add_argument_group("connection (used from the device round on)")
@@ -125,6 +132,21 @@ def _report_chain(piece: Piece) -> None:
               "passes")
 
 
+def _report_simulation(piece: Piece, dt: float, seed: bool) -> None:
+    runs = [("corrected", piece.segments(), split_line)]
+    if seed:
+        runs.append(("thesis (seed mode, equal accelerations)", piece.segments(seed=True),
+                     thesis_split))
+    for name, segs, split in runs:
+        samples = simulate(segs, piece.accel, dt, split)
+        worst, at = max(((piece.deviation((s.x, s.y)), (s.x, s.y)) for s in samples
+                         if s.torch), default=(0.0, piece.start))
+        print(f"simulated, {name}: {samples[-1].t if samples else 0:.3f} s of motion, "
+              f"{len(samples)} samples (dt {dt:g} s); the torch-on path is at most "
+              f"{worst:.6f} mm from the ideal shape (at {at[0]:.4f}, {at[1]:.4f}; chord "
+              f"tolerance {piece.tolerance:g})")
+
+
 def _stream(piece: Piece, args: argparse.Namespace) -> int:
     """The device round's streaming client plugs in here (handshake of regmap.py)."""
     raise CuttingError("streaming to the PLC needs the cutting-table device and program "
@@ -152,6 +174,8 @@ def run(args: argparse.Namespace) -> int:
               "seed mode: no segments")
     if not 1 <= args.start_at <= max(len(segs), 1):
         raise CuttingError(f"--start-at {args.start_at}: the piece has {len(segs)} segments")
+    if args.simulate is not None:
+        _report_simulation(piece, args.simulate, args.seed)
     if args.preview:
         Path(args.preview).parent.mkdir(parents=True, exist_ok=True)
         print(f"preview written to {preview(piece, args.preview, seed=args.seed)}",

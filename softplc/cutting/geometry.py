@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
+import numpy as np
+
 from ..errors import SoftPLCError
 from ..gcode.arcs import TAU, segments_needed
 
@@ -404,6 +406,12 @@ class NewtonCurve:
     def sample(self, n: int = 400) -> list[Point]:
         return self.points(n)
 
+    @cached_property
+    def dense(self) -> tuple[np.ndarray, np.ndarray]:
+        """256 equal x steps of the curve (x, y arrays), for nearest-point searches."""
+        xs = np.array(self.sample_x(256))
+        return xs, np.array([self(x) for x in xs])
+
 
 def _max_on_chord(curve: NewtonCurve, a: Point, b: Point) -> tuple[float, float]:
     """Largest distance from the curve between a and b to the chord a-b (golden search
@@ -441,10 +449,10 @@ def distance_to(shape: Line | Arc | NewtonCurve, p: Point) -> float:
         if shape.full_circle or abs(along) <= abs(shape.sweep):
             return abs(d - shape.radius)
         return min(distance(p, shape.start), distance(p, shape.end))
-    xs = shape.sample_x(256)
-    i = min(range(len(xs)), key=lambda k: distance(p, (xs[k], shape(xs[k]))))
+    xs, ys = shape.dense
+    i = int(np.argmin(np.hypot(xs - p[0], ys - p[1])))
     lo, hi = xs[max(i - 1, 0)], xs[min(i + 1, len(xs) - 1)]
-    x = _golden_min(lambda x: distance(p, (x, shape(x))), min(lo, hi), max(lo, hi))
+    x = _golden_min(lambda x: distance(p, (x, shape(x))), min(lo, hi), max(lo, hi), 50)
     return distance(p, (x, shape(x)))
 
 

@@ -11,7 +11,9 @@ and the Matlab stepping the thesis plots with.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Protocol
 
 from .geometry import GeometryError, Point, distance
 
@@ -22,6 +24,15 @@ DEFAULT_SPEED = 2.0
 MATLAB_CYCLE = 0.025
 #: Relative slack of the Matlab step count (so 4/0.05 gives 80 full steps, not 79 + 1).
 STEP_SLACK = 1e-9
+
+
+class SegmentLike(Protocol):
+    """What `simulate` needs of a segment (`piece.Segment` has it)."""
+
+    start: Point
+    end: Point
+    speed: float
+    cut: bool
 
 
 @dataclass(frozen=True)
@@ -181,3 +192,35 @@ def matlab_steps(start: Point, end: Point, speed: float = DEFAULT_SPEED,
     elif pts:
         pts[-1] = end
     return SteppedLine(pts, n, r)
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One point of a simulated run: time (s), position (mm), torch on."""
+
+    t: float
+    x: float
+    y: float
+    torch: bool
+
+
+def simulate(segments: Iterable[SegmentLike], accel: float = DEFAULT_ACCEL,
+             dt: float = 0.01, split: Callable[..., LineSplit] = split_line) -> list[Sample]:
+    """The carriage's path with ideal axes: each segment's two profiles from `split` (the
+    corrected one, or `seed.thesis_split`), run one after the other with no handshake time,
+    sampled every `dt` seconds of each segment plus its end. No PLC, no device: a reference
+    for the device round's traces and a way to see B3 on a whole piece."""
+    if not (math.isfinite(dt) and dt > 0):
+        raise GeometryError(f"simulation step {dt:g} s must be positive")
+    out: list[Sample] = []
+    t0 = 0.0
+    for seg in segments:
+        s = split(seg.start, seg.end, seg.speed, accel)
+        n = math.floor(s.duration / dt)
+        for k in range(n + 1):
+            x, y = s.position(k * dt)
+            out.append(Sample(t0 + k * dt, x, y, seg.cut))
+        if n * dt < s.duration:
+            out.append(Sample(t0 + s.duration, *s.position(s.duration), seg.cut))
+        t0 += s.duration
+    return out
