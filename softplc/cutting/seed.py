@@ -26,6 +26,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from ..gcode.parser import steps_of
 from .geometry import TAU, GeometryError, NewtonCurve, Point, distance, forward_coefficients
 from .motion import DEFAULT_ACCEL, DEFAULT_SPEED, MATLAB_CYCLE, LineSplit, axis_move
 
@@ -38,7 +39,7 @@ ARC_STEP_FACTOR = 3.0
 
 def _matlab_round(x: float) -> int:
     """Matlab's round: halves away from zero (Python's round() rounds halves to even)."""
-    return int(math.copysign(math.floor(abs(x) + 0.5), x))
+    return steps_of(x, 1.0)
 
 
 @dataclass(frozen=True)
