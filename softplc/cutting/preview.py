@@ -34,6 +34,16 @@ def preview(piece: Piece, out: str | Path, seed: bool = False, title: str | None
         for i, run in enumerate(_runs(segs, torch)):
             xs, ys = zip(*run, strict=True)
             ax.plot(xs, ys, **(style if i == 0 else {**style, "label": None}))
+    # one arrow per op / G-code line, on its middle segment: the direction of travel
+    by_op: dict[str, list] = {}
+    for sg in segs:
+        by_op.setdefault(sg.where, []).append(sg)
+    for group in by_op.values():
+        sg = group[len(group) // 2]
+        mid = ((sg.start[0] + sg.end[0]) / 2, (sg.start[1] + sg.end[1]) / 2)
+        ax.annotate("", xy=sg.end if sg.length < 1e-3 else mid, xytext=sg.start,
+                    arrowprops=dict(arrowstyle="-|>", color=styles[sg.cut]["color"],
+                                    lw=0, mutation_scale=12))
     if seed:
         for i, run in enumerate(_runs(piece.segments(seed=True), True)):
             xs, ys = zip(*run, strict=True)
