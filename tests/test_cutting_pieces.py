@@ -354,3 +354,21 @@ def test_seed_mode_error_names_the_op():
     assert len(p.segments()) > 3  # the corrected arc is fine
     with pytest.raises(PieceError, match=r"op\[1\]: thesis arc step: asin"):
         p.segments(seed=True)
+
+
+def test_the_readme_piece_example_loads():
+    import re
+    import tomllib
+
+    readme = (PIECES.parents[1] / "README.md").read_text()
+    start = readme.index("A piece file (`ladder_programs/pieces/*.toml`")
+    block = re.compile(r"```toml\n(.*?)```", re.S).search(readme, start).group(1)
+    p = piece_from_dict(tomllib.loads(block), "README.md")
+    kinds = [s.kind for s in p.segments()]
+    assert kinds[0] == "move" and kinds.count("move") == 2  # to the contour, to the circle
+    arcs = [e.shape for e in p.elements if isinstance(e.shape, Arc)]
+    assert len(arcs) == 5 and arcs[-1].full_circle and arcs[-1].sweep < 0
+    # the contour: 4 sides shortened by the fillets + 4 quarter arcs of radius 5
+    contour = 2 * (50 - 10) + 2 * (30 - 10) + 2 * math.pi * 5
+    assert sum(e.shape.length for e in p.elements if e.cut) == pytest.approx(
+        contour + 2 * math.pi * 6)
