@@ -58,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--accel", type=float, metavar="MM/S2",
                    help="path acceleration (default 100)")
     r.add_argument("--tolerance", type=float, metavar="MM",
-                   help="chord tolerance of arcs and Newton curves (default 0.01)")
+                   help="chord tolerance of arcs (default 0.01)")
     r.add_argument("--work-area", type=_area, metavar="WxH",
                    help="work area in mm (default 240x240)")
     o = p.add_argument_group("output")

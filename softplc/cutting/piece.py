@@ -12,7 +12,7 @@ TOML (every key optional except the ops; unknown keys are errors)::
     speed = 2.0               # cutting speed, mm/s
     move_speed = 10.0         # positioning speed, mm/s (default: speed)
     accel = 100.0             # path acceleration, mm/s² (split per axis by the PLC)
-    chord_tolerance = 0.01    # mm, arcs and Newton curves
+    chord_tolerance = 0.01    # mm, arcs (Newton curves: 60 chords or their own tolerance)
     work_area = [240, 240]    # mm
 
     [[op]]                    # kinds: move, line, arc, circle, contour, newton
