@@ -67,6 +67,10 @@ class DaemonOptions:
     # Opened once the port is bound and the state file locked (e.g. the trace CSV): a
     # start that fails never touches another daemon's files.
     open_outputs: list[Callable[[], None]] = field(default_factory=list)
+    # Called once the Modbus server runs, with it and the image: other front-ends (a web
+    # monitor) start on `server.loop` and write through `image.write_words/write_bits`.
+    on_serving: list[Callable[[ServerThread, ModbusImage], None]] = field(
+        default_factory=list)
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -113,7 +117,6 @@ class Daemon:
         """Stop after the current scan, or at once if the scan loops (signal handler, other
         threads). The state kept is the last scan boundary's; a repeated request is
         ignored (a second Ctrl-C never cuts the shutdown short)."""
-        self.signals += 1
         if self._stop:
             return
         self._stop = True
@@ -122,6 +125,10 @@ class Daemon:
             if self.image is not None:
                 self.image.hold = True  # the cut-short scan's memory is neither shown nor kept
             self.plc.engine.interrupt()
+
+    def _on_signal(self, *_: Any) -> None:
+        self.signals += 1
+        self.request_stop()
 
     def say(self, text: str) -> None:
         print(text, file=self.out, flush=True)
@@ -227,7 +234,11 @@ class Daemon:
                                   idle_timeout=opt.idle_timeout, allow=opt.allow)
             server.start()
             self._server = server
+            for hook in opt.on_serving:
+                hook(server, image)
         except BaseException:
+            if self._server is not None:
+                self._server.stop()
             for s in sockets:
                 s.close()
             if store is not None:
@@ -236,7 +247,7 @@ class Daemon:
         persister = retain.Persister(store, opt.save_interval) if store is not None else None
         # Until the very end a signal only sets flags: a second Ctrl-C cannot interrupt
         # the shutdown half-way or change the exit status.
-        old_handlers = {s: signal.signal(s, self.request_stop)
+        old_handlers = {s: signal.signal(s, self._on_signal)
                         for s in (signal.SIGINT, signal.SIGTERM)}
         # The scan thread and the Modbus thread share the GIL. A thread that wants it waits
         # up to the switch interval (5 ms by default) for a busy holder to let go: that

@@ -376,3 +376,28 @@ def test_front_end_write_path_and_protect():
     with pytest.raises(WriteRefused) as e:
         img.write_words(0, [1])
     assert e.value.code == 1
+
+
+def test_on_serving_hook_gets_the_server_and_the_write_path(tmp_path):
+    """In-process: what a second front-end (web monitor) gets, and its writes are kept."""
+    import io
+
+    from softplc.daemon import Daemon as InProcessDaemon
+    from softplc.daemon import DaemonOptions
+    from softplc.plc import PLC
+
+    seen = []
+
+    def hook(server, image):
+        image.write_words(5, [42])
+        seen.append(server.port)
+        daemon.request_stop()
+
+    state = tmp_path / "plc.state"
+    opts = DaemonOptions(port=0, state=state, stats_interval=0, rt_priority=0,
+                         on_serving=[hook])
+    daemon = InProcessDaemon(PLC.from_source(PROGRAM, clock="real"), opts, out=io.StringIO())
+    assert daemon.run() == 0
+    assert seen and seen[0] > 0
+    assert struct.unpack_from("<h", retain.load(state).mw, 10)[0] == 42
+    assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN  # handlers restored
