@@ -74,6 +74,9 @@ def test_second_daemon_on_same_port_leaves_the_trace_alone(daemons, tmp_path):
                        program=table / "drawing_table.il")
     assert trace.read_text().startswith(before)  # nothing truncated
     assert "cannot listen" in err and "--port" in err
+    err = failed_start(daemons, tmp_path, *args, program=table / "drawing_table.il")
+    assert "trace file" in err and "in use by another softplc" in err  # another port
+    assert trace.read_text().startswith(before)
     assert d.stop() == 0
     assert trace.read_text().startswith(before)
 
