@@ -14,10 +14,8 @@ Settings come from the command line, else from the machine config, else defaults
 from __future__ import annotations
 
 import argparse
-import fcntl
 import logging
 import math
-import os
 import re
 from pathlib import Path
 from typing import Any
@@ -130,22 +128,6 @@ def _pick(cli: Any, table: dict[str, Any], key: str, default: Any, conv=lambda v
 _LOCKED: list[int] = []  # descriptors held open (and locked) until the process ends
 
 
-def _lock_for_life(path: Path, what: str) -> None:
-    """flock `path` (created if absent, never truncated here) for the process' life: a
-    second daemon writing the same file is refused instead of clobbering it."""
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
-    except OSError as e:
-        raise SoftPLCError(f"cannot open {what} {path}: {e.strerror or e}") from None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        os.close(fd)
-        raise SoftPLCError(f"{what} {path} is in use by another softplc; choose another "
-                           f"file") from None
-    _LOCKED.append(fd)
-
-
 def run(args: argparse.Namespace) -> int:
     from ..daemon import Daemon, DaemonOptions
     from ..plc import PLC
@@ -153,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=getattr(logging, args.log_level.upper()),
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
     from ..modbus.server import parse_allow
-    from ..runtime.retain import application_id
+    from ..runtime.retain import application_id, open_locked
 
     plc = PLC.from_file(args.program, config=args.config,
                         clock="real" if args.speed is None else "virtual")
@@ -167,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
 
         def open_trace() -> None:
             trace.parent.mkdir(parents=True, exist_ok=True)
-            _lock_for_life(trace, "trace file")  # before record_to truncates it
+            # locked for the process' life before record_to truncates it
+            _LOCKED.append(open_locked(trace, "trace file"))
             recorder.record_to(trace)
         outputs.append(open_trace)
     cfg = plc.config

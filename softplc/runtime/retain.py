@@ -50,6 +50,7 @@ import sys
 import threading
 import zlib
 from array import array
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -213,6 +214,28 @@ class _Layout:
         return _HEADER.pack(*fields, crc)
 
 
+def open_locked(path: str | os.PathLike[str], what: str,
+                error: type[SoftPLCError] = SoftPLCError,
+                holder: Callable[[int], str] = lambda fd: "; choose another file") -> int:
+    """Open `path` read-write (created if absent, never truncated) and `flock` it for as
+    long as the descriptor stays open; `error` if another process holds it (`holder(fd)`
+    adds who and what to do)."""
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    except OSError as e:
+        raise error(f"cannot open {what} {path}: {e.strerror or e}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as e:
+        busy = e.errno in (errno.EWOULDBLOCK, errno.EAGAIN)
+        why = holder(fd) if busy else ""
+        os.close(fd)
+        if busy:
+            raise error(f"{what} {path} is in use by another softplc{why}") from None
+        raise error(f"cannot lock {what} {path}: {e.strerror or e}") from None
+    return fd
+
+
 class StateStore:
     """One retained-state file, locked, mapped and kept current by its user.
 
@@ -243,22 +266,14 @@ class StateStore:
     @classmethod
     def open(cls, path: str | os.PathLike[str]) -> StateStore:
         """Open (create if absent) and lock. Nothing in the file is changed here."""
-        try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
-        except OSError as e:
-            raise StateFileError(f"cannot open state file {path}: {e.strerror or e}") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as e:
+
+        def holder(fd: int) -> str:
             pid = _PID.unpack(os.pread(fd, _PID.size, _PID_OFFSET).ljust(_PID.size, b"\0"))[0]
-            os.close(fd)
-            if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                who = f" (pid {pid})" if pid else ""
-                raise StateFileError(
-                    f"state file {path} is in use by another softplc{who}: two controllers "
-                    f"on one state file would overwrite each other's data; stop it or use "
-                    f"another --state file") from None
-            raise StateFileError(f"cannot lock state file {path}: {e.strerror or e}") from None
+            return (f" (pid {pid})" if pid else "") + (
+                ": two controllers on one state file would overwrite each other's data; stop "
+                "it or use another --state file")
+
+        fd = open_locked(path, "state file", StateFileError, holder)
         return cls(path, fd)
 
     def _where(self) -> str:
