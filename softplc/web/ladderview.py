@@ -1,0 +1,54 @@
+"""The live ladder of the web monitor: the one place the web package uses the ladder
+renderer (`softplc.debug.ladder`), so that a change of that module's layout touches only
+this file.
+
+The daemon runs the fast build (no accumulator log), so power flow comes from the
+contacts' current values, as the renderer does without a log. The values are those of one
+scan: `refs` lists what a rung reads (found once by rendering it with a recording reader),
+`capture` copies them in the scan thread, `render` draws from the copy.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+from ..address import Ref
+from ..debug import ladder
+from ..il import ast as A
+
+
+def refs(rung: A.Rung) -> list[Ref]:
+    """The objects a rung's live view reads."""
+    seen: dict[Ref, None] = {}
+
+    def record(ref: Ref) -> int:
+        seen[ref] = None
+        return 0
+
+    ladder.render_rung_svg(rung, ladder.Live(record, None))
+    return list(seen)
+
+
+def capture(read: Any, wanted: list[Ref]) -> dict[Ref, Any]:
+    """Copy the values (a function block as a copy of its fields) so that drawing them later
+    shows one scan."""
+    out: dict[Ref, Any] = {}
+    for ref in wanted:
+        try:
+            v = read(ref)
+        except Exception:  # an unconfigured block: drawn as "?"
+            continue
+        if ref.is_block:
+            v = SimpleNamespace(**{k: x for k, x in vars(v).items()
+                                   if not k.startswith("_") and not callable(x)})
+        out[ref] = v
+    return out
+
+
+def render(rung: A.Rung, values: dict[Ref, Any], forced: set[str]) -> str:
+    """The rung as SVG with power flow and values from `capture`."""
+    def read(ref: Ref) -> Any:
+        return values[ref]
+
+    return ladder.render_rung_svg(rung, ladder.Live(read, None, forced))
