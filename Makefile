@@ -41,6 +41,7 @@ bench: $(STAMP)
 	# --no-deps: pyrung's pyclickplc pins pymodbus<3.13 (pyrung's core runs with ours)
 	$(BIN)/pip install -q --no-deps 'pyrung==0.15.2' 'pyclickplc==0.4.1'
 	$(BIN)/python tools/bench.py
+	$(BIN)/python tools/bench_web.py --duration 2
 
 lint: $(STAMP)
 	$(BIN)/ruff check softplc tests tools

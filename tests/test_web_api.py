@@ -411,3 +411,17 @@ def test_parse_value():
     assert parse_value("-5") == -5 and parse_value("1.5") == 1.5 and parse_value("0x10") == 16
     with pytest.raises(IoError, match="not a number"):
         parse_value("abc")
+
+
+def test_web_benchmark_smoke():
+    """tools/bench_web.py runs and gives well-formed figures (no threshold: figures only)."""
+    import math
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    import bench_web
+
+    (row,) = bench_web.run(pages=(2,), clients=(1,), duration=1.0)
+    assert row["pages"] == 2 and row["requests"] > 0
+    assert row["updates_per_s_per_page"] > 0
+    assert math.isfinite(row["jitter_p99_ms"]) and row["overruns"] >= 0

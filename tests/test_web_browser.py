@@ -12,8 +12,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
 from daemon_util import ROOT, Daemon
+
 from softplc.commands.io import Client
 
 CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium"
