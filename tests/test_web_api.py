@@ -421,7 +421,7 @@ def test_web_benchmark_smoke():
     sys.path.insert(0, str(ROOT / "tools"))
     import bench_web
 
-    (row,) = bench_web.run(pages=(2,), clients=(1,), duration=1.0)
+    (row,) = bench_web.run(pages=(2,), clients=(1,), duration=2.0)  # one stats window
     assert row["pages"] == 2 and row["requests"] > 0
     assert row["updates_per_s_per_page"] > 0
     assert math.isfinite(row["jitter_p99_ms"]) and row["overruns"] >= 0
