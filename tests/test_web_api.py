@@ -285,6 +285,30 @@ def test_read_only_monitor():
         s.close()
 
 
+def test_other_sites_pages_are_refused(star):
+    """A page of another origin open in the user's browser cannot write (CSRF) or read."""
+    import urllib.error
+    import urllib.request
+
+    base = f"http://127.0.0.1:{star.port}/api/"
+    cases = [("write", b'{"object": "%MW3", "value": 5}', {"Content-Type": "text/plain"}, 415),
+             ("write", b'{"object": "%MW3", "value": 5}',
+              {"Content-Type": "application/json", "Origin": "http://evil.example"}, 403),
+             ("status", None, {"Origin": "http://evil.example"}, 403)]
+    for path, body, headers, status in cases:
+        req = urllib.request.Request(base + path, data=body, headers=headers)
+        with pytest.raises(urllib.error.HTTPError) as e:
+            urllib.request.urlopen(req, timeout=5)
+        assert e.value.code == status
+        assert "error" in json.loads(e.value.read())
+    same = urllib.request.Request(base + "status",
+                                  headers={"Origin": f"http://127.0.0.1:{star.port}"})
+    with urllib.request.urlopen(same, timeout=5) as r:
+        assert json.loads(r.read())["state"] == "RUN"
+    star.scans()
+    assert star.plc["%MW3"] == 0
+
+
 def test_loopback_detection():
     assert is_loopback("127.0.0.1") and is_loopback("::1") and is_loopback("localhost")
     assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.5")
@@ -304,6 +328,8 @@ def test_io_and_live_ladder(star):
     svg_on = _get_text(s, "/api/ladder/4")
     assert svg_on.startswith("<svg") and "%Q0.1" in svg_on
     assert svg_on.count('class="on"') > svg_off.count('class="on"') >= 1  # power flows
+    assert {"%I0.0", "%I0.1", "%Q0.0", "%Q0.3"} <= set(c.request("info")["io_used"])
+    assert "%I0.7" not in c.request("info")["io_used"]
     with pytest.raises(IoError, match="rungs 0..8"):
         c.request("ladder/99")
 

@@ -20,10 +20,8 @@ from __future__ import annotations
 import asyncio
 import math
 import threading
-import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
@@ -50,14 +48,17 @@ class ApiError(SoftPLCError):
         self.status = status
 
 
-@dataclass
 class _Sample:
-    fn: Callable[[], Any]
-    done: threading.Event
-    lock: threading.Lock
-    result: Any = None
-    error: BaseException | None = None
-    taken: bool = False
+    """A function to run in the scan thread at the end of a scan, and its result handed to
+    the event loop waiting for it. Runs once, whichever thread gets to it first."""
+
+    def __init__(self, fn: Callable[[], Any], loop: asyncio.AbstractEventLoop,
+                 future: asyncio.Future):
+        self.fn = fn
+        self.loop = loop
+        self.future = future
+        self.lock = threading.Lock()
+        self.taken = False
 
     def run(self) -> None:
         with self.lock:
@@ -65,10 +66,21 @@ class _Sample:
                 return
             self.taken = True
         try:
-            self.result = self.fn()
+            result, error = self.fn(), None
         except BaseException as e:  # handed to the waiting request
-            self.error = e
-        self.done.set()
+            result, error = None, e
+        try:
+            self.loop.call_soon_threadsafe(self._deliver, result, error)
+        except RuntimeError:  # the loop is closed: nobody waits any more
+            pass
+
+    def _deliver(self, result: Any, error: BaseException | None) -> None:
+        if self.future.done():
+            return
+        if error is not None:
+            self.future.set_exception(error)
+        else:
+            self.future.set_result(result)
 
 
 def _device_io(devices: dict[str, Any], profile: Any) -> dict[str, str]:
@@ -103,6 +115,8 @@ class Controller:
         self._samples: deque[_Sample] = deque()
         self._refs: dict[str, list[Ref]] = {}
         self.device_io = _device_io(plc.devices, self.profile)
+        # I/O the program, configuration and devices name (before any API write adds more)
+        self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
         self.applied = 0
         self.scan_min = math.inf
         plc.before_scan.append(self._apply)
@@ -327,18 +341,14 @@ class Controller:
     async def sample(self, fn: Callable[[], Any]) -> Any:
         """Run `fn` in the scan thread right after the next scan (or here, if no scan comes
         within SAMPLE_WAIT) and return its result."""
-        s = _Sample(fn, threading.Event(), threading.Lock())
+        loop = asyncio.get_running_loop()
+        s = _Sample(fn, loop, loop.create_future())
         self._samples.append(s)
-        t_end = time.monotonic() + SAMPLE_WAIT
-        while not s.done.is_set():
-            if time.monotonic() > t_end:
-                s.run()  # no-op if the scan thread took it meanwhile
-                break
-            await asyncio.sleep(0.002)
-        s.done.wait()
-        if s.error is not None:
-            raise s.error
-        return s.result
+        try:
+            return await asyncio.wait_for(asyncio.shield(s.future), SAMPLE_WAIT)
+        except TimeoutError:
+            s.run()  # nothing if the scan thread took it meanwhile
+            return await s.future
 
     def read_now(self, refs: list[tuple[str, Ref]]) -> dict[str, Any]:
         """Values of objects as they are now (call in the scan thread, or from `sample`)."""
@@ -386,7 +396,8 @@ class Controller:
         rungs = [{"index": r.index, "title": r.title or "", "section": r.section,
                   "subroutine": r.subroutine, "label": r.label} for r in plc.rungs]
         devices = {name: getattr(d, "type_name", "device") for name, d in plc.devices.items()}
-        return {"program": self.program_name, "profile": self.profile.name,
+        used = [name for name, ref in self.io_refs() if ref.index in self.io_in_use[ref.kind]]
+        return {"program": self.program_name, "profile": self.profile.name, "io_used": used,
                 "period_ms": round(plc.scan_period * 1000, 3), "modules": self.io_layout(),
                 "device_io": self.device_io, "devices": devices, "rungs": rungs,
                 "read_only": self.read_only, "actions": list(ACTIONS),

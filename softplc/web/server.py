@@ -14,7 +14,8 @@
     GET  /api/ws              websocket: send {"subscribe": {...}}, receive updates
 
 Errors are JSON `{"error": "..."}` with status 400 (bad request), 401 (token missing or
-wrong), 403 (not writable, read-only monitor) or 404. When a token is set, every POST
+wrong), 403 (not writable, read-only monitor, another site's page), 404 or 415 (a POST
+body that is not JSON). When a token is set, every POST
 needs `Authorization: Bearer TOKEN` (or `?token=TOKEN`).
 """
 
@@ -28,6 +29,7 @@ import math
 from importlib import resources
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
@@ -144,8 +146,14 @@ class WebServer:
     @web.middleware
     async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:
         try:
-            if request.method == "POST" and request.path != "/api/read":
-                self._check_token(request)
+            if request.path.startswith("/api/"):
+                self._check_origin(request)
+            if request.method == "POST":
+                if request.content_type != "application/json":
+                    raise ApiError("POST bodies are JSON: send Content-Type: application/json",
+                                   415)
+                if request.path != "/api/read":
+                    self._check_token(request)
             return await handler(request)
         except ApiError as e:
             return _json({"error": str(e)}, e.status)
@@ -153,6 +161,15 @@ class WebServer:
             if e.status >= 400 and request.path.startswith("/api/"):
                 return _json({"error": e.reason}, e.status)
             raise
+
+    @staticmethod
+    def _check_origin(request: web.Request) -> None:
+        """Another web site's page in the user's browser must not drive the PLC (or read it
+        over the websocket): a browser names the page's origin, which must be this server.
+        JSON-only POST bodies make its cross-site requests preflighted, which fail too."""
+        origin = request.headers.get("Origin")
+        if origin is not None and urlsplit(origin).netloc != request.host:
+            raise ApiError(f"requests from the page of {origin} are refused", 403)
 
     def _check_token(self, request: web.Request) -> None:
         if self.token is None:

@@ -139,6 +139,8 @@ function buildModules() {
   }
 }
 
+const used = (addr) => (state.info.io_used.includes(addr) ? "" : " unused");
+
 function forceButton(addr) {
   return h("button", { class: "f", title: "force / unforce", onclick: async () => {
     if (addr in state.forced) { await unforce(addr); return; }
@@ -161,7 +163,7 @@ function inputRow(addr) {
   push.addEventListener("pointerdown", press);
   push.addEventListener("pointerup", release);
   push.addEventListener("pointerleave", release);
-  const row = h("div", { class: "io in" + (dev ? " driven" : ""), "data-addr": addr },
+  const row = h("div", { class: "io in" + (dev ? " driven" : "") + used(addr), "data-addr": addr },
     h("span", { class: "led" }), h("span", { class: "addr" }, addr), toggle, push,
     forceButton(addr), h("span", { class: "forced-mark" }, "F"),
     h("span", { class: "dev", title: dev ? "driven by device " + dev : "" }, dev ? "⚙ " + dev : ""));
@@ -170,7 +172,7 @@ function inputRow(addr) {
 
 function outputRow(addr) {
   const dev = state.info.device_io[addr] || "";
-  return h("div", { class: "io out", "data-addr": addr },
+  return h("div", { class: "io out" + used(addr), "data-addr": addr },
     h("span", { class: "led" }), h("span", { class: "addr" }, addr), forceButton(addr),
     h("span", { class: "forced-mark" }, "F"),
     h("span", { class: "dev", title: dev ? "drives device " + dev : "" }, dev ? "⚙ " + dev : ""));
@@ -398,6 +400,10 @@ function buildTrendChips() {
     h("i", { style: `background:${COLOURS[i % COLOURS.length]}` }), o,
     h("button", { onclick: () => { state.trend.objects.splice(i, 1); saveTrends(); buildTrendChips(); subscribe(); } }, "✕"))));
 }
+function niceStep(raw) {  // 1, 2 or 5 times a power of ten
+  const p = Math.pow(10, Math.floor(Math.log10(raw)));
+  return [1, 2, 5, 10].map((m) => m * p).find((s) => s >= raw);
+}
 function drawTrend() {
   const cv = $("#trend"), g = cv.getContext("2d"), tr = state.trend;
   const W = cv.width, H = cv.height, L = 70, R = 170, T = 20, B = 44;  // legend right of the plot
@@ -409,11 +415,13 @@ function drawTrend() {
   if (!isFinite(lo)) { lo = 0; hi = 1; }
   if (lo === hi) { lo -= 1; hi += 1; }
   const pad = (hi - lo) * 0.05; lo -= pad; hi += pad;
+  const step = niceStep((hi - lo) / 5);
+  lo = Math.floor(lo / step) * step; hi = Math.ceil(hi / step) * step;
   const X = (t) => L + (t - t0) / tr.window * (W - L - R), Y = (v) => T + (hi - v) / (hi - lo) * (H - T - B);
   g.strokeStyle = "#c9d0d7"; g.lineWidth = 1; g.strokeRect(L, T, W - L - R, H - T - B);
   g.textAlign = "right";
-  for (let k = 0; k <= 5; k++) {
-    const v = lo + (hi - lo) * k / 5, y = Y(v);
+  for (let v = lo; v <= hi + step / 2; v += step) {
+    const y = Y(v);
     g.beginPath(); g.moveTo(L, y); g.lineTo(W - R, y); g.stroke();
     g.fillText(Number(v.toPrecision(4)).toString(), L - 6, y + 4);
   }
