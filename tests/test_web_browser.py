@@ -102,7 +102,7 @@ def test_star_delta_from_the_simulation_panel(browser, star_daemon):
     sync_api.expect(led(page, "%Q0.0")).to_have_class(re.compile(r"\bon\b"), timeout=3000)
     sync_api.expect(led(page, "%Q0.1")).to_have_class(re.compile(r"\bon\b"), timeout=3000)
     assert "on" not in led(page, "%Q0.2").get_attribute("class").split()
-    assert "on" not in led(page, "%I0.0").get_attribute("class").split()  # released
+    sync_api.expect(led(page, "%I0.0")).not_to_have_class(re.compile(r"\bon\b"))  # released
     sync_api.expect(led(page, "%Q0.2")).to_have_class(re.compile(r"\bon\b"), timeout=5000)
     sync_api.expect(led(page, "%Q0.1")).not_to_have_class(re.compile(r"\bon\b"))
 

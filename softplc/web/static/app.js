@@ -56,7 +56,13 @@ function subscribe() {
   const ws = state.ws;
   if (!ws || ws.readyState !== 1) return;
   const objects = new Set(state.trend.objects);
-  for (const row of currentTable().rows) objects.add(row);
+  for (const row of currentTable().rows) {
+    objects.add(row);
+    for (const obj of expand(row)) {  // a word shown as float: the %MF over it and the next
+      const w = /^%MW(\d+)$/.exec(obj);
+      if (w && state.formats[obj] === "float") objects.add("%MF" + w[1]);
+    }
+  }
   ws.send(JSON.stringify({ subscribe: {
     objects: [...objects], io: true,
     rungs: state.tab === "ladder" ? shownRungs() : [],
@@ -230,7 +236,11 @@ function fmt(obj, v, f) {
     case "hex": return "16#" + raw.toString(16).toUpperCase().padStart(bits / 4, "0");
     case "bin": return "2#" + raw.toString(2).padStart(bits, "0").replace(/(....)(?=.)/g, "$1_");
     case "float": {
-      if (!wide) return "(word: use %MF)";
+      if (!wide) {  // %MWi as float = %MFi (words i and i+1)
+        if (!obj.startsWith("%MW")) return "–";
+        const f = state.values["%MF" + obj.slice(3)];
+        return typeof f === "number" ? Number(f.toPrecision(7)).toString() + " (%MF)" : "…";
+      }
       const b = new DataView(new ArrayBuffer(4)); b.setUint32(0, Number(raw));
       return Number(b.getFloat32(0).toPrecision(7)).toString();
     }
@@ -279,7 +289,7 @@ function removeButton(entry) {
 
 function tableRow(obj, entry) {
   const sel = h("select", { onchange: () => { state.formats[obj] = sel.value;
-    localStorage.setItem("softplc.formats", JSON.stringify(state.formats)); showTable(); } },
+    localStorage.setItem("softplc.formats", JSON.stringify(state.formats)); showTable(); subscribe(); } },
     ...FORMATS.map((f) => h("option", { value: f }, f)));
   sel.value = state.formats[obj] || "dec";
   const input = h("input", { class: "w", placeholder: "value" });
