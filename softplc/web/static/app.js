@@ -300,10 +300,12 @@ function tableRow(obj, entry) {
   input.addEventListener("keydown", (e) => { if (e.key === "Enter") doWrite(); });
   const bit = /^%(I|Q|M|S|X)\d/.test(obj) && !/^%(MW|MD|MF|SW)/.test(obj);
   const forceable = bit || /^%(MW|MD|MF)\d+$/.test(obj);
+  const block = /^%(TM|C|DR|R|SBR|SC)\d+$/.test(obj);  // its fields are the writable objects
   return h("tr", { "data-obj": obj },
     h("td", { class: "obj" }, obj, " ", h("span", { class: "forced-mark" }, "F")),
-    h("td", { class: "val" }, "…"), h("td", {}, sel),
-    h("td", {}, input, " ", h("button", { class: "write", onclick: doWrite }, "Write")),
+    h("td", { class: "val" }, "…"), h("td", {}, block || bit ? "" : sel),
+    h("td", {}, block ? h("span", { class: "hint" }, `write ${obj}.P …`) : input, " ",
+      block ? "" : h("button", { class: "write", onclick: doWrite }, "Write")),
     h("td", {}, forceable ? h("button", { class: "force", onclick: async () => {
       const v = input.value.trim() === "" ? (bit ? 1 : state.values[obj]) : parseEntry(input.value, obj);
       await force(obj, v);
@@ -528,7 +530,10 @@ async function start() {
   state.info = await r.json();
   $("#program").textContent = `${state.info.program}  ·  ${state.info.profile}  ·  period ${state.info.period_ms} ms` +
     (state.info.read_only ? "  ·  read-only" : "");
-  if (state.info.read_only) $$("button.run, button.stop, .controls button").forEach((b) => (b.disabled = true));
+  if (state.info.read_only) {  // a read-only monitor: no control that would be refused
+    document.body.classList.add("read-only");
+    $$(".controls button").forEach((b) => (b.disabled = true));
+  }
   document.title = "softplc · " + state.info.program;
   buildModules(); buildTables(); buildRungs(); buildTrendChips(); drawTrend();
   connect();
