@@ -20,7 +20,7 @@ from softplc.commands.io import Client, IoError, parse_value
 from softplc.modbus import ModbusImage, ServerThread, parse_read_only
 from softplc.modbus.rawclient import RawClient
 from softplc.plc import PLC
-from softplc.web import WebOptions, attach, is_loopback
+from softplc.web import WebOptions, attach, is_loopback, web_token
 
 aiohttp = pytest.importorskip("aiohttp")
 
@@ -309,9 +309,14 @@ def test_other_sites_pages_are_refused(star):
     assert star.plc["%MW3"] == 0
 
 
-def test_loopback_detection():
+def test_loopback_detection_and_token_policy():
     assert is_loopback("127.0.0.1") and is_loopback("::1") and is_loopback("localhost")
     assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.5")
+    assert web_token(WebOptions(host="127.0.0.1")) is None
+    t1, t2 = web_token(WebOptions(host="0.0.0.0")), web_token(WebOptions(host="0.0.0.0"))
+    assert t1 and t2 and t1 != t2 and len(t1) >= 16  # random, printed at start
+    assert web_token(WebOptions(host="0.0.0.0", read_only=True)) is None
+    assert web_token(WebOptions(host="0.0.0.0", token="mine")) == "mine"
 
 
 # ---- live views -----------------------------------------------------------------------------
@@ -451,3 +456,51 @@ def test_web_benchmark_smoke():
     assert row["pages"] == 2 and row["requests"] > 0
     assert row["updates_per_s_per_page"] > 0
     assert math.isfinite(row["jitter_p99_ms"]) and row["overruns"] >= 0
+
+
+def test_port_taken_default_falls_back_explicit_fails():
+    import socket
+
+    from softplc.errors import SoftPLCError
+
+    plc = PLC.from_file(STAR, config=STAR.with_suffix(".toml"))
+    image = ModbusImage(plc.mem)
+    modbus = ServerThread(image, "127.0.0.1", 0).start()
+    daemon = SimpleNamespace(plc=plc, program_name="x", overruns=0, jitter_max=0.0)
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        try:
+            with pytest.raises(SoftPLCError, match=f"cannot listen on 127.0.0.1:{port}"):
+                attach(daemon, modbus, image, WebOptions(port=port, port_given=True))
+            web = attach(daemon, modbus, image, WebOptions(port=port, port_given=False))
+            assert web.server.port != port
+            assert f"(port {port} is taken)" in web.banner()[0]
+            web.stop()
+        finally:
+            modbus.stop()
+
+
+def test_run_command_web_options(tmp_path):
+    import re
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from daemon_util import Daemon
+
+    d = Daemon(tmp_path, "--config", str(STAR.with_suffix(".toml")), "--web", "0",
+               "--web-read-only", "--stats-interval", "0", program=STAR)
+    try:
+        line = next(x for x in d.out if "web monitor on" in x)
+        assert line.rstrip().endswith("(read-only)")
+        port = int(re.search(r":(\d+)/", line)[1])
+        assert Client("127.0.0.1", port).request("info")["read_only"] is True
+    finally:
+        assert d.stop() == 0
+    d = Daemon(tmp_path, "--config", str(STAR.with_suffix(".toml")), "--web", "off",
+               "--stats-interval", "0", program=STAR)
+    try:
+        assert not any("web monitor" in x for x in d.out)
+    finally:
+        assert d.stop() == 0

@@ -65,15 +65,21 @@ class WebHandle:
         self.controller.close()
 
 
+def web_token(opt: WebOptions) -> str | None:
+    """The token changes need: the given one, else a random one when the monitor listens
+    beyond loopback and may change things; None: no token needed."""
+    if opt.token is None and not opt.read_only and not is_loopback(opt.host):
+        return secrets.token_urlsafe(16)
+    return opt.token
+
+
 def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebHandle | None:
     """The daemon's hook: serve the monitor on the Modbus server's event loop."""
     if opt is None or opt.port is None:
         return None
     from .server import WebServer
 
-    token = opt.token
-    if token is None and not opt.read_only and not is_loopback(opt.host):
-        token = secrets.token_urlsafe(16)
+    token = web_token(opt)
     ctl = Controller(daemon.plc, image, read_only=opt.read_only,
                      program_name=daemon.program_name,
                      status_extra=lambda: {"modbus_clients": modbus.stats.clients,
@@ -96,4 +102,4 @@ def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebH
 
 
 __all__ = ["DEFAULT_WEB_PORT", "ApiError", "Controller", "WebHandle", "WebOptions", "attach",
-           "is_loopback"]
+           "is_loopback", "web_token"]
