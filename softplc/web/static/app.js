@@ -489,15 +489,25 @@ function showMachine(m) {
     const shown = Object.entries(st).filter(([k]) => k !== "type").map(([k, v]) => `${k}=${typeof v === "number" ? Number(v.toPrecision(6)) : v}`).join("  ");
     body.append(h("tr", {}, h("td", {}, name), h("td", {}, st.type), h("td", {}, shown)));
   }
-  drawTable();
-}
-function drawTable() {
-  const svg = $("#table-view"), mc = state.machine, devs = mc.devices;
-  const axes = Object.entries(devs).filter(([, d]) => d.type === "stepper");
-  if (axes.length < 2) {
-    svg.innerHTML = `<text x="20" y="40" font-size="16" fill="#66707a">no drawing machine in this configuration</text>`;
-    $("#machine-hint").textContent = ""; return;
+  const view = MACHINE_VIEWS.find((v) => v.fits(m.devices));
+  if (view) view.draw($("#table-view"), state.machine);
+  else {
+    $("#table-view").innerHTML = `<text x="20" y="40" font-size="16" fill="#66707a">no machine view for these devices</text>`;
+    $("#machine-hint").textContent = "";
   }
+}
+
+// A machine view: fits(devices) says whether it can draw them, draw(svg, machine) draws.
+// Later machines add theirs to MACHINE_VIEWS; the first that fits is used.
+const drawingTableView = {
+  fits: (devs) => Object.values(devs).filter((d) => d.type === "stepper").length >= 2,
+  draw: drawTable,
+};
+const MACHINE_VIEWS = [drawingTableView];
+
+function drawTable(svg, mc) {  // two stepper axes, a pen, a trace recorder
+  const devs = mc.devices;
+  const axes = Object.entries(devs).filter(([, d]) => d.type === "stepper");
   const [xn, x] = axes[0], [zn, z] = axes[1];
   const S = 540 / Math.max(x.travel, z.travel), ox = 40, oy = 570;  // px per cm; origin lower left
   const px = (steps) => ox + steps / x.steps_per_unit * S, pz = (steps) => oy - steps / z.steps_per_unit * S;
