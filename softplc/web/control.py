@@ -114,6 +114,8 @@ class Controller:
         self._queue: deque[tuple[str, Any, Any]] = deque()
         self._samples: deque[_Sample] = deque()
         self._refs: dict[str, list[Ref]] = {}
+        self._readers: dict[Any, Callable[[], list[Any]]] = {}
+        self._io_refs: list[tuple[str, Ref]] | None = None
         self.device_io = _device_io(plc.devices, self.profile)
         # I/O the program, configuration and devices name (before any API write adds more)
         self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
@@ -350,25 +352,58 @@ class Controller:
             s.run()  # nothing if the scan thread took it meanwhile
             return await s.future
 
-    def read_now(self, refs: list[tuple[str, Ref]]) -> dict[str, Any]:
-        """Values of objects as they are now (call in the scan thread, or from `sample`)."""
-        read = self.plc.mem.read
-        out: dict[str, Any] = {}
-        for name, ref in refs:
-            try:
-                v = read(ref)
-            except SoftPLCError:
-                v = None
-            if isinstance(v, bool):
-                v = int(v)
-            elif ref.is_block:
-                v = block_fields(ref.kind, v)
-            out[name] = v
-        return out
+    def values_fn(self, refs: list[tuple[str, Ref]]) -> Callable[[], dict[str, Any]]:
+        """A function giving {name: value} of `refs`: prepare it here (in the web thread),
+        call it in the scan thread (`sample`), where it costs little."""
+        reader = self.reader([r for _, r in refs])
+        names = [n for n, _ in refs]
+        return lambda: dict(zip(names, reader(), strict=True))
+
+    def read_one(self, ref: Ref) -> Any:
+        """One value through `MemoryImage.read`, as the API gives it: bits as 0/1, a block
+        as a dict of its fields, None for an object that cannot be read."""
+        try:
+            v = self.plc.mem.read(ref)
+        except SoftPLCError:
+            return None
+        if isinstance(v, bool):
+            return int(v)
+        return block_fields(ref.kind, v) if ref.is_block else v
+
+    def reader(self, refs: list[Ref]) -> Callable[[], list[Any]]:
+        """A function that reads `refs` into a list. It runs in the scan thread after a scan,
+        ten times a second per page, so plain words and bits are read straight from the
+        memory image's arrays (about 50 ns each, where `MemoryImage.read` takes a few us);
+        the rest goes through `read_one`. An input not yet latched by any scan reads from
+        the field, as `MemoryImage.read` does: the reader is rebuilt when that set grows."""
+        mem = self.plc.mem
+        latched = mem.io_used("I")
+        key = (tuple(refs), len(latched))
+        fn = self._readers.get(key)
+        if fn is not None:
+            return fn
+        env: dict[str, Any] = {"MW": mem.mw.w, "KW": mem.kw.w, "SW": mem.sw.w, "M": mem.m,
+                               "S": mem.s, "X": mem.x, "Q": mem.q, "I": mem.i,
+                               "F": mem.i_field, "read": self.read_one, "R": refs}
+        items = []
+        for k, ref in enumerate(refs):
+            plain = ref.offset is None and ref.bit is None and ref.length is None \
+                and ref.field is None
+            if plain and ref.kind in ("MW", "KW", "SW", "M", "S", "X", "Q"):
+                items.append(f"{ref.kind}[{ref.index}]")
+            elif plain and ref.kind == "I":
+                items.append(f"{'I' if ref.index in latched else 'F'}[{ref.index}]")
+            else:
+                items.append(f"read(R[{k}])")
+        exec(f"def reader():\n    return [{', '.join(items)}]\n", env)
+        if len(self._readers) > 256:
+            self._readers.clear()
+        fn = self._readers[key] = env["reader"]
+        return fn
 
     async def read(self, objs: Any) -> dict[str, Any]:
         refs = self.resolve_many(objs)
-        return await self.sample(lambda: self.read_now(refs))
+        return await self.sample(self.values_fn(refs))
 
     # -- the controller as a whole ------------------------------------------------------------
     def io_layout(self) -> list[dict[str, Any]]:
@@ -383,12 +418,15 @@ class Controller:
         return mods
 
     def io_refs(self) -> list[tuple[str, Ref]]:
+        if self._io_refs is not None:
+            return self._io_refs
         out = []
         for m in self.io_layout():
             for kind, n in (("I", m["inputs"]), ("Q", m["outputs"])):
                 for ch in range(n):
                     text = f"%{kind}{m['slot']}.{ch}"
                     out.append((text, parse_address(text, self.profile)))
+        self._io_refs = out
         return out
 
     def info(self) -> dict[str, Any]:

@@ -5,7 +5,7 @@ this file.
 The daemon runs the fast build (no accumulator log), so power flow comes from the
 contacts' current values, as the renderer does without a log. The values are those of one
 scan: `refs` lists what a rung reads (found once by rendering it with a recording reader),
-`capture` copies them in the scan thread, `render` draws from the copy.
+the scan thread reads them, `capture` and `render` draw them here.
 """
 
 from __future__ import annotations
@@ -30,20 +30,11 @@ def refs(rung: A.Rung) -> list[Ref]:
     return list(seen)
 
 
-def capture(read: Any, wanted: list[Ref]) -> dict[Ref, Any]:
-    """Copy the values (a function block as a copy of its fields) so that drawing them later
-    shows one scan."""
-    out: dict[Ref, Any] = {}
-    for ref in wanted:
-        try:
-            v = read(ref)
-        except Exception:  # an unconfigured block: drawn as "?"
-            continue
-        if ref.is_block:
-            v = SimpleNamespace(**{k: x for k, x in vars(v).items()
-                                   if not k.startswith("_") and not callable(x)})
-        out[ref] = v
-    return out
+def capture(wanted: list[Ref], values: list[Any]) -> dict[Ref, Any]:
+    """One scan's values of `wanted` (read in the scan thread as a list, a function block
+    as a dict of its fields) in the form `render` draws them."""
+    return {ref: SimpleNamespace(**v) if isinstance(v, dict) else v
+            for ref, v in zip(wanted, values, strict=True) if v is not None}
 
 
 def render(rung: A.Rung, values: dict[Ref, Any], forced: set[str]) -> str:

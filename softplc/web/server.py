@@ -222,7 +222,7 @@ class WebServer:
 
     async def _io(self, request: web.Request) -> web.Response:
         refs = self.ctl.io_refs()
-        values = await self.ctl.sample(lambda: self.ctl.read_now(refs))
+        values = await self.ctl.sample(self.ctl.values_fn(refs))
         forced = self.ctl.plc.forced
         return _json({"modules": self.ctl.io_layout(),
                       "io": {name: {"value": v, "forced": name in forced,
@@ -286,10 +286,9 @@ class WebServer:
 
     async def _ladders(self, wanted: set[int]) -> dict[int, str]:
         refs = {n: self._refs_of(n) for n in wanted}
-        read = self.ctl.plc.mem.read
-        values = await self.ctl.sample(
-            lambda: {n: ladderview.capture(read, r) for n, r in refs.items()})
-        return {n: self._svg(n, values[n]) for n in wanted}
+        readers = {n: self.ctl.reader(r) for n, r in refs.items()}
+        raw = await self.ctl.sample(lambda: {n: read() for n, read in readers.items()})
+        return {n: self._svg(n, ladderview.capture(refs[n], raw[n])) for n in wanted}
 
     def _svg(self, n: int, values: dict[Ref, Any]) -> str:
         plc = self.ctl.plc
@@ -395,16 +394,19 @@ class WebServer:
         rungs = {n for c in clients for n in c.rungs}
         rung_refs = {n: self._refs_of(n) for n in rungs if n < len(ctl.plc.rungs)}
         machine = any(c.machine for c in clients)
-        read = ctl.plc.mem.read
+        # prepared here, run in the scan thread: there, only the reads themselves
+        read_values, read_io = ctl.values_fn(list(objs.items())), ctl.values_fn(io)
+        read_rungs = {n: ctl.reader(r) for n, r in rung_refs.items()}
 
         def take() -> dict[str, Any]:
-            return {"values": ctl.read_now(list(objs.items())),
-                    "io": ctl.read_now(io),
-                    "ladder": {n: ladderview.capture(read, r) for n, r in rung_refs.items()},
+            return {"values": read_values(), "io": read_io(),
+                    "ladder": {n: read() for n, read in read_rungs.items()},
                     "devices": self._devices_now() if machine else {},
                     "status": ctl.status()}
 
         snap = await ctl.sample(take)
+        snap["ladder"] = {n: ladderview.capture(rung_refs[n], v)
+                          for n, v in snap["ladder"].items()}
         status = _clean(snap["status"] | {"web_clients": len(clients)})
         values = _clean(snap["values"])
         for c in clients:
