@@ -36,13 +36,17 @@ function say(text, ok = false) {
   clearTimeout(say.t); say.t = setTimeout(() => (m.textContent = ""), ok ? 2000 : 8000);
 }
 
-async function post(path, body) {
+async function post(path, body, retry = true) {
   const headers = { "Content-Type": "application/json" };
   const token = localStorage.getItem("softplc.token");
   if (token) headers.Authorization = "Bearer " + token;
   try {
     const r = await fetch("/api/" + path, { method: "POST", headers, body: JSON.stringify(body) });
     const data = await r.json();
+    if (r.status === 401 && retry) {  // the monitor listens beyond loopback: ask for its token
+      const t = prompt(data.error + "\n\nToken (printed by softplc run at start):");
+      if (t) { localStorage.setItem("softplc.token", t.trim()); return post(path, body, false); }
+    }
     if (!r.ok) { say(data.error || r.statusText); return null; }
     return data;
   } catch (e) { say("daemon unreachable: " + e); return null; }
@@ -99,6 +103,7 @@ function showStatus(st) {
   $("#scanminmax").textContent = `${st.scan_min_ms.toFixed(3)} / ${st.scan_max_ms.toFixed(3)} ms`;
   $("#overruns").textContent = st.overruns;
   $("#scans").textContent = st.scans;
+  $("#plctime").textContent = st.time.toFixed(1) + " s";
   $("#clients").textContent = st.modbus_clients ?? "–";
   $("#forcedcount").textContent = Object.keys(state.forced).length;
   const f = $("#fault"); f.hidden = !st.fault; f.textContent = st.fault ? "HALT: " + st.fault : "";
