@@ -543,7 +543,8 @@ function drawTable(svg, mc) {  // two stepper axes, a pen, a trace recorder
 async function start() {
   const r = await fetch("/api/info");
   state.info = await r.json();
-  $("#program").textContent = `${state.info.program}  ·  ${state.info.profile}  ·  period ${state.info.period_ms} ms` +
+  $("#program").title = state.info.program;
+  $("#program").textContent = `${state.info.program.split("/").pop()}  ·  ${state.info.profile}  ·  period ${state.info.period_ms} ms` +
     (state.info.read_only ? "  ·  read-only" : "");
   if (state.info.read_only) {  // a read-only monitor: no control that would be refused
     document.body.classList.add("read-only");
