@@ -27,7 +27,7 @@ from typing import Any
 from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
 from ..errors import AddressError, SoftPLCError
 from ..modbus.image import ModbusImage, words_to_wire
-from ..modbus.regmap import REGISTERS
+from ..modbus.regmap import COILS, REGISTERS
 from ..profile import MODULES
 from ..runtime.memory import F32_MAX, WordFamily, wrap16
 
@@ -119,8 +119,7 @@ class Controller:
         self.device_io = _device_io(plc.devices, self.profile)
         # I/O the program, configuration and devices name (before any API write adds more)
         self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
-        self.applied = 0
-        self.scan_min = math.inf
+        self.applied = 0  # changes applied since start
         plc.before_scan.append(self._apply)
         plc.after_scan.append(self._serve_samples)
 
@@ -164,12 +163,11 @@ class Controller:
             raise ApiError(f"{len(out)} objects in one read: at most {MAX_OBJECTS}")
         return out
 
-    def describe(self, ref: Ref) -> dict[str, Any]:
-        """What the page needs to show an object: type, whether and how it can be changed."""
-        why = self._why_not_writable(ref)
-        return {"type": ref.type, "writable": why is None, "why": why or "",
-                "forceable": ref.kind in ("I", "Q", "M", "S", "X") and ref.offset is None,
-                "driven_by": self.device_io.get(str(ref), "")}
+    @staticmethod
+    def forceable(ref: Ref) -> bool:
+        """Bits (%I %Q %M %S %X) and %MW/%MD/%MF words can be forced (`PLC.force`)."""
+        plain = ref.offset is None and ref.field is None and ref.bit is None
+        return plain and ref.kind in ("I", "Q", "M", "S", "X", "MW", "MD", "MF")
 
     def _why_not_writable(self, ref: Ref, forcing: bool = False) -> str | None:
         if self.read_only:
@@ -185,7 +183,7 @@ class Controller:
             return (f"{ref} is driven by the simulated device "
                     f"{self.device_io[str(ref)]!r}: force it to override")
         if self.image is not None and ref.kind in ("MW", "MD", "MF", "M") and not forcing:
-            space = "c" if ref.kind == "M" else REGISTERS
+            space = COILS if ref.kind == "M" else REGISTERS
             n = 1 if ref.kind == "M" or ref.bit is not None else WIDTH[ref.kind]
             if ref.offset is None and self.image.read_only.blocks(space, ref.index, n):
                 return f"{ref} is read-only ([modbus] read_only in the configuration)"
@@ -266,7 +264,7 @@ class Controller:
         for ref in refs:
             if self.read_only:
                 raise ApiError(self._why_not_writable(ref) or "", 403)
-            if not self.describe(ref)["forceable"] and ref.kind not in ("MW", "MD", "MF"):
+            if not self.forceable(ref):
                 raise ApiError(f"{ref} cannot be forced: bits (%I %Q %M %S %X) and "
                                f"%MW/%MD/%MF words can", 403)
             why = self._why_not_writable(ref, forcing=True)
@@ -450,7 +448,8 @@ class Controller:
                "overruns": st.overruns, "period_ms": round(plc.scan_period * 1000, 3),
                "forced": {k: (int(v) if isinstance(v, bool) else v)
                           for k, v in plc.forced.items()},
-               "pending": self.pending + (self.image.pending if self.image else 0)}
+               "pending": self.pending + (self.image.pending if self.image else 0),
+               "web_changes_applied": self.applied}
         out.update(self.status_extra())
         return out
 
