@@ -119,6 +119,10 @@ def test_star_delta_from_the_simulation_panel(browser, star_daemon):
 
     # live ladder: rung 5 (delta) powered through to %Q0.2
     page.click("#tabs button[data-tab=ladder]")
+    page.fill("#rung-filter", "%q0.2")  # where is the delta contactor used?
+    shown = [li.get_attribute("data-rung") for li in sw("#rung-list li:visible").all()]
+    assert shown == ["4", "5", "8"], shown
+    page.fill("#rung-filter", "")
     page.click("#rung-list li[data-rung='4']")
     rung5 = sw('#ladder div[data-rung="5"] svg')
     sync_api.expect(rung5).to_be_visible()

@@ -26,6 +26,7 @@ from typing import Any
 
 from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
 from ..errors import AddressError, SoftPLCError
+from ..il.printer import format_instruction
 from ..modbus.image import ModbusImage, words_to_wire
 from ..modbus.regmap import COILS, REGISTERS
 from ..profile import MODULES
@@ -430,7 +431,9 @@ class Controller:
     def info(self) -> dict[str, Any]:
         plc = self.plc
         rungs = [{"index": r.index, "title": r.title or "", "section": r.section,
-                  "subroutine": r.subroutine, "label": r.label} for r in plc.rungs]
+                  "subroutine": r.subroutine, "label": r.label,
+                  "il": "\n".join(format_instruction(i) for i in r.instructions)}
+                 for r in plc.rungs]
         devices = {name: getattr(d, "type_name", "device") for name, d in plc.devices.items()}
         used = [name for name, ref in self.io_refs() if ref.index in self.io_in_use[ref.kind]]
         return {"program": self.program_name, "profile": self.profile.name, "io_used": used,

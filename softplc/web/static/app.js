@@ -371,11 +371,19 @@ $("#table-import").addEventListener("change", async (e) => {
 function buildRungs() {
   const list = $("#rung-list"); list.innerHTML = "";
   for (const r of state.info.rungs) {
-    list.append(h("li", { "data-rung": r.index, title: r.title, onclick: () => showRung(r.index) },
-      h("span", { class: "n" }, String(r.index)), r.title || "(untitled)"));
+    list.append(h("li", { "data-rung": r.index, title: r.il, onclick: () => showRung(r.index) },
+      h("span", { class: "n" }, String(r.index)), r.title || r.il.split("\n")[0]));
   }
   showRung(0);
 }
+// rungs whose title or IL mentions the text (e.g. where %Q0.1 is used)
+$("#rung-filter").addEventListener("input", (e) => {
+  const q = e.target.value.trim().toUpperCase();
+  for (const li of $$("#rung-list li")) {
+    const r = state.info.rungs[+li.dataset.rung];
+    li.hidden = q !== "" && !(r.title.toUpperCase().includes(q) || r.il.toUpperCase().includes(q));
+  }
+});
 const RUNGS_SHOWN = 4;  // the selected rung and the next ones, all live
 function shownRungs() {
   const n = state.info.rungs.length;
