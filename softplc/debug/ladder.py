@@ -1024,8 +1024,8 @@ def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y:
     if b.right:
         body.append(_text(right - 4, y + 4, b.right, size=11, anchor="end"))
     if b.info and pw:
-        body.append(_text((left + right) / 2, y + 18, b.info, size=11, anchor="middle",
-                          fill="#0b4f8a"))
+        body.append(_text((left + right) / 2, y + 12, b.info, size=10, anchor="middle",
+                          fill="#0b4f8a"))  # under the pins, above the box's bottom line
     if b.left_wired:
         body.append(_line(xa, y, left, y, pw and cell.p_in))
     if b.right_wired:
