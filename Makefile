@@ -24,7 +24,7 @@ sysdeps:
 	  else echo "note: mbpoll/chromium not installed (needs root); the tests that use them are skipped"; fi; }
 
 run: $(STAMP)
-	@echo "web monitor: http://127.0.0.1:$(WEB_PORT)/ (softplc io --port $(WEB_PORT) ... operates it)"
+	@echo "web monitor: http://127.0.0.1:$(WEB_PORT)/ (the banner gives the address in use; softplc io --port $(WEB_PORT) operates it)"
 	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT) --web $(WEB_PORT) --trace out/trace.csv
 
 draw: $(STAMP)

@@ -265,6 +265,11 @@ def test_token_required_for_changes():
         s.client("s3cret").set("%MW3", 9)
         s.scans()
         assert s.plc["%MW3"] == 9
+        base = ["io", "--port", str(s.port)]
+        assert cli(base + ["set", "%MW4", "1"]) == 1  # softplc io: no token
+        assert cli(base + ["--token", "s3cret", "set", "%MW4", "2"]) == 0
+        s.scans()
+        assert s.plc["%MW4"] == 2
     finally:
         s.close()
 
