@@ -35,7 +35,7 @@ from aiohttp import WSMsgType, web
 
 from ..address import Ref
 from . import ladderview
-from .control import ApiError, Controller
+from .control import MAX_OBJECTS, ApiError, Controller
 
 log = logging.getLogger("softplc.web")
 
@@ -353,6 +353,8 @@ class WebServer:
                     good += [(str(r), r) for r in self.ctl.resolve(o)]
                 except ApiError as e:
                     bad.append(str(e))
+            if len(good) > MAX_OBJECTS:
+                raise ApiError(f"{len(good)} objects: at most {MAX_OBJECTS} per page")
             client.objects = good
             if bad:
                 raise ApiError("; ".join(bad))
