@@ -37,6 +37,8 @@ class Stack:
         self.image = ModbusImage(self.plc.mem, parse_read_only(self.plc.config))
         self.plc.before_scan.append(self.image.apply_writes)
         self.plc.after_scan.append(self.image.take_snapshot)
+        self.boundaries = 0
+        self.plc.after_scan.append(self._count)
         self.modbus = ServerThread(self.image, "127.0.0.1", 0).start()
         daemon = SimpleNamespace(plc=self.plc, program_name=program.name, overruns=0,
                                  jitter_max=0.0)
@@ -53,11 +55,15 @@ class Stack:
                 self.plc.scan()
             time.sleep(0.002)
 
+    def _count(self) -> None:
+        self.boundaries += 1
+
     def scans(self, n: int = 3) -> None:
-        """Wait for n more scans (queued changes are then applied)."""
-        end = self.plc.scan_count + n
+        """Wait for n more scan boundaries (queued changes are then applied), in STOP too
+        (where the scan count stands still)."""
+        end = self.boundaries + n
         deadline = time.monotonic() + 5
-        while self.plc.scan_count < end and time.monotonic() < deadline:
+        while self.boundaries < end and time.monotonic() < deadline:
             time.sleep(0.002)
 
     def client(self, token: str | None = None) -> Client:
@@ -449,18 +455,18 @@ def test_parse_value():
         parse_value("abc")
 
 
-def test_web_benchmark_smoke():
-    """tools/bench_web.py runs and gives well-formed figures (no threshold: figures only)."""
-    import math
+def test_web_benchmark_pages(star):
+    """tools/bench_web.py's page load generator: N websocket pages, their update rates."""
+    import multiprocessing as mp
     import sys
 
     sys.path.insert(0, str(ROOT / "tools"))
     import bench_web
 
-    (row,) = bench_web.run(pages=(2,), clients=(1,), duration=2.0)  # one stats window
-    assert row["pages"] == 2 and row["requests"] > 0
-    assert row["updates_per_s_per_page"] > 0
-    assert math.isfinite(row["jitter_p99_ms"]) and row["overruns"] >= 0
+    q = mp.get_context("fork").Queue()
+    bench_web._pages(star.port, 2, time.time() + 0.2, 0.6, q)
+    rates = q.get(timeout=5)
+    assert len(rates) == 2 and all(r > 0 for r in rates)
 
 
 def test_port_taken_default_falls_back_explicit_fails():
