@@ -116,6 +116,9 @@ def test_read_ranges_blocks_and_bits(star):
     assert v["%TM0"]["P"] == 50 and v["%TM0"]["type"] == "TON" and v["%TM0"]["base"] == "100ms"
     assert v["%I0.0"] == 0 and "%I0.1" in v
     assert v["%MF4"] == 0.0 and v["%C0.V"] == 0
+    star.plc["%MF6"] = float("inf")  # a float word can hold what JSON cannot
+    star.scans()
+    assert star.client().get("%MF6") == {"%MF6": "inf"}
 
 
 @pytest.mark.parametrize("obj, message", [

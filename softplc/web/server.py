@@ -50,14 +50,8 @@ def static_dir() -> Path:
 
 
 def _json(data: Any, status: int = 200) -> web.Response:
-    return web.Response(text=json.dumps(data, allow_nan=False, default=_jsonable),
+    return web.Response(text=json.dumps(_clean(data), allow_nan=False, default=str),
                         status=status, content_type="application/json")
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, float) and not math.isfinite(v):
-        return str(v)
-    return str(v)
 
 
 def _clean(v: Any) -> Any:
@@ -210,7 +204,7 @@ class WebServer:
         return _json(info)
 
     async def _status(self, request: web.Request) -> web.Response:
-        return _json(_clean(self.ctl.status() | {"web_clients": len(self.clients)}))
+        return _json(self.ctl.status() | {"web_clients": len(self.clients)})
 
     async def _read(self, request: web.Request) -> web.Response:
         if request.method == "POST":
@@ -218,7 +212,7 @@ class WebServer:
         else:
             objs = request.query.getall("obj", [])
         values = await self.ctl.read(objs)
-        return _json({"values": _clean(values)})
+        return _json({"values": values})
 
     async def _io(self, request: web.Request) -> web.Response:
         refs = self.ctl.io_refs()
@@ -243,7 +237,7 @@ class WebServer:
         except ValueError:
             raise ApiError("since: a sample number") from None
         status = await self.ctl.sample(self._devices_now)
-        return _json(_clean(self._machine_view(status, max(0, since))))
+        return _json(self._machine_view(status, max(0, since)))
 
     async def _write(self, request: web.Request) -> web.Response:
         data = await self._body(request)
