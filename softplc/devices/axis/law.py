@@ -23,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from pydantic import ConfigDict, Field, create_model
+from pydantic import ConfigDict, Field, create_model, model_validator
 
 # One table: (I-variable, plain name, default, meaning). The README's table is generated
 # from the same rows (`markdown_table`).
@@ -68,9 +68,19 @@ def _field(ivar: str, default: float, meaning: str) -> tuple[type, Any]:
                         **bound)
 
 
+def _one_name_each(data: Any) -> Any:
+    """A parameter given by both its names is an error, not a silent choice."""
+    if isinstance(data, dict):
+        for ivar, name, _, _ in IVARS:
+            if ivar in data and name in data:
+                raise ValueError(f"{ivar} and {name} are the same parameter: give one")
+    return data
+
+
 # The I-variables of one motor (TOML table `[devices.NAME.ivars]`); fields by plain name.
 Gains = create_model(
     "Gains", __config__=ConfigDict(extra="forbid", populate_by_name=True),
+    __validators__={"one_name_each": model_validator(mode="before")(_one_name_each)},
     **{name: _field(ivar, default, meaning) for ivar, name, default, meaning in IVARS})
 
 

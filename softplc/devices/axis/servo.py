@@ -168,6 +168,7 @@ class ServoAxis(Device):
         self._ie = 0.0
         self._clamped = False
         self._traj: list[float] = []
+        self._active = False  # a trajectory was started and has not been seen to end
         self._k0 = 1
         self._tail_v = 0.0  # counts per cycle after the trajectory's end
         self._ctl_prev = 0
@@ -343,6 +344,7 @@ class ServoAxis(Device):
         the velocity (counts/s) that continues after the profile (a jog's)."""
         self._traj = tj.sample(prof, self.T)
         self._tail_v = v_end * self.T
+        self._active = True
         if self._traj and end is not None:
             self._traj[-1] = end
         elif not self._traj and not self._tail_v:
@@ -351,7 +353,7 @@ class ServoAxis(Device):
 
     def _cmd_velocity(self) -> float:
         """Commanded velocity now, counts/s."""
-        return (self._cp - self._cpp) * self.loop_hz
+        return self._cvp * self.loop_hz
 
     def _stop(self) -> None:
         if not self._busy():
@@ -387,19 +389,21 @@ class ServoAxis(Device):
 
     def _after_ticks(self) -> None:
         """Scan-level sequencing once the trajectory has ended."""
-        if self._traj and self.k - self._k0 + 1 >= len(self._traj):
-            if not self._tail_v:  # a finished move: hold its end exactly
-                self._traj = []
-                if self.homing == 2:
-                    self.homing = 3
-                    speed = abs(self.gains.home_speed) * 1000
-                    self._follow(tj.move(self._cp, float(self.origin), speed, self._rule()),
-                                 end=float(self.origin))
-                elif self.homing == 3:
-                    self.homing = 0
-                    self.done = True
-                elif self.closed:
-                    self.done = True
+        if self._traj and self.k - self._k0 + 1 >= len(self._traj) and not self._tail_v:
+            self._traj = []  # a finished move holds its end exactly
+        if not self._active or self._traj or self._tail_v:
+            return
+        self._active = False
+        if self.homing == 2:
+            self.homing = 3
+            speed = abs(self.gains.home_speed) * 1000
+            self._follow(tj.move(self._cp, float(self.origin), speed, self._rule()),
+                         end=float(self.origin))
+        elif self.homing == 3:
+            self.homing = 0
+            self.done = True
+        elif self.closed:
+            self.done = True
 
     # -- the servo loop ---------------------------------------------------------------------
     def _run(self, n: int) -> None:
