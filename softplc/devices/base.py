@@ -41,6 +41,11 @@ class Device:
     def close(self) -> None:
         """End of the run: flush files (e.g. the trace CSV). Called once by the owner."""
 
+    def read_only_words(self) -> list[tuple[int, int]]:
+        """%MW ranges [start, stop) this device writes (status words): the daemon makes
+        them read-only for Modbus hosts (a write there gets exception 02)."""
+        return []
+
     # -- helpers for bind() ------------------------------------------------------------------
     def io_index(self, mem: MemoryImage, address: Any, kind: str, option: str) -> int:
         """Flat index of an `%I` or `%Q` (kind) bit, with a config error naming the option."""
