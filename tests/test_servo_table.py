@@ -161,6 +161,17 @@ def test_limit_switch_ends_in_a_fatal_error_with_the_limit_code():
 
 
 # -- over Modbus, with the daemon ---------------------------------------------------------
+def near_home_toml(tmp_path) -> str:
+    """The machine with both carriages powered up near home: short homing, quicker tests."""
+    text = TOML.read_text()
+    for old in ("start = -8000.0", "start = -12000.0"):
+        assert old in text
+        text = text.replace(old, "start = -2500.0")
+    path = tmp_path / "servo_table.toml"
+    path.write_text(text)
+    return str(path)
+
+
 def wait(c, pred, reg: int, count: int, timeout: float = 60.0) -> list[int]:
     import time
 
@@ -183,8 +194,8 @@ def s32(lo: int, hi: int) -> int:
 
 
 def test_over_modbus_homing_order_refusal_and_read_only_status(tmp_path):
-    d = Daemon(tmp_path, "--config", str(TOML), "--speed", "max", "--stats-interval", "0",
-               program=IL)
+    d = Daemon(tmp_path, "--config", near_home_toml(tmp_path), "--speed", "max",
+               "--stats-interval", "0", program=IL)
     try:
         with d.client() as c:
             # status words and the program's replies are read-only for hosts: exception 02
@@ -219,6 +230,29 @@ def test_over_modbus_homing_order_refusal_and_read_only_status(tmp_path):
             wait(c, lambda r: r[0] & St.IN_POSITION, 218, 1)
             assert abs(s32(*c.read_registers(210, 2)) + 20000) <= 10
             del regs
+        assert d.stop() == 0
+    finally:
+        d.kill()
+
+
+def test_servo_command_runs_the_thesis_scurve_over_modbus(tmp_path, capsys):
+    from softplc.cli import main as softplc
+
+    d = Daemon(tmp_path, "--config", near_home_toml(tmp_path), "--speed", "max",
+               "--stats-interval", "0", program=IL)
+    try:
+        plot = tmp_path / "scurve.png"
+        assert softplc(["servo", "scurve", "--axis", "Y", "--port", str(d.port), "--start",
+                        "--from", "-128000", "--plot", str(plot), "--poll", "0.01",
+                        "--settle", "0.3"]) == 0
+        out = capsys.readouterr().out
+        fe = float(out.split("max |FE| ")[1].split(" counts")[0])
+        assert 0.6 * 11.8 <= fe <= 1.4 * 11.8  # TABLA 4-3, Y
+        assert " um" in out and plot.stat().st_size > 10_000
+        # a move beyond the travel is refused by the program: a clear error, exit 1
+        assert softplc(["servo", "step", "--axis", "Y", "--port", str(d.port),
+                        "--distance", "500000"]) == 1
+        assert "target outside the travel" in capsys.readouterr().err
         assert d.stop() == 0
     finally:
         d.kill()

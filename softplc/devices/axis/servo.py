@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from math import floor
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +75,7 @@ class ServoAxis(Device):
         self.coef = Coefficients.of(self.gains)
         self._dac_q = 2.0 ** (16 - p.dac_bits) if p.dac_bits else 0.0
         self.u_peak = p.u_peak or math.inf
+        self._in_pos = self.gains.in_position / 16
         self._cur_scale = 100 / p.u_peak if p.u_peak else 1.0  # CURRENT: % of the limit
         self._lp = g.limit_plus if g.limit_plus is not None else math.inf
         self._lm = g.limit_minus if g.limit_minus is not None else -math.inf
@@ -122,6 +124,7 @@ class ServoAxis(Device):
         self._mem = mem
         self._base = b = ref.index
         self._w = mem.mw.uw
+        self._ctl_i = b + Word.CONTROL
         mw = mem.mw
         self._views = [(mw.d[i & 1], i >> 1) for i in (b + Word.ACTUAL, b + Word.COMMANDED)] \
             + [(mw.f[i & 1], i >> 1) for i in (b + Word.FE, b + Word.FE_MAX)] \
@@ -205,15 +208,22 @@ class ServoAxis(Device):
 
     # -- per scan ---------------------------------------------------------------------------
     def update(self, t: float, dt: float) -> None:
-        self._commands()
-        due = math.floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9)
+        if self._w[self._ctl_i] != self._ctl_prev or not self.closed or \
+                self.fault != "none" or not self.amp_ready():
+            self._commands()
+        due = floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9)
         n = due - self.k
         if n > 0:
-            self._run(n)
+            if not self.closed and self._at_rest_open():
+                self.k = due  # killed and stuck: nothing moves, nothing to record
+            else:
+                while n > 0:
+                    n = self._cycles(n)
         if dt > 0:
             self._vel = (self.x - self._x_prev_scan) / dt
         self._x_prev_scan = self.x
-        self._after_ticks()
+        if self._active:
+            self._after_ticks()
         self._write_status()
 
     # -- drive state ------------------------------------------------------------------------
@@ -224,9 +234,14 @@ class ServoAxis(Device):
             return False
         return self._power_idx is None or bool(self._q[self._power_idx])
 
-    def fault_pending(self) -> bool:
-        """The drive is not ready (cheap check for the scan's fast path)."""
-        return self.fault != "none" or not self.amp_ready()
+    def _at_rest_open(self) -> bool:
+        """Loop open, carriage still and held by friction against the drive's offset and
+        the load: the cycles would change nothing."""
+        if self.closed or self.open_loop or self.v != 0.0 or self.fault != "none":
+            return False
+        p = self.opt.plant
+        w = (p.amp_offset if self.amp_ready() else 0.0) - p.load
+        return not p.load_table and abs(w) <= p.coulomb and self._lm < self.x < self._lp
 
     def estop_active(self) -> bool:
         return self.fault == "estop" or (self._estop_idx is not None
@@ -249,8 +264,6 @@ class ServoAxis(Device):
         mw = self._mem.mw  # type: ignore[union-attr]
         b = self._base
         ctl = mw.uw[b + Word.CONTROL]
-        if ctl == self._ctl_prev and self.closed and not self.fault_pending():
-            return  # the usual scan: nothing new
         rise = ctl & ~self._ctl_prev
         fall = self._ctl_prev & ~ctl
         self._ctl_prev = ctl
@@ -391,7 +404,7 @@ class ServoAxis(Device):
         """Scan-level sequencing once the trajectory has ended."""
         if self._traj and self.k - self._k0 + 1 >= len(self._traj) and not self._tail_v:
             self._traj = []  # a finished move holds its end exactly
-        if not self._active or self._traj or self._tail_v:
+        if self._traj or self._tail_v:
             return
         self._active = False
         if self.homing == 2:
@@ -406,10 +419,6 @@ class ServoAxis(Device):
             self.done = True
 
     # -- the servo loop ---------------------------------------------------------------------
-    def _run(self, n: int) -> None:
-        while n > 0:
-            n = self._cycles(n)
-
     def _cycles(self, n: int) -> int:
         """Run up to n loop cycles; returns how many are left when an event interrupts."""
         (cfe, ccv, cca, cie, cav, int_always, ilim, ff, off, lim, fatal, warn_lim, q, K, fc,
@@ -437,9 +446,10 @@ class ServoAxis(Device):
         warn = False
         event = None
         ol_end = self._ol_end
-        while n > 0:
-            n -= 1
-            k += 1
+        ilim_on = ilim != math.inf
+        check = min(warn_lim, fatal)
+        stop = k + n
+        for k in range(k + 1, stop + 1):  # noqa: B020  (k carries on after the loop)
             ap = (x - enc0) if ideal else floor(x) - enc0
             if closed:
                 if ntraj:
@@ -452,10 +462,8 @@ class ServoAxis(Device):
                 ca = cv - cvp
                 if (int_always or cv == 0) and not clamped:
                     ie += fe
-                    if ie > ilim:
-                        ie = ilim
-                    elif ie < -ilim:
-                        ie = -ilim
+                    if ilim_on:
+                        ie = ilim if ie > ilim else (-ilim if ie < -ilim else ie)
                 u = cfe * fe + ccv * cv + cca * ca + cie * ie - cav * (ap - app) + off
                 if cv > 0:
                     u += ff
@@ -472,11 +480,12 @@ class ServoAxis(Device):
                 afe = fe if fe >= 0 else -fe
                 if afe > fe_max:
                     fe_max = afe
-                if afe > warn_lim:
-                    warn = True
-                if afe > fatal:
-                    event = "fatal"
-                    u = 0.0
+                if afe > check:
+                    if afe > warn_lim:
+                        warn = True
+                    if afe > fatal:
+                        event = "fatal"
+                        u = 0.0
             elif open_loop:
                 cp = ap
                 u = self._ol_u
@@ -514,7 +523,7 @@ class ServoAxis(Device):
                 if we is not None:
                     kw = K * we
                     v1 = phi * v + kw * g1
-                    if v != 0.0 and (v > 0) != (v1 > 0):
+                    if v * v1 < 0:  # the velocity changes sign within the cycle
                         x, v = step(x, v, wl, K, self.a, fc, T, self.zoh)
                     else:
                         x += v * g1 + kw * g2
@@ -526,6 +535,7 @@ class ServoAxis(Device):
                 event = ("home", (xi - self.opt.start) if ideal else floor(xi) - enc0)
             if event is not None:
                 break
+        n = stop - k
         self.x, self.v, self.k = x, v, k
         self._cp, self._cpp, self._cvp, self._app, self._ie = cp, cpp, cvp, app, ie
         self._clamped = clamped
@@ -566,36 +576,28 @@ class ServoAxis(Device):
 
     # -- status -----------------------------------------------------------------------------
     def status_bits(self) -> int:
-        s = 0
-        if self.closed:
-            s |= St.ENABLED
-        busy = self._busy()
-        if busy:
-            s |= St.BUSY
-        if self.closed and not busy and abs(self.fe) <= self.gains.in_position / 16:
+        busy = self.homing != 0 or bool(self._traj) or self._tail_v != 0.0
+        closed = self.closed
+        s = (St.ENABLED if closed else 0) | (St.BUSY if busy else 0) \
+            | (St.DONE if self.done else 0) | (St.HOMED if self.homed else 0) \
+            | (St.FE_WARNING if self.warn else 0) | (St.HOMING if self.homing else 0) \
+            | (St.OPEN_LOOP if self.open_loop else 0)
+        if closed and not busy and abs(self.fe) <= self._in_pos:
             s |= St.IN_POSITION
-        if self.done:
-            s |= St.DONE
-        if self.homed:
-            s |= St.HOMED
-        if self.warn:
-            s |= St.FE_WARNING
-        if self.latched and self.error in (Err.FATAL_FE, Err.LIMIT, Err.NOT_HOMED):
-            s |= St.FE_FATAL
-        if not self.amp_ready() or self.error == Err.AMP_FAULT:
-            s |= St.AMP_FAULT
-        if self.x >= self._lp:
-            s |= St.LIMIT_PLUS
-        if self.x <= self._lm:
-            s |= St.LIMIT_MINUS
-        if self.estop_active():
-            s |= St.ESTOP
-        if self.error:
+        err = self.error
+        if err:
             s |= St.ERROR
-        if self.homing:
-            s |= St.HOMING
-        if self.open_loop:
-            s |= St.OPEN_LOOP
+            if self.latched and err in (Err.FATAL_FE, Err.LIMIT, Err.NOT_HOMED):
+                s |= St.FE_FATAL
+        if err == Err.AMP_FAULT or not self.amp_ready():
+            s |= St.AMP_FAULT
+            if self.estop_active():
+                s |= St.ESTOP
+        x = self.x
+        if x >= self._lp:
+            s |= St.LIMIT_PLUS
+        elif x <= self._lm:
+            s |= St.LIMIT_MINUS
         return s
 
     def _write_status(self) -> None:
