@@ -52,13 +52,10 @@ def test_thesis_zoh_formulas_are_wrong():
     """p = e^(B/J) is an unstable pole with no sample period; k2's p ln p sign is wrong."""
     K, a, T_ = 11157.2, 4.975, 442.74e-6
     k1, k2, p = zoh_coefficients(K, a, T_)
-    t1, t2, tp = thesis_zoh_coefficients(K, a, T_)
-    assert tp > 1 > p  # printed pole outside the unit circle
-    assert abs(t2 / k2) > 1000  # "1,800 times too large" (servo-table.md 2.2)
-    # k1's printed formula is right once p = e^(-aT) is used:
-    lnp = -a * T_
-    pc = math.exp(lnp)
-    assert K * T_ / (a * lnp) * (1 - pc + lnp) == pytest.approx(k1, rel=1e-9)
+    assert thesis_zoh_coefficients(K, a, T_)[2] > 1 > p  # printed pole: unstable
+    t1, t2, _ = thesis_zoh_coefficients(K, a, T_, p=p)  # even with the right p:
+    assert t1 == pytest.approx(k1, rel=1e-9)  # k1 is right
+    assert t2 / k2 == pytest.approx(1800, rel=0.01)  # k2 "1,800 times too large"
 
 
 def test_plant_step_equals_the_discrete_state_space():

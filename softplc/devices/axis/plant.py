@@ -39,10 +39,12 @@ def zoh_coefficients(K: float, a: float, T: float) -> tuple[float, float, float]
     return K / (a * a) * (aT - 1 + p), K / (a * a) * (1 - p - aT * p), p
 
 
-def thesis_zoh_coefficients(K: float, a: float, T: float) -> tuple[float, float, float]:
+def thesis_zoh_coefficients(K: float, a: float, T: float,
+                            p: float | None = None) -> tuple[float, float, float]:
     """The thesis's printed formulas (chapter 1), kept only so a test can show them wrong:
-    p = e^(B/J) (no sample period, wrong sign) and k2 with +p ln p."""
-    p = math.exp(a)  # as printed: p = e^(B/J)
+    p = e^(B/J) (no sample period, wrong sign) unless `p` is given, and k2 with +p ln p."""
+    if p is None:
+        p = math.exp(a)  # as printed: p = e^(B/J)
     lnp = math.log(p)
     c = K * T / (a * lnp)  # r T / (B ln p) with K = r/J, a = B/J
     return c * (1 - p + lnp), c * (-1 + p + p * lnp), p
