@@ -370,3 +370,15 @@ def test_a_parameter_given_by_both_names_is_an_error():
     with pytest.raises(ConfigError, match="Ixx30 and kp are the same parameter"):
         Rig({"X": {"type": "servo_axis", "plant": {"K": 1.0},
                    "ivars": {"Ixx30": 1, "kp": 2}}})
+
+
+def test_limit_switch_devices_watch_a_servo_axis():
+    cfg = {"X": {"type": "servo_axis", "plant": {"K": 11157.2}, "start": -100.0,
+                 "require_home": False, "geometry": {"limit_plus": 4096.0}},
+           "home": {"type": "limit_switch", "axis": "X", "input": "%I0.12", "at": "home"},
+           "end": {"type": "limit_switch", "axis": "X", "input": "%I0.13", "at": "end"}}
+    rig = Rig(cfg)
+    assert rig.devices["home"].made and not rig.devices["end"].made
+    rig.axes["X"].x = 5000.0
+    rig.step()
+    assert not rig.devices["home"].made and rig.mem.i_field[13]

@@ -72,6 +72,21 @@ class Device:
         return dev
 
 
+class AxisDevice(Device):
+    """A device with a position along a travel: what limit switches watch. Positions are
+    in the axis's own units (a stepper's motor steps, a servo axis's encoder counts), home
+    at 0, the far end at `axis_end()`."""
+
+    type_name = "stepper or servo_axis"  # for error messages; subclasses register their own
+
+    def axis_position(self) -> float:
+        raise NotImplementedError
+
+    def axis_end(self) -> float:
+        """The position from which an `at = "end"` switch is made."""
+        raise NotImplementedError
+
+
 DEVICE_TYPES: dict[str, Callable[..., Device]] = {}
 
 

@@ -32,7 +32,7 @@ from pydantic import ValidationError
 from ...address import parse_address
 from ...errors import AddressError, ConfigError
 from ...runtime.memory import MemoryImage
-from ..base import Device, register_device
+from ..base import AxisDevice, Device, register_device
 from . import trajectory as tj
 from .law import Coefficients
 from .options import Ctl, Err, Mode, ServoAxisOptions, St, Word
@@ -52,7 +52,7 @@ def config_error(name: str, e: ValidationError) -> ConfigError:
 
 
 @register_device("servo_axis")
-class ServoAxis(Device):
+class ServoAxis(AxisDevice):
     """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts."""
 
     Options = ServoAxisOptions
@@ -196,6 +196,12 @@ class ServoAxis(Device):
     def position(self) -> float:
         """True carriage position, counts from the home index mark."""
         return self.x
+
+    def axis_position(self) -> float:
+        return self.x
+
+    def axis_end(self) -> float:
+        return self._lp
 
     @property
     def actual(self) -> float:
