@@ -382,3 +382,18 @@ def test_limit_switch_devices_watch_a_servo_axis():
     rig.axes["X"].x = 5000.0
     rig.step()
     assert not rig.devices["home"].made and rig.mem.i_field[13]
+
+
+def test_servo_benchmark_runs_and_reports():
+    """Smoke test of tools/bench_servo.py: figures well formed (never a speed threshold)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    import bench_servo
+
+    r = bench_servo.run(seconds=0.5)
+    for part in ("device", "machine"):
+        assert r[part]["speedup"] > 0 and r[part]["speedup_cpu"] > 0
+    assert r["machine"]["faults"] == 0
+    assert r["device"]["servo_cycles"] >= 2 * math.floor(0.5 * 9034.6 / 4)
+    assert "x real time" in bench_servo.report(r)
