@@ -46,7 +46,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--output", type=float, default=1.0, metavar="PCT",
                    help="open-loop output, %% of Ixx69 (default %(default)s)")
     p.add_argument("--from", dest="start_pos", type=int, metavar="COUNTS",
-                   help="first move the axis there (X -80000, Y -128000 in the thesis)")
+                   help="first move the axis there, approaching in the direction of the "
+                        "test move (X -80000, Y -128000 in the thesis)")
     p.add_argument("--repeat", type=int, default=1, metavar="N",
                    help="N moves, alternating forward and back (default %(default)s)")
     p.add_argument("--settle", type=float, default=0.5, metavar="SECONDS",
@@ -70,7 +71,12 @@ def run(args: argparse.Namespace) -> int:
     with ServoClient(args.host, args.port, poll=args.poll, progress=sys.stderr) as sc:
         sc.ensure_ready(args.start)
         if args.start_pos is not None:
-            print(f"moving {args.axis} to {args.start_pos} ...", file=sys.stderr)
+            # Approach in the direction of the first move, as a tuner takes up backlash:
+            # friction and the integrator are then as that move leaves them.
+            before = args.start_pos - distance
+            print(f"moving {args.axis} to {before}, then {args.start_pos} ...",
+                  file=sys.stderr)
+            sc.move_to(args.axis, before)
             sc.move_to(args.axis, args.start_pos, settle=args.settle)
         result = None
         for i in range(args.repeat):
