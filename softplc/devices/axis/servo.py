@@ -154,6 +154,7 @@ class ServoAxis(AxisDevice):
         self.open_loop = False
         self._ol_u = 0.0
         self._ol_end = 0  # cycle at which an open-loop output ends (0: until STOP)
+        self._coast = False  # open-loop output over, waiting for the carriage to stop
         self.latched = False  # fatal error latched until RESET
         self.error = Err.NONE
         self.homed = False
@@ -230,6 +231,11 @@ class ServoAxis(AxisDevice):
         self._x_prev_scan = self.x
         if self._active:
             self._after_ticks()
+        if self._coast and self.v == 0.0:  # after an open-loop output: close the loop here
+            self._coast = False
+            if self.open_loop:
+                self._close_loop()
+                self.done = True
         self._write_status()
 
     # -- drive state ------------------------------------------------------------------------
@@ -256,6 +262,7 @@ class ServoAxis(AxisDevice):
     def _kill(self, error: int, latch: bool = True) -> None:
         self.closed = False
         self.open_loop = False
+        self._coast = False
         self.u = 0.0
         self._traj = []
         self._tail_v = 0.0
@@ -303,6 +310,7 @@ class ServoAxis(AxisDevice):
         """PMAC `J/`: close the loop holding the present actual position."""
         ap = self._raw()
         self.closed, self.open_loop = True, False
+        self._coast = False
         self._cp = self._cpp = float(ap)
         self._cvp = 0.0
         self._app = ap
@@ -316,7 +324,8 @@ class ServoAxis(AxisDevice):
         return tj.RampRule(ta, ts, g.max_accel * 1e6)
 
     def _busy(self) -> bool:
-        return self.homing != 0 or bool(self._traj) or self._tail_v != 0.0
+        return self.homing != 0 or bool(self._traj) or self._tail_v != 0.0 or self._coast \
+            or self.open_loop
 
     def _refuse_unhomed(self) -> bool:
         if self.opt.require_home and not self.homed:
@@ -344,9 +353,8 @@ class ServoAxis(AxisDevice):
         if speed <= 0:
             self.error = Err.BAD_COMMAND
             return
-        if mode == Mode.STEP:
-            self._cp = float(target)
-            self._traj, self._tail_v = [], 0.0
+        if mode == Mode.STEP:  # the commanded position jumps at the next cycle
+            self._follow(tj.Profile(float(target), 0.0), end=float(target))
             return
         if mode == Mode.PARABOLIC:
             if not acc_ms:
@@ -375,6 +383,9 @@ class ServoAxis(AxisDevice):
         return self._cvp * self.loop_hz
 
     def _stop(self) -> None:
+        if self.open_loop:  # output 0, coast to a stop, then the loop closes
+            self._ol_u, self._ol_end, self._coast = 0.0, 0, True
+            return
         if not self._busy():
             return
         self.homing = 0 if self.homing == 1 else self.homing
@@ -550,9 +561,10 @@ class ServoAxis(AxisDevice):
         if event == "fatal":
             on_limit = x >= lp or x <= lm
             self._kill(Err.LIMIT if on_limit else Err.FATAL_FE)
-        elif event == "open loop end":
-            self._close_loop()
-            self.done = True
+        elif event == "open loop end":  # output 0: the carriage coasts to a stop
+            self._ol_u = 0.0
+            self._ol_end = 0
+            self._coast = True
         elif event is not None:
             self._home_trigger(event[1])
         return n
@@ -582,7 +594,8 @@ class ServoAxis(AxisDevice):
 
     # -- status -----------------------------------------------------------------------------
     def status_bits(self) -> int:
-        busy = self.homing != 0 or bool(self._traj) or self._tail_v != 0.0
+        busy = self.homing != 0 or bool(self._traj) or self._tail_v != 0.0 or self._coast \
+            or self.open_loop
         closed = self.closed
         s = (St.ENABLED if closed else 0) | (St.BUSY if busy else 0) \
             | (St.DONE if self.done else 0) | (St.HOMED if self.homed else 0) \
