@@ -227,14 +227,18 @@ def plot_tuning(result: TuningResult, out: str, counts_per_mm: float = 409.6) ->
     ax1.set_ylabel("position (mm)")
     ax1.grid(True, alpha=0.3)
     ax1.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
-    ax2.plot(t, [r[3] for r in s], label="following error", color="tab:red")
+    if result.test == "openloop":  # no loop, no following error: show the output instead
+        ax2.plot(t, [r[4] for r in s], label="DAC output", color="tab:green")
+        ax2.set_ylabel("DAC output (bits, 16-bit scale)")
+    else:
+        ax2.plot(t, [r[3] for r in s], label="following error", color="tab:red")
+        ax2.set_ylabel("following error (counts)")
+        sec = ax2.secondary_yaxis("right", functions=(lambda c: c / counts_per_mm * 1000,
+                                                      lambda u: u * counts_per_mm / 1000))
+        sec.set_ylabel("µm")
     ax2.axhline(0, color="black", linewidth=0.5)
-    ax2.set_ylabel("following error (counts)")
     ax2.set_xlabel("time (ms)")
     ax2.grid(True, alpha=0.3)
-    sec = ax2.secondary_yaxis("right", functions=(lambda c: c / counts_per_mm * 1000,
-                                                  lambda u: u * counts_per_mm / 1000))
-    sec.set_ylabel("µm")
     ax2.legend(loc="upper left", bbox_to_anchor=(1.12, 1.0), borderaxespad=0)
     um = result.fe_max / counts_per_mm * 1000
     fig.suptitle(f"{result.test} move, axis {result.axis}: {result.moved} counts, "
