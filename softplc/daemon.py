@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .errors import SoftPLCError
-from .modbus import ModbusImage, ServerThread, parse_read_only
+from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
 from .modbus.server import bind_listeners
 from .runtime import retain
@@ -71,6 +71,7 @@ class DaemonOptions:
     # monitor) start on `server.loop` and write through `image.write_words/write_bits`.
     on_serving: list[Callable[[ServerThread, ModbusImage], None]] = field(
         default_factory=list)
+    web: Any = None  # softplc.web.WebOptions; None = no web monitor
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -107,6 +108,7 @@ class Daemon:
         self.start_mode = ""
         self.start_why = ""
         self.priority = ""
+        self.web: Any = None  # the web monitor (softplc.web), if any
         ms = options.period * 1000
         if abs(ms - round(ms)) > 1e-9 or not MIN_PERIOD_MS <= round(ms) <= MAX_PERIOD_MS:
             raise SoftPLCError(f"period {ms:g} ms: must be a whole number of ms from "
@@ -161,6 +163,8 @@ class Daemon:
             self.say("  read-only: every write is answered with exception 01")
         if opt.allow is not None:
             self.say("  clients allowed from: " + ", ".join(str(n) for n in opt.allow))
+        for line in self.web.banner() if self.web is not None else ():  # web monitor hook
+            self.say(line)
         # The last banner line: tools and tests wait for it.
         self.say("Modbus TCP server listening on " + ", ".join(server.server.addresses))
 
@@ -219,14 +223,12 @@ class Daemon:
             if store is not None:
                 def blocks() -> bytes:
                     return retain.encode_blocks(retain.capture_blocks(plc.mem))
+            ro = parse_read_only(plc.config, plc.mem.profile)
+            # devices' status words (e.g. a servo axis's) are read-only for hosts too
+            device_ro = tuple(r for d in plc.devices.values() for r in d.read_only_words())
             image = self.image = ModbusImage(
-                plc.mem, parse_read_only(plc.config, plc.mem.profile), store=store,
+                plc.mem, ReadOnly(ro.registers + device_ro, ro.coils), store=store,
                 blocks=blocks, writes_allowed=not opt.read_only)
-            for dev in plc.devices.values():  # e.g. a drive's status words
-                ranges = getattr(dev, "modbus_read_only", None)
-                if ranges:
-                    image.protect(parse_read_only({"modbus": {"read_only": list(ranges)}},
-                                                  plc.mem.profile))
             plc.before_scan.append(image.apply_writes)
             plc.after_scan.append(image.take_snapshot)
             server = ServerThread(image, opt.host, opt.port, sockets=sockets,
@@ -234,9 +236,15 @@ class Daemon:
                                   idle_timeout=opt.idle_timeout, allow=opt.allow)
             server.start()
             self._server = server
+            # web monitor hook: served on the Modbus server's event loop (softplc.web)
+            from .web import attach
+
+            self.web = attach(self, server, image, opt.web)
             for hook in opt.on_serving:
                 hook(server, image)
         except BaseException:
+            if self.web is not None:
+                self.web.stop()
             if self._server is not None:
                 self._server.stop()
             for s in sockets:
@@ -362,6 +370,8 @@ class Daemon:
                   persister: retain.Persister | None) -> None:
         plc = self.plc
         plc.stop_outputs()
+        if self.web is not None:  # web monitor hook
+            self.web.stop()
         server.stop()  # closes every client: nothing more can be acknowledged
         # The store already holds the last scan boundary and every write acknowledged since
         # (journal): flush it to disk.
