@@ -130,9 +130,9 @@ def intervals(t: np.ndarray, a: np.ndarray, s: Settings, name: str = "") -> list
     level = abs(s.a_lim_si) / 2
     cross = find_crossings(t, a, level, s.min_t)
     if len(cross) != CROSSINGS:
+        at = (f" (at t = {', '.join(f'{t[i]:.3f}' for i in cross[:12])} s)" if cross else "")
         raise CrossingError(f"{name}: the acceleration crosses ±{level:g} m/s² {len(cross)} "
-                            f"times (at t = {', '.join(f'{t[i]:.3f}' for i in cross[:12])} s), "
-                            f"expected {CROSSINGS}: check A_lim and MinT")
+                            f"times{at}, expected {CROSSINGS}: check A_lim and MinT")
     out: list[slice] = []
     signs = []
     for j in range(0, CROSSINGS, 2):

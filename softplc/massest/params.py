@@ -9,7 +9,7 @@ damping MP254(n+1), bandwidth MP257(n+1); then FN 17 writes the 22 MPs of axis Q
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..errors import MassFileError, TableRowError
 from . import mpfile
@@ -63,7 +63,7 @@ class Row:
     number: int
     inert: float  # minimum mass of the row, kg
     values: dict[str, float | None]  # MP name -> value, None = keep the template's ('x')
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True)

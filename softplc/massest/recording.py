@@ -167,6 +167,7 @@ def parse_recording(text: str, name: str = "<recording>") -> Recording:
         channels.append(ch)
     width = 3 * len(channels)
     rows = [s for s in lines[data_start:] if s.strip()]
+    numbered = [(n, s) for n, s in enumerate(lines[data_start:], data_start + 1) if s.strip()]
     if len(rows) != count:
         raise MassFileError(f"{name}: {len(rows)} data lines, COUNT={count}")
     try:
@@ -174,10 +175,10 @@ def parse_recording(text: str, name: str = "<recording>") -> Recording:
     except ValueError:
         raw = None
     if raw is None or raw.ndim != 2 or raw.shape[1] != width:
-        for i, r in enumerate(rows):
+        for lineno, r in numbered:
             parts = r.split()
             if len(parts) != width or not all(p.lstrip("-").isdigit() for p in parts):
-                raise MassFileError(f"{name}:{data_start + i + 1}: {r.strip()!r}: expected "
+                raise MassFileError(f"{name}:{lineno}: {r.strip()!r}: expected "
                                     f"{width} integers ('raw 0 0' per channel)")
     return Recording(tuple(channels), sampling, raw[:, ::3].copy(), name)
 
