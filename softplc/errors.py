@@ -129,3 +129,7 @@ class TableRowError(MassEstimationError):
     """No row of the parameter table fits the mass (or the mass is not a positive number)."""
 
     status = 6
+
+
+class HostError(SoftPLCError):
+    """A Modbus host's exchange with the PLC failed (unreachable, timeout, exception)."""

@@ -232,7 +232,7 @@ def test_singular_paired_fit():
 
 def test_uncertainty_above_acc_uncert_carries_the_estimate():
     cal, meas = synth.recordings(replace(REF, seed=1))
-    with pytest.raises(UncertaintyError, match=r"exceeds Acc_uncert 0\.01%") as e:
+    with pytest.raises(UncertaintyError, match=r"exceeds Acc_uncert 0\.01 %") as e:
         estimator.estimate(meas, cal, replace(S, acc_uncert=1e-4))
     assert e.value.status == 5 and math.isfinite(e.value.estimate.mass)
 

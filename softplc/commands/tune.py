@@ -1,8 +1,9 @@
 """`softplc tune`: estimate a feed axis's reduced mass and write the matching parameters.
 
-Offline mode (today): read the settings, the calibration and measurement recordings and the
-template, estimate, pick the table row, write the parameter macro. The online mode (wait for
-the PLC's request over Modbus, write the result words) reuses `massest.tuning.tune`.
+Offline mode: read the settings, the calibration and measurement recordings and the
+template, estimate, pick the table row, write the parameter macro. Online mode (`--port`):
+the same on each request the PLC raises over Modbus, answered with the result words
+(`massest.handshake`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ _EXAMPLES = """\
 examples:
   softplc tune --example demo                      # write sample inputs (22699 kg axis)
   softplc tune --dir demo --plot demo/fit.png      # estimate, write demo/MPSet.H, plot
+  softplc tune --dir demo --port 5020 --once      # answer the PLC's request (%MW401)
   softplc tune --settings s.txt --calibration IMCal_.dta --measurement IMMea_.dta \\
                --template MPSetTemp.H --output MPSet.H
 """
@@ -49,6 +51,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     o.add_argument("--plot", metavar="OUT.png|OUT.svg",
                    help="figures of the intervals, fitted lines and current jumps")
     o.add_argument("--json", action="store_true", help="print the result as JSON")
+    m = p.add_argument_group(
+        "online mode: answer the PLC's requests over Modbus TCP (%MW401 EST_REQ, result "
+        "words %MW402-%MW463)")
+    m.add_argument("--port", type=int, help="the PLC's Modbus TCP port (enables online mode)")
+    m.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
+    m.add_argument("--device-id", type=int, default=1, help="Modbus unit id (default 1)")
+    m.add_argument("--once", action="store_true", help="answer one request, then exit")
+    m.add_argument("--wait", type=float, default=None, metavar="SECONDS",
+                   help="give up after this long without a request (default: wait forever)")
+    m.add_argument("--poll", type=float, default=0.1, metavar="SECONDS",
+                   help="request polling interval (default %(default)s)")
     e = p.add_argument_group("sample inputs")
     e.add_argument("--example", metavar="DIR",
                    help="write sample inputs to DIR (settings, template, seeded synthetic "
@@ -71,15 +84,20 @@ def run(args: argparse.Namespace) -> int:
     d = Path(args.dir)
     cal = None if args.no_calibration else (args.calibration or d / tuning.CAL_FILE)
     output = None if args.dry_run else (args.output or d / tuning.OUTPUT_FILE)
-    res = tuning.tune_files(args.settings or d / tuning.SETTINGS_FILE, cal,
-                            args.measurement or d / tuning.MEAS_FILE,
-                            args.template or d / tuning.TEMPLATE_FILE, output)
+    settings = args.settings or d / tuning.SETTINGS_FILE
+
+    def once() -> tuning.TuneResult:
+        return tuning.tune_files(settings, cal, args.measurement or d / tuning.MEAS_FILE,
+                                 args.template or d / tuning.TEMPLATE_FILE, output)
+
+    if args.port is not None:
+        return _online(args, once)
+    res = once()
     if args.plot:
         from ..massest.plots import plot_estimate
         from ..massest.settings import read_settings
 
-        s = read_settings(args.settings or d / tuning.SETTINGS_FILE)
-        out = plot_estimate(res.estimate, s.a_lim_si, args.plot)
+        out = plot_estimate(res.estimate, read_settings(settings).a_lim_si, args.plot)
         print(f"figures written to {out}", file=sys.stderr)
     if args.json:
         e = res.estimate
@@ -91,3 +109,15 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(res.summary())
     return 0
+
+
+def _online(args: argparse.Namespace, once) -> int:
+    from ..massest.handshake import W_REQ, serve
+    from ..modbus.host import ModbusHost
+
+    with ModbusHost(args.host, args.port, device_id=args.device_id,
+                    poll_interval=args.poll) as host:
+        print(f"waiting for estimation requests (%MW{W_REQ}) from {host.where}",
+              file=sys.stderr)
+        served = serve(host, once, once=args.once, timeout=args.wait)
+    return 0 if served and all(s.status == 0 for s in served) else 1

@@ -220,7 +220,8 @@ def estimate_traces(meas: Trace, cal: Trace | None, s: Settings, *,
     if check_uncertainty and est.relative_uncertainty > s.acc_uncert:
         raise UncertaintyError(
             f"{meas.name}: m = {mass:.1f} ± {est.uncertainty:.1f} kg: relative uncertainty "
-            f"{est.relative_uncertainty:.2%} exceeds Acc_uncert {s.acc_uncert:.2%}", est)
+            f"{est.relative_uncertainty * 100:.3g} % exceeds Acc_uncert {s.acc_uncert * 100:g} %",
+            est)
     return est
 
 
