@@ -271,3 +271,15 @@ def test_recordings_from_another_source_work():
 
     est = estimator.estimate(rescale(meas), rescale(cal), S)
     assert abs(est.mass / sc.mass - 1) < 5e-4
+
+
+@pytest.mark.parametrize("jerk", [10.0, 1.0])
+def test_s_curve_profiles(jerk):
+    sc = replace(REF, measurement=replace(REF.measurement, jerk=jerk))
+    assert abs(rel_error(sc.without_noise())) < 5e-4
+    assert abs(rel_error(sc)) < 0.01
+    # the filtered profile is consistent: v is the derivative of x, a rises at most at jerk
+    t = np.arange(1, 2000) * 1e-3
+    x, v, a, _ = synth.kinematics(sc.measurement, t)
+    assert np.allclose(np.gradient(x, t)[5:-5], v[5:-5], atol=1e-3 * sc.measurement.feed)
+    assert np.max(np.abs(np.diff(a))) <= jerk * 1e-3 + sc.measurement.accel / synth.JERK_TAPS

@@ -34,6 +34,7 @@ class Run:
     dwell_before: float = 1.5  # s, from SCOPE START to the first move
     dwell_between: float = 0.5  # s (the macro's Q5)
     dwell_after: float = 1.5  # s, before SCOPE STOP
+    jerk: float | None = None  # m/s³: S-curve (a CNC's FIR jerk filter); None = trapezoid
 
 
 @dataclass(frozen=True)
@@ -86,9 +87,24 @@ def move_profile(tau: np.ndarray, distance: float, vmax: float, amax: float
     return x, v, a, T
 
 
+JERK_TAPS = 32  # shifted copies averaged by the jerk filter
+
+
 def kinematics(run: Run, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Position, velocity, acceleration of the run at times t (s from SCOPE START), and the
-    run's total duration."""
+    run's total duration. With `jerk`, the trapezoid is averaged over a window of
+    accel / jerk (a moving-average jerk filter): each shifted copy is an exact profile, so
+    their mean is one too (x' = v, v' = a hold exactly), with a staircase jerk."""
+    if run.jerk:
+        window = run.accel / run.jerk
+        shifts = (np.arange(JERK_TAPS) + 0.5) / JERK_TAPS * window
+        parts = [_trapezoid_run(run, t - d) for d in shifts]
+        x, v, a = (np.mean([p[i] for p in parts], axis=0) for i in range(3))
+        return x, v, a, parts[0][3] + window
+    return _trapezoid_run(run, t)
+
+
+def _trapezoid_run(run: Run, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     d = abs(run.end - run.start)
     sgn = 1.0 if run.end > run.start else -1.0
     t1 = run.dwell_before
