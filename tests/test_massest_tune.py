@@ -170,3 +170,20 @@ def test_online_request_over_modbus(tmp_path, capsys):
         assert "request 1: status 5" in err and "request 2: status 0" in err
     finally:
         daemon.stop()
+
+
+def test_readme_example_output(tmp_path, monkeypatch, capsys):
+    import re
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    start = readme.index("## The machining centre: mass estimation")
+    cmds = re.compile(r"```sh\n(.*?)```", re.S).search(readme, start)[1]
+    shown = re.compile(r"```text\n(.*?)```", re.S).search(readme, start)[1]
+    monkeypatch.chdir(tmp_path)
+    for line in cmds.splitlines():
+        argv = line.split("#")[0].split()
+        assert argv[0] == "softplc" and main(argv[1:]) == 0
+        if "--example" in argv:
+            capsys.readouterr()
+    assert capsys.readouterr().out == shown
+    assert (tmp_path / "demo" / "fit.png").exists()
