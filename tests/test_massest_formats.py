@@ -275,3 +275,28 @@ def test_bad_recordings(edit, message):
 def test_settings_with_other_channel_ids_are_kept():
     s = replace(thesis_settings(), channel_ids=(12, 16, 119, 129))
     assert parse_settings(format_settings(s)).channel_ids == (12, 16, 119, 129)
+
+
+_pos = st.floats(1e-6, 1e6, allow_nan=False)
+
+
+@settings(max_examples=40, deadline=None)
+@given(ids=st.lists(st.integers(0, 9999), min_size=4, max_size=4, unique=True),
+       convs=st.tuples(_pos, _pos, _pos), cal=st.tuples(st.floats(-1e4, 0), st.floats(1, 1e4)),
+       frac=st.tuples(st.floats(0, 1), st.floats(0, 1)), a_lim=st.floats(-10, 10).filter(bool),
+       margin=st.floats(0, 0.49), pos=st.tuples(_pos, _pos, _pos, _pos, _pos),
+       rows=st.lists(st.tuples(st.floats(0, 1e6), st.one_of(st.none(), st.floats(0, 1e5))),
+                     min_size=1, max_size=6, unique_by=lambda r: r[0]))
+def test_settings_round_trip(ids, convs, cal, frac, a_lim, margin, pos, rows):
+    lo, hi = cal
+    sm, em = (lo + f * (hi - lo) for f in frac)
+    if sm == em:
+        em = hi
+    table = params.ParameterTable(3, ["MP2500", "MP2573"], [
+        params.Row(n + 1, inert, {"MP2500": v, "MP2573": 1.5})
+        for n, (inert, v) in enumerate(sorted(rows))])
+    s = replace(thesis_settings(), table=table, channel_ids=tuple(ids), pos_conv=convs[0],
+                vel_conv=convs[1], acc_conv=convs[2], start_cal=lo, end_cal=hi, start_m=sm,
+                end_m=em, a_lim=a_lim, margin=margin, min_t=pos[0], km_sys=pos[1],
+                correction=pos[2], acc_uncert=pos[3], ratio=pos[4]).validate()
+    assert parse_settings(format_settings(s)) == s

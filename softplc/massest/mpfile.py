@@ -16,13 +16,13 @@ place: only the 8 value bytes change, the file keeps its length.
 
 from __future__ import annotations
 
-import os
 import struct
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import MassFileError
+from .files import read_bytes
 
 HEADER = bytes.fromhex("10000000 0000E803 01000000 00000000".replace(" ", ""))
 Q_PREFIX = bytes.fromhex("13000103")
@@ -121,10 +121,7 @@ class MPFile:
 
     @classmethod
     def read(cls, path: str | Path) -> MPFile:
-        try:
-            return cls(Path(path).read_bytes(), name=str(path))
-        except OSError as e:
-            raise MassFileError(f"{path}: cannot read the parameter file ({e.strerror})") from e
+        return cls(read_bytes(path, "parameter file"), name=str(path))
 
     def __bytes__(self) -> bytes:
         out = bytearray(HEADER)
@@ -172,15 +169,3 @@ def build(blocks: list[tuple[str, object]]) -> bytes:
             q, value, text = item  # type: ignore[misc]
             block(q_block_body(q, value, text))
     return bytes(out)
-
-
-def write_atomic(path: str | Path, data: bytes) -> None:
-    """Write a whole file or nothing (temporary file, then rename)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    except OSError as e:
-        tmp.unlink(missing_ok=True)
-        raise MassFileError(f"{path}: cannot write ({e.strerror})") from e

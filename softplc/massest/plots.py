@@ -55,7 +55,8 @@ def plot_estimate(est: Estimate, a_lim: float, out: str | Path, title: str = "")
     if est.calibration is not None:
         c = est.calibration
         ax = axes[3]
-        ax.plot(c.x * 1e3, c.current, ",", color="0.5", label="calibration current")
+        ax.plot(c.x * 1e3, c.current, ",", color="0.5", label="calibration current",
+                rasterized=True)  # 8192 points: a bitmap inside SVG
         xs = np.linspace(c.x.min(), c.x.max(), 2)
         ax.plot(xs * 1e3, est.beta[0] * xs + est.beta[1], color="tab:blue",
                 label=f"I = {est.beta[0]:.4f} A/m · x + {est.beta[1]:.4f} A")

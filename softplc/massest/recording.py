@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MassFileError
+from .files import read_text, write_atomic
 
 _KEYS = ("CHANNELID", "CHANNEL", "AXIS", "AMPL", "DIM", "FACTOR")
 _QUOTED = {"CHANNEL", "AXIS", "DIM"}
@@ -103,8 +104,6 @@ def format_recording(rec: Recording) -> str:
 
 
 def write_recording(rec: Recording, path: str | Path) -> None:
-    from .mpfile import write_atomic
-
     write_atomic(path, format_recording(rec).encode("utf-8"))
 
 
@@ -184,8 +183,4 @@ def parse_recording(text: str, name: str = "<recording>") -> Recording:
 
 
 def read_recording(path: str | Path) -> Recording:
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise MassFileError(f"{path}: cannot read the recording ({e})") from e
-    return parse_recording(text, str(path))
+    return parse_recording(read_text(path, "recording"), str(path))

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import MassFileError
+from .files import read_text
 from .params import ParameterTable, parse_table
 
 CHANNEL_ROLES = ("ACTUAL POSITION", "ACTUAL VELOCITY", "ACTUAL ACCELERATION", "ACTUAL MOMENTUM")
@@ -145,11 +146,7 @@ def parse_settings(text: str, file: str = "<settings>") -> Settings:
 
 
 def read_settings(path: str | Path) -> Settings:
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise MassFileError(f"{path}: cannot read the settings file ({e})") from e
-    return parse_settings(text, str(path))
+    return parse_settings(read_text(path, "settings file"), str(path))
 
 
 def format_settings(s: Settings) -> str:

@@ -11,9 +11,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .estimator import Estimate, estimate
-from .mpfile import MPFile, write_atomic
+from .files import write_atomic
+from .mpfile import MPFile
 from .params import MP_NAMES, MP_Q, Row, default_template
-from .recording import read_recording, write_recording
+from .recording import Recording, read_recording, write_recording
 from .settings import Settings, format_settings, read_settings, thesis_settings
 
 CAL_FILE, MEAS_FILE = "IMCal_.dta", "IMMea_.dta"  # the thesis's scope file names
@@ -55,7 +56,9 @@ def tune_files(settings: str | Path, calibration: str | Path | None, measurement
     return tune(s, cal, meas, tpl, output)
 
 
-def tune(s: Settings, cal, meas, tpl: MPFile, output: str | Path | None) -> TuneResult:
+def tune(s: Settings, cal: Recording | None, meas: Recording, tpl: MPFile,
+         output: str | Path | None) -> TuneResult:
+    """Estimate, select the row, patch the template; write `output` only if all succeeded."""
     est = estimate(meas, cal, s)
     row = s.table.select(est.mass)
     values = s.table.resolve(row, tpl.values())
