@@ -283,3 +283,9 @@ def test_s_curve_profiles(jerk):
     x, v, a, _ = synth.kinematics(sc.measurement, t)
     assert np.allclose(np.gradient(x, t)[5:-5], v[5:-5], atol=1e-3 * sc.measurement.feed)
     assert np.max(np.abs(np.diff(a))) <= jerk * 1e-3 + sc.measurement.accel / synth.JERK_TAPS
+
+
+def test_n15_tuning_result_ratios():
+    # 3.7.3 / 4.4 (a rotary axis): Kv 4 -> 6.6, position deviation 0.075° -> 0.045°
+    assert 6.6 / 4 == pytest.approx(1.65, abs=1e-12)
+    assert 0.045 / 0.075 - 1 == pytest.approx(-0.40, abs=1e-12)

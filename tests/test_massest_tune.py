@@ -187,3 +187,25 @@ def test_readme_example_output(tmp_path, monkeypatch, capsys):
             capsys.readouterr()
     assert capsys.readouterr().out == shown
     assert (tmp_path / "demo" / "fit.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("edits, status", [
+    ([("A_lim = 0.22", "A_lim = 2.0")], 3),  # no crossings
+    ([("CHANNELID# = 29", "CHANNELID# = 28")], 2),  # channel mismatch
+    ([("1, 0.0,", "1, 90000.0,"), ("2, 20000.0,", "2, 95000.0,")], 6),  # no row for 22.7 t
+])
+def test_every_refusal_leaves_the_parameters_untouched(example, tmp_path, edits, status):
+    from softplc.errors import MassEstimationError
+
+    text = (example / "settings.txt").read_text()
+    for old, new in edits:
+        assert old in text
+        text = text.replace(old, new)
+    s = tmp_path / "settings.txt"
+    s.write_text(text)
+    out = tmp_path / "MPSet.H"
+    with pytest.raises(MassEstimationError) as e:
+        tuning.tune_files(s, example / "IMCal_.dta", example / "IMMea_.dta",
+                          example / "MPSetTemp.H", out)
+    assert e.value.status == status
+    assert not out.exists() and not list(tmp_path.glob(".*.tmp"))
