@@ -113,18 +113,11 @@ class DrawClient(ModbusHost):
     # -- registers ---------------------------------------------------------------------
     def read_state(self) -> list[int]:
         """%MW0-%MW14 (FC3)."""
-        rr = self._call("reading %MW0-%MW14",
-                        lambda c, **kw: c.read_holding_registers(0, count=POLL_COUNT, **kw))
-        regs = list(rr.registers)  # type: ignore[attr-defined]
-        if len(regs) < POLL_COUNT:
-            raise HostError(f"reading %MW0-%MW14: got {len(regs)} registers")
-        return regs
+        return self.read_words(0, POLL_COUNT)
 
     def write_frame(self, x: int, z: int, pen_down: bool) -> None:
         """Send one segment: ten registers from %MW0 in one FC16 request."""
-        frame = make_frame(x, z, pen_down)
-        self._call("writing the segment frame",
-                   lambda c, **kw: c.write_registers(0, frame, **kw))
+        self.write_words(0, make_frame(x, z, pen_down))
         self.frames_sent += 1
 
     def wait_for(self, ready: Callable[[list[int]], bool], timeout: float,
