@@ -209,3 +209,17 @@ def test_every_refusal_leaves_the_parameters_untouched(example, tmp_path, edits,
                           example / "MPSetTemp.H", out)
     assert e.value.status == status
     assert not out.exists() and not list(tmp_path.glob(".*.tmp"))
+
+
+@pytest.mark.parametrize("answer, written", [("y\n", True), ("n\n", False), ("", False)])
+def test_confirm(tmp_path, monkeypatch, capsys, answer, written):
+    import io
+
+    tuning.write_example(tmp_path, seed=5)
+    monkeypatch.setattr("sys.stdin", io.StringIO(answer))
+    rc = main(["tune", "--dir", str(tmp_path), "--confirm"])
+    assert (rc == 0) == written and (tmp_path / "MPSet.H").exists() == written
+    captured = capsys.readouterr()
+    assert "table row 2" in captured.err
+    if not written:
+        assert "not confirmed; nothing written" in captured.err

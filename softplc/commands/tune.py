@@ -12,6 +12,10 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..massest.tuning import TuneResult
 
 _EXAMPLES = """\
 examples:
@@ -47,6 +51,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                       f"{tuning.TEMPLATE_FILE})")
     f.add_argument("--output", help=f"parameter macro to write (default {tuning.OUTPUT_FILE})")
     f.add_argument("--dry-run", action="store_true", help="estimate and select; write nothing")
+    f.add_argument("--confirm", action="store_true",
+                   help="show the mass and row and ask before writing (the thesis's mass "
+                        "window); a refusal writes nothing (status 7 online)")
     o = p.add_argument_group("output")
     o.add_argument("--plot", metavar="OUT.png|OUT.svg",
                    help="figures of the intervals, fitted lines and current jumps")
@@ -88,7 +95,8 @@ def run(args: argparse.Namespace) -> int:
 
     def once() -> tuning.TuneResult:
         return tuning.tune_files(settings, cal, args.measurement or d / tuning.MEAS_FILE,
-                                 args.template or d / tuning.TEMPLATE_FILE, output)
+                                 args.template or d / tuning.TEMPLATE_FILE, output,
+                                 _ask if args.confirm else None)
 
     if args.port is not None:
         return _online(args, once)
@@ -109,6 +117,15 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(res.summary())
     return 0
+
+
+def _ask(res: TuneResult) -> bool:
+    print(res.summary(), file=sys.stderr)
+    try:
+        answer = input("write these parameters? [y/N] ")
+    except EOFError:
+        answer = ""
+    return answer.strip().lower() in ("y", "yes")
 
 
 def _online(args: argparse.Namespace, once) -> int:

@@ -124,9 +124,10 @@ def find_crossings(t: np.ndarray, a: np.ndarray, level: float, min_t: float) -> 
     return [i for i, _, _ in sorted(found)]
 
 
-def intervals(t: np.ndarray, a: np.ndarray, s: Settings, name: str = "") -> list[slice]:
-    """The 4 constant-acceleration intervals (c1,c2), (c3,c4), (c5,c6), (c7,c8), each
-    trimmed by floor(Margin n) samples at both ends."""
+def intervals(t: np.ndarray, a: np.ndarray, s: Settings, name: str = ""
+              ) -> tuple[list[int], list[slice]]:
+    """The 8 crossings and the 4 constant-acceleration intervals (c1,c2), (c3,c4), (c5,c6),
+    (c7,c8), each trimmed by floor(Margin n) samples at both ends."""
     level = abs(s.a_lim_si) / 2
     cross = find_crossings(t, a, level, s.min_t)
     if len(cross) != CROSSINGS:
@@ -148,7 +149,7 @@ def intervals(t: np.ndarray, a: np.ndarray, s: Settings, name: str = "") -> list
     if signs[0] == 0 or signs != [signs[0], -signs[0], -signs[0], signs[0]]:
         raise CrossingError(f"{name}: interval accelerations have signs {signs}, expected "
                             "(+,-,-,+) or (-,+,+,-): one move out and one back")
-    return out
+    return cross, out
 
 
 def paired_fit(tA: np.ndarray, yA: np.ndarray, tB: np.ndarray, yB: np.ndarray,
@@ -183,6 +184,7 @@ class Estimate:
     beta: tuple[float, float]  # calibration slope A/m, intercept A
     pairs: tuple[PairResult, PairResult]
     intervals: tuple[slice, ...]
+    crossings: tuple[int, ...]  # sample indices of the 8 margin-line crossings
     measurement: Trace
     calibration: Trace | None
     corrected_current: np.ndarray  # measurement current minus the calibration line
@@ -197,7 +199,7 @@ def estimate_traces(meas: Trace, cal: Trace | None, s: Settings, *,
     """The mass from a measurement trace; `cal=None` skips the calibration (beta = 0)."""
     beta = calibrate(cal, s) if cal is not None else (0.0, 0.0)
     current = meas.current - (beta[0] * meas.x + beta[1])
-    ivs = intervals(meas.t, meas.a, s, meas.name)
+    cross, ivs = intervals(meas.t, meas.a, s, meas.name)
     gain = s.correction * s.km_sys * s.ratio
     pairs = []
     for j in range(2):
@@ -216,7 +218,7 @@ def estimate_traces(meas: Trace, cal: Trace | None, s: Settings, *,
         raise SingularFitError(f"{meas.name}: the current does not jump at the corners "
                                f"(mass {mass:g} kg)")
     est = Estimate(mass, abs(pairs[0].mass - pairs[1].mass) / 2, (k1 + k2) / 2, beta,
-                   (pairs[0], pairs[1]), tuple(ivs), meas, cal, current)
+                   (pairs[0], pairs[1]), tuple(ivs), tuple(cross), meas, cal, current)
     if check_uncertainty and est.relative_uncertainty > s.acc_uncert:
         raise UncertaintyError(
             f"{meas.name}: m = {mass:.1f} ± {est.uncertainty:.1f} kg: relative uncertainty "

@@ -29,6 +29,8 @@ def plot_estimate(est: Estimate, a_lim: float, out: str | Path, title: str = "")
     for i, sl in enumerate(est.intervals):
         ax.plot(m.t[sl], m.a[sl], ".", ms=2, color=colours[i // 2],
                 label=f"intervals of pair {i // 2 + 1}" if i % 2 == 0 else None)
+    c = list(est.crossings)
+    ax.plot(m.t[c], m.a[c], "kx", ms=7, label="crossings (8)")
     ax.set_ylabel("acceleration [m/s²]")
 
     ax = axes[1]

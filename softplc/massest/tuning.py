@@ -7,9 +7,11 @@ refusal leaves the previous parameters untouched.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import MassEstimationError
 from .estimator import Estimate, estimate
 from .files import write_atomic
 from .mpfile import MPFile
@@ -46,23 +48,31 @@ class TuneResult:
         return "\n".join(lines)
 
 
+Confirm = Callable[["TuneResult"], bool]
+
+
 def tune_files(settings: str | Path, calibration: str | Path | None, measurement: str | Path,
-               template: str | Path, output: str | Path | None) -> TuneResult:
+               template: str | Path, output: str | Path | None,
+               confirm: Confirm | None = None) -> TuneResult:
     """The offline run: files in, MPSet.H out (None: estimate and select only)."""
     s = read_settings(settings)
     cal = read_recording(calibration) if calibration is not None else None
     meas = read_recording(measurement)
     tpl = MPFile.read(template)
-    return tune(s, cal, meas, tpl, output)
+    return tune(s, cal, meas, tpl, output, confirm)
 
 
 def tune(s: Settings, cal: Recording | None, meas: Recording, tpl: MPFile,
-         output: str | Path | None) -> TuneResult:
-    """Estimate, select the row, patch the template; write `output` only if all succeeded."""
+         output: str | Path | None, confirm: Confirm | None = None) -> TuneResult:
+    """Estimate, select the row, patch the template; write `output` only if all succeeded
+    and `confirm(result)` (the thesis's mass window) accepts."""
     est = estimate(meas, cal, s)
     row = s.table.select(est.mass)
     values = s.table.resolve(row, tpl.values())
     data = tpl.patched(values)
+    if confirm is not None and not confirm(TuneResult(est, row, values, None)):
+        raise MassEstimationError(f"m = {est.mass:.1f} kg, row {row.number}: not confirmed; "
+                                  "nothing written")
     out = None
     if output is not None:
         out = Path(output)
