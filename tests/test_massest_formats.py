@@ -216,6 +216,8 @@ GOOD = format_settings(thesis_settings())
     ("2, 20000.0, 3650.0, 45.5, 1.0, 700.0, x,", "2, 20000.0, 3650.0, 45.5, 1.0, -7, x,",
      r"MP2552 '-7': expected a real number >= 0 or 'x'"),
     ("2, 20000.0,", "2, 0.0,", "increasing order of mass"),
+    ("2, 20000.0, 3650.0,", "2, 20000.0, 2e6,", r"MP2500 '2e6': expected a real number >= 0 "
+                                                 r"and <= 1e\+06"),
     ("MP2572", "MP9999", "unknown parameter 'MP9999'"),
     ("idx = 0", "idx = -1", "idx -1"),
 ])

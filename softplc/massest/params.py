@@ -35,6 +35,9 @@ MP_DEFS: list[tuple[str, int, float, str]] = [
     *[d for n in range(1, FILTERS + 1) for d in _filter_mps(n)],
 ]
 MP_NAMES = [d[0] for d in MP_DEFS]
+# Input ranges stated in the HEIDENHAIN Technical Manual TNC 426/430 (p. 6-135) [manual];
+# the filter MPs' ranges are not known here (only >= 0 is checked).
+MP_MAX = {"MP2500": 1_000_000.0, "MP2510": 100_000_000.0}
 MP_Q = {d[0]: d[1] for d in MP_DEFS}
 TEMPLATE_VALUES = {d[0]: d[2] for d in MP_DEFS}
 
@@ -144,7 +147,7 @@ def parse_table(lines: list[tuple[int, str]], file: str) -> ParameterTable:
                 raise MassFileError(f"{where}: row number {cells[0]!r}: expected an "
                                     "integer") from None
             inert = _cell(cells[1], f"{where}: inert", allow_x=False)
-            values = {c: _cell(v, f"{where}: {c}", allow_x=True)
+            values = {c: _cell(v, f"{where}: {c}", allow_x=True, top=MP_MAX.get(c))
                       for c, v in zip(columns, cells[2:], strict=True)}
             if rows and inert <= rows[-1].inert:  # type: ignore[operator]
                 raise MassFileError(f"{where}: inert {inert:g} kg: rows must be in increasing "
@@ -157,14 +160,15 @@ def parse_table(lines: list[tuple[int, str]], file: str) -> ParameterTable:
     return ParameterTable(axis, columns, rows)
 
 
-def _cell(text: str, where: str, *, allow_x: bool) -> float | None:
+def _cell(text: str, where: str, *, allow_x: bool, top: float | None = None) -> float | None:
     if allow_x and text.lower() == "x":
         return None
     try:
         v = float(text)
     except ValueError:
         v = math.nan
-    if not math.isfinite(v) or v < 0:
+    if not math.isfinite(v) or v < 0 or (top is not None and v > top):
         raise MassFileError(f"{where} {text!r}: expected a real number >= 0"
+                            + (f" and <= {top:g}" if top is not None else "")
                             + (" or 'x' (keep the template's value)" if allow_x else ""))
     return v
