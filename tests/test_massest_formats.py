@@ -302,3 +302,18 @@ def test_settings_round_trip(ids, convs, cal, frac, a_lim, margin, pos, rows):
                 end_m=em, a_lim=a_lim, margin=margin, min_t=pos[0], km_sys=pos[1],
                 correction=pos[2], acc_uncert=pos[3], ratio=pos[4]).validate()
     assert parse_settings(format_settings(s)) == s
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(0, 1e5), min_size=1, max_size=8, unique=True),
+       st.floats(1e-3, 2e5))
+def test_row_selection_property(inerts, mass):
+    inerts = sorted(inerts)
+    table = params.ParameterTable(0, [], [params.Row(n, m, {}) for n, m in enumerate(inerts)])
+    if mass < inerts[0]:
+        with pytest.raises(TableRowError):
+            table.select(mass)
+        return
+    row = table.select(mass)
+    assert row.inert <= mass
+    assert all(r.inert > mass for r in table.rows[row.number + 1:])

@@ -223,3 +223,12 @@ def test_confirm(tmp_path, monkeypatch, capsys, answer, written):
     assert "table row 2" in captured.err
     if not written:
         assert "not confirmed; nothing written" in captured.err
+
+
+def test_macro_geometry_example(tmp_path, capsys):
+    assert main(["tune", "--example", str(tmp_path), "--geometry", "macro", "--mass",
+                 "18000", "--no-noise"]) == 0
+    assert main(["tune", "--dir", str(tmp_path), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out.split("\n", 4)[-1])
+    assert abs(res["mass"] / 18000 - 1) < 5e-4 and res["row"] == 1
+    assert res["acceleration"] == pytest.approx(0.4, rel=1e-3)

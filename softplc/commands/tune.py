@@ -77,6 +77,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="mass of the sample axis, kg (default %(default)s)")
     e.add_argument("--seed", type=int, default=0, help="noise seed (default %(default)s)")
     e.add_argument("--no-noise", action="store_true", help="noise-free sample recordings")
+    e.add_argument("--geometry", choices=tuning.GEOMETRIES, default="settings",
+                   help="sample moves: the settings file's 300 mm at 0.22 m/s² or the NC "
+                        "macro's 100 mm triangles at 0.4 m/s² (default %(default)s)")
     p.set_defaults(func=run)
 
 
@@ -84,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
     from ..massest import tuning
 
     if args.example:
-        paths = tuning.write_example(args.example, args.mass, args.seed, not args.no_noise)
+        paths = tuning.write_example(args.example, args.mass, args.seed, not args.no_noise,
+                                     args.geometry)
         for kind, path in paths.items():
             print(f"{kind:12s} {path}")
         return 0

@@ -80,19 +80,28 @@ def tune(s: Settings, cal: Recording | None, meas: Recording, tpl: MPFile,
     return TuneResult(est, row, values, out)
 
 
-def write_example(directory: str | Path, mass: float = 22699.0, seed: int = 0,
-                  noise: bool = True) -> dict[str, Path]:
-    """Settings (thesis Fig. 3-1 + table), template, and seeded synthetic recordings of an
-    axis of the given mass: a complete input set for `softplc tune`."""
-    from .synth import Scenario, recordings
+GEOMETRIES = ("settings", "macro")  # the thesis's settings file / its NC macro (§1)
 
+
+def write_example(directory: str | Path, mass: float = 22699.0, seed: int = 0,
+                  noise: bool = True, geometry: str = "settings") -> dict[str, Path]:
+    """Settings (thesis Fig. 3-1 + table), template, and seeded synthetic recordings of an
+    axis of the given mass: a complete input set for `softplc tune`. `geometry` "macro"
+    uses the NC macro's 100 mm triangle moves at 0.4 m/s² instead of the settings file's
+    300 mm at 0.22 m/s²."""
+    from .synth import Scenario, macro_scenario, macro_settings, recordings
+
+    if geometry not in GEOMETRIES:
+        raise MassEstimationError(f"geometry {geometry!r}: expected one of "
+                                  f"{', '.join(GEOMETRIES)}")
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
-    sc = Scenario(mass=mass, seed=seed)
+    macro = geometry == "macro"
+    sc = macro_scenario(mass=mass, seed=seed) if macro else Scenario(mass=mass, seed=seed)
     cal, meas = recordings(sc if noise else sc.without_noise())
     paths = {"settings": d / SETTINGS_FILE, "template": d / TEMPLATE_FILE,
              "calibration": d / CAL_FILE, "measurement": d / MEAS_FILE}
-    settings: Settings = thesis_settings()
+    settings: Settings = macro_settings() if macro else thesis_settings()
     write_atomic(paths["settings"], format_settings(settings).encode())
     write_atomic(paths["template"], default_template(settings.table.axis))
     write_recording(cal, paths["calibration"])
