@@ -232,3 +232,12 @@ def test_macro_geometry_example(tmp_path, capsys):
     res = json.loads(capsys.readouterr().out.split("\n", 4)[-1])
     assert abs(res["mass"] / 18000 - 1) < 5e-4 and res["row"] == 1
     assert res["acceleration"] == pytest.approx(0.4, rel=1e-3)
+
+
+def test_two_example_runs_give_identical_files(tmp_path):
+    a = tuning.write_example(tmp_path / "a", seed=9)
+    b = tuning.write_example(tmp_path / "b", seed=9)
+    for kind in a:
+        assert a[kind].read_bytes() == b[kind].read_bytes(), kind
+    c = tuning.write_example(tmp_path / "c", seed=10)
+    assert c["measurement"].read_bytes() != a["measurement"].read_bytes()
