@@ -289,3 +289,18 @@ def test_n15_tuning_result_ratios():
     # 3.7.3 / 4.4 (a rotary axis): Kv 4 -> 6.6, position deviation 0.075° -> 0.045°
     assert 6.6 / 4 == pytest.approx(1.65, abs=1e-12)
     assert 0.045 / 0.075 - 1 == pytest.approx(-0.40, abs=1e-12)
+
+
+def test_time_offset_does_not_change_the_mass():
+    cal, meas = synth.recordings(REF)
+    mt, ct = estimator.to_trace(meas, S), estimator.to_trace(cal, S)
+    base = estimator.estimate_traces(mt, ct, S).mass
+    shifted = replace(mt, t=mt.t + 1000.0)
+    assert estimator.estimate_traces(shifted, ct, S).mass == pytest.approx(base, rel=1e-7)
+
+
+def test_move_starting_backwards():
+    # the mirrored sign pattern (-,+,+,-) of a run that goes out in the negative direction
+    sc = replace(REF, measurement=replace(REF.measurement, start=-0.15, end=-0.45))
+    assert abs(rel_error(sc.without_noise())) < 5e-4
+    assert abs(rel_error(sc)) < 0.01
