@@ -53,10 +53,13 @@ def test_refusal_writes_nothing(example, tmp_path, capsys):
                                                                 "Acc_uncert = 1e-06"))
     out = tmp_path / "MPSet.H"
     out.write_bytes(b"previous parameters")
-    rc = main(["tune", "--dir", str(example), "--settings", str(s), "--output", str(out)])
+    fig = tmp_path / "why.png"
+    rc = main(["tune", "--dir", str(example), "--settings", str(s), "--output", str(out),
+               "--plot", str(fig)])
     assert rc == 1
     assert "exceeds Acc_uncert" in capsys.readouterr().err
     assert out.read_bytes() == b"previous parameters"
+    assert fig.read_bytes()[:4] == b"\x89PNG"  # the refused estimate is still drawn
 
 
 def test_missing_file_is_a_clear_error(example, tmp_path, capsys):

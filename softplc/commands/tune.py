@@ -14,7 +14,10 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..errors import UncertaintyError
+
 if TYPE_CHECKING:
+    from ..massest.estimator import Estimate
     from ..massest.tuning import TuneResult
 
 _EXAMPLES = """\
@@ -32,11 +35,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     p = subparsers.add_parser(
         "tune", help="estimate a feed axis's mass from scope recordings; write its parameters",
-        description="Estimate the reduced mass of a feed axis from a calibration and a "
-                    "measurement recording (least squares on the constant-acceleration "
-                    "intervals), select the parameter-table row for that mass and write the "
-                    "parameter macro (the template patched in place). Nothing is written "
-                    "when the estimate is refused.",
+        description="Estimate the reduced mass of a feed axis from a calibration and a\n"
+                    "measurement recording (least squares on the constant-acceleration\n"
+                    "intervals), select the parameter-table row for that mass and write the\n"
+                    "parameter macro (the template patched in place). Nothing is written\n"
+                    "when the estimate is refused (exit status 1).",
         epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     f = p.add_argument_group("files (default: the thesis's names in --dir)")
     f.add_argument("--dir", default=".", help="directory of the files (default %(default)s)")
@@ -97,20 +100,29 @@ def run(args: argparse.Namespace) -> int:
     output = None if args.dry_run else (args.output or d / tuning.OUTPUT_FILE)
     settings = args.settings or d / tuning.SETTINGS_FILE
 
+    def plot(est: Estimate) -> None:
+        from ..massest.plots import plot_estimate
+        from ..massest.settings import read_settings
+
+        out = plot_estimate(est, read_settings(settings).a_lim_si, args.plot)
+        print(f"figures written to {out}", file=sys.stderr)
+
     def once() -> tuning.TuneResult:
-        return tuning.tune_files(settings, cal, args.measurement or d / tuning.MEAS_FILE,
-                                 args.template or d / tuning.TEMPLATE_FILE, output,
-                                 _ask if args.confirm else None)
+        try:
+            res = tuning.tune_files(settings, cal, args.measurement or d / tuning.MEAS_FILE,
+                                    args.template or d / tuning.TEMPLATE_FILE, output,
+                                    _ask if args.confirm else None)
+        except UncertaintyError as e:  # refused, but the figures show why
+            if args.plot and e.estimate is not None:
+                plot(e.estimate)
+            raise
+        if args.plot:  # each run (online: each request) redraws the figures
+            plot(res.estimate)
+        return res
 
     if args.port is not None:
         return _online(args, once)
     res = once()
-    if args.plot:
-        from ..massest.plots import plot_estimate
-        from ..massest.settings import read_settings
-
-        out = plot_estimate(res.estimate, read_settings(settings).a_lim_si, args.plot)
-        print(f"figures written to {out}", file=sys.stderr)
     if args.json:
         e = res.estimate
         print(json.dumps({"mass": e.mass, "uncertainty": e.uncertainty,
