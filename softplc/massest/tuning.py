@@ -1,5 +1,5 @@
-"""One tuning run, independent of how it was requested (command line now, the PLC's Modbus
-request next): read the files, estimate, pick the table row, write the parameter macro.
+"""One tuning run, independent of how it was requested (the command line or the PLC's
+Modbus request): read the files, estimate, pick the table row, write the parameter macro.
 
 Everything is checked before anything is written; the macro is replaced atomically, so a
 refusal leaves the previous parameters untouched.
@@ -39,7 +39,8 @@ class TuneResult:
         lines = [f"mass m = {e.mass:.2f} ± {e.uncertainty:.2f} kg "
                  f"(u/m = {e.relative_uncertainty:.3%}), fitted a = {e.acceleration:.5f} m/s²",
                  f"pair masses {e.pairs[0].mass:.2f} kg, {e.pairs[1].mass:.2f} kg; "
-                 f"calibration I = {e.beta[0]:.6f} A/m x + {e.beta[1]:.6f} A",
+                 + (f"calibration I = {e.beta[0]:.6f} A/m x + {e.beta[1]:.6f} A"
+                    if e.calibration is not None else "no calibration"),
                  f"table row {self.row.number} (inert >= {self.row.inert:g} kg), axis "
                  f"Q0 = {self.values[0]:g}: "
                  + ", ".join(f"{n} {self.values[MP_Q[n]]:g}" for n in MP_NAMES[:6]) + ", ..."]
