@@ -304,3 +304,22 @@ def test_move_starting_backwards():
     sc = replace(REF, measurement=replace(REF.measurement, start=-0.15, end=-0.45))
     assert abs(rel_error(sc.without_noise())) < 5e-4
     assert abs(rel_error(sc)) < 0.01
+
+
+_CLEAN = synth.recordings(REF.without_noise())
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.0, 0.45), st.floats(0.01, 0.45))
+def test_margin_and_min_t_do_not_bias(margin, min_t):
+    # MinT must stay below the shortest gap between two crossings of one line: here the
+    # 0.5 s dwell between the moves (a MinT of 0.5 s loses a crossing: CrossingError)
+    cal, meas = _CLEAN
+    est = estimator.estimate(meas, cal, replace(S, margin=margin, min_t=min_t))
+    assert abs(est.mass / REF.mass - 1) < 5e-4
+
+
+def test_min_t_longer_than_the_dwell_loses_a_crossing():
+    cal, meas = _CLEAN
+    with pytest.raises(CrossingError, match="7 times"):
+        estimator.estimate(meas, cal, replace(S, min_t=0.5))
