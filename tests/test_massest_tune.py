@@ -171,6 +171,10 @@ def test_online_request_over_modbus(tmp_path, capsys):
         assert MPFile.read(d / "MPSet.H").values()[1] == 3650.0
         err = capsys.readouterr().err
         assert "request 1: status 5" in err and "request 2: status 0" in err
+        # 3: no request within --wait: a clear error, nothing written to the PLC
+        assert main(["tune", "--dir", str(d), "--port", port, "--once", "--wait", "0.3",
+                     "--poll", "0.02"]) == 1
+        assert "no estimation request (%MW401 != %MW402)" in capsys.readouterr().err
     finally:
         daemon.stop()
 
