@@ -328,8 +328,8 @@ _pos = st.floats(1e-6, 1e6, allow_nan=False)
 def test_settings_round_trip(ids, convs, cal, frac, a_lim, margin, pos, rows):
     lo, hi = cal
     sm, em = (lo + f * (hi - lo) for f in frac)
-    if sm == em:
-        em = hi
+    if sm == em:  # Start_m and End_m must differ
+        sm, em = lo, hi
     table = params.ParameterTable(3, ["MP2500", "MP2573"], [
         params.Row(n + 1, inert, {"MP2500": v, "MP2573": 1.5})
         for n, (inert, v) in enumerate(sorted(rows))])
