@@ -83,8 +83,8 @@ class Ref:
         if self.kind in READ_ONLY_KINDS:
             return False
         if self.kind in BLOCK_FIELDS:
-            if self.kind == "SBR" and self.field == "J":
-                return True  # the program loads bits into a shift register [manual]
+            if self.field == "J":
+                return True  # %SBRi.j and %SCi.j bits can be written [manual]
             return self.field is not None and BLOCK_FIELDS[self.kind].get(
                 self.field, (BOOL, False))[1]
         return True
@@ -98,10 +98,10 @@ class Ref:
             s = f"%{self.kind}{self.module}.{self.channel}"
         else:
             s = f"%{self.kind}{self.index}"
-        if self.field is not None:
+        if self.field == "J":
+            s += f".{self.bit}"  # %SBR0.3, TwidoSuite's spelling
+        elif self.field is not None:
             s += f".{self.field}"
-            if self.bit is not None:
-                s += str(self.bit)
         elif self.bit is not None:
             s += f":X{self.bit}"
         if self.length is not None:
@@ -109,6 +109,21 @@ class Ref:
         if self.offset is not None:
             s += f"[{self.offset}]"
         return s
+
+
+# Bits of a shift register (%SBRi.0-15) and of a step counter (%SCi.0-255) [manual].
+BLOCK_BITS = {"SBR": 16, "SC": 256}
+
+
+def _block_bit(kind: str, a: int, k: int, text: str, profile: Profile) -> Ref:
+    count = profile.count(kind)
+    if a >= count:
+        raise AddressError(f"{text!r} is beyond the controller profile ({profile.name} has "
+                           f"%{kind}0..%{kind}{count - 1})")
+    if k >= BLOCK_BITS[kind]:
+        raise AddressError(f"{text!r}: bit {k} out of range: %{kind}{a}.0 .. "
+                           f"%{kind}{a}.{BLOCK_BITS[kind] - 1}")
+    return Ref(kind, a, field="J", bit=k)
 
 
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
@@ -147,6 +162,10 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         return Ref(kind, module * profile.channels_per_module + channel, module, channel,
                    length=length)
 
+    if m["b"] is not None and kind in ("SBR", "SC") and not (m["field"] or bit is not None
+                                                           or length or offset):
+        # %SBRi.j / %SCi.j: TwidoSuite's spelling of bit j [manual]; %SBRi.Jj is the same
+        return _block_bit(kind, a, int(m["b"]), text, profile)
     if m["b"] is not None:
         raise AddressError(f"malformed address {text!r}")
     base_kind = WORD_FAMILY.get(kind, kind)
@@ -162,11 +181,9 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         if field is not None:
             if kind in ("SBR", "SC"):
                 if field != "J" or m["fbit"] is None:
-                    raise AddressError(f"{text!r}: %{kind} bits are .Jk")
-                k = int(m["fbit"])
-                if k >= (16 if kind == "SBR" else 256):
-                    raise AddressError(f"{text!r}: bit {k} out of range")
-                return Ref(kind, a, field="J", bit=k)
+                    raise AddressError(f"{text!r}: %{kind} bits are %{kind}{a}.j "
+                                       f"(or .Jj)")
+                return _block_bit(kind, a, int(m["fbit"]), text, profile)
             if field not in fields or m["fbit"] is not None:
                 raise AddressError(f"{text!r}: %{kind} has fields "
                                    f"{', '.join('.' + f for f in fields)}")

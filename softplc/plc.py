@@ -19,6 +19,7 @@ from .profile import DEFAULT_PROFILE, MODULES, PROFILES, Profile
 from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
 from .runtime.clock import Clock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
+from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
 from .semantics import Ops
 
@@ -44,7 +45,8 @@ class PLC:
         self._modules = self._load_modules(cfg.get("modules"))
         self._configure_blocks(cfg)
         self._configure_constants(cfg.get("constants", {}))
-        self.ops = Ops(self.mem.s)
+        self.ops = Ops(self.mem.s, self.mem.sw.w)
+        self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
@@ -230,7 +232,6 @@ class PLC:
             "_MWF": m.mw, "_KWF": m.kw, "_SWF": m.sw, "_mem": m,
             "_EDGE": [0] * 4096, "_wd": self.engine.watchdog_expired,
             "_block_factory": self._block_factory, "_io_check": self._io_check,
-            "_GA": [], "_GD": [],
         }
         for name, f in self.ops.table().items():
             env["_" + name] = f
@@ -240,17 +241,8 @@ class PLC:
                 if getattr(b, "_initial", None) is None:  # a later build keeps the cold state
                     b._initial = b.state()
 
-        ga, gd, x = env["_GA"], env["_GD"], m.x
-
-        def gpost() -> None:  # apply Grafcet transitions at the end of sequential processing
-            for k in gd:
-                x[k] = 0
-            for k in ga:
-                x[k] = 1
-            ga.clear()
-            gd.clear()
-
-        env["_gpost"] = gpost
+        g = self.grafcet
+        env["_GA"], env["_GD"], env["_gpre"], env["_gpost"] = g.ga, g.gd, g.pre, g.post
         return env
 
     def _compile(self, program: A.Program, debug: bool = False,
@@ -265,7 +257,7 @@ class PLC:
         for kind, blocks in self.mem.blocks.items():
             for i, b in blocks.items():
                 compiled.namespace.setdefault(f"_{kind}{i}", b)
-        compiled.namespace["_INITIAL_STEPS"] = tuple(
+        compiled.namespace["_INITIAL_STEPS"] = self.grafcet.initial = tuple(
             i.step for r in program.rungs for i in r.instructions
             if isinstance(i, A.Grafcet) and i.op == "=*=" and i.step is not None)
         return compiled

@@ -457,6 +457,10 @@ class Compiler(ValueCompiler):
                 if marker is not None:
                     if marker.op == "POST" or step is None and name == "main":
                         if step is None:
+                            if not ctx.get("pre_done"):  # end of preprocessing:
+                                ctx["pre_done"] = True  # %S21-%S23 act here [manual]
+                                self.use("_gpre")
+                                self.emit("_gpre()")
                             self.use("_X")
                             self.emit("_XS = bytes(_X)")
                     if marker.op == "POST":

@@ -225,7 +225,7 @@ class ValueCompiler:
             self.use(buf)
             idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
             self.emit(f"{buf}[{idx}] = {value}")
-        elif k == "SBR" and ref.field == "J":
+        elif ref.field == "J":  # %SBRi.j, %SCi.j
             b = self.block_name(Ref(k, ref.index), pos)
             self.emit(f"{b}.set_bit({ref.bit}, {value})")
         elif ref.bit is not None and k in WORD_BUFFERS:

@@ -165,7 +165,7 @@ class MemoryImage:
         ref = self.ref(address)
         if ref.kind in BLOCK_FIELDS:
             b = self.block(ref)
-            if ref.kind == "SBR" and ref.field == "J":
+            if ref.field == "J":  # %SBRi.j, %SCi.j
                 b.set_bit(ref.bit, value)
                 return
             if ref.field is None or ref.field == "J":
