@@ -22,6 +22,9 @@ SIMPLE_KINDS = {
     "MF": REAL, "KF": REAL,
 }
 IO_KINDS = {"I": BOOL, "Q": BOOL}
+# Analog I/O words %IWm.c / %QWm.c (module m, channel c) [manual].
+ANALOG_KINDS = {"IW": INT16, "QW": INT16}
+ANALOG_STRIDE = 8  # word channels per module in the flat index (the widest analog module)
 # Function-block objects: kind -> {field: (type, writable by the program)}.
 BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     "TM": {"Q": (BOOL, False), "V": (INT16, False), "P": (INT16, True)},
@@ -33,7 +36,7 @@ BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     "R": {"I": (INT16, True), "O": (INT16, True), "E": (BOOL, False), "F": (BOOL, False)},
 }
 # Objects the program may never write.
-READ_ONLY_KINDS = {"I", "KW", "KD", "KF"}
+READ_ONLY_KINDS = {"I", "IW", "KW", "KD", "KF"}
 # Word-backed kinds: the 16-bit family a 32-bit or float object overlays.
 WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF": "KW",
                "SW": "SW"}
@@ -76,6 +79,8 @@ class Ref:
             return BLOCK_FIELDS[self.kind][self.field][0]
         if self.kind in IO_KINDS:
             return BOOL
+        if self.kind in ANALOG_KINDS:
+            return INT16
         return SIMPLE_KINDS[self.kind]
 
     @property
@@ -94,7 +99,7 @@ class Ref:
         return self.kind in BLOCK_FIELDS and self.field is None
 
     def __str__(self) -> str:
-        if self.kind in IO_KINDS:
+        if self.kind in IO_KINDS or self.kind in ANALOG_KINDS:
             s = f"%{self.kind}{self.module}.{self.channel}"
         else:
             s = f"%{self.kind}{self.index}"
@@ -138,8 +143,19 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     bit = int(m["bit"]) if m["bit"] is not None else None
     length = int(m["length"]) if m["length"] is not None else None
     offset = parse_address(m["offset"], profile) if m["offset"] else None
-    if kind in ("IW", "QW"):
-        raise AddressError(f"analog objects like {text!r} are not emulated")
+    if kind in ANALOG_KINDS:
+        if m["b"] is None:
+            raise AddressError(f"{text!r}: analog I/O addresses are %{kind}module.channel")
+        module, channel = a, int(m["b"])
+        if module > profile.expansion_slots:
+            raise AddressError(f"{text!r}: module {module} beyond the "
+                               f"{profile.expansion_slots} expansion slots of {profile.name}")
+        if channel >= ANALOG_STRIDE:
+            raise AddressError(f"{text!r}: analog channel {channel} beyond "
+                               f"{ANALOG_STRIDE - 1}")
+        if field or bit is not None or offset or length is not None:
+            raise AddressError(f"{text!r}: analog I/O words take no suffix")
+        return Ref(kind, module * ANALOG_STRIDE + channel, module, channel)
     if kind == "L":
         raise AddressError(f"{text!r} is a label, not an object")
 

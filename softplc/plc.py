@@ -15,7 +15,8 @@ from .config import check_keys, duration, load_config, time_base
 from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLCError
 from .il import ast as A
 from .il.parser import parse, parse_file
-from .profile import DEFAULT_PROFILE, MODULES, PROFILES, Profile
+from .profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES, AnalogModule, Profile
+from .runtime.analog import AnalogChannel, AnalogIO
 from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
 from .runtime.clock import Clock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
@@ -42,7 +43,9 @@ class PLC:
             raise ConfigError("scan_period must be > 0")
         watchdog = duration(cfg.get("watchdog", DEFAULT_WATCHDOG_S), "watchdog")
         self._clock = make_clock(clock)
+        self._analog_modules: dict[int, AnalogModule] = {}
         self._modules = self._load_modules(cfg.get("modules"))
+        self.mem.analog = self._configure_analog(cfg.get("analog", {}))
         self._configure_blocks(cfg)
         self._configure_constants(cfg.get("constants", {}))
         self.ops = Ops(self.mem.s, self.mem.sw.w)
@@ -116,11 +119,51 @@ class PLC:
                 raise ConfigError(f"modules: slot {k!r} is not a number") from None
             if not 1 <= slot <= self.profile.expansion_slots:
                 raise ConfigError(f"modules: slot {slot} outside 1..{self.profile.expansion_slots}")
-            if str(name).upper() not in MODULES:
+            name = str(name).upper()
+            if name in ANALOG_MODULES:
+                self._analog_modules[slot] = ANALOG_MODULES[name]
+                out[slot] = (0, 0)
+                continue
+            if name not in MODULES:
                 raise ConfigError(f"modules: unknown module {name!r}; known: "
-                                  f"{', '.join(sorted(MODULES))}")
-            out[slot] = MODULES[str(name).upper()]
+                                  f"{', '.join(sorted(MODULES | ANALOG_MODULES))}")
+            out[slot] = MODULES[name]
         return out
+
+    def _configure_analog(self, section: Any) -> AnalogIO:
+        """The analog channels: the base's inputs, those of the analog modules in
+        [modules], with the signal type and range [analog] gives them."""
+        from .analog_config import parse_analog
+
+        chans: dict[Ref, AnalogChannel] = {}
+        allowed: dict[Ref, tuple[str, ...]] = {}
+        for c, (sig, full) in enumerate(self.profile.analog_base):
+            ref = Ref("IW", c, 0, c)
+            chans[ref] = AnalogChannel(ref, sig, "normal", 0, full)
+            allowed[ref] = (sig,)
+        for slot, mod in self._analog_modules.items():
+            for kind, n, types in (("IW", mod.inputs, mod.input_types),
+                                   ("QW", mod.outputs, mod.output_types)):
+                for c in range(n):
+                    ref = parse_address(f"%{kind}{slot}.{c}", self.profile)
+                    chans[ref] = AnalogChannel(ref, types[0], "normal", 0, mod.full_scale)
+                    allowed[ref] = types
+        for text, o in parse_analog(section).items():
+            try:
+                ref = parse_address(text, self.profile)
+            except AddressError as e:
+                raise ConfigError(f"analog: {e}") from None
+            ch = chans.get(ref)
+            if ch is None:
+                raise ConfigError(f"analog.{text}: no such analog channel: configure an "
+                                  f"analog module in its slot ([modules])")
+            if o.type not in allowed[ref]:
+                raise ConfigError(f"analog.{text}: type {o.type!r} not available on this "
+                                  f"channel; one of {', '.join(allowed[ref])}")
+            full = ch.hi
+            ch.signal, ch.range = o.type, o.range
+            ch.lo, ch.hi = (o.min, o.max) if o.range == "custom" else (0, full)
+        return AnalogIO(self.mem, chans)
 
     def _cfg_ref(self, text: str, kind: str, section: str) -> Ref:
         try:
@@ -210,6 +253,14 @@ class PLC:
             self.mem.write(ref, v)
 
     def _io_check(self, ref: Ref) -> str | None:
+        if ref.kind in ("IW", "QW"):
+            if self.mem.analog is not None and ref in self.mem.analog.channels:
+                return None
+            if ref.module == 0 or self._modules is not None:
+                return (f"{ref}: no such analog channel (the base has %IW0.0.."
+                        f"%IW0.{len(self.profile.analog_base) - 1}; expansion channels need "
+                        f"an analog module in [modules])")
+            return None
         if ref.module and self._modules is not None:
             mod = self._modules.get(ref.module)
             n = None if mod is None else (mod[0] if ref.kind == "I" else mod[1])
@@ -226,7 +277,7 @@ class PLC:
         env: dict[str, Any] = {
             "_I": m.i, "_Q": m.q, "_M": m.m, "_S": m.s, "_X": m.x,
             "_MW": m.mw.w, "_UMW": m.mw.uw, "_KW": m.kw.w, "_UKW": m.kw.uw,
-            "_SW": m.sw.w, "_USW": m.sw.uw,
+            "_SW": m.sw.w, "_USW": m.sw.uw, "_IW": m.iw.w, "_QW": m.qw.w,
             "_MDE": m.mw.d[0], "_MDO": m.mw.d[1], "_MFE": m.mw.f[0], "_MFO": m.mw.f[1],
             "_KDE": m.kw.d[0], "_KDO": m.kw.d[1], "_KFE": m.kw.f[0], "_KFO": m.kw.f[1],
             "_MWF": m.mw, "_KWF": m.kw, "_SWF": m.sw, "_mem": m,
