@@ -22,6 +22,7 @@ from .runtime.clock import Clock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
 from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
+from .runtime.pid import Pid
 from .semantics import Ops
 
 
@@ -48,6 +49,7 @@ class PLC:
         self.mem.analog = self._configure_analog(cfg.get("analog", {}))
         self._configure_blocks(cfg)
         self._configure_constants(cfg.get("constants", {}))
+        self._configure_pid(cfg.get("pid", {}))
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
@@ -133,7 +135,7 @@ class PLC:
     def _configure_analog(self, section: Any) -> AnalogIO:
         """The analog channels: the base's inputs, those of the analog modules in
         [modules], with the signal type and range [analog] gives them."""
-        from .analog_config import parse_analog
+        from .config_models import parse_analog
 
         chans: dict[Ref, AnalogChannel] = {}
         allowed: dict[Ref, tuple[str, ...]] = {}
@@ -214,6 +216,17 @@ class PLC:
                                                   self.profile.count("FIFO_DEPTH"))
             except (ValueError, TypeError) as e:
                 raise ConfigError(f"registers.{text}: {e}") from None
+
+    def _configure_pid(self, section: Any) -> None:
+        """The PID functions of [pid], addresses resolved and checked once."""
+        from .config_models import parse_pid, pid_params
+
+        self.mem.blocks["PID"] = pids = {}
+        for n, o in parse_pid(section).items():
+            if not 0 <= n < self.profile.count("PID"):
+                raise ConfigError(f"pid.{n}: PID 0 .. PID {self.profile.count('PID') - 1}")
+            params = pid_params(f"pid.{n}", o, self.mem, self.scan_period)
+            pids[n] = Pid(self.mem, self.time_source, params)
 
     def _block_factory(self, ref: Ref) -> str | None:
         """Create a block the program uses but the configuration does not name, where

@@ -49,6 +49,7 @@ TWDLCAE40DRF = Profile(
         "DRUM_STEPS": 8,
         "STACK": 8,  # MPS depth [m221]
         "PAREN": 8,  # parenthesis nesting [manual]
+        "PID": 14,  # PID functions PID 0 .. PID 13 [manual, from memory]
     },
     # two analog potentiometers and one 0-10 V input, 10 bits [manual, from memory: the
     # hardware guide's figures were not found in the search corpora; check the counts]

@@ -404,6 +404,18 @@ class ValueCompiler:
 
     # ---- operation blocks -----------------------------------------------------------------
     def statement(self, st: A.Statement) -> None:
+        if isinstance(st, A.PidCall):
+            name = f"_PID{st.number}"
+            if self.env.get(name) is None:
+                n = self.counts["PID"]
+                self.err(f"PID {st.number} is used but not configured" if st.number < n
+                         else f"PID {st.number} beyond PID 0 .. PID {n - 1}", st.pos,
+                         f"PID {st.number}", f"a [pid.{st.number}] table in the configuration"
+                         if st.number < n else f"PID 0 .. PID {n - 1}")
+                return
+            self.use(name)
+            self.emit(f"{name}.run()")
+            return
         if isinstance(st, A.IncDec):
             ref = st.target
             if not self.check_writable(ref, st.pos):

@@ -193,7 +193,8 @@ class Session:
             walk(r.instructions)
         for kind, blocks in self.plc.mem.blocks.items():
             for i in blocks:
-                found.add(f"%{kind}{i}")
+                if kind != "PID":  # PID n is no address
+                    found.add(f"%{kind}{i}")
         return sorted(found)
 
     def interrupt(self) -> None:
