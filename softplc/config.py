@@ -25,7 +25,7 @@ from .errors import ConfigError
 
 KNOWN_KEYS = {"scan_period", "watchdog", "profile", "timers", "counters", "drums", "registers",
               "constants", "modules", "devices", "modbus", "daemon", "name", "description",
-              "analog", "pid"}
+              "analog", "pid", "rtc", "schedule"}
 
 _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+)\s*(us|ms|s|min)?\s*$", re.I)
 _UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0, None: 1.0}

@@ -4,10 +4,13 @@ validation error into a `ConfigError` naming the key path:
 
 - `[analog]` (`parse_analog`): one entry per analog channel, as TwidoSuite's module
   configuration screen sets it (signal type and range of each channel);
-- `[pid.n]` (`parse_pid`): the PID functions, as TwidoSuite's PID screen sets them.
+- `[pid.n]` (`parse_pid`): the PID functions, as TwidoSuite's PID screen sets them;
+- `[rtc]` (`parse_rtc`): the calendar start of the clock; `[schedule.n]`
+  (`parse_schedules`): the schedule blocks.
 
 For the schema in `softplc/config.py`: `analog: dict[str, AnalogChannelConfig]` and
-`pid: dict[str, PidConfig]` (keys "0".."13").
+`pid: dict[str, PidConfig]` (keys "0".."13"), `rtc: RtcConfig`,
+`schedule: dict[str, ScheduleConfig]` (keys "0".."15").
 
     modules = { 1 = "TWDAMM3HT", 2 = "TWDALM3LT" }
     analog."%IW1.0" = { type = "4-20mA", range = "custom", min = 0, max = 1000 }
@@ -24,14 +27,16 @@ a validation error into a `ConfigError` naming the key path.
 
 from __future__ import annotations
 
+from datetime import date, datetime
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .address import Ref, parse_address
 from .errors import AddressError, ConfigError
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.pid import PidParams
+from .runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
 
 Signal = Literal["0-10V", "4-20mA", "pot", "PT100", "J", "K", "T"]
 
@@ -114,7 +119,7 @@ def _validated(section: str, key: str, model: type[BaseModel], table: Any) -> An
     except ValidationError as e:
         err = e.errors()[0]
         where = ".".join(str(p) for p in err["loc"] if not str(p).startswith(("str", "int")))
-        path = f"{section}.{key}" + (f".{where}" if where else "")
+        path = ".".join(p for p in (section, key, where) if p)
         raise ConfigError(f"{path}: {err['msg']} (got {err.get('input')!r})") from None
 
 
@@ -179,3 +184,78 @@ def pid_params(where: str, o: PidConfig, mem: Any, scan_period_s: float) -> PidP
         diagnostic=_word(where, "diagnostic", o.diagnostic, mem, True),
         at_output=o.at_output, at_timeout_us=round(o.at_timeout * 1e6),
         measure_span=o.measure_span, period_us=round(scan_period_s * 1e6))
+
+
+class RtcConfig(BaseModel):
+    """`[rtc] start`: the calendar date and time at PLC time 0 (a TOML date-time or an
+    ISO string); without it, the virtual clock starts on 2000-01-01 00:00:00 and the real
+    clock on the host's local time."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    start: datetime | date | None = None
+
+
+Day = Literal["mon", "tue", "wed", "thu", "fri", "sat", "sun"]
+
+
+class ScheduleConfig(BaseModel):
+    """A schedule block: `output` is 1 from `start` to `stop` ("HH:MM") on `days`, from
+    the date `first` to `last` ("MM-DD")."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    output: Word
+    start: str
+    stop: str
+    days: list[Day] = list(DAYS)
+    first: str = "01-01"
+    last: str = "12-31"
+
+    @field_validator("start", "stop")
+    @classmethod
+    def _time(cls, v: str) -> str:
+        try:
+            parse_time_of_day(v)
+        except ValueError:
+            raise ValueError(f"a time of day \"HH:MM\", not {v!r}") from None
+        return v
+
+    @field_validator("first", "last")
+    @classmethod
+    def _date(cls, v: str) -> str:
+        try:
+            parse_month_day(v)
+        except ValueError:
+            raise ValueError(f"a date \"MM-DD\", not {v!r}") from None
+        return v
+
+
+def parse_rtc(section: Any) -> datetime | None:
+    o = _validated("rtc", "", RtcConfig, section if section is not None else {})
+    if isinstance(o.start, datetime):
+        return o.start.replace(tzinfo=None)
+    if isinstance(o.start, date):
+        return datetime(o.start.year, o.start.month, o.start.day)
+    return None
+
+
+def parse_schedules(section: Any, mem: Any) -> list[Schedule]:
+    """Validate `[schedule]` and resolve the output bits."""
+    if not isinstance(section, dict):
+        raise ConfigError(f"schedule must be a table of schedule blocks, not {section!r}")
+    out = []
+    for key, table in section.items():
+        try:
+            n = int(key)
+        except ValueError:
+            n = -1
+        if not 0 <= n < SCHEDULE_BLOCKS:
+            raise ConfigError(f"schedule: {key!r}: schedule blocks are 0 .. "
+                              f"{SCHEDULE_BLOCKS - 1}")
+        o = _validated("schedule", str(key), ScheduleConfig, table)
+        ref = _bit(f"schedule.{key}", "output", o.output, mem, ("Q", "M"))
+        out.append(Schedule(n, ref, parse_time_of_day(o.start), parse_time_of_day(o.stop),
+                            frozenset(DAYS.index(d) for d in o.days),
+                            parse_month_day(o.first), parse_month_day(o.last)))
+    return out

@@ -6,23 +6,27 @@
 
 from __future__ import annotations
 
+import re
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 from .address import BLOCK_FIELDS, Ref, parse_address
 from .compiler.codegen import CompiledProgram, compile_program
 from .config import check_keys, duration, load_config, time_base
+from .config_models import parse_analog, parse_pid, parse_rtc, parse_schedules, pid_params
 from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLCError
 from .il import ast as A
 from .il.parser import parse, parse_file
 from .profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES, AnalogModule, Profile
 from .runtime.analog import AnalogChannel, AnalogIO
 from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
-from .runtime.clock import Clock, make_clock
+from .runtime.clock import Clock, VirtualClock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
 from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
 from .runtime.pid import Pid
+from .runtime.rtc import DEFAULT_START, RTC
 from .semantics import Ops
 
 
@@ -55,6 +59,9 @@ class PLC:
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
+        self._rtc_start = parse_rtc(cfg.get("rtc"))
+        self._schedules = parse_schedules(cfg.get("schedule", {}), self.mem)
+        self._attach_rtc(program, "rtc" in cfg)
         self.program_version = 0  # bumped when the running code is rebuilt
         self.devices: dict[str, Any] = {}
         if devices and cfg.get("devices"):
@@ -135,8 +142,6 @@ class PLC:
     def _configure_analog(self, section: Any) -> AnalogIO:
         """The analog channels: the base's inputs, those of the analog modules in
         [modules], with the signal type and range [analog] gives them."""
-        from .config_models import parse_analog
-
         chans: dict[Ref, AnalogChannel] = {}
         allowed: dict[Ref, tuple[str, ...]] = {}
         for c, (sig, full) in enumerate(self.profile.analog_base):
@@ -219,8 +224,6 @@ class PLC:
 
     def _configure_pid(self, section: Any) -> None:
         """The PID functions of [pid], addresses resolved and checked once."""
-        from .config_models import parse_pid, pid_params
-
         self.mem.blocks["PID"] = pids = {}
         for n, o in parse_pid(section).items():
             if not 0 <= n < self.profile.count("PID"):
@@ -326,6 +329,18 @@ class PLC:
             if isinstance(i, A.Grafcet) and i.op == "=*=" and i.step is not None)
         return compiled
 
+    def _attach_rtc(self, program: A.Program, configured: bool = False) -> None:
+        """The real-time clock costs a little every scan: give the engine one only when the
+        program names its words or bits, or the configuration has [rtc] / [schedule]."""
+        if self.engine.rtc is not None or not (
+                configured or self._schedules or _RTC_OBJECTS.search(program.source)):
+            return
+        start = self._rtc_start
+        if start is None:
+            start = DEFAULT_START if isinstance(self._clock, VirtualClock) else \
+                datetime.now().replace(microsecond=0) - timedelta(seconds=self.time)
+        self.engine.rtc = RTC(self.mem, start, self._schedules)
+
     def compile_debug(self) -> CompiledProgram:
         """The debug build: `main()` is a generator yielding (rung, instruction) before each
         instruction; `log[rung][k]` holds the accumulator after instruction k."""
@@ -337,6 +352,7 @@ class PLC:
         compiled = self._compile(program, edge=self.program.namespace.get("_EDGE"))
         self.ast, self.program = program, compiled
         self.engine.load(compiled)
+        self._attach_rtc(program)
         self.program_version += 1
 
     # -- running --------------------------------------------------------------------------------
@@ -536,5 +552,8 @@ def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
                 out.add(d)
     return out
 
+
+# Objects of the real-time clock: %SW49-%SW53, %S50, %S51 (not %SW490, %S500...).
+_RTC_OBJECTS = re.compile(r"%SW(49|5[0-3])(?!\d)|%S5[01](?!\d)", re.I)
 
 __all__ = ["PLC", "SoftPLCError"]

@@ -60,6 +60,7 @@ class Engine:
         self.before_scan: list[Callable[[], None]] = []
         self.after_scan: list[Callable[[], None]] = []
         self.devices: dict[str, Any] = {}
+        self.rtc: Any = None  # runtime.rtc.RTC when the program or the config uses it
         self.forced: dict[Ref, Any] = {}
         self._forced_bits: list[tuple[list[int], int, int]] = []
         self._forced_inputs: list[tuple[list[int], int, int]] = []
@@ -96,6 +97,8 @@ class Engine:
             for step in self.program.namespace.get("_INITIAL_STEPS", ()):
                 m.x[step] = 1
         self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}
+        if self.rtc is not None:
+            self.rtc.cold_start()
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
 
@@ -187,6 +190,8 @@ class Engine:
         now = clock.start_scan(period)
         if self.time_source is not None:
             self.time_source.now_us = now
+        if self.rtc is not None:
+            self.rtc.tick(now)
         s = mem.s
         s[S_RUNNING] = 1
         for bit, p, half in self._clocks:  # %S4..%S7: 50 % clocks
@@ -208,6 +213,8 @@ class Engine:
         ts = self.time_source
         if ts is not None and ts.running:  # timers whose block this scan did not execute
             ts.update_running()
+        if self.rtc is not None:
+            self.rtc.end_of_scan(self.clock.now_us)
         if self._first:
             s = mem.s
             for bit in self._first:
