@@ -131,6 +131,17 @@ def _block_bit(kind: str, a: int, k: int, text: str, profile: Profile) -> Ref:
     return Ref(kind, a, field="J", bit=k)
 
 
+def _module_channel(kind: str, a: int, b: str | None, text: str,
+                    profile: Profile) -> tuple[int, int]:
+    """%Im.c, %QWm.c...: (module, channel), the module within the profile's slots."""
+    if b is None:
+        raise AddressError(f"{text!r}: I/O addresses are %{kind}module.channel")
+    if a > profile.expansion_slots:
+        raise AddressError(f"{text!r}: module {a} beyond the "
+                           f"{profile.expansion_slots} expansion slots of {profile.name}")
+    return a, int(b)
+
+
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     """Parse and range-check an address. Raises AddressError with a readable message."""
     t = text.strip().replace(" ", "")
@@ -144,12 +155,7 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     length = int(m["length"]) if m["length"] is not None else None
     offset = parse_address(m["offset"], profile) if m["offset"] else None
     if kind in ANALOG_KINDS:
-        if m["b"] is None:
-            raise AddressError(f"{text!r}: analog I/O addresses are %{kind}module.channel")
-        module, channel = a, int(m["b"])
-        if module > profile.expansion_slots:
-            raise AddressError(f"{text!r}: module {module} beyond the "
-                               f"{profile.expansion_slots} expansion slots of {profile.name}")
+        module, channel = _module_channel(kind, a, m["b"], text, profile)
         if channel >= ANALOG_STRIDE:
             raise AddressError(f"{text!r}: analog channel {channel} beyond "
                                f"{ANALOG_STRIDE - 1}")
@@ -160,12 +166,7 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         raise AddressError(f"{text!r} is a label, not an object")
 
     if kind in IO_KINDS:
-        if m["b"] is None:
-            raise AddressError(f"{text!r}: I/O addresses are %{kind}module.channel")
-        module, channel = a, int(m["b"])
-        if module > profile.expansion_slots:
-            raise AddressError(f"{text!r}: module {module} beyond the "
-                               f"{profile.expansion_slots} expansion slots of {profile.name}")
+        module, channel = _module_channel(kind, a, m["b"], text, profile)
         limit = (profile.inputs_base if kind == "I" else profile.outputs_base) if module == 0 \
             else profile.channels_per_module
         if channel >= limit:

@@ -212,22 +212,16 @@ class ScheduleConfig(BaseModel):
     first: str = "01-01"
     last: str = "12-31"
 
-    @field_validator("start", "stop")
+    @field_validator("start", "stop", "first", "last")
     @classmethod
-    def _time(cls, v: str) -> str:
+    def _when(cls, v: str, info: Any) -> str:
+        parse, form = ((parse_time_of_day, "a time of day \"HH:MM\"")
+                       if info.field_name in ("start", "stop")
+                       else (parse_month_day, "a date \"MM-DD\""))
         try:
-            parse_time_of_day(v)
+            parse(v)
         except ValueError:
-            raise ValueError(f"a time of day \"HH:MM\", not {v!r}") from None
-        return v
-
-    @field_validator("first", "last")
-    @classmethod
-    def _date(cls, v: str) -> str:
-        try:
-            parse_month_day(v)
-        except ValueError:
-            raise ValueError(f"a date \"MM-DD\", not {v!r}") from None
+            raise ValueError(f"{form}, not {v!r}") from None
         return v
 
 

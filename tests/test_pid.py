@@ -178,3 +178,14 @@ def test_pid_shows_in_the_ladder_view():
     plc = oven_plc({})
     text = render_text(plc.ast.rungs[0])
     assert "[ PID 0 ]" in text
+
+
+def test_repl_lists_pids_and_analog_channels():
+    from softplc.debug.session import Session
+
+    s = Session(PLC.from_file(*EXAMPLE), EXAMPLE[0])
+    s.execute("run 30s")
+    out = s.execute("pid")
+    assert "PID 0" in out and "AT+PID" in out and "AT=step" in out and "OUT=5000" in out
+    out = s.execute("analog")
+    assert "%IW2.0   PT100  celsius" in out and "%QW2.0   0-10V  custom 0..10000    5000" in out
