@@ -30,12 +30,13 @@ class TimeSource:
         """End of the scan: a timer keeps timing when its block is not executed (jumped
         over, in an uncalled subroutine or an inactive step): %TMi.V counts on and %TMi.Q
         changes at the preset [manual: TWD USE 10AE, timer "special cases", "effect of a
-        program jump"]. Re-running a timer with its last IN at the same time is a no-op
-        for those the program did execute."""
+        program jump"]; those the program executed in this scan are up to date."""
         done = []
+        now = self.now_us
         for t in self.running:
-            t.run(t._in)
-            if not t.timing:
+            if t._seen != now:
+                t.run(t._in)
+            if not (t._on if t._is_ton is False else t._in and t.V < t.P):  # t.timing
                 done.append(t)
         for t in done:
             self.running.discard(t)
@@ -72,59 +73,65 @@ class Timer(Block):
         if not 0 <= int(preset) <= MAX_VALUE:
             raise ValueError(f"preset {preset}: 0..{MAX_VALUE}")
         self.clock, self.type, self.base = clock, type, base
+        self._is_ton = type == "TON"
         self.base_us = TIME_BASES_US[base]
         self.P, self.V, self.Q = int(preset), 0, 0
         self._in, self._t0, self._on = 0, 0, 0  # last IN, start time, timing in progress
+        self._seen = -1  # the scan time of the last execution
         self.run = {"TON": self._ton, "TOF": self._tof, "TP": self._tp}[type]
 
     @property
     def timing(self) -> bool:
         """Counting towards the preset (V still changes with time)."""
-        return bool(self._in and self.V < self.P) if self.type == "TON" else bool(self._on)
+        return bool(self._in and self.V < self.P) if self._is_ton else bool(self._on)
 
     def set_state(self, d: dict[str, Any]) -> None:
         super().set_state(d)
         if self.timing:  # a retained timer that was timing goes on (warm restart)
             self.clock.running.add(self)
 
-    def _elapsed(self) -> int:
-        v = (self.clock.now_us - self._t0) // self.base_us
-        return v if v < self.P else self.P
-
     def _ton(self, IN: Any) -> None:
+        now = self._seen = self.clock.now_us
         if IN:
             if not self._in:
-                self._t0 = self.clock.now_us
+                self._t0 = now
                 self.clock.running.add(self)
-            v = self._elapsed()
-            self.V, self.Q = v, 1 if v >= self.P else 0
+            v = (now - self._t0) // self.base_us
+            if v >= self.P:
+                self.V, self.Q = self.P, 1
+            else:
+                self.V, self.Q = v, 0
         else:
             self.V = self.Q = 0
         self._in = 1 if IN else 0
 
     def _tof(self, IN: Any) -> None:
+        now = self._seen = self.clock.now_us
         if IN:
             self.V, self.Q, self._on = 0, 1, 0
         else:
             if self._in:  # falling edge: start counting
-                self._t0, self._on = self.clock.now_us, 1
+                self._t0, self._on = now, 1
                 self.clock.running.add(self)
             if self._on:
-                v = self._elapsed()
-                self.V = v
+                v = (now - self._t0) // self.base_us
                 if v >= self.P:
-                    self.Q, self._on = 0, 0
+                    self.V, self.Q, self._on = self.P, 0, 0
+                else:
+                    self.V = v
         self._in = 1 if IN else 0
 
     def _tp(self, IN: Any) -> None:
+        now = self._seen = self.clock.now_us
         if IN and not self._in and not self._on:
-            self._t0, self._on, self.Q = self.clock.now_us, 1, 1
+            self._t0, self._on, self.Q = now, 1, 1
             self.clock.running.add(self)
         if self._on:
-            v = self._elapsed()
-            self.V = v
+            v = (now - self._t0) // self.base_us
             if v >= self.P:
-                self.Q, self._on = 0, 0
+                self.V, self.Q, self._on = self.P, 0, 0
+            else:
+                self.V = v
         if not self._on and not IN:
             self.V = 0
         self._in = 1 if IN else 0

@@ -19,6 +19,7 @@ transitions of the same scan in either case (our reading; unverified on hardware
 from __future__ import annotations
 
 S_GRAFCET_INIT, S_GRAFCET_RESET, S_GRAFCET_FREEZE = 21, 22, 23  # [manual]
+GRAFCET_BITS = (S_GRAFCET_INIT, S_GRAFCET_RESET, S_GRAFCET_FREEZE)
 
 
 class Grafcet:
