@@ -160,3 +160,30 @@ def test_thermostat_sensor_fault_stops_heating():
     plc.mem.analog.set_input("%IW2.0", 900.0)        # a PT100 with a broken wire
     plc.scan()
     assert plc["%Q0.1"] and not plc["%Q0.0"] and plc["%QW2.0"] == 0
+
+
+def test_analog_source_follows_its_profile():
+    cfg = {**MODS, "analog": {"%IW1.0": {"type": "4-20mA", "range": "custom", "min": 0,
+                                         "max": 1000}},
+           "scan_period": "1s",
+           "devices": {"level": {"type": "analog_source", "input": "%IW1.0",
+                                 "profile": [[0, 4.0], [10, 20.0], [20, 20.0], [30, 2.0]]}}}
+    plc = PLC.from_source("LD 1\n[ %MW0 := %IW1.0 ]\n", cfg)
+    plc.run(5)                            # the device runs after each scan: t = 1..5 s
+    assert plc["%IW1.0"] == 500 and plc.devices["level"].value == pytest.approx(12.0)
+    plc.run(10)
+    assert plc["%IW1.0"] == 1000
+    plc.run(15)                           # t = 30: 2 mA, under range (a broken wire)
+    assert plc["%IW1.0"] == 0 and plc["%SW81"] == 1
+
+
+@pytest.mark.parametrize("dev, message", [
+    ({"input": "%IW1.1", "profile": [[0, 1], [0, 2]]}, "profile times must increase"),
+    ({"input": "%IW1.1", "profile": [[0]]}, "profile points are [time_s, value]"),
+    ({"input": "%QW1.0"}, "input: %QW1.0 is not a configured analog input"),
+])
+def test_analog_source_config_errors(dev, message):
+    cfg = {**MODS, "devices": {"s": {"type": "analog_source", **dev}}}
+    with pytest.raises(ConfigError) as e:
+        PLC.from_source("LD 1\nST %M0\n", cfg)
+    assert message in str(e.value)
