@@ -229,6 +229,10 @@ R     %Q0.0
     plc["%M5"] = 0
     plc.scan(2)
     assert not plc["%Q0.0"], "R held at step 0 does not rewrite either"
+    plc.cold_start()
+    plc["%M9"] = 0
+    plc.scan()
+    assert plc["%Q0.0"], "after a cold start the first execution writes step 0 again"
 
 
 # ---- 4. %S12 = 1 in RUN, 0 in STOP ------------------------------------------------------

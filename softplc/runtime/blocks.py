@@ -212,7 +212,7 @@ class Drum(Block):
     bits (our choice: the M221 runs start with the drum's outputs in step 0's state)."""
 
     PINS = ("R", "U")
-    FIELDS = ("S", "F", "_u", "_written")
+    FIELDS = ("S", "F", "_u")
 
     def __init__(self, steps: list[int], outputs: list[Any]):
         if not 1 <= len(steps) <= 8:
@@ -221,6 +221,12 @@ class Drum(Block):
         self.outputs = outputs  # resolved (buffer, index) pairs
         self.S, self.F, self._u = 0, 0, 0
         self._written = -1  # the step whose bits the outputs last received
+
+    def set_state(self, d: dict[str, Any]) -> None:
+        """Cold start or restored state: the next execution writes the step's bits (our
+        choice; the outputs were reset or restored meanwhile)."""
+        super().set_state(d)
+        self._written = -1
 
     def _apply(self) -> None:
         if self.S != self._written:
