@@ -324,6 +324,10 @@ class PLC:
         for kind, blocks in self.mem.blocks.items():
             for i, b in blocks.items():
                 compiled.namespace.setdefault(f"_{kind}{i}", b)
+        ts = self.time_source
+        ts.track = _conditional_execution(program)
+        if not ts.track:
+            ts.running.clear()
         compiled.namespace["_INITIAL_STEPS"] = self.grafcet.initial = tuple(
             i.step for r in program.rungs for i in r.instructions
             if isinstance(i, A.Grafcet) and i.op == "=*=" and i.step is not None)
@@ -551,6 +555,14 @@ def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
             if any(d.line < b <= end + 1 for b in bad):
                 out.add(d)
     return out
+
+
+def _conditional_execution(program: A.Program) -> bool:
+    """Can a block be skipped in a scan (a jump, a subroutine, a Grafcet step, ENDC/ENDCN)?
+    Only then do timers need updating when not executed."""
+    return any(isinstance(i, (A.Jump, A.SRCall, A.Grafcet))
+               or isinstance(i, A.End) and i.op != "END"
+               for r in program.rungs for i in r.instructions)
 
 
 # Objects of the real-time clock: %SW49-%SW53, %S50, %S51 (not %SW490, %S500...).

@@ -187,13 +187,21 @@ RET
 
 def test_a_timer_reset_by_its_block_leaves_the_running_set(plc_from_source):
     cfg = {"timers": {"%TM0": {"type": "TON", "base": "10ms", "preset": 100}}}
-    plc = plc_from_source("LD %M1\nIN %TM0\n", cfg)
+    plc = plc_from_source("LD %M9\nJMPC %L1\nLD %M1\nIN %TM0\n%L1:\nLD 1\n", cfg)
     plc["%M1"] = 1
     plc.scan(2)
     assert plc.time_source.running
     plc["%M1"] = 0
     plc.scan(2)
     assert not plc.time_source.running and plc["%TM0.V"] == 0
+
+
+def test_nothing_tracked_when_every_block_runs_every_scan(plc_from_source):
+    cfg = {"timers": {"%TM0": {"type": "TON", "base": "10ms", "preset": 100}}}
+    plc = plc_from_source("LD %M1\nIN %TM0\n", cfg)
+    plc["%M1"] = 1
+    plc.scan(2)
+    assert not plc.time_source.running and plc["%TM0.V"] > 0
 
 
 # ---- 3. drums write their outputs only when the step changes ------------------------------

@@ -25,6 +25,9 @@ class TimeSource:
     def __init__(self) -> None:
         self.now_us = 0
         self.running: set[Timer] = set()
+        # False when every timer block runs in every scan (no jump, subroutine, Grafcet
+        # step or conditional end in the program): then nothing needs tracking
+        self.track = True
 
     def update_running(self) -> None:
         """End of the scan: a timer keeps timing when its block is not executed (jumped
@@ -87,7 +90,7 @@ class Timer(Block):
 
     def set_state(self, d: dict[str, Any]) -> None:
         super().set_state(d)
-        if self.timing:  # a retained timer that was timing goes on (warm restart)
+        if self.timing and self.clock.track:  # a retained timer that was timing goes on
             self.clock.running.add(self)
 
     def _ton(self, IN: Any) -> None:
@@ -95,7 +98,8 @@ class Timer(Block):
         if IN:
             if not self._in:
                 self._t0 = now
-                self.clock.running.add(self)
+                if self.clock.track:
+                    self.clock.running.add(self)
             v = (now - self._t0) // self.base_us
             if v >= self.P:
                 self.V, self.Q = self.P, 1
@@ -112,7 +116,8 @@ class Timer(Block):
         else:
             if self._in:  # falling edge: start counting
                 self._t0, self._on = now, 1
-                self.clock.running.add(self)
+                if self.clock.track:
+                    self.clock.running.add(self)
             if self._on:
                 v = (now - self._t0) // self.base_us
                 if v >= self.P:
@@ -125,7 +130,8 @@ class Timer(Block):
         now = self._seen = self.clock.now_us
         if IN and not self._in and not self._on:
             self._t0, self._on, self.Q = now, 1, 1
-            self.clock.running.add(self)
+            if self.clock.track:
+                self.clock.running.add(self)
         if self._on:
             v = (now - self._t0) // self.base_us
             if v >= self.P:

@@ -26,7 +26,7 @@ from .memory import MemoryImage
 
 RUN, STOP, HALT = "RUN", "STOP", "HALT"
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
-S_RUNNING = 12  # 1 in RUN, 0 in STOP/HALT [manual]
+S_RUNNING = 12  # 1 in RUN, 0 in STOP/HALT [manual]; set on each change of state
 S_GRAFCET_INIT = 21  # set by the system on a cold start [manual]; see runtime/grafcet.py
 S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}  # period in us [manual]
 S_WATCHDOG, S_OVERRUN = 11, 19
@@ -68,6 +68,7 @@ class Engine:
         self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}  # first-scan bits to raise
         self._clocks = tuple((bit, p, p // 2) for bit, p in S_CLOCKS.items())
         self._deadline = 0.0
+        mem.s[S_RUNNING] = 1
         mem.sw.w[SW_PERIOD] = min(32767, round(period_s * 1000))
         mem.sw.w[SW_WATCHDOG] = min(32767, round(watchdog_s * 1000))
 
@@ -101,12 +102,14 @@ class Engine:
             self.rtc.cold_start()
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
+        self.mem.s[S_RUNNING] = 1
 
     def warm_start(self) -> None:
         """Keep data; %S1 and %S13 on the next scan."""
         self._first = {S_WARM: 1, S_FIRST: 1}
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
+        self.mem.s[S_RUNNING] = 1
 
     def stop(self) -> None:
         self.state = STOP
@@ -117,6 +120,7 @@ class Engine:
         if self.state == STOP:
             self.state = RUN
             self._first = {S_FIRST: 1}
+            self.mem.s[S_RUNNING] = 1
 
     def halt(self, reason: str) -> None:
         self.state, self.fault = HALT, reason
@@ -193,7 +197,6 @@ class Engine:
         if self.rtc is not None:
             self.rtc.tick(now)
         s = mem.s
-        s[S_RUNNING] = 1
         for bit, p, half in self._clocks:  # %S4..%S7: 50 % clocks
             s[bit] = 1 if now % p < half else 0
         if self._first:

@@ -47,6 +47,8 @@ class Grafcet:
 
     def post(self) -> None:
         """End of the sequential part: apply the transitions (none while frozen)."""
+        if not (self.ga or self.gd or self.frozen):
+            return  # most scans: no transition fired
         if self.frozen:
             self.frozen = 0
         else:
