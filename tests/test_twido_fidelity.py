@@ -496,3 +496,32 @@ def test_every_instruction_of_the_reference_compiles():
     plc = PLC.from_source(EVERY_INSTRUCTION, cfg)
     plc.scan(3)
     assert plc.state == "RUN" and plc["%X0"]
+
+
+# ---- `softplc check` and the ladder view --------------------------------------------------
+
+def test_check_accepts_the_new_syntax_and_reports_misuse(tmp_path, capsys):
+    from softplc.cli import main as softplc
+
+    good = tmp_path / "good.il"
+    good.write_text("LD %SBR0.3\nANDN %SC1.7\nST %SC1.8\nLD 1\n[ %MW1 := BTI( %MW0 ) ]\n"
+                    "[ %MW10 := LW( %MD2 ) ]\n[ %MD20 := CONCATW( %MW11, %MW10 ) ]\n")
+    assert softplc(["check", str(good)]) == 0
+    assert "OK - 2 rungs" in capsys.readouterr().out
+    bad = tmp_path / "bad.il"
+    bad.write_text("LD %SBR0.16\nST %SC9.1\nLD 1\n[ %MW1 := LW( %MF0 ) ]\n"
+                   "[ %MW1 := CONCATW( %MD0 ) ]\n")
+    assert softplc(["check", str(bad)]) == 1
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith(f"{bad}:1:4: '%SBR0.16': bit 16 out of range")
+    assert err[1].startswith(f"{bad}:2:4: '%SC9.1' is beyond the controller profile")
+    assert err[2].startswith(f"{bad}:4:11: LW takes a double word, got a float")
+    assert err[3].startswith(f"{bad}:5:11: CONCATW takes 2 argument(s), got 1")
+
+
+def test_ladder_view_shows_block_bits_in_twido_spelling():
+    from softplc.debug.ladder import render_text
+    from softplc.il.parser import parse
+
+    text = render_text(parse("LD %SBR0.J3\nANDN %SC1.7\nST %SC1.8\n").rungs[0])
+    assert "%SBR0.3" in text and "%SC1.7" in text and "%SC1.8" in text
