@@ -189,3 +189,20 @@ def test_repl_lists_pids_and_analog_channels():
     assert "PID 0" in out and "AT+PID" in out and "AT=step" in out and "OUT=5000" in out
     out = s.execute("analog")
     assert "%IW2.0   PT100  celsius" in out and "%QW2.0   0-10V  custom 0..10000    5000" in out
+
+
+def test_retained_state_carries_the_pid_over_a_warm_restart():
+    from softplc.runtime import retain
+
+    plc = PLC.from_file(*EXAMPLE)
+    plc.run_until(lambda p: p["%MW30"] & D_AT_DONE, timeout=1800)
+    plc.run(600)
+    data = retain.encode(retain.capture(plc.mem))
+    again = PLC.from_file(*EXAMPLE, devices=False)
+    retain.apply(again.mem, retain.decode(data))
+    again.warm_start()
+    again.mem.analog.set_input("%IW2.0", 149.0)
+    again.scan()
+    pid = again.mem.blocks["PID"][0]
+    assert pid._at == "done" and again["%MW20"] == plc["%MW20"]
+    assert abs(again["%QW2.0"] - plc["%QW2.0"]) < 500, "regulation goes on from the output"
