@@ -312,6 +312,7 @@ class Session:
             for ns in (self.plc.program.namespace, self.dbg.namespace):
                 if name in ns:
                     ns[name].clear()
+        self.plc.grafcet.frozen = 0
 
     # ---- running ---------------------------------------------------------------------------------
     def _apply_pending(self) -> None:
