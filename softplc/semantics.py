@@ -14,7 +14,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .address import INT16, INT32, REAL
-from .runtime.memory import F32_MAX, wrap16, wrap32
+from .runtime.memory import F32_MAX, bcd_decode, bcd_encode, wrap16, wrap32
 
 S_CARRY, S_ARITH, S_INDEX = 17, 18, 20  # system bit numbers
 # %SW17, the floating-point error word: which kind of fault set %S18; reset by the program
@@ -306,25 +306,19 @@ class Ops:
     # -- BCD and Gray codes [manual] -------------------------------------------------------
     def bcd_to_int(self, w: int) -> int:
         """A BCD word (#0000..#9999) to its value; a nibble above 9 is %S18, result 0."""
-        u, v = w & 0xFFFF, 0
-        for shift in (12, 8, 4, 0):
-            d = (u >> shift) & 0xF
-            if d > 9:
-                self.s[S_ARITH] = 1
-                return 0
-            v = v * 10 + d
+        v = bcd_decode(w)
+        if v is None:
+            self.s[S_ARITH] = 1
+            return 0
         return v
 
     def int_to_bcd(self, v: int) -> int:
         """0..9999 to a BCD word; out of range is %S18, result 0."""
-        if not 0 <= v <= 9999:
+        u = bcd_encode(v)
+        if u is None:
             self.s[S_ARITH] = 1
             return 0
-        u = 0
-        for shift in (0, 4, 8, 12):
-            u |= (v % 10) << shift
-            v //= 10
-        return wrap16(u)
+        return u
 
     bti = bcd_to_int  # TwidoSuite's name [manual]
     itb = int_to_bcd

@@ -27,6 +27,7 @@ from datetime import date, datetime, timedelta
 from typing import Any
 
 from ..address import Ref
+from .memory import bcd_decode, bcd_encode
 
 SW_DOW, SW_SEC, SW_HHMM, SW_MMDD, SW_CCYY = 49, 50, 51, 52, 53
 S_RTC_WRITE, S_RTC_UNSET = 50, 51
@@ -34,25 +35,6 @@ SW_SCHEDULE_ENABLE = 114
 SCHEDULE_BLOCKS = 16
 DAYS = ("mon", "tue", "wed", "thu", "fri", "sat", "sun")
 DEFAULT_START = datetime(2000, 1, 1)  # the virtual clock's calendar when none is given
-
-
-def bcd(v: int) -> int:
-    """0..9999 -> its BCD word (as a signed 16-bit value)."""
-    u = 0
-    for shift in (0, 4, 8, 12):
-        u |= (v % 10) << shift
-        v //= 10
-    return u - 0x10000 if u & 0x8000 else u
-
-
-def from_bcd(w: int) -> int | None:
-    u, v = w & 0xFFFF, 0
-    for shift in (12, 8, 4, 0):
-        d = (u >> shift) & 0xF
-        if d > 9:
-            return None
-        v = v * 10 + d
-    return v
 
 
 @dataclass
@@ -114,10 +96,10 @@ class RTC:
         s[S_RTC_UNSET] = 0
         if not s[S_RTC_WRITE]:
             sw[SW_DOW] = t.isoweekday()
-            sw[SW_SEC] = bcd(t.second)
-            sw[SW_HHMM] = bcd(t.hour * 100 + t.minute)
-            sw[SW_MMDD] = bcd(t.month * 100 + t.day)
-            sw[SW_CCYY] = bcd(t.year)
+            sw[SW_SEC] = bcd_encode(t.second)
+            sw[SW_HHMM] = bcd_encode(t.hour * 100 + t.minute)
+            sw[SW_MMDD] = bcd_encode(t.month * 100 + t.day)
+            sw[SW_CCYY] = bcd_encode(t.year)
         if self.schedules:
             enable = self.mem.sw.uw[SW_SCHEDULE_ENABLE]
             for sch in self.schedules:
@@ -133,7 +115,7 @@ class RTC:
         if not self.mem.s[S_RTC_WRITE]:
             return
         sw = self.mem.sw.w
-        parts = [from_bcd(sw[k]) for k in (SW_SEC, SW_HHMM, SW_MMDD, SW_CCYY)]
+        parts = [bcd_decode(sw[k]) for k in (SW_SEC, SW_HHMM, SW_MMDD, SW_CCYY)]
         if None in parts:
             return  # not BCD: ignored (the real controller's reaction is unknown)
         sec, hhmm, mmdd, year = parts
