@@ -38,7 +38,7 @@ from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.pid import PidParams
 from .runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
 
-Signal = Literal["0-10V", "4-20mA", "pot", "PT100", "J", "K", "T"]
+Signal = Literal["0-10V", "4-20mA", "+-10V", "pot", "PT100", "J", "K", "T"]
 
 
 class AnalogChannelConfig(BaseModel):

@@ -19,7 +19,7 @@ from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLC
 from .il import ast as A
 from .il.parser import parse, parse_file
 from .profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES, AnalogModule, Profile
-from .runtime.analog import AnalogChannel, AnalogIO
+from .runtime.analog import AnalogChannel, AnalogIO, normal_range
 from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
 from .runtime.clock import Clock, VirtualClock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
@@ -146,14 +146,16 @@ class PLC:
         allowed: dict[Ref, tuple[str, ...]] = {}
         for c, (sig, full) in enumerate(self.profile.analog_base):
             ref = Ref("IW", c, 0, c)
-            chans[ref] = AnalogChannel(ref, sig, "normal", 0, full)
+            chans[ref] = AnalogChannel(ref, sig, "normal", *normal_range(sig, full), full)
             allowed[ref] = (sig,)
         for slot, mod in self._analog_modules.items():
             for kind, n, types in (("IW", mod.inputs, mod.input_types),
                                    ("QW", mod.outputs, mod.output_types)):
                 for c in range(n):
                     ref = parse_address(f"%{kind}{slot}.{c}", self.profile)
-                    chans[ref] = AnalogChannel(ref, types[0], "normal", 0, mod.full_scale)
+                    chans[ref] = AnalogChannel(ref, types[0], "normal",
+                                               *normal_range(types[0], mod.full_scale),
+                                               mod.full_scale)
                     allowed[ref] = types
         for text, o in parse_analog(section).items():
             try:
@@ -167,9 +169,9 @@ class PLC:
             if o.type not in allowed[ref]:
                 raise ConfigError(f"analog.{text}: type {o.type!r} not available on this "
                                   f"channel; one of {', '.join(allowed[ref])}")
-            full = ch.hi
             ch.signal, ch.range = o.type, o.range
-            ch.lo, ch.hi = (o.min, o.max) if o.range == "custom" else (0, full)
+            ch.lo, ch.hi = (o.min, o.max) if o.range == "custom" else \
+                normal_range(o.type, ch.full_scale)
         return AnalogIO(self.mem, chans)
 
     def _cfg_ref(self, text: str, kind: str, section: str) -> Ref:

@@ -91,6 +91,7 @@ ANALOG_MODULES: dict[str, AnalogModule] = {
     "TWDAMO1HT": AnalogModule(0, 1, (), _V_MA),
     "TWDAMM3HT": AnalogModule(2, 1, _V_MA, _V_MA),
     "TWDALM3LT": AnalogModule(2, 1, ("PT100", "J", "K", "T"), _V_MA),
+    "TWDAVO2HT": AnalogModule(0, 2, (), ("+-10V",)),
 }
 
 PROFILES = {TWDLCAE40DRF.name: TWDLCAE40DRF}

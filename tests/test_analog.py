@@ -187,3 +187,12 @@ def test_analog_source_config_errors(dev, message):
     with pytest.raises(ConfigError) as e:
         PLC.from_source("LD 1\nST %M0\n", cfg)
     assert message in str(e.value)
+
+
+def test_bipolar_output_normal_range():
+    # +-10 V on a 12-bit channel: -2048..2047 (the "-2048..2047" range)
+    plc = PLC.from_source("LD 1\n[ %QW4.1 := %MW0 ]\n", {"modules": {4: "TWDAVO2HT"}})
+    for word, volts in ((-2048, -10.0), (2047, 10.0), (0, 0.0024)):
+        plc["%MW0"] = word
+        plc.scan()
+        assert plc.mem.analog.output("%QW4.1") == pytest.approx(volts, abs=0.003)

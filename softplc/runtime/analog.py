@@ -2,9 +2,10 @@
 word the program sees in %IWm.c / writes to %QWm.c, and the channel status.
 
 As TwidoSuite configures a channel [manual, from memory: see docs/NOTES.md]:
-  * the signal type: 0-10 V, 4-20 mA, a temperature sensor (PT100, thermocouple J/K/T),
+  * the signal type: 0-10 V, 4-20 mA, +-10 V, a temperature sensor (PT100, thermocouple J/K/T),
     or on the base a potentiometer (position 0..1) or the 0-10 V input;
-  * the range: "normal" (0 .. full scale, 4095 on the 12-bit expansion modules),
+  * the range: "normal" (0 .. full scale, 4095 on the 12-bit expansion modules; a
+    bipolar +-10 V signal -2048..2047),
     "custom" (the signal span mapped linearly onto min .. max, -32768..32767), and for
     temperature sensors "celsius" / "fahrenheit" (tenths of a degree).
 A signal outside its span is clamped to the span's end and flagged in the module's status
@@ -23,11 +24,20 @@ from ..errors import AddressError, ConfigError
 
 # Physical span of each signal type (V, mA, degrees C, potentiometer fraction) [manual].
 SIGNAL_SPAN: dict[str, tuple[float, float]] = {
-    "0-10V": (0.0, 10.0), "4-20mA": (4.0, 20.0), "pot": (0.0, 1.0),
+    "0-10V": (0.0, 10.0), "4-20mA": (4.0, 20.0), "+-10V": (-10.0, 10.0), "pot": (0.0, 1.0),
     "PT100": (-200.0, 600.0), "J": (-200.0, 760.0), "K": (-270.0, 1370.0),
     "T": (-200.0, 400.0),
 }
 TEMPERATURE_TYPES = ("PT100", "J", "K", "T")
+BIPOLAR_TYPES = ("+-10V",)  # normal range -2048..2047 on a 12-bit channel [issue 11]
+
+
+def normal_range(signal: str, full_scale: int) -> tuple[int, int]:
+    """The words of the signal span in the normal range: 0..4095, or -2048..2047 for a
+    bipolar signal, on a 12-bit channel (full_scale 4095)."""
+    if signal in BIPOLAR_TYPES:
+        return -(full_scale + 1) // 2, full_scale // 2
+    return 0, full_scale
 SW_ANALOG_STATUS = 80  # %SW80 + slot: status of the analog channels of that slot (our layout)
 UNDER_RANGE, OVER_RANGE = 1, 2  # per-channel status bits (our layout)
 STATUS_BITS = 4  # status bits per channel
@@ -42,6 +52,7 @@ class AnalogChannel:
     range: str = "normal"
     lo: int = 0  # the word for the bottom of the signal span
     hi: int = 4095  # the word for the top
+    full_scale: int = 4095  # of the hardware: 4095 on 12 bits, 1023 on 10
 
     def _scale(self, x: float) -> float:
         """Physical value -> word (not rounded, not clamped)."""
