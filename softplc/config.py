@@ -9,6 +9,9 @@
     registers."%R0" = { type = "FIFO" }
     constants = { "%KW0" = 100, "%KF2" = 1.5 }
     modules = { 1 = "TM2DDO8TT" }    # expansion modules; when given, I/O addresses are checked
+    analog."%IW2.0" = { type = "PT100", range = "celsius" }   # analog channels
+    [pid.0]                  # PID functions, [rtc] the clock's calendar start,
+    [schedule.0]             # schedule blocks: see softplc/config_models.py
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
     [daemon]                 # the daemon's state file, save and statistics intervals
@@ -24,7 +27,8 @@ from typing import Any
 from .errors import ConfigError
 
 KNOWN_KEYS = {"scan_period", "watchdog", "profile", "timers", "counters", "drums", "registers",
-              "constants", "modules", "devices", "modbus", "daemon", "name", "description"}
+              "constants", "modules", "devices", "modbus", "daemon", "name", "description",
+              "analog", "pid", "rtc", "schedule"}
 
 _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+)\s*(us|ms|s|min)?\s*$", re.I)
 _UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0, None: 1.0}
