@@ -87,7 +87,7 @@ class ServoAxis(AxisDevice):
         gn = self.gains
         c = self.coef
         inf = math.inf
-        ideal = p.encoder == "ideal"
+        ideal = self._ideal = p.encoder == "ideal"
         # Everything the servo loop reads but never changes, unpacked in one statement.
         self._consts = (
             c.fe, c.cv, c.ca, c.ie, c.av, gn.int_mode == 0,
@@ -189,7 +189,7 @@ class ServoAxis(AxisDevice):
 
     # -- positions (the interface limit switches and tools use) ----------------------------
     def _raw(self) -> float:
-        if self.opt.plant.encoder == "ideal":
+        if self._ideal:
             return self.x - self.opt.start
         return math.floor(self.x) - self._enc0
 
