@@ -179,19 +179,13 @@ def test_estop_stops_and_latches_fault_5():
 
 
 def run_piece(plc: PLC, piece_file: str) -> list[tuple]:
-    """Feed a piece's segment frames through the words, as the Modbus host does, one
-    handshake at a time; the trace samples."""
-    from softplc.cutting import load_piece, segment_words
-    from softplc.cutting.regmap import SEG_BASE
+    """Feed a piece's segment frames through the words, as the Modbus host does; the trace."""
+    from softplc.cutting import load_piece
+    from softplc.cutting.client import feed_plc
 
     piece = load_piece(ROOT / "ladder_programs" / "pieces" / piece_file, speed=10.0,
                        move_speed=10.0)
-    for seg in piece.segments():
-        words = segment_words(seg)
-        for i, v in enumerate(words.frame()):
-            plc[f"%MW{SEG_BASE + i}"] = v - 65536 if v > 32767 else v
-        assert plc.run_until(lambda p, n=words.number: p[f"%MW{SEG_DONE}"] == n
-                             and not p[f"%MW{EJECUTANDO}"], timeout=30)
+    assert feed_plc(plc, piece, timeout=30) == len(piece.segments())
     return list(plc.devices["trace"].samples)
 
 

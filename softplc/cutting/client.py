@@ -235,3 +235,31 @@ def trace_deviation(piece: Piece, trace_csv: str | Path, origin_true: tuple[floa
     except (OSError, KeyError, ValueError) as e:
         raise HostError(f"cannot read the trace {trace_csv}: {e}") from None
     return TraceReport(n, worst, at, end)
+
+
+def feed_plc(plc: object, piece: Piece, timeout: float = 600.0) -> int:
+    """The same handshake in-process on a `softplc.PLC` (virtual clock, no Modbus): write
+    each segment's frame into the words, run scans until SEG_DONE is its number and
+    EJECUTANDO = 0. Deterministic (the frame lands at a known scan): for tests and the
+    benchmark. Returns the number of segments cut; HostError on a fault or a timeout."""
+    segs = piece.segments()
+    for seg in segs:
+        words = segment_words(seg)
+        for i, v in enumerate(words.frame()):
+            plc[f"%MW{SEG_BASE + i}"] = v - 0x10000 if v > 0x7FFF else v  # type: ignore[index]
+
+        def ended(p: object, n: int = words.number) -> bool:
+            return (p[f"%MW{SEG_DONE}"] == n and not p[f"%MW{EJECUTANDO}"]  # type: ignore[index]
+                    or p[f"%MW{FAULT}"] != 0 or p.state != "RUN")  # type: ignore[index,attr-defined]
+
+        if not plc.run_until(ended, timeout=timeout):  # type: ignore[attr-defined]
+            raise HostError(f"segment {seg.number} ({seg.where}): not done after "
+                            f"{timeout:g} simulated s")
+        if plc.state != "RUN":  # type: ignore[attr-defined]
+            raise HostError(f"segment {seg.number} ({seg.where}): the PLC is in "
+                            f"{plc.state} ({plc.fault})")  # type: ignore[attr-defined]
+        fault = plc[f"%MW{FAULT}"]  # type: ignore[index]
+        if fault:
+            raise HostError(f"segment {seg.number} ({seg.where}): the PLC reports fault "
+                            f"{fault} ({FAULTS.get(fault, 'unknown fault')})")
+    return len(segs)
