@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-from ..modbus.host import HostError, ModbusHost
+from ..modbus.host import HostError, ModbusHost, ProgressLine
 from .motion import split_line
 from .piece import MOVE, Piece, Segment
 from .regmap import (
@@ -90,37 +90,24 @@ class CutResult:
     wall: float
 
 
-class Progress:
-    """One text line: bar, segments, planned motion time done, ETA (wall seconds, from
-    the planned time still to go at the rate seen so far)."""
+class Progress(ProgressLine):
+    """Bar, segments, ETA (wall seconds: the planned motion time still to go at the rate
+    seen so far in this run)."""
 
-    def __init__(self, planned: Sequence[float], stream: TextIO | None, width: int = 30):
+    def __init__(self, planned: Sequence[float], stream: TextIO | None):
+        super().__init__(stream)
         self.planned = list(planned)
         self.total = sum(self.planned) or 1.0
-        self.stream, self.width = stream, width
         self.t0 = time.monotonic()
         self.base = 0.0  # planned time already done before this run (resume)
-        self.shown = False
 
     def update(self, done: int, seg: Segment | None = None) -> None:
-        if self.stream is None:
-            return
         t_done = sum(self.planned[:done])
-        wall = time.monotonic() - self.t0
         ran = t_done - self.base
-        eta = (self.total - t_done) * (wall / ran if ran > 0 else 1.0)
-        filled = int(self.width * t_done / self.total)
+        rate = (time.monotonic() - self.t0) / ran if ran > 0 else 1.0
         where = f" {seg.kind} {seg.where}" if seg else ""
-        self.stream.write(f"\r[{'#' * filled}{'-' * (self.width - filled)}] "
-                          f"{done}/{len(self.planned)} segments, ETA {eta:.1f} s{where}\x1b[K")
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.stream is not None and self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
-            self.shown = False
+        self.show(t_done / self.total, f"{done}/{len(self.planned)} segments, ETA "
+                  f"{(self.total - t_done) * rate:.1f} s{where}")
 
 
 class CutClient(ModbusHost):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TextIO
 
 from ..errors import SoftPLCError
 
@@ -24,6 +24,30 @@ if not _pymodbus_log.handlers:
 
 class HostError(SoftPLCError):
     """Streaming to the PLC failed (unreachable, timeout, Modbus exception)."""
+
+
+class ProgressLine:
+    """One text line redrawn in place (carriage return) on a text stream (None: silent):
+    a bar of `width` characters for a fraction done, then any text."""
+
+    def __init__(self, stream: TextIO | None, width: int = 30):
+        self.stream = stream
+        self.width = width
+        self.shown = False
+
+    def show(self, fraction: float, text: str) -> None:
+        if self.stream is None:
+            return
+        filled = min(self.width, max(0, int(self.width * fraction)))
+        self.stream.write(f"\r[{'#' * filled}{'-' * (self.width - filled)}] {text}\x1b[K")
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.stream is not None and self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.shown = False
 
 
 class ModbusHost:
