@@ -57,11 +57,7 @@ def cut(daemon: Daemon, trace: Path, piece_file: str, **options: float):
     return piece, res, frames, trace_deviation(piece, trace, origin, COUNTS_PER_MM)
 
 
-@pytest.mark.parametrize("piece_file,speed", [("escudo.toml", 10.0),
-                                              ("achaflanado.toml", 10.0)])
-def test_worked_examples_follow_the_ideal_shape(table, piece_file, speed):
-    daemon, trace = table()
-    piece, res, frames, rep = cut(daemon, trace, piece_file, speed=speed, move_speed=speed)
+def check_run(piece, res, frames, rep) -> None:
     total = len(piece.segments())
     assert not res.interrupted and res.last_number == total and res.done == total
     assert frames == total  # no segment missed or repeated (it starts at the origin)
@@ -70,14 +66,22 @@ def test_worked_examples_follow_the_ideal_shape(table, piece_file, speed):
     assert math.dist(rep.end, piece.end) <= UM
 
 
-def test_two_daemon_runs_cut_the_same_path(table):
-    """Through the daemon the host's frames land at whatever scan they reach the PLC, so
-    the traces' times differ; the path does not: same segment ends, same deviation. (The
-    bit-identical run on the virtual clock: test_cutting_table.py.)"""
+def test_e3_rounded_rectangle_follows_the_ideal_shape(table):
+    daemon, trace = table()
+    check_run(*cut(daemon, trace, "achaflanado.toml", speed=10.0, move_speed=10.0))
+
+
+def test_e2_escudo_twice_the_same_path(table):
+    """E2 follows the ideal shape (check_run), twice. Through the daemon the host's frames
+    land at whatever scan they reach the PLC, so the traces' times differ; the path does
+    not: same end, same deviation. (Bit-identical runs on the virtual clock:
+    test_cutting_table.py.)"""
     reports = []
     for name in ("a", "b"):
         daemon, trace = table(name)
-        reports.append(cut(daemon, trace, "escudo.toml", speed=10.0, move_speed=10.0)[3])
+        run = cut(daemon, trace, "escudo.toml", speed=10.0, move_speed=10.0)
+        check_run(*run)
+        reports.append(run[3])
     a, b = reports
     assert math.dist(a.end, b.end) <= 0.1 * UM
     assert a.worst == pytest.approx(b.worst, abs=1e-4)
