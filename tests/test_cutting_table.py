@@ -209,6 +209,6 @@ def test_hold_while_moving_stops_now_torch_off_and_the_next_segment_starts_there
     assert not plc["%Q0.2"] and plc[f"%MW{SEG_DONE}"] != 7
     assert 10_000 < plc["%MD112"] < 100_000
     plc["%M101"] = 0
-    offer(plc, 100_000, 0, 20.0, number=8)
+    offer(plc, 5_000, 0, 20.0, number=8)
     assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 8, timeout=10)
-    assert plc["%MD112"] == pytest.approx(100_000, abs=1)
+    assert plc["%MD112"] == pytest.approx(5_000, abs=1)
