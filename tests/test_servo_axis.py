@@ -399,6 +399,6 @@ def test_servo_benchmark_runs_and_reports():
     r = bench_servo.run(seconds=0.5)
     for part in ("device", "machine"):
         assert r[part]["speedup"] > 0 and r[part]["speedup_cpu"] > 0
-    assert r["machine"]["faults"] == 0
+        assert r[part]["faults"] == 0  # the axes moved all along, no fault stopped them
     assert r["device"]["servo_cycles"] >= 2 * math.floor(0.5 * 9034.6 / 4)
     assert "x real time" in bench_servo.report(r)

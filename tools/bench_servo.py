@@ -52,7 +52,7 @@ def _timed(fn, sim_s: float) -> dict:
 
 
 def device(seconds: float) -> dict:
-    rig = Rig.from_toml(TOML, "X", "Y", require_home=False)
+    rig = Rig.from_toml(TOML, "X", "Y", require_home=False, start=-80000.0)  # mid-travel
     for a in "XY":
         rig.command(a, Ctl.ENABLE)
     rig.run(0.05)
@@ -68,6 +68,7 @@ def device(seconds: float) -> dict:
 
     res = _timed(go, n * 0.5)
     res["servo_cycles"] = sum(ax.k for ax in rig.axes.values())
+    res["faults"] = sum(1 for ax in rig.axes.values() if ax.error)
     return res
 
 

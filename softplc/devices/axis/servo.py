@@ -84,10 +84,12 @@ class ServoAxis(AxisDevice):
         if not self._hm <= o.start <= self._hp:
             raise ConfigError(f"device {name!r}: start = {o.start} is beyond the hard stops")
         self._enc0 = math.floor(o.start)
+        self._ideal = p.encoder == "ideal"
+        self._ready = True  # the drive's READY, evaluated once per scan in update()
         gn = self.gains
         c = self.coef
         inf = math.inf
-        ideal = self._ideal = p.encoder == "ideal"
+        ideal = self._ideal
         # Everything the servo loop reads but never changes, unpacked in one statement.
         self._consts = (
             c.fe, c.cv, c.ca, c.ie, c.av, gn.int_mode == 0,
@@ -191,7 +193,7 @@ class ServoAxis(AxisDevice):
     def _raw(self) -> float:
         if self._ideal:
             return self.x - self.opt.start
-        return math.floor(self.x) - self._enc0
+        return floor(self.x) - self._enc0
 
     @property
     def position(self) -> float:
@@ -215,8 +217,9 @@ class ServoAxis(AxisDevice):
 
     # -- per scan ---------------------------------------------------------------------------
     def update(self, t: float, dt: float) -> None:
+        self._ready = ready = self.amp_ready()
         if self._w[self._ctl_i] != self._ctl_prev or not self.closed or \
-                self.fault != "none" or not self.amp_ready():
+                self.fault != "none" or not ready:
             self._commands()
         due = floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9)
         n = due - self.k
@@ -441,8 +444,8 @@ class ServoAxis(AxisDevice):
         (cfe, ccv, cca, cie, cav, int_always, ilim, ff, off, lim, fatal, warn_lim, q, K, fc,
          uoff, up, load, table, phi, g1, g2, ideal, enc0, lp, lm, hp, hm, hlo, hhi, iper,
          ioff, T) = self._consts
-        floor = math.floor
-        ready = self.amp_ready()
+        floor = math.floor  # a local: looked up every cycle
+        ready = self._ready
         special = not ready or self.fault != "none"
         closed, open_loop = self.closed, self.open_loop
         traj, k0, tail_v = self._traj, self._k0, self._tail_v
@@ -608,7 +611,7 @@ class ServoAxis(AxisDevice):
             s |= St.ERROR
             if self.latched and err in (Err.FATAL_FE, Err.LIMIT, Err.NOT_HOMED):
                 s |= St.FE_FATAL
-        if err == Err.AMP_FAULT or not self.amp_ready():
+        if err == Err.AMP_FAULT or not self._ready:
             s |= St.AMP_FAULT
             if self.estop_active():
                 s |= St.ESTOP
