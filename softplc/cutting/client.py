@@ -21,7 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-from ..modbus.host import HostError, ModbusHost, ProgressLine
+from ..errors import HostError
+from ..modbus.host import ModbusHost, ProgressLine
 from .motion import split_line
 from .piece import MOVE, Piece, Segment
 from .regmap import (
@@ -136,7 +137,7 @@ class CutClient(ModbusHost):
         """One segment: idle, frame, done (SEG_DONE = its number, EJECUTANDO = 0)."""
         self.wait_for(lambda s: s.step == READY_STEP and not s.inicio and not s.ejecutando,
                       self.idle_timeout, f"{label}: waiting for the PLC to be READY")
-        self.write_words(SEG_BASE, words.frame(), f"{label}: writing the segment frame")
+        self.write_words(SEG_BASE, words.frame())
         self.frames_sent += 1
         return self.wait_for(lambda s: s.seg_done == words.number and not s.inicio
                              and not s.ejecutando, self.move_timeout,
@@ -186,9 +187,9 @@ class CutClient(ModbusHost):
         if self.progress:
             self.progress.write("interrupted: stopping the axes, torch off (HOLD)\n")
         try:
-            self.write_bit(HOLD_COIL, True, "setting HOLD (%M101)")
+            self.write_bit(HOLD_COIL, True)
             self.wait_for(lambda s: not s.ejecutando, self.idle_timeout, "stopping")
-            self.write_bit(HOLD_COIL, False, "releasing HOLD (%M101)")
+            self.write_bit(HOLD_COIL, False)
         except KeyboardInterrupt:
             raise HostError("interrupted twice: HOLD may still be set (%M101)") from None
 

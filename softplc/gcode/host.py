@@ -24,10 +24,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
-from ..modbus.host import HostError, ModbusHost, ProgressLine
+from ..errors import HostError
+from ..modbus.host import ModbusHost, ProgressLine
 from .parser import StepSegment
 
-__all__ = ["DrawClient", "HostError", "ProgressBar", "StreamResult", "make_frame"]
+__all__ = ["DrawClient", "HostError", "StreamResult", "make_frame"]
 
 #: Words 2..9 of the seed's frame, with INICIO (120) at index 3 and the pen at index 5.
 FRAME_TEMPLATE = (0, 0, 20, 120, 40, 0, 60, 70, 85, 95)
@@ -102,21 +103,25 @@ class DrawClient(ModbusHost):
 
     def write_frame(self, x: int, z: int, pen_down: bool) -> None:
         """Send one segment: ten registers from %MW0 in one FC16 request."""
-        frame = make_frame(x, z, pen_down)
-        self.write_words(0, frame, "writing the segment frame")
+        self.write_words(0, make_frame(x, z, pen_down))
         self.frames_sent += 1
 
     def wait_for(self, ready: Callable[[list[int]], bool], timeout: float,
                  what: str) -> list[int]:
         """Poll until `ready(registers)`; HostError after `timeout` seconds."""
-        def check(regs: list[int]) -> None:
+        deadline = time.monotonic() + timeout
+        while True:
+            regs = self.read_state()
             fault = regs[REG_FAULT]
             if fault:
                 raise HostError(f"{what}: the PLC reports fault {fault} in %MW11 "
                                 f"({FAULTS.get(fault, 'unknown fault')})")
-
-        return self.poll(self.read_state, ready, timeout, what, check,
-                         lambda r: f"%MW3={r[REG_START]}, %MW10={r[REG_BUSY]}")
+            if ready(regs):
+                return regs
+            if time.monotonic() >= deadline:
+                raise HostError(f"{what}: timed out after {timeout:g} s "
+                                f"(%MW3={regs[REG_START]}, %MW10={regs[REG_BUSY]})")
+            time.sleep(self.poll_interval)
 
     @staticmethod
     def _idle(regs: list[int]) -> bool:

@@ -1,29 +1,22 @@
-"""A Modbus TCP host (client) for streaming to a PLC: the connection, one request with
-retries and reconnects, register reads and writes, polling until a condition holds.
-
-The drawing table's `DrawClient` (softplc/gcode/host.py) and the cutting table's
-`CutClient` (softplc/cutting/client.py) are this with their own register maps and
-handshakes. Every failure becomes a `HostError` that says what was being done.
-"""
+"""A Modbus TCP host (client) talking to the soft Twido: connection, retries and the word
+helpers the host programs share (`softplc draw`, `softplc tune`, `softplc cut`), polling
+until a condition holds, and the one-line progress display."""
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
-from typing import Any, TextIO
+from collections.abc import Callable, Sequence
+from typing import Any, Self, TextIO
 
-from ..errors import SoftPLCError
+from ..errors import HostError
+from .regmap import float_to_registers, registers_to_float
 
 # pymodbus logs failed connects itself; without a handler Python would print them raw to
 # stderr next to our own message. Records still reach handlers an application installs.
 _pymodbus_log = logging.getLogger("pymodbus")
 if not _pymodbus_log.handlers:
     _pymodbus_log.addHandler(logging.NullHandler())
-
-
-class HostError(SoftPLCError):
-    """Streaming to the PLC failed (unreachable, timeout, Modbus exception)."""
 
 
 class ProgressLine:
@@ -51,8 +44,8 @@ class ProgressLine:
 
 
 class ModbusHost:
-    """Connection and requests; use as a context manager (connects on enter) or call
-    `connect()` / `close()`."""
+    """pymodbus' blocking TCP client with reconnecting retries; every failure becomes a
+    `HostError`. Use as a context manager (connects on enter) or `connect()` / `close()`."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 5020, *, device_id: int = 1,
                  poll_interval: float = 0.05, request_timeout: float = 1.0,
@@ -61,13 +54,14 @@ class ModbusHost:
         self.poll_interval = poll_interval
         self.request_timeout = request_timeout
         self.retries = max(0, retries)
-        self._client: Any = None
+        self._client = None
 
+    # -- connection --------------------------------------------------------------------
     @property
     def where(self) -> str:
         return f"{self.host}:{self.port}"
 
-    def connect(self) -> Any:
+    def connect(self) -> Self:
         from pymodbus.client import ModbusTcpClient
 
         if self._client is None:
@@ -91,14 +85,14 @@ class ModbusHost:
             self._client.close()
             self._client = None
 
-    def __enter__(self) -> Any:
+    def __enter__(self) -> Self:
         return self.connect()
 
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _call(self, what: str, fn: Callable[..., Any], *args: object,
-              **kwargs: object) -> Any:
+    def _call(self, what: str, fn: Callable[..., object], *args: object,
+              **kwargs: object) -> object:
         """One Modbus request, retried with a reconnect on communication failures."""
         from pymodbus.exceptions import ModbusException
 
@@ -126,24 +120,34 @@ class ModbusHost:
         raise HostError(f"{what}: no answer from the PLC at {self.where} after "
                         f"{self.retries + 1} attempts ({last})")
 
-    def read_words(self, start: int, count: int) -> list[int]:
-        """%MW start .. start+count-1 (FC 3), unsigned as on the wire."""
-        what = f"reading %MW{start}-%MW{start + count - 1}"
-        rr = self._call(what, lambda c, **kw: c.read_holding_registers(start, count=count,
-                                                                         **kw))
-        regs = list(rr.registers)
-        if len(regs) < count:
-            raise HostError(f"{what}: got {len(regs)} registers")
+    # -- words -------------------------------------------------------------------------
+    def read_words(self, address: int, count: int) -> list[int]:
+        """%MW<address>.. (FC 3), unsigned 16-bit values."""
+        rr = self._call(f"reading %MW{address}:{count}",
+                        lambda c, **kw: c.read_holding_registers(address, count=count, **kw))
+        regs = list(rr.registers)  # type: ignore[attr-defined]
+        if len(regs) != count:
+            raise HostError(f"reading %MW{address}:{count}: got {len(regs)} registers")
         return regs
 
-    def write_words(self, start: int, values: list[int], what: str) -> None:
-        """One FC 16 request from %MW start."""
-        self._call(what, lambda c, **kw: c.write_registers(start, values, **kw))
+    def write_words(self, address: int, values: Sequence[int]) -> None:
+        """%MW<address>.. in one FC 16 frame (lands whole at the next scan start)."""
+        words = [v & 0xFFFF for v in values]
+        self._call(f"writing %MW{address}:{len(words)}",
+                   lambda c, **kw: c.write_registers(address, words, **kw))
 
-    def write_bit(self, index: int, value: bool, what: str) -> None:
-        """%M index (coil, FC 5)."""
-        self._call(what, lambda c, **kw: c.write_coil(index, value, **kw))
+    def read_float(self, address: int) -> float:
+        """%MF<address> (two registers, low word first)."""
+        return registers_to_float(*self.read_words(address, 2))
 
+    def write_float(self, address: int, value: float) -> None:
+        self.write_words(address, float_to_registers(value))
+
+    def write_bit(self, index: int, value: bool) -> None:
+        """%M<index> (coil, FC 5)."""
+        self._call(f"writing %M{index}", lambda c, **kw: c.write_coil(index, value, **kw))
+
+    # -- waiting -----------------------------------------------------------------------
     def poll(self, read: Callable[[], Any], ready: Callable[[Any], bool], timeout: float,
              what: str, check: Callable[[Any], None] | None = None,
              describe: Callable[[Any], str] = str) -> Any:
