@@ -19,7 +19,7 @@ examples:
   softplc cut ladder_programs/pieces/achaflanado.toml --dry-run --preview out/e3.png
   softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed --preview out/e5.svg
   softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run --frames out/e3.csv
-  softplc run ladder_programs/cutting_table.il --config ladder_programs/cutting_table.toml \
+  softplc run ladder_programs/cutting_table.il --config ladder_programs/cutting_table.toml \\
       --port 5020 --speed max --trace out/cut.csv &
   softplc cut ladder_programs/pieces/achaflanado.toml --port 5020 --trace out/cut.csv
 """
