@@ -64,6 +64,9 @@ def check_run(piece, res, frames, rep) -> None:
     assert rep.samples > 1000
     assert rep.worst <= piece.tolerance + UM
     assert math.dist(rep.end, piece.end) <= UM
+    for origin in res.origin_counts:  # homing through the daemon: zero at the switch stop,
+        # 30 mm retract: the work origin's true distance from the min trip point (E8)
+        assert 29.47 <= (START_MM * COUNTS_PER_MM + origin) / COUNTS_PER_MM <= 29.505
 
 
 def test_e3_rounded_rectangle_follows_the_ideal_shape(table):
