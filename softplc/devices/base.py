@@ -86,6 +86,14 @@ class AxisDevice(Device):
         """The position from which an `at = "end"` switch is made."""
         raise NotImplementedError
 
+    def trace_position(self) -> float:
+        """The position a trace records (default: the true position, axis units)."""
+        return self.axis_position()
+
+    def missed(self) -> int:
+        """Steps lost so far (a stepper's missed steps; 0 for a closed-loop axis)."""
+        return 0
+
 
 DEVICE_TYPES: dict[str, Callable[..., Device]] = {}
 

@@ -68,3 +68,22 @@ class Pen(Device):
 
     def status(self) -> dict[str, Any]:
         return {"down": self.down}
+
+
+@register_device("torch")
+class Torch(Pen):
+    """The cutting torch: the pen device under the cutting table's names. Options `output`
+    (energised = cutting), `ignition_delay` (s before the flame cuts, default 0) and
+    `extinction_delay` (s before it stops cutting, default 0); attribute `lit` (= `down`)."""
+
+    def __init__(self, name: str, *, output: Any, ignition_delay: Any = 0.0,
+                 extinction_delay: Any = 0.0):
+        super().__init__(name, output=output, lower_delay=ignition_delay,
+                         lift_delay=extinction_delay)
+
+    @property
+    def lit(self) -> bool:
+        return self.down
+
+    def status(self) -> dict[str, Any]:
+        return {"lit": self.down}

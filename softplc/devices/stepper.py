@@ -191,6 +191,12 @@ class Stepper(AxisDevice):
     def axis_end(self) -> float:
         return math.ceil(2 * self.travel_steps) * 0.5  # the first half step at the end
 
+    def trace_position(self) -> int | float:
+        return half_steps_to_steps(self._h)
+
+    def missed(self) -> int:
+        return self.missed_steps
+
     @staticmethod
     def pattern_name(cur: tuple[int, ...]) -> str:
         on = "+".join(PHASE_NAMES[k] for k, v in enumerate(cur) if v)

@@ -92,3 +92,47 @@ class LimitSwitch(Device):
 
     def status(self) -> dict[str, Any]:
         return {"made": self.made}
+
+
+@register_device("push_button")
+class PushButton(Device):
+    """A push button or E-stop on an `%I` input. Options: `input` (required),
+    `normally_closed` (default false: the input is on while pressed; an E-stop is
+    normally closed, so its input is on while released and a broken wire reads as
+    pressed), `pressed` (default false: the state at power-up). `press()` / `release()`
+    operate it at run time (tests, the debugger)."""
+
+    def __init__(self, name: str, *, input: Any, normally_closed: Any = False,
+                 pressed: Any = False):
+        super().__init__(name)
+        for option, v in (("normally_closed", normally_closed), ("pressed", pressed)):
+            if not isinstance(v, bool):
+                raise ConfigError(f"device {name!r}: {option} must be true or false")
+        self.input = input
+        self.normally_closed = normally_closed
+        self._pressed0 = pressed
+        self.pressed = pressed
+        self._i: list[int] | None = None
+        self._idx = 0
+
+    def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
+        self._idx = self.io_index(mem, self.input, "I", "input")
+        self._i = mem.i_field
+        self.update(0.0, 0.0)
+
+    def reset(self) -> None:
+        self.pressed = self._pressed0
+        if self._i is not None:
+            self.update(0.0, 0.0)
+
+    def press(self) -> None:
+        self.pressed = True
+
+    def release(self) -> None:
+        self.pressed = False
+
+    def update(self, t: float, dt: float) -> None:
+        self._i[self._idx] = int(self.pressed ^ self.normally_closed)  # type: ignore[index]
+
+    def status(self) -> dict[str, Any]:
+        return {"pressed": self.pressed}

@@ -3,9 +3,10 @@
 TOML options, table `[devices.NAME]` with `type = "trace"`. Put it after the axes and the
 pen in the config, so that it sees their state of the same scan:
 
-- `axes` (default `["X", "Z"]`): names of the two `stepper` devices, horizontal (x) then
-  vertical (z) axis of the drawing.
-- `pen` (default `"pen"`): name of the `pen` device; `""` for none (pen column 0).
+- `axes` (default `["X", "Z"]`): names of the two axis devices (`stepper` or
+  `servo_axis`), horizontal (x) then vertical (z) axis of the drawing.
+- `pen` (default `"pen"`): name of the `pen` (or `torch`) device; `""` for none (pen
+  column 0).
 - `csv` (path, default none): also write the samples to this CSV file, relative to the
   current directory, every `flush_every` seconds of simulated time and at `close()`.
 - `flush_every` (float > 0 seconds of simulated time, default 1.0): CSV write period.
@@ -13,7 +14,8 @@ pen in the config, so that it sees their state of the same scan:
 
 A sample `(t, x, z, pen, missed)` is recorded at bind (t = 0) and after every scan that
 changed something: t in seconds, x and z the axis positions in motor steps (a float on a
-half step), pen 1 if down, missed the total of both axes' missed steps. `samples` is the
+half step; a servo axis's true position in counts), pen 1 if down (torch lit), missed the
+total of both axes' missed steps. `samples` is the
 list; `to_csv(path)` writes it with the header `t,x,z,pen,missed`; `plot(path)` draws it.
 """
 
@@ -26,9 +28,8 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
-from .base import Device, register_device
+from .base import AxisDevice, Device, register_device
 from .pen import Pen
-from .stepper import Stepper, half_steps_to_steps
 
 log = logging.getLogger(__name__)
 
@@ -76,8 +77,8 @@ class Trace(Device):
         self._next_flush = math.inf
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
-        self._x = self.peer(devices, self.axis_names[0], Stepper, "axes[0]")
-        self._z = self.peer(devices, self.axis_names[1], Stepper, "axes[1]")
+        self._x = self.peer(devices, self.axis_names[0], AxisDevice, "axes[0]")
+        self._z = self.peer(devices, self.axis_names[1], AxisDevice, "axes[1]")
         if self.pen_name != "":
             self._pen = self.peer(devices, self.pen_name, Pen, "pen")
         self.reset()
@@ -94,7 +95,8 @@ class Trace(Device):
     def update(self, t: float, dt: float) -> None:
         x = self._x
         z = self._z
-        key = (x._h, z._h, self._pen.down, x.missed_steps + z.missed_steps)
+        key = (x.trace_position(), z.trace_position(), self._pen.down,
+               x.missed() + z.missed())
         if key != self._key:
             self._key = key
             self._record(t, key)
@@ -109,9 +111,8 @@ class Trace(Device):
                 log.warning("%s: %d samples recorded, recording stops", self.name,
                             self.max_samples)
             return
-        xh, zh, down, missed = key
-        self.samples.append((t, half_steps_to_steps(xh), half_steps_to_steps(zh),
-                             1 if down else 0, missed))
+        x, z, down, missed = key
+        self.samples.append((t, x, z, 1 if down else 0, missed))
 
     def status(self) -> dict[str, Any]:
         return {"samples": len(self.samples)}
@@ -150,9 +151,18 @@ class Trace(Device):
              full_area: bool = False) -> None:
         """Draw the trace to a PNG or SVG file (see `plot_samples`)."""
         plot_samples(self.samples, path, programmed, units=units,
-                     steps_per_unit=(self._x.steps_per_unit, self._z.steps_per_unit),
-                     travel_steps=(self._x.travel_steps, self._z.travel_steps),
+                     steps_per_unit=(_per_unit(self._x), _per_unit(self._z)),
+                     travel_steps=(_travel(self._x), _travel(self._z)),
                      title=title or None, name=self.name, full_area=full_area)
+
+
+def _per_unit(axis: Any) -> float:
+    """Positions per drawing unit: a stepper's steps per unit, a servo's counts per mm."""
+    return getattr(axis, "steps_per_unit", None) or axis.opt.counts_per_mm
+
+
+def _travel(axis: Any) -> float:
+    return getattr(axis, "travel_steps", None) or axis.axis_end()
 
 
 def plot_samples(samples: Any, path: str | os.PathLike[str],

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from typing import TextIO
 
 from ..errors import HostError
-from ..modbus.host import ModbusHost
+from ..modbus.host import ModbusHost, ProgressLine
 from .parser import StepSegment
 
 __all__ = ["DrawClient", "HostError", "StreamResult", "make_frame"]
@@ -63,31 +63,17 @@ class StreamResult:
     point: tuple[int, int] | None = None  # where the pen stopped, in steps
 
 
-class ProgressBar:
+class ProgressBar(ProgressLine):
     """A one-line text progress bar (carriage return updates) on a text stream."""
 
     def __init__(self, total: int, stream: TextIO | None = sys.stderr, width: int = 30):
+        super().__init__(stream, width)
         self.total = max(total, 1)
-        self.stream = stream
-        self.width = width
-        self.shown = False
 
     def update(self, done: int, seg: StepSegment | None = None) -> None:
-        if self.stream is None:
-            return
-        filled = int(self.width * done / self.total)
-        bar = "#" * filled + "-" * (self.width - filled)
         where = f" line {seg.line} ({seg.kind}, pen {'down' if seg.pen_down else 'up'})" \
             if seg else ""
-        self.stream.write(f"\r[{bar}] {done}/{self.total}{where}\x1b[K")
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.stream is not None and self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
-            self.shown = False
+        self.show(done / self.total, f"{done}/{self.total}{where}")
 
 
 class DrawClient(ModbusHost):

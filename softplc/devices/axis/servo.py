@@ -89,7 +89,7 @@ class ServoAxis(AxisDevice):
         gn = self.gains
         c = self.coef
         inf = math.inf
-        ideal = p.encoder == "ideal"
+        ideal = self._ideal
         # Everything the servo loop reads but never changes, unpacked in one statement.
         self._consts = (
             c.fe, c.cv, c.ca, c.ie, c.av, gn.int_mode == 0,
