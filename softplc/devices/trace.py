@@ -8,7 +8,7 @@ pen in the config, so that it sees their state of the same scan:
 - `pen` (default `"pen"`): name of the `pen` device; `""` for none (pen column 0).
 - `csv` (path, default none): also write the samples to this CSV file, relative to the
   current directory, every `flush_every` seconds of simulated time and at `close()`.
-- `flush_every` (float > 0 seconds of simulated time, default 1.0): CSV write period.
+- `flush_every` (duration > 0 of simulated time, default "1s"): CSV write period.
 - `max_samples` (int > 0, default 1000000): stop recording (and warn) after this many.
 
 A sample `(t, x, z, pen, missed)` is recorded at bind (t = 0) and after every scan that
@@ -24,6 +24,9 @@ import math
 import os
 from typing import Any
 
+from pydantic import Field, field_validator
+
+from ..config import Duration, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
@@ -47,25 +50,27 @@ def _row(s: Sample) -> str:
 
 @register_device("trace")
 class Trace(Device):
-    def __init__(self, name: str, *, axes: Any = ("X", "Z"), pen: Any = "pen",
-                 csv: Any = None, flush_every: Any = 1.0, max_samples: Any = 1_000_000):
-        super().__init__(name)
-        if not isinstance(axes, list | tuple) or len(axes) != 2:
-            raise ConfigError(f"device {name!r}: axes must name two stepper devices "
-                              f"(x then z), not {axes!r}")
-        if csv is not None and (not isinstance(csv, str) or not csv):
-            raise ConfigError(f"device {name!r}: csv must be a file path, not {csv!r}")
-        if isinstance(flush_every, bool) or not isinstance(flush_every, int | float) \
-                or not flush_every > 0:
-            raise ConfigError(f"device {name!r}: flush_every must be > 0 seconds")
-        if isinstance(max_samples, bool) or not isinstance(max_samples, int) \
-                or max_samples < 1:
-            raise ConfigError(f"device {name!r}: max_samples must be an integer > 0")
-        self.axis_names = list(axes)
-        self.pen_name = pen
-        self.csv_path = csv
-        self.flush_every = float(flush_every)
-        self.max_samples = max_samples
+    class Options(Section):
+        axes: list[str] = Field(["X", "Z"], min_length=2, max_length=2)
+        pen: str = "pen"
+        csv: str | None = Field(None, min_length=1)
+        flush_every: Duration = 1.0
+        max_samples: int = Field(1_000_000, ge=1)
+
+        @field_validator("flush_every")
+        @classmethod
+        def _positive(cls, v: float) -> float:
+            if not v > 0:
+                raise ValueError("must be longer than 0")
+            return v
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        self.axis_names = list(options.axes)
+        self.pen_name = options.pen
+        self.csv_path = options.csv
+        self.flush_every = options.flush_every
+        self.max_samples = options.max_samples
         self.samples: list[Sample] = []
         self.truncated = False
         self._x: Any = None
