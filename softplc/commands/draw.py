@@ -92,6 +92,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--plane", default="XZ", type=str.upper, choices=["XZ", "XY", "YZ"],
                    help="drawing plane; the other axis is the pen (default %(default)s, "
                         "the seed table: X, Z plane and Y1/Y0 pen)")
+    r.add_argument("--dialect", choices=["auto", "seed"], default="auto",
+                   help="auto (default): refuse a program whose Y words are ambiguous in the "
+                        "XZ plane (ordinary XY G-code read as the seed's Y1/Y0 pen flag); "
+                        "seed: always read Y as the pen flag")
     r.add_argument("--pen", choices=["flag", "depth"], default=None,
                    help="pen axis meaning: flag = nonzero is down (default for Y), "
                         "depth = down while <= 0 (default for Z or X)")
@@ -113,7 +117,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    cfg = GCodeConfig(plane=args.plane, pen=args.pen, units=args.units,
+    cfg = GCodeConfig(plane=args.plane, pen=args.pen, units=args.units, dialect=args.dialect,
                       table_width=args.table[0], table_height=args.table[1],
                       chord_tolerance=args.chord_tolerance, steps_per_unit=args.steps_per_unit)
     prog = parse_file(args.file, cfg)
