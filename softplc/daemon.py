@@ -17,6 +17,7 @@ every period/speed seconds of real time (`math.inf`: back to back), for simulati
 
 from __future__ import annotations
 
+import errno
 import logging
 import math
 import os
@@ -134,8 +135,11 @@ class Daemon:
         try:
             server.start()
         except OSError as e:
+            hint = ("; another program (another softplc?) uses that port: pick another "
+                    "with --port N (make run: PORT=N make run)"
+                    if e.errno == errno.EADDRINUSE else "")
             raise SoftPLCError(f"cannot listen on {opt.host}:{opt.port}: "
-                               f"{e.strerror or e}") from None
+                               f"{e.strerror or e}{hint}") from None
         writer = retain.RetainWriter(opt.state) if opt.state is not None else None
         old_handlers = {s: signal.signal(s, self.request_stop)
                         for s in (signal.SIGINT, signal.SIGTERM)}

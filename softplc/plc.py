@@ -360,6 +360,15 @@ class PLC:
         return {str(r): v for r, v in self._forced.items()}
 
     # -- state ----------------------------------------------------------------------------------
+    def __repr__(self) -> str:
+        """State, PLC time, scan count and the I/O that is on (what a failing test shows)."""
+        stride, shown = self.mem.stride, 16
+        on = [f"%{kind}{i // stride}.{i % stride}" for kind, bits in
+              (("I", self.mem.i), ("Q", self.mem.q)) for i, v in enumerate(bits) if v]
+        io = " ".join(on[:shown]) + (f" (+{len(on) - shown} more)" if len(on) > shown else "")
+        return (f"<PLC {Path(self.ast.file).name} {self.state} t={self.time:.3f}s "
+                f"scans={self.scan_count} on: {io or 'none'}>")
+
     @property
     def time(self) -> float:
         """PLC time in seconds (virtual: scans x scan_period)."""
