@@ -110,3 +110,67 @@ def test_make_bench_says_what_it_installs_and_why():
     out = subprocess.run(["make", "-n", "bench"], cwd=ROOT, capture_output=True, text=True,
                          check=True).stdout
     assert "libmodbus-dev" in out and "installing" in out and "C ceiling" in out
+
+
+# ---- 13: make draw's plot, trace end and progress ---------------------------------------------
+def test_progress_bar_shows_elapsed_time_and_eta():
+    import io
+
+    from softplc.gcode.host import ProgressBar
+
+    now = [0.0]
+    out = io.StringIO()
+    bar = ProgressBar(10, out, clock=lambda: now[0])
+    bar.update(0)
+    now[0] = 20.0
+    bar.update(4)
+    assert "4/10 0:20 elapsed, ETA 0:30" in out.getvalue()
+    now[0] = 3700.0
+    bar.update(10)
+    assert out.getvalue().endswith("10/10 1:01:40 elapsed\x1b[K")
+
+
+def test_a_pen_up_sample_mid_drawing_is_not_the_end_of_the_trace(tmp_path):
+    from softplc.commands.draw import _wait_for_trace
+
+    csv = tmp_path / "t.csv"
+    csv.write_text("t,x,z,pen,missed\n1.0,0,0,0,0\n2.0,100,0,1,0\n3.0,100,0,0,0\n")
+    assert not _wait_for_trace(str(csv), 0.5, (200, 0), timeout=0.2)  # a travel, not the end
+    with csv.open("a") as f:
+        f.write("4.0,200,0,1,0\n5.0,200,0,0,0\n")
+    assert _wait_for_trace(str(csv), 0.5, (200, 0), timeout=0.2)
+
+
+def test_drawn_plot_is_in_cm_with_both_paths_and_the_legend_outside(tmp_path):
+    import matplotlib.figure
+
+    from softplc.devices.trace import plot_samples
+
+    saved = {}
+    real_savefig = matplotlib.figure.Figure.savefig
+
+    def keep(fig, path, *a, **kw):
+        saved["fig"] = fig
+        return real_savefig(fig, path, *a, **kw)
+
+    samples = [(0, 0, 0, 0, 0), (1, 1111, 0, 1, 0), (2, 1111, 1111, 1, 0), (3, 1111, 1111, 0, 0)]
+    prog = [((0, 0), (1111, 0)), ((1111, 0), (1111, 1111))]
+    mp = pytest.MonkeyPatch()
+    mp.setattr(matplotlib.figure.Figure, "savefig", keep)
+    try:
+        plot_samples(samples, tmp_path / "d.png", prog, units="units", unit_name="cm")
+    finally:
+        mp.undo()
+    fig = saved["fig"]
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "x (cm)" and ax.get_ylabel() == "z (cm)"
+    assert ax.get_xlim()[1] < 20  # 10 cm drawn, not 1111 steps
+    prog_lines, _, drawn = ax.collections  # programmed first, drawn last: on top
+    assert drawn.get_zorder() > prog_lines.get_zorder()
+    assert drawn.get_linewidth()[0] < prog_lines.get_linewidth()[0]
+    legend = fig.legends[0]
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert "table area" in labels and "programmed" in labels
+    fig.canvas.draw()
+    box = legend.get_window_extent()
+    assert box.x0 >= ax.get_window_extent().x1  # right of the plot area, not over it
