@@ -8,7 +8,7 @@ import sys
 from collections import Counter
 from dataclasses import asdict
 
-from ..errors import ProgramError
+from ..errors import ConfigError, Diagnostic, ProgramError, SoftPLCError
 from .common import add_program_arguments, load_plc
 
 
@@ -40,6 +40,13 @@ def run(args: argparse.Namespace) -> int:
         for d in e.diagnostics:
             print(d, file=sys.stderr)
         print(_count(len(e.diagnostics), "error"), file=sys.stderr)
+        return 1
+    except SoftPLCError as e:  # a missing file, a configuration error
+        if not args.json:
+            raise
+        where = args.config if isinstance(e, ConfigError) and args.config else args.program
+        print(json.dumps({"ok": False, "errors": [asdict(Diagnostic(str(e), str(where)))]},
+                         indent=2))
         return 1
     prog = plc.ast
     if args.json:
