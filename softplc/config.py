@@ -44,10 +44,10 @@ from pydantic import (
 
 from .errors import ConfigError
 from .profile import DEFAULT_PROFILE, PROFILES
+from .runtime.blocks import MAX_VALUE, TIME_BASES_US
 
 _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(us|ms|s|min)?\s*$", re.I)
 _UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0}
-TIME_BASES = {"1ms": 1e-3, "10ms": 1e-2, "100ms": 0.1, "1s": 1.0, "1min": 60.0}
 MAX_DURATION_S = 86400.0  # a day: longer is a typo, and keeps every duration finite in code
 
 
@@ -88,23 +88,22 @@ def duration(value: Any, what: str = "duration") -> float:
 
 def _parse_time_base(value: Any) -> str:
     s = _parse_duration(value)
-    for name, sec in TIME_BASES.items():
-        if abs(s - sec) < 1e-9:
+    for name, us in TIME_BASES_US.items():
+        if abs(s * 1e6 - us) < 1e-3:
             return name
-    raise ValueError(f"one of {', '.join(TIME_BASES)}")
+    raise ValueError(f"one of {', '.join(TIME_BASES_US)}")
 
 
-def time_base(value: Any) -> str:
-    """Normalise a timer time base to '1ms' | '10ms' | '100ms' | '1s' | '1min'."""
-    try:
-        return _parse_time_base(value)
-    except ValueError as e:
-        raise ConfigError(f"time base {value!r}: {e}") from None
+def _positive(v: float) -> float:
+    if not v > 0:
+        raise ValueError("must be longer than 0")
+    return v
 
 
 # ---- field types shared by the schema and the devices' Options ---------------------------------
 Duration = Annotated[float, BeforeValidator(_parse_duration)]
 """Seconds, written with a unit ("10ms"); bare numbers refused."""
+PositiveDuration = Annotated[Duration, AfterValidator(_positive)]
 TimeBase = Annotated[str, BeforeValidator(_parse_time_base)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Address = Annotated[str, Field(min_length=1)]
@@ -130,11 +129,11 @@ class Section(BaseModel):
 class TimerConfig(Section):
     type: Literal["TON", "TOF", "TP"] = "TON"
     base: TimeBase = "1s"
-    preset: int = Field(0, ge=0, le=9999)
+    preset: int = Field(0, ge=0, le=MAX_VALUE)
 
 
 class CounterConfig(Section):
-    preset: int = Field(9999, ge=0, le=9999)
+    preset: int = Field(MAX_VALUE, ge=0, le=MAX_VALUE)
 
 
 class DrumConfig(Section):
@@ -178,10 +177,6 @@ class DeviceSection(BaseModel):
     def options(self) -> Any:
         return self._options
 
-    @property
-    def raw_options(self) -> dict[str, Any]:
-        return dict(self.model_extra or {})
-
 
 def _str_keys(v: Any) -> Any:
     # TOML keys are strings; a Python dict may say {1: "TM2DDO8TT"}
@@ -193,7 +188,7 @@ class Config(Section):
 
     name: str = ""
     description: str = ""
-    scan_period: Duration = 0.010
+    scan_period: PositiveDuration = 0.010
     watchdog: Duration | None = None  # None: the controller's default (engine)
     profile: str = DEFAULT_PROFILE.name
     timers: dict[str, TimerConfig] = Field(default_factory=dict)
@@ -205,13 +200,6 @@ class Config(Section):
     devices: dict[str, DeviceSection] = Field(default_factory=dict)
     modbus: ModbusConfig = Field(default_factory=ModbusConfig)
     daemon: DaemonConfig = Field(default_factory=DaemonConfig)
-
-    @field_validator("scan_period")
-    @classmethod
-    def _positive_period(cls, v: float) -> float:
-        if not v > 0:
-            raise ValueError("must be longer than 0")
-        return v
 
     @field_validator("profile")
     @classmethod

@@ -42,7 +42,7 @@ def _plot_drawn(trace: str, since: float | None, steps: list, out: str,
     plot_samples(rows, out, programmed, units="units", unit_name="cm",
                  steps_per_unit=(spu, spu),
                  travel_steps=(cfg.table_width * spu, cfg.table_height * spu),
-                 title=f"{Path(trace).name}: drawn over programmed")
+                 title=f"{Path(trace).name}: drawn over programmed", full_area=True)
     print(f"drawing plotted to {out}", file=sys.stderr)
 
 

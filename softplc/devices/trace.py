@@ -24,9 +24,9 @@ import math
 import os
 from typing import Any
 
-from pydantic import Field, field_validator
+from pydantic import Field
 
-from ..config import Duration, Section
+from ..config import PositiveDuration, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
@@ -54,15 +54,8 @@ class Trace(Device):
         axes: list[str] = Field(["X", "Z"], min_length=2, max_length=2)
         pen: str = "pen"
         csv: str | None = Field(None, min_length=1)
-        flush_every: Duration = 1.0
+        flush_every: PositiveDuration = 1.0
         max_samples: int = Field(1_000_000, ge=1)
-
-        @field_validator("flush_every")
-        @classmethod
-        def _positive(cls, v: float) -> float:
-            if not v > 0:
-                raise ValueError("must be longer than 0")
-            return v
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
