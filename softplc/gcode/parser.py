@@ -70,8 +70,7 @@ class GCodeError(ProgramError):
     def __str__(self) -> str:
         tagged = [(d, "") for d in self.diagnostics] + [(w, "warning: ") for w in self.warnings]
         tagged.sort(key=lambda dw: (dw[0].line, dw[0].column))
-        return "\n".join(f"{d.file}: {tag}{d.message}" if d.line == 0
-                         else str(replace(d, message=tag + d.message)) for d, tag in tagged)
+        return "\n".join(str(replace(d, message=tag + d.message)) for d, tag in tagged)
 
 
 @dataclass(frozen=True)
