@@ -174,3 +174,20 @@ def test_drawn_plot_is_in_cm_with_both_paths_and_the_legend_outside(tmp_path):
     fig.canvas.draw()
     box = legend.get_window_extent()
     assert box.x0 >= ax.get_window_extent().x1  # right of the plot area, not over it
+
+
+def test_readme_config_error_example_is_what_softplc_prints(tmp_path, capsys):
+    import re
+
+    readme = (ROOT / "README.md").read_text()
+    start = readme.index("checked against one typed schema")
+    shown = re.compile(r"```text\n(.*?)```", re.S).search(readme, start).group(1)
+    cfg = tmp_path / "m.toml"
+    cfg.write_text('scan_period = 10\n[timers."%TM0"]\npreset = "3"\n[devices.X]\n'
+                   'type = "stepper"\nphases = ["%Q1.0", "%Q1.1", "%Q1.2", "%Q1.3"]\n'
+                   'travl = 3\n')
+    prog = tmp_path / "p.il"
+    prog.write_text("LD %TM0.Q\nST %Q0.0\n")
+    assert softplc(["check", str(prog), "--config", str(cfg)]) == 1
+    err = capsys.readouterr().err
+    assert err.replace(str(tmp_path) + "/", "") == "softplc: error: " + shown
