@@ -9,7 +9,7 @@ from collections import Counter
 from dataclasses import asdict
 
 from ..errors import ConfigError, Diagnostic, ProgramError, SoftPLCError
-from .common import add_program_arguments, load_plc
+from ._args import add_program_arguments, load_plc
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import add_program_arguments, check_files, load_plc
+from ._args import add_program_arguments, check_files, load_plc
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

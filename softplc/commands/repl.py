@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_program_arguments, load_plc
+from ._args import add_program_arguments, load_plc
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -21,7 +21,7 @@ from typing import Any
 
 from ..config import check_keys, duration
 from ..errors import ConfigError, SoftPLCError
-from .common import add_program_arguments, load_plc
+from ._args import add_program_arguments, load_plc
 
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
 

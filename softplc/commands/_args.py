@@ -1,4 +1,5 @@
-"""The program and configuration arguments every command takes, in one place.
+"""Arguments shared by the subcommands: argument types, and the program and configuration
+arguments every command takes, in one place:
 
     add_program_arguments(parser)          # PROGRAM.il and --config FILE.toml
     plc = load_plc(args, clock="virtual")  # both files checked, then PLC.from_file
@@ -7,10 +8,26 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError, SoftPLCError
+
+
+def size_arg(what: str, unit: str, example: str) -> Callable[[str], tuple[float, float]]:
+    """An argparse type for `WxH` sizes ("25x25", or "25" for a square)."""
+
+    def parse(text: str) -> tuple[float, float]:
+        try:
+            w, _, h = text.lower().partition("x")
+            return float(w), float(h or w)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} {text!r}: expected WxH in {unit}, "
+                                             f"e.g. {example}") from None
+
+    return parse
+
 
 PROGRAM_HELP = "Instruction List program (.il, or a TwidoSuite List export)"
 CONFIG_HELP = ("machine/PLC configuration (TOML): scan period, timers, counters, constants, "
