@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 from softplc import PLC
 from softplc.errors import ConfigError, ProgramError
 from softplc.il.parser import parse_file
+from softplc.modbus.regmap import parse_read_only
 
 ROOT = Path(__file__).resolve().parent.parent
 SEEDS = sorted((ROOT / "ladder_programs").glob("*.toml"))
@@ -58,6 +59,9 @@ def _paths(node: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
 @cache
 def _seed(path: Path) -> tuple[dict[str, Any], Any, list[tuple[Any, ...]]]:
     cfg = tomllib.loads(path.read_text(encoding="utf-8"))
+    # the daemon's sections too, so that their values get mutated as well
+    cfg.setdefault("modbus", {"port": 5020, "read_only": ["%MW100:4"], "frame_timeout": "2s"})
+    cfg.setdefault("daemon", {"save_interval": "5s", "rt_priority": 10})
     tables = [()] + [p for p in _paths(cfg) if isinstance(_get(cfg, p), dict)]
     return cfg, parse_file(path.with_suffix(".il")), _paths(cfg) + [("+",) + t for t in tables]
 
@@ -106,6 +110,10 @@ def test_mutated_config_loads_or_is_a_config_error(case):
         return
     try:
         plc.scan(5)  # the devices run too: a config that loads must not crash a scan
+        try:  # what the daemon reads at start-up beyond the schema: the read-only ranges
+            parse_read_only(plc.config, plc.profile)
+        except ConfigError as e:
+            assert "[modbus] read_only" in str(e)
     finally:
         plc.close()
 
