@@ -191,3 +191,15 @@ def test_readme_config_error_example_is_what_softplc_prints(tmp_path, capsys):
     assert softplc(["check", str(prog), "--config", str(cfg)]) == 1
     err = capsys.readouterr().err
     assert err.replace(str(tmp_path) + "/", "") == "softplc: error: " + shown
+
+
+# ---- 12: the README says how to reach `softplc` before its first bare `softplc` example ------
+def test_readme_says_to_activate_the_venv_before_the_first_softplc_command():
+    import re
+
+    readme = (ROOT / "README.md").read_text()
+    first_command = re.search(r"^(?:\$ )?softplc \w", readme, re.M)
+    activate = readme.index(". .venv/bin/activate")
+    assert first_command is not None and activate < first_command.start()
+    assert re.search(r"^VENV\s*:=\s*\.venv$", (ROOT / "Makefile").read_text(), re.M)  # that one
+    assert ".venv/bin/softplc" in readme[:first_command.start()]
