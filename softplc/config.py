@@ -151,6 +151,7 @@ class ModbusConfig(Section):
     host: str = "127.0.0.1"
     port: int = Field(5020, ge=0, le=65535)
     read_only: list[Address] | Address = Field(default_factory=list)
+    allow: list[str] | str | None = None  # client addresses/networks (the daemon's --allow)
     max_clients: int = Field(32, ge=1)
     frame_timeout: Duration = 2.0
     idle_timeout: Duration = 0.0
