@@ -265,7 +265,7 @@ def error_lines(e: ValidationError, model: type[BaseModel],
         loc = tuple(err["loc"])
         # a `X | Y` field reports the loc through the member tried: drop type names
         loc = tuple(p for p in loc if not (isinstance(p, str) and
-                                           (p in ("int", "float", "str", "list[str]")
+                                           (p in ("int", "float", "str", "bool")
                                             or p.startswith(("function-", "list[", "dict[",
                                                              "constrained-")))))
         path = key_path(prefix + loc)
@@ -293,15 +293,10 @@ def error_lines(e: ValidationError, model: type[BaseModel],
                 msg.removeprefix("expected ") + got
         else:
             by_path[path] = f"{msg}{got}"
-    return [f"{p}: {m}" for p, m in by_path.items()]
-
-
-def validate(model: type[BaseModel], data: Any, prefix: tuple[Any, ...] = ()) -> Any:
-    """`model.model_validate(data)`, with failures as a ConfigError naming the key paths."""
-    try:
-        return model.model_validate(data)
-    except ValidationError as e:
-        raise ConfigError("\n".join(error_lines(e, model, prefix))) from None
+    # a union (`list[str] | str`) that failed inside its list member also says the list is
+    # not a string: the deeper problem is the one to show
+    return [f"{p}: {m}" for p, m in by_path.items()
+            if not any(q.startswith((p + "[", p + ".")) for q in by_path)]
 
 
 def validate_config(raw: Any, device_types: Mapping[str, Any] | None = None) -> Config:
