@@ -53,6 +53,7 @@ class DaemonOptions:
     frame_timeout: float = 2.0
     idle_timeout: float | None = None
     rt_priority: int = 10  # SCHED_FIFO priority of the scan thread; 0 = normal scheduling
+    web: Any = None  # softplc.web.WebOptions; None = no web monitor
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -82,6 +83,7 @@ class Daemon:
         self.jitter_max = 0.0
         self.start_mode = ""
         self.priority = ""
+        self.web: Any = None  # the web monitor (softplc.web), if any
         ms = options.period * 1000
         if abs(ms - round(ms)) > 1e-9 or not MIN_PERIOD_MS <= round(ms) <= MAX_PERIOD_MS:
             raise SoftPLCError(f"period {ms:g} ms: must be a whole number of ms from "
@@ -118,6 +120,8 @@ class Daemon:
             self.say("simulated devices: " + ", ".join(plc.devices))
         for line in describe(image.n_registers, image.n_coils, image.read_only):
             self.say("  " + line)
+        for line in self.web.banner() if self.web is not None else ():  # web monitor hook
+            self.say(line)
         # The last banner line: tools and tests wait for it.
         self.say(f"Modbus TCP server listening on {opt.host}:{server.port}")
 
@@ -140,6 +144,14 @@ class Daemon:
                     if e.errno == errno.EADDRINUSE else "")
             raise SoftPLCError(f"cannot listen on {opt.host}:{opt.port}: "
                                f"{e.strerror or e}{hint}") from None
+        # web monitor hook: served on the Modbus server's event loop (softplc.web)
+        from .web import attach
+
+        try:
+            self.web = attach(self, server, image, opt.web)
+        except SoftPLCError:
+            server.stop()
+            raise
         writer = retain.RetainWriter(opt.state) if opt.state is not None else None
         old_handlers = {s: signal.signal(s, self.request_stop)
                         for s in (signal.SIGINT, signal.SIGTERM)}
@@ -247,6 +259,8 @@ class Daemon:
                   writer: retain.RetainWriter | None) -> None:
         plc = self.plc
         plc.stop_outputs()
+        if self.web is not None:  # web monitor hook
+            self.web.stop()
         server.stop()  # closes every client: nothing more can be acknowledged
         # Writes acknowledged since the last scan are applied, so the saved state has them.
         image.apply_writes()
