@@ -21,6 +21,7 @@ COMMAND_MODULES = [
     "softplc.commands.draw",
     "softplc.commands.io",
     "softplc.commands.cut",
+    "softplc.commands.servo",
 ]
 
 

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .errors import SoftPLCError
-from .modbus import ModbusImage, ServerThread, parse_read_only
+from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
 from .runtime import retain
 
@@ -130,8 +130,10 @@ class Daemon:
         plc, opt = self.plc, self.opt
         self.start_mode = retain.restart(plc, opt.state, opt.cold, self.program_name)
         self._set_period(self.period_ms)
-        image = ModbusImage(plc.mem, parse_read_only(plc.config,
-                                                     plc.mem.profile))
+        ro = parse_read_only(plc.config, plc.mem.profile)
+        # devices' status words (e.g. a servo axis's) are read-only for hosts too
+        device_ro = tuple(r for d in plc.devices.values() for r in d.read_only_words())
+        image = ModbusImage(plc.mem, ReadOnly(ro.registers + device_ro, ro.coils))
         plc.before_scan.append(image.apply_writes)
         plc.after_scan.append(image.take_snapshot)
         server = ServerThread(image, opt.host, opt.port, max_clients=opt.max_clients,

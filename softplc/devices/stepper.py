@@ -51,7 +51,7 @@ from pydantic import Field, field_validator
 from ..config import Address, InfFloat, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
-from .base import Device, register_device
+from .base import AxisDevice, Device, register_device
 
 log = logging.getLogger(__name__)
 
@@ -73,7 +73,7 @@ def half_steps_to_steps(h: int) -> int | float:
 
 
 @register_device("stepper")
-class Stepper(Device):
+class Stepper(AxisDevice):
     """A four-phase stepper axis. Internal position: `_h`, in half steps from home."""
 
     class Options(Section):
@@ -188,6 +188,12 @@ class Stepper(Device):
                         self.name, t, self.position, reason, more)
 
     # -- views ------------------------------------------------------------------------------
+    def axis_position(self) -> float:
+        return self._h * 0.5
+
+    def axis_end(self) -> float:
+        return math.ceil(2 * self.travel_steps) * 0.5  # the first half step at the end
+
     @staticmethod
     def pattern_name(cur: tuple[int, ...]) -> str:
         on = "+".join(PHASE_NAMES[k] for k, v in enumerate(cur) if v)
