@@ -282,7 +282,8 @@ def error_lines(e: ValidationError, model: type[BaseModel],
             msg = msg[len("Value error, "):]
         if msg.startswith("Input should be "):
             msg = "expected " + msg[len("Input should be "):]
-        msg = msg[0].lower() + msg[1:] if msg else msg
+        if re.match(r"[A-Z][a-z]+ should ", msg):  # pydantic's "List should ...", not "Ixx30 ..."
+            msg = msg[0].lower() + msg[1:]
         if kind in ("dict_type", "model_type"):
             msg = "expected a table"
         elif kind == "list_type":
