@@ -13,12 +13,12 @@ from typing import Any
 
 from .address import BLOCK_FIELDS, Ref, parse_address
 from .compiler.codegen import CompiledProgram, compile_program
-from .config import check_keys, duration, load_config, time_base
+from .config import Config, key_path, load_config
 from .config_models import parse_analog, parse_pid, parse_rtc, parse_schedules, pid_params
 from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLCError
 from .il import ast as A
 from .il.parser import parse, parse_file
-from .profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES, AnalogModule, Profile
+from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
 from .runtime.analog import AnalogChannel, AnalogIO, normal_range
 from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
 from .runtime.clock import Clock, VirtualClock, make_clock
@@ -29,31 +29,32 @@ from .runtime.pid import Pid
 from .runtime.rtc import DEFAULT_START, RTC
 from .semantics import Ops
 
+# signed or unsigned views of a word / double word
+_INT_CONSTANT_RANGE = {"KW": (-(1 << 15), (1 << 16) - 1), "KD": (-(1 << 31), (1 << 32) - 1)}
+
 
 class PLC:
     def __init__(self, program: A.Program, config: str | Path | dict[str, Any] | None = None,
                  *, clock: str | Clock = "virtual", devices: bool = True):
-        cfg, self.config_dir = load_config(config)
-        self.config = cfg
-        prof_name = cfg.get("profile", DEFAULT_PROFILE.name)
-        if prof_name not in PROFILES:
-            raise ConfigError(f"unknown profile {prof_name!r}; known: {', '.join(PROFILES)}")
-        self.profile: Profile = PROFILES[prof_name]
+        from .devices import DEVICE_TYPES
+
+        cfg, self.config_dir, settings = load_config(config, DEVICE_TYPES)
+        self.config = cfg  # as written; `settings` is the same, checked and typed
+        self.settings: Config = settings
+        self.profile: Profile = PROFILES[settings.profile]
         self.ast = program
         self._refs: dict[str, Ref] = {}
         self.mem = MemoryImage(self.profile)
         self.time_source = TimeSource()
-        self.scan_period = duration(cfg.get("scan_period", "10ms"), "scan_period")
-        if self.scan_period <= 0:
-            raise ConfigError("scan_period must be > 0")
-        watchdog = duration(cfg.get("watchdog", DEFAULT_WATCHDOG_S), "watchdog")
+        self.scan_period = settings.scan_period
+        watchdog = settings.watchdog if settings.watchdog is not None else DEFAULT_WATCHDOG_S
         self._clock = make_clock(clock)
         self._analog_modules: dict[int, AnalogModule] = {}
-        self._modules = self._load_modules(cfg.get("modules"))
-        self.mem.analog = self._configure_analog(cfg.get("analog", {}))
-        self._configure_blocks(cfg)
-        self._configure_constants(cfg.get("constants", {}))
-        self._configure_pid(cfg.get("pid", {}))
+        self._modules = self._load_modules(settings.modules)
+        self.mem.analog = self._configure_analog(settings.analog)
+        self._configure_blocks(settings)
+        self._configure_constants(settings.constants)
+        self._configure_pid(settings.pid)
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
@@ -64,10 +65,10 @@ class PLC:
         self._attach_rtc(program, "rtc" in cfg)
         self.program_version = 0  # bumped when the running code is rebuilt
         self.devices: dict[str, Any] = {}
-        if devices and cfg.get("devices"):
+        if devices and settings.devices:
             from .devices import build_devices
 
-            self.devices = build_devices(self._device_config(cfg["devices"]), self.mem)
+            self.devices = build_devices(self._device_config(settings), self.mem)
             self.engine.devices = self.devices
         self._forced: dict[Ref, Any] = {}
         self.engine.cold_start()
@@ -105,19 +106,20 @@ class PLC:
             raise
         return cls(program, config, **kw)
 
-    def _device_config(self, devs: dict[str, Any]) -> dict[str, Any]:
+    def _device_config(self, settings: Config) -> dict[str, tuple[str, Any]]:
+        """Device name -> (type, validated options), relative files made relative to the
+        config file's folder."""
         out = {}
-        for name, opts in devs.items():
-            opts = dict(opts)
-            # relative output files are relative to the config file's folder
-            if self.config_dir is not None and isinstance(opts.get("csv"), str):
-                p = Path(opts["csv"])
-                if not p.is_absolute():
-                    opts["csv"] = str(self.config_dir / p)
-            out[name] = opts
+        for name, section in settings.devices.items():
+            opts = section.options
+            csv = getattr(opts, "csv", None)
+            if self.config_dir is not None and isinstance(csv, str) \
+                    and not Path(csv).is_absolute():
+                opts = opts.model_copy(update={"csv": str(self.config_dir / csv)})
+            out[name] = (section.type, opts)
         return out
 
-    def _load_modules(self, mods: dict[str, Any] | None) -> dict[int, tuple[int, int]] | None:
+    def _load_modules(self, mods: dict[str, str] | None) -> dict[int, tuple[int, int]] | None:
         if mods is None:
             return None
         out = {}
@@ -125,16 +127,17 @@ class PLC:
             try:
                 slot = int(k)
             except ValueError:
-                raise ConfigError(f"modules: slot {k!r} is not a number") from None
+                raise ConfigError(f"modules.{k}: slot {k!r} is not a number") from None
             if not 1 <= slot <= self.profile.expansion_slots:
-                raise ConfigError(f"modules: slot {slot} outside 1..{self.profile.expansion_slots}")
+                raise ConfigError(f"modules.{k}: slot {slot} outside "
+                                  f"1..{self.profile.expansion_slots}")
             name = str(name).upper()
             if name in ANALOG_MODULES:
                 self._analog_modules[slot] = ANALOG_MODULES[name]
                 out[slot] = (0, 0)
                 continue
             if name not in MODULES:
-                raise ConfigError(f"modules: unknown module {name!r}; known: "
+                raise ConfigError(f"modules.{k}: unknown module {name!r}; known: "
                                   f"{', '.join(sorted(MODULES | ANALOG_MODULES))}")
             out[slot] = MODULES[name]
         return out
@@ -178,50 +181,46 @@ class PLC:
         try:
             ref = parse_address(text, self.profile)
         except AddressError as e:
-            raise ConfigError(f"{section}: {e}") from None
+            raise ConfigError(f"{key_path((section, text))}: {e}") from None
         if ref.kind != kind or not (ref.is_block or kind in ("KW", "KD", "KF")):
-            raise ConfigError(f"{section}: {text!r} is not a %{kind} object")
+            raise ConfigError(f"{key_path((section, text))}: {text!r} is not a %{kind} object")
         return ref
 
-    def _configure_blocks(self, cfg: dict[str, Any]) -> None:
+    def _configure_blocks(self, cfg: Config) -> None:
         blocks = self.mem.blocks
-        for text, o in cfg.get("timers", {}).items():
+        for text, t in cfg.timers.items():
             ref = self._cfg_ref(text, "TM", "timers")
-            check_keys(f"timers.{text}", o, ("type", "base", "preset"))
             try:
-                blocks["TM"][ref.index] = Timer(self.time_source, o.get("type", "TON"),
-                                                time_base(o.get("base", "1s")),
-                                                int(o.get("preset", 0)))
-            except (ValueError, TypeError) as e:
+                blocks["TM"][ref.index] = Timer(self.time_source, t.type, t.base, t.preset)
+            except ValueError as e:
                 raise ConfigError(f"timers.{text}: {e}") from None
-        for text, o in cfg.get("counters", {}).items():
+        for text, c in cfg.counters.items():
             ref = self._cfg_ref(text, "C", "counters")
-            check_keys(f"counters.{text}", o, ("preset",))
             try:
-                blocks["C"][ref.index] = Counter(int(o.get("preset", 9999)))
-            except (ValueError, TypeError) as e:
+                blocks["C"][ref.index] = Counter(c.preset)
+            except ValueError as e:
                 raise ConfigError(f"counters.{text}: {e}") from None
-        for text, o in cfg.get("drums", {}).items():
+        for text, d in cfg.drums.items():
             ref = self._cfg_ref(text, "DR", "drums")
-            check_keys(f"drums.{text}", o, ("steps", "outputs"))
             outs = []
-            for a in o.get("outputs", []):
-                r = parse_address(a, self.profile)
-                if r.type != "bool" or r.kind not in ("Q", "M"):
-                    raise ConfigError(f"drums.{text}: outputs are %Q or %M bits, not {a!r}")
+            for k, a in enumerate(d.outputs):
+                try:
+                    r = parse_address(a, self.profile)
+                except AddressError as e:
+                    raise ConfigError(f"drums.{text}.outputs[{k}]: {e}") from None
+                if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
+                    raise ConfigError(f"drums.{text}.outputs[{k}]: %Q or %M bits, not {a!r}")
                 self.mem.use_io(r)
                 outs.append((self.mem.bits(r.kind), r.index))
             try:
-                blocks["DR"][ref.index] = Drum(o.get("steps", [0]), outs)
-            except (ValueError, TypeError) as e:
+                blocks["DR"][ref.index] = Drum(d.steps, outs)
+            except ValueError as e:
                 raise ConfigError(f"drums.{text}: {e}") from None
-        for text, o in cfg.get("registers", {}).items():
+        for text, g in cfg.registers.items():
             ref = self._cfg_ref(text, "R", "registers")
-            check_keys(f"registers.{text}", o, ("type",))
             try:
-                blocks["R"][ref.index] = Register(o.get("type", "FIFO"),
-                                                  self.profile.count("FIFO_DEPTH"))
-            except (ValueError, TypeError) as e:
+                blocks["R"][ref.index] = Register(g.type, self.profile.count("FIFO_DEPTH"))
+            except ValueError as e:
                 raise ConfigError(f"registers.{text}: {e}") from None
 
     def _configure_pid(self, section: Any) -> None:
@@ -258,16 +257,21 @@ class PLC:
             blocks[ref.index]._initial = blocks[ref.index].state()  # its cold-start state
         return None
 
-    def _configure_constants(self, consts: dict[str, Any]) -> None:
+    def _configure_constants(self, consts: dict[str, int | float]) -> None:
         for text, v in consts.items():
             try:
                 ref = parse_address(text, self.profile)
             except AddressError as e:
-                raise ConfigError(f"constants: {e}") from None
-            if ref.kind not in ("KW", "KD", "KF"):
-                raise ConfigError(f"constants: {text!r} is not a %KW/%KD/%KF constant")
-            if ref.kind == "KW" and not -32768 <= int(v) <= 65535:
-                raise ConfigError(f"constants: {text} = {v} does not fit a word")
+                raise ConfigError(f"{key_path(('constants', text))}: {e}") from None
+            if ref.kind not in ("KW", "KD", "KF") or ref.length is not None \
+                    or ref.bit is not None:
+                raise ConfigError(f"{key_path(('constants', text))}: {text!r} is not a "
+                                  f"%KW/%KD/%KF constant")
+            if ref.kind != "KF":
+                lo, hi = _INT_CONSTANT_RANGE[ref.kind]
+                if not isinstance(v, int) or not lo <= v <= hi:
+                    raise ConfigError(f"{key_path(('constants', text))}: expected an integer "
+                                      f"{lo}..{hi} (got {v!r})")
             self.mem.write(ref, v)
 
     def _io_check(self, ref: Ref) -> str | None:
@@ -434,6 +438,15 @@ class PLC:
         return {str(r): v for r, v in self._forced.items()}
 
     # -- state ----------------------------------------------------------------------------------
+    def __repr__(self) -> str:
+        """State, PLC time, scan count and the I/O that is on (what a failing test shows)."""
+        stride, shown = self.mem.stride, 16
+        on = [f"%{kind}{i // stride}.{i % stride}" for kind, bits in
+              (("I", self.mem.i), ("Q", self.mem.q)) for i, v in enumerate(bits) if v]
+        io = " ".join(on[:shown]) + (f" (+{len(on) - shown} more)" if len(on) > shown else "")
+        return (f"<PLC {Path(self.ast.file).name} {self.state} t={self.time:.3f}s "
+                f"scans={self.scan_count} on: {io or 'none'}>")
+
     @property
     def time(self) -> float:
         """PLC time in seconds (virtual: scans x scan_period)."""

@@ -883,7 +883,10 @@ class Session:
             raise DebugError("trace ADDR... to FILE.csv")
         refs = [r for a in m[1].split() for r in self.parse_obj(a)]
         self._close_trace()
-        self.trace_file = open(m[2], "w", newline="", encoding="utf-8")  # noqa: SIM115
+        try:
+            self.trace_file = open(m[2], "w", newline="", encoding="utf-8")  # noqa: SIM115
+        except OSError as e:
+            raise DebugError(f"cannot write {m[2]}: {_why(e, m[2])}") from None
         self.trace_writer = csv.writer(self.trace_file)
         self.trace_refs = refs
         self.trace_writer.writerow(["scan", "t"] + [str(r) for r in refs])
@@ -996,3 +999,18 @@ def diff_programs(old: A.Program, new: A.Program) -> list[str]:
         if names:
             out.append(f"{what}: " + ", ".join(names))
     return out
+
+
+def _why(e: OSError, path: str) -> str:
+    """An OSError as words, e.g. "the folder /x does not exist"."""
+    import errno
+    import os
+
+    folder = os.path.dirname(path) or "."
+    if e.errno == errno.ENOENT:
+        return f"the folder {folder} does not exist"
+    if e.errno in (errno.EACCES, errno.EPERM):
+        return "permission denied"
+    if e.errno == errno.EISDIR:
+        return "it is a folder"
+    return e.strerror or str(e)

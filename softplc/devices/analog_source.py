@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..config import Address, FiniteFloat, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
@@ -25,14 +26,17 @@ from .base import Device, register_device
 
 @register_device("analog_source")
 class AnalogSource(Device):
-    def __init__(self, name: str, *, input: Any, value: Any = 0.0, profile: Any = None):
-        super().__init__(name)
-        self.input = input
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"device {name!r}: value must be a number, not {value!r}")
-        self.initial = float(value)
+    class Options(Section):
+        input: Address
+        value: FiniteFloat = 0.0
+        profile: list[Any] | None = None  # [time_s, value] pairs, checked below
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        self.input = options.input
+        self.initial = float(options.value)
         self.profile: list[tuple[float, float]] = []
-        for point in profile or []:
+        for point in options.profile or []:
             if not (isinstance(point, list | tuple) and len(point) == 2 and
                     all(isinstance(x, int | float) and not isinstance(x, bool)
                         for x in point)):

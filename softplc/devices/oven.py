@@ -23,35 +23,39 @@ import math
 from collections import deque
 from typing import Any
 
+from pydantic import Field
+
 from ..address import parse_address
+from ..config import Address, FiniteFloat, Section
 from ..errors import AddressError, ConfigError
 from ..runtime.analog import SIGNAL_SPAN
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
 
 
-def _number(name: str, option: str, v: Any, minimum: float = 0.0) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float) or v < minimum:
-        raise ConfigError(f"device {name!r}: {option} must be a number >= {minimum}, "
-                          f"not {v!r}")
-    return float(v)
-
-
 @register_device("oven")
 class Oven(Device):
-    def __init__(self, name: str, *, sensor: Any, heater: Any = None, heater_bit: Any = None,
-                 gain: Any = 200.0, tau: Any = 60.0, dead_time: Any = 5.0,
-                 ambient: Any = 20.0, start: Any = None):
-        super().__init__(name)
-        if (heater is None) == (heater_bit is None):
+    # physical constants in plain units (degrees C, seconds), as in the process model above
+    class Options(Section):
+        sensor: Address
+        heater: Address | None = None
+        heater_bit: Address | None = None
+        gain: FiniteFloat = Field(200.0, ge=-1e6)
+        tau: FiniteFloat = Field(60.0, ge=1e-6)
+        dead_time: FiniteFloat = Field(5.0, ge=0.0)
+        ambient: FiniteFloat = Field(20.0, ge=-273.0)
+        start: FiniteFloat | None = Field(None, ge=-273.0)
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        o = options
+        if (o.heater is None) == (o.heater_bit is None):
             raise ConfigError(f"device {name!r}: give one of heater (a %QW) or heater_bit "
                               f"(a %Q)")
-        self.sensor, self.heater, self.heater_bit = sensor, heater, heater_bit
-        self.gain = _number(name, "gain", gain, -1e6)
-        self.tau = _number(name, "tau", tau, 1e-6)
-        self.dead_time = _number(name, "dead_time", dead_time)
-        self.ambient = _number(name, "ambient", ambient, -273.0)
-        self.start = self.ambient if start is None else _number(name, "start", start, -273.0)
+        self.sensor, self.heater, self.heater_bit = o.sensor, o.heater, o.heater_bit
+        self.gain, self.tau, self.dead_time = o.gain, o.tau, o.dead_time
+        self.ambient = o.ambient
+        self.start = self.ambient if o.start is None else o.start
         self._mem: MemoryImage | None = None
         self.reset()
 

@@ -181,12 +181,16 @@ class Engine:
         if not self._begin():
             return
         self._deadline = float("inf")
+        busy = 0.0  # execution time only: time stopped at a yield (a breakpoint) is not scan
         t0 = time.perf_counter()
         try:
-            yield from debug_main()
+            for pos in debug_main():
+                busy += time.perf_counter() - t0
+                yield pos
+                t0 = time.perf_counter()
         except RecursionError:
             self.halt("subroutine calls nested too deep (recursion)")
-        self._finish(time.perf_counter() - t0)
+        self._finish(busy + time.perf_counter() - t0)
 
     def _begin(self) -> bool:
         """Steps 1-3 of the scan. False when not in RUN (the scan is then complete)."""
