@@ -23,7 +23,7 @@ TM0 = {"type": "TON", "base": "10ms", "preset": 3}
      "counters.\"%C0\".up: unknown key"),
     ({"timers": {"%TM0": TM0}, "scan_period": "fast"}, "not a duration"),
     ({"timers": {"%TM0": TM0}, "scan_periode": "10ms"},
-     "scan_periode: unknown key; known: constants"),
+     "scan_periode: unknown key; known: analog, constants"),
     ({"timers": {"%TM0": TM0}, "constants": {"%MW0": 3}}, "not a %KW/%KD/%KF constant"),
     ({"timers": {"%TM0": TM0}, "modules": {"9": "TM2DDO8TT"}}, "modules.9: slot 9 outside 1..7"),
     ({"timers": {"%TM0": TM0}, "modules": {"1": "TM2XYZ"}}, "unknown module"),

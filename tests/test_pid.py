@@ -191,15 +191,15 @@ def test_repl_lists_pids_and_analog_channels():
     assert "%IW2.0   PT100  celsius" in out and "%QW2.0   0-10V  custom 0..10000    5000" in out
 
 
-def test_retained_state_carries_the_pid_over_a_warm_restart():
+def test_retained_state_carries_the_pid_over_a_warm_restart(tmp_path):
     from softplc.runtime import retain
 
     plc = PLC.from_file(*EXAMPLE)
     plc.run_until(lambda p: p["%MW30"] & D_AT_DONE, timeout=1800)
     plc.run(600)
-    data = retain.encode(retain.capture(plc.mem))
+    retain.save(tmp_path / "pid.state", retain.capture(plc.mem))
     again = PLC.from_file(*EXAMPLE, devices=False)
-    retain.apply(again.mem, retain.decode(data))
+    retain.apply(again.mem, retain.load(tmp_path / "pid.state"))
     again.warm_start()
     again.mem.analog.set_input("%IW2.0", 149.0)
     again.scan()

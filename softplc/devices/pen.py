@@ -83,7 +83,7 @@ class Torch(Pen):
         extinction_delay: Duration = 0.0
 
     def __init__(self, name: str, options: Options):  # type: ignore[override]
-        super().__init__(name, Pen.Options(output=options.output,
+        super().__init__(name, Pen.Options.model_construct(output=options.output,
                                            lower_delay=options.ignition_delay,
                                            lift_delay=options.extinction_delay))
         self.options = options
