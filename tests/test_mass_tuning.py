@@ -141,9 +141,12 @@ def test_load_mass_changes_at_run_time(tmp_path):
     rig = rig_for(tmp_path, 15000.0)
     ax = rig.axes["X"]
     k0 = ax.K
-    rig.mem.mw.set_f(290, 0.2)  # the load_mass_word
+    rig.mem.mw.set_f(290, 0.2)  # the load_mass_word: a change from the configured ratio 0
     rig.step()
     assert ax.load_mass_ratio == pytest.approx(0.2) and ax.K == pytest.approx(k0 / 1.2)
+    rig.mem.mw.set_f(290, -5.0)  # the sum stays >= 0
+    rig.step()
+    assert ax.load_mass_ratio == 0.0 and ax.K == k0
     ax.set_load_mass_ratio(0.5)
     assert ax.K == pytest.approx(k0 / 1.5)
     with pytest.raises(ConfigError, match="load mass ratio"):

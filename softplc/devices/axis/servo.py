@@ -85,7 +85,7 @@ class ServoAxis(AxisDevice):
         self._ideal = p.encoder == "ideal"
         self._ready = True  # the drive's READY, evaluated once per scan in update()
         self._mass_word: int | None = None
-        self._mass_f = self.load_mass_ratio  # the word's value last seen (float32)
+        self._mass_f = 0.0  # the load mass word's value last seen
         self._build_consts()
         self.trace: deque[tuple[int, float, float, float]] = deque(
             maxlen=o.trace_max)
@@ -155,8 +155,6 @@ class ServoAxis(AxisDevice):
         self._i, self._q = mem.i_field, mem.q_field
         if self.opt.load_mass_word is not None:
             self._mass_word = self._float_word(mem, self.opt.load_mass_word, "load_mass_word")
-            mw.set_f(self._mass_word, self.load_mass_ratio)
-            self._mass_f = mw.get_f(self._mass_word)  # float32: not a change
         if self.opt.estop_input is not None:
             self._estop_idx = self.io_index(mem, self.opt.estop_input, "I", "estop_input")
         if self.opt.power_output is not None:
@@ -252,8 +250,9 @@ class ServoAxis(AxisDevice):
     def update(self, t: float, dt: float) -> None:
         if self._mass_word is not None:
             r = self._mem.mw.get_f(self._mass_word)  # type: ignore[union-attr]
-            if r != self._mass_f:
+            if r != self._mass_f:  # a change of the ratio from the configured one
                 self._mass_f = r
+                r += self.opt.plant.load_mass_ratio
                 self.set_load_mass_ratio(r if math.isfinite(r) and r >= 0 else 0.0)
         self._ready = ready = self.amp_ready()
         if self._w[self._ctl_i] != self._ctl_prev or not self.closed or \
