@@ -56,28 +56,22 @@ def scope(rig: Rig, bit: int, job: int = 0) -> None:
 
 def macro_by_hand(rig: Rig) -> None:
     """INERT_MEAS_VS.H with the settings file's geometry (mass-estimation.md §1), driven
-    straight through the axis words (the PLC program does the same from the softkey)."""
-    move(rig, -480000, 3000, 1.0)
-    rig.run(1.5)
-    scope(rig, SW.START)
-    rig.run(1.5)
-    move(rig, -120000, 2000, 1.0)
-    rig.run(0.5)
-    move(rig, -480000, 2000, 1.0)
-    rig.run(1.5)
-    scope(rig, SW.STOP)
-    scope(rig, SW.STORE, 1)
-    rig.run(1.5)
-    move(rig, -450000, 3000, 1.0)
-    rig.run(1.5)
-    scope(rig, SW.START)
-    rig.run(1.5)
-    move(rig, -150000, 12000, 0.22)
-    rig.run(0.5)
-    move(rig, -450000, 12000, 0.22)
-    rig.run(1.5)
-    scope(rig, SW.STOP)
-    scope(rig, SW.STORE, 2)
+    straight through the axis words (the PLC program does the same from the softkey):
+    per run, approach at F3000, dwell, START, dwell, out, dwell Q5, back, dwell, STOP,
+    STORE, dwell."""
+    for job, start, end, feed, acc in ((1, -480000, -120000, 2000, 1.0),
+                                       (2, -450000, -150000, 12000, 0.22)):
+        move(rig, start, 3000, 1.0)
+        rig.run(1.5)
+        scope(rig, SW.START)
+        rig.run(1.5)
+        move(rig, end, feed, acc)
+        rig.run(0.5)
+        move(rig, start, feed, acc)
+        rig.run(1.5)
+        scope(rig, SW.STOP)
+        scope(rig, SW.STORE, job)
+        rig.run(1.5)
 
 
 @pytest.fixture(scope="module")

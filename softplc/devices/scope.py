@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
 from ..address import parse_address
 from ..errors import AddressError, ConfigError, SoftPLCError
@@ -42,7 +42,7 @@ from ..massest.recording import THESIS_CHANNELS, Recording, quantise, write_reco
 from ..massest.synth import CAL_JOB, MEAS_JOB
 from ..massest.tuning import CAL_FILE, MEAS_FILE
 from ..runtime.memory import MemoryImage
-from .axis.servo import ServoAxis, config_error
+from .axis.servo import ServoAxis, parse_options
 from .base import Device, register_device
 
 FILES = {CAL_JOB: CAL_FILE, MEAS_JOB: MEAS_FILE}
@@ -78,10 +78,7 @@ class Scope(Device):
 
     def __init__(self, name: str, **options: Any):
         super().__init__(name)
-        try:
-            self.opt = self.Options(**options)
-        except ValidationError as e:
-            raise config_error(name, e) from None
+        self.opt = parse_options(self.Options, name, options)
         self.channels = tuple(c.__class__(c.id, c.name, c.dim, c.factor, self.opt.axis_label)
                               for c in THESIS_CHANNELS)
         self.axis: ServoAxis | None = None

@@ -51,6 +51,14 @@ def config_error(name: str, e: ValidationError) -> ConfigError:
     return ConfigError("; ".join(lines))
 
 
+def parse_options(model: Any, name: str, options: dict[str, Any]) -> Any:
+    """A device's options validated by its pydantic model; errors as one ConfigError."""
+    try:
+        return model(**options)
+    except ValidationError as e:
+        raise config_error(name, e) from None
+
+
 @register_device("servo_axis")
 class ServoAxis(AxisDevice):
     """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts."""
@@ -59,10 +67,7 @@ class ServoAxis(AxisDevice):
 
     def __init__(self, name: str, **options: Any):
         super().__init__(name)
-        try:
-            self.opt = self.Options(**options)
-        except ValidationError as e:
-            raise config_error(name, e) from None
+        self.opt = parse_options(self.Options, name, options)
         o = self.opt
         self.gains = o.ivars
         g = o.geometry
