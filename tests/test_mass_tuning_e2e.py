@@ -40,15 +40,17 @@ def macro_toml(path: Path) -> Path:
 
 
 def run_once(port: int, directory: Path) -> list[int]:
-    """Press the softkey and answer the request with `softplc tune`; returns its exit code."""
+    """Press the softkey and answer the request with `softplc tune`; returns its exit code.
+    About 8 s wall on a quiet machine; the long --wait covers a heavily loaded one, where
+    the daemon at --speed max can fall below real time."""
     rc: list[int] = []
     t = threading.Thread(target=lambda: rc.append(main(
-        ["tune", "--dir", str(directory), "--port", str(port), "--once", "--wait", "60",
+        ["tune", "--dir", str(directory), "--port", str(port), "--once", "--wait", "150",
          "--poll", "0.02"])))
     t.start()
     with ModbusHost("127.0.0.1", port) as h:
         h._call("softkey", lambda c, **kw: c.write_coil(SOFTKEY, True, **kw))
-        t.join(90)
+        t.join(170)
         if rc != [0]:  # say where the PLC is
             rc.append(h.read_words(STATE, 1)[0])
             rc.append(h.read_words(470, 1)[0])
@@ -63,7 +65,7 @@ def wait_idle(h: ModbusHost, applied: int) -> None:
     raise AssertionError(f"not applied: step {h.read_words(STATE, 1)[0]}")
 
 
-@pytest.mark.timeout(180)
+@pytest.mark.timeout(400)
 def test_softkey_estimate_apply_row_2_then_row_1(tmp_path, capsys):
     tuning.write_example(tmp_path, geometry="macro")  # settings + template
     for f in (tuning.CAL_FILE, tuning.MEAS_FILE):
