@@ -2,7 +2,7 @@
 
     .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
                                     [--png results/bench.png]
-                                    [--sections engine,peers,modbus,drawing,servo,mass]
+                                    [--sections engine,peers,modbus,drawing,servo,cutting,mass]
 
 Sections:
   engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
@@ -14,6 +14,9 @@ Sections:
           scan, in simulated seconds per wall second (bench_drawing.py; target >= 50x)
   servo   servo table: two servo axes at 2.26 kHz, 1 ms scans, simulated seconds per wall
           and CPU second, devices alone and the whole machine (bench_servo.py; >= 50x)
+  cutting cutting table: the rounded rectangle (E3) cut by cutting_table.il on two servo
+          axes at 1 ms scans, simulated seconds per wall and CPU second (bench_cutting.py;
+          >= 50x)
   mass    machining centre: one full mass-measurement sequence of mass_tuning.il at 1 ms
           scans with the host estimate, simulated s per wall and CPU s (bench_mass.py; >= 50x)
 
@@ -38,6 +41,7 @@ for _p in (str(ROOT), str(TOOLS)):
     if _p not in sys.path:
         sys.path.insert(0, _p)
 
+import bench_cutting  # noqa: E402
 import bench_drawing  # noqa: E402
 import bench_engine  # noqa: E402
 import bench_mass  # noqa: E402
@@ -45,7 +49,7 @@ import bench_peers  # noqa: E402
 import bench_servo  # noqa: E402
 from peers.common import describe_machine, machine_info, progress  # noqa: E402
 
-SECTIONS = ("engine", "peers", "modbus", "drawing", "servo", "mass")
+SECTIONS = ("engine", "peers", "modbus", "drawing", "servo", "cutting", "mass")
 
 
 def run_modbus_section(quick: bool) -> dict[str, Any]:
@@ -187,6 +191,10 @@ def main(argv: list[str] | None = None) -> int:
         progress("section servo")
         res["servo"] = bench_servo.run(seconds=2.0 if a.quick else 5.0)
         print("\n" + bench_servo.report(res["servo"]))
+    if "cutting" in sections:
+        progress("section cutting")
+        res["cutting"] = bench_cutting.run(speed=10.0 if a.quick else 2.0)
+        print("\n" + bench_cutting.report(res["cutting"]))
     if "mass" in sections:
         progress("section mass")
         res["mass"] = bench_mass.run()

@@ -19,6 +19,7 @@ from typing import Any
 from ..address import Ref
 from ..errors import CompileError
 from ..il import ast as A
+from ..runtime.grafcet import GRAFCET_BITS
 from .values import (
     BLOCK_KIND_PINS,
     BLOCK_OUTPUTS,
@@ -457,6 +458,12 @@ class Compiler(ValueCompiler):
                 if marker is not None:
                     if marker.op == "POST" or step is None and name == "main":
                         if step is None:
+                            if not ctx.get("pre_done"):  # end of preprocessing:
+                                ctx["pre_done"] = True  # %S21-%S23 act here [manual]
+                                self.use("_gpre", "_S")
+                                self.emit(" or ".join(f"_S[{b}]" for b in GRAFCET_BITS)
+                                          .join(("if ", ":")))  # rarely set: skip the call
+                                self.emit("    _gpre()")
                             self.use("_X")
                             self.emit("_XS = bytes(_X)")
                     if marker.op == "POST":

@@ -21,7 +21,7 @@ from ..semantics import FUNCTIONS
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 CMP = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
 BIT_BUFFERS = {"I": "_I", "Q": "_Q", "M": "_M", "S": "_S", "X": "_X"}
-WORD_BUFFERS = {"MW": "_MW", "KW": "_KW", "SW": "_SW"}
+WORD_BUFFERS = {"MW": "_MW", "KW": "_KW", "SW": "_SW", "IW": "_IW", "QW": "_QW"}
 PAIR_VIEWS = {"MD": ("_MDE", "_MDO"), "KD": ("_KDE", "_KDO"),
               "MF": ("_MFE", "_MFO"), "KF": ("_KFE", "_KFO")}
 FAMILY = {"MW": "_MWF", "MD": "_MWF", "MF": "_MWF", "KW": "_KWF", "KD": "_KWF",
@@ -126,8 +126,9 @@ class ValueCompiler:
     def io_check(self, ref: Ref, pos: A.Pos | None) -> None:
         """Expansion-module I/O exists when the configuration lists modules; the scan
         boundary copies cover every module the program uses."""
-        if ref.kind in ("I", "Q"):
-            self.env["_mem"].use_io(ref)
+        if ref.kind in ("I", "Q", "IW", "QW"):
+            if ref.kind in ("I", "Q"):
+                self.env["_mem"].use_io(ref)
             problem = self.env["_io_check"](ref)
             if problem:
                 self.err(problem, pos, str(ref), "an I/O channel of a configured module")
@@ -179,6 +180,9 @@ class ValueCompiler:
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
+            if k in ("IW", "QW"):
+                self.io_check(ref, pos)
+                return f"{buf}[{ref.index}]", INT16
             return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
         if k in PAIR_VIEWS:
             typ = REAL if k in ("MF", "KF") else INT32
@@ -204,6 +208,7 @@ class ValueCompiler:
     def check_writable(self, ref: Ref, pos: A.Pos | None) -> bool:
         if not ref.writable:
             what = {"I": "an input: the program cannot write inputs",
+                    "IW": "an analog input: the program cannot write inputs",
                     "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
                 ref.kind, "read-only")
             self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
@@ -225,7 +230,7 @@ class ValueCompiler:
             self.use(buf)
             idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
             self.emit(f"{buf}[{idx}] = {value}")
-        elif k == "SBR" and ref.field == "J":
+        elif ref.field == "J":  # %SBRi.j, %SCi.j
             b = self.block_name(Ref(k, ref.index), pos)
             self.emit(f"{b}.set_bit({ref.bit}, {value})")
         elif ref.bit is not None and k in WORD_BUFFERS:
@@ -399,6 +404,18 @@ class ValueCompiler:
 
     # ---- operation blocks -----------------------------------------------------------------
     def statement(self, st: A.Statement) -> None:
+        if isinstance(st, A.PidCall):
+            name = f"_PID{st.number}"
+            if self.env.get(name) is None:
+                n = self.counts["PID"]
+                self.err(f"PID {st.number} is used but not configured" if st.number < n
+                         else f"PID {st.number} beyond PID 0 .. PID {n - 1}", st.pos,
+                         f"PID {st.number}", f"a [pid.{st.number}] table in the configuration"
+                         if st.number < n else f"PID 0 .. PID {n - 1}")
+                return
+            self.use(name)
+            self.emit(f"{name}.run()")
+            return
         if isinstance(st, A.IncDec):
             ref = st.target
             if not self.check_writable(ref, st.pos):
@@ -440,7 +457,11 @@ class ValueCompiler:
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind
-        if k in WORD_BUFFERS:
+        if k in ("IW", "QW"):
+            self.io_check(ref, pos)
+            self.use(WORD_BUFFERS[k])
+            self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
+        elif k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
             self.emit(f"{buf}[{self.index_code(ref, self.counts[k])}] = {code}")

@@ -158,7 +158,7 @@ def _output_elem(instr: A.Instruction, k: int, blk: Ref | None) -> Elem | None:
         return Elem("coil", COIL[instr.op], str(instr.target), k, instr, instr.target)
     if isinstance(instr, A.OpBlock):
         st = instr.stmt
-        return Elem("box", format_statement(st), "", k, instr, st.target)
+        return Elem("box", format_statement(st), "", k, instr, getattr(st, "target", None))
     if isinstance(instr, A.Jump):
         return Elem("box", f">>%L{instr.label}", instr.op, k, instr)
     if isinstance(instr, A.SRCall):
@@ -462,10 +462,32 @@ def _box_info(b: Any) -> list[str]:
     return out
 
 
+BlockReader = Callable[[Ref], Any]
+"""A configured function block by reference (None if not configured): the static view of
+`softplc ladder --config`."""
+
+
+def _config_info(b: Any) -> list[str]:
+    """A block's configuration (no live values) for the inside of its box."""
+    if b is None:
+        return []
+    out = []
+    kind = getattr(b, "type", None)
+    if kind is not None:
+        out.append(f"{kind} {b.base}" if hasattr(b, "base") else str(kind))
+    if isinstance(getattr(b, "P", None), int):
+        out.append(f"P={b.P}")
+    if isinstance(getattr(b, "steps", None), list):
+        out.append(f"{len(b.steps)} steps")
+    return out
+
+
 class _Layout:
-    def __init__(self, live: Live | None, marker: int | None = None):
+    def __init__(self, live: Live | None, marker: int | None = None,
+                 blocks: BlockReader | None = None):
         self.g = Grid()
         self.live = live
+        self.blocks = blocks
         self.marker = marker
         self.outs: list[tuple[int, int, Elem, bool]] = []
         self.pins: list[tuple[int, int, Elem, bool]] | None = None  # inside a block's inputs
@@ -648,6 +670,8 @@ class _Layout:
                 info = _box_info(self.live.read(b.elem.ref))
             except Exception:
                 info = []
+        elif self.blocks is not None:
+            info = _config_info(self.blocks(b.elem.ref))
         height = max(h_in, row - r, len(info), 1)
         for i in range(height):
             ln, lw, lp, lk = left.get(r + i, ("", False, False, -1))
@@ -671,12 +695,13 @@ class _Layout:
         return g
 
 
-def layout(rung: A.Rung, live: Live | None = None, marker: int | None = None) -> Grid:
+def layout(rung: A.Rung, live: Live | None = None, marker: int | None = None,
+           blocks: BlockReader | None = None) -> Grid:
     """The rung on a grid. An OR after an output is drawn once, its rail logic coming up
     from below; where that would cross other wires, the junction's merges are drawn after
     its other outputs, and failing that the logic before the OR is drawn again."""
     for tree in (build(rung), _merges_last(build(rung)), build(rung, merge=False)):
-        lay = _Layout(live, marker)
+        lay = _Layout(live, marker, blocks)
         lay.junction(tree, 0, 0, True)
         if not lay.crossed():
             break
@@ -748,10 +773,11 @@ def _joins(cell: Cell | None, side: str) -> bool:
 
 
 def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
-                header: bool = True, marker: int | None = None) -> str:
+                header: bool = True, marker: int | None = None,
+                blocks: BlockReader | None = None) -> str:
     """The rung as terminal text. `marker`: instruction index of the next instruction to
-    run (drawn `>` before its element)."""
-    g = layout(rung, live, marker)
+    run (drawn `>` before its element); `blocks`: show each box's configuration."""
+    g = layout(rung, live, marker, blocks)
     out: list[str] = []
     if header:
         where = f" SR{rung.subroutine}" if rung.subroutine is not None else ""
@@ -838,8 +864,10 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
             rows[3].append(" " * w)
         box_ends = any(cell.box is not None and cell.box.last
                        for (rr, _), cell in g.cells.items() if rr == r)
+        box_info = any(cell.box is not None and cell.box.info
+                       for (rr, _), cell in g.cells.items() if rr == r)
         for i in (0, 1, 2, 3):
-            if (i == 2 and not pw) or (i == 3 and not box_ends):
+            if (i == 2 and not (pw or box_info)) or (i == 3 and not box_ends):
                 continue
             if i in (0, 2) and r > 0 and not "".join(rows[i]).strip(" │║"):
                 continue
@@ -848,13 +876,14 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
     return text.translate(ASCII) if ascii else text
 
 
-def render_program_text(program: A.Program, *, ascii: bool = False) -> str:
+def render_program_text(program: A.Program, *, ascii: bool = False,
+                        blocks: BlockReader | None = None) -> str:
     parts = []
     for title_sec, rungs in _sections(program):
         if title_sec:
             parts.append(f"== {title_sec} ==\n")
         for r in rungs:
-            parts.append(render_text(r, ascii=ascii))
+            parts.append(render_text(r, ascii=ascii, blocks=blocks))
     return "\n".join(parts)
 
 
@@ -881,7 +910,7 @@ def _sections(program: A.Program) -> list[tuple[str, list[A.Rung]]]:
 CH, ROW_H, PAD = 7.2, 48, 20  # pixels per character, per row, margin
 
 
-def render_program_svg(program: A.Program) -> str:
+def render_program_svg(program: A.Program, blocks: BlockReader | None = None) -> str:
     """The whole program as one SVG document (hand-written, no dependencies)."""
     body: list[str] = []
     y = PAD
@@ -891,7 +920,7 @@ def render_program_svg(program: A.Program) -> str:
             body.append(_text(PAD, y + 14, title_sec, size=16, weight="bold"))
             y += 30
         for r in rungs:
-            h, w = _svg_rung(r, PAD, y, body)
+            h, w = _svg_rung(r, PAD, y, body, blocks=blocks)
             y += h + 16
             width = max(width, w + PAD, PAD + (len(r.title) + 12) * CH)
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{y + PAD:.0f}" '
@@ -929,13 +958,14 @@ def render_rung_svg(rung: A.Rung, live: Live | None = None) -> str:
 
 
 def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str],
-              live: Live | None = None) -> tuple[float, float]:
+              live: Live | None = None, blocks: BlockReader | None = None
+              ) -> tuple[float, float]:
     """Draw one rung at (x0, y0); returns (height, width)."""
     title = f"rung {rung.index}" + (f" %L{rung.label}:" if rung.label is not None else "") + \
         (f"  {rung.title}" if rung.title else "")
     body.append(_text(x0, y0 + 12, title, weight="bold"))
     top = y0 + 20
-    g = layout(rung, live)
+    g = layout(rung, live, blocks=blocks)
     pw = live is not None  # power is drawn only in the live view
     if not g.cells:
         body.append(_text(x0 + 10, top + 16, "; ".join(format_instruction(i)
@@ -1023,7 +1053,7 @@ def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y:
         body.append(_text(left + 4, y + 4, b.left, size=11))
     if b.right:
         body.append(_text(right - 4, y + 4, b.right, size=11, anchor="end"))
-    if b.info and pw:
+    if b.info:  # live values, or the configuration (ladder --config)
         body.append(_text((left + right) / 2, y + 12, b.info, size=10, anchor="middle",
                           fill="#0b4f8a"))  # under the pins, above the box's bottom line
     if b.left_wired:

@@ -42,7 +42,7 @@ from ..massest.recording import THESIS_CHANNELS, Recording, quantise, write_reco
 from ..massest.synth import CAL_JOB, MEAS_JOB
 from ..massest.tuning import CAL_FILE, MEAS_FILE
 from ..runtime.memory import MemoryImage
-from .axis.servo import ServoAxis, parse_options
+from .axis.servo import ServoAxis
 from .base import Device, register_device
 
 FILES = {CAL_JOB: CAL_FILE, MEAS_JOB: MEAS_FILE}
@@ -76,9 +76,9 @@ class Scope(Device):
 
     Options = ScopeOptions
 
-    def __init__(self, name: str, **options: Any):
-        super().__init__(name)
-        self.opt = parse_options(self.Options, name, options)
+    def __init__(self, name: str, options: ScopeOptions):
+        super().__init__(name, options)
+        self.opt = options
         self.channels = tuple(c.__class__(c.id, c.name, c.dim, c.factor, self.opt.axis_label)
                               for c in THESIS_CHANNELS)
         self.axis: ServoAxis | None = None

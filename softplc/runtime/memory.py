@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..address import BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
+from ..address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
 from ..errors import AddressError
 from ..profile import DEFAULT_PROFILE, Profile
 
@@ -58,6 +58,28 @@ def wrap16(v: int) -> int:
 
 def wrap32(v: int) -> int:
     return ((int(v) + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+
+
+def bcd_decode(w: int) -> int | None:
+    """A BCD word (16#0000..16#9999) -> its value; None if a nibble is above 9."""
+    u, v = w & 0xFFFF, 0
+    for shift in (12, 8, 4, 0):
+        d = (u >> shift) & 0xF
+        if d > 9:
+            return None
+        v = v * 10 + d
+    return v
+
+
+def bcd_encode(v: int) -> int | None:
+    """0..9999 -> its BCD word (signed 16-bit); None out of range."""
+    if not 0 <= v <= 9999:
+        return None
+    u = 0
+    for shift in (0, 4, 8, 12):
+        u |= (v % 10) << shift
+        v //= 10
+    return wrap16(u)
 
 
 F32_MAX = 3.4028234663852886e38
@@ -99,6 +121,13 @@ class MemoryImage:
         self.mw = WordFamily(c("MW"))
         self.kw = WordFamily(c("KW"))
         self.sw = WordFamily(c("SW"))
+        # Analog I/O words %IWm.c / %QWm.c: devices and the API write %IW between scans,
+        # the program writes %QW; no scan-boundary copy (an analog module converts on its
+        # own, asynchronously to the scan).
+        n_aio = (profile.expansion_slots + 1) * ANALOG_STRIDE
+        self.iw = WordFamily(n_aio)
+        self.qw = WordFamily(n_aio)
+        self.analog: Any = None  # the AnalogIO converter, when analog channels are configured
         # Function blocks, filled in by the engine from the configuration.
         self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
         self.np = {"MW": self.mw.np, "KW": self.kw.np, "SW": self.sw.np}
@@ -116,7 +145,7 @@ class MemoryImage:
 
     def words(self, kind: str) -> WordFamily:
         return {"MW": self.mw, "MD": self.mw, "MF": self.mw, "KW": self.kw,
-                "KD": self.kw, "KF": self.kw, "SW": self.sw}[kind]
+                "KD": self.kw, "KF": self.kw, "SW": self.sw, "IW": self.iw, "QW": self.qw}[kind]
 
     def block(self, ref: Ref) -> Any:
         try:
@@ -165,7 +194,7 @@ class MemoryImage:
         ref = self.ref(address)
         if ref.kind in BLOCK_FIELDS:
             b = self.block(ref)
-            if ref.kind == "SBR" and ref.field == "J":
+            if ref.field == "J":  # %SBRi.j, %SCi.j
                 b.set_bit(ref.bit, value)
                 return
             if ref.field is None or ref.field == "J":
@@ -228,7 +257,7 @@ class MemoryImage:
             name: bytes(getattr(self, name))
             for name in ("i", "i_field", "q", "q_field", "m", "s", "x")
         }
-        for name in ("mw", "kw", "sw"):
+        for name in ("mw", "kw", "sw", "iw", "qw"):
             snap[name] = bytes(getattr(self, name).buf)
         snap["blocks"] = {k: {i: b.state() for i, b in d.items()} for k, d in self.blocks.items()}
         return snap
@@ -236,8 +265,9 @@ class MemoryImage:
     def restore(self, snap: dict[str, Any]) -> None:
         for name in ("i", "i_field", "q", "q_field", "m", "s", "x"):
             getattr(self, name)[:] = snap[name]
-        for name in ("mw", "kw", "sw"):
-            getattr(self, name).buf[:] = snap[name]
+        for name in ("mw", "kw", "sw", "iw", "qw"):
+            if name in snap:
+                getattr(self, name).buf[:] = snap[name]
         for k, d in snap["blocks"].items():
             for i, st in d.items():
                 if i in self.blocks[k]:
