@@ -2,7 +2,7 @@
 
     .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
                                     [--png results/bench.png]
-                                    [--sections engine,peers,modbus,drawing,servo,cutting]
+                                    [--sections engine,peers,modbus,drawing,servo,cutting,mass]
 
 Sections:
   engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
@@ -17,6 +17,8 @@ Sections:
   cutting cutting table: the rounded rectangle (E3) cut by cutting_table.il on two servo
           axes at 1 ms scans, simulated seconds per wall and CPU second (bench_cutting.py;
           >= 50x)
+  mass    machining centre: one full mass-measurement sequence of mass_tuning.il at 1 ms
+          scans with the host estimate, simulated s per wall and CPU s (bench_mass.py; >= 50x)
 
 Figures go to stdout, progress to stderr; the JSON and the bar chart go under results/.
 Absolute numbers vary from run to run and with whatever else the machine is doing (the
@@ -42,11 +44,12 @@ for _p in (str(ROOT), str(TOOLS)):
 import bench_cutting  # noqa: E402
 import bench_drawing  # noqa: E402
 import bench_engine  # noqa: E402
+import bench_mass  # noqa: E402
 import bench_peers  # noqa: E402
 import bench_servo  # noqa: E402
 from peers.common import describe_machine, machine_info, progress  # noqa: E402
 
-SECTIONS = ("engine", "peers", "modbus", "drawing", "servo", "cutting")
+SECTIONS = ("engine", "peers", "modbus", "drawing", "servo", "cutting", "mass")
 
 
 def run_modbus_section(quick: bool) -> dict[str, Any]:
@@ -192,6 +195,10 @@ def main(argv: list[str] | None = None) -> int:
         progress("section cutting")
         res["cutting"] = bench_cutting.run(speed=10.0 if a.quick else 2.0)
         print("\n" + bench_cutting.report(res["cutting"]))
+    if "mass" in sections:
+        progress("section mass")
+        res["mass"] = bench_mass.run()
+        print("\n" + bench_mass.report(res["mass"]))
     res["seconds"] = time.monotonic() - t0
     res["load_average_end"] = __import__("os").getloadavg()
     if a.json:

@@ -5,6 +5,7 @@ from . import (  # noqa: F401  (each registers its device type)
     axis,
     oven,
     pen,
+    scope,
     stepper,
     switches,
     trace,

@@ -13,6 +13,9 @@
     trace = true                # servo-rate trace (t, CP, AP, FE, u) in memory
     trace_max = 200000          # rows kept (a ring)
     trace_csv = "servo_X.csv"   # also written at close()
+    load_mass_word = "%MF290"   # optional: a %MF the device reads every scan: a change of
+                                # plant.load_mass_ratio at run time (0 after a cold start:
+                                # the configured mass; the sum is kept >= 0)
     [devices.NAME.geometry]     # counts, true positions from the home index mark
     index_period = 4096.0       # one index (C) pulse per motor revolution, at x = 0 mod 4096
     home_switch = [-1024.0, 6144.0]    # the home flag is made in [lo, hi)
@@ -93,6 +96,7 @@ class ServoAxisOptions(_Strict):
     trace: bool = True
     trace_max: int = Field(200_000, gt=0)
     trace_csv: str | None = None
+    load_mass_word: str | None = None
     geometry: GeometryOptions = GeometryOptions()
     plant: PlantOptions
     ivars: Gains = Field(default_factory=Gains)  # type: ignore[valid-type]

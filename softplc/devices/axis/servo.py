@@ -53,9 +53,7 @@ class ServoAxis(AxisDevice):
         self.loop_hz = o.servo_clock_hz / (self.gains.servo_ext + 1)
         self.T = 1.0 / self.loop_hz
         p = o.plant
-        self.K = p.K / (1 + p.load_mass_ratio)
-        self.a = p.a / (1 + p.load_mass_ratio)
-        self.zoh = ZOH.of(self.a, self.T)
+        self.load_mass_ratio = p.load_mass_ratio
         self.coef = Coefficients.of(self.gains)
         self._dac_q = 2.0 ** (16 - p.dac_bits) if p.dac_bits else 0.0
         self.u_peak = p.u_peak or math.inf
@@ -70,6 +68,26 @@ class ServoAxis(AxisDevice):
         self._enc0 = math.floor(o.start)
         self._ideal = p.encoder == "ideal"
         self._ready = True  # the drive's READY, evaluated once per scan in update()
+        self._mass_word: int | None = None
+        self._mass_f = 0.0  # the load mass word's value last seen
+        self._build_consts()
+        self.trace: deque[tuple[int, float, float, float]] = deque(
+            maxlen=o.trace_max)
+        self._rec = self.trace.append if o.trace else None
+        self._mem: MemoryImage | None = None
+        self._base = 0
+        self._estop_idx: int | None = None
+        self._power_idx: int | None = None
+        self._i: list[int] = []
+        self._q: list[int] = []
+        self.reset()
+
+    def _build_consts(self) -> None:
+        """The plant terms that depend on the moving mass, and the loop's constants."""
+        o, p, g = self.opt, self.opt.plant, self.opt.geometry
+        self.K = p.K / (1 + self.load_mass_ratio)
+        self.a = p.a / (1 + self.load_mass_ratio)
+        self.zoh = ZOH.of(self.a, self.T)
         gn = self.gains
         c = self.coef
         inf = math.inf
@@ -84,16 +102,17 @@ class ServoAxis(AxisDevice):
             self.zoh.g2, ideal, o.start if ideal else self._enc0, self._lp, self._lm,
             self._hp, self._hm, *g.home_switch, g.index_period, g.index_offset, self.T)
         self._warn_lim = self._consts[11]
-        self.trace: deque[tuple[int, float, float, float]] = deque(
-            maxlen=o.trace_max)
-        self._rec = self.trace.append if o.trace else None
-        self._mem: MemoryImage | None = None
-        self._base = 0
-        self._estop_idx: int | None = None
-        self._power_idx: int | None = None
-        self._i: list[int] = []
-        self._q: list[int] = []
-        self.reset()
+
+    def set_load_mass_ratio(self, ratio: float) -> None:
+        """Change the moving mass at run time (a workpiece loaded or removed): `ratio` is
+        the extra mass over the configured one (`plant.load_mass_ratio`'s meaning); K and
+        a scale by 1 / (1 + ratio) from the next servo cycle, the state is kept."""
+        if not math.isfinite(ratio) or ratio < 0:
+            raise ConfigError(f"device {self.name!r}: load mass ratio {ratio!r}: expected "
+                              "a finite number >= 0")
+        if ratio != self.load_mass_ratio:
+            self.load_mass_ratio = ratio
+            self._build_consts()
 
     # -- contract --------------------------------------------------------------------------
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
@@ -118,11 +137,23 @@ class ServoAxis(AxisDevice):
             + [(mw.f[i & 1], i >> 1) for i in (b + Word.OUTPUT, b + Word.CURRENT,
                                                b + Word.VELOCITY)]
         self._i, self._q = mem.i_field, mem.q_field
+        if self.opt.load_mass_word is not None:
+            self._mass_word = self._float_word(mem, self.opt.load_mass_word, "load_mass_word")
         if self.opt.estop_input is not None:
             self._estop_idx = self.io_index(mem, self.opt.estop_input, "I", "estop_input")
         if self.opt.power_output is not None:
             self._power_idx = self.io_index(mem, self.opt.power_output, "Q", "power_output")
         self._write_status()
+
+    def _float_word(self, mem: MemoryImage, address: str, option: str) -> int:
+        try:
+            ref = parse_address(address, mem.profile)
+        except AddressError as e:
+            raise ConfigError(f"device {self.name!r}: {option}: {e}") from None
+        if ref.kind != "MF" or ref.length or ref.index + 1 >= mem.mw.n:
+            raise ConfigError(f"device {self.name!r}: {option} must be a %MF address, "
+                              f"not {address!r}")
+        return ref.index
 
     def read_only_words(self) -> list[tuple[int, int]]:
         """%MW ranges [start, stop) a Modbus host may read but not write (status words)."""
@@ -201,6 +232,12 @@ class ServoAxis(AxisDevice):
 
     # -- per scan ---------------------------------------------------------------------------
     def update(self, t: float, dt: float) -> None:
+        if self._mass_word is not None:
+            r = self._mem.mw.get_f(self._mass_word)  # type: ignore[union-attr]
+            if r != self._mass_f:  # a change of the ratio from the configured one
+                self._mass_f = r
+                r += self.opt.plant.load_mass_ratio
+                self.set_load_mass_ratio(r if math.isfinite(r) and r >= 0 else 0.0)
         self._ready = ready = self.amp_ready()
         if self._w[self._ctl_i] != self._ctl_prev or not self.closed or \
                 self.fault != "none" or not ready:

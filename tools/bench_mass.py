@@ -1,0 +1,95 @@
+"""Machining-centre simulation speed (issue 14): one full measurement sequence of
+mass_tuning.il on mass_tuning.toml (the settings file's geometry: calibration -480..-120 mm at
+2000 mm/min, measurement -450..-150 mm at 12000 mm/min and 0.22 m/s², the macro's dwells;
+about 59 s of machine time) at 1 ms scans: the PLC program, the servo axis at 3 kHz and the
+recorder on the scan engine, started by the softkey, the host estimate run in the same
+process when the PLC asks (its wall time included), until the parameters are applied.
+Prints simulated seconds per wall (and CPU) second; target >= 50x.
+
+    python tools/bench_mass.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))
+
+from bench_servo import _calib, _timed  # noqa: E402
+
+from softplc import PLC  # noqa: E402
+from softplc.massest import handshake, tuning  # noqa: E402
+
+TOML = ROOT / "ladder_programs" / "mass_tuning.toml"
+IL = ROOT / "ladder_programs" / "mass_tuning.il"
+TARGET = 50.0
+REQUEST_WAIT = 29
+
+
+def sequence() -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        tuning.write_example(d)  # settings and template (the recordings are replaced)
+        conf = tomllib.loads(TOML.read_text(encoding="utf-8"))
+        conf["devices"]["scope"]["directory"] = str(d)
+        plc = PLC.from_file(IL, conf)
+        plc.scan(3)
+        plc["%M205"] = 1  # automatic mode
+        plc["%M200"] = 1  # the softkey
+        out: dict = {}
+
+        def go() -> None:
+            if not plc.run_until(lambda p: p["%MW400"] == REQUEST_WAIT, 120.0):
+                raise RuntimeError(f"stuck in step {plc['%MW400']}")
+            res = tuning.tune_files(d / tuning.SETTINGS_FILE, d / tuning.CAL_FILE,
+                                    d / tuning.MEAS_FILE, d / tuning.TEMPLATE_FILE,
+                                    d / tuning.OUTPUT_FILE)
+            words = handshake.result_words(plc["%MW401"], res)
+            for i, w in enumerate(words):  # as the host's one FC 16 frame
+                plc.mem.mw.w[handshake.W_ACK + i] = w
+            if not plc.run_until(lambda p: p["%MW400"] == 0, 5.0):
+                raise RuntimeError(f"not applied: step {plc['%MW400']}")
+            out["mass"], out["row"] = res.estimate.mass, res.row.number
+
+        t0 = plc.time
+        r = _timed(go, 0.0)
+        sim = plc.time - t0
+        r.update(simulated_s=sim, speedup=sim / r["wall_s"], speedup_cpu=sim / r["cpu_s"],
+                 scans=round(sim / plc.scan_period), **out)
+        r["us_per_scan"] = r["wall_s"] / r["scans"] * 1e6
+        plc.close()
+        return r
+
+
+def run() -> dict:
+    return {"calib_ns": _calib(), "sequence": sequence(), "load_average": os.getloadavg()}
+
+
+def report(r: dict) -> str:
+    x = r["sequence"]
+    return (f"Machining centre: one measurement sequence of mass_tuning.il at 1 ms scans "
+            f"(tools/bench_mass.py; python loop {r['calib_ns']:.0f} ns/iter, load average "
+            f"{r['load_average'][0]:.1f})\n"
+            f"  {x['simulated_s']:.1f} simulated s in {x['wall_s']:.2f} wall s: "
+            f"{x['speedup']:.1f}x real time (wall), {x['speedup_cpu']:.1f}x (CPU), "
+            f"{x['us_per_scan']:.1f} us per scan; estimate {x['mass']:.1f} kg -> row "
+            f"{x['row']}  target >= {TARGET:.0f}x  "
+            f"{'met' if x['speedup_cpu'] >= TARGET else 'MISSED'} (CPU)")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.parse_args(argv)
+    print(report(run()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
