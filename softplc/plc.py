@@ -10,12 +10,21 @@ from pathlib import Path
 from typing import Any
 
 from .address import BLOCK_FIELDS, Ref, parse_address
-from .compiler.codegen import CompiledProgram, compile_program
+from .compiler import Resolved, compile_program, resolve
 from .config import check_keys, duration, load_config, time_base
-from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLCError
+from .errors import (
+    AddressError,
+    Code,
+    ConfigError,
+    Diagnostic,
+    ParseError,
+    ProgramError,
+    SoftPLCError,
+)
 from .il import ast as A
 from .il.parser import parse, parse_file
 from .profile import DEFAULT_PROFILE, MODULES, PROFILES, Profile
+from .program import CompiledProgram, ProgramState, bind
 from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
 from .runtime.clock import Clock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
@@ -46,6 +55,7 @@ class PLC:
         self._configure_constants(cfg.get("constants", {}))
         self.ops = Ops(self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
+        self.program_state = ProgramState()  # shared by the fast and the debug build
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
         self.program_version = 0  # bumped when the running code is rebuilt
@@ -218,67 +228,54 @@ class PLC:
                 return f"{ref}: the module in slot {ref.module} has {n} channels"
         return None
 
-    def env(self) -> dict[str, Any]:
-        """Names the compiled code sees."""
-        m = self.mem
-        env: dict[str, Any] = {
-            "_I": m.i, "_Q": m.q, "_M": m.m, "_S": m.s, "_X": m.x,
-            "_MW": m.mw.w, "_UMW": m.mw.uw, "_KW": m.kw.w, "_UKW": m.kw.uw,
-            "_SW": m.sw.w, "_USW": m.sw.uw,
-            "_MDE": m.mw.d[0], "_MDO": m.mw.d[1], "_MFE": m.mw.f[0], "_MFO": m.mw.f[1],
-            "_KDE": m.kw.d[0], "_KDO": m.kw.d[1], "_KFE": m.kw.f[0], "_KFO": m.kw.f[1],
-            "_MWF": m.mw, "_KWF": m.kw, "_SWF": m.sw, "_mem": m,
-            "_EDGE": [0] * 4096, "_wd": self.engine.watchdog_expired,
-            "_block_factory": self._block_factory, "_io_check": self._io_check,
-            "_GA": [], "_GD": [],
-        }
-        for name, f in self.ops.table().items():
-            env["_" + name] = f
-        for kind, blocks in m.blocks.items():
-            for i, b in blocks.items():
-                env[f"_{kind}{i}"] = b
+    def _allocate(self, program: A.Program, resolved: Resolved) -> list[Diagnostic]:
+        """Create the blocks and I/O copies the resolve pass found; the problems found."""
+        problems = []
+
+        def problem(msg: str, ref: Any, pos: A.Pos, expected: str, code: Code) -> None:
+            problems.append(Diagnostic(msg, program.file, pos.line, pos.column, str(ref),
+                                       expected, code))
+
+        for ref, pos in resolved.blocks.items():
+            msg = self._block_factory(ref)
+            if msg:
+                problem(msg, ref, pos, "a configured block within the profile", Code.BLOCK)
+        for ref, pos in resolved.io.items():
+            self.mem.use_io(ref)
+            msg = self._io_check(ref)
+            if msg:
+                problem(msg, ref, pos, "an I/O channel of a configured module", Code.IO)
+        for blocks in self.mem.blocks.values():
+            for b in blocks.values():
                 if getattr(b, "_initial", None) is None:  # a later build keeps the cold state
                     b._initial = b.state()
+        return problems
 
-        ga, gd, x = env["_GA"], env["_GD"], m.x
-
-        def gpost() -> None:  # apply Grafcet transitions at the end of sequential processing
-            for k in gd:
-                x[k] = 0
-            for k in ga:
-                x[k] = 1
-            ga.clear()
-            gd.clear()
-
-        env["_gpost"] = gpost
-        return env
-
-    def _compile(self, program: A.Program, debug: bool = False,
-                 edge: list[int] | None = None) -> CompiledProgram:
-        env = self.env()
-        if edge is not None:  # share the edge memory (LDR/LDF) with another build
-            env["_EDGE"] = edge
+    def _compile(self, program: A.Program, debug: bool = False) -> CompiledProgram:
+        """Resolve, allocate, bind, generate. The program state (edge memory, initial
+        steps) changes only once the program compiled."""
+        counts = dict(self.profile.counts)
+        resolved = resolve(program, counts)
+        problems = self._allocate(program, resolved)
+        state = self.program_state
+        env = bind(self.mem, self.ops, state, self.engine.watchdog_expired, self.mem.blocks)
         forced = frozenset(r for r in getattr(self, "_forced", {})
                            if r.kind in ("I", "Q", "M", "S", "X") and r.offset is None)
-        compiled = compile_program(program, env, dict(self.profile.counts), debug, forced)
-        # bind blocks created during compilation (defaults) into the namespace
-        for kind, blocks in self.mem.blocks.items():
-            for i, b in blocks.items():
-                compiled.namespace.setdefault(f"_{kind}{i}", b)
-        compiled.namespace["_INITIAL_STEPS"] = tuple(
-            i.step for r in program.rungs for i in r.instructions
-            if isinstance(i, A.Grafcet) and i.op == "=*=" and i.step is not None)
+        compiled = compile_program(program, resolved, env, state, counts, debug, forced,
+                                   problems)
+        state.size_edges(resolved.edges)
+        state.initial_steps = resolved.initial_steps
         return compiled
 
     def compile_debug(self) -> CompiledProgram:
         """The debug build: `main()` is a generator yielding (rung, instruction) before each
         instruction; `log[rung][k]` holds the accumulator after instruction k."""
-        return self._compile(self.ast, debug=True, edge=self.program.namespace.get("_EDGE"))
+        return self._compile(self.ast, debug=True)
 
     def replace_program(self, program: A.Program) -> None:
         """Run `program` from the next scan on, keeping memory (the debugger's reload).
         Raises CompileError, leaving the running program in place, if it does not compile."""
-        compiled = self._compile(program, edge=self.program.namespace.get("_EDGE"))
+        compiled = self._compile(program)
         self.ast, self.program = program, compiled
         self.engine.load(compiled)
         self.program_version += 1

@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable
 
 from .address import INT16, INT32, REAL
-from .runtime.memory import F32_MAX, wrap16, wrap32
+from .numeric import F32_MAX, wrap16, wrap32
 
 S_CARRY, S_ARITH, S_INDEX = 17, 18, 20  # system bit numbers
 
@@ -52,10 +52,15 @@ class Ops:
     def __init__(self, s: list[int]):
         self.s = s
 
+    @classmethod
+    def helper_names(cls) -> tuple[str, ...]:
+        """Names of the helpers compiled code may call (bound as `_<name>`)."""
+        return tuple(name for name in dir(cls)
+                     if not name.startswith("_") and name not in ("table", "helper_names"))
+
     def table(self) -> dict[str, Callable]:
         """Name -> helper, bound into compiled code's namespace."""
-        return {name: getattr(self, name) for name in dir(self)
-                if not name.startswith("_") and name not in ("table", "s")}
+        return {name: getattr(self, name) for name in self.helper_names()}
 
     # -- overflow bookkeeping ---------------------------------------------------------------
     def _chk16(self, v: int) -> int:

@@ -12,13 +12,13 @@ step by rung or by instruction and read the power flow (`_log[rung][k]`).
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 from ..address import Ref
-from ..errors import CompileError
+from ..errors import Code, CompileError, Diagnostic
 from ..il import ast as A
+from ..program import CompiledProgram, Names, ProgramState, Watchdog
+from .resolve import Resolved
 from .values import (
     BLOCK_KIND_PINS,
     BLOCK_OUTPUTS,
@@ -31,24 +31,7 @@ from .values import (
 
 MAX_EXPR = 2000  # characters of a fused expression before it is materialised
 
-
-class Watchdog(Exception):
-    """Raised by compiled code when a scan overruns the watchdog inside a loop."""
-
-
-@dataclass
-class CompiledProgram:
-    program: A.Program
-    source: str
-    main: Callable[[], Any]
-    namespace: dict[str, Any]
-    debug: bool = False
-    log: list[list[Any]] = field(default_factory=list)  # debug: accumulator per instruction
-    instruction_count: int = 0
-
-    @property
-    def rungs(self) -> list[A.Rung]:
-        return self.program.rungs
+__all__ = ["CompiledProgram", "Compiler", "Watchdog", "compile_program"]
 
 
 class Compiler(ValueCompiler):
@@ -72,7 +55,7 @@ class Compiler(ValueCompiler):
                 self.err(f"%{blk.kind} has no output {op.name}", op.pos, op.name,
                          ", ".join(outs) or "no output")
                 return "0"
-            return f"{self.block_name(blk, pos)}.{op.name}"
+            return f"{self.block_name(blk)}.{op.name}"
         if isinstance(op, A.Compare):
             a, b = self.operand_pair(op.left, op.right, None)
             if self.unify(a, b, op.pos, "comparison") is None:
@@ -90,12 +73,13 @@ class Compiler(ValueCompiler):
         if mod == "N":
             return _Acc(f"(not {code})")
         if mod in ("R", "F"):
-            self.use("_EDGE")
+            edge = Names.EDGE
+            self.use(edge)
             k = next(self.edge)
             v, r = self.new_tmp(), self.new_tmp()
             self.emit(f"{v} = {code}")
-            self.emit(f"{r} = {v} {'>' if mod == 'R' else '<'} _EDGE[{k}]")
-            self.emit(f"_EDGE[{k}] = {v}")
+            self.emit(f"{r} = {v} {'>' if mod == 'R' else '<'} {edge}[{k}]")
+            self.emit(f"{edge}[{k}] = {v}")
             return _Acc(r)
         return _Acc(code)
 
@@ -124,7 +108,7 @@ class Compiler(ValueCompiler):
         base_indent = self.indent
         step = ctx.get("step")
         if step is not None:
-            self.emit(f"if _XS[{step}]:")  # _XS: a local, the step bits at the start
+            self.emit(f"if {Names.STEPS_AT_START}[{step}]:")  # the step bits at the start
             self.indent += 1
             base_indent = self.indent
         body_start = len(self.fn.lines)
@@ -153,7 +137,7 @@ class Compiler(ValueCompiler):
             nonlocal blk_phase
             if blk is None or blk_phase != "in":
                 return
-            b = self.block_name(blk, None)
+            b = self.block_name(blk)
             pins = BLOCK_KIND_PINS.get(blk.kind, ())
             args = ", ".join(blk_pins.get(p, "0") for p in pins)
             self.emit(f"{b}.run({args})")
@@ -247,13 +231,11 @@ class Compiler(ValueCompiler):
             elif isinstance(instr, A.SRCall):
                 a = need(instr)
                 if instr.number not in ctx["subroutines"]:
-                    self.err(f"SR{instr.number} is called but not defined", pos,
-                             f"SR{instr.number}", f"a subroutine 'SR{instr.number}:' after END")
-                    continue
+                    continue  # reported by the resolve pass
                 if acc_used_later(k) or self.debug:
                     a = acc = self.materialize(a)
-                call = f"yield from _sr{instr.number}()" if self.debug else \
-                    f"_sr{instr.number}()"
+                sr = Names.subroutine(instr.number)
+                call = f"yield from {sr}()" if self.debug else f"{sr}()"
                 self.conditional(a.code, call)
             elif isinstance(instr, A.Return):
                 if ctx["function"] == "main":
@@ -275,7 +257,7 @@ class Compiler(ValueCompiler):
                              "%TM, %C, %DR, %SBR, %SC or %R")
                     continue
                 blk, blk_pins, blk_phase = instr.block, {}, "in"
-                self.block_name(blk, pos)
+                self.block_name(blk)
                 acc = None
             elif isinstance(instr, A.OutBlk):
                 if blk is None:
@@ -301,8 +283,8 @@ class Compiler(ValueCompiler):
                 self.err(f"unsupported instruction {instr}", pos, "", "an instruction")
             if self.debug and acc is not None:
                 acc = self.materialize(acc)
-                self.use("_LOG")
-                self.emit(f"_LOG[{rung.index}][{k}] = {acc.code}")
+                self.use(Names.LOG)
+                self.emit(f"{Names.LOG}[{rung.index}][{k}] = {acc.code}")
         if parens:
             self.err("'(' not closed before the end of the rung", parens[-1][3], "", "')'")
         if blk is not None:
@@ -355,7 +337,7 @@ class Compiler(ValueCompiler):
             a = self.materialize(acc)
             pins[instr.name] = a.code
             return
-        b = self.block_name(target, instr.pos)
+        b = self.block_name(target)
         method = BLOCK_PIN_METHODS[instr.name]
         self.emit(f"{b}.{method}({acc.code})")
 
@@ -369,12 +351,13 @@ class Compiler(ValueCompiler):
             self.err(f"{instr.op} outside a Grafcet step", instr.pos, instr.op,
                      "a step first (=*= i or -*- i)")
             return
-        self.use("_GA", "_GD")
+        ga, gd = Names.ACTIVATE, Names.DEACTIVATE
+        self.use(ga, gd)
         if instr.op == "#":
-            stmts = [f"_GD.append({cur})"] + ([f"_GA.append({instr.step})"]
+            stmts = [f"{gd}.append({cur})"] + ([f"{ga}.append({instr.step})"]
                                                if instr.step is not None else [])
         else:  # "#D i": deactivate step i and the current step [manual, unsure]
-            stmts = [f"_GD.append({cur})", f"_GD.append({instr.step})"]
+            stmts = [f"{gd}.append({cur})", f"{gd}.append({instr.step})"]
         code = acc.code if acc is not None else "1"
         if code not in ("1", "True"):
             self.emit(f"if {code}:")
@@ -389,18 +372,14 @@ class Compiler(ValueCompiler):
     def jump(self, instr: A.Jump, acc: _Acc | None, ctx: dict[str, Any], rung: A.Rung) -> None:
         labels = ctx["labels"]
         if instr.label not in labels:
-            where = ctx["all_labels"].get(instr.label)
-            msg = (f"%L{instr.label} is in {where}; a jump cannot leave its program or "
-                   f"subroutine") if where else f"unknown label %L{instr.label}"
-            self.err(msg, instr.pos, f"%L{instr.label}",
-                     f"a label %L{instr.label}: in the same program or subroutine")
-            return
+            return  # reported by the resolve pass
         target = labels[instr.label]
         here = ctx["block_of"][rung.index]
         stmts = [f"_pc = {target}"]
         if target <= here:  # backward: a loop, watch the watchdog
-            self.use("_wd")
-            stmts += ["_n += 1", "if not _n & 1023 and _wd():", "    raise _Watchdog()"]
+            self.use(Names.WATCHDOG)
+            stmts += ["_n += 1", f"if not _n & 1023 and {Names.WATCHDOG}():",
+                      f"    raise {Names.WATCHDOG_EXC}()"]
         stmts.append("continue")
         if instr.op == "JMP":
             cond = "1"
@@ -426,18 +405,14 @@ class Compiler(ValueCompiler):
         blocks: list[list[A.Rung]] = [[]]
         for r in rungs:
             if r.label is not None:
-                if r.label in labels or r.label in ctx["seen_labels"]:
-                    self.err(f"label %L{r.label} defined twice",
-                             A.Pos(r.label_line or r.first_line, 1),
-                             f"%L{r.label}:", "each label defined once")
                 if blocks[-1]:
                     blocks.append([])
-                labels[r.label] = len(blocks) - 1
-                ctx["seen_labels"].add(r.label)
+                labels.setdefault(r.label, len(blocks) - 1)  # a second one is reported
             blocks[-1].append(r)
             block_of[r.index] = len(blocks) - 1
         ctx = dict(ctx, labels=labels, block_of=block_of, function=name,
-                   end_code="return" if not ctx.get("grafcet") else "_gpost(); return")
+                   end_code="return" if not ctx.get("grafcet") else
+                   f"{Names.GRAFCET_POST}(); return")
         dispatch = any(isinstance(i, A.Jump) for r in rungs for i in r.instructions)
         self.indent = 1
         if dispatch:
@@ -457,18 +432,15 @@ class Compiler(ValueCompiler):
                 if marker is not None:
                     if marker.op == "POST" or step is None and name == "main":
                         if step is None:
-                            self.use("_X")
-                            self.emit("_XS = bytes(_X)")
+                            self.use(Names.BIT["X"])
+                            self.emit(f"{Names.STEPS_AT_START} = bytes({Names.BIT['X']})")
                     if marker.op == "POST":
-                        self.use("_gpost")
-                        self.emit("_gpost()")
+                        self.use(Names.GRAFCET_POST)
+                        self.emit(f"{Names.GRAFCET_POST}()")
                         step = None
                         ctx["post_done"] = True
                     else:
-                        step = marker.step
-                        if step is not None and step >= self.counts["X"]:
-                            self.err(f"Grafcet step {step} beyond %X{self.counts['X'] - 1}",
-                                     marker.pos, str(step), f"0 .. {self.counts['X'] - 1}")
+                        step = marker.step  # beyond %X: reported by the resolve pass
                     if self.debug:
                         self.emit(f"yield ({r.index}, 0)")
                     continue
@@ -481,8 +453,8 @@ class Compiler(ValueCompiler):
             self.emit("return")
         if name == "main" and ctx.get("grafcet") and not ctx.get("post_done"):
             self.indent = 1
-            self.use("_gpost")
-            self.emit("_gpost()")
+            self.use(Names.GRAFCET_POST)
+            self.emit(f"{Names.GRAFCET_POST}()")
         return fn
 
     def render(self, fn: _Fn, fname: str) -> str:
@@ -494,46 +466,38 @@ class Compiler(ValueCompiler):
         return f"def {fname}({args}):\n" + "\n".join(body) + "\n"
 
 
-def compile_program(program: A.Program, env: dict[str, Any], counts: dict[str, int],
-                    debug: bool = False, forced: frozenset[Ref] = frozenset()
-                    ) -> CompiledProgram:
-    """Generate, check and exec the program. Raises CompileError with every problem.
-    Stores to the `forced` bits are left out, so forcing holds all through a scan."""
-    c = Compiler(program, env, counts, debug, forced)
-    subs = program.subroutines
-    all_labels: dict[int, str] = {}
-    for r in program.rungs:
-        if r.label is not None:
-            all_labels.setdefault(r.label, f"SR{r.subroutine}" if r.subroutine is not None
-                                  else "the main program")
-    grafcet = any(isinstance(i, A.Grafcet) for r in program.rungs for i in r.instructions)
-    for n in subs:
-        if n >= counts["SR"]:
-            c.err(f"SR{n} beyond the {counts['SR']} subroutines of the profile",
-                  A.Pos(program.subroutine(n)[0].first_line, 1), f"SR{n}:",
-                  f"SR0 .. SR{counts['SR'] - 1}")
-    base_ctx = {"subroutines": set(subs), "all_labels": all_labels, "seen_labels": set(),
-                "grafcet": grafcet}
-    for r in program.rungs:
-        if r.label is not None and r.label >= counts["L"]:
-            c.err(f"label %L{r.label} beyond %L{counts['L'] - 1}",
-                  A.Pos(r.label_line or r.first_line, 1), f"%L{r.label}:",
-                  f"%L0 .. %L{counts['L'] - 1}")
+def compile_program(program: A.Program, resolved: Resolved, env: dict[str, Any],
+                    state: ProgramState, counts: dict[str, int], debug: bool = False,
+                    forced: frozenset[Ref] = frozenset(),
+                    diagnostics: list[Diagnostic] = ()) -> CompiledProgram:
+    """Generate and exec the program in namespace `env` (see `program.bind`), with edge
+    memory and Grafcet transitions in `state`. `resolved` is the resolve pass's result and
+    `diagnostics` the problems found allocating what it lists: raises CompileError with
+    every problem. Stores to the `forced` bits are left out, so forcing holds all through
+    a scan."""
+    c = Compiler(program, counts, debug, forced)
+    c.diags.extend(resolved.diags)
+    c.diags.extend(diagnostics)
+    base_ctx = {"subroutines": set(resolved.subroutines), "grafcet": resolved.grafcet}
     parts = []
-    for n in subs:
-        fn = c.function(f"SR{n}", program.subroutine(n), dict(base_ctx, seen_labels=set()))
-        parts.append(c.render(fn, f"_sr{n}"))
+    for n in resolved.subroutines:
+        fn = c.function(f"SR{n}", program.subroutine(n), dict(base_ctx))
+        parts.append(c.render(fn, Names.subroutine(n)))
     fn = c.function("main", program.main, base_ctx)
-    parts.append(c.render(fn, "_main"))
+    parts.append(c.render(fn, Names.MAIN))
     if c.diags:
         uniq = sorted(set(c.diags), key=lambda d: (d.line, d.column, d.message))
         raise CompileError(uniq)
+    edges = next(c.edge)
+    if edges > resolved.edges:  # the two passes must agree on what is an edge instruction
+        raise CompileError(Diagnostic(f"internal: {edges} edge instructions generated, "
+                                      f"{resolved.edges} resolved", program.file,
+                                      code=Code.OTHER))
     source = "\n".join(parts)
     ns = dict(env)
-    ns["_Watchdog"] = Watchdog
     if debug:
-        ns["_LOG"] = [[None] * len(r.instructions) for r in program.rungs]
+        ns[Names.LOG] = [[None] * len(r.instructions) for r in program.rungs]
     code = compile(source, f"<softplc:{program.file}>", "exec")
     exec(code, ns)
-    return CompiledProgram(program, source, ns["_main"], ns, debug, ns.get("_LOG", []),
-                           c.ninstr)
+    return CompiledProgram(program, source, ns[Names.MAIN], ns, state, debug,
+                           ns.get(Names.LOG, []), c.ninstr)

@@ -10,33 +10,26 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import Any
 
 from ..address import BLOCK_FIELDS, BOOL, INT16, INT32, REAL, Ref
-from ..errors import Diagnostic
+from ..errors import Code, Diagnostic
 from ..il import ast as A
+from ..program import Names
 from ..runtime.blocks import BLOCK_CLASSES
 from ..semantics import FUNCTIONS
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 CMP = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
-BIT_BUFFERS = {"I": "_I", "Q": "_Q", "M": "_M", "S": "_S", "X": "_X"}
-WORD_BUFFERS = {"MW": "_MW", "KW": "_KW", "SW": "_SW"}
-PAIR_VIEWS = {"MD": ("_MDE", "_MDO"), "KD": ("_KDE", "_KDO"),
-              "MF": ("_MFE", "_MFO"), "KF": ("_KFE", "_KFO")}
-FAMILY = {"MW": "_MWF", "MD": "_MWF", "MF": "_MWF", "KW": "_KWF", "KD": "_KWF",
-          "KF": "_KWF", "SW": "_SWF"}
-FLOAT_FUNCS = {"SQRT": "_fsqrt", "ABS": "_fabs", "TRUNC": "_ftrunc", "LOG": "_flog",
-               "LN": "_fln", "EXP": "_fexp", "EXPT": "_fexpt", "SIN": "_fsin",
-               "COS": "_fcos", "TAN": "_ftan", "ASIN": "_fasin", "ACOS": "_facos",
-               "ATAN": "_fatan", "DEG_TO_RAD": "_fdeg_to_rad", "RAD_TO_DEG": "_frad_to_deg"}
+BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
+# Float functions: the helper is "f" + the function name in lower case (semantics.Ops.fsqrt)
+FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SIN", "COS",
+                         "TAN", "ASIN", "ACOS", "ATAN", "DEG_TO_RAD", "RAD_TO_DEG"})
 BLOCK_PIN_METHODS = {"IN": "run", "R": "r", "S": "s", "CU": "cu", "CD": "cd", "U": "u",
                      "I": "i", "O": "o"}
 # A block's input pins (as its class declares them) and its bit outputs (its bit fields).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
 BLOCK_OUTPUTS = {kind: tuple(f for f, (t, _w) in fields.items() if t == BOOL)
                  for kind, fields in BLOCK_FIELDS.items() if fields}
-FAMILY_COUNT = {"MD": "MW", "MF": "MW", "KD": "KW", "KF": "KW"}
 
 
 @dataclass
@@ -63,11 +56,10 @@ class _Fn:
 class ValueCompiler:
     """Shared state of one compilation, diagnostics, emission, object access, expressions."""
 
-    def __init__(self, program: A.Program, env: dict[str, Any], profile_counts: dict[str, int],
+    def __init__(self, program: A.Program, profile_counts: dict[str, int],
                  debug: bool = False, forced: frozenset[Ref] = frozenset()):
         self.program = program
         self.forced = forced  # bits the program may not change (forced from outside)
-        self.env = env  # name -> object for the generated namespace
         self.counts = profile_counts
         self.debug = debug
         self.diags: list[Diagnostic] = []
@@ -78,16 +70,24 @@ class ValueCompiler:
         self.ninstr = 0
 
     # ---- diagnostics ----------------------------------------------------------------------
-    def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "") -> None:
+    def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "",
+            code: Code = Code.OTHER) -> None:
         p = pos or A.NOPOS
         if not text and p.line:
             lines = self.program.source.splitlines()
             text = lines[p.line - 1].strip() if p.line <= len(lines) else ""
-        self.diags.append(Diagnostic(msg, self.program.file, p.line, p.column, text, expected))
+        self.diags.append(Diagnostic(msg, self.program.file, p.line, p.column, text, expected,
+                                     code))
 
     # ---- emission helpers -----------------------------------------------------------------
     def use(self, *names: str) -> None:
         self.fn.names.update(names)
+
+    def helper(self, name: str) -> str:
+        """The bound name of the instruction helper `semantics.Ops.<name>`, used."""
+        bound = Names.helper(name)
+        self.use(bound)
+        return bound
 
     def emit(self, line: str) -> None:
         self.fn.lines.append("    " * self.indent + line)
@@ -103,16 +103,9 @@ class ValueCompiler:
         return _Acc(t)
 
     # ---- object access --------------------------------------------------------------------
-    def block_name(self, ref: Ref, pos: A.Pos | None) -> str:
-        name = f"_{ref.kind}{ref.index}"
-        if name not in self.env:
-            factory = self.env["_block_factory"]
-            problem = factory(ref)
-            if problem:
-                self.err(problem, pos, str(ref), "a configured block within the profile")
-                self.env[name] = None
-            else:
-                self.env[name] = self.env["_mem"].blocks[ref.kind][ref.index]
+    def block_name(self, ref: Ref) -> str:
+        """The bound name of a block (the resolve pass collected it, the PLC allocated it)."""
+        name = Names.block(ref.kind, ref.index)
         self.use(name)
         return name
 
@@ -120,21 +113,12 @@ class ValueCompiler:
         """Index expression for a possibly indexed object."""
         if ref.offset is None:
             return str(ref.index)
-        self.use("_ix", "_MW")
-        return f"_ix({ref.index}, _MW[{ref.offset.index}], {count})"
-
-    def io_check(self, ref: Ref, pos: A.Pos | None) -> None:
-        """Expansion-module I/O exists when the configuration lists modules; the scan
-        boundary copies cover every module the program uses."""
-        if ref.kind in ("I", "Q"):
-            self.env["_mem"].use_io(ref)
-            problem = self.env["_io_check"](ref)
-            if problem:
-                self.err(problem, pos, str(ref), "an I/O channel of a configured module")
+        ix, mw = self.helper("ix"), WORD_BUFFERS["MW"]
+        self.use(mw)
+        return f"{ix}({ref.index}, {mw}[{ref.offset.index}], {count})"
 
     def read_bit(self, ref: Ref, pos: A.Pos | None) -> str:
         k = ref.kind
-        self.io_check(ref, pos)
         if k in BIT_BUFFERS:
             buf = BIT_BUFFERS[k]
             self.use(buf)
@@ -146,7 +130,7 @@ class ValueCompiler:
             self.use(buf)
             return f"({buf}[{ref.index}] >> {ref.bit} & 1)"
         if ref.type == BOOL and ref.kind in BLOCK_OUTPUTS or ref.field == "J":
-            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            b = self.block_name(Ref(ref.kind, ref.index))
             if ref.field == "J":
                 return f"{b}.bit({ref.bit})"
             return f"{b}.{ref.field}"
@@ -163,9 +147,8 @@ class ValueCompiler:
                 self.err(f"{ref}: a bit string of {ref.length} bits", pos, str(ref),
                          "at most 16 bits for a word, 32 for a double word")
                 return "0", INT16
-            h = "_bitstr16" if ref.length <= 16 else "_bitstr32"
-            self.io_check(ref, pos)
-            self.use(h, BIT_BUFFERS[k])
+            h = self.helper("bitstr16" if ref.length <= 16 else "bitstr32")
+            self.use(BIT_BUFFERS[k])
             return f"{h}({BIT_BUFFERS[k]}, {ref.index}, {ref.length})", \
                 INT16 if ref.length <= 16 else INT32
         if ref.length is not None:
@@ -185,7 +168,7 @@ class ValueCompiler:
             if ref.offset is not None:
                 fam = FAMILY[k]
                 self.use(fam)
-                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                idx = self.index_code(ref, self.counts[k[0] + "W"] - 1)  # of the word family
                 return f"{fam}.get_{'f' if typ == REAL else 'd'}({idx})", typ
             view = PAIR_VIEWS[k][ref.index & 1]
             self.use(view)
@@ -195,7 +178,7 @@ class ValueCompiler:
                 self.err(f"{ref} is a function block, not a value", pos, str(ref),
                          f"a field of it, such as {ref}.V or {ref}.P")
                 return "0", INT16
-            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            b = self.block_name(Ref(ref.kind, ref.index))
             return f"{b}.{ref.field}", INT16
         self.err(f"{ref} cannot be used in an expression", pos, str(ref),
                  "a word, double word or float")
@@ -215,7 +198,6 @@ class ValueCompiler:
         """Emit `ref := value` for a bit target."""
         if not self.check_writable(ref, pos):
             return
-        self.io_check(ref, pos)
         if ref in self.forced:  # a forced bit keeps its value all through the scan
             self.emit(f"pass  # {ref} is forced")
             return
@@ -226,10 +208,10 @@ class ValueCompiler:
             idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
             self.emit(f"{buf}[{idx}] = {value}")
         elif k == "SBR" and ref.field == "J":
-            b = self.block_name(Ref(k, ref.index), pos)
+            b = self.block_name(Ref(k, ref.index))
             self.emit(f"{b}.set_bit({ref.bit}, {value})")
         elif ref.bit is not None and k in WORD_BUFFERS:
-            u = "_U" + WORD_BUFFERS[k][1:]
+            u = Names.UWORD[k]
             self.use(u)
             mask = 1 << ref.bit
             self.emit(f"{u}[{ref.index}] = ({u}[{ref.index}] | {mask}) if {value} else "
@@ -261,8 +243,7 @@ class ValueCompiler:
             code, t = self.expr(e.operand, want)
             if t == REAL:
                 return f"(-{code})", REAL
-            h = "_neg16" if t == INT16 else "_neg32"
-            self.use(h)
+            h = self.helper("neg16" if t == INT16 else "neg32")
             return f"{h}({code})", t
         if isinstance(e, A.BinOp):
             return self.binop(e, want)
@@ -315,11 +296,9 @@ class ValueCompiler:
                 self.err("REM on floats", e.pos, "REM", "words or double words")
                 return "0", REAL
             if e.op == "/":
-                self.use("_fdiv")
-                return f"_fdiv({a[0]}, {b[0]})", REAL
+                return f"{self.helper('fdiv')}({a[0]}, {b[0]})", REAL
             return f"({a[0]} {e.op} {b[0]})", REAL
-        h = f"_{ARITH[e.op]}{16 if t == INT16 else 32}"
-        self.use(h)
+        h = self.helper(f"{ARITH[e.op]}{16 if t == INT16 else 32}")
         return f"{h}({a[0]}, {b[0]})", t
 
     @staticmethod
@@ -355,18 +334,17 @@ class ValueCompiler:
         t0 = args[0][1]
         f = e.func
         if f in ("SHL", "SHR", "ROL", "ROR"):
-            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+            h = self.helper(f"{f.lower()}{16 if t0 == INT16 else 32}")
         elif f == "NOT":
             return f"(~{args[0][0]})", t0
         elif f in ("SQRT", "ABS") and t0 != REAL:
-            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+            h = self.helper(f"{f.lower()}{16 if t0 == INT16 else 32}")
         elif f in FLOAT_FUNCS:
-            h = FLOAT_FUNCS[f]
+            h = self.helper("f" + f.lower())
         elif f in ("INT_TO_REAL", "DINT_TO_REAL"):
             return f"float({args[0][0]})", REAL
         else:  # REAL_TO_INT / REAL_TO_DINT, BCD and Gray conversions
-            h = "_" + f.lower()
-        self.use(h)
+            h = self.helper(f.lower())
         rtype = t0 if result == "same" else result
         return f"{h}({', '.join(c for c, _ in args)})", rtype
 
@@ -384,13 +362,12 @@ class ValueCompiler:
         if e.func == "MEAN" and t != REAL:
             self.err("MEAN takes a float table", e.pos, str(ref), "a table such as %MF0:5")
             return self.poison(want)
-        self.use("_mem")
-        values = f"_mem.read({str(ref)!r})"
+        self.use(Names.MEM)
+        values = f"{Names.MEM}.read({str(ref)!r})"
         if e.func == "SUM":
-            h = {INT16: "_tsum16", INT32: "_tsum32", REAL: "_tsumf"}[t]
+            h = self.helper({INT16: "tsum16", INT32: "tsum32", REAL: "tsumf"}[t])
         else:
-            h = "_t" + e.func.lower()
-        self.use(h)
+            h = self.helper("t" + e.func.lower())
         return f"{h}({values})", t
 
     @staticmethod
@@ -407,8 +384,7 @@ class ValueCompiler:
             if t == REAL:
                 self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word")
                 return
-            h = ("_add" if st.op == "INC" else "_sub") + ("16" if t == INT16 else "32")
-            self.use(h)
+            h = self.helper(("add" if st.op == "INC" else "sub") + ("16" if t == INT16 else "32"))
             self.store_value(ref, f"{h}({code}, 1)", t, st.pos)
             return
         ref, e = st.target, st.expr
@@ -434,8 +410,7 @@ class ValueCompiler:
                 self.err(f"constant {e.text or e.value} does not fit the word {ref}", st.pos,
                          e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)")
                 return
-            self.use("_narrow16")
-            code = f"_narrow16({code})"
+            code = f"{self.helper('narrow16')}({code})"
         self.store_value(ref, code, tt, st.pos)
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
@@ -448,18 +423,17 @@ class ValueCompiler:
             if ref.offset is not None:
                 fam = FAMILY[k]
                 self.use(fam)
-                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                idx = self.index_code(ref, self.counts[k[0] + "W"] - 1)  # of the word family
                 self.emit(f"{fam}.set_{'f' if t == REAL else 'd'}({idx}, {code})")
                 return
             view = PAIR_VIEWS[k][ref.index & 1]
             self.use(view)
             if t == REAL:
-                self.use("_stf")
-                self.emit(f"_stf({view}, {ref.index >> 1}, {code})")
+                self.emit(f"{self.helper('stf')}({view}, {ref.index >> 1}, {code})")
             else:
                 self.emit(f"{view}[{ref.index >> 1}] = {code}")
         elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
-            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            b = self.block_name(Ref(ref.kind, ref.index))
             if ref.field == "P":
                 self.emit(f"{b}.P = min(max({code}, 0), 9999)")
             else:
@@ -471,21 +445,22 @@ class ValueCompiler:
     def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
         """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,
         %MW3 := %M0:16 is handled by the caller as an expression error (rare)."""
-        self.use("_mem")
+        mem = Names.MEM
+        self.use(mem)
         if isinstance(e, A.Addr) and e.ref.length is not None:
             src = e.ref
             if src.length != ref.length:
                 self.err(f"table lengths differ: {ref} := {src}", pos, str(src),
                          f"a table of {ref.length}")
                 return
-            self.emit(f"_mem.write({str(ref)!r}, _mem.read({str(src)!r}))")
+            self.emit(f"{mem}.write({str(ref)!r}, {mem}.read({str(src)!r}))")
             return
         if ref.kind == "M":
             code, t = self.expr(e, INT16)
             if t == REAL:
                 self.err("a bit string from a float", pos, str(ref), "a word value")
                 return
-            self.emit(f"_mem.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
+            self.emit(f"{mem}.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
                       f"range({ref.length})])")
             return
         _, tt = self.read_word(Ref(ref.kind, ref.index), pos)
@@ -494,4 +469,4 @@ class ValueCompiler:
             self.err(f"table {ref} and value types differ", pos, str(ref),
                      f"a {self.tname(tt)} value")
             return
-        self.emit(f"_mem.write({str(ref)!r}, [{code}] * {ref.length})")
+        self.emit(f"{mem}.write({str(ref)!r}, [{code}] * {ref.length})")

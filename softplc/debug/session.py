@@ -268,9 +268,6 @@ class Session:
         return s
 
     # ---- snapshots ----------------------------------------------------------------------------
-    def _edge(self) -> list[int]:
-        return self.plc.program.namespace.get("_EDGE", [])
-
     def _snapshot(self) -> dict[str, Any]:
         eng = self.plc.engine
         devs = {}
@@ -285,7 +282,8 @@ class Session:
         return {"mem": self.plc.mem.snapshot(), "now": eng.clock.now_us,
                 "ts": getattr(eng.time_source, "now_us", 0),
                 "stats": dataclasses.replace(eng.stats), "first": dict(eng._first),
-                "state": (eng.state, eng.fault), "edge": list(self._edge()), "devs": devs,
+                "state": (eng.state, eng.fault), "program": self.plc.program_state.snapshot(),
+                "devs": devs,
                 "pending": list(self.pending)}
 
     def _restore(self, snap: dict[str, Any]) -> None:
@@ -297,7 +295,7 @@ class Session:
         eng.stats = dataclasses.replace(snap["stats"])
         eng._first = dict(snap["first"])
         eng.state, eng.fault = snap["state"]
-        self._edge()[:] = snap["edge"]
+        self.plc.program_state.restore(snap["program"])
         self.pending = list(snap["pending"])
         for name, st in snap["devs"].items():
             dev = self.plc.devices[name]
@@ -307,10 +305,7 @@ class Session:
                     del lst[v[1]:]
                 else:
                     setattr(dev, k, v)
-        for name in ("_GA", "_GD"):  # Grafcet transitions of an abandoned scan
-            for ns in (self.plc.program.namespace, self.dbg.namespace):
-                if name in ns:
-                    ns[name].clear()
+        self.plc.program_state.clear_transitions()  # those of an abandoned scan
 
     # ---- running ---------------------------------------------------------------------------------
     def _apply_pending(self) -> None:

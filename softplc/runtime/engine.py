@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..address import Ref
-from ..compiler.codegen import CompiledProgram, Watchdog
+from ..program import CompiledProgram, Watchdog
 from .clock import Clock
 from .memory import MemoryImage
 
@@ -86,11 +86,7 @@ class Engine:
                 if init is not None:
                     b.set_state(init)
         if self.program is not None:
-            edge = self.program.namespace.get("_EDGE")
-            if edge is not None:
-                edge[:] = [0] * len(edge)
-            for step in self.program.namespace.get("_INITIAL_STEPS", ()):
-                m.x[step] = 1
+            self.program.state.cold_start(m.x)
         self._first = {S_COLD: 1, S_FIRST: 1}
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
@@ -146,8 +142,8 @@ class Engine:
             self.main()
         except Watchdog:
             self._watchdog_trip(time.perf_counter() - t0)
-        except RecursionError:
-            self.halt("subroutine calls nested too deep (recursion)")
+        except Exception as e:  # any fault of the program: HALT, keep serving
+            self._fault(e)
         dt = time.perf_counter() - t0
         if self.state == RUN and dt > self.watchdog_s:
             self._watchdog_trip(dt)
@@ -163,8 +159,8 @@ class Engine:
         t0 = time.perf_counter()
         try:
             yield from debug_main()
-        except RecursionError:
-            self.halt("subroutine calls nested too deep (recursion)")
+        except Exception as e:  # as scan()
+            self._fault(e)
         self._finish(time.perf_counter() - t0)
 
     def _begin(self) -> bool:
@@ -228,6 +224,14 @@ class Engine:
                 dev.update(t, dts)
         for h in self.after_scan:
             h()
+
+    def _fault(self, e: Exception) -> None:
+        """An exception inside the program: HALT with the fault recorded, as a Twido
+        halts on a system error; the daemon goes on serving Modbus."""
+        if isinstance(e, RecursionError):
+            self.halt("subroutine calls nested too deep (recursion)")
+        else:
+            self.halt(f"runtime fault: {type(e).__name__}: {e}")
 
     def _watchdog_trip(self, dt: float) -> None:
         self.mem.s[S_WATCHDOG] = 1

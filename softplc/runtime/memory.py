@@ -14,13 +14,13 @@ numpy access to bits is by copy (`bits_np`).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
 from ..address import BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
 from ..errors import AddressError
+from ..numeric import to_f32, wrap16, wrap32
 from ..profile import DEFAULT_PROFILE, Profile
 
 
@@ -50,25 +50,6 @@ class WordFamily:
 
     def set_f(self, i: int, v: float) -> None:
         self.f[i & 1][i >> 1] = to_f32(v)
-
-
-def wrap16(v: int) -> int:
-    return ((int(v) + 0x8000) & 0xFFFF) - 0x8000
-
-
-def wrap32(v: int) -> int:
-    return ((int(v) + 0x80000000) & 0xFFFFFFFF) - 0x80000000
-
-
-F32_MAX = 3.4028234663852886e38
-
-
-def to_f32(v: float) -> float:
-    """Clamp a Python float to what an IEEE single can hold (overflow -> +-inf)."""
-    v = float(v)
-    if v != v or -F32_MAX <= v <= F32_MAX:
-        return v
-    return math.copysign(math.inf, v)
 
 
 class MemoryImage:
