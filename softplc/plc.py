@@ -438,11 +438,11 @@ class PLC:
         self.close()
 
 
-# Rung-structure messages that a skipped (syntax error) line can cause further down: those
+# Rung-structure problems that a skipped (syntax error) line can cause further down: those
 # looking back for an opening instruction, and those looking forward for a closing one.
-_NEEDS_EARLIER = ("needs a preceding load", "without a matching", "without a preceding MPS",
-                  "outside a BLK", "END_BLK without BLK", "after OUT_BLK")
-_NEEDS_LATER = ("not closed",)
+_NEEDS_EARLIER = frozenset({Code.NEEDS_LOAD, Code.UNMATCHED_CLOSE, Code.NO_MPS,
+                            Code.OUTSIDE_BLK, Code.AFTER_OUT_BLK})
+_NEEDS_LATER = frozenset({Code.NOT_CLOSED})
 
 
 def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
@@ -464,14 +464,14 @@ def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
     for d in semantic:
         if d.line in bad:
             out.add(d)
-        elif any(m in d.message for m in _NEEDS_EARLIER):
+        elif d.code in _NEEDS_EARLIER:
             n = d.line - 1
             while n > 0 and not is_load(n):
                 if n in bad:
                     out.add(d)
                     break
                 n -= 1
-        elif any(m in d.message for m in _NEEDS_LATER):
+        elif d.code in _NEEDS_LATER:
             end = ends.get(d.line, d.line)
             if any(d.line < b <= end + 1 for b in bad):
                 out.add(d)

@@ -48,12 +48,12 @@ class Compiler(ValueCompiler):
         if isinstance(op, A.BlockOutput):
             if blk is None:
                 self.err(f"block output {op.name} outside BLK ... OUT_BLK", op.pos, op.name,
-                         "a full address such as %TM0.Q")
+                         "a full address such as %TM0.Q", code=Code.BLOCK)
                 return "0"
             outs = BLOCK_OUTPUTS.get(blk.kind, ())
             if op.name not in outs:
                 self.err(f"%{blk.kind} has no output {op.name}", op.pos, op.name,
-                         ", ".join(outs) or "no output")
+                         ", ".join(outs) or "no output", code=Code.BLOCK)
                 return "0"
             return f"{self.block_name(blk)}.{op.name}"
         if isinstance(op, A.Compare):
@@ -66,7 +66,8 @@ class Compiler(ValueCompiler):
                 self.emit(f"{t} = {code}")
                 return t
             return code
-        self.err("unsupported operand", pos, "", "a bit, 0/1 or a comparison block")
+        self.err("unsupported operand", pos, "", "a bit, 0/1 or a comparison block",
+                 code=Code.OTHER)
         return "0"
 
     def modified(self, code: str, mod: str) -> _Acc:
@@ -129,7 +130,8 @@ class Compiler(ValueCompiler):
             nonlocal acc
             if acc is None:
                 self.err(f"{self.describe(instr)} needs a preceding load",
-                         getattr(instr, "pos", None), "", "LD / LDN / LDR / LDF (or BLK) before it")
+                         getattr(instr, "pos", None), "", "LD / LDN / LDR / LDF (or BLK) before it",
+                         code=Code.NEEDS_LOAD)
                 acc = _Acc("0")
             return acc
 
@@ -160,20 +162,22 @@ class Compiler(ValueCompiler):
                 outer = need(instr)
                 if len(parens) >= self.counts["PAREN"]:
                     self.err(f"parentheses nested deeper than {self.counts['PAREN']}", pos, "",
-                             f"at most {self.counts['PAREN']} levels")
+                             f"at most {self.counts['PAREN']} levels", code=Code.STRUCTURE)
                 if not outer.simple and len(outer.code) > MAX_EXPR // 2:
                     outer = self.materialize(outer)
                 parens.append((instr.op, instr.modifier, outer, pos))
                 code = self.operand(instr.operand, blk, pos) if instr.operand else None
                 if instr.operand is None:
-                    self.err(f"{instr.op}( needs an operand", pos, "", "a bit or a comparison")
+                    self.err(f"{instr.op}( needs an operand", pos, "", "a bit or a comparison",
+                             code=Code.STRUCTURE)
                     code = "0"
                 # the modifier applies to the first operand inside the parenthesis, as
                 # LDN/LDR/LDF would [manual, see NOTES]
                 acc = self.modified(code, instr.modifier)
             elif isinstance(instr, A.ParenClose):
                 if not parens:
-                    self.err("')' without a matching '('", pos, ")", "AND( / OR( / XOR( first")
+                    self.err("')' without a matching '('", pos, ")", "AND( / OR( / XOR( first",
+                             code=Code.UNMATCHED_CLOSE)
                     continue
                 op, _mod, outer, _p = parens.pop()
                 inner = need(instr)
@@ -187,11 +191,13 @@ class Compiler(ValueCompiler):
                     a = self.materialize(need(instr))
                     if len(mps) >= self.counts["STACK"]:
                         self.err(f"MPS stack deeper than {self.counts['STACK']}", pos, "MPS",
-                                 f"at most {self.counts['STACK']} MPS without MPP")
+                                 f"at most {self.counts['STACK']} MPS without MPP",
+                                 code=Code.STRUCTURE)
                     mps.append(a.code)
                     acc = a
                 elif not mps:
-                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op, "MPS first")
+                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op, "MPS first",
+                             code=Code.NO_MPS)
                 else:
                     acc = _Acc(mps[-1] if instr.op == "MRD" else mps.pop())
             elif isinstance(instr, A.Store):
@@ -205,7 +211,8 @@ class Compiler(ValueCompiler):
                 else:
                     if instr.target.is_block:
                         self.err(f"{instr.op} {instr.target} on a block", pos, str(instr.target),
-                                 "a bit; a block's inputs are R / S / CU / CD / IN pins")
+                                 "a bit; a block's inputs are R / S / CU / CD / IN pins",
+                                 code=Code.BLOCK)
                         continue
                     value = "1" if instr.op == "S" else "0"
                     if a.code in ("1", "True"):
@@ -239,22 +246,24 @@ class Compiler(ValueCompiler):
                 self.conditional(a.code, call)
             elif isinstance(instr, A.Return):
                 if ctx["function"] == "main":
-                    self.err("RET outside a subroutine", pos, instr.op, "END in the main program")
+                    self.err("RET outside a subroutine", pos, instr.op, "END in the main program",
+                             code=Code.CONTROL)
                     continue
                 self.end_like(instr.op, acc, "RET", "return")
             elif isinstance(instr, A.End):
                 if ctx["function"] != "main":
-                    self.err(f"{instr.op} inside a subroutine", pos, instr.op, "RET")
+                    self.err(f"{instr.op} inside a subroutine", pos, instr.op, "RET",
+                             code=Code.CONTROL)
                     continue
                 self.end_like(instr.op, acc, "END", ctx["end_code"])
             elif isinstance(instr, A.Nop):
                 pass
             elif isinstance(instr, A.Blk):
                 if blk is not None:
-                    self.err("BLK inside a BLK", pos, "BLK", "END_BLK first")
+                    self.err("BLK inside a BLK", pos, "BLK", "END_BLK first", code=Code.STRUCTURE)
                 if not instr.block.is_block:
                     self.err(f"BLK {instr.block}: not a function block", pos, str(instr.block),
-                             "%TM, %C, %DR, %SBR, %SC or %R")
+                             "%TM, %C, %DR, %SBR, %SC or %R", code=Code.BLOCK)
                     continue
                 blk, blk_pins, blk_phase = instr.block, {}, "in"
                 self.block_name(blk)
@@ -262,13 +271,14 @@ class Compiler(ValueCompiler):
             elif isinstance(instr, A.OutBlk):
                 if blk is None:
                     self.err("OUT_BLK outside a BLK ... END_BLK block", pos, "OUT_BLK",
-                             "BLK %TMi (or another block) before it")
+                             "BLK %TMi (or another block) before it", code=Code.OUTSIDE_BLK)
                     continue
                 close_block_inputs()
                 acc = None
             elif isinstance(instr, A.EndBlk):
                 if blk is None:
-                    self.err("END_BLK without BLK", pos, "END_BLK", "BLK before it")
+                    self.err("END_BLK without BLK", pos, "END_BLK", "BLK before it",
+                             code=Code.OUTSIDE_BLK)
                     continue
                 close_block_inputs()
                 blk, blk_phase = None, ""
@@ -280,16 +290,18 @@ class Compiler(ValueCompiler):
             elif isinstance(instr, A.Grafcet):
                 self.grafcet(instr, acc, ctx)
             else:  # pragma: no cover - the parser makes no other nodes
-                self.err(f"unsupported instruction {instr}", pos, "", "an instruction")
+                self.err(f"unsupported instruction {instr}", pos, "", "an instruction",
+                         code=Code.OTHER)
             if self.debug and acc is not None:
                 acc = self.materialize(acc)
                 self.use(Names.LOG)
                 self.emit(f"{Names.LOG}[{rung.index}][{k}] = {acc.code}")
         if parens:
-            self.err("'(' not closed before the end of the rung", parens[-1][3], "", "')'")
+            self.err("'(' not closed before the end of the rung", parens[-1][3], "", "')'",
+                     code=Code.NOT_CLOSED)
         if blk is not None:
             self.err(f"BLK {blk} not closed", rung.instructions[0].pos
-                     if rung.instructions else None, "", "END_BLK")
+                     if rung.instructions else None, "", "END_BLK", code=Code.NOT_CLOSED)
         if len(self.fn.lines) == body_start:  # e.g. a lone LD in a step: keep `if` valid
             self.indent = base_indent
             self.emit("pass")
@@ -311,7 +323,7 @@ class Compiler(ValueCompiler):
             self.emit(code)
             return
         if acc is None:
-            self.err(f"{op} needs a preceding load", None, op, "LD before it")
+            self.err(f"{op} needs a preceding load", None, op, "LD before it", code=Code.NEEDS_LOAD)
             return
         cond = f"not ({acc.code})" if op.endswith("CN") else acc.code
         self.emit(f"if {cond}:")
@@ -322,17 +334,18 @@ class Compiler(ValueCompiler):
         target = instr.block or blk
         if target is None:
             self.err(f"input {instr.name} outside a BLK and without a block", instr.pos,
-                     instr.name, f"BLK ... {instr.name} ... END_BLK, or {instr.name} %C0")
+                     instr.name, f"BLK ... {instr.name} ... END_BLK, or {instr.name} %C0",
+                     code=Code.OUTSIDE_BLK)
             return
         allowed = BLOCK_KIND_PINS.get(target.kind, ())
         if instr.name not in allowed:
             self.err(f"%{target.kind} has no input {instr.name}", instr.pos, instr.name,
-                     ", ".join(allowed))
+                     ", ".join(allowed), code=Code.BLOCK)
             return
         if instr.block is None:  # inside BLK: remember, run at OUT_BLK / END_BLK
             if phase != "in":
                 self.err(f"input {instr.name} after OUT_BLK", instr.pos, instr.name,
-                         "inputs between BLK and OUT_BLK")
+                         "inputs between BLK and OUT_BLK", code=Code.AFTER_OUT_BLK)
                 return
             a = self.materialize(acc)
             pins[instr.name] = a.code
@@ -349,7 +362,7 @@ class Compiler(ValueCompiler):
         cur = ctx.get("step")
         if cur is None:
             self.err(f"{instr.op} outside a Grafcet step", instr.pos, instr.op,
-                     "a step first (=*= i or -*- i)")
+                     "a step first (=*= i or -*- i)", code=Code.STEP)
             return
         ga, gd = Names.ACTIVATE, Names.DEACTIVATE
         self.use(ga, gd)
@@ -386,7 +399,7 @@ class Compiler(ValueCompiler):
         else:
             if acc is None:
                 self.err(f"{instr.op} needs a preceding load", instr.pos, instr.op,
-                         "LD before it (or JMP, unconditional)")
+                         "LD before it (or JMP, unconditional)", code=Code.NEEDS_LOAD)
                 return
             cond = acc.code if instr.op == "JMPC" else f"not ({acc.code})"
         if cond != "1":

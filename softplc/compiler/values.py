@@ -136,7 +136,7 @@ class ValueCompiler:
             return f"{b}.{ref.field}"
         self.err(f"{ref} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
                  f"a bit (%I, %Q, %M, %S, %MWi:Xk, block output) or a comparison block "
-                 f"such as [ {ref} <> 0 ]")
+                 f"such as [ {ref} <> 0 ]", code=Code.BLOCK)
         return "0"
 
     def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[str, str]:
@@ -145,7 +145,7 @@ class ValueCompiler:
         if ref.length is not None and k in BIT_BUFFERS and ref.offset is None:
             if ref.length > 32:  # a bit string read as a word (<= 16) or double word
                 self.err(f"{ref}: a bit string of {ref.length} bits", pos, str(ref),
-                         "at most 16 bits for a word, 32 for a double word")
+                         "at most 16 bits for a word, 32 for a double word", code=Code.TYPE)
                 return "0", INT16
             h = self.helper("bitstr16" if ref.length <= 16 else "bitstr32")
             self.use(BIT_BUFFERS[k])
@@ -153,11 +153,12 @@ class ValueCompiler:
                 INT16 if ref.length <= 16 else INT32
         if ref.length is not None:
             self.err(f"{ref}: a word table cannot be used in an expression", pos, str(ref),
-                     "a single word, double word or float, or a bit string %Mi:L")
+                     "a single word, double word or float, or a bit string %Mi:L", code=Code.TYPE)
             return "0", INT16
         if ref.bit is not None or ref.type == BOOL:
             self.err(f"{ref} is a bit, not a number", pos, str(ref),
-                     "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)")
+                     "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)",
+                     code=Code.TYPE)
             return "0", INT16
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
@@ -176,12 +177,12 @@ class ValueCompiler:
         if k in BLOCK_OUTPUTS or k in ("TM", "C", "DR", "R"):
             if ref.field is None:
                 self.err(f"{ref} is a function block, not a value", pos, str(ref),
-                         f"a field of it, such as {ref}.V or {ref}.P")
+                         f"a field of it, such as {ref}.V or {ref}.P", code=Code.TYPE)
                 return "0", INT16
             b = self.block_name(Ref(ref.kind, ref.index))
             return f"{b}.{ref.field}", INT16
         self.err(f"{ref} cannot be used in an expression", pos, str(ref),
-                 "a word, double word or float")
+                 "a word, double word or float", code=Code.TYPE)
         return "0", INT16
 
     def check_writable(self, ref: Ref, pos: A.Pos | None) -> bool:
@@ -190,7 +191,8 @@ class ValueCompiler:
                     "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
                 ref.kind, "read-only")
             self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
-                     "a writable object (%Q, %M, %MW, %MD, %MF, %TMi.P, %Ci.P...)")
+                     "a writable object (%Q, %M, %MW, %MD, %MF, %TMi.P, %Ci.P...)",
+                     code=Code.READ_ONLY)
             return False
         return True
 
@@ -218,7 +220,7 @@ class ValueCompiler:
                       f"({u}[{ref.index}] & {0xFFFF ^ mask})")
         else:
             self.err(f"{ref} is not a bit that can be stored to", pos, str(ref),
-                     "%Q, %M, %S, %X or %MWi:Xk")
+                     "%Q, %M, %S, %X or %MWi:Xk", code=Code.TYPE)
 
     # ---- expressions ----------------------------------------------------------------------
     def expr(self, e: A.Expr, want: str | None = None) -> tuple[str, str]:
@@ -234,7 +236,7 @@ class ValueCompiler:
             if want == INT32 or not -32768 <= v <= 32767:
                 if not -2147483648 <= v <= 2147483647:
                     self.err(f"constant {e.text or v} does not fit 32 bits", e.pos,
-                             e.text or str(v), "-2147483648 .. 2147483647")
+                             e.text or str(v), "-2147483648 .. 2147483647", code=Code.CONSTANT)
                 return str(v), INT32
             return str(v), INT16
         if isinstance(e, A.Addr):
@@ -250,7 +252,7 @@ class ValueCompiler:
         if isinstance(e, A.Call):
             return self.call(e, want)
         self.err("unsupported expression", getattr(e, "pos", None), "",
-                 "a number, an object, an operator or a function")
+                 "a number, an object, an operator or a function", code=Code.OTHER)
         return "0", INT16
 
     def unify(self, a: tuple[str, str], b: tuple[str, str], pos: A.Pos | None,
@@ -262,7 +264,7 @@ class ValueCompiler:
             self.err(f"{what} mixes a float with a {'word' if INT16 in (ta, tb) else 'double word'}"
                      f" without conversion", pos, "",
                      "operands of one type: convert with INT_TO_REAL, DINT_TO_REAL, "
-                     "REAL_TO_INT or REAL_TO_DINT")
+                     "REAL_TO_INT or REAL_TO_DINT", code=Code.TYPE)
             return None
         return INT32
 
@@ -284,16 +286,17 @@ class ValueCompiler:
         if e.op in ("AND", "OR", "XOR"):
             if t == REAL:
                 self.err(f"word logic {e.op} needs words, not floats", e.pos, e.op,
-                         "words or double words")
+                         "words or double words", code=Code.TYPE)
                 return self.poison(want)
             py = {"AND": "&", "OR": "|", "XOR": "^"}[e.op]
             return f"({a[0]} {py} {b[0]})", t
         if e.op not in ARITH:
-            self.err(f"unknown operator {e.op}", e.pos, e.op, "+ - * / REM AND OR XOR")
+            self.err(f"unknown operator {e.op}", e.pos, e.op, "+ - * / REM AND OR XOR",
+                     code=Code.FUNCTION)
             return "0", t
         if t == REAL:
             if e.op == "REM":
-                self.err("REM on floats", e.pos, "REM", "words or double words")
+                self.err("REM on floats", e.pos, "REM", "words or double words", code=Code.TYPE)
                 return "0", REAL
             if e.op == "/":
                 return f"{self.helper('fdiv')}({a[0]}, {b[0]})", REAL
@@ -310,12 +313,12 @@ class ValueCompiler:
     def call(self, e: A.Call, want: str | None) -> tuple[str, str]:
         if e.func not in FUNCTIONS:
             self.err(f"unknown function {e.func}", e.pos, e.func,
-                     ", ".join(sorted(FUNCTIONS)))
+                     ", ".join(sorted(FUNCTIONS)), code=Code.FUNCTION)
             return self.poison(want)
         params, result = FUNCTIONS[e.func]
         if len(e.args) != len(params):
             self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos,
-                     e.func, f"{len(params)} argument(s)")
+                     e.func, f"{len(params)} argument(s)", code=Code.FUNCTION)
             return self.poison(want)
         if params == ("table",):
             return self.table_function(e, want)
@@ -327,9 +330,10 @@ class ValueCompiler:
                     not (p == INT16 and isinstance(arg, A.Num) and t == INT16):
                 if {t, p} & {REAL} or p == INT16:
                     self.err(f"{e.func} takes a {self.tname(p)}, got a {self.tname(t)}",
-                             e.pos, e.func, f"a {self.tname(p)} argument")
+                             e.pos, e.func, f"a {self.tname(p)} argument", code=Code.TYPE)
             if p == "int" and t == REAL:
-                self.err(f"{e.func} on a float", e.pos, e.func, "a word or double word")
+                self.err(f"{e.func} on a float", e.pos, e.func, "a word or double word",
+                         code=Code.TYPE)
             args.append((code, t))
         t0 = args[0][1]
         f = e.func
@@ -355,12 +359,13 @@ class ValueCompiler:
         if not (isinstance(arg, A.Addr) and arg.ref.length and arg.ref.kind in kinds
                 and arg.ref.offset is None):
             self.err(f"{e.func} takes a table", e.pos, e.func,
-                     "a table such as %MW0:10, %MD0:5 or %MF0:5")
+                     "a table such as %MW0:10, %MD0:5 or %MF0:5", code=Code.FUNCTION)
             return self.poison(want)
         ref = arg.ref
         t = {"MW": INT16, "KW": INT16, "MD": INT32, "KD": INT32}.get(ref.kind, REAL)
         if e.func == "MEAN" and t != REAL:
-            self.err("MEAN takes a float table", e.pos, str(ref), "a table such as %MF0:5")
+            self.err("MEAN takes a float table", e.pos, str(ref), "a table such as %MF0:5",
+                     code=Code.TYPE)
             return self.poison(want)
         self.use(Names.MEM)
         values = f"{Names.MEM}.read({str(ref)!r})"
@@ -382,7 +387,8 @@ class ValueCompiler:
                 return
             code, t = self.read_word(ref, st.pos)
             if t == REAL:
-                self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word")
+                self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word",
+                         code=Code.TYPE)
                 return
             h = self.helper(("add" if st.op == "INC" else "sub") + ("16" if t == INT16 else "32"))
             self.store_value(ref, f"{h}({code}, 1)", t, st.pos)
@@ -395,7 +401,8 @@ class ValueCompiler:
             return
         if ref.type == BOOL or ref.is_block:
             self.err(f"cannot assign to {ref} with :=", st.pos, str(ref),
-                     "a word, double word or float target (use ST / S / R for bits)")
+                     "a word, double word or float target (use ST / S / R for bits)",
+                     code=Code.TYPE)
             return
         _, tt = self.read_word(ref, st.pos)
         code, t = self.expr(e, tt)
@@ -403,12 +410,13 @@ class ValueCompiler:
             self.err(f"assignment of a {self.tname(t)} to the {self.tname(tt)} {ref} needs a "
                      f"conversion", st.pos, str(ref),
                      f"a {self.tname(tt)} value: INT_TO_REAL, DINT_TO_REAL, REAL_TO_INT, "
-                     f"REAL_TO_DINT convert")
+                     f"REAL_TO_DINT convert", code=Code.TYPE)
             return
         if tt == INT16 and t == INT32:
             if isinstance(e, A.Num):
                 self.err(f"constant {e.text or e.value} does not fit the word {ref}", st.pos,
-                         e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)")
+                         e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)",
+                         code=Code.CONSTANT)
                 return
             code = f"{self.helper('narrow16')}({code})"
         self.store_value(ref, code, tt, st.pos)
@@ -440,7 +448,7 @@ class ValueCompiler:
                 self.emit(f"{b}.{ref.field} = {code}")
         else:
             self.err(f"cannot assign to {ref}", pos, str(ref),
-                     "a word, double word, float or block preset")
+                     "a word, double word, float or block preset", code=Code.TYPE)
 
     def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
         """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,
@@ -451,14 +459,14 @@ class ValueCompiler:
             src = e.ref
             if src.length != ref.length:
                 self.err(f"table lengths differ: {ref} := {src}", pos, str(src),
-                         f"a table of {ref.length}")
+                         f"a table of {ref.length}", code=Code.TYPE)
                 return
             self.emit(f"{mem}.write({str(ref)!r}, {mem}.read({str(src)!r}))")
             return
         if ref.kind == "M":
             code, t = self.expr(e, INT16)
             if t == REAL:
-                self.err("a bit string from a float", pos, str(ref), "a word value")
+                self.err("a bit string from a float", pos, str(ref), "a word value", code=Code.TYPE)
                 return
             self.emit(f"{mem}.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
                       f"range({ref.length})])")
@@ -467,6 +475,6 @@ class ValueCompiler:
         code, t = self.expr(e, tt)
         if (t == REAL) != (tt == REAL):
             self.err(f"table {ref} and value types differ", pos, str(ref),
-                     f"a {self.tname(tt)} value")
+                     f"a {self.tname(tt)} value", code=Code.TYPE)
             return
         self.emit(f"{mem}.write({str(ref)!r}, [{code}] * {ref.length})")
