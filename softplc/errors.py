@@ -112,5 +112,5 @@ class AddressError(SoftPLCError, ValueError):
     """An address string is malformed or outside the controller profile."""
 
 
-class PLCHalt(SoftPLCError):
-    """The controller went to HALT (watchdog, runtime fault)."""
+class BlockError(SoftPLCError, ValueError):
+    """A function block's parameters are wrong (timer type, preset range, drum steps...)."""

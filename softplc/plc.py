@@ -25,11 +25,15 @@ from .il import ast as A
 from .il.parser import parse, parse_file
 from .profile import DEFAULT_PROFILE, MODULES, PROFILES, Profile
 from .program import CompiledProgram, ProgramState, bind
-from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
+from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Register, Timer, TimeSource
 from .runtime.clock import Clock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
 from .runtime.memory import MemoryImage
 from .semantics import Ops
+
+# Configuration sections of the function blocks: kind -> (section, its keys).
+BLOCK_SECTIONS = {"TM": ("timers", ("type", "base", "preset")), "C": ("counters", ("preset",)),
+                  "DR": ("drums", ("steps", "outputs")), "R": ("registers", ("type",))}
 
 
 class PLC:
@@ -140,45 +144,40 @@ class PLC:
         return ref
 
     def _configure_blocks(self, cfg: dict[str, Any]) -> None:
-        blocks = self.mem.blocks
-        for text, o in cfg.get("timers", {}).items():
-            ref = self._cfg_ref(text, "TM", "timers")
-            check_keys(f"timers.{text}", o, ("type", "base", "preset"))
-            try:
-                blocks["TM"][ref.index] = Timer(self.time_source, o.get("type", "TON"),
-                                                time_base(o.get("base", "1s")),
-                                                int(o.get("preset", 0)))
-            except (ValueError, TypeError) as e:
-                raise ConfigError(f"timers.{text}: {e}") from None
-        for text, o in cfg.get("counters", {}).items():
-            ref = self._cfg_ref(text, "C", "counters")
-            check_keys(f"counters.{text}", o, ("preset",))
-            try:
-                blocks["C"][ref.index] = Counter(int(o.get("preset", 9999)))
-            except (ValueError, TypeError) as e:
-                raise ConfigError(f"counters.{text}: {e}") from None
-        for text, o in cfg.get("drums", {}).items():
-            ref = self._cfg_ref(text, "DR", "drums")
-            check_keys(f"drums.{text}", o, ("steps", "outputs"))
+        for kind, (section, keys) in BLOCK_SECTIONS.items():
+            for text, o in cfg.get(section, {}).items():
+                ref = self._cfg_ref(text, kind, section)
+                check_keys(f"{section}.{text}", o, keys)
+                try:
+                    self.mem.blocks[kind][ref.index] = self._new_block(kind, o, f"{section}.{text}")
+                except (ValueError, TypeError) as e:
+                    raise ConfigError(f"{section}.{text}: {e}") from None
+
+    def _new_block(self, kind: str, o: dict[str, Any], where: str) -> Any:
+        """The one constructor of blocks, from their configuration options `o` (empty for a
+        block the program uses and the configuration does not name). Options not given
+        take the block class's own defaults."""
+        if kind == "TM":
+            kw: dict[str, Any] = {k: o[k] for k in ("type",) if k in o}
+            if "base" in o:
+                kw["base"] = time_base(o["base"])
+            if "preset" in o:
+                kw["preset"] = int(o["preset"])
+            return Timer(self.time_source, **kw)
+        if kind == "C":
+            return Counter(int(o["preset"])) if "preset" in o else Counter()
+        if kind == "DR":
             outs = []
             for a in o.get("outputs", []):
                 r = parse_address(a, self.profile)
                 if r.type != "bool" or r.kind not in ("Q", "M"):
-                    raise ConfigError(f"drums.{text}: outputs are %Q or %M bits, not {a!r}")
+                    raise ConfigError(f"{where}: outputs are %Q or %M bits, not {a!r}")
                 self.mem.use_io(r)
                 outs.append((self.mem.bits(r.kind), r.index))
-            try:
-                blocks["DR"][ref.index] = Drum(o.get("steps", [0]), outs)
-            except (ValueError, TypeError) as e:
-                raise ConfigError(f"drums.{text}: {e}") from None
-        for text, o in cfg.get("registers", {}).items():
-            ref = self._cfg_ref(text, "R", "registers")
-            check_keys(f"registers.{text}", o, ("type",))
-            try:
-                blocks["R"][ref.index] = Register(o.get("type", "FIFO"),
-                                                  self.profile.count("FIFO_DEPTH"))
-            except (ValueError, TypeError) as e:
-                raise ConfigError(f"registers.{text}: {e}") from None
+            return Drum(o.get("steps", [0]), outs)
+        if kind == "R":
+            return Register(o.get("type", "FIFO"), self.profile.count("FIFO_DEPTH"))
+        return BLOCK_CLASSES[kind]()  # %SBR, %SC: nothing to configure
 
     def _block_factory(self, ref: Ref) -> str | None:
         """Create a block the program uses but the configuration does not name, where
@@ -188,20 +187,13 @@ class PLC:
             return f"{ref} beyond the {count} %{ref.kind} of {self.profile.name}"
         blocks = self.mem.blocks[ref.kind]
         if ref.index not in blocks:
-            if ref.kind == "C":
-                blocks[ref.index] = Counter()
-            elif ref.kind == "SBR":
-                blocks[ref.index] = ShiftRegister()
-            elif ref.kind == "SC":
-                blocks[ref.index] = StepCounter()
-            elif ref.kind == "R":
-                blocks[ref.index] = Register("FIFO", self.profile.count("FIFO_DEPTH"))
-            elif ref.kind == "TM":
+            if ref.kind == "TM":
                 return (f"timer {ref} is used but not configured: give its type, time base "
                         f"and preset, e.g. timers = {{\"{ref}\" = {{type = \"TON\", "
                         f"base = \"100ms\", preset = 10}}}}")
-            else:
+            if ref.kind == "DR":
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
+            blocks[ref.index] = self._new_block(ref.kind, {}, str(ref))
             blocks[ref.index]._initial = blocks[ref.index].state()  # its cold-start state
         return None
 

@@ -28,16 +28,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-TOOLS = Path(__file__).resolve().parent
-ROOT = TOOLS.parent
-for _p in (str(ROOT), str(TOOLS)):
-    if _p not in sys.path:
-        sys.path.insert(0, _p)
+import bench_drawing
+import bench_engine
+import bench_peers
+from peers.common import describe_machine, machine_info, progress
 
-import bench_drawing  # noqa: E402
-import bench_engine  # noqa: E402
-import bench_peers  # noqa: E402
-from peers.common import describe_machine, machine_info, progress  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 SECTIONS = ("engine", "peers", "modbus", "drawing")
 

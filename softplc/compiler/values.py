@@ -15,7 +15,7 @@ from ..address import BLOCK_FIELDS, BOOL, INT16, INT32, REAL, Ref
 from ..errors import Code, Diagnostic
 from ..il import ast as A
 from ..program import Names
-from ..runtime.blocks import BLOCK_CLASSES
+from ..runtime.blocks import BLOCK_CLASSES, MAX_VALUE
 from ..semantics import FUNCTIONS
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
@@ -443,7 +443,7 @@ class ValueCompiler:
         elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
             b = self.block_name(Ref(ref.kind, ref.index))
             if ref.field == "P":
-                self.emit(f"{b}.P = min(max({code}, 0), 9999)")
+                self.emit(f"{b}.P = min(max({code}, 0), {MAX_VALUE})")
             else:
                 self.emit(f"{b}.{ref.field} = {code}")
         else:

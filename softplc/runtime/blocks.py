@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..errors import BlockError
+
 MAX_VALUE = 9999  # %TMi.P/.V, %Ci.P/.V range [manual]
 
 TIME_BASES_US = {"1ms": 1_000, "10ms": 10_000, "100ms": 100_000, "1s": 1_000_000,
@@ -49,11 +51,11 @@ class Timer(Block):
     def __init__(self, clock: TimeSource, type: str = "TON", base: str = "1s", preset: int = 0):
         type = type.upper()
         if type not in ("TON", "TOF", "TP"):
-            raise ValueError(f"timer type {type!r}: TON, TOF or TP")
+            raise BlockError(f"timer type {type!r}: TON, TOF or TP")
         if base not in TIME_BASES_US:
-            raise ValueError(f"time base {base!r}: one of {', '.join(TIME_BASES_US)}")
+            raise BlockError(f"time base {base!r}: one of {', '.join(TIME_BASES_US)}")
         if not 0 <= int(preset) <= MAX_VALUE:
-            raise ValueError(f"preset {preset}: 0..{MAX_VALUE}")
+            raise BlockError(f"preset {preset}: 0..{MAX_VALUE}")
         self.clock, self.type, self.base = clock, type, base
         self.base_us = TIME_BASES_US[base]
         self.P, self.V, self.Q = int(preset), 0, 0
@@ -110,7 +112,7 @@ class Counter(Block):
 
     def __init__(self, preset: int = MAX_VALUE):
         if not 0 <= int(preset) <= MAX_VALUE:
-            raise ValueError(f"preset {preset}: 0..{MAX_VALUE}")
+            raise BlockError(f"preset {preset}: 0..{MAX_VALUE}")
         self.P, self.V, self.D, self.E, self.F = int(preset), 0, 0, 0, 0
         self._cu = self._cd = 0
 
@@ -175,7 +177,7 @@ class Drum(Block):
 
     def __init__(self, steps: list[int], outputs: list[Any]):
         if not 1 <= len(steps) <= 8:
-            raise ValueError("a drum has 1 to 8 steps")
+            raise BlockError("a drum has 1 to 8 steps")
         self.steps = [int(s) & 0xFFFF for s in steps]
         self.outputs = outputs  # resolved (buffer, index) pairs
         self.S, self.F, self._u = 0, 0, 0
@@ -289,7 +291,7 @@ class Register(Block):
     def __init__(self, type: str = "FIFO", depth: int = 16):
         type = type.upper()
         if type not in ("FIFO", "LIFO"):
-            raise ValueError(f"register type {type!r}: FIFO or LIFO")
+            raise BlockError(f"register type {type!r}: FIFO or LIFO")
         self.type, self.depth = type, depth
         self.I = self.O = 0
         self.E, self.F = 1, 0

@@ -1,22 +1,18 @@
 """The Twido memory image.
 
-Words: each word family (%MW, %KW, %SW) is one `bytearray`. Compiled rungs index
-`memoryview` casts of it; numpy arrays are `np.frombuffer` views of the same bytes, for
-bulk work (Modbus, snapshots, the debugger). `%MDi`/`%MFi` overlay `%MWi` (low word) and
+Words: each word family (%MW, %KW, %SW) is one `bytearray`. Compiled rungs, the Modbus
+map and snapshots index `memoryview` casts of it. `%MDi`/`%MFi` overlay `%MWi` (low word) and
 `%MWi+1` (high word): they are 32-bit casts of the word buffer at an even or an odd word
 offset, so a write through one view is seen by all the others with no copying.
 
 Bits (%I, %Q, %M, %S, %X) are plain Python lists of 0/1: CPython specialises list
 indexing, and boolean rungs run 3.3x faster over lists than over a bytearray (3.3 vs
-10.9 ns per instruction on the generated 1,000-instruction program, this machine). Bulk
-numpy access to bits is by copy (`bits_np`).
+10.9 ns per instruction on the generated 1,000-instruction program, this machine).
 """
 
 from __future__ import annotations
 
 from typing import Any
-
-import numpy as np
 
 from ..address import BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
 from ..errors import AddressError
@@ -37,7 +33,6 @@ class WordFamily:
         # index i of a 32-bit object -> (view, i >> 1): even i in the first, odd in the second
         self.d = (mv[: 4 * n_even].cast("i"), mv[2 : 2 + 4 * n_odd].cast("i"))
         self.f = (mv[: 4 * n_even].cast("f"), mv[2 : 2 + 4 * n_odd].cast("f"))
-        self.np = np.frombuffer(self.buf, dtype=np.int16)
 
     def get_d(self, i: int) -> int:
         return self.d[i & 1][i >> 1]
@@ -82,11 +77,6 @@ class MemoryImage:
         self.sw = WordFamily(c("SW"))
         # Function blocks, filled in by the engine from the configuration.
         self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
-        self.np = {"MW": self.mw.np, "KW": self.kw.np, "SW": self.sw.np}
-
-    def bits_np(self, kind: str) -> np.ndarray:
-        """A numpy copy of a bit family."""
-        return np.array(self.bits(kind), dtype=np.uint8)
 
     # -- address resolution ---------------------------------------------------------------
     def ref(self, address: str | Ref) -> Ref:
