@@ -269,43 +269,11 @@ class Session:
 
     # ---- snapshots ----------------------------------------------------------------------------
     def _snapshot(self) -> dict[str, Any]:
-        eng = self.plc.engine
-        devs = {}
-        for name, dev in self.plc.devices.items():
-            st = {}
-            for k, v in vars(dev).items():
-                if isinstance(v, (bool, int, float, str, tuple)) or v is None:
-                    st[k] = v
-                elif isinstance(v, list):  # append-only records (samples, events)
-                    st[k] = ("__len__", len(v))
-            devs[name] = st
-        return {"mem": self.plc.mem.snapshot(), "now": eng.clock.now_us,
-                "ts": getattr(eng.time_source, "now_us", 0),
-                "stats": dataclasses.replace(eng.stats), "first": dict(eng._first),
-                "state": (eng.state, eng.fault), "program": self.plc.program_state.snapshot(),
-                "devs": devs,
-                "pending": list(self.pending)}
+        return {"engine": self.plc.engine.snapshot(), "pending": list(self.pending)}
 
     def _restore(self, snap: dict[str, Any]) -> None:
-        eng = self.plc.engine
-        self.plc.mem.restore(snap["mem"])
-        eng.clock.now_us = snap["now"]
-        if eng.time_source is not None:
-            eng.time_source.now_us = snap["ts"]
-        eng.stats = dataclasses.replace(snap["stats"])
-        eng._first = dict(snap["first"])
-        eng.state, eng.fault = snap["state"]
-        self.plc.program_state.restore(snap["program"])
+        self.plc.engine.restore(snap["engine"])
         self.pending = list(snap["pending"])
-        for name, st in snap["devs"].items():
-            dev = self.plc.devices[name]
-            for k, v in st.items():
-                if isinstance(v, tuple) and len(v) == 2 and v[0] == "__len__":
-                    lst = getattr(dev, k)
-                    del lst[v[1]:]
-                else:
-                    setattr(dev, k, v)
-        self.plc.program_state.clear_transitions()  # those of an abandoned scan
 
     # ---- running ---------------------------------------------------------------------------------
     def _apply_pending(self) -> None:

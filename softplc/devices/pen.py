@@ -23,6 +23,8 @@ from .base import Device, register_device
 
 @register_device("pen")
 class Pen(Device):
+    STATE = ("down", "moves", "_cmd", "_t_cmd", "_settled")
+
     def __init__(self, name: str, *, output: Any, lower_delay: Any = 0.0,
                  lift_delay: Any = 0.0):
         super().__init__(name)

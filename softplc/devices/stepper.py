@@ -79,6 +79,8 @@ def _number(name: str, option: str, value: Any, *, positive: bool = False) -> fl
 class Stepper(Device):
     """A four-phase stepper axis. Internal position: `_h`, in half steps from home."""
 
+    STATE = ("_h", "_last", "_last_move_t", "_taken_h", "missed_steps", "_logged")
+
     def __init__(self, name: str, *, phases: Any, steps_per_unit: Any = 111.11,
                  travel: Any = 25.0, start: Any = 0.0, max_step_rate: Any = 1000.0,
                  hard_stop_margin: Any = 0.5):

@@ -31,6 +31,8 @@ FAULTS = ("none", "stuck_open", "stuck_closed")
 
 @register_device("limit_switch")
 class LimitSwitch(Device):
+    STATE = ("fault", "_sign", "_thr")
+
     def __init__(self, name: str, *, axis: Any, input: Any, at: Any = "home",
                  normally_closed: Any = False, fault: Any = "none"):
         super().__init__(name)

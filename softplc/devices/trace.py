@@ -47,6 +47,9 @@ def _row(s: Sample) -> str:
 
 @register_device("trace")
 class Trace(Device):
+    STATE = ("truncated", "_key", "_written", "_next_flush")
+    RECORDS = ("samples",)
+
     def __init__(self, name: str, *, axes: Any = ("X", "Z"), pen: Any = "pen",
                  csv: Any = None, flush_every: Any = 1.0, max_samples: Any = 1_000_000):
         super().__init__(name)

@@ -62,6 +62,19 @@ class Timer(Block):
         self._in, self._t0, self._on = 0, 0, 0  # last IN, start time, timing in progress
         self.run = {"TON": self._ton, "TOF": self._tof, "TP": self._tp}[type]
 
+    def state(self) -> dict[str, Any]:
+        """As `Block.state`, with the start time as the time elapsed since (`_elapsed_us`):
+        valid whatever clock the state is restored under (a restart's starts again at 0)."""
+        st = super().state()
+        st["_elapsed_us"] = self.clock.now_us - st.pop("_t0")
+        return st
+
+    def set_state(self, d: dict[str, Any]) -> None:
+        d = dict(d)
+        if "_elapsed_us" in d:
+            d["_t0"] = self.clock.now_us - d.pop("_elapsed_us")
+        super().set_state(d)
+
     def _elapsed(self) -> int:
         v = (self.clock.now_us - self._t0) // self.base_us
         return v if v < self.P else self.P

@@ -12,6 +12,7 @@ One `scan()`:
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -114,6 +115,34 @@ class Engine:
         """Outputs to their fallback value 0, image and field."""
         self.mem.q[:] = [0] * len(self.mem.q)
         self.mem.q_field[:] = [0] * len(self.mem.q_field)
+
+    # -- snapshots ----------------------------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        """Everything a scan changes, at a scan boundary: memory and blocks, the program's
+        state, the clock, first-scan flags, run state, statistics, and the devices. One
+        mechanism for the debugger's `back`, its history and retained state."""
+        program = self.program
+        return {"mem": self.mem.snapshot(), "now_us": self.clock.now_us,
+                "scan_start_us": getattr(self.time_source, "now_us", 0),
+                "stats": dataclasses.replace(self.stats), "first": dict(self._first),
+                "state": (self.state, self.fault),
+                "program": program.state.snapshot() if program is not None else None,
+                "devices": {name: dev.state() for name, dev in self.devices.items()}}
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        """Back to a `snapshot()` (of this engine, with the same program and devices)."""
+        self.clock.now_us = snap["now_us"]
+        if self.time_source is not None:  # before the blocks: timers keep elapsed times
+            self.time_source.now_us = snap["scan_start_us"]
+        self.mem.restore(snap["mem"])
+        self.stats = dataclasses.replace(snap["stats"])
+        self._first = dict(snap["first"])
+        self.state, self.fault = snap["state"]
+        if self.program is not None and snap["program"] is not None:
+            self.program.state.restore(snap["program"])
+            self.program.state.clear_transitions()  # those of an abandoned scan
+        for name, st in snap["devices"].items():
+            self.devices[name].set_state(st)
 
     # -- forcing ------------------------------------------------------------------------------
     def set_forced(self, forced: dict[Ref, Any]) -> None:
