@@ -21,6 +21,9 @@ def drawing_plc() -> PLC:
 
 
 def observable(plc: PLC) -> tuple:
+    """What the scans computed (the measured scan times %SW30-%SW32 are wall-clock)."""
+    for k in (30, 31, 32):
+        plc.mem.sw.w[k] = 0
     mem = plc.mem.snapshot()
     return (mem, plc.time, plc.scan_count, plc.state,
             {n: d.state() for n, d in plc.devices.items()},

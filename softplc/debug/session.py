@@ -23,8 +23,10 @@ import difflib
 import math
 import re
 import struct
+import textwrap
 from collections import deque
 from collections.abc import Callable, Iterator
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +40,34 @@ from ..plc import PLC
 from . import ladder
 
 HISTORY = 1000  # scans kept for `back`
+
+
+class StopKind(Enum):
+    """Why a run of the stepping controller ended."""
+
+    DONE = "done"  # ran what was asked
+    SCAN_END = "scan end"  # a step reached the end of the scan
+    BREAKPOINT = "breakpoint"
+    WATCH = "watch"
+    INTERRUPTED = "interrupted"  # Ctrl-C
+
+
+# Reasons that end a repeated command (step 3, stepi 5, continue) early.
+STOPS_A_COMMAND = frozenset({StopKind.BREAKPOINT, StopKind.WATCH, StopKind.INTERRUPTED})
+
+
+@dataclasses.dataclass(frozen=True)
+class Stop:
+    kind: StopKind
+    message: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
+class Ran:
+    """The result of a run: the typed reason it stopped and the text for the user."""
+
+    reason: StopKind
+    text: str
 CONTINUE_LIMIT = 100_000  # scans `continue` runs before giving up
 WORDS = ("MW", "KW", "SW")
 DWORDS = ("MD", "KD")
@@ -116,6 +146,7 @@ class Session:
         self.ring: deque[dict[str, Any]] = deque(maxlen=history)
         self.breaks: list[Breakpoint] = []
         self.next_id = 1
+        self.width = 80  # of the text `help` wraps to (the REPL sets the terminal's)
         self.changes: dict[str, deque[Change]] = {}
         self.pending: list[tuple[Ref, Any]] = []
         self.trace_file: Any = None
@@ -322,10 +353,10 @@ class Session:
         self.ran = "scan"
         self._scan_done()
 
-    def _check_data(self, commit: bool = True) -> list[str]:
-        """Watches and conditions after a step or a scan: messages of those that hit.
+    def _check_data(self, commit: bool = True) -> list[Stop]:
+        """Watches and conditions after a step or a scan: those that hit.
         With commit False only tell whether one would hit (no state changes)."""
-        hits: list[str] = []
+        hits: list[Stop] = []
         for b in self.breaks:
             if b.kind == "rung" or b.test is None:
                 continue
@@ -338,7 +369,8 @@ class Session:
                 if b.enabled and (v != old if b.kind == "watch" or b.mode == "changes" else
                                   (bool(old) and not v) if b.mode == "falls" else
                                   (bool(v) and not old)):
-                    return ["hit"]
+                    return [Stop(StopKind.WATCH if b.kind == "watch" else
+                                 StopKind.BREAKPOINT)]
                 continue
             b.last = v
             if b.kind == "watch":
@@ -347,23 +379,30 @@ class Session:
                         Change(self.plc.scan_count, self.plc.time, self.ran, old, v))
                     if b.enabled:
                         b.hits += 1
-                        hits.append(f"watch #{b.id} {b.text}: {old} -> {v} (in {self.ran})")
+                        hits.append(Stop(StopKind.WATCH, f"watch #{b.id} {b.text}: {old} -> "
+                                         f"{v} (in {self.ran})"))
             elif b.enabled:
                 hit = (b.mode in ("", "rises") and v and not old) or \
                     (b.mode == "falls" and old and not v) or (b.mode == "changes" and v != old)
                 if hit:
                     b.hits += 1
-                    hits.append(f"breakpoint #{b.id} when {b.text} (in {self.ran})")
+                    hits.append(Stop(StopKind.BREAKPOINT,
+                                     f"breakpoint #{b.id} when {b.text} (in {self.ran})"))
         return hits
 
-    def _hits(self) -> str:
+    def _hits(self) -> Stop | None:
+        """Why to stop here (breakpoints, watches), or None."""
         hits = self._check_data() if self._data else []
         if self.pos is not None and self.pos[1] == 0:
             b = self._rung_bp.get(self.pos[0])
             if b is not None:
                 b.hits += 1
-                hits.insert(0, f"breakpoint #{b.id} at {b.text}")
-        return "; ".join(hits)
+                hits.insert(0, Stop(StopKind.BREAKPOINT, f"breakpoint #{b.id} at {b.text}"))
+        if not hits:
+            return None
+        kind = StopKind.BREAKPOINT if any(h.kind == StopKind.BREAKPOINT for h in hits) \
+            else StopKind.WATCH
+        return Stop(kind, "; ".join(h.message for h in hits))
 
     def _arm(self) -> None:
         """Index the breakpoints for the per-instruction checks of a run."""
@@ -373,24 +412,25 @@ class Session:
                 self._rung_bp.setdefault(b.rung, b)
         self._data = any(b.kind != "rung" for b in self.breaks)
 
-    def _debug_scan(self) -> str:
+    def _debug_scan(self) -> Stop | None:
         """Run the debug build to the end of the scan (starting one if needed); a hit or an
-        interrupt stops it early. Returns why it stopped early, else ''."""
+        interrupt stops it early. Returns why it stopped early, else None."""
         while True:
             done = self._tick()
             stop = self._hits()
             if stop or done:
                 return stop
             if self.interrupted:
-                return "interrupted"
+                return Stop(StopKind.INTERRUPTED, "interrupted")
 
     def _run(self, scans: int | None, *, until_rung_change: bool = False,
-             one_instr: bool = False) -> str:
+             one_instr: bool = False) -> Ran:
         """The one driver. `scans`: whole scans to run after finishing the one in progress;
-        None: a step (one instruction, or to the next rung). Stops at breakpoints."""
+        None: a step (one instruction, or to the next rung). Stops at breakpoints. Returns
+        why it stopped (a typed reason) and the text for the user."""
         self.interrupted = False
         self._arm()
-        stop = ""
+        stop: Stop | None = None
         if scans is None:
             start_rung = self.pos[0] if self.pos else None
             while True:
@@ -399,7 +439,7 @@ class Session:
                 if stop:
                     break
                 if done:
-                    stop = f"scan {self.plc.scan_count} complete"
+                    stop = Stop(StopKind.SCAN_END, f"scan {self.plc.scan_count} complete")
                     break
                 if one_instr or self.pos[0] != start_rung or self.interrupted:
                     break
@@ -410,7 +450,7 @@ class Session:
             debug = bool(self._rung_bp)
             while remaining > 0 and not stop:
                 if self.interrupted:
-                    stop = "interrupted"
+                    stop = Stop(StopKind.INTERRUPTED, "interrupted")
                 elif debug or remaining == 1:  # the last scan feeds the power-flow view
                     stop = self._debug_scan()
                     if self.gen is None:
@@ -426,12 +466,12 @@ class Session:
                     else:
                         remaining -= 1
                         stop = self._hits()
-        msgs = [stop] if stop else []
+        msgs = [stop.message] if stop else []
         if self.plc.state != "RUN":
             msgs.append(f"PLC in {self.plc.state}" + (f": {self.plc.fault}"
                                                         if self.plc.fault else ""))
         msgs.append(self._position())
-        return "\n".join(msgs)
+        return Ran(stop.kind if stop else StopKind.DONE, "\n".join(msgs))
 
     def _position(self) -> str:
         t = f"scan {self.plc.scan_count}, t = {self.plc.time:.3f} s"
@@ -449,25 +489,25 @@ class Session:
         """scan [N]: finish the scan in progress, then run N more scans (default 1; 0 when a
         scan is in progress). Stops at breakpoints."""
         n = self._count(arg, 0 if self.gen is not None else 1)
-        return self._run(n)
+        return self._run(n).text
 
     def cmd_step(self, arg: str) -> str:
         """step [N]: run to the start of the next rung (entering a scan if at the boundary)."""
-        out = ""
+        ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            out = self._run(None, until_rung_change=True)
-            if "breakpoint" in out or "watch" in out:
+            ran = self._run(None, until_rung_change=True)
+            if ran.reason in STOPS_A_COMMAND:
                 break
-        return out
+        return ran.text
 
     def cmd_stepi(self, arg: str) -> str:
         """stepi [N]: run one instruction (entering a scan if at the boundary)."""
-        out = ""
+        ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            out = self._run(None, one_instr=True)
-            if "breakpoint" in out or "watch" in out:
+            ran = self._run(None, one_instr=True)
+            if ran.reason in STOPS_A_COMMAND:
                 break
-        return out
+        return ran.text
 
     def cmd_run(self, arg: str) -> str:
         """run N | run Ts: run N scans (run 100) or T seconds of PLC time (run 2s, run 500ms).
@@ -485,7 +525,7 @@ class Session:
             n = max(1, round(secs / self.plc.scan_period))
         if self.gen is not None:
             n = max(0, n - 1)  # the scan in progress counts as one
-        return self._run(n)
+        return self._run(n).text
 
     def cmd_continue(self, arg: str) -> str:
         """continue: run until a breakpoint or watch stops it (at most 100000 scans;
@@ -493,10 +533,10 @@ class Session:
         if not self.breaks or not any(b.enabled for b in self.breaks):
             raise DebugError("no breakpoint is enabled: continue would never stop "
                              "(use 'run N' or set one with 'break')")
-        out = self._run(self.continue_limit)
-        if "breakpoint" not in out and "watch" not in out and "interrupted" not in out:
-            out = f"no breakpoint hit in {self.continue_limit} scans\n" + out
-        return out
+        ran = self._run(self.continue_limit)
+        if ran.reason not in STOPS_A_COMMAND:
+            return f"no breakpoint hit in {self.continue_limit} scans\n" + ran.text
+        return ran.text
 
     def _count(self, arg: str, default: int) -> int:
         if not arg:
@@ -903,8 +943,12 @@ class Session:
             return self.commands[name][1]
         lines = ["commands (help NAME for details):"]
         for name, (_, doc) in sorted(self.commands.items()):
-            lines.append(f"  {doc.splitlines()[0] if doc else name}")
-        lines.append("aliases: " + ", ".join(f"{a}={n}" for a, n in sorted(self.aliases.items())))
+            lines += textwrap.wrap(first_sentence(doc) if doc else name,
+                                   max(40, self.width - 1), initial_indent="  ",
+                                   subsequent_indent="      ")
+        lines += textwrap.wrap("aliases: " + ", ".join(f"{a}={n}" for a, n in
+                                                       sorted(self.aliases.items())),
+                               max(40, self.width - 1), subsequent_indent="  ")
         return "\n".join(lines)
 
     def cmd_quit(self, arg: str) -> str:
@@ -920,6 +964,14 @@ class Session:
             self.gen = None
         if self._apply_pending in self.plc.before_scan:
             self.plc.before_scan.remove(self._apply_pending)
+
+
+def first_sentence(doc: str) -> str:
+    """The first sentence of a docstring, whole, on one line ("e.g.", "i.e.", an ellipsis
+    and decimal points do not end it)."""
+    text = " ".join(doc.split("\n\n")[0].split())
+    m = re.search(r"(?<!\be\.g)(?<!\bi\.e)(?<!\.)\.(?=\s|$)", text)
+    return text[: m.end()] if m else text
 
 
 def diff_programs(old: A.Program, new: A.Program) -> list[str]:
