@@ -62,6 +62,11 @@ class Timer(Block):
         self._in, self._t0, self._on = 0, 0, 0  # last IN, start time, timing in progress
         self.run = {"TON": self._ton, "TOF": self._tof, "TP": self._tp}[type]
 
+    @property
+    def last_in(self) -> int:
+        """The IN input at the last execution (what the debugger shows)."""
+        return self._in
+
     def state(self) -> dict[str, Any]:
         """As `Block.state`, with the start time as the time elapsed since (`_elapsed_us`):
         valid whatever clock the state is restored under (a restart's starts again at 0)."""
