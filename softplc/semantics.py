@@ -10,6 +10,7 @@ system, reset only by the program), %S20 index overflow. Tags as in the referenc
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable
 
 from .address import INT16, INT32, REAL
@@ -38,6 +39,15 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
     "SUM": (("table",), "element"), "MAX": (("table",), "element"),
     "MIN": (("table",), "element"), "MEAN": (("table",), REAL),
 }
+
+
+# Comparison blocks [ a OP b ]: the one table of what each operator means (compiled code
+# uses the Python operator of the same meaning, the ladder view and the debugger the
+# function).
+COMPARE: dict[str, Callable[[object, object], bool]] = {
+    "=": operator.eq, "<>": operator.ne, ">": operator.gt, ">=": operator.ge,
+    "<": operator.lt, "<=": operator.le}
+COMPARE_PY = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
 
 
 def _tdiv(a: int, b: int) -> int:

@@ -35,6 +35,7 @@ from ..errors import ConfigError, SoftPLCError
 from ..il import ast as A
 from ..il.parser import parse_file
 from ..plc import PLC
+from ..semantics import COMPARE
 from . import ladder
 from .controller import (
     HISTORY,
@@ -49,9 +50,7 @@ CONTINUE_LIMIT = 100_000  # scans `continue` runs before giving up
 WORDS = ("MW", "KW", "SW")
 DWORDS = ("MD", "KD")
 FLOATS = ("MF", "KF")
-CMP_OPS = {"=": lambda a, b: a == b, "==": lambda a, b: a == b, "<>": lambda a, b: a != b,
-           "!=": lambda a, b: a != b, "<": lambda a, b: a < b, "<=": lambda a, b: a <= b,
-           ">": lambda a, b: a > b, ">=": lambda a, b: a >= b}
+CMP_OPS = {**COMPARE, "==": COMPARE["="], "!=": COMPARE["<>"]}  # as users also type them
 _COND = re.compile(r"^\s*(\S+)\s*(==|=|<>|!=|<=|>=|<|>)\s*(\S+)\s*$")
 _IO_RANGE = re.compile(r"^(%[IQ]\d+\.\d+):(\d+)$", re.I)
 

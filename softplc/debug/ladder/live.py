@@ -8,6 +8,7 @@ from typing import Any
 from ...address import Ref
 from ...il import ast as A
 from ...il.printer import format_expr
+from ...semantics import COMPARE
 from .tree import Elem
 
 
@@ -74,8 +75,7 @@ class Live:
                 else:
                     return None
             a, b = vals
-            r = {"=": a == b, "<>": a != b, ">": a > b, ">=": a >= b, "<": a < b,
-                 "<=": a <= b}[op.op]
+            r = COMPARE[op.op](a, b)
             return (not r) if mod == "N" else r
         if el.ref is not None and mod in ("", "N"):
             try:
