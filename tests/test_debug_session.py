@@ -324,3 +324,20 @@ def test_help_lists_whole_first_sentences_wrapped(s: Session, width: int) -> Non
         assert sentence.endswith("."), name  # whole, not cut mid-sentence
         assert " ".join(sentence.split()) in flat, name
     assert first_sentence("a: b, e.g. c. More.") == "a: b, e.g. c."
+
+
+def test_the_controller_runs_without_the_command_layer() -> None:
+    """What the web monitor will drive: typed results, no terminal, no command parsing."""
+    from softplc.debug.controller import Controller, StopKind
+
+    plc = PLC.from_file(SAMPLE, config=CONFIG)
+    ctl = Controller(plc)
+    ran = ctl.step_instruction()
+    assert ran.reason == StopKind.DONE and ctl.pos == (0, 0)
+    ran = ctl.run_scans(3)
+    # the scan in progress is finished first, then 3 whole scans
+    assert ran.reason == StopKind.DONE and plc.scan_count == 4 and ctl.pos is None
+    ctl.back(2)
+    assert plc.scan_count == 2 and len(ctl.ring) == 2
+    ctl.close()
+    assert ctl._apply_pending not in plc.before_scan

@@ -273,6 +273,19 @@ class Controller:
         title = f" ({rung.title})" if rung.title else ""
         return f"[{t}] before rung {r}{title} instr {k}: {text}"
 
+    # -- the public driving API (the REPL's commands and the web monitor use these) ----------
+    def step(self) -> Ran:
+        """Run to the start of the next rung (entering a scan if at the boundary)."""
+        return self._run(None, until_rung_change=True)
+
+    def step_instruction(self) -> Ran:
+        """Run one instruction (entering a scan if at the boundary)."""
+        return self._run(None, one_instr=True)
+
+    def run_scans(self, n: int) -> Ran:
+        """Finish the scan in progress, then run n whole scans; breakpoints stop it."""
+        return self._run(n)
+
     def back(self, n: int) -> None:
         """Go back n scans (1 <= n <= len(ring); a scan in progress counts as one)."""
         if self.gen is not None:

@@ -254,13 +254,13 @@ class Session(Controller):
         """scan [N]: finish the scan in progress, then run N more scans (default 1; 0 when a
         scan is in progress). Stops at breakpoints."""
         n = self._count(arg, 0 if self.gen is not None else 1)
-        return self._run(n).text
+        return self.run_scans(n).text
 
     def cmd_step(self, arg: str) -> str:
         """step [N]: run to the start of the next rung (entering a scan if at the boundary)."""
         ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            ran = self._run(None, until_rung_change=True)
+            ran = self.step()
             if ran.reason in STOPS_A_COMMAND:
                 break
         return ran.text
@@ -269,7 +269,7 @@ class Session(Controller):
         """stepi [N]: run one instruction (entering a scan if at the boundary)."""
         ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            ran = self._run(None, one_instr=True)
+            ran = self.step_instruction()
             if ran.reason in STOPS_A_COMMAND:
                 break
         return ran.text
@@ -290,7 +290,7 @@ class Session(Controller):
             n = max(1, round(secs / self.plc.scan_period))
         if self.gen is not None:
             n = max(0, n - 1)  # the scan in progress counts as one
-        return self._run(n).text
+        return self.run_scans(n).text
 
     def cmd_continue(self, arg: str) -> str:
         """continue: run until a breakpoint or watch stops it (at most 100000 scans;
@@ -298,7 +298,7 @@ class Session(Controller):
         if not self.breaks or not any(b.enabled for b in self.breaks):
             raise DebugError("no breakpoint is enabled: continue would never stop "
                              "(use 'run N' or set one with 'break')")
-        ran = self._run(self.continue_limit)
+        ran = self.run_scans(self.continue_limit)
         if ran.reason not in STOPS_A_COMMAND:
             return f"no breakpoint hit in {self.continue_limit} scans\n" + ran.text
         return ran.text
