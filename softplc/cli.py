@@ -19,6 +19,7 @@ COMMAND_MODULES = [
     "softplc.commands.repl",
     "softplc.commands.ladder",
     "softplc.commands.draw",
+    "softplc.commands.cut",
 ]
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from ..gcode import DrawClient, GCodeConfig, max_deviation, parse_file, preview
 from ..gcode.deviation import last_sample, load_trace
+from ._args import size_arg
 
 _EXAMPLES = """\
 examples:
@@ -18,13 +19,7 @@ examples:
 """
 
 
-def _table(text: str) -> tuple[float, float]:
-    try:
-        w, _, h = text.lower().partition("x")
-        return float(w), float(h or w)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"table size {text!r}: expected WxH in cm, "
-                                         "e.g. 25x25") from None
+_table = size_arg("table size", "cm", "25x25")
 
 
 def _plot_drawn(trace: str, since: float | None, steps: list, out: str) -> None:

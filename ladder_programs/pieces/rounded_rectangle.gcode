@@ -1,0 +1,12 @@
+(E3 in G-code: the rounded rectangle, square 10..50 with 10 mm corner radius)
+G17 G21 G90
+G00 X20 Y10
+G01 X40 Y10 F120
+G03 X50 Y20 I0 J10
+G01 X50 Y40
+G03 X40 Y50 I-10 J0
+G01 X20 Y50
+G03 X10 Y40 I0 J-10
+G01 X10 Y20
+G03 X20 Y10 I10 J0
+G00 X0 Y0

@@ -1,0 +1,124 @@
+"""The work of `softplc cut` (see cut.py, which parses the arguments)."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+
+from ..cutting import (
+    Arc,
+    CuttingError,
+    NewtonCurve,
+    Piece,
+    load_piece,
+    preview,
+    segment_words,
+    split_line,
+)
+from ..cutting.motion import simulate
+from ..cutting.regmap import FRAME_LEN, SEG_BASE
+from ..cutting.seed import run_trigger_chain, thesis_split
+
+
+def _load(args: argparse.Namespace) -> Piece:
+    return load_piece(args.piece, speed=args.speed, move_speed=args.move_speed,
+                      accel=args.accel, tolerance=args.tolerance, work_area=args.work_area)
+
+
+def _write_frames(piece: Piece, out: str) -> None:
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with open(out, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["segment", "kind", "x_mm", "y_mm", "speed_mm_s", "where",
+                        "x_um", "y_um", "kind_code", "seg_no",
+                        *(f"MW{SEG_BASE + i}" for i in range(FRAME_LEN)),
+                        "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2", "duration_s"])
+            for s in piece.segments():
+                sw = segment_words(s)
+                # what the PLC should compute for this segment (the corrected split)
+                split = split_line(s.start, s.end, s.speed, piece.accel)
+                w.writerow([s.number, s.kind, f"{s.end[0]:.6f}", f"{s.end[1]:.6f}",
+                            f"{s.speed:g}", s.where, sw.x_um, sw.y_um, sw.kind, sw.number,
+                            *sw.frame(),
+                            *(f"{v:.9g}" for v in (split.x.speed, split.y.speed,
+                                                   split.x.accel, split.y.accel,
+                                                   split.duration))])
+    except OSError as e:
+        raise CuttingError(f"cannot write {out}: {e.strerror or e}") from None
+
+
+def _report_chain(piece: Piece) -> None:
+    """The thesis sequences a piece as a trigger chain whose end tests are not gated (B19):
+    say whether this piece would run once or repeat forever that way."""
+    segs = piece.segments()
+    run = run_trigger_chain([s.end for s in segs], piece.start, gated=False,
+                            max_passes=4 * len(segs) + 10)
+    if run.runs_forever:
+        cycle = run.ops[-run.cycle_moves:]
+        print(f"seed mode: the thesis's trigger chain (ungated end tests, B19) would repeat "
+              f"segments {min(cycle)}-{max(cycle)} forever (cycle found after "
+              f"{run.passes} passes)")
+    elif run.finished:
+        print("seed mode: the thesis's trigger chain runs this piece once")
+    else:
+        print(f"seed mode: the thesis's trigger chain did not end within {run.passes} "
+              "passes")
+
+
+def _report_simulation(piece: Piece, dt: float, seed: bool) -> None:
+    runs = [("corrected", piece.segments(), split_line)]
+    if seed:
+        runs.append(("thesis (seed mode, equal accelerations)", piece.segments(seed=True),
+                     thesis_split))
+    for name, segs, split in runs:
+        samples = simulate(segs, piece.accel, dt, split)
+        worst, at = max(((piece.deviation((s.x, s.y)), (s.x, s.y)) for s in samples
+                         if s.torch), default=(0.0, piece.start))
+        print(f"simulated, {name}: {samples[-1].t if samples else 0:.3f} s of motion, "
+              f"{len(samples)} samples (dt {dt:g} s); the torch-on path is at most "
+              f"{worst:.6f} mm from the ideal shape (at {at[0]:.4f}, {at[1]:.4f}; chord "
+              f"tolerance {piece.tolerance:g})")
+
+
+def _stream(piece: Piece, args: argparse.Namespace) -> int:
+    """The device round's streaming client plugs in here (handshake of regmap.py)."""
+    raise CuttingError("streaming to the PLC needs the cutting-table device and program "
+                       "(issue 13, device round); run with --dry-run to check and preview")
+
+
+def run(args: argparse.Namespace) -> int:
+    piece = _load(args)
+    for w in piece.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    segs = piece.segments()
+    cuts = sum(1 for s in segs if s.cut)
+    print(f"{args.piece}: {piece.name}: {len(segs)} segments ({cuts} cut), cut "
+          f"{piece.length('cut'):.5f} mm, move {piece.length('move'):.5f} mm, ends at "
+          f"({piece.end[0]:.6g}, {piece.end[1]:.6g}), motion about {piece.duration():.2f} s")
+    if args.seed:
+        if not any(isinstance(e.shape, Arc | NewtonCurve) for e in piece.elements):
+            print("note: seed mode changes arcs and Newton curves only; this piece has none",
+                  file=sys.stderr)
+        seed = piece.segments(seed=True)
+        _report_chain(piece)
+        print(f"seed mode (thesis algorithms): {len(seed)} segments, cut "
+              f"{piece.length('cut', seed=True):.5f} mm, ends at "
+              f"({seed[-1].end[0]:.6g}, {seed[-1].end[1]:.6g})" if seed else
+              "seed mode: no segments")
+    if not 1 <= args.start_at <= max(len(segs), 1):
+        raise CuttingError(f"--start-at {args.start_at}: the piece has {len(segs)} segments")
+    if args.simulate is not None:
+        _report_simulation(piece, args.simulate, args.seed)
+    if args.preview:
+        Path(args.preview).parent.mkdir(parents=True, exist_ok=True)
+        print(f"preview written to {preview(piece, args.preview, seed=args.seed)}",
+              file=sys.stderr)
+    if args.frames:
+        _write_frames(piece, args.frames)
+        print(f"segment words written to {args.frames}", file=sys.stderr)
+    if args.dry_run:
+        return 0
+    return _stream(piece, args)

@@ -1,0 +1,77 @@
+"""`softplc cut PIECE`: check a cutting-table piece, preview it, list the PLC words.
+
+Today the command validates (schema, geometry, work area), reports, previews and writes the
+segment words the host will send; streaming to the PLC comes with the cutting-table device
+(issue 13, device round) and plugs in at `_cut_run._stream`, with the connection options
+already parsed here. The work is in `_cut_run.py`, imported only when the command runs (the
+cutting library loads pydantic: every other `softplc` command stays as quick to start).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ._args import size_arg
+
+_EXAMPLES = """\
+examples:
+  softplc cut ladder_programs/pieces/achaflanado.toml --dry-run --preview out/e3.png
+  softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed --preview out/e5.svg
+  softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run --frames out/e3.csv
+"""
+
+
+_area = size_arg("work area", "mm", "240x240")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "cut", help="check, preview and (device round) stream a piece to the cutting table",
+        description="Read a cutting-table piece (.toml, or G-code: XY plane, mm, G00 move,\n"
+                    "G01-G03 cut), check its geometry and the work area, report it, plot it\n"
+                    "and list the segment words the host sends (%MD100/%MD102 end in um,\n"
+                    "%MF104 speed, %MW106 kind, %MW107 number, %MW108 INICIO).\n"
+                    "Streaming to the PLC comes with the cutting-table device: use --dry-run.",
+        epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("piece", metavar="PIECE", help="the piece: FILE.toml or FILE.gcode")
+    r = p.add_argument_group("piece values (G-code: these or the defaults; TOML: override "
+                             "the file's keys when given)")
+    r.add_argument("--speed", type=float, metavar="MM/S",
+                   help="cutting speed (G-code: when the program has no F; default 2)")
+    r.add_argument("--move-speed", type=float, metavar="MM/S",
+                   help="positioning (G00) speed (default: the cutting speed)")
+    r.add_argument("--accel", type=float, metavar="MM/S2",
+                   help="path acceleration (default 100)")
+    r.add_argument("--tolerance", type=float, metavar="MM",
+                   help="chord tolerance of arcs (default 0.01)")
+    r.add_argument("--work-area", type=_area, metavar="WxH",
+                   help="work area in mm (default 240x240)")
+    o = p.add_argument_group("output")
+    o.add_argument("--preview", metavar="OUT.png|OUT.svg",
+                   help="plot the piece in mm (cuts solid, moves dashed)")
+    o.add_argument("--seed", action="store_true",
+                   help="also compute the thesis's path (seed mode: arcs by round(θ/α), "
+                        "Newton without its last term) and overlay it on the preview")
+    o.add_argument("--frames", metavar="OUT.csv",
+                   help="write every segment's words (%%MW100-%%MW108) and the axis split "
+                        "the PLC should compute (speeds, accelerations, time) to a CSV file")
+    o.add_argument("--simulate", type=float, nargs="?", const=0.01, default=None,
+                   metavar="DT",
+                   help="run the segments on ideal axes (trapezoids, the corrected split; "
+                        "with --seed also the thesis's path and split), sampled every DT s "
+                        "(default 0.01), and report the largest distance of the torch-on "
+                        "path from the ideal shape")
+    o.add_argument("--dry-run", action="store_true",
+                   help="check, report and write outputs only; do not connect")
+    g = p.add_argument_group("connection (used from the device round on)")
+    g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
+    g.add_argument("--port", type=int, default=5020, help="Modbus TCP port (default %(default)s)")
+    g.add_argument("--start-at", type=int, default=1, metavar="N",
+                   help="resume from segment N (1-based)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ._cut_run import run as run_cut
+
+    return run_cut(args)

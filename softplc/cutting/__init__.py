@@ -1,0 +1,57 @@
+"""The cutting table's host side: path library, seed mode, pieces, preview, PLC words.
+
+    from softplc.cutting import load_piece, preview, segment_words
+    piece = load_piece("ladder_programs/pieces/achaflanado.toml")
+    for seg in piece.segments():          # numbered straight moves, cut or move
+        words = segment_words(seg).frame()  # %MW100..%MW108 as the host writes them
+    preview(piece, "e3.png", seed=True)
+
+Geometry in `geometry.py` (line, arc, fillet, Newton curve, chord tolerance), the axis split
+in `motion.py`, the thesis's defective algorithms in `seed.py`, pieces from TOML / G-code in
+`piece.py`, the register words in `regmap.py`. See `../shared/reference/cutting-table.md`.
+"""
+
+from .geometry import (
+    Arc,
+    CoincidentPointsError,
+    CuttingError,
+    Fillet,
+    FilletError,
+    GeometryError,
+    Line,
+    NewtonCurve,
+    NewtonError,
+    ZeroRadiusError,
+    fillet,
+)
+from .motion import LineSplit, Trapezoid, matlab_steps, split_line
+from .piece import Piece, PieceError, Segment, load_piece, piece_from_dict, piece_from_gcode
+from .preview import preview
+from .regmap import SegmentWords, segment_words
+
+__all__ = [
+    "Arc",
+    "CoincidentPointsError",
+    "CuttingError",
+    "Fillet",
+    "FilletError",
+    "GeometryError",
+    "Line",
+    "LineSplit",
+    "NewtonCurve",
+    "NewtonError",
+    "Piece",
+    "PieceError",
+    "Segment",
+    "SegmentWords",
+    "Trapezoid",
+    "ZeroRadiusError",
+    "fillet",
+    "load_piece",
+    "matlab_steps",
+    "piece_from_dict",
+    "piece_from_gcode",
+    "preview",
+    "segment_words",
+    "split_line",
+]
