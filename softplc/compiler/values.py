@@ -24,8 +24,10 @@ BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAI
 # Float functions: the helper is "f" + the function name in lower case (semantics.Ops.fsqrt)
 FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SIN", "COS",
                          "TAN", "ASIN", "ACOS", "ATAN", "DEG_TO_RAD", "RAD_TO_DEG"})
-BLOCK_PIN_METHODS = {"IN": "run", "R": "r", "S": "s", "CU": "cu", "CD": "cd", "U": "u",
-                     "I": "i", "O": "o"}
+# Short form (`CU %C0`): the block method of each input pin (see blocks.Block: `run` for a
+# timer's IN, else the pin's name in lower case).
+BLOCK_PIN_METHODS = {pin: "run" if pin == "IN" else pin.lower()
+                     for cls in BLOCK_CLASSES.values() for pin in cls.PINS}
 # A block's input pins (as its class declares them) and its bit outputs (its bit fields).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
 BLOCK_OUTPUTS = {kind: tuple(f for f, (t, _w) in fields.items() if t == BOOL)

@@ -29,6 +29,22 @@ class TimeSource:
 class Block:
     PINS: tuple[str, ...] = ()
     FIELDS: tuple[str, ...] = ()
+    EDGE_PINS: dict[str, str] = {}  # rising-edge inputs -> attribute with their last value
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        """The short form (`CU %C0`, `R %R0`): one method per input pin (`cu`, `r`...) that
+        runs the block with that input, holding the edge inputs at their last value (no
+        edge) and the level inputs at 0. Generated, so each is one plain call to `run`.
+        A class may still define a pin method itself (`run` serves a timer's IN)."""
+        super().__init_subclass__(**kw)
+        for pin in cls.PINS:
+            name = pin.lower()
+            if pin == "IN" or name in cls.__dict__:
+                continue
+            held = "".join(f", {p}=self.{a}" for p, a in cls.EDGE_PINS.items() if p != pin)
+            ns: dict[str, Any] = {}
+            exec(f"def {name}(self, v):\n    self.run({pin}=v{held})\n", ns)
+            setattr(cls, name, ns[name])
 
     def state(self) -> dict[str, Any]:
         return {f: getattr(self, f) for f in self.FIELDS}
@@ -127,6 +143,7 @@ class Counter(Block):
 
     PINS = ("R", "S", "CU", "CD")
     FIELDS = ("P", "V", "D", "E", "F", "_cu", "_cd")
+    EDGE_PINS = {"CU": "_cu", "CD": "_cd"}
 
     def __init__(self, preset: int = MAX_VALUE):
         if not 0 <= int(preset) <= MAX_VALUE:
@@ -136,16 +153,6 @@ class Counter(Block):
 
     def _done(self) -> None:
         self.D = 1 if self.V == self.P else 0
-
-    def r(self, v: Any) -> None:
-        if v:
-            self.V, self.E, self.F = 0, 0, 0
-        self._done()
-
-    def s(self, v: Any) -> None:
-        if v:
-            self.V = self.P
-        self._done()
 
     def _count(self, up: int, down: int) -> None:
         if up == down:
@@ -159,18 +166,6 @@ class Counter(Block):
             self.V -= 1
             if self.V < 0:
                 self.V, self.E = MAX_VALUE, 1
-
-    def cu(self, v: Any) -> None:
-        v = 1 if v else 0
-        self._count(v > self._cu, 0)
-        self._cu = v
-        self._done()
-
-    def cd(self, v: Any) -> None:
-        v = 1 if v else 0
-        self._count(0, v > self._cd)
-        self._cd = v
-        self._done()
 
     def run(self, R: Any = 0, S: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
         cu, cd = (1 if CU else 0), (1 if CD else 0)
@@ -192,6 +187,7 @@ class Drum(Block):
 
     PINS = ("R", "U")
     FIELDS = ("S", "F", "_u")
+    EDGE_PINS = {"U": "_u"}
 
     def __init__(self, steps: list[int], outputs: list[Any]):
         if not 1 <= len(steps) <= 8:
@@ -233,19 +229,11 @@ class _UpDownBlock(Block):
     `run` one input at a time, holding the others at their last value."""
 
     PINS = ("R", "CU", "CD")
+    EDGE_PINS = {"CU": "_cu", "CD": "_cd"}
     _cu = _cd = 0
 
     def run(self, R: Any = 0, CU: Any = 0, CD: Any = 0) -> None:  # pragma: no cover
         raise NotImplementedError
-
-    def r(self, v: Any) -> None:
-        self.run(R=v, CU=self._cu, CD=self._cd)
-
-    def cu(self, v: Any) -> None:
-        self.run(CU=v, CD=self._cd)
-
-    def cd(self, v: Any) -> None:
-        self.run(CU=self._cu, CD=v)
 
 
 class ShiftRegister(_UpDownBlock):
@@ -305,6 +293,7 @@ class Register(Block):
 
     PINS = ("R", "I", "O")
     FIELDS = ("I", "O", "E", "F", "_i", "_o", "_data")
+    EDGE_PINS = {"I": "_i", "O": "_o"}
 
     def __init__(self, type: str = "FIFO", depth: int = 16):
         type = type.upper()
@@ -334,14 +323,6 @@ class Register(Block):
         self.E = 0 if self._data else 1
         self.F = 1 if len(self._data) >= self.depth else 0
 
-    def r(self, v: Any) -> None:
-        self.run(R=v, I=self._i, O=self._o)
-
-    def i(self, v: Any) -> None:
-        self.run(I=v, O=self._o)
-
-    def o(self, v: Any) -> None:
-        self.run(I=self._i, O=v)
 
 
 # Block classes by address kind: each declares its input pins (`PINS`) once.
