@@ -194,7 +194,6 @@ class PLC:
             if ref.kind == "DR":
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
             blocks[ref.index] = self._new_block(ref.kind, {}, str(ref))
-            blocks[ref.index]._initial = blocks[ref.index].state()  # its cold-start state
         return None
 
     def _configure_constants(self, consts: dict[str, Any]) -> None:
@@ -237,10 +236,13 @@ class PLC:
             msg = self._io_check(ref)
             if msg:
                 problem(msg, ref, pos, "an I/O channel of a configured module", Code.IO)
-        for blocks in self.mem.blocks.values():
-            for b in blocks.values():
-                if getattr(b, "_initial", None) is None:  # a later build keeps the cold state
-                    b._initial = b.state()
+        # cold start puts a block back to its state when first allocated (a later build,
+        # e.g. after forcing, keeps that one)
+        cold = self.engine.cold_states
+        for kind, blocks in self.mem.blocks.items():
+            for i, b in blocks.items():
+                if (kind, i) not in cold:
+                    cold[kind, i] = b.state()
         return problems
 
     def _compile(self, program: A.Program, debug: bool = False) -> CompiledProgram:

@@ -57,6 +57,7 @@ class Engine:
         self.before_scan: list[Callable[[], None]] = []
         self.after_scan: list[Callable[[], None]] = []
         self.devices: dict[str, Any] = {}
+        self.cold_states: dict[tuple[str, int], dict[str, Any]] = {}  # (kind, i) -> state
         self.forced: dict[Ref, Any] = {}
         self._forced_bits: list[tuple[list[int], int, int]] = []
         self._forced_inputs: list[tuple[list[int], int, int]] = []
@@ -81,11 +82,8 @@ class Engine:
         for buf in (m.m, m.q, m.q_field, m.x):
             buf[:] = [0] * len(buf)
         m.mw.buf[:] = bytes(len(m.mw.buf))
-        for blocks in m.blocks.values():
-            for b in blocks.values():
-                init = getattr(b, "_initial", None)
-                if init is not None:
-                    b.set_state(init)
+        for (kind, i), st in self.cold_states.items():
+            m.blocks[kind][i].set_state(st)
         if self.program is not None:
             self.program.state.cold_start(m.x)
         self._first = {S_COLD: 1, S_FIRST: 1}
