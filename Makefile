@@ -6,6 +6,7 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 PORT    ?= 5020
+WEB_PORT ?= 8020
 
 .PHONY: run test bench lint draw clean sysdeps
 
@@ -15,14 +16,16 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install -q -e '.[test]'
 	touch $(STAMP)
 
-# mbpoll (Debian): the independent Modbus client the end-to-end tests also use.
+# mbpoll (Debian): the independent Modbus client the end-to-end tests also use; chromium: the
+# headless browser of the web monitor tests (Playwright drives it; no browser download).
 sysdeps:
-	@command -v mbpoll >/dev/null 2>&1 || { \
-	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq mbpoll >/dev/null; \
-	  else echo "note: mbpoll not installed (needs root); the tests that use it are skipped"; fi; }
+	@{ command -v mbpoll && command -v chromium; } >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq mbpoll chromium >/dev/null; \
+	  else echo "note: mbpoll/chromium not installed (needs root); the tests that use them are skipped"; fi; }
 
 run: $(STAMP)
-	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT) --trace out/trace.csv
+	@echo "web monitor: http://127.0.0.1:$(WEB_PORT)/ (the banner gives the address in use; softplc io --port $(WEB_PORT) operates it)"
+	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT) --web $(WEB_PORT) --trace out/trace.csv
 
 draw: $(STAMP)
 	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png
@@ -38,6 +41,7 @@ bench: $(STAMP)
 	# --no-deps: pyrung's pyclickplc pins pymodbus<3.13 (pyrung's core runs with ours)
 	$(BIN)/pip install -q --no-deps 'pyrung==0.15.2' 'pyclickplc==0.4.1'
 	$(BIN)/python tools/bench.py
+	$(BIN)/python tools/bench_web.py --duration 2
 
 lint: $(STAMP)
 	$(BIN)/ruff check softplc tests tools

@@ -186,3 +186,17 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         raise AddressError(f"{text!r}: only %M, %MW, %MD, %MF, %KW, %KD, %KF can be indexed "
                            f"by a %MW")
     return Ref(kind, a, bit=bit, length=length, offset=offset)
+
+
+def expand(text: str, profile: Profile = DEFAULT_PROFILE) -> list[Ref]:
+    """An address or a range as single objects: `%MW0:3` -> %MW0 %MW1 %MW2, `%MF4:2` ->
+    %MF4 %MF6, `%Q1.0:8` -> 8 output bits from %Q1.0."""
+    ref = parse_address(text, profile)
+    if ref.length is None:
+        return [ref]
+    if ref.kind in IO_KINDS:
+        assert ref.module is not None and ref.channel is not None
+        return [Ref(ref.kind, ref.index + k, ref.module, ref.channel + k)
+                for k in range(ref.length)]
+    step = WIDTH.get(ref.kind, 1)
+    return [Ref(ref.kind, ref.index + k * step) for k in range(ref.length)]

@@ -19,7 +19,9 @@ COMMAND_MODULES = [
     "softplc.commands.repl",
     "softplc.commands.ladder",
     "softplc.commands.draw",
+    "softplc.commands.io",
     "softplc.commands.cut",
+    "softplc.commands.servo",
 ]
 
 

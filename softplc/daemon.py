@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .errors import SoftPLCError
-from .modbus import ModbusImage, ServerThread, parse_read_only
+from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
 from .runtime import retain
 
@@ -52,6 +52,7 @@ class DaemonOptions:
     frame_timeout: float = 2.0
     idle_timeout: float | None = None
     rt_priority: int = 10  # SCHED_FIFO priority of the scan thread; 0 = normal scheduling
+    web: Any = None  # softplc.web.WebOptions; None = no web monitor
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -81,6 +82,7 @@ class Daemon:
         self.jitter_max = 0.0
         self.start_mode = ""
         self.priority = ""
+        self.web: Any = None  # the web monitor (softplc.web), if any
         ms = options.period * 1000
         if abs(ms - round(ms)) > 1e-9 or not MIN_PERIOD_MS <= round(ms) <= MAX_PERIOD_MS:
             raise SoftPLCError(f"period {ms:g} ms: must be a whole number of ms from "
@@ -117,6 +119,8 @@ class Daemon:
             self.say("simulated devices: " + ", ".join(plc.devices))
         for line in describe(image.n_registers, image.n_coils, image.read_only):
             self.say("  " + line)
+        for line in self.web.banner() if self.web is not None else ():  # web monitor hook
+            self.say(line)
         # The last banner line: tools and tests wait for it.
         self.say(f"Modbus TCP server listening on {opt.host}:{server.port}")
 
@@ -125,8 +129,10 @@ class Daemon:
         plc, opt = self.plc, self.opt
         self.start_mode = retain.restart(plc, opt.state, opt.cold, self.program_name)
         self._set_period(self.period_ms)
-        image = ModbusImage(plc.mem, parse_read_only(plc.config,
-                                                     plc.mem.profile))
+        ro = parse_read_only(plc.config, plc.mem.profile)
+        # devices' status words (e.g. a servo axis's) are read-only for hosts too
+        device_ro = tuple(r for d in plc.devices.values() for r in d.read_only_words())
+        image = ModbusImage(plc.mem, ReadOnly(ro.registers + device_ro, ro.coils))
         plc.before_scan.append(image.apply_writes)
         plc.after_scan.append(image.take_snapshot)
         server = ServerThread(image, opt.host, opt.port, max_clients=opt.max_clients,
@@ -136,6 +142,14 @@ class Daemon:
         except OSError as e:
             raise SoftPLCError(f"cannot listen on {opt.host}:{opt.port}: "
                                f"{e.strerror or e}") from None
+        # web monitor hook: served on the Modbus server's event loop (softplc.web)
+        from .web import attach
+
+        try:
+            self.web = attach(self, server, image, opt.web)
+        except SoftPLCError:
+            server.stop()
+            raise
         writer = retain.RetainWriter(opt.state) if opt.state is not None else None
         old_handlers = {s: signal.signal(s, self.request_stop)
                         for s in (signal.SIGINT, signal.SIGTERM)}
@@ -243,6 +257,8 @@ class Daemon:
                   writer: retain.RetainWriter | None) -> None:
         plc = self.plc
         plc.stop_outputs()
+        if self.web is not None:  # web monitor hook
+            self.web.stop()
         server.stop()  # closes every client: nothing more can be acknowledged
         # Writes acknowledged since the last scan are applied, so the saved state has them.
         image.apply_writes()

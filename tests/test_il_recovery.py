@@ -20,8 +20,8 @@ from softplc.il.parser import MAX_EXPR_DEPTH, parse
 
 ROOT = Path(__file__).resolve().parents[1]
 PROGRAMS = {p.name: p.read_text() for p in sorted((ROOT / "ladder_programs").glob("*.il"))}
-CONFIGS = {"drawing_table.il": "drawing_table.toml", "drawing_table_seed.il": "drawing_table.toml",
-           "star_delta.il": "star_delta.toml", "traffic_light.il": "traffic_light.toml"}
+# each program's configuration: the .toml of the same name (the seed runs on the table's)
+CONFIGS = {name: name.replace("_seed", "").replace(".il", ".toml") for name in PROGRAMS}
 
 
 class CountingLark:

@@ -56,3 +56,9 @@ def test_every_command_in_the_readme_exists(cmd):
     from softplc.cli import COMMAND_MODULES
 
     assert f"softplc.commands.{cmd}" in COMMAND_MODULES
+
+
+def test_servo_parameter_table_is_the_code_s():
+    from softplc.devices.axis.law import markdown_table
+
+    assert markdown_table() in README

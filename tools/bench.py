@@ -2,7 +2,7 @@
 
     .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
                                     [--png results/bench.png]
-                                    [--sections engine,peers,modbus,drawing]
+                                    [--sections engine,peers,modbus,drawing,servo]
 
 Sections:
   engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
@@ -12,6 +12,8 @@ Sections:
           skipped with a note if that file is absent)
   drawing simulated drawing speed: a 100-segment figure on the drawing table at a 1 ms
           scan, in simulated seconds per wall second (bench_drawing.py; target >= 50x)
+  servo   servo table: two servo axes at 2.26 kHz, 1 ms scans, simulated seconds per wall
+          and CPU second, devices alone and the whole machine (bench_servo.py; >= 50x)
 
 Figures go to stdout, progress to stderr; the JSON and the bar chart go under results/.
 Absolute numbers vary from run to run and with whatever else the machine is doing (the
@@ -31,11 +33,12 @@ from typing import Any
 import bench_drawing
 import bench_engine
 import bench_peers
+import bench_servo
 from peers.common import describe_machine, machine_info, progress
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SECTIONS = ("engine", "peers", "modbus", "drawing")
+SECTIONS = ("engine", "peers", "modbus", "drawing", "servo")
 
 
 def run_modbus_section(quick: bool) -> dict[str, Any]:
@@ -173,6 +176,10 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['speedup']:.0f}x real time ({r['us_per_scan']:.2f} us per scan with the "
               f"machine and the host loop; {r['missed_steps']} missed steps)  "
               f"target >= 50x  {'met' if r['speedup'] >= 50 else 'MISSED'}")
+    if "servo" in sections:
+        progress("section servo")
+        res["servo"] = bench_servo.run(seconds=2.0 if a.quick else 5.0)
+        print("\n" + bench_servo.report(res["servo"]))
     res["seconds"] = time.monotonic() - t0
     res["load_average_end"] = __import__("os").getloadavg()
     if a.json:

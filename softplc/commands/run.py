@@ -60,6 +60,13 @@ def _port(value: Any) -> int:
     return v
 
 
+_WEB_OFF = -1
+
+
+def _web_port(text: str) -> int:
+    return _WEB_OFF if text.strip().lower() == "off" else _port(text)
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "run", help="run a program with a Modbus TCP server (a soft Twido)",
@@ -95,6 +102,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--trace", type=Path, metavar="FILE.csv",
                    help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
                         "this CSV file (flushed every simulated second and at shutdown)")
+    # web monitor options (softplc.web)
+    p.add_argument("--web", type=_web_port, default=None, metavar="PORT|off",
+                   help="web monitor port (default 8020, on 127.0.0.1; 0 = any free port; "
+                        "off = no web monitor)")
+    p.add_argument("--web-host", default="127.0.0.1",
+                   help="address of the web monitor (default 127.0.0.1); on any other "
+                        "address changes need the token printed at start")
+    p.add_argument("--web-read-only", action="store_true",
+                   help="the web monitor and its API only show: no writes, forcing, RUN/STOP")
+    p.add_argument("--web-token", help="token for changes through the web API (default: "
+                   "a random one when --web-host is not a loopback address)")
     p.add_argument("--log-level", default="warning",
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
@@ -152,9 +170,21 @@ def run(args: argparse.Namespace) -> int:
         frame_timeout=_pick(None, mb, "frame_timeout", 2.0, dur),
         idle_timeout=_pick(None, mb, "idle_timeout", 0.0, dur) or None,
         rt_priority=_pick(args.rt_priority, dm, "rt_priority", 10, int),
+        web=_web_options(args),
     )
     if opts.max_clients < 1:
         raise SoftPLCError("max_clients must be at least 1")
     if not 0 <= opts.rt_priority <= 99:
         raise SoftPLCError("rt_priority must be 0..99")
     return Daemon(plc, opts, program_name=str(args.program)).run()
+
+
+def _web_options(args: argparse.Namespace) -> Any:
+    """The web monitor's options (softplc.web), from --web, --web-host, --web-read-only."""
+    from ..web import DEFAULT_WEB_PORT, WebOptions
+
+    if args.web == _WEB_OFF:
+        return None
+    return WebOptions(port=DEFAULT_WEB_PORT if args.web is None else args.web,
+                      host=args.web_host, read_only=args.web_read_only,
+                      token=args.web_token, port_given=args.web is not None)

@@ -29,7 +29,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..address import IO_KINDS, Ref, parse_address
+from ..address import IO_KINDS, Ref, expand
 from ..config import duration
 from ..errors import ConfigError, SoftPLCError
 from ..il import ast as A
@@ -52,7 +52,6 @@ DWORDS = ("MD", "KD")
 FLOATS = ("MF", "KF")
 CMP_OPS = {**COMPARE, "==": COMPARE["="], "!=": COMPARE["<>"]}  # as users also type them
 _COND = re.compile(r"^\s*(\S+)\s*(==|=|<>|!=|<=|>=|<|>)\s*(\S+)\s*$")
-_IO_RANGE = re.compile(r"^(%[IQ]\d+\.\d+):(\d+)$", re.I)
 
 
 class DebugError(SoftPLCError):
@@ -176,22 +175,9 @@ class Session(Controller):
     def parse_obj(self, text: str) -> list[Ref]:
         """An address or a range: `%MW0:15` (15 words), `%Q1.0:8` (8 bits from %Q1.0)."""
         text = text.strip()
-        m = _IO_RANGE.match(text)
-        if m:
-            first = parse_address(m[1], self.plc.profile)
-            n = int(m[2])
-            refs = []
-            for k in range(n):
-                refs.append(parse_address(f"%{first.kind}{first.module}.{first.channel + k}",
-                                          self.plc.profile))
-            return refs
         if not text.startswith("%"):
             raise DebugError(f"{text!r} is not an address (addresses start with %, e.g. %MW3)")
-        ref = parse_address(text, self.plc.profile)
-        if ref.length is not None:
-            step = 2 if ref.kind in DWORDS + FLOATS else 1
-            return [Ref(ref.kind, ref.index + k * step) for k in range(ref.length)]
-        return [ref]
+        return expand(text, self.plc.profile)
 
     def read(self, ref: Ref) -> Any:
         return self.plc.mem.read(ref)

@@ -1,6 +1,6 @@
 """Simulated machines: devices that read the PLC's field outputs and write its field inputs."""
 
-from . import pen, stepper, switches, trace  # noqa: F401  (each registers its device type)
+from . import axis, pen, stepper, switches, trace  # noqa: F401  (each registers its device type)
 from .base import DEVICE_TYPES, Device, build_devices, register_device
 
 __all__ = ["Device", "DEVICE_TYPES", "build_devices", "register_device"]

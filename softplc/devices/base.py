@@ -58,6 +58,11 @@ class Device:
     def close(self) -> None:
         """End of the run: flush files (e.g. the trace CSV). Called once by the owner."""
 
+    def read_only_words(self) -> list[tuple[int, int]]:
+        """%MW ranges [start, stop) this device writes (status words): the daemon makes
+        them read-only for Modbus hosts (a write there gets exception 02)."""
+        return []
+
     # -- helpers for bind() ------------------------------------------------------------------
     def io_index(self, mem: MemoryImage, address: Any, kind: str, option: str) -> int:
         """Flat index of an `%I` or `%Q` (kind) bit, with a config error naming the option."""
@@ -82,6 +87,21 @@ class Device:
             raise ConfigError(f"device {self.name!r}: {option} = {name!r} is not a {kind} "
                               f"device of this machine")
         return dev
+
+
+class AxisDevice(Device):
+    """A device with a position along a travel: what limit switches watch. Positions are
+    in the axis's own units (a stepper's motor steps, a servo axis's encoder counts), home
+    at 0, the far end at `axis_end()`."""
+
+    type_name = "stepper or servo_axis"  # for error messages; subclasses register their own
+
+    def axis_position(self) -> float:
+        raise NotImplementedError
+
+    def axis_end(self) -> float:
+        """The position from which an `at = "end"` switch is made."""
+        raise NotImplementedError
 
 
 DEVICE_TYPES: dict[str, Callable[..., Device]] = {}

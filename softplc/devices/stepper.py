@@ -48,7 +48,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
-from .base import Device, register_device
+from .base import AxisDevice, Device, register_device
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +76,7 @@ def _number(name: str, option: str, value: Any, *, positive: bool = False) -> fl
 
 
 @register_device("stepper")
-class Stepper(Device):
+class Stepper(AxisDevice):
     """A four-phase stepper axis. Internal position: `_h`, in half steps from home."""
 
     STATE = ("_h", "_last", "_last_move_t", "_taken_h", "missed_steps", "_logged")
@@ -187,6 +187,12 @@ class Stepper(Device):
                         self.name, t, self.position, reason, more)
 
     # -- views ------------------------------------------------------------------------------
+    def axis_position(self) -> float:
+        return self._h * 0.5
+
+    def axis_end(self) -> float:
+        return math.ceil(2 * self.travel_steps) * 0.5  # the first half step at the end
+
     @staticmethod
     def pattern_name(cur: tuple[int, ...]) -> str:
         on = "+".join(PHASE_NAMES[k] for k, v in enumerate(cur) if v)

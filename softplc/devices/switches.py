@@ -1,12 +1,13 @@
-"""Limit switches on a stepper axis.
+"""Limit switches on an axis (a stepper or a servo axis: any `AxisDevice`).
 
 TOML options, table `[devices.NAME]` with `type = "limit_switch"`:
 
-- `axis` (required): name of the `stepper` device the switch watches, e.g. `"X"`.
+- `axis` (required): name of the axis device the switch watches (`stepper` or
+  `servo_axis`), e.g. `"X"`.
 - `input` (required): the `%I` input the switch is wired to, e.g. `"%I0.12"`.
-- `at` (default `"home"`): `"home"` is made while the axis position <= 0 steps; `"end"` is
-  made while the position >= travel * steps_per_unit (e.g. 25.0 * 111.11 = 2777.75, so
-  from step 2778 on).
+- `at` (default `"home"`): `"home"` is made while the axis position <= 0; `"end"` is made
+  while the position >= the axis's end: a stepper's travel * steps_per_unit (e.g. 25.0 *
+  111.11 = 2777.75, so from step 2778 on), a servo axis's `geometry.limit_plus` (counts).
 - `normally_closed` (bool, default false): the input is on while the switch is NOT made.
 - `fault` (default `"none"`): `"stuck_open"` (never made: a broken wire) or
   `"stuck_closed"` (always made), to test what a program does with a broken switch.
@@ -23,8 +24,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
-from .base import Device, register_device
-from .stepper import Stepper
+from .base import AxisDevice, Device, register_device
 
 FAULTS = ("none", "stuck_open", "stuck_closed")
 
@@ -46,7 +46,7 @@ class LimitSwitch(Device):
         self.normally_closed = normally_closed
         self.fault = "none"
         self._fault0 = fault
-        self._axis: Stepper | None = None
+        self._axis: AxisDevice | None = None
         self._i: list[int] | None = None
         self._idx = 0
         self._check_fault(fault)
@@ -60,7 +60,7 @@ class LimitSwitch(Device):
         """Break (or repair, with "none") the switch at run time."""
         self._check_fault(fault)
         self.fault = fault
-        # made <=> sign * h >= thr, h the axis position in half steps; a stuck switch is a
+        # made <=> sign * position >= thr; a stuck switch is a
         # threshold nothing (or everything) reaches, so update stays one comparison.
         if fault == "stuck_open":
             self._sign, self._thr = 1, math.inf
@@ -70,10 +70,11 @@ class LimitSwitch(Device):
             self._sign, self._thr = -1, 0
         else:
             assert self._axis is not None
-            self._sign, self._thr = 1, math.ceil(2 * self._axis.travel_steps)
+            self._sign, self._thr = 1, self._axis.axis_end()
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
-        self._axis = self.peer(devices, self.axis_name, Stepper, "axis")
+        self._axis = self.peer(devices, self.axis_name, AxisDevice, "axis")
+        self._pos = self._axis.axis_position
         self._idx = self.io_index(mem, self.input, "I", "input")
         self._i = mem.i_field
         self.set_fault(self._fault0)
@@ -85,11 +86,11 @@ class LimitSwitch(Device):
             self.update(0.0, 0.0)
 
     def update(self, t: float, dt: float) -> None:
-        self._i[self._idx] = (self._sign * self._axis._h >= self._thr) ^ self.normally_closed
+        self._i[self._idx] = (self._sign * self._pos() >= self._thr) ^ self.normally_closed
 
     @property
     def made(self) -> bool:
-        return self._sign * self._axis._h >= self._thr
+        return self._sign * self._pos() >= self._thr
 
     def status(self) -> dict[str, Any]:
         return {"made": self.made}

@@ -177,6 +177,11 @@ class MemoryImage:
             used |= new
             self._build_copiers()
 
+    def io_used(self, kind: str) -> frozenset[int]:
+        """Flat indexes of the %I or %Q channels in use (named by the program, the
+        configuration, a device or an API write)."""
+        return frozenset(self._in_used if kind == "I" else self._out_used)
+
     def _build_copiers(self) -> None:
         def copier(name: str, dst: str, src: str, used: set[int]) -> object:
             body = "".join(f"    {dst}[{k}] = {src}[{k}]\n" for k in sorted(used)) or "    pass\n"

@@ -19,14 +19,14 @@ instruction fixes it, else from the contacts' current values.
 
 Modules by job: `tree` (IL rung -> tree), `live` (values for the live view), `layout`
 (tree -> grid), `text` and `svg` (the renderers). The public names are re-exported here:
-`render_program_svg`, `render_program_text`, `render_text`, `Live`, `layout`...
+`render_program_svg`, `render_rung_svg`, `render_program_text`, `render_text`, `Live`...
 """
 
 from __future__ import annotations
 
 from .layout import BoxRow, Cell, Grid, layout
 from .live import Live, block_summary
-from .svg import CH, PAD, ROW_H, render_program_svg
+from .svg import CH, PAD, POWER_COLOUR, ROW_H, render_program_svg, render_rung_svg
 from .text import render_program_text, render_text
 from .tree import (
     ASCII,
@@ -46,6 +46,7 @@ from .tree import (
 
 __all__ = [
     "ASCII", "BOX_PINS", "Block", "BoxRow", "Branch", "CH", "COIL", "CONTACT", "Cell", "Elem",
-    "Grid", "Junction", "Leaf", "Live", "Merge", "PAD", "Par", "ROW_H", "Ser", "block_summary",
-    "build", "layout", "render_program_svg", "render_program_text", "render_text",
+    "Grid", "Junction", "Leaf", "Live", "Merge", "PAD", "POWER_COLOUR", "Par", "ROW_H", "Ser",
+    "block_summary", "build", "layout", "render_program_svg", "render_program_text",
+    "render_rung_svg", "render_text",
 ]

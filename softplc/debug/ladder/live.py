@@ -52,7 +52,7 @@ class Live:
     def closed(self, el: Elem) -> bool | None:
         """Whether a contact passes power (None: cannot tell)."""
         ins = el.instr
-        if el.op == "LD" or isinstance(ins, A.ParenOpen):
+        if isinstance(ins, A.ParenOpen) or (el.op == "LD" and self.log is not None):
             return self.acc(el.k)
         if el.op == "AND" and self.acc(el.k):
             return True

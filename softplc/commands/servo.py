@@ -1,0 +1,96 @@
+"""`softplc servo TEST`: the thesis's tuning moves on the servo XY table over Modbus TCP."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..servo_client import ServoClient, plot_tuning
+
+_EXAMPLES = """\
+examples (daemon: softplc run ladder_programs/servo_table.il --config
+          ladder_programs/servo_table.toml):
+  softplc servo scurve --axis X --start --from -80000 --plot x-scurve.png
+  softplc servo scurve --axis Y --from -128000 --repeat 2
+  softplc servo step --axis X --distance 100 --plot step.svg
+  softplc servo parabolic --axis X --distance 14336 --time 330
+  softplc servo openloop --axis X --output 1 --time 50
+"""
+
+TESTS = ("scurve", "trapezoid", "step", "parabolic", "openloop")
+DEFAULT_DISTANCE = {"scurve": 14336, "trapezoid": 14336, "step": 100, "parabolic": 14336,
+                    "openloop": 0}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "servo", help="run tuning moves on the servo XY table over Modbus TCP",
+        description="Run one of PMACTuningPro's tuning moves on an axis of the servo XY\n"
+                    "table (ladder_programs/servo_table.il), print the max following\n"
+                    "error (counts and micrometres) and plot commanded, actual and\n"
+                    "following error against time. The defaults are the thesis's S-curve\n"
+                    "test (TABLA 4-3): 14,336 counts at 4,177,920 counts/min, Ixx20 =\n"
+                    "125 ms, Ixx21 = 40 ms.",
+        epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("test", choices=TESTS, help="the move")
+    p.add_argument("--axis", choices=("X", "Y"), default="X", help="default %(default)s")
+    p.add_argument("--distance", type=int, metavar="COUNTS",
+                   help="relative move, counts (default: 14336; step 100)")
+    p.add_argument("--speed", type=int, default=4_177_920 // 60, metavar="COUNTS/S",
+                   help="S-curve/trapezoid speed (default %(default)s = 4,177,920 counts/min)")
+    p.add_argument("--acc", type=int, default=125, metavar="MS", help="Ixx20 (default 125)")
+    p.add_argument("--scurve", type=int, default=40, metavar="MS", help="Ixx21 (default 40)")
+    p.add_argument("--time", type=int, default=0, metavar="MS",
+                   help="parabolic move time (default 330) / open-loop time (default 50)")
+    p.add_argument("--output", type=float, default=1.0, metavar="PCT",
+                   help="open-loop output, %% of Ixx69 (default %(default)s)")
+    p.add_argument("--from", dest="start_pos", type=int, metavar="COUNTS",
+                   help="first move the axis there, approaching in the direction of the "
+                        "test move (X -80000, Y -128000 in the thesis)")
+    p.add_argument("--repeat", type=int, default=1, metavar="N",
+                   help="N moves, alternating forward and back (default %(default)s)")
+    p.add_argument("--settle", type=float, default=0.5, metavar="SECONDS",
+                   help="rest after each move, servo time (default %(default)s)")
+    p.add_argument("--start", action="store_true",
+                   help="start the cell (remote start, homing X then Y) if it is not")
+    p.add_argument("--counts-per-mm", type=float, default=409.6,
+                   help="for micrometres (default %(default)s)")
+    p.add_argument("--plot", metavar="OUT.png|OUT.svg", help="plot the last move")
+    g = p.add_argument_group("connection")
+    g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
+    g.add_argument("--port", type=int, default=5020, help="Modbus TCP port (default %(default)s)")
+    g.add_argument("--poll", type=float, default=0.002, metavar="SECONDS",
+                   help="status polling interval (default %(default)s)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    distance = args.distance if args.distance is not None else DEFAULT_DISTANCE[args.test]
+    move_ms = args.time or (50 if args.test == "openloop" else 330)
+    with ServoClient(args.host, args.port, poll=args.poll, progress=sys.stderr) as sc:
+        sc.ensure_ready(args.start)
+        if args.start_pos is not None:
+            # Approach in the direction of the first move, as a tuner takes up backlash:
+            # friction and the integrator are then as that move leaves them.
+            before = args.start_pos - distance
+            print(f"moving {args.axis} to {before}, then {args.start_pos} ...",
+                  file=sys.stderr)
+            sc.move_to(args.axis, before)
+            sc.move_to(args.axis, args.start_pos, settle=args.settle)
+        result = None
+        for i in range(args.repeat):
+            d = distance if i % 2 == 0 else -distance
+            print(f"{args.test} move {i + 1}/{args.repeat} on {args.axis}: {d:+d} counts",
+                  file=sys.stderr)
+            result = sc.tuning_move(args.test, args.axis, d, args.speed, args.acc,
+                                    args.scurve, move_ms, args.output, settle=args.settle)
+            um = result.fe_max / args.counts_per_mm * 1000
+            print(f"{args.test} {args.axis} move {i + 1}: moved {result.moved} counts, "
+                  f"max |FE| {result.fe_max:.2f} counts = {um:.1f} um "
+                  f"({len(result.samples)} samples polled)")
+        if args.plot and result is not None:
+            Path(args.plot).parent.mkdir(parents=True, exist_ok=True)
+            plot_tuning(result, args.plot, args.counts_per_mm)
+            print(f"plot written to {args.plot}", file=sys.stderr)
+    return 0

@@ -1,0 +1,670 @@
+"""A position-controlled servo axis: PMAC-style controller, drive and mechanics in one device.
+
+Options and word map: `options.py`; the law: `law.py`; the plant: `plant.py`; the
+trajectories: `trajectory.py`. Per scan, `update(t, dt)`:
+
+1. reads the command words once and acts on their edges (a command seen at update(t)
+   acts from the next servo tick);
+2. runs every servo loop cycle k with k T_loop in (t - dt, t]: the number of cycles due
+   by time t is floor(t * f_loop) computed from the scan's time in whole microseconds, so
+   a scan period that is not a multiple of the servo period gets 2 or 3 cycles and the
+   remainder carries over: the long-run rate is exact and the same run is the same
+   sequence of cycles every time;
+3. writes the status words (never the command words).
+
+Timing inside a cycle: the encoder is read, the law computes u, the DAC holds u for the
+next T_loop (zero-order hold, no extra delay [choice]), the plant integrates exactly over
+it. The common case of the loop is inlined for speed (about 1 us per cycle); the drive's
+special states (E-stop braking, a limit switch, a hard stop, a jammed carriage) go
+through the slower `_special` path.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from math import floor
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from ...address import parse_address
+from ...errors import AddressError, ConfigError
+from ...runtime.memory import MemoryImage
+from ..base import AxisDevice, Device, register_device
+from . import trajectory as tj
+from .law import Coefficients
+from .options import Ctl, Err, Mode, ServoAxisOptions, St, Word
+from .plant import ZOH, step
+
+TRACE_HEADER = "t,commanded,actual,fe,output"
+
+
+def config_error(name: str, e: ValidationError) -> ConfigError:
+    """A pydantic error as one ConfigError line per problem, with the key path."""
+    lines = []
+    for err in e.errors():
+        path = ".".join(str(p) for p in err["loc"]) or "(options)"
+        got = f" (got {err['input']!r})" if "input" in err and err["type"] != "missing" else ""
+        lines.append(f"device {name!r}: {path}: {err['msg']}{got}")
+    return ConfigError("; ".join(lines))
+
+
+@register_device("servo_axis")
+class ServoAxis(AxisDevice):
+    """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts."""
+
+    Options = ServoAxisOptions
+
+    def __init__(self, name: str, **options: Any):
+        super().__init__(name)
+        try:
+            self.opt = self.Options(**options)
+        except ValidationError as e:
+            raise config_error(name, e) from None
+        o = self.opt
+        self.gains = o.ivars
+        g = o.geometry
+        self.loop_hz = o.servo_clock_hz / (self.gains.servo_ext + 1)
+        self.T = 1.0 / self.loop_hz
+        p = o.plant
+        self.K = p.K / (1 + p.load_mass_ratio)
+        self.a = p.a / (1 + p.load_mass_ratio)
+        self.zoh = ZOH.of(self.a, self.T)
+        self.coef = Coefficients.of(self.gains)
+        self._dac_q = 2.0 ** (16 - p.dac_bits) if p.dac_bits else 0.0
+        self.u_peak = p.u_peak or math.inf
+        self._in_pos = self.gains.in_position / 16
+        self._cur_scale = 100 / p.u_peak if p.u_peak else 1.0  # CURRENT: % of the limit
+        self._lp = g.limit_plus if g.limit_plus is not None else math.inf
+        self._lm = g.limit_minus if g.limit_minus is not None else -math.inf
+        self._hp = g.hard_stop_plus if g.hard_stop_plus is not None else math.inf
+        self._hm = g.hard_stop_minus if g.hard_stop_minus is not None else -math.inf
+        if not self._hm <= o.start <= self._hp:
+            raise ConfigError(f"device {name!r}: start = {o.start} is beyond the hard stops")
+        self._enc0 = math.floor(o.start)
+        self._ideal = p.encoder == "ideal"
+        self._ready = True  # the drive's READY, evaluated once per scan in update()
+        gn = self.gains
+        c = self.coef
+        inf = math.inf
+        ideal = p.encoder == "ideal"
+        # Everything the servo loop reads but never changes, unpacked in one statement.
+        self._consts = (
+            c.fe, c.cv, c.ca, c.ie, c.av, gn.int_mode == 0,
+            gn.int_limit / 16 if gn.int_limit else inf, gn.friction_ff, gn.offset,
+            gn.output_limit, gn.fatal_fe / 16 if gn.fatal_fe else inf,
+            gn.warn_fe / 16 if gn.warn_fe else inf, self._dac_q, self.K, p.coulomb,
+            p.amp_offset, self.u_peak, p.load, p.load_table, self.zoh.phi, self.zoh.g1,
+            self.zoh.g2, ideal, o.start if ideal else self._enc0, self._lp, self._lm,
+            self._hp, self._hm, *g.home_switch, g.index_period, g.index_offset, self.T)
+        self._warn_lim = self._consts[11]
+        self.trace: deque[tuple[int, float, float, float]] = deque(
+            maxlen=o.trace_max)
+        self._rec = self.trace.append if o.trace else None
+        self._mem: MemoryImage | None = None
+        self._base = 0
+        self._estop_idx: int | None = None
+        self._power_idx: int | None = None
+        self._i: list[int] = []
+        self._q: list[int] = []
+        self.reset()
+
+    # -- contract --------------------------------------------------------------------------
+    def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
+        try:
+            ref = parse_address(self.opt.words, mem.profile)
+        except AddressError as e:
+            raise ConfigError(f"device {self.name!r}: words: {e}") from None
+        if ref.kind != "MW" or ref.bit is not None or ref.length or ref.offset is not None:
+            raise ConfigError(f"device {self.name!r}: words must be a %MW address, "
+                              f"not {self.opt.words!r}")
+        if ref.index + Word.SIZE > mem.mw.n:
+            raise ConfigError(f"device {self.name!r}: words {self.opt.words} + {Word.SIZE} "
+                              f"words run past %MW{mem.mw.n - 1}")
+        self._mem = mem
+        self._base = b = ref.index
+        self._w = mem.mw.uw
+        self._ctl_i = b + Word.CONTROL
+        mw = mem.mw
+        self._views = [(mw.d[i & 1], i >> 1) for i in (b + Word.ACTUAL, b + Word.COMMANDED)] \
+            + [(mw.f[i & 1], i >> 1) for i in (b + Word.FE, b + Word.FE_MAX)] \
+            + [(mw.d[(b + Word.TICKS) & 1], (b + Word.TICKS) >> 1)] \
+            + [(mw.f[i & 1], i >> 1) for i in (b + Word.OUTPUT, b + Word.CURRENT,
+                                               b + Word.VELOCITY)]
+        self._i, self._q = mem.i_field, mem.q_field
+        if self.opt.estop_input is not None:
+            self._estop_idx = self.io_index(mem, self.opt.estop_input, "I", "estop_input")
+        if self.opt.power_output is not None:
+            self._power_idx = self.io_index(mem, self.opt.power_output, "Q", "power_output")
+        self._write_status()
+
+    def read_only_words(self) -> list[tuple[int, int]]:
+        """%MW ranges [start, stop) a Modbus host may read but not write (status words)."""
+        b = self._base + Word.COMMAND_WORDS
+        return [(b, self._base + Word.SIZE)]
+
+    def reset(self) -> None:
+        o = self.opt
+        self.x = float(o.start)  # true position, counts from the home index mark
+        self.v = 0.0  # counts/s
+        self.k = 0  # servo loop cycles run
+        self.origin = 0  # raw encoder count of user position 0 (set by homing)
+        self.fault = o.fault
+        self.closed = False  # loop closed
+        self.open_loop = False
+        self._ol_u = 0.0
+        self._ol_end = 0  # cycle at which an open-loop output ends (0: until STOP)
+        self._coast = False  # open-loop output over, waiting for the carriage to stop
+        self.latched = False  # fatal error latched until RESET
+        self.error = Err.NONE
+        self.homed = False
+        self.homing = 0  # 0 no, 1 searching, 2 stopping after the trigger, 3 returning
+        self.done = False
+        self.warn = False
+        self.fe = 0.0
+        self.fe_max = 0.0
+        self.u = 0.0  # DAC output
+        self.w = 0.0  # drive command after offset and current limit (torque signal)
+        ap = self._raw()
+        self._cp = float(ap)  # commanded position (raw counts)
+        self._cpp = self._cvp = 0.0
+        self._app = ap
+        self._ie = 0.0
+        self._clamped = False
+        self._traj: list[float] = []
+        self._active = False  # a trajectory was started and has not been seen to end
+        self._k0 = 1
+        self._tail_v = 0.0  # counts per cycle after the trajectory's end
+        self._ctl_prev = 0
+        self._vel = 0.0
+        self._x_prev_scan = self.x
+        self.trace.clear()
+
+    def set_fault(self, fault: str) -> None:
+        """Inject a fault at run time: "jammed" (the carriage is frozen), "estop" (the
+        drive's E-stop), "amp_fault" (the drive drops READY), "none"."""
+        if fault not in ("none", "jammed", "estop", "amp_fault"):
+            raise ConfigError(f"device {self.name!r}: unknown fault {fault!r}")
+        self.fault = fault
+
+    # -- positions (the interface limit switches and tools use) ----------------------------
+    def _raw(self) -> float:
+        if self._ideal:
+            return self.x - self.opt.start
+        return floor(self.x) - self._enc0
+
+    @property
+    def position(self) -> float:
+        """True carriage position, counts from the home index mark."""
+        return self.x
+
+    def axis_position(self) -> float:
+        return self.x
+
+    def axis_end(self) -> float:
+        return self._lp
+
+    @property
+    def actual(self) -> float:
+        """Actual position as the controller sees it (encoder, user coordinates)."""
+        return self._raw() - self.origin
+
+    @property
+    def commanded(self) -> float:
+        return self._cp - self.origin
+
+    # -- per scan ---------------------------------------------------------------------------
+    def update(self, t: float, dt: float) -> None:
+        self._ready = ready = self.amp_ready()
+        if self._w[self._ctl_i] != self._ctl_prev or not self.closed or \
+                self.fault != "none" or not ready:
+            self._commands()
+        due = floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9)
+        n = due - self.k
+        if n > 0:
+            if not self.closed and self._at_rest_open():
+                self.k = due  # killed and stuck: nothing moves, nothing to record
+            else:
+                while n > 0:
+                    n = self._cycles(n)
+        if dt > 0:
+            self._vel = (self.x - self._x_prev_scan) / dt
+        self._x_prev_scan = self.x
+        if self._active:
+            self._after_ticks()
+        if self._coast and self.v == 0.0:  # after an open-loop output: close the loop here
+            self._coast = False
+            if self.open_loop:
+                self._close_loop()
+                self.done = True
+        self._write_status()
+
+    # -- drive state ------------------------------------------------------------------------
+    def amp_ready(self) -> bool:
+        if self.fault in ("estop", "amp_fault"):
+            return False
+        if self._estop_idx is not None and self._i[self._estop_idx]:
+            return False
+        return self._power_idx is None or bool(self._q[self._power_idx])
+
+    def _at_rest_open(self) -> bool:
+        """Loop open, carriage still and held by friction against the drive's offset and
+        the load: the cycles would change nothing."""
+        if self.closed or self.open_loop or self.v != 0.0 or self.fault != "none":
+            return False
+        p = self.opt.plant
+        w = (p.amp_offset if self.amp_ready() else 0.0) - p.load
+        return not p.load_table and abs(w) <= p.coulomb and self._lm < self.x < self._lp
+
+    def estop_active(self) -> bool:
+        return self.fault == "estop" or (self._estop_idx is not None
+                                         and bool(self._i[self._estop_idx]))
+
+    def _kill(self, error: int, latch: bool = True) -> None:
+        self.closed = False
+        self.open_loop = False
+        self._coast = False
+        self.u = 0.0
+        self._traj = []
+        self._tail_v = 0.0
+        self.homing = 0
+        if latch:
+            self.latched = True
+        if error:
+            self.error = error
+
+    # -- commands ---------------------------------------------------------------------------
+    def _commands(self) -> None:
+        mw = self._mem.mw  # type: ignore[union-attr]
+        b = self._base
+        ctl = mw.uw[b + Word.CONTROL]
+        rise = ctl & ~self._ctl_prev
+        fall = self._ctl_prev & ~ctl
+        self._ctl_prev = ctl
+        ready = self.amp_ready()
+        if (self.closed or self.open_loop) and not ready:
+            self._kill(Err.AMP_FAULT)
+        if rise & Ctl.RESET:
+            self.latched = False
+            self.error = Err.NONE
+        if ctl & Ctl.KILL or not ctl & Ctl.ENABLE:
+            if self.closed or self.open_loop:
+                self._kill(Err.NONE, latch=False)
+            return
+        if not (self.closed or self.open_loop):
+            if self.latched or not ready:
+                return
+            self._close_loop()
+        if rise & Ctl.HOME:
+            self._start_home()
+        elif rise & Ctl.EXECUTE:
+            self._execute(mw, b)
+        elif rise & Ctl.STOP:
+            self._stop()
+        jog = ctl & (Ctl.JOG_PLUS | Ctl.JOG_MINUS)
+        if rise & jog and jog != Ctl.JOG_PLUS | Ctl.JOG_MINUS:
+            self._jog(1 if jog == Ctl.JOG_PLUS else -1)
+        elif fall & (Ctl.JOG_PLUS | Ctl.JOG_MINUS) or (rise & jog and jog != rise & jog):
+            self._stop()
+
+    def _close_loop(self) -> None:
+        """PMAC `J/`: close the loop holding the present actual position."""
+        ap = self._raw()
+        self.closed, self.open_loop = True, False
+        self._coast = False
+        self._cp = self._cpp = float(ap)
+        self._cvp = 0.0
+        self._app = ap
+        self._ie = 0.0
+        self._traj, self._tail_v = [], 0.0
+
+    def _rule(self, acc_ms: int = 0, s_ms: int = 0, trapezoid: bool = False) -> tj.RampRule:
+        g = self.gains
+        ta = (acc_ms or g.accel_time) / 1000
+        ts = 0.0 if trapezoid else (s_ms or g.scurve_time) / 1000
+        return tj.RampRule(ta, ts, g.max_accel * 1e6)
+
+    def _busy(self) -> bool:
+        return self.homing != 0 or bool(self._traj) or self._tail_v != 0.0 or self._coast \
+            or self.open_loop
+
+    def _refuse_unhomed(self) -> bool:
+        if self.opt.require_home and not self.homed:
+            self._kill(Err.NOT_HOMED)
+            return True
+        return False
+
+    def _execute(self, mw: Any, b: int) -> None:
+        mode = mw.w[b + Word.MODE]
+        if self._busy() or not Mode.SCURVE <= mode <= Mode.OPEN_LOOP:
+            self.error = Err.BAD_COMMAND
+            return
+        if self._refuse_unhomed():
+            return
+        acc_ms, s_ms = mw.uw[b + Word.ACC_TIME], mw.uw[b + Word.SCURVE_TIME]
+        self.done = False
+        self.fe_max = 0.0
+        if mode == Mode.OPEN_LOOP:
+            self.closed, self.open_loop = False, True
+            self._ol_u = mw.w[b + Word.OPEN_LOOP] / 10000 * self.gains.output_limit
+            self._ol_end = self.k + math.ceil(acc_ms / 1000 * self.loop_hz) if acc_ms else 0
+            return
+        target = mw.get_d(b + Word.TARGET) + self.origin
+        speed = mw.get_d(b + Word.SPEED) or self.gains.jog_speed * 1000
+        if speed <= 0:
+            self.error = Err.BAD_COMMAND
+            return
+        if mode == Mode.STEP:  # the commanded position jumps at the next cycle
+            self._follow(tj.Profile(float(target), 0.0), end=float(target))
+            return
+        if mode == Mode.PARABOLIC:
+            if not acc_ms:
+                self.error = Err.BAD_COMMAND
+                return
+            prof = tj.parabolic(self._cp, target, acc_ms / 1000)
+        else:
+            prof = tj.move(self._cp, target, float(speed),
+                           self._rule(acc_ms, s_ms, mode == Mode.TRAPEZOID))
+        self._follow(prof, end=float(target))
+
+    def _follow(self, prof: tj.Profile, end: float | None = None, v_end: float = 0.0) -> None:
+        """Start a trajectory at the next cycle; `end` is the exact final position, `v_end`
+        the velocity (counts/s) that continues after the profile (a jog's)."""
+        self._traj = tj.sample(prof, self.T)
+        self._tail_v = v_end * self.T
+        self._active = True
+        if self._traj and end is not None:
+            self._traj[-1] = end
+        elif not self._traj and not self._tail_v:
+            self._cp = end if end is not None else self._cp
+        self._k0 = self.k + 1
+
+    def _cmd_velocity(self) -> float:
+        """Commanded velocity now, counts/s."""
+        return self._cvp * self.loop_hz
+
+    def _stop(self) -> None:
+        if self.open_loop:  # output 0, coast to a stop, then the loop closes
+            self._ol_u, self._ol_end, self._coast = 0.0, 0, True
+            return
+        if not self._busy():
+            return
+        self.homing = 0 if self.homing == 1 else self.homing
+        self._follow(tj.velocity_change(self._cp, self._cmd_velocity(), 0.0, self._rule()))
+
+    def _jog(self, sign: int) -> None:
+        if self._refuse_unhomed() or self.homing:
+            return
+        self.done = False
+        v1 = sign * self.gains.jog_speed * 1000
+        self._follow(tj.velocity_change(self._cp, self._cmd_velocity(), v1, self._rule()),
+                     v_end=v1)
+
+    def _start_home(self) -> None:
+        if self._busy():
+            self.error = Err.BAD_COMMAND
+            return
+        self.homed = False
+        self.done = False
+        self.fe_max = 0.0
+        self.homing = 1
+        v = self.gains.home_speed * 1000
+        self._follow(tj.velocity_change(self._cp, 0.0, v, self._rule()), v_end=v)
+
+    def _home_trigger(self, capture: float) -> None:
+        """The index pulse after the home flag: new origin, decelerate."""
+        self.origin = round(capture + self.gains.home_offset / 16)
+        self.homed = True
+        self.homing = 2
+        self._follow(tj.velocity_change(self._cp, self._cmd_velocity(), 0.0, self._rule()))
+
+    def _after_ticks(self) -> None:
+        """Scan-level sequencing once the trajectory has ended."""
+        if self._traj and self.k - self._k0 + 1 >= len(self._traj) and not self._tail_v:
+            self._traj = []  # a finished move holds its end exactly
+        if self._traj or self._tail_v:
+            return
+        self._active = False
+        if self.homing == 2:
+            self.homing = 3
+            speed = abs(self.gains.home_speed) * 1000
+            self._follow(tj.move(self._cp, float(self.origin), speed, self._rule()),
+                         end=float(self.origin))
+        elif self.homing == 3:
+            self.homing = 0
+            self.done = True
+        elif self.closed:
+            self.done = True
+
+    # -- the servo loop ---------------------------------------------------------------------
+    def _cycles(self, n: int) -> int:
+        """Run up to n loop cycles; returns how many are left when an event interrupts."""
+        (cfe, ccv, cca, cie, cav, int_always, ilim, ff, off, lim, fatal, warn_lim, q, K, fc,
+         uoff, up, load, table, phi, g1, g2, ideal, enc0, lp, lm, hp, hm, hlo, hhi, iper,
+         ioff, T) = self._consts
+        floor = math.floor  # a local: looked up every cycle
+        ready = self._ready
+        special = not ready or self.fault != "none"
+        closed, open_loop = self.closed, self.open_loop
+        traj, k0, tail_v = self._traj, self._k0, self._tail_v
+        ntraj = len(traj)
+        last = traj[-1] if traj else self._cp
+        searching = self.homing == 1
+        lo, hi = max(lm, hm), min(lp, hp)
+        x, v, k = self.x, self.v, self.k
+        cp, cpp, cvp, app, ie = self._cp, self._cpp, self._cvp, self._app, self._ie
+        clamped = self._clamped
+        u = self.u
+        w = self.w
+        T = self.T
+        rec = self._rec
+        origin = self.origin
+        fe = self.fe
+        fe_max = self.fe_max
+        warn = False
+        event = None
+        ol_end = self._ol_end
+        ilim_on = ilim != math.inf
+        check = min(warn_lim, fatal)
+        stop = k + n
+        for k in range(k + 1, stop + 1):  # noqa: B020  (k carries on after the loop)
+            ap = (x - enc0) if ideal else floor(x) - enc0
+            if closed:
+                if ntraj:
+                    j = k - k0
+                    cp = traj[j] if j < ntraj else last + tail_v * (j - ntraj + 1)
+                elif tail_v:
+                    cp += tail_v
+                fe = cp - ap
+                cv = cp - cpp
+                ca = cv - cvp
+                if (int_always or cv == 0) and not clamped:
+                    ie += fe
+                    if ilim_on:
+                        ie = ilim if ie > ilim else (-ilim if ie < -ilim else ie)
+                u = cfe * fe + ccv * cv + cca * ca + cie * ie - cav * (ap - app) + off
+                if cv > 0:
+                    u += ff
+                elif cv < 0:
+                    u -= ff
+                clamped = True
+                if u > lim:
+                    u = lim
+                elif u < -lim:
+                    u = -lim
+                else:
+                    clamped = False
+                cpp, cvp = cp, cv
+                afe = fe if fe >= 0 else -fe
+                if afe > fe_max:
+                    fe_max = afe
+                if afe > check:
+                    if afe > warn_lim:
+                        warn = True
+                    if afe > fatal:
+                        event = "fatal"
+                        u = 0.0
+            elif open_loop:
+                cp = ap
+                u = self._ol_u
+                if ol_end and k >= ol_end:
+                    event = "open loop end"
+            else:
+                u = 0.0
+                cp = ap
+            if q:
+                u = q * floor(u / q)
+            app = ap
+            if rec is not None:
+                rec((k, cp - origin, ap - origin, u))
+            # the drive: offset, current limit, load
+            w = u + uoff if ready else 0.0
+            if w > up:
+                w = up
+            elif w < -up:
+                w = -up
+            wl = w - load
+            if table:
+                wl -= _interp(table, x)
+            x0 = x
+            if special or not lo < x < hi:
+                x, v = self._special(x, v, wl)
+            else:
+                if v > 0:
+                    we = wl - fc
+                elif v < 0:
+                    we = wl + fc
+                elif -fc <= wl <= fc:
+                    we = None
+                else:
+                    we = wl - fc if wl > 0 else wl + fc
+                if we is not None:
+                    kw = K * we
+                    v1 = phi * v + kw * g1
+                    if v * v1 < 0:  # the velocity changes sign within the cycle
+                        x, v = step(x, v, wl, K, self.a, fc, T, self.zoh)
+                    else:
+                        x += v * g1 + kw * g2
+                        v = v1
+            if searching and hlo <= x0 < hhi and floor((x - ioff) / iper) > \
+                    floor((x0 - ioff) / iper):
+                # the first index pulse (crossed going +) while the home flag is made
+                xi = floor((x - ioff) / iper) * iper + ioff
+                event = ("home", (xi - self.opt.start) if ideal else floor(xi) - enc0)
+            if event is not None:
+                break
+        n = stop - k
+        self.x, self.v, self.k = x, v, k
+        self._cp, self._cpp, self._cvp, self._app, self._ie = cp, cpp, cvp, app, ie
+        self._clamped = clamped
+        self.u, self.w, self.fe, self.fe_max = u, w, fe, fe_max
+        self.warn = warn or (closed and abs(fe) > self._warn_lim)
+        if event == "fatal":
+            on_limit = x >= lp or x <= lm
+            self._kill(Err.LIMIT if on_limit else Err.FATAL_FE)
+        elif event == "open loop end":  # output 0: the carriage coasts to a stop
+            self._ol_u = 0.0
+            self._ol_end = 0
+            self._coast = True
+        elif event is not None:
+            self._home_trigger(event[1])
+        return n
+
+    def _special(self, x: float, v: float, w: float) -> tuple[float, float]:
+        """The drive's and the mechanics' exceptional states, one cycle."""
+        p = self.opt.plant
+        T = self.T
+        if self.fault == "jammed":
+            return x, 0.0
+        if self.estop_active():  # the drive brakes at its current limit, then lets go
+            brake = self.u_peak if math.isfinite(self.u_peak) else 32767.0
+            w = -brake if v > 0 else (brake if v < 0 else 0.0)
+            x1, v1 = step(x, v, w, self.K, self.a, p.coulomb, T, self.zoh)
+            return x1, (0.0 if v1 * v <= 0 else v1)
+        if x >= self._lp and w > 0 or x <= self._lm and w < 0:
+            # END switch: no torque further that way; quick stop if still moving that way
+            brake = self.u_peak if math.isfinite(self.u_peak) else 32767.0
+            moving_on = v > 0 if x >= self._lp else v < 0
+            w = (-brake if v > 0 else brake) if moving_on else 0.0
+        x1, v1 = step(x, v, w, self.K, self.a, p.coulomb, T, self.zoh)
+        if x1 > self._hp:
+            return self._hp, 0.0
+        if x1 < self._hm:
+            return self._hm, 0.0
+        return x1, v1
+
+    # -- status -----------------------------------------------------------------------------
+    def status_bits(self) -> int:
+        busy = self.homing != 0 or bool(self._traj) or self._tail_v != 0.0 or self._coast \
+            or self.open_loop
+        closed = self.closed
+        s = (St.ENABLED if closed else 0) | (St.BUSY if busy else 0) \
+            | (St.DONE if self.done else 0) | (St.HOMED if self.homed else 0) \
+            | (St.FE_WARNING if self.warn else 0) | (St.HOMING if self.homing else 0) \
+            | (St.OPEN_LOOP if self.open_loop else 0)
+        if closed and not busy and abs(self.fe) <= self._in_pos:
+            s |= St.IN_POSITION
+        err = self.error
+        if err:
+            s |= St.ERROR
+            if self.latched and err in (Err.FATAL_FE, Err.LIMIT, Err.NOT_HOMED):
+                s |= St.FE_FATAL
+        if err == Err.AMP_FAULT or not self._ready:
+            s |= St.AMP_FAULT
+            if self.estop_active():
+                s |= St.ESTOP
+        x = self.x
+        if x >= self._lp:
+            s |= St.LIMIT_PLUS
+        elif x <= self._lm:
+            s |= St.LIMIT_MINUS
+        return s
+
+    def _write_status(self) -> None:
+        # Straight into the memoryview casts (the 'f' cast rounds to single precision).
+        (d_act, i_act), (d_cmd, i_cmd), (f_fe, i_fe), (f_max, i_max), (d_tk, i_tk), \
+            (f_out, i_out), (f_cur, i_cur), (f_vel, i_vel) = self._views
+        w, b = self._w, self._base
+        d_act[i_act] = round(self._raw() - self.origin)
+        d_cmd[i_cmd] = round(self._cp - self.origin)
+        f_fe[i_fe] = self.fe if self.closed else 0.0
+        f_max[i_max] = self.fe_max
+        w[b + Word.STATUS] = self.status_bits()
+        w[b + Word.ERROR] = self.error
+        d_tk[i_tk] = self.k & 0x7FFFFFFF
+        f_out[i_out] = self.u
+        f_cur[i_cur] = self.w * self._cur_scale
+        f_vel[i_vel] = self._vel
+
+    def status(self) -> dict[str, Any]:
+        return {"pos": round(self.actual), "fe": round(self.fe, 2), "homed": self.homed,
+                "error": Err.TEXT[self.error]}
+
+    # -- trace ------------------------------------------------------------------------------
+    def samples(self) -> list[tuple[float, float, float, float, float]]:
+        """The servo-rate trace: (t s, commanded, actual, following error, output bits),
+        positions in counts (user coordinates of the time)."""
+        T = self.T
+        return [(k * T, cp, ap, cp - ap, u) for k, cp, ap, u in self.trace]
+
+    def trace_to_csv(self, path: str | Path) -> None:
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(TRACE_HEADER + "\n")
+            for r in self.samples():
+                f.write(f"{r[0]:.7f},{r[1]:.4f},{r[2]:.4f},{r[3]:.4f},{r[4]:.2f}\n")
+
+    def close(self) -> None:
+        if self.opt.trace_csv:
+            self.trace_to_csv(self.opt.trace_csv)
+
+
+def _interp(table: list[tuple[float, float]], x: float) -> float:
+    """Piecewise-linear load at x, constant beyond the table's ends."""
+    if x <= table[0][0]:
+        return table[0][1]
+    for (x0, y0), (x1, y1) in zip(table, table[1:], strict=False):
+        if x <= x1:
+            return y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+    return table[-1][1]

@@ -1,0 +1,105 @@
+"""The web monitor of a running soft-PLC and its JSON/websocket API.
+
+`control.Controller` is the API without HTTP (checks, queued changes, scan-boundary reads);
+`server.WebServer` serves it and the page (`static/`) with aiohttp on the daemon's asyncio
+loop; `attach` is the daemon's hook. See README "Web monitor and `softplc io`".
+"""
+
+from __future__ import annotations
+
+import asyncio
+import ipaddress
+import secrets
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import SoftPLCError
+from .control import ApiError, Controller
+
+DEFAULT_WEB_PORT = 8020  # beside Modbus' 5020; 0 = any free port
+
+
+@dataclass
+class WebOptions:
+    port: int | None = DEFAULT_WEB_PORT  # None: no web monitor
+    host: str = "127.0.0.1"
+    read_only: bool = False
+    token: str | None = None  # required for changes when host is not loopback
+    port_given: bool = True  # False: the default port, another free one if it is taken
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class WebHandle:
+    """A web monitor started on a running event loop in another thread (the daemon's)."""
+
+    def __init__(self, server: Any, controller: Controller, loop: asyncio.AbstractEventLoop,
+                 note: str = ""):
+        self.note = note
+        self.server = server
+        self.controller = controller
+        self.loop = loop
+
+    def banner(self) -> list[str]:
+        s = self.server
+        lines = [f"web monitor on {s.url}" + self.note +
+                 (" (read-only)" if self.controller.read_only else "")]
+        if s.token is not None:
+            lines.append(f"web token (needed for writes and forcing): {s.token}  "
+                         f"-> {s.url}?token={s.token}")
+        return lines
+
+    def stop(self, timeout: float = 5.0) -> None:
+        fut = asyncio.run_coroutine_threadsafe(self.server.close(), self.loop)
+        try:
+            fut.result(timeout)
+        except Exception:  # shutting down anyway
+            pass
+        self.controller.close()
+
+
+def web_token(opt: WebOptions) -> str | None:
+    """The token changes need: the given one, else a random one when the monitor listens
+    beyond loopback and may change things; None: no token needed."""
+    if opt.token is None and not opt.read_only and not is_loopback(opt.host):
+        return secrets.token_urlsafe(16)
+    return opt.token
+
+
+def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebHandle | None:
+    """The daemon's hook: serve the monitor on the Modbus server's event loop."""
+    if opt is None or opt.port is None:
+        return None
+    from .server import WebServer
+
+    token = web_token(opt)
+    ctl = Controller(daemon.plc, image, read_only=opt.read_only,
+                     program_name=daemon.program_name,
+                     status_extra=lambda: {"modbus_clients": modbus.stats.clients,
+                                           "modbus_requests": modbus.stats.requests,
+                                           "overruns": daemon.overruns,
+                                           "jitter_max_ms": daemon.jitter_max * 1000})
+    note = ""
+    for port in (opt.port, 0):
+        server = WebServer(ctl, opt.host, port, token=token)
+        try:
+            asyncio.run_coroutine_threadsafe(server.start(), modbus.loop).result(10)
+            break
+        except OSError as e:
+            if opt.port_given or port == 0:
+                ctl.close()
+                raise SoftPLCError(f"web monitor: cannot listen on {opt.host}:{port}: "
+                                   f"{e.strerror or e}") from None
+            note = f" (port {opt.port} is taken)"
+    return WebHandle(server, ctl, modbus.loop, note)
+
+
+__all__ = ["DEFAULT_WEB_PORT", "ApiError", "Controller", "WebHandle", "WebOptions", "attach",
+           "is_loopback", "web_token"]

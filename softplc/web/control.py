@@ -1,0 +1,471 @@
+"""The operating API of a running soft-PLC, without HTTP: what the web page, `softplc io`
+and scripts can read and do, and the one place that checks their requests.
+
+Threads: the scan runs in one thread, the web server in the daemon's asyncio loop (the
+Modbus thread). They meet only at scan boundaries:
+
+- every change (write, force, unforce, RUN/STOP/restart) is checked here, then queued and
+  applied by a `before_scan` hook, after the Modbus writes queued before it. %MW/%MD/%MF
+  and %M writes go into the Modbus queue itself (`ModbusImage.queue_*`), so a Modbus host
+  reads back what the page wrote exactly as it reads its own writes; the rest (inputs,
+  other objects, forcing, state changes) go into this module's queue. An input is changed
+  at most once per scan: a press and its release queued in the same scan period are applied
+  in two scans, so every push of a button is seen by the program;
+- reads are sampled by an `after_scan` hook (`sample`): the values of one scan, never a
+  half-finished one.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import threading
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
+from ..errors import AddressError, SoftPLCError
+from ..il.printer import format_instruction
+from ..modbus.image import ModbusImage, words_to_wire
+from ..modbus.regmap import COILS, REGISTERS
+from ..numeric import F32_MAX, wrap16
+from ..profile import MODULES
+from ..runtime.memory import WordFamily
+
+# Value ranges the API accepts, per value type.
+INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
+INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
+MAX_OBJECTS = 2000  # objects one read may name (after expanding ranges)
+SAMPLE_WAIT = 0.25  # s: longer than that without a scan (long period, stopped loop): read now
+ACTIONS = ("run", "stop", "cold", "warm")
+CONSTANT_KINDS = ("KW", "KD", "KF")
+
+
+class ApiError(SoftPLCError):
+    """A request the API refuses; `status` is the HTTP status that goes with it."""
+
+    def __init__(self, message: str, status: int = 400):
+        super().__init__(message)
+        self.status = status
+
+
+class _Sample:
+    """A function to run in the scan thread at the end of a scan, and its result handed to
+    the event loop waiting for it. Runs once, whichever thread gets to it first."""
+
+    def __init__(self, fn: Callable[[], Any], loop: asyncio.AbstractEventLoop,
+                 future: asyncio.Future):
+        self.fn = fn
+        self.loop = loop
+        self.future = future
+        self.lock = threading.Lock()
+        self.taken = False
+
+    def run(self) -> None:
+        with self.lock:
+            if self.taken:
+                return
+            self.taken = True
+        try:
+            result, error = self.fn(), None
+        except BaseException as e:  # handed to the waiting request
+            result, error = None, e
+        try:
+            self.loop.call_soon_threadsafe(self._deliver, result, error)
+        except RuntimeError:  # the loop is closed: nobody waits any more
+            pass
+
+    def _deliver(self, result: Any, error: BaseException | None) -> None:
+        if self.future.done():
+            return
+        if error is not None:
+            self.future.set_exception(error)
+        else:
+            self.future.set_result(result)
+
+
+def _device_io(devices: dict[str, Any], profile: Any) -> dict[str, str]:
+    """Which %I/%Q addresses each simulated device reads or drives: {address: device}.
+    Found from the devices' configured address options (strings and lists of strings)."""
+    out: dict[str, str] = {}
+    for name, dev in devices.items():
+        for value in vars(dev).values():
+            items = value if isinstance(value, list | tuple) else [value]
+            for item in items:
+                if isinstance(item, str) and item[:2].upper() in ("%I", "%Q"):
+                    try:
+                        out[str(parse_address(item, profile))] = name
+                    except AddressError:
+                        pass
+    return out
+
+
+class Controller:
+    """The API core over a `PLC` (and its `ModbusImage`, if it is served over Modbus)."""
+
+    def __init__(self, plc: Any, image: ModbusImage | None = None, *,
+                 read_only: bool = False, program_name: str = "",
+                 status_extra: Callable[[], dict[str, Any]] | None = None):
+        self.plc = plc
+        self.image = image
+        self.read_only = read_only
+        self.program_name = program_name
+        self.status_extra = status_extra or (lambda: {})
+        self.profile = plc.profile
+        self._queue: deque[tuple[str, Any, Any]] = deque()
+        self._samples: deque[_Sample] = deque()
+        self._refs: dict[str, list[Ref]] = {}
+        self._readers: dict[Any, Callable[[], list[Any]]] = {}
+        self._io_refs: list[tuple[str, Ref]] | None = None
+        self.device_io = _device_io(plc.devices, self.profile)
+        # I/O the program, configuration and devices name (before any API write adds more)
+        self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
+        self.applied = 0  # changes applied since start
+        plc.before_scan.append(self._apply)
+        plc.after_scan.append(self._serve_samples)
+
+    def close(self) -> None:
+        """Unhook from the PLC; pending reads are answered directly."""
+        for hooks, fn in ((self.plc.before_scan, self._apply),
+                          (self.plc.after_scan, self._serve_samples)):
+            if fn in hooks:
+                hooks.remove(fn)
+        self._serve_samples()
+
+    # -- objects ------------------------------------------------------------------------------
+    def resolve(self, text: Any) -> list[Ref]:
+        """An address or range -> single objects, with a clear error for anything else."""
+        if not isinstance(text, str) or not text.strip():
+            raise ApiError(f"object {text!r}: expected an address like %MW3, %MW0:10, %I0.0")
+        key = text.strip().upper()
+        refs = self._refs.get(key)
+        if refs is None:
+            if not key.startswith("%"):
+                raise ApiError(f"object {text!r}: addresses start with %, e.g. %MW3")
+            try:
+                refs = expand(key, self.profile)
+            except AddressError as e:
+                raise ApiError(f"unknown object {text!r}: {e}") from None
+            for r in refs:
+                if r.kind in BLOCK_FIELDS and r.index not in self.plc.mem.blocks[r.kind]:
+                    raise ApiError(f"unknown object {text!r}: %{r.kind}{r.index} is not "
+                                   f"configured or used by the program")
+            if len(self._refs) < 10000:
+                self._refs[key] = refs
+        return refs
+
+    def resolve_many(self, texts: Any) -> list[tuple[str, Ref]]:
+        if isinstance(texts, str):
+            texts = [texts]
+        if not isinstance(texts, list) or not texts:
+            raise ApiError("objects: expected a list of addresses")
+        out = [(str(r), r) for t in texts for r in self.resolve(t)]
+        if len(out) > MAX_OBJECTS:
+            raise ApiError(f"{len(out)} objects in one read: at most {MAX_OBJECTS}")
+        return out
+
+    @staticmethod
+    def forceable(ref: Ref) -> bool:
+        """Bits (%I %Q %M %S %X) and %MW/%MD/%MF words can be forced (`PLC.force`)."""
+        plain = ref.offset is None and ref.field is None and ref.bit is None
+        return plain and ref.kind in ("I", "Q", "M", "S", "X", "MW", "MD", "MF")
+
+    def _why_not_writable(self, ref: Ref, forcing: bool = False) -> str | None:
+        if self.read_only:
+            return "the web monitor is read-only (--web-read-only)"
+        if ref.kind in CONSTANT_KINDS:
+            return f"{ref} is a constant: set it in the configuration ([constants])"
+        if ref.kind in BLOCK_FIELDS:
+            if ref.is_block:
+                return f"{ref} is a function block: read or write its fields (.P, .V...)"
+            if not ref.writable:
+                return f"{ref} is read-only (the block computes it)"
+        if ref.kind == "I" and not forcing and str(ref) in self.device_io:
+            return (f"{ref} is driven by the simulated device "
+                    f"{self.device_io[str(ref)]!r}: force it to override")
+        if self.image is not None and ref.kind in ("MW", "MD", "MF", "M") and not forcing:
+            space = COILS if ref.kind == "M" else REGISTERS
+            n = 1 if ref.kind == "M" or ref.bit is not None else WIDTH[ref.kind]
+            if ref.offset is None and self.image.read_only.blocks(space, ref.index, n):
+                return f"{ref} is read-only ([modbus] read_only in the configuration)"
+        return None
+
+    @staticmethod
+    def check_value(ref: Ref, value: Any) -> int | float:
+        """A value for `ref`, or an ApiError saying what fits."""
+        if isinstance(value, str):
+            try:
+                value = float(value) if ref.type == "real" else int(value, 0)
+            except ValueError:
+                raise ApiError(f"{ref}: {value!r} is not a number") from None
+        if ref.type == "bool":
+            if value in (0, 1) and not isinstance(value, float):
+                return int(value)
+            raise ApiError(f"{ref} is a bit: value 0 or 1, not {value!r}")
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ApiError(f"{ref}: expected a number, not {value!r}")
+        if ref.type == "real":
+            if not (math.isfinite(value) and abs(value) <= F32_MAX):
+                raise ApiError(f"{ref}: {value!r} does not fit a 32-bit float")
+            return float(value)
+        if isinstance(value, float):
+            if not value.is_integer():
+                raise ApiError(f"{ref} is an integer object: {value!r} is not whole")
+            value = int(value)
+        lo, hi = INT32_RANGE if ref.type == "int32" else INT16_RANGE
+        if ref.kind in BLOCK_FIELDS:
+            lo, hi = 0, 32767  # presets and register words [manual]
+        if not lo <= value <= hi:
+            raise ApiError(f"{ref}: {value} is out of range {lo}..{hi}")
+        return value
+
+    # -- changes (queued; applied at the next scan boundary) -----------------------------------
+    def write(self, obj: Any, value: Any) -> list[str]:
+        """Queue a write of one object or a range (a list of values, or one for all)."""
+        return self.write_many([(obj, value)])
+
+    def write_many(self, writes: list[tuple[Any, Any]]) -> list[str]:
+        """Check every write, then queue them all: a bad one and nothing is applied."""
+        checked = []
+        for obj, value in writes:
+            refs = self.resolve(obj)
+            values = value if isinstance(value, list) else [value] * len(refs)
+            if len(values) != len(refs):
+                raise ApiError(f"{obj}: {len(refs)} objects but {len(values)} values")
+            for ref, v in zip(refs, values, strict=True):
+                why = self._why_not_writable(ref)
+                if why:
+                    raise ApiError(why, 403)
+                checked.append((ref, self.check_value(ref, v)))
+        for ref, v in checked:
+            self._queue_write(ref, v)
+        return [str(r) for r, _ in checked]
+
+    def _queue_write(self, ref: Ref, value: int | float) -> None:
+        img = self.image
+        if img is not None and ref.offset is None and ref.bit is None:
+            if ref.kind in ("MW", "MD", "MF"):
+                fam = WordFamily(WIDTH[ref.kind])  # encoded by the memory's own conversions
+                if ref.kind == "MW":
+                    fam.w[0] = wrap16(int(value))
+                elif ref.kind == "MD":
+                    fam.set_d(0, int(value))
+                else:
+                    fam.set_f(0, float(value))
+                img.queue_registers(ref.index, words_to_wire(fam.buf))
+                return
+            if ref.kind == "M":
+                img.queue_coils(ref.index, bytes([1 if value else 0]))
+                return
+        self._queue.append(("write", ref, value))
+
+    def force(self, obj: Any, value: Any) -> list[str]:
+        refs = self.resolve(obj)
+        checked = []
+        for ref in refs:
+            if self.read_only:
+                raise ApiError(self._why_not_writable(ref) or "", 403)
+            if not self.forceable(ref):
+                raise ApiError(f"{ref} cannot be forced: bits (%I %Q %M %S %X) and "
+                               f"%MW/%MD/%MF words can", 403)
+            why = self._why_not_writable(ref, forcing=True)
+            if why:
+                raise ApiError(why, 403)
+            checked.append((ref, self.check_value(ref, value)))
+        for ref, v in checked:
+            self._queue.append(("force", ref, v))
+        return [str(r) for r, _ in checked]
+
+    def unforce(self, obj: Any = None) -> list[str]:
+        if self.read_only:
+            raise ApiError("the web monitor is read-only (--web-read-only)", 403)
+        if obj in (None, "", "all"):
+            self._queue.append(("unforce", None, None))
+            return list(self.plc.forced)
+        refs = self.resolve(obj)
+        for ref in refs:
+            self._queue.append(("unforce", ref, None))
+        return [str(r) for r in refs]
+
+    def control(self, action: Any) -> str:
+        if self.read_only:
+            raise ApiError("the web monitor is read-only (--web-read-only)", 403)
+        if action not in ACTIONS:
+            raise ApiError(f"action {action!r}: one of {', '.join(ACTIONS)}")
+        self._queue.append(("control", action, None))
+        return action
+
+    @property
+    def pending(self) -> int:
+        return len(self._queue)
+
+    def _apply(self) -> None:
+        """before_scan hook (scan thread): apply the queued changes in order."""
+        q = self._queue
+        if not q:
+            return
+        plc = self.plc
+        inputs: set[int] = set()
+        while q:
+            op, ref, value = q[0]
+            if op == "write" and ref.kind == "I":
+                if ref.index in inputs:
+                    break  # the second change of this input waits for the next scan
+                inputs.add(ref.index)
+            q.popleft()
+            try:
+                if op == "write":
+                    plc.mem.write(ref, value)
+                elif op == "force":
+                    plc.force(str(ref), value)
+                elif op == "unforce":
+                    plc.unforce(None if ref is None else str(ref))
+                elif ref == "run":
+                    plc.start()
+                elif ref == "stop":
+                    plc.stop()
+                elif ref == "cold":
+                    plc.cold_start()
+                elif ref == "warm":
+                    plc.warm_start()
+            except SoftPLCError:  # checked when queued; a block removed since and the like
+                pass
+            self.applied += 1
+
+    # -- reads (sampled at a scan boundary) ----------------------------------------------------
+    def _serve_samples(self) -> None:
+        """after_scan hook (scan thread)."""
+        q = self._samples
+        while q:
+            q.popleft().run()
+
+    async def sample(self, fn: Callable[[], Any]) -> Any:
+        """Run `fn` in the scan thread right after the next scan (or here, if no scan comes
+        within SAMPLE_WAIT) and return its result."""
+        loop = asyncio.get_running_loop()
+        s = _Sample(fn, loop, loop.create_future())
+        self._samples.append(s)
+        try:
+            return await asyncio.wait_for(asyncio.shield(s.future), SAMPLE_WAIT)
+        except TimeoutError:
+            s.run()  # nothing if the scan thread took it meanwhile
+            return await s.future
+
+    def values_fn(self, refs: list[tuple[str, Ref]]) -> Callable[[], dict[str, Any]]:
+        """A function giving {name: value} of `refs`: prepare it here (in the web thread),
+        call it in the scan thread (`sample`), where it costs little."""
+        reader = self.reader([r for _, r in refs])
+        names = [n for n, _ in refs]
+        return lambda: dict(zip(names, reader(), strict=True))
+
+    def read_one(self, ref: Ref) -> Any:
+        """One value through `MemoryImage.read`, as the API gives it: bits as 0/1, a block
+        as a dict of its fields, None for an object that cannot be read."""
+        try:
+            v = self.plc.mem.read(ref)
+        except SoftPLCError:
+            return None
+        if isinstance(v, bool):
+            return int(v)
+        return block_fields(ref.kind, v) if ref.is_block else v
+
+    def reader(self, refs: list[Ref]) -> Callable[[], list[Any]]:
+        """A function that reads `refs` into a list. It runs in the scan thread after a scan,
+        ten times a second per page, so plain words and bits are read straight from the
+        memory image's arrays (about 50 ns each, where `MemoryImage.read` takes a few us);
+        the rest goes through `read_one`. An input not yet latched by any scan reads from
+        the field, as `MemoryImage.read` does: the reader is rebuilt when that set grows."""
+        mem = self.plc.mem
+        latched = mem.io_used("I")
+        key = (tuple(refs), len(latched))
+        fn = self._readers.get(key)
+        if fn is not None:
+            return fn
+        env: dict[str, Any] = {"MW": mem.mw.w, "KW": mem.kw.w, "SW": mem.sw.w, "M": mem.m,
+                               "S": mem.s, "X": mem.x, "Q": mem.q, "I": mem.i,
+                               "F": mem.i_field, "read": self.read_one, "R": refs}
+        items = []
+        for k, ref in enumerate(refs):
+            plain = ref.offset is None and ref.bit is None and ref.length is None \
+                and ref.field is None
+            if plain and ref.kind in ("MW", "KW", "SW", "M", "S", "X", "Q"):
+                items.append(f"{ref.kind}[{ref.index}]")
+            elif plain and ref.kind == "I":
+                items.append(f"{'I' if ref.index in latched else 'F'}[{ref.index}]")
+            else:
+                items.append(f"read(R[{k}])")
+        exec(f"def reader():\n    return [{', '.join(items)}]\n", env)
+        if len(self._readers) > 256:
+            self._readers.clear()
+        fn = self._readers[key] = env["reader"]
+        return fn
+
+    async def read(self, objs: Any) -> dict[str, Any]:
+        refs = self.resolve_many(objs)
+        return await self.sample(self.values_fn(refs))
+
+    # -- the controller as a whole ------------------------------------------------------------
+    def io_layout(self) -> list[dict[str, Any]]:
+        """The base and the configured expansion modules with their I/O channels."""
+        prof = self.profile
+        mods = [{"slot": 0, "name": prof.name, "inputs": prof.inputs_base,
+                 "outputs": prof.outputs_base}]
+        for slot, name in sorted((int(k), str(v).upper())
+                                 for k, v in (self.plc.config.get("modules") or {}).items()):
+            n_in, n_out = MODULES.get(name, (0, 0))
+            mods.append({"slot": slot, "name": name, "inputs": n_in, "outputs": n_out})
+        return mods
+
+    def io_refs(self) -> list[tuple[str, Ref]]:
+        if self._io_refs is not None:
+            return self._io_refs
+        out = []
+        for m in self.io_layout():
+            for kind, n in (("I", m["inputs"]), ("Q", m["outputs"])):
+                for ch in range(n):
+                    text = f"%{kind}{m['slot']}.{ch}"
+                    out.append((text, parse_address(text, self.profile)))
+        self._io_refs = out
+        return out
+
+    def info(self) -> dict[str, Any]:
+        plc = self.plc
+        rungs = [{"index": r.index, "title": r.title or "", "section": r.section,
+                  "subroutine": r.subroutine, "label": r.label,
+                  "il": "\n".join(format_instruction(i) for i in r.instructions)}
+                 for r in plc.rungs]
+        devices = {name: getattr(d, "type_name", "device") for name, d in plc.devices.items()}
+        used = [name for name, ref in self.io_refs() if ref.index in self.io_in_use[ref.kind]]
+        return {"program": self.program_name, "profile": self.profile.name, "io_used": used,
+                "period_ms": round(plc.scan_period * 1000, 3), "modules": self.io_layout(),
+                "device_io": self.device_io, "devices": devices, "rungs": rungs,
+                "read_only": self.read_only, "actions": list(ACTIONS),
+                "analog": "analog I/O (%IW/%QW) is not emulated"}
+
+    def status(self) -> dict[str, Any]:
+        plc = self.plc
+        st = plc.stats
+        out = {"state": plc.state, "fault": plc.fault, "scans": st.scans,
+               "time": round(plc.time, 6), "scan_last_ms": st.last * 1000,
+               "scan_min_ms": st.min * 1000, "scan_max_ms": st.max * 1000,
+               "overruns": st.overruns, "period_ms": round(plc.scan_period * 1000, 3),
+               "forced": {k: (int(v) if isinstance(v, bool) else v)
+                          for k, v in plc.forced.items()},
+               "pending": self.pending + (self.image.pending if self.image else 0),
+               "web_changes_applied": self.applied}
+        out.update(self.status_extra())
+        return out
+
+
+def block_fields(kind: str, b: Any) -> dict[str, Any]:
+    """A function block's fields (those the program can name, plus a timer's type and time
+    base) as a dict."""
+    out: dict[str, Any] = {f: int(getattr(b, f)) for f in BLOCK_FIELDS[kind] if hasattr(b, f)}
+    for extra in ("type", "base"):
+        if hasattr(b, extra):
+            out[extra] = str(getattr(b, extra))
+    return out
+
+
+__all__ = ["ACTIONS", "ApiError", "Controller"]

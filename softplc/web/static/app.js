@@ -1,0 +1,565 @@
+// softplc web monitor. Plain JavaScript, no libraries, nothing loaded from outside.
+// Live data comes over one websocket (/api/ws); every change is a POST to /api/... that the
+// daemon queues and applies at the next scan boundary.
+"use strict";
+
+const $ = (s, el = document) => el.querySelector(s);
+const $$ = (s, el = document) => [...el.querySelectorAll(s)];
+const h = (tag, attrs = {}, ...kids) => {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (k === "class") e.className = v;
+    else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+    else if (v !== undefined && v !== null) e.setAttribute(k, v);
+  }
+  for (const k of kids) e.append(k instanceof Node ? k : document.createTextNode(k));
+  return e;
+};
+
+const params = new URLSearchParams(location.search);
+if (params.get("token")) localStorage.setItem("softplc.token", params.get("token"));
+const state = {
+  info: null, status: null, forced: {}, tab: "sim", rung: 0, ws: null,
+  tables: JSON.parse(localStorage.getItem("softplc.tables") || "null") ||
+          [{ name: "Table 1", rows: [] }],
+  table: 0, values: {}, formats: JSON.parse(localStorage.getItem("softplc.formats") || "{}"),
+  trend: { objects: JSON.parse(localStorage.getItem("softplc.trends") || "[]"), data: [],
+           paused: false, window: 30 },
+  machine: { trace: [], devices: {} },
+  held: new Set(),
+};
+
+// ---- API -------------------------------------------------------------------------------
+function say(text, ok = false) {
+  const m = $("#message");
+  m.textContent = text; m.className = "message" + (ok ? " ok" : "");
+  clearTimeout(say.t); say.t = setTimeout(() => (m.textContent = ""), ok ? 2000 : 8000);
+}
+
+async function post(path, body, retry = true) {
+  const headers = { "Content-Type": "application/json" };
+  const token = localStorage.getItem("softplc.token");
+  if (token) headers.Authorization = "Bearer " + token;
+  try {
+    const r = await fetch("/api/" + path, { method: "POST", headers, body: JSON.stringify(body) });
+    const data = await r.json();
+    if (r.status === 401 && retry) {  // the monitor listens beyond loopback: ask for its token
+      const t = prompt(data.error + "\n\nToken (printed by softplc run at start):");
+      if (t) { localStorage.setItem("softplc.token", t.trim()); return post(path, body, false); }
+    }
+    if (!r.ok) { say(data.error || r.statusText); return null; }
+    return data;
+  } catch (e) { say("daemon unreachable: " + e); return null; }
+}
+const write = (object, value) => post("write", { object, value });
+const force = (object, value) => post("force", { object, value });
+const unforce = (object) => post("unforce", { object });
+
+// ---- websocket ---------------------------------------------------------------------------
+function subscribe() {
+  const ws = state.ws;
+  if (!ws || ws.readyState !== 1) return;
+  const objects = new Set(state.trend.objects);
+  for (const row of currentTable().rows) {
+    objects.add(row);
+    for (const obj of expand(row)) {  // a word shown as float: the %MF over it and the next
+      const w = /^%MW(\d+)$/.exec(obj);
+      if (w && state.formats[obj] === "float") objects.add("%MF" + w[1]);
+    }
+  }
+  ws.send(JSON.stringify({ subscribe: {
+    objects: [...objects], io: true,
+    rungs: state.tab === "ladder" ? shownRungs() : [],
+    machine: state.tab === "machine" } }));
+  if (state.tab === "machine") state.machine.trace = [];
+}
+
+function connect() {
+  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/api/ws");
+  state.ws = ws;
+  ws.onopen = () => { $("#link").classList.add("up"); subscribe(); };
+  ws.onclose = () => { $("#link").classList.remove("up"); setTimeout(connect, 1000); };
+  ws.onmessage = (ev) => {
+    const msg = JSON.parse(ev.data);
+    if (msg.type === "error") { say(msg.error); return; }
+    if (msg.type !== "update") return;
+    showStatus(msg.status);
+    if (msg.io) showIO(msg.io);
+    if (msg.values) { Object.assign(state.values, msg.values); showTable(); trendSample(msg); }
+    if (msg.ladder) for (const [n, svg] of Object.entries(msg.ladder)) {
+      const box = $(`#ladder div[data-rung="${n}"]`);
+      if (box) box.innerHTML = svg;
+    }
+    if (msg.machine) showMachine(msg.machine);
+  };
+}
+
+// ---- header ------------------------------------------------------------------------------
+const ms = (v) => (v === undefined ? "–" : v.toFixed(3) + " ms");
+function showStatus(st) {
+  state.status = st; state.forced = st.forced || {};
+  const s = $("#state"); s.textContent = st.state; s.className = "state " + st.state;
+  $("#scan").textContent = ms(st.scan_last_ms);
+  $("#scanminmax").textContent = `${st.scan_min_ms.toFixed(3)} / ${st.scan_max_ms.toFixed(3)} ms`;
+  $("#overruns").textContent = st.overruns;
+  $("#scans").textContent = st.scans;
+  $("#plctime").textContent = st.time.toFixed(1) + " s";
+  $("#clients").textContent = st.modbus_clients ?? "–";
+  $("#forcedcount").textContent = Object.keys(state.forced).length;
+  const f = $("#fault"); f.hidden = !st.fault; f.textContent = st.fault ? "HALT: " + st.fault : "";
+}
+
+const ACTION_TEXT = {
+  run: "Put the controller in RUN?", stop: "STOP the controller? Outputs keep their last value in STOP.",
+  warm: "Warm restart: keep the data, %S1 on the first scan?",
+  cold: "COLD restart: reset %M, %MW, timers, counters and outputs?",
+};
+for (const b of $$(".controls button")) {
+  b.addEventListener("click", async () => {
+    const a = b.dataset.action;
+    if (!confirm(ACTION_TEXT[a])) return;
+    if (await post("control", { action: a })) say(a.toUpperCase() + " sent", true);
+  });
+}
+
+// ---- tabs --------------------------------------------------------------------------------
+for (const b of $$("#tabs button")) {
+  b.addEventListener("click", () => {
+    state.tab = b.dataset.tab;
+    $$("#tabs button").forEach((x) => x.classList.toggle("active", x === b));
+    $$(".tab").forEach((x) => x.classList.toggle("active", x.id === "tab-" + state.tab));
+    subscribe();
+    if (state.tab === "trends") drawTrend();
+  });
+}
+
+// ---- simulation panel ----------------------------------------------------------------------
+function buildModules() {
+  const box = $("#modules"); box.innerHTML = "";
+  $("#analog").textContent = state.info.analog ? "(" + state.info.analog + ")" : "";
+  for (const m of state.info.modules) {
+    const ins = h("div", { class: "col" }, h("h4", {}, `inputs (${m.inputs})`));
+    const outs = h("div", { class: "col" }, h("h4", {}, `outputs (${m.outputs})`));
+    for (let c = 0; c < m.inputs; c++) ins.append(inputRow(`%I${m.slot}.${c}`));
+    for (let c = 0; c < m.outputs; c++) outs.append(outputRow(`%Q${m.slot}.${c}`));
+    const cols = h("div", { class: "cols" });
+    if (m.inputs) cols.append(ins);
+    if (m.outputs) cols.append(outs);
+    box.append(h("div", { class: "module" },
+      h("h3", {}, m.slot === 0 ? "base " : `slot ${m.slot} `, h("b", {}, m.name)), cols));
+  }
+}
+
+const used = (addr) => (state.info.io_used.includes(addr) ? "" : " unused");
+
+function forceButton(addr) {
+  return h("button", { class: "f", title: "force / unforce", onclick: async () => {
+    if (addr in state.forced) { await unforce(addr); return; }
+    const v = prompt(`Force ${addr} to (0 or 1):`, "1");
+    if (v === null) return;
+    await force(addr, Number(v));
+  } }, "F");
+}
+
+function inputRow(addr) {
+  const dev = state.info.device_io[addr] || "";
+  const toggle = h("button", { class: "toggle", title: "switch: toggles", onclick: () =>
+    write(addr, state.io && state.io[addr] ? 0 : 1) }, "switch");
+  const push = h("button", { class: "push", title: "push button: on while held" }, "push");
+  const press = (e) => { e.preventDefault(); state.held.add(addr); push.classList.add("held"); write(addr, 1); };
+  const release = () => {
+    if (!state.held.delete(addr)) return;
+    push.classList.remove("held"); write(addr, 0);
+  };
+  push.addEventListener("pointerdown", press);
+  push.addEventListener("pointerup", release);
+  push.addEventListener("pointerleave", release);
+  const row = h("div", { class: "io in" + (dev ? " driven" : "") + used(addr), "data-addr": addr },
+    h("span", { class: "led" }), h("span", { class: "addr" }, addr), toggle, push,
+    forceButton(addr), h("span", { class: "forced-mark" }, "F"),
+    h("span", { class: "dev", title: dev ? "driven by device " + dev : "" }, dev ? "⚙ " + dev : ""));
+  return row;
+}
+
+function outputRow(addr) {
+  const dev = state.info.device_io[addr] || "";
+  return h("div", { class: "io out" + used(addr), "data-addr": addr },
+    h("span", { class: "led" }), h("span", { class: "addr" }, addr), forceButton(addr),
+    h("span", { class: "forced-mark" }, "F"),
+    h("span", { class: "dev", title: dev ? "drives device " + dev : "" }, dev ? "⚙ " + dev : ""));
+}
+
+function showIO(io) {
+  state.io = io;
+  for (const row of $$("#modules .io")) {
+    const a = row.dataset.addr, on = !!io[a], forced = a in state.forced;
+    row.querySelector(".led").classList.toggle("on", on);
+    row.classList.toggle("forced", forced);
+    const t = row.querySelector(".toggle");
+    if (t) {
+      t.classList.toggle("on", on);
+      const locked = (row.classList.contains("driven") || forced);
+      t.disabled = locked; row.querySelector(".push").disabled = locked;
+      t.title = forced ? "forced: unforce first" : locked ? "driven by a simulated device: force it to override" : "switch: toggles";
+    }
+  }
+}
+
+// ---- animation tables ------------------------------------------------------------------
+const currentTable = () => state.tables[state.table] || state.tables[0];
+function saveTables() { localStorage.setItem("softplc.tables", JSON.stringify(state.tables)); }
+const FORMATS = ["dec", "hex", "bin", "float", "ASCII"];
+
+function expand(obj) {
+  // client-side mirror of the server's range expansion, for display rows only; the
+  // server checks every address (an unknown one comes back as an error message)
+  const m = /^%(MW|MD|MF|KW|KD|KF|SW|M|S|X)(\d+):(\d+)$/i.exec(obj);
+  if (m) {
+    const kind = m[1].toUpperCase(), step = /^(MD|MF|KD|KF)$/.test(kind) ? 2 : 1;
+    return Array.from({ length: +m[3] }, (_, k) => `%${kind}${+m[2] + k * step}`);
+  }
+  const io = /^%([IQ])(\d+)\.(\d+):(\d+)$/i.exec(obj);
+  if (io) return Array.from({ length: +io[4] }, (_, k) => `%${io[1].toUpperCase()}${io[2]}.${+io[3] + k}`);
+  return [obj.toUpperCase()];
+}
+
+function fmt(obj, v, f) {
+  if (v === null || v === undefined) return "?";
+  if (typeof v === "object") return Object.entries(v).map(([k, x]) => `${k}=${x}`).join(" ");
+  if (typeof v === "string") return v;
+  const wide = /^%(MD|KD|MF|KF)/.test(obj), bits = wide ? 32 : 16;
+  if (/^%(MF|KF)/.test(obj) || !Number.isInteger(v)) {
+    if (f === "hex" || f === "bin") {
+      const b = new DataView(new ArrayBuffer(4)); b.setFloat32(0, v);
+      const raw = b.getUint32(0);
+      return f === "hex" ? "16#" + raw.toString(16).toUpperCase().padStart(8, "0") : "2#" + raw.toString(2).padStart(32, "0");
+    }
+    return Number(v.toPrecision(7)).toString();
+  }
+  const raw = (BigInt(v) & ((1n << BigInt(bits)) - 1n));
+  switch (f) {
+    case "hex": return "16#" + raw.toString(16).toUpperCase().padStart(bits / 4, "0");
+    case "bin": return "2#" + raw.toString(2).padStart(bits, "0").replace(/(....)(?=.)/g, "$1_");
+    case "float": {
+      if (!wide) {  // %MWi as float = %MFi (words i and i+1)
+        if (!obj.startsWith("%MW")) return "–";
+        const f = state.values["%MF" + obj.slice(3)];
+        return typeof f === "number" ? Number(f.toPrecision(7)).toString() + " (%MF)" : "…";
+      }
+      const b = new DataView(new ArrayBuffer(4)); b.setUint32(0, Number(raw));
+      return Number(b.getFloat32(0).toPrecision(7)).toString();
+    }
+    case "ASCII": {
+      let s = "";
+      for (let i = bits - 8; i >= 0; i -= 8) {
+        const c = Number((raw >> BigInt(i)) & 255n);
+        s += c >= 32 && c < 127 ? String.fromCharCode(c) : ".";
+      }
+      return "'" + s + "'";
+    }
+    default: return String(v);
+  }
+}
+
+function parseEntry(text, obj) {
+  text = text.trim();
+  if (/^16#/i.test(text)) return parseInt(text.slice(3), 16);
+  if (/^2#/i.test(text)) return parseInt(text.slice(2).replace(/_/g, ""), 2);
+  if (/^'.*'$/.test(text) && !/^%(MF|KF)/.test(obj)) {
+    let v = 0; for (const c of text.slice(1, -1)) v = v * 256 + c.charCodeAt(0); return v;
+  }
+  return Number(text);
+}
+
+function buildTables() {
+  const sel = $("#table-select"); sel.innerHTML = "";
+  state.tables.forEach((t, i) => sel.append(h("option", { value: i }, t.name)));
+  sel.value = state.table;
+  const body = $("#anim tbody"); body.innerHTML = "";
+  for (const entry of currentTable().rows) {
+    const objs = expand(entry);
+    if (objs.length > 1) body.append(h("tr", { class: "group" }, h("td", { colspan: 5 }, entry),
+      h("td", {}, removeButton(entry))));
+    for (const obj of objs) body.append(tableRow(obj, objs.length > 1 ? null : entry));
+  }
+  showTable();
+}
+
+function removeButton(entry) {
+  return h("button", { title: "remove from the table", onclick: () => {
+    const rows = currentTable().rows; rows.splice(rows.indexOf(entry), 1);
+    saveTables(); buildTables(); subscribe();
+  } }, "✕");
+}
+
+function tableRow(obj, entry) {
+  const sel = h("select", { onchange: () => { state.formats[obj] = sel.value;
+    localStorage.setItem("softplc.formats", JSON.stringify(state.formats)); showTable(); subscribe(); } },
+    ...FORMATS.map((f) => h("option", { value: f }, f)));
+  sel.value = state.formats[obj] || "dec";
+  const input = h("input", { class: "w", placeholder: "value" });
+  const doWrite = async () => {
+    if (input.value.trim() === "") return;
+    if (await write(obj, parseEntry(input.value, obj))) { say(`${obj} := ${input.value} queued`, true); input.value = ""; }
+  };
+  input.addEventListener("keydown", (e) => { if (e.key === "Enter") doWrite(); });
+  const bit = /^%(I|Q|M|S|X)\d/.test(obj) && !/^%(MW|MD|MF|SW)/.test(obj);
+  const forceable = bit || /^%(MW|MD|MF)\d+$/.test(obj);
+  const block = /^%(TM|C|DR|R|SBR|SC)\d+$/.test(obj);  // its fields are the writable objects
+  return h("tr", { "data-obj": obj },
+    h("td", { class: "obj" }, obj, " ", h("span", { class: "forced-mark" }, "F")),
+    h("td", { class: "val" }, "…"), h("td", {}, block || bit ? "" : sel),
+    h("td", {}, block ? h("span", { class: "hint" }, `write ${obj}.P …`) : input, " ",
+      block ? "" : h("button", { class: "write", onclick: doWrite }, "Write")),
+    h("td", {}, forceable ? h("button", { class: "force", onclick: async () => {
+      const v = input.value.trim() === "" ? (bit ? 1 : state.values[obj]) : parseEntry(input.value, obj);
+      await force(obj, v);
+    } }, "Force") : "", " ", forceable ? h("button", { class: "unforce", onclick: () => unforce(obj) }, "Unforce") : ""),
+    h("td", {}, entry ? removeButton(entry) : ""));
+}
+
+function showTable() {
+  for (const tr of $$("#anim tbody tr[data-obj]")) {
+    const obj = tr.dataset.obj;
+    tr.querySelector(".val").textContent = fmt(obj, state.values[obj], state.formats[obj] || "dec");
+    tr.classList.toggle("forced", obj in state.forced);
+  }
+}
+
+function addToTable() {
+  const text = $("#table-add").value;
+  for (const part of text.split(/[ ,;]+/).filter(Boolean)) currentTable().rows.push(part.toUpperCase());
+  $("#table-add").value = ""; saveTables(); buildTables(); subscribe();
+}
+$("#table-add-btn").addEventListener("click", addToTable);
+$("#table-add").addEventListener("keydown", (e) => { if (e.key === "Enter") addToTable(); });
+$("#table-select").addEventListener("change", (e) => { state.table = +e.target.value; buildTables(); subscribe(); });
+$("#table-new").addEventListener("click", () => {
+  state.tables.push({ name: "Table " + (state.tables.length + 1), rows: [] });
+  state.table = state.tables.length - 1; saveTables(); buildTables(); subscribe();
+});
+$("#table-rename").addEventListener("click", () => {
+  const n = prompt("Table name:", currentTable().name); if (n) { currentTable().name = n; saveTables(); buildTables(); }
+});
+$("#table-delete").addEventListener("click", () => {
+  if (!confirm(`Delete ${currentTable().name}?`)) return;
+  state.tables.splice(state.table, 1);
+  if (!state.tables.length) state.tables.push({ name: "Table 1", rows: [] });
+  state.table = 0; saveTables(); buildTables(); subscribe();
+});
+function download(name, text, type) {
+  const a = h("a", { href: URL.createObjectURL(new Blob([text], { type })), download: name });
+  document.body.append(a); a.click(); a.remove();
+}
+$("#table-export").addEventListener("click", () =>
+  download("softplc-tables.json", JSON.stringify(state.tables, null, 2), "application/json"));
+$("#table-export-csv").addEventListener("click", () => {
+  const lines = ["object,value,format"];
+  for (const tr of $$("#anim tbody tr[data-obj]"))
+    lines.push(`${tr.dataset.obj},"${tr.querySelector(".val").textContent}",${state.formats[tr.dataset.obj] || "dec"}`);
+  download(currentTable().name + ".csv", lines.join("\n") + "\n", "text/csv");
+});
+$("#table-import").addEventListener("change", async (e) => {
+  try {
+    const t = JSON.parse(await e.target.files[0].text());
+    if (!Array.isArray(t) || !t.every((x) => x && typeof x.name === "string" && Array.isArray(x.rows))) throw new Error("not a list of {name, rows}");
+    state.tables.push(...t); saveTables(); buildTables(); subscribe(); say(`${t.length} table(s) imported`, true);
+  } catch (err) { say("import: " + err.message); }
+});
+
+// ---- ladder ------------------------------------------------------------------------------
+function buildRungs() {
+  const list = $("#rung-list"); list.innerHTML = "";
+  for (const r of state.info.rungs) {
+    list.append(h("li", { "data-rung": r.index, title: r.il, onclick: () => showRung(r.index) },
+      h("span", { class: "n" }, String(r.index)), r.title || r.il.split("\n")[0]));
+  }
+  showRung(0);
+}
+// rungs whose title or IL mentions the text (e.g. where %Q0.1 is used)
+$("#rung-filter").addEventListener("input", (e) => {
+  const q = e.target.value.trim().toUpperCase();
+  for (const li of $$("#rung-list li")) {
+    const r = state.info.rungs[+li.dataset.rung];
+    li.hidden = q !== "" && !(r.title.toUpperCase().includes(q) || r.il.toUpperCase().includes(q));
+  }
+});
+const RUNGS_SHOWN = 4;  // the selected rung and the next ones, all live
+function shownRungs() {
+  const n = state.info.rungs.length;
+  return Array.from({ length: Math.min(RUNGS_SHOWN, n - state.rung) }, (_, k) => state.rung + k);
+}
+function showRung(n) {
+  const rungs = state.info.rungs;
+  if (!rungs.length) return;
+  state.rung = Math.max(0, Math.min(rungs.length - 1, n));
+  $$("#rung-list li").forEach((li) => li.classList.toggle("active", +li.dataset.rung === state.rung));
+  const r = rungs[state.rung];
+  $("#rung-title").textContent = `rung ${r.index}` + (r.title ? ": " + r.title : "");
+  const box = $("#ladder"); box.innerHTML = "";
+  for (const k of shownRungs()) box.append(h("div", { class: "rung", "data-rung": k }, "…"));
+  subscribe();
+}
+$("#ladder-zoom").addEventListener("change", (e) => ($("#ladder").style.zoom = e.target.value));
+$("#rung-prev").addEventListener("click", () => showRung(state.rung - 1));
+$("#rung-next").addEventListener("click", () => showRung(state.rung + 1));
+
+// ---- trends ------------------------------------------------------------------------------
+const COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"];
+function saveTrends() { localStorage.setItem("softplc.trends", JSON.stringify(state.trend.objects)); }
+function trendSample(msg) {
+  const tr = state.trend;
+  if (tr.paused || !tr.objects.length) return;
+  const row = { t: msg.status.time };
+  for (const o of tr.objects) {
+    const v = msg.values[o];
+    row[o] = typeof v === "number" ? v : (v && typeof v === "object" && "V" in v ? v.V : null);
+  }
+  tr.data.push(row);
+  const keep = 3000; if (tr.data.length > keep) tr.data.splice(0, tr.data.length - keep);
+  if (state.tab === "trends") drawTrend();
+}
+function buildTrendChips() {
+  const box = $("#trend-objects"); box.innerHTML = "";
+  state.trend.objects.forEach((o, i) => box.append(h("span", { class: "chip" },
+    h("i", { style: `background:${COLOURS[i % COLOURS.length]}` }), o,
+    h("button", { onclick: () => { state.trend.objects.splice(i, 1); saveTrends(); buildTrendChips(); subscribe(); } }, "✕"))));
+}
+function niceStep(raw) {  // 1, 2 or 5 times a power of ten
+  const p = Math.pow(10, Math.floor(Math.log10(raw)));
+  return [1, 2, 5, 10].map((m) => m * p).find((s) => s >= raw);
+}
+function drawTrend() {
+  const cv = $("#trend"), g = cv.getContext("2d"), tr = state.trend;
+  const W = cv.width, H = cv.height, L = 70, R = 170, T = 20, B = 44;  // legend right of the plot
+  g.clearRect(0, 0, W, H); g.font = "12px sans-serif"; g.fillStyle = "#1d232a";
+  const data = tr.data, t1 = data.length ? data[data.length - 1].t : 0, t0 = t1 - tr.window;
+  const shown = data.filter((d) => d.t >= t0);
+  let lo = Infinity, hi = -Infinity;
+  for (const d of shown) for (const o of tr.objects) if (d[o] !== null && d[o] !== undefined) { lo = Math.min(lo, d[o]); hi = Math.max(hi, d[o]); }
+  if (!isFinite(lo)) { lo = 0; hi = 1; }
+  if (lo === hi) { lo -= 1; hi += 1; }
+  const pad = (hi - lo) * 0.05; lo -= pad; hi += pad;
+  const step = niceStep((hi - lo) / 5);
+  lo = Math.floor(lo / step) * step; hi = Math.ceil(hi / step) * step;
+  const X = (t) => L + (t - t0) / tr.window * (W - L - R), Y = (v) => T + (hi - v) / (hi - lo) * (H - T - B);
+  g.strokeStyle = "#c9d0d7"; g.lineWidth = 1; g.strokeRect(L, T, W - L - R, H - T - B);
+  g.textAlign = "right";
+  for (let v = lo; v <= hi + step / 2; v += step) {
+    const y = Y(v);
+    g.beginPath(); g.moveTo(L, y); g.lineTo(W - R, y); g.stroke();
+    g.fillText(Number(v.toPrecision(4)).toString(), L - 6, y + 4);
+  }
+  g.textAlign = "center";
+  for (let k = 0; k <= 6; k++) {
+    const t = t0 + tr.window * k / 6, x = X(t);
+    g.beginPath(); g.moveTo(x, T); g.lineTo(x, H - B); g.stroke();
+    g.fillText(t.toFixed(1), x, H - B + 16);
+  }
+  g.fillText("PLC time (s)", L + (W - L - R) / 2, H - 8);
+  g.save(); g.translate(16, T + (H - T - B) / 2); g.rotate(-Math.PI / 2);
+  g.fillText("value (object units: bits 0/1, words as integers)", 0, 0); g.restore();
+  tr.objects.forEach((o, i) => {
+    g.strokeStyle = COLOURS[i % COLOURS.length]; g.lineWidth = 2; g.beginPath();
+    let first = true, prevY = 0;
+    for (const d of shown) {
+      if (d[o] === null || d[o] === undefined) { first = true; continue; }
+      const x = X(d.t), y = Y(d[o]);
+      if (first) g.moveTo(x, y); else { g.lineTo(x, prevY); g.lineTo(x, y); }  // PLC values hold between scans: steps
+      first = false; prevY = y;
+    }
+    g.stroke();
+    g.fillStyle = COLOURS[i % COLOURS.length]; g.fillRect(W - R + 14, T + 6 + i * 18, 16, 4);
+    g.fillStyle = "#1d232a"; g.textAlign = "left"; g.fillText(o, W - R + 36, T + 12 + i * 18);
+  });
+  if (tr.paused) { g.fillStyle = "#e07b00"; g.textAlign = "left"; g.fillText("paused", L + 6, T + 14); }
+}
+function addTrend() {
+  for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) state.trend.objects.push(o.toUpperCase());
+  $("#trend-add").value = ""; saveTrends(); buildTrendChips(); subscribe();
+}
+$("#trend-add-btn").addEventListener("click", addTrend);
+$("#trend-add").addEventListener("keydown", (e) => { if (e.key === "Enter") addTrend(); });
+$("#trend-window").addEventListener("change", (e) => { state.trend.window = +e.target.value; drawTrend(); });
+$("#trend-pause").addEventListener("click", (e) => {
+  state.trend.paused = !state.trend.paused; e.target.textContent = state.trend.paused ? "Resume" : "Pause"; drawTrend();
+});
+$("#trend-clear").addEventListener("click", () => { state.trend.data = []; drawTrend(); });
+$("#trend-csv").addEventListener("click", () => {
+  const objs = state.trend.objects, lines = ["t_s," + objs.join(",")];
+  for (const d of state.trend.data) lines.push([d.t, ...objs.map((o) => d[o] ?? "")].join(","));
+  download("softplc-trend.csv", lines.join("\n") + "\n", "text/csv");
+});
+
+// ---- machine view ------------------------------------------------------------------------
+function showMachine(m) {
+  const mc = state.machine;
+  if (m.trace_from === 0) mc.trace = [];
+  mc.trace.push(...m.trace);
+  mc.devices = m.devices;
+  const body = $("#devices tbody"); body.innerHTML = "";
+  for (const [name, st] of Object.entries(m.devices)) {
+    const shown = Object.entries(st).filter(([k]) => k !== "type").map(([k, v]) => `${k}=${typeof v === "number" ? Number(v.toPrecision(6)) : v}`).join("  ");
+    body.append(h("tr", {}, h("td", {}, name), h("td", {}, st.type), h("td", {}, shown)));
+  }
+  const view = MACHINE_VIEWS.find((v) => v.fits(m.devices));
+  if (view) view.draw($("#table-view"), state.machine);
+  else {
+    $("#table-view").innerHTML = `<text x="20" y="40" font-size="16" fill="#66707a">no machine view for these devices</text>`;
+    $("#machine-hint").textContent = "";
+  }
+}
+
+// A machine view: fits(devices) says whether it can draw them, draw(svg, machine) draws.
+// Later machines add theirs to MACHINE_VIEWS; the first that fits is used.
+const drawingTableView = {
+  fits: (devs) => Object.values(devs).filter((d) => d.type === "stepper").length >= 2,
+  draw: drawTable,
+};
+const MACHINE_VIEWS = [drawingTableView];
+
+function drawTable(svg, mc) {  // two stepper axes, a pen, a trace recorder
+  const devs = mc.devices;
+  const axes = Object.entries(devs).filter(([, d]) => d.type === "stepper");
+  const [xn, x] = axes[0], [zn, z] = axes[1];
+  const S = 540 / Math.max(x.travel, z.travel), ox = 40, oy = 570;  // px per cm; origin lower left
+  const px = (steps) => ox + steps / x.steps_per_unit * S, pz = (steps) => oy - steps / z.steps_per_unit * S;
+  let paths = "", d = "", last = null;
+  for (const [, sx, sz, pen] of mc.trace) {
+    if (pen && last && last[3]) d += `L${px(sx).toFixed(1)},${pz(sz).toFixed(1)}`;
+    else if (pen) d += `M${px(sx).toFixed(1)},${pz(sz).toFixed(1)}`;
+    last = [0, sx, sz, pen];
+  }
+  if (d) paths = `<path id="pen-path" d="${d}" fill="none" stroke="#1f4fa0" stroke-width="2"/>`;
+  const pen = Object.values(devs).find((v) => v.type === "pen");
+  const cx = px(x.pos), cz = pz(z.pos);
+  let grid = "";
+  for (let u = 0; u <= x.travel; u += 5) grid += `<line x1="${ox + u * S}" y1="${oy}" x2="${ox + u * S}" y2="${oy - z.travel * S}" stroke="#eef1f4"/><text x="${ox + u * S}" y="${oy + 16}" font-size="11" text-anchor="middle">${u}</text>`;
+  for (let u = 0; u <= z.travel; u += 5) grid += `<line x1="${ox}" y1="${oy - u * S}" x2="${ox + x.travel * S}" y2="${oy - u * S}" stroke="#eef1f4"/><text x="${ox - 6}" y="${oy - u * S + 4}" font-size="11" text-anchor="end">${u}</text>`;
+  svg.innerHTML = grid +
+    `<rect id="table-outline" x="${ox}" y="${oy - z.travel * S}" width="${x.travel * S}" height="${z.travel * S}" fill="none" stroke="#4a5a6a" stroke-width="2"/>` +
+    `<text x="${ox + x.travel * S / 2}" y="${oy + 30}" font-size="12" text-anchor="middle">${xn} (cm)</text>` +
+    `<text x="12" y="${oy - z.travel * S / 2}" font-size="12" text-anchor="middle" transform="rotate(-90 12 ${oy - z.travel * S / 2})">${zn} (cm)</text>` +
+    paths +
+    `<circle cx="${cx}" cy="${cz}" r="6" fill="${pen && pen.down ? "#d62728" : "none"}" stroke="#d62728" stroke-width="2"/>` +
+    `<line x1="${cx - 12}" y1="${cz}" x2="${cx + 12}" y2="${cz}" stroke="#d62728"/><line x1="${cx}" y1="${cz - 12}" x2="${cx}" y2="${cz + 12}" stroke="#d62728"/>`;
+  $("#machine-hint").textContent = `${xn} = ${x.units} cm, ${zn} = ${z.units} cm, pen ${pen && pen.down ? "down" : "up"}; ` +
+    `${mc.trace.length} trace samples; the blue line is what the pen drew.`;
+}
+
+// ---- start -------------------------------------------------------------------------------
+async function start() {
+  const r = await fetch("/api/info");
+  state.info = await r.json();
+  $("#program").title = state.info.program;
+  $("#program").textContent = `${state.info.program.split("/").pop()}  ·  ${state.info.profile}  ·  period ${state.info.period_ms} ms` +
+    (state.info.read_only ? "  ·  read-only" : "");
+  if (state.info.read_only) {  // a read-only monitor: no control that would be refused
+    document.body.classList.add("read-only");
+    $$(".controls button").forEach((b) => (b.disabled = true));
+  }
+  document.title = "softplc · " + state.info.program;
+  buildModules(); buildTables(); buildRungs(); buildTrendChips(); drawTrend();
+  connect();
+}
+start();

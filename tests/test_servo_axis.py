@@ -1,0 +1,404 @@
+"""The servo axis device on its own (no PLC program): plant, law, trajectories, the thesis's
+published following errors (seed 002, TABLA 4-3), homing, faults, timing, config errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from daemon_util import ROOT
+from scipy.signal import cont2discrete
+
+from softplc.devices.axis import Ctl, Err, Mode, St, Word
+from softplc.devices.axis import trajectory as tj
+from softplc.devices.axis.law import IVARS, Gains
+from softplc.devices.axis.plant import step, thesis_zoh_coefficients, zoh_coefficients
+from softplc.devices.axis.rig import Rig
+from softplc.errors import ConfigError
+
+TOML = ROOT / "ladder_programs" / "servo_table.toml"
+T = 4 / 9034.6  # Turbo PMAC2 default servo period
+# The thesis move (TABLA 4-3): 14,336 counts at 4,177,920 counts/min, Ixx20/21 = 125/40 ms.
+DIST, SPEED = 14336, 4_177_920 // 60
+START = {"X": -80000, "Y": -128000}
+PUBLISHED = {"X": 12.9, "Y": 11.8}  # max |FE|, counts
+LINEAR = {"plant.coulomb": 0.0, "plant.amp_offset": 0.0, "ivars.Ixx29": 0,
+          "ivars.Ixx68": 0, "plant.dac_bits": 0, "plant.encoder": "ideal"}
+
+
+# -- plant -----------------------------------------------------------------------------------
+def _scipy_tf(K: float, a: float, T: float) -> tuple[float, float, float]:
+    A = np.array([[0.0, 1.0], [0.0, -a]])
+    B = np.array([[0.0], [K]])
+    Ad, Bd, *_ = cont2discrete((A, B, np.array([[1.0, 0.0]]), np.zeros((1, 1))), T, "zoh")
+    # X/W = C (zI - Ad)^-1 Bd = (k1 z + k2) / ((z - 1)(z - p)), Ad upper triangular
+    p = Ad[1, 1]
+    k1 = Bd[0, 0]
+    k2 = Ad[0, 1] * Bd[1, 0] - Ad[1, 1] * Bd[0, 0]
+    return k1, k2, p
+
+
+@pytest.mark.parametrize("K,a", [(11157.2, 4.975), (6478.7, 0.5), (1.0, 120.0), (11157.2, 0.0)])
+def test_corrected_zoh_matches_scipy(K, a):
+    k1, k2, p = zoh_coefficients(K, a, T)
+    s1, s2, sp = _scipy_tf(K, a, T)
+    assert k1 == pytest.approx(s1, rel=1e-9)
+    assert k2 == pytest.approx(s2, rel=1e-9)
+    assert p == pytest.approx(sp, rel=1e-12)
+
+
+def test_thesis_zoh_formulas_are_wrong():
+    """p = e^(B/J) is an unstable pole with no sample period; k2's p ln p sign is wrong."""
+    K, a, T_ = 11157.2, 4.975, 442.74e-6
+    k1, k2, p = zoh_coefficients(K, a, T_)
+    assert thesis_zoh_coefficients(K, a, T_)[2] > 1 > p  # printed pole: unstable
+    t1, t2, _ = thesis_zoh_coefficients(K, a, T_, p=p)  # even with the right p:
+    assert t1 == pytest.approx(k1, rel=1e-9)  # k1 is right
+    assert t2 / k2 == pytest.approx(1800, rel=0.01)  # k2 "1,800 times too large"
+
+
+def test_plant_step_equals_the_discrete_state_space():
+    K, a = 11157.2, 4.975
+    A = np.array([[0.0, 1.0], [0.0, -a]])
+    Ad, Bd, *_ = cont2discrete((A, np.array([[0.0], [K]]), np.eye(2), np.zeros((2, 1))), T,
+                               "zoh")
+    x, v = 10.0, 3000.0
+    for w in (12.0, -40.0, 0.5):
+        ref = Ad @ np.array([x, v]) + Bd[:, 0] * w
+        got = step(x, v, w, K, a, 0.0, T)
+        assert got == pytest.approx(tuple(ref), rel=1e-10)
+        x, v = got
+
+
+def test_coulomb_friction_sticks_and_stops_at_zero_velocity():
+    K, fc = 11157.2, 31.0
+    assert step(5.0, 0.0, 30.0, K, 0.0, fc, T) == (5.0, 0.0)  # |w| <= fc: stuck
+    x, v = step(0.0, 1.0, 0.0, K, 0.0, fc, T)  # slow, no drive: friction stops it
+    assert v == 0.0 and 0 < x < 1.0 * T
+    # breakaway: |w| > fc moves with w - fc
+    x, v = step(0.0, 0.0, 41.0, K, 0.0, fc, T)
+    assert v == pytest.approx(K * 10 * T)
+
+
+# -- trajectory ------------------------------------------------------------------------------
+def test_thesis_scurve_profile():
+    rule = tj.RampRule(0.125, 0.040, 2.048e6)
+    prof = tj.move(0.0, DIST, SPEED, rule)
+    assert prof.duration == pytest.approx(0.33088, abs=1e-5)
+    seg = prof.segments
+    assert seg[0] == pytest.approx((0.040, 2.048e7, 0.0))  # jerk 50 m/s^3
+    assert seg[1] == pytest.approx((0.045, 0.0, 819200.0))  # A = 2.0 m/s^2
+    ramp = tj.Profile(0.0, 0.0, seg[:3]).end()
+    assert ramp == pytest.approx((4352.0, SPEED))
+    assert prof.end() == pytest.approx((DIST, 0.0), abs=1e-6)
+    pts = tj.sample(prof, T)
+    assert len(pts) == math.ceil(prof.duration / T)
+    assert max(b - a for a, b in zip(pts, pts[1:], strict=False)) == pytest.approx(
+        SPEED * T, rel=1e-9)
+
+
+def test_short_move_and_acceleration_limit():
+    rule = tj.RampRule(0.125, 0.040, 2.048e6)
+    short = tj.move(0.0, 1000.0, SPEED, rule)  # shorter than V TA: no cruise
+    assert short.end() == pytest.approx((1000.0, 0.0), abs=1e-6)
+    assert short.duration == pytest.approx(0.25, rel=1e-6)
+    limited = tj.RampRule(0.125, 0.040, 2.048e5)  # Ixx19 ten times lower: ramps stretched
+    prof = tj.move(0.0, 100000.0, SPEED, limited)
+    peak = max(abs(a) for _, _, a in prof.segments)
+    assert peak == pytest.approx(2.048e5, rel=1e-9)
+    assert prof.end() == pytest.approx((100000.0, 0.0), abs=1e-5)
+
+
+# -- the thesis's following errors -----------------------------------------------------------
+def scurve_test(axis: str, **overrides):
+    """Close the loop at rest at the tuning start position, settle 0.5 s, run the move;
+    returns (samples of the move, device)."""
+    rig = Rig.from_toml(TOML, axis, start=START[axis], require_home=False, **overrides)
+    dev = rig.axes[axis]
+    rig.command(axis, Ctl.ENABLE)
+    rig.run(0.5)
+    n0 = len(dev.trace)
+    rig.pulse(axis, Ctl.EXECUTE, target=round(dev.actual) + DIST, speed=SPEED, acc_ms=125,
+              scurve_ms=40)
+    rig.run(0.45)
+    s = dev.samples()[n0:]
+    return [(t - s[0][0] + T, cp, ap, fe, u) for t, cp, ap, fe, u in s], dev
+
+
+@pytest.mark.parametrize("axis", ["X", "Y"])
+def test_thesis_scurve_following_error(axis):
+    s, _ = scurve_test(axis)
+    fe = [r[3] for r in s]
+    peak = max(abs(f) for f in fe)
+    assert 0.6 * PUBLISHED[axis] <= peak <= 1.4 * PUBLISHED[axis], peak
+    t = [r[0] for r in s]
+    acc = [f for tt, f in zip(t, fe, strict=True) if tt <= 0.125]
+    cruise = [f for tt, f in zip(t, fe, strict=True) if 0.135 <= tt <= 0.200]
+    dec = [f for tt, f in zip(t, fe, strict=True) if 0.206 <= tt <= 0.331]
+    hi, lo = max(acc, key=abs), max(dec, key=abs)
+    assert hi > 0 > lo  # lagging while accelerating, leading while decelerating
+    assert max(abs(f) for f in cruise) <= 0.5 * peak
+    end = 0.33088
+    settled = [tt for tt, f in zip(t, fe, strict=True) if tt >= end and abs(f) < 10]
+    assert settled and settled[0] - end <= 0.005
+
+
+@pytest.mark.parametrize("axis,linear", [("X", 13.9), ("Y", 9.6)])
+def test_linear_reference_matches_the_spec_within_3_percent(axis, linear):
+    s, _ = scurve_test(axis, **LINEAR)
+    assert max(abs(r[3]) for r in s) == pytest.approx(linear, rel=0.03)
+
+
+def test_without_feed_forward_the_error_is_the_velocity_lag():
+    """Kvff = Kaff = 0 (and Ki = 0 so nothing else acts): in the cruise the law leaves
+    Kp' FE = Kd' AV, i.e. FE = Ixx31 Ixx09 / (128 Ixx08) * V T = V * tau_d, tau_d =
+    Ixx31 T / 128 = 10.96 ms for X: 763 counts, 55x the tuned error."""
+    s, _ = scurve_test("X", **LINEAR, **{"ivars.Ixx32": 0, "ivars.Ixx35": 0, "ivars.Ixx33": 0})
+    predicted = 3168 * 96 / (128 * 96) * SPEED * T
+    assert predicted == pytest.approx(763.3, abs=0.5)
+    end_cruise = [r[3] for r in s if r[0] <= 0.2058][-1]
+    assert end_cruise == pytest.approx(predicted, rel=0.02)
+    # with the tuned Ki the integral action takes some of it back, never adds to it
+    s_ki, _ = scurve_test("X", **{"ivars.Ixx32": 0, "ivars.Ixx35": 0})
+    peak = max(abs(r[3]) for r in s_ki)
+    assert 30 * PUBLISHED["X"] < peak < predicted
+
+
+def test_same_run_twice_gives_identical_traces():
+    a, _ = scurve_test("X")
+    b, _ = scurve_test("X")
+    assert a == b
+
+
+# -- timing ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("scan", [1e-3, 7e-3, 2.5e-3])
+def test_servo_cycles_per_scan_carry_the_remainder(scan):
+    cfg = {"X": {"type": "servo_axis", "plant": {"K": 1000.0}}}
+    rig = Rig(cfg, scan=scan)
+    per_scan = []
+    for _ in range(round(7.0 / scan)):
+        k = rig.axes["X"].k
+        rig.step()
+        per_scan.append(rig.axes["X"].k - k)
+    assert rig.axes["X"].k == math.floor(7.0 * 9034.6 / 4)  # the exact long-run rate
+    assert set(per_scan) <= {math.floor(scan / T), math.ceil(scan / T)}
+
+
+def test_servo_cycle_extension_halves_the_loop_rate():
+    rig = Rig({"X": {"type": "servo_axis", "plant": {"K": 1.0}, "ivars": {"Ixx60": 1}}})
+    rig.run(1.0)
+    assert rig.axes["X"].k == math.floor(9034.6 / 8)
+
+
+# -- homing, faults --------------------------------------------------------------------------
+def enabled(axis: str = "X", **over) -> Rig:
+    rig = Rig.from_toml(TOML, axis, **over)
+    rig.command(axis, Ctl.ENABLE)
+    rig.step()
+    return rig
+
+
+def test_homing_ends_at_the_index_mark():
+    rig = enabled("X", start=-6000.0)
+    dev = rig.axes["X"]
+    assert not dev.homed
+    rig.pulse("X", Ctl.HOME)
+    assert rig.word("X", Word.STATUS) & St.HOMING
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.DONE, 10.0)
+    st = rig.word("X", Word.STATUS)
+    assert st & St.HOMED and st & St.IN_POSITION and not st & St.HOMING
+    assert abs(dev.position) <= 10  # true position: the index mark at 0
+    assert abs(rig.word("X", Word.ACTUAL, "d")) <= 10
+
+
+def test_move_before_homing_is_a_fatal_error():
+    rig = enabled("X")
+    rig.pulse("X", Ctl.EXECUTE, target=-1000)
+    st = rig.word("X", Word.STATUS)
+    assert st & St.FE_FATAL and not st & St.ENABLED
+    assert rig.word("X", Word.ERROR) == Err.NOT_HOMED
+    rig.pulse("X", Ctl.RESET)
+    st = rig.word("X", Word.STATUS)
+    assert st & St.ENABLED and not st & St.ERROR  # reset with ENABLE held: loop closed
+
+
+def homed(axis: str = "X", **over) -> Rig:
+    rig = enabled(axis, require_home=False, **over)
+    dev = rig.axes[axis]
+    dev.homed = True
+    dev.origin = -dev._enc0  # user coordinates = true positions, as after homing
+    rig.step()
+    return rig
+
+
+def test_jammed_axis_trips_the_fatal_following_error():
+    rig = homed("X", start=-50000.0)
+    dev = rig.axes["X"]
+    dev.set_fault("jammed")
+    rig.pulse("X", Ctl.EXECUTE, target=-40000, speed=69632)
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.FE_WARNING, 1.0)
+    assert rig.word("X", Word.ERROR) == Err.NONE
+    assert rig.run_until(lambda: rig.word("X", Word.ERROR), 1.0)
+    st = rig.word("X", Word.STATUS)
+    assert rig.word("X", Word.ERROR) == Err.FATAL_FE
+    assert st & St.FE_FATAL and not st & St.ENABLED
+    assert rig.word("X", Word.OUTPUT, "f") == 0.0
+    fe_at_kill = rig.word("X", Word.FE_MAX, "f")
+    assert 4096 < fe_at_kill < 4200  # Ixx11 / 16
+    rig.run(0.5)
+    assert rig.word("X", Word.STATUS) & St.FE_FATAL  # latched
+    dev.set_fault("none")
+    rig.pulse("X", Ctl.RESET)
+    st = rig.word("X", Word.STATUS)
+    assert st & St.ENABLED and not st & St.FE_FATAL and st & St.HOMED
+
+
+def test_estop_brakes_then_kills_through_the_amplifier_fault():
+    rig = homed("X", start=-100000.0)
+    dev = rig.axes["X"]
+    rig.pulse("X", Ctl.EXECUTE, target=0, speed=69632)
+    rig.run(0.3)
+    assert dev.v > 60000
+    dev.set_fault("estop")
+    rig.step()
+    assert rig.word("X", Word.ERROR) == Err.AMP_FAULT
+    st = rig.word("X", Word.STATUS)
+    assert st & St.ESTOP and st & St.AMP_FAULT and not st & St.ENABLED
+    # braking at the drive's current limit (516 bits): v / (K 516) = 12 ms
+    assert rig.run_until(lambda: dev.v == 0.0, 0.05)
+    assert rig.t < 0.3 + 0.02
+    dev.set_fault("none")
+    rig.pulse("X", Ctl.RESET)
+    assert rig.word("X", Word.STATUS) & St.ENABLED
+
+
+def test_limit_switch_blocks_the_drive_and_the_error_becomes_fatal():
+    rig = homed("X", start=0.0)
+    dev = rig.axes["X"]
+    rig.pulse("X", Ctl.EXECUTE, target=20000, speed=20000)  # past END-1 at +4096
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.LIMIT_PLUS, 1.0)
+    assert rig.run_until(lambda: rig.word("X", Word.ERROR), 2.0)
+    assert rig.word("X", Word.ERROR) == Err.LIMIT
+    assert 4096 <= dev.position < 6144  # stopped by the drive, before the hard stop
+    assert not rig.word("X", Word.STATUS) & St.ENABLED
+
+
+def test_open_loop_output_moves_the_commanded_way():
+    """1 % of Ixx69 for 50 ms (TABLA 4-2): the full reference gives 1,801 counts at 50 ms."""
+    rig = homed("X", start=-50000.0)
+    dev = rig.axes["X"]
+    x0 = dev.actual
+    rig.pulse("X", Ctl.EXECUTE, mode=Mode.OPEN_LOOP, open_loop=100, acc_ms=50)
+    assert rig.word("X", Word.STATUS) & St.OPEN_LOOP
+    rig.run(0.049)
+    assert dev.actual - x0 == pytest.approx(1801, rel=0.1)
+    # then output 0: the carriage coasts on friction ("stops at ~9,300"), the loop closes
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.DONE, 1.0)
+    assert dev.actual - x0 == pytest.approx(9300, rel=0.15)
+    st = rig.word("X", Word.STATUS)
+    assert st & St.ENABLED and not st & St.BUSY and not st & St.OPEN_LOOP
+
+
+def test_step_and_parabolic_moves_reach_the_target():
+    rig = homed("X", start=-50000.0)
+    dev = rig.axes["X"]
+    rig.pulse("X", Ctl.EXECUTE, target=-49900, mode=Mode.STEP)
+    rig.step()
+    assert rig.word("X", Word.STATUS) & St.DONE  # the command jumps at once
+    rig.run(1.0)  # friction and the 12-bit DAC: the integrator creeps the last counts
+    assert abs(dev.actual + 49900) <= 3
+    t0 = rig.t
+    rig.pulse("X", Ctl.EXECUTE, target=-45000, mode=Mode.PARABOLIC, acc_ms=200)
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.DONE, 1.0)
+    assert rig.t - t0 == pytest.approx(0.2015, abs=0.002)  # the move's time
+    rig.run(0.5)
+    assert abs(dev.actual + 45000) <= 10  # Ixx28: the in-position band
+    assert rig.word("X", Word.STATUS) & St.IN_POSITION
+
+
+def test_pd_step_overshoot_is_that_of_the_autotune_design():
+    """Row 6 of the spec: the gains are a 20 Hz, zeta = 0.7 design: PD only, a 100-count
+    step overshoots by about 4 %."""
+    rig = homed("X", start=-50000.0, **LINEAR, **{"ivars.Ixx32": 0, "ivars.Ixx33": 0,
+                                                  "ivars.Ixx35": 0})
+    dev = rig.axes["X"]
+    x0 = dev.actual
+    rig.pulse("X", Ctl.EXECUTE, target=round(x0) + 100, mode=Mode.STEP)
+    peak = x0
+    for _ in range(200):
+        rig.step()
+        peak = max(peak, dev.actual)
+    assert 2.0 <= peak - x0 - 100 <= 7.0
+
+
+def test_jog_and_stop():
+    rig = homed("X", start=-50000.0)
+    dev = rig.axes["X"]
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+    rig.run(0.3)
+    assert dev.v == pytest.approx(-204800, rel=0.01)  # Ixx22 = 204.8 counts/ms
+    rig.command("X", Ctl.ENABLE)
+    rig.run(0.3)
+    assert abs(dev.v) < 1000 and not rig.word("X", Word.STATUS) & St.BUSY
+
+
+def test_load_and_mass_are_configuration_only():
+    """A heavy table: twice the inertia and a 100-bit load; the loop still holds position
+    and the current word shows the load."""
+    rig = homed("X", start=-50000.0, **{"plant.load_mass_ratio": 1.0, "plant.load": 100.0,
+                                        "plant.u_peak": 0.0})
+    dev = rig.axes["X"]
+    rig.run(3.0)
+    assert abs(dev.actual + 50000) <= 3
+    assert rig.word("X", Word.OUTPUT, "f") > 100 - 40  # friction takes up to 31 bits
+
+
+# -- configuration ---------------------------------------------------------------------------
+def test_ivars_by_either_name_and_errors_name_the_key():
+    assert Gains(**{"Ixx30": 5}).kp == Gains(kp=5).kp == 5
+    assert len({n for _, n, _, _ in IVARS}) == len(IVARS)
+    with pytest.raises(ConfigError, match=r"ivars\.kpp"):
+        Rig({"X": {"type": "servo_axis", "plant": {"K": 1.0}, "ivars": {"kpp": 3}}})
+    with pytest.raises(ConfigError, match=r"plant\.K"):
+        Rig({"X": {"type": "servo_axis", "plant": {"K": -1.0}}})
+    with pytest.raises(ConfigError, match=r"words"):
+        Rig({"X": {"type": "servo_axis", "plant": {"K": 1.0}, "words": "%MD3"}})
+
+
+def test_status_words_are_declared_read_only():
+    rig = Rig({"X": {"type": "servo_axis", "plant": {"K": 1.0}, "words": "%MW300"}})
+    assert rig.axes["X"].read_only_words() == [(310, 328)]
+
+
+def test_a_parameter_given_by_both_names_is_an_error():
+    with pytest.raises(ConfigError, match="Ixx30 and kp are the same parameter"):
+        Rig({"X": {"type": "servo_axis", "plant": {"K": 1.0},
+                   "ivars": {"Ixx30": 1, "kp": 2}}})
+
+
+def test_limit_switch_devices_watch_a_servo_axis():
+    cfg = {"X": {"type": "servo_axis", "plant": {"K": 11157.2}, "start": -100.0,
+                 "require_home": False, "geometry": {"limit_plus": 4096.0}},
+           "home": {"type": "limit_switch", "axis": "X", "input": "%I0.12", "at": "home"},
+           "end": {"type": "limit_switch", "axis": "X", "input": "%I0.13", "at": "end"}}
+    rig = Rig(cfg)
+    assert rig.devices["home"].made and not rig.devices["end"].made
+    rig.axes["X"].x = 5000.0
+    rig.step()
+    assert not rig.devices["home"].made and rig.mem.i_field[13]
+
+
+def test_servo_benchmark_runs_and_reports():
+    """Smoke test of tools/bench_servo.py: figures well formed (never a speed threshold)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    import bench_servo
+
+    r = bench_servo.run(seconds=0.5)
+    for part in ("device", "machine"):
+        assert r[part]["speedup"] > 0 and r[part]["speedup_cpu"] > 0
+        assert r[part]["faults"] == 0  # the axes moved all along, no fault stopped them
+    assert r["device"]["servo_cycles"] >= 2 * math.floor(0.5 * 9034.6 / 4)
+    assert "x real time" in bench_servo.report(r)

@@ -1,0 +1,256 @@
+"""The servo XY table machine end to end: ladder_programs/servo_table.il commanding the two
+servo axes (PLC API), and the same over Modbus TCP on loopback with the daemon."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+from daemon_util import ROOT, Daemon
+
+from softplc.devices.axis import Err, St
+from softplc.modbus.rawclient import ModbusExceptionReply
+from softplc.plc import PLC
+
+IL = ROOT / "ladder_programs" / "servo_table.il"
+TOML = ROOT / "ladder_programs" / "servo_table.toml"
+ESTOP, START, RESET = "%I0.0", "%I0.1", "%I0.2"
+AMBER, GREEN, RED, CONTACTOR = "%Q0.0", "%Q0.1", "%Q0.2", "%Q0.3"
+X_ST, Y_ST = "%MW218", "%MW248"
+REPLY, CELL = "%MW110", "%MW111"
+NOT_HOMED, NOT_READY, OUTSIDE, BUSY = -1, -2, -3, -5
+HOMING, READY, FAULT, STOPPED = 1, 2, 3, 4
+
+
+def config(**constants: int) -> dict:
+    cfg = tomllib.loads(TOML.read_text())
+    cfg["constants"].update(constants)
+    return cfg
+
+
+@pytest.fixture
+def cell():
+    plc = PLC.from_file(IL, config())
+    plc.scan()
+    yield plc
+    plc.close()
+
+
+def press(plc: PLC, button: str) -> None:
+    plc[button] = 1
+    plc.scan(2)
+    plc[button] = 0
+    plc.scan()
+
+
+def request(plc: PLC, req: int, axis: int = 0, target: int = 0, speed: int = 0,
+            mode: int = 0) -> int:
+    plc["%MW101"], plc["%MD102"], plc["%MD104"] = axis, target, speed
+    plc["%MW106"] = plc["%MW107"] = plc["%MW109"] = 0
+    plc["%MW108"] = mode
+    plc["%MW100"] = req
+    plc.scan()
+    assert plc["%MW100"] == 0  # handled in one scan
+    return plc[REPLY]
+
+
+def started(plc: PLC) -> None:
+    press(plc, START)
+    assert plc.run_until(lambda p: p[CELL] == READY, 30.0)
+
+
+def test_start_homes_x_then_y(cell):
+    assert cell[AMBER] and not cell[GREEN] and not cell[CONTACTOR]
+    press(cell, START)
+    assert cell[CONTACTOR] and cell[GREEN] and not cell[AMBER]
+    x, y = cell.devices["X"], cell.devices["Y"]
+    order = []
+    for _ in range(30000):
+        cell.scan()
+        for name, st in (("X", X_ST), ("Y", Y_ST)):
+            if cell[st] & St.HOMING and name not in order:
+                order.append(name)
+        if cell[CELL] == READY:
+            break
+    assert order == ["X", "Y"]
+    assert not y.homing and y.homed and x.homed
+    assert abs(x.position) <= 10 and abs(y.position) <= 10  # at the index marks
+    assert abs(cell["%MD210"]) <= 10 and abs(cell["%MD240"]) <= 10
+    # Y started only after X had finished (homed and settled)
+    assert cell[X_ST] & St.IN_POSITION and cell[Y_ST] & St.IN_POSITION
+
+
+def test_moves_refused_before_start_and_homing(cell):
+    assert request(cell, 1, 0, -1000) == NOT_READY
+    press(cell, START)
+    assert cell[CELL] == HOMING
+    assert request(cell, 1, 0, -1000) == NOT_HOMED
+    assert not cell.devices["X"].error  # refused by the program, the axis never saw it
+
+
+def test_host_move_with_target_checks(cell):
+    started(cell)
+    assert request(cell, 1, 0, 1000) == OUTSIDE  # beyond X max (0)
+    assert request(cell, 1, 1, -300000) == OUTSIDE  # beyond Y min
+    assert request(cell, 1, 2, -1000) == -4  # no axis 2
+    assert request(cell, 1, 1, -20000, 69632) == 1
+    assert cell[Y_ST] & St.BUSY
+    assert request(cell, 1, 1, -10000) == BUSY
+    assert cell.run_until(lambda p: p[Y_ST] & St.DONE, 5.0)
+    cell.run(0.3)
+    assert abs(cell["%MD240"] + 20000) <= 10
+    assert cell["%MW114"] == 5  # requests handled
+
+
+def test_jammed_axis_fatal_following_error_latches_and_resets(cell):
+    started(cell)
+    cell.devices["X"].set_fault("jammed")
+    assert request(cell, 1, 0, -100000, 69632) == 1
+    assert cell.run_until(lambda p: p[CELL] == FAULT, 2.0)
+    assert cell["%MW112"] == Err.FATAL_FE
+    assert cell[X_ST] & St.FE_FATAL and not cell[X_ST] & St.ENABLED
+    assert not cell[GREEN]
+    assert request(cell, 1, 1, -1000) == NOT_READY  # refused while in fault
+    cell.devices["X"].set_fault("none")
+    assert request(cell, 3) == 1
+    cell.scan(3)
+    assert cell[CELL] == READY and cell["%MW112"] == 0 and cell[GREEN]
+    assert cell[X_ST] & St.HOMED  # homing stays valid
+
+
+def test_estop_stops_and_recovery_needs_start_and_reset(cell):
+    started(cell)
+    assert request(cell, 1, 0, -150000, 69632) == 1
+    cell.run(0.5)
+    x = cell.devices["X"]
+    assert x.v < -60000
+    cell[ESTOP] = 1
+    cell.scan()
+    assert cell[RED] and not cell[CONTACTOR] and cell[CELL] == STOPPED
+    assert cell.run_until(lambda p: x.v == 0.0, 0.05)  # drives brake at the current limit
+    cell.scan(2)
+    assert cell[X_ST] & St.AMP_FAULT and not cell[X_ST] & St.ENABLED
+    assert not cell[GREEN]
+    cell[ESTOP] = 0
+    cell.scan(2)
+    assert not cell[RED] and cell[AMBER] and cell[CELL] == FAULT
+    press(cell, START)
+    assert not cell[GREEN]  # amplifier fault still latched
+    press(cell, RESET)
+    cell.scan(2)
+    assert cell[GREEN] and cell[CELL] == READY
+    assert request(cell, 1, 0, -1000, 69632) == 1  # no re-homing needed
+
+
+def test_limit_switch_ends_in_a_fatal_error_with_the_limit_code():
+    """A wrong travel constant lets a move run into END-1: the drive refuses torque, the
+    PMAC keeps commanding, the warning and then the fatal error follow (spec section 5)."""
+    plc = PLC.from_file(IL, config(**{"%KD2": 20000}))
+    plc.scan()
+    started(plc)
+    assert request(plc, 1, 0, 20000, 20000) == 1
+    assert plc.run_until(lambda p: p[X_ST] & St.LIMIT_PLUS, 2.0)
+    assert plc.run_until(lambda p: p[CELL] == FAULT, 3.0)
+    assert plc["%MW112"] == Err.LIMIT
+    assert 4096 <= plc.devices["X"].position < 6144
+    assert request(plc, 3) == 1
+    plc.scan(3)
+    assert request(plc, 1, 0, -5000, 20000) == 1  # the way back is allowed
+    assert plc.run_until(lambda p: p[X_ST] & St.DONE, 3.0)
+    plc.close()
+
+
+# -- over Modbus, with the daemon ---------------------------------------------------------
+def near_home_toml(tmp_path) -> str:
+    """The machine with both carriages powered up near home: short homing, quicker tests."""
+    text = TOML.read_text()
+    for old in ("start = -8000.0", "start = -12000.0"):
+        assert old in text
+        text = text.replace(old, "start = -2500.0")
+    path = tmp_path / "servo_table.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def wait(c, pred, reg: int, count: int, timeout: float = 60.0) -> list[int]:
+    import time
+
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        regs = c.read_registers(reg, count)
+        if pred(regs):
+            return regs
+        time.sleep(0.01)
+    raise AssertionError(f"timeout waiting at %MW{reg}: {regs}")
+
+
+def s16(v: int) -> int:
+    return v - 65536 if v >= 32768 else v
+
+
+def s32(lo: int, hi: int) -> int:
+    v = lo | hi << 16
+    return v - (1 << 32) if v >= 1 << 31 else v
+
+
+def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp_path,
+                                                                            capsys):
+    from softplc.cli import main as softplc
+
+    d = Daemon(tmp_path, "--config", near_home_toml(tmp_path), "--speed", "max",
+               "--stats-interval", "0", program=IL)
+    try:
+        with d.client() as c:
+            # status words and the program's replies are read-only for hosts: exception 02
+            for addr in (210, 218, 248, 110):
+                with pytest.raises(ModbusExceptionReply) as e:
+                    c.write_registers(addr, [1])
+                assert e.value.code == 2
+            # a move before start is refused
+            c.write_registers(101, [0, (-1000) & 0xFFFF, 0xFFFF, 0, 0])
+            c.write_registers(100, [1])
+            wait(c, lambda r: r[0] == 0, 100, 1)
+            assert s16(c.read_registers(110, 1)[0]) == NOT_READY
+            c.write_registers(100, [5])  # remote start: homes X then Y
+            saw_y_before_x_homed = False
+            regs = wait(c, lambda r: r[0] & St.HOMING or r[0] & St.HOMED, 218, 1)
+            while True:
+                x_st, y_st = c.read_registers(218, 1)[0], c.read_registers(248, 1)[0]
+                if y_st & St.HOMING and not x_st & St.HOMED:
+                    saw_y_before_x_homed = True
+                if c.read_registers(111, 1)[0] == READY:
+                    break
+            assert not saw_y_before_x_homed
+            regs = c.read_registers(210, 2) + c.read_registers(240, 2)
+            assert abs(s32(*regs[:2])) <= 10 and abs(s32(*regs[2:])) <= 10
+            # a move in the travel is accepted and ends in position
+            c.write_registers(101, [0, (-20000) & 0xFFFF, 0xFFFF, 69632 & 0xFFFF, 1, 0, 0,
+                                    0])
+            c.write_registers(100, [1])
+            wait(c, lambda r: r[0] == 0, 100, 1)
+            assert s16(c.read_registers(110, 1)[0]) == 1
+            wait(c, lambda r: r[0] & St.DONE, 218, 1)
+            wait(c, lambda r: r[0] & St.IN_POSITION, 218, 1)
+            assert abs(s32(*c.read_registers(210, 2)) + 20000) <= 10
+            del regs
+        # the host command: the thesis's S-curve test on Y, then a refused move
+        plot = tmp_path / "scurve.png"
+        assert softplc(["servo", "scurve", "--axis", "Y", "--port", str(d.port), "--start",
+                        "--from", "-128000", "--plot", str(plot), "--poll", "0.01",
+                        "--settle", "0.3"]) == 0
+        out = capsys.readouterr().out
+        fe = float(out.split("max |FE| ")[1].split(" counts")[0])
+        # TABLA 4-3, Y: 11.8 counts. After the approach moves and a rest, the 12-bit DAC,
+        # the friction and the integrator hunt at standstill and the stored integral adds
+        # to the peak (docs/NOTES.md "Servo axis"): 11-17 counts in the model, so the band
+        # here is wider than the device test's (loop closed fresh at rest: 10.2, +-40 %).
+        assert 0.6 * 11.8 <= fe <= 1.8 * 11.8
+        assert f"{fe / 409.6 * 1000:.1f} um" in out
+        assert " um" in out and plot.stat().st_size > 10_000
+        # a move beyond the travel is refused by the program: a clear error, exit 1
+        assert softplc(["servo", "step", "--axis", "Y", "--port", str(d.port),
+                        "--distance", "500000"]) == 1
+        assert "target outside the travel" in capsys.readouterr().err
+        assert d.stop() == 0
+    finally:
+        d.kill()

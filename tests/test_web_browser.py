@@ -1,0 +1,188 @@
+"""The web monitor in a real browser: Debian's headless Chromium driven by Playwright.
+
+Playwright's own browser download is never used (`playwright install` is not run): the
+system browser is launched by path. Screenshots go to out/ and are checked for content.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from daemon_util import ROOT, Daemon
+
+from softplc.commands.io import Client
+
+CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium"
+                                        if Path("/usr/bin/chromium").exists() else None)
+if CHROMIUM is None:
+    pytest.skip("chromium is not installed (Debian package `chromium`; `make sysdeps` as root)",
+                allow_module_level=True)
+sync_api = pytest.importorskip("playwright.sync_api",
+                               reason="playwright is not installed (the test extra)")
+
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+OUT = ROOT / "out"
+PROGRAMS = ROOT / "ladder_programs"
+MBPOLL = shutil.which("mbpoll")
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        yield b
+        b.close()
+
+
+def web_url(d: Daemon) -> str:
+    line = next(x for x in d.out if "web monitor on" in x)
+    return re.search(r"(http://\S+/)", line)[1]
+
+
+def open_page(browser, url: str):
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    # confirm() of RUN/STOP accepted; prompt() of a force answers 1
+    page.on("dialog", lambda d: d.accept("1") if d.type == "prompt" else d.accept())
+    page.goto(url)
+    page.wait_for_selector("#link.up")
+    return page
+
+
+def shot(page, name: str) -> Path:
+    """A screenshot in out/, checked to show something (not one flat colour)."""
+    import numpy as np
+    from matplotlib import image
+
+    OUT.mkdir(exist_ok=True)
+    path = OUT / f"web-{name}.png"
+    page.screenshot(path=str(path))
+    px = image.imread(str(path))[::2, ::2, :3]
+    rgb = (px * 255).astype(np.uint32)
+    colours = len(np.unique(rgb[..., 0] << 16 | rgb[..., 1] << 8 | rgb[..., 2]))
+    assert colours > 20 and px.std() > 0.05, f"{path} looks blank"
+    return path
+
+
+def led(page, addr: str):
+    return page.locator(f'#modules .io[data-addr="{addr}"] .led')
+
+
+def push(page, addr: str, hold_ms: int = 150) -> None:
+    button = page.locator(f'#modules .io[data-addr="{addr}"] button.push')
+    button.hover()
+    page.mouse.down()
+    page.wait_for_timeout(hold_ms)
+    page.mouse.up()
+
+
+@pytest.fixture(scope="module")
+def star_daemon(tmp_path_factory):
+    # --speed 5: the 5 s star time passes in 1 s of real time
+    d = Daemon(tmp_path_factory.mktemp("star"), "--config", str(PROGRAMS / "star_delta.toml"),
+               "--web", "0", "--speed", "5", "--stats-interval", "0",
+               program=PROGRAMS / "star_delta.il")
+    yield d
+    d.kill()
+
+
+def test_star_delta_from_the_simulation_panel(browser, star_daemon):
+    page = open_page(browser, web_url(star_daemon))
+    sw = page.locator
+    sw('#modules .io[data-addr="%I0.1"] button.toggle').click()  # stop button: NC, closed
+    sw('#modules .io[data-addr="%I0.2"] button.toggle').click()  # overload relay: NC, OK
+    push(page, "%I0.3")  # fault reset
+    sync_api.expect(led(page, "%I0.2")).to_have_class(re.compile(r"\bon\b"))
+    sync_api.expect(led(page, "%Q0.3")).not_to_have_class(re.compile(r"\bon\b"))
+    push(page, "%I0.0")  # start push button
+    sync_api.expect(led(page, "%Q0.0")).to_have_class(re.compile(r"\bon\b"), timeout=3000)
+    sync_api.expect(led(page, "%Q0.1")).to_have_class(re.compile(r"\bon\b"), timeout=3000)
+    assert "on" not in led(page, "%Q0.2").get_attribute("class").split()
+    sync_api.expect(led(page, "%I0.0")).not_to_have_class(re.compile(r"\bon\b"))  # released
+    sync_api.expect(led(page, "%Q0.2")).to_have_class(re.compile(r"\bon\b"), timeout=5000)
+    sync_api.expect(led(page, "%Q0.1")).not_to_have_class(re.compile(r"\bon\b"))
+
+    # force an input: the F button, prompt answered 1; the marker shows, the switch locks
+    row = sw('#modules .io[data-addr="%I0.5"]')
+    row.locator("button.f").click()
+    sync_api.expect(row).to_have_class(re.compile(r"\bforced\b"))
+    assert row.locator(".forced-mark").is_visible()
+    assert row.locator("button.toggle").is_disabled()
+    assert sw("#forcedcount").inner_text() == "1"
+    shot(page, "simulation")  # delta on, %I0.5 forced
+    row.locator("button.f").click()  # forced: the same button unforces
+    sync_api.expect(row).not_to_have_class(re.compile(r"\bforced\b"))
+
+    # live ladder: rung 5 (delta) powered through to %Q0.2
+    page.click("#tabs button[data-tab=ladder]")
+    page.fill("#rung-filter", "%q0.2")  # where is the delta contactor used?
+    shown = [li.get_attribute("data-rung") for li in sw("#rung-list li:visible").all()]
+    assert shown == ["4", "5", "8"], shown
+    page.fill("#rung-filter", "")
+    page.click("#rung-list li[data-rung='4']")
+    rung5 = sw('#ladder div[data-rung="5"] svg')
+    sync_api.expect(rung5).to_be_visible()
+    assert rung5.locator("line.on").count() >= 3
+    shot(page, "ladder")
+    page.close()
+
+
+@pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (Debian package mbpoll)")
+def test_animation_table_write_read_back_with_mbpoll(browser, star_daemon):
+    page = open_page(browser, web_url(star_daemon))
+    page.click("#tabs button[data-tab=tables]")
+    page.fill("#table-add", "%MW3, %MW10:2, %TM0, %MF40")
+    page.click("#table-add-btn")
+    row = page.locator('#anim tr[data-obj="%MW3"]')
+    row.locator("input.w").fill("4321")
+    row.locator("button.write").click()
+    sync_api.expect(row.locator(".val")).to_have_text("4321")
+    out = subprocess.run([MBPOLL, "-m", "tcp", "-p", str(star_daemon.port), "-0", "-1",
+                          "-o", "2", "-t", "4", "-r", "3", "127.0.0.1"],
+                         capture_output=True, text=True, timeout=10)
+    assert re.search(r"^\[3\]:\s+4321$", out.stdout, re.M), out.stdout + out.stderr
+    row.locator("select").select_option("hex")
+    sync_api.expect(row.locator(".val")).to_have_text("16#10E1")
+    assert "P=50" in page.locator('#anim tr[data-obj="%TM0"] .val').inner_text()
+    shot(page, "tables")
+    # trends of two objects
+    page.click("#tabs button[data-tab=trends]")
+    page.fill("#trend-add", "%MW11 %MW3")
+    page.click("#trend-add-btn")
+    page.wait_for_timeout(1200)
+    shot(page, "trends")
+    page.close()
+
+
+def test_drawing_table_machine_view(browser, tmp_path):
+    d = Daemon(tmp_path, "--config", str(PROGRAMS / "drawing_table.toml"), "--web", "0",
+               "--speed", "4", "--stats-interval", "0", program=PROGRAMS / "drawing_table.il")
+    try:
+        url = web_url(d)
+        page = open_page(browser, url)
+        page.click("#tabs button[data-tab=machine]")
+        sync_api.expect(page.locator("#table-outline")).to_be_visible()
+        api = Client("127.0.0.1", int(re.search(r":(\d+)/$", url)[1]))
+        for _ in range(200):  # homing done: both axes at 0
+            if api.get("%MW3")["%MW3"] == 0 and page.locator("#pen-path").count() == 0 and \
+                    api.request("machine?since=0")["devices"]["X"]["pos"] == 0 and \
+                    api.request("machine?since=0")["devices"]["Z"]["pos"] == 0:
+                break
+            page.wait_for_timeout(50)
+        api.request("write", {"writes": [{"object": "%MW0", "value": 600},
+                                         {"object": "%MW1", "value": 400},
+                                         {"object": "%MW5", "value": 1}]})
+        api.set("%MW3", 120)  # start the segment, as the host does
+        path = page.locator("#pen-path")
+        sync_api.expect(path).to_have_count(1, timeout=15000)
+        page.wait_for_function(
+            "() => { const p = document.querySelector('#pen-path');"
+            " return p && p.getTotalLength() > 100; }", timeout=15000)
+        shot(page, "machine")
+        page.close()
+    finally:
+        d.kill()
