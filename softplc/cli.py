@@ -22,6 +22,7 @@ COMMAND_MODULES = [
     "softplc.commands.io",
     "softplc.commands.cut",
     "softplc.commands.servo",
+    "softplc.commands.tune",
 ]
 
 

@@ -114,3 +114,56 @@ class AddressError(SoftPLCError, ValueError):
 
 class BlockError(SoftPLCError, ValueError):
     """A function block's parameters are wrong (timer type, preset range, drum steps...)."""
+
+
+class MassEstimationError(SoftPLCError):
+    """Mass estimation or tuning refused; nothing was written.
+
+    `status` is the code the host reports to the PLC (EST_STATUS, mass-estimation.md §6).
+    """
+
+    status = 7
+
+
+class MassFileError(MassEstimationError):
+    """A settings, recording or parameter file is missing or malformed."""
+
+    status = 1
+
+
+class ChannelMismatchError(MassEstimationError):
+    """The channel IDs of the settings and of the recordings differ, or a unit is wrong."""
+
+    status = 2
+
+
+class CrossingError(MassEstimationError):
+    """The acceleration does not cross the margin lines exactly 8 times in the right order."""
+
+    status = 3
+
+
+class SingularFitError(MassEstimationError):
+    """A least-squares fit has no unique solution (too few samples, a flat trace)."""
+
+    status = 4
+
+
+class UncertaintyError(MassEstimationError):
+    """The estimate's relative uncertainty exceeds Acc_uncert. Carries the estimate."""
+
+    status = 5
+
+    def __init__(self, message: str, estimate: object = None):
+        super().__init__(message)
+        self.estimate = estimate
+
+
+class TableRowError(MassEstimationError):
+    """No row of the parameter table fits the mass (or the mass is not a positive number)."""
+
+    status = 6
+
+
+class HostError(SoftPLCError):
+    """A Modbus host's exchange with the PLC failed (unreachable, timeout, exception)."""

@@ -45,7 +45,7 @@ class Trapezoid:
 
     @property
     def triangular(self) -> bool:
-        return self.length < self.speed * self.speed / self.accel
+        return self.length / self.speed < self.speed / self.accel  # ratios: no underflow
 
     @property
     def accel_time(self) -> float:

@@ -18,15 +18,17 @@ timeout; every failure becomes a `HostError` naming the segment and its G-code l
 
 from __future__ import annotations
 
-import logging
 import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
-from ..errors import SoftPLCError
+from ..errors import HostError
+from ..modbus.host import ModbusHost
 from .parser import StepSegment
+
+__all__ = ["DrawClient", "HostError", "StreamResult", "make_frame"]
 
 #: Words 2..9 of the seed's frame, with INICIO (120) at index 3 and the pen at index 5.
 FRAME_TEMPLATE = (0, 0, 20, 120, 40, 0, 60, 70, 85, 95)
@@ -37,17 +39,6 @@ FAULTS = {1: "homing timeout: a home switch is broken",
           2: "far-end limit switch hit"}
 START_VALUE = 120
 POLL_COUNT = 15  # %MW0-%MW14, as the seed reads
-
-
-# pymodbus logs failed connects itself; without a handler Python would print them raw to
-# stderr next to our own message. Records still reach handlers an application installs.
-_pymodbus_log = logging.getLogger("pymodbus")
-if not _pymodbus_log.handlers:
-    _pymodbus_log.addHandler(logging.NullHandler())
-
-
-class HostError(SoftPLCError):
-    """Streaming to the PLC failed (unreachable, timeout, Modbus exception)."""
 
 
 def make_frame(x: int, z: int, pen_down: bool) -> list[int]:
@@ -99,7 +90,7 @@ class ProgressBar:
             self.shown = False
 
 
-class DrawClient:
+class DrawClient(ModbusHost):
     """A Modbus TCP client that feeds segments to the drawing-table PLC.
 
     Use as a context manager (connects on enter) or call `connect()` / `close()`.
@@ -110,97 +101,23 @@ class DrawClient:
                  retries: int = 3, idle_timeout: float = 60.0, accept_timeout: float = 5.0,
                  move_timeout: float = 120.0, progress: TextIO | None = sys.stderr,
                  on_segment: Callable[[StepSegment], None] | None = None):
-        self.host, self.port, self.device_id = host, port, device_id
-        self.poll_interval = poll_interval
-        self.request_timeout = request_timeout
-        self.retries = max(0, retries)
+        super().__init__(host, port, device_id=device_id, poll_interval=poll_interval,
+                         request_timeout=request_timeout, retries=retries)
         self.idle_timeout = idle_timeout
         self.accept_timeout = accept_timeout
         self.move_timeout = move_timeout
         self.progress = progress
         self.on_segment = on_segment  # called before each program segment is sent
-        self._client = None
         self.frames_sent = 0
-
-    # -- connection --------------------------------------------------------------------
-    @property
-    def where(self) -> str:
-        return f"{self.host}:{self.port}"
-
-    def connect(self) -> DrawClient:
-        from pymodbus.client import ModbusTcpClient
-
-        if self._client is None:
-            self._client = ModbusTcpClient(self.host, port=self.port,
-                                           timeout=self.request_timeout, retries=0,
-                                           reconnect_delay=0, reconnect_delay_max=0)
-        try:
-            ok = self._client.connect()
-        except OSError as e:
-            ok, why = False, str(e)
-        else:
-            why = "connection refused or timed out"
-        if not ok:
-            self.close()
-            raise HostError(f"cannot reach the PLC at {self.where} ({why}); is the softplc "
-                            "daemon running and serving Modbus TCP on that port?")
-        return self
-
-    def close(self) -> None:
-        if self._client is not None:
-            self._client.close()
-            self._client = None
-
-    def __enter__(self) -> DrawClient:
-        return self.connect()
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def _call(self, what: str, fn: Callable[..., object], *args: object,
-              **kwargs: object) -> object:
-        """One Modbus request, retried with a reconnect on communication failures."""
-        from pymodbus.exceptions import ModbusException
-
-        last = ""
-        for attempt in range(self.retries + 1):
-            if self._client is None:
-                try:
-                    self.connect()
-                except HostError as e:
-                    last = str(e)
-                    time.sleep(self.poll_interval)
-                    continue
-            try:
-                rr = fn(self._client, *args, device_id=self.device_id, **kwargs)
-            except (ModbusException, OSError) as e:
-                last = str(e) or type(e).__name__
-                self.close()
-                if attempt < self.retries:
-                    time.sleep(self.poll_interval)
-                continue
-            if rr.isError():
-                raise HostError(f"{what}: the PLC at {self.where} answered with a Modbus "
-                                f"exception ({rr})")
-            return rr
-        raise HostError(f"{what}: no answer from the PLC at {self.where} after "
-                        f"{self.retries + 1} attempts ({last})")
 
     # -- registers ---------------------------------------------------------------------
     def read_state(self) -> list[int]:
         """%MW0-%MW14 (FC3)."""
-        rr = self._call("reading %MW0-%MW14",
-                        lambda c, **kw: c.read_holding_registers(0, count=POLL_COUNT, **kw))
-        regs = list(rr.registers)  # type: ignore[attr-defined]
-        if len(regs) < POLL_COUNT:
-            raise HostError(f"reading %MW0-%MW14: got {len(regs)} registers")
-        return regs
+        return self.read_words(0, POLL_COUNT)
 
     def write_frame(self, x: int, z: int, pen_down: bool) -> None:
         """Send one segment: ten registers from %MW0 in one FC16 request."""
-        frame = make_frame(x, z, pen_down)
-        self._call("writing the segment frame",
-                   lambda c, **kw: c.write_registers(0, frame, **kw))
+        self.write_words(0, make_frame(x, z, pen_down))
         self.frames_sent += 1
 
     def wait_for(self, ready: Callable[[list[int]], bool], timeout: float,

@@ -1,0 +1,119 @@
+"""A Modbus TCP host (client) talking to the soft Twido: connection, retries and the word
+helpers the host programs share (`softplc draw`, `softplc tune`)."""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Sequence
+from typing import Self
+
+from ..errors import HostError
+from .regmap import float_to_registers, registers_to_float
+
+# pymodbus logs failed connects itself; without a handler Python would print them raw to
+# stderr next to our own message. Records still reach handlers an application installs.
+_pymodbus_log = logging.getLogger("pymodbus")
+if not _pymodbus_log.handlers:
+    _pymodbus_log.addHandler(logging.NullHandler())
+
+
+class ModbusHost:
+    """pymodbus' blocking TCP client with reconnecting retries; every failure becomes a
+    `HostError`. Use as a context manager (connects on enter) or `connect()` / `close()`."""
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 5020, *, device_id: int = 1,
+                 poll_interval: float = 0.05, request_timeout: float = 1.0,
+                 retries: int = 3):
+        self.host, self.port, self.device_id = host, port, device_id
+        self.poll_interval = poll_interval
+        self.request_timeout = request_timeout
+        self.retries = max(0, retries)
+        self._client = None
+
+    # -- connection --------------------------------------------------------------------
+    @property
+    def where(self) -> str:
+        return f"{self.host}:{self.port}"
+
+    def connect(self) -> Self:
+        from pymodbus.client import ModbusTcpClient
+
+        if self._client is None:
+            self._client = ModbusTcpClient(self.host, port=self.port,
+                                           timeout=self.request_timeout, retries=0,
+                                           reconnect_delay=0, reconnect_delay_max=0)
+        try:
+            ok = self._client.connect()
+        except OSError as e:
+            ok, why = False, str(e)
+        else:
+            why = "connection refused or timed out"
+        if not ok:
+            self.close()
+            raise HostError(f"cannot reach the PLC at {self.where} ({why}); is the softplc "
+                            "daemon running and serving Modbus TCP on that port?")
+        return self
+
+    def close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+
+    def __enter__(self) -> Self:
+        return self.connect()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _call(self, what: str, fn: Callable[..., object], *args: object,
+              **kwargs: object) -> object:
+        """One Modbus request, retried with a reconnect on communication failures."""
+        from pymodbus.exceptions import ModbusException
+
+        last = ""
+        for attempt in range(self.retries + 1):
+            if self._client is None:
+                try:
+                    self.connect()
+                except HostError as e:
+                    last = str(e)
+                    time.sleep(self.poll_interval)
+                    continue
+            try:
+                rr = fn(self._client, *args, device_id=self.device_id, **kwargs)
+            except (ModbusException, OSError) as e:
+                last = str(e) or type(e).__name__
+                self.close()
+                if attempt < self.retries:
+                    time.sleep(self.poll_interval)
+                continue
+            if rr.isError():
+                raise HostError(f"{what}: the PLC at {self.where} answered with a Modbus "
+                                f"exception ({rr})")
+            return rr
+        raise HostError(f"{what}: no answer from the PLC at {self.where} after "
+                        f"{self.retries + 1} attempts ({last})")
+
+    # -- words -------------------------------------------------------------------------
+    def read_words(self, address: int, count: int) -> list[int]:
+        """%MW<address>.. (FC 3), unsigned 16-bit values."""
+        rr = self._call(f"reading %MW{address}:{count}",
+                        lambda c, **kw: c.read_holding_registers(address, count=count, **kw))
+        regs = list(rr.registers)  # type: ignore[attr-defined]
+        if len(regs) != count:
+            raise HostError(f"reading %MW{address}:{count}: got {len(regs)} registers")
+        return regs
+
+    def write_words(self, address: int, values: Sequence[int]) -> None:
+        """%MW<address>.. in one FC 16 frame (lands whole at the next scan start)."""
+        words = [v & 0xFFFF for v in values]
+        self._call(f"writing %MW{address}:{len(words)}",
+                   lambda c, **kw: c.write_registers(address, words, **kw))
+
+    def read_float(self, address: int) -> float:
+        """%MF<address> (two registers, low word first)."""
+        return registers_to_float(*self.read_words(address, 2))
+
+    def write_float(self, address: int, value: float) -> None:
+        self.write_words(address, float_to_registers(value))
