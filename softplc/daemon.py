@@ -1,11 +1,17 @@
 """`softplc run`: the scan engine on a periodic clock plus a Modbus TCP server.
 
 Threads: the main thread runs the scan loop (precise absolute-deadline sleeps, signal
-handling, statistics, retained-state snapshots); the Modbus server runs its asyncio loop
-in a background thread (`ServerThread`); retained state is written by a third thread so
-an fsync never delays a scan. Modbus traffic meets the scan only through `ModbusImage`:
-writes are queued and applied by a `before_scan` hook, reads come from the snapshot an
-`after_scan` hook takes.
+handling, statistics); the Modbus server runs its asyncio loop in a background thread
+(`ServerThread`); a third thread flushes the retained state to disk every save interval
+so an msync never delays a scan. Modbus traffic meets the scan only through `ModbusImage`:
+writes wait in its pending image and are applied by a `before_scan` hook, reads come from
+the snapshot an `after_scan` hook takes, which also commits the retained image to the
+memory-mapped state file (`runtime.retain.StateStore`).
+
+Start-up order: bind the port, lock and read the state file, then open anything for
+writing (`open_outputs`, e.g. the trace CSV). Stop (SIGINT/SIGTERM): the scan in progress
+finishes, or is cut short at once if it loops (its memory is then neither shown nor
+kept: the state is the last scan boundary's); further signals are ignored.
 
 Periodic mode [manual]: a scan starts every %SW0 ms; a scan longer than the period sets
 %S19 (through `plc.note_overrun()`) and the next scan starts at once. A program that
@@ -17,19 +23,22 @@ every period/speed seconds of real time (`math.inf`: back to back), for simulati
 
 from __future__ import annotations
 
+import errno
 import logging
 import math
 import os
 import signal
 import sys
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
 from .errors import SoftPLCError
 from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
+from .modbus.server import bind_listeners
 from .runtime import retain
 
 log = logging.getLogger("softplc.daemon")
@@ -40,18 +49,28 @@ SWITCH_INTERVAL = 0.0002  # seconds; see Daemon.run
 
 @dataclass
 class DaemonOptions:
-    host: str = "127.0.0.1"
+    host: str = "127.0.0.1"  # "localhost": both 127.0.0.1 and ::1
     port: int = 5020
     period: float = 0.010  # seconds, a whole number of ms
     state: Path | None = None
     cold: bool = False
-    save_interval: float = 5.0  # seconds; 0 = save only at shutdown
+    keep_state: bool = False  # warm restart even if the program or configuration changed
+    save_interval: float = 5.0  # seconds between flushes to disk; 0 = only at shutdown
     speed: float | None = None  # None: real time; N: N x real time; math.inf: max
     stats_interval: float = 5.0  # seconds; 0 = no statistics lines
     max_clients: int = 32
     frame_timeout: float = 2.0
     idle_timeout: float | None = None
     rt_priority: int = 10  # SCHED_FIFO priority of the scan thread; 0 = normal scheduling
+    read_only: bool = False  # every host write refused (exception 01)
+    allow: tuple[Any, ...] | None = None  # client networks (ipaddress); None = any
+    # Opened once the port is bound and the state file locked (e.g. the trace CSV): a
+    # start that fails never touches another daemon's files.
+    open_outputs: list[Callable[[], None]] = field(default_factory=list)
+    # Called once the Modbus server runs, with it and the image: other front-ends (a web
+    # monitor) start on `server.loop` and write through `image.write_words/write_bits`.
+    on_serving: list[Callable[[ServerThread, ModbusImage], None]] = field(
+        default_factory=list)
     web: Any = None  # softplc.web.WebOptions; None = no web monitor
 
 
@@ -71,16 +90,23 @@ class Daemon:
     """Runs a PLC periodically with a Modbus server until `request_stop` (or a signal)."""
 
     def __init__(self, plc: Any, options: DaemonOptions, *, program_name: str = "",
-                 out: TextIO | None = None):
+                 app: bytes = b"", out: TextIO | None = None):
         self.plc = plc
         self.opt = options
         self.program_name = program_name
+        self.app = app  # retain.application_id of the program and configuration
         self.out = out or sys.stdout
         self._stop = False
+        self._scanning = False
+        self.interrupted = False  # a scan was cut short by a stop request
+        self.signals = 0
+        self.image: ModbusImage | None = None
+        self._server: ServerThread | None = None
         self.overruns = 0
         self.jitter: list[float] = []  # scan start lateness, current stats window
         self.jitter_max = 0.0
         self.start_mode = ""
+        self.start_why = ""
         self.priority = ""
         self.web: Any = None  # the web monitor (softplc.web), if any
         ms = options.period * 1000
@@ -90,8 +116,21 @@ class Daemon:
         self.period_ms = round(ms)
 
     def request_stop(self, *_: Any) -> None:
-        """Ask the loop to stop after the current scan (signal handler, other threads)."""
+        """Stop after the current scan, or at once if the scan loops (signal handler, other
+        threads). The state kept is the last scan boundary's; a repeated request is
+        ignored (a second Ctrl-C never cuts the shutdown short)."""
+        if self._stop:
+            return
         self._stop = True
+        if self._scanning:
+            self.interrupted = True
+            if self.image is not None:
+                self.image.hold = True  # the cut-short scan's memory is neither shown nor kept
+            self.plc.engine.interrupt()
+
+    def _on_signal(self, *_: Any) -> None:
+        self.signals += 1
+        self.request_stop()
 
     def say(self, text: str) -> None:
         print(text, file=self.out, flush=True)
@@ -110,48 +149,113 @@ class Daemon:
             "virtual clock, as fast as possible" if opt.speed == math.inf
             else f"virtual clock x{opt.speed:g}")
         self.say(f"softplc run: {self.program_name} ({rungs} rungs), period {self.period_ms} ms "
-                 f"({clock}), {self.start_mode} start, state {plc.state}")
+                 f"({clock}), {self.start_mode} start ({self.start_why}), state {plc.state}")
         if opt.state is not None:
             every = f"every {opt.save_interval:g} s and " if opt.save_interval else ""
-            self.say(f"retained state: {opt.state} (saved {every}at shutdown)")
+            self.say(f"retained state: {opt.state} (locked; every scan and every write kept "
+                     f"through a process kill; flushed to disk {every}at shutdown)")
         self.say(f"scan thread: {self.priority}")
         if plc.devices:
             self.say("simulated devices: " + ", ".join(plc.devices))
         for line in describe(image.n_registers, image.n_coils, image.read_only):
             self.say("  " + line)
+        if opt.read_only:
+            self.say("  read-only: every write is answered with exception 01")
+        if opt.allow is not None:
+            self.say("  clients allowed from: " + ", ".join(str(n) for n in opt.allow))
         for line in self.web.banner() if self.web is not None else ():  # web monitor hook
             self.say(line)
         # The last banner line: tools and tests wait for it.
-        self.say(f"Modbus TCP server listening on {opt.host}:{server.port}")
+        self.say("Modbus TCP server listening on " + ", ".join(server.server.addresses))
+
+    def _bind(self) -> list[Any]:
+        opt = self.opt
+        try:
+            return bind_listeners(opt.host, opt.port)
+        except OSError as e:
+            raise SoftPLCError(
+                f"cannot listen on {opt.host}:{opt.port}: {e.strerror or e}"
+                + ("; is another softplc running? choose another --port (or PORT=... make "
+                   "run)" if e.errno == errno.EADDRINUSE else "")) from None
+
+    def _open_state(self) -> retain.StateStore | None:
+        """Lock and read the state file, then cold or warm start (sets start_mode/why)."""
+        plc, opt = self.plc, self.opt
+        if opt.state is None:
+            plc.cold_start()
+            self.start_mode, self.start_why = "cold", "no --state file"
+            return None
+        store = retain.StateStore.open(opt.state)
+        try:
+            state = None
+            try:
+                state = store.load()
+            except retain.StateFileError:
+                if not opt.cold:
+                    raise
+            self.start_mode, self.start_why = retain.restart(
+                plc, state, cold=opt.cold, keep_state=opt.keep_state, app=self.app,
+                where=f"state file {opt.state}")
+            store.start(retain.capture(plc.mem, self.app))
+            store.set_pid()
+        except BaseException:
+            store.close()
+            raise
+        return store
 
     # -- the loop ------------------------------------------------------------------------
     def run(self) -> int:
         plc, opt = self.plc, self.opt
-        self.start_mode = retain.restart(plc, opt.state, opt.cold, self.program_name)
-        self._set_period(self.period_ms)
-        ro = parse_read_only(plc.config, plc.mem.profile)
-        # devices' status words (e.g. a servo axis's) are read-only for hosts too
-        device_ro = tuple(r for d in plc.devices.values() for r in d.read_only_words())
-        image = ModbusImage(plc.mem, ReadOnly(ro.registers + device_ro, ro.coils))
-        plc.before_scan.append(image.apply_writes)
-        plc.after_scan.append(image.take_snapshot)
-        server = ServerThread(image, opt.host, opt.port, max_clients=opt.max_clients,
-                              frame_timeout=opt.frame_timeout, idle_timeout=opt.idle_timeout)
+        # Order matters: nothing is opened for writing until the port is ours and the
+        # state file locked, so a second daemon that cannot start harms nothing.
+        sockets = self._bind()
         try:
-            server.start()
-        except OSError as e:
-            raise SoftPLCError(f"cannot listen on {opt.host}:{opt.port}: "
-                               f"{e.strerror or e}") from None
-        # web monitor hook: served on the Modbus server's event loop (softplc.web)
-        from .web import attach
-
-        try:
-            self.web = attach(self, server, image, opt.web)
-        except SoftPLCError:
-            server.stop()
+            store = self._open_state()
+        except BaseException:
+            for s in sockets:
+                s.close()
             raise
-        writer = retain.RetainWriter(opt.state) if opt.state is not None else None
-        old_handlers = {s: signal.signal(s, self.request_stop)
+        try:
+            for open_output in opt.open_outputs:
+                open_output()
+            self._set_period(self.period_ms)
+            blocks = None
+            if store is not None:
+                def blocks() -> bytes:
+                    return retain.encode_blocks(retain.capture_blocks(plc.mem))
+            ro = parse_read_only(plc.config, plc.mem.profile)
+            # devices' status words (e.g. a servo axis's) are read-only for hosts too
+            device_ro = tuple(r for d in plc.devices.values() for r in d.read_only_words())
+            image = self.image = ModbusImage(
+                plc.mem, ReadOnly(ro.registers + device_ro, ro.coils), store=store,
+                blocks=blocks, writes_allowed=not opt.read_only)
+            plc.before_scan.append(image.apply_writes)
+            plc.after_scan.append(image.take_snapshot)
+            server = ServerThread(image, opt.host, opt.port, sockets=sockets,
+                                  max_clients=opt.max_clients, frame_timeout=opt.frame_timeout,
+                                  idle_timeout=opt.idle_timeout, allow=opt.allow)
+            server.start()
+            self._server = server
+            # web monitor hook: served on the Modbus server's event loop (softplc.web)
+            from .web import attach
+
+            self.web = attach(self, server, image, opt.web)
+            for hook in opt.on_serving:
+                hook(server, image)
+        except BaseException:
+            if self.web is not None:
+                self.web.stop()
+            if self._server is not None:
+                self._server.stop()
+            for s in sockets:
+                s.close()
+            if store is not None:
+                store.close()
+            raise
+        persister = retain.Persister(store, opt.save_interval) if store is not None else None
+        # Until the very end a signal only sets flags: a second Ctrl-C cannot interrupt
+        # the shutdown half-way or change the exit status.
+        old_handlers = {s: signal.signal(s, self._on_signal)
                         for s in (signal.SIGINT, signal.SIGTERM)}
         # The scan thread and the Modbus thread share the GIL. A thread that wants it waits
         # up to the switch interval (5 ms by default) for a busy holder to let go: that
@@ -160,14 +264,18 @@ class Daemon:
         old_switch = sys.getswitchinterval()
         sys.setswitchinterval(SWITCH_INTERVAL)
         try:
-            self.priority = self._realtime()  # after the other threads started
-            self._banner(server, image)
-            self._loop(server, writer)
+            try:
+                self.priority = self._realtime()  # after the other threads started
+                self._banner(server, image)
+                self._loop(server)
+            finally:
+                sys.setswitchinterval(old_switch)
+                self._shutdown(server, store, persister)
         finally:
+            # Stopped by a signal: the process is on its way out and more signals (Ctrl-C
+            # held down) must not change its exit status: ignore them from now on.
             for s, h in old_handlers.items():
-                signal.signal(s, h)
-            sys.setswitchinterval(old_switch)
-            self._shutdown(server, image, writer)
+                signal.signal(s, signal.SIG_IGN if self.signals else h)
         return 0
 
     def _realtime(self) -> str:
@@ -181,13 +289,16 @@ class Daemon:
             return "normal priority (--speed max)"
         try:
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(prio))
+            if self._server is not None and prio > 1:
+                self._server.set_priority(prio - 1)
         except (AttributeError, OSError) as e:
             log.warning("no real-time priority for the scan thread: %s", e)
             return (f"normal priority (real-time priority not permitted: "
                     f"{getattr(e, 'strerror', None) or e})")
-        return f"real-time priority SCHED_FIFO {prio}"
+        return (f"real-time priority SCHED_FIFO {prio}"
+                + (f" (Modbus thread {prio - 1})" if prio > 1 else ""))
 
-    def _loop(self, server: ServerThread, writer: retain.RetainWriter | None) -> None:
+    def _loop(self, server: ServerThread) -> None:
         plc, opt = self.plc, self.opt
         clock = time.perf_counter
         sleep = time.sleep
@@ -195,7 +306,6 @@ class Daemon:
         now = clock()
         next_start = now
         next_stats = now + opt.stats_interval if opt.stats_interval else math.inf
-        next_save = now + opt.save_interval if writer and opt.save_interval else math.inf
         last_requests, last_stats_t = 0, now
         while not self._stop:
             delay = next_start - clock()
@@ -204,8 +314,10 @@ class Daemon:
                 continue
             if delay > 0:
                 sleep(delay)
-                if self._stop:
-                    break
+            self._scanning = True  # before the last check: request_stop then interrupts
+            if self._stop:
+                self._scanning = False
+                break
             start = clock()
             if self.interval:
                 late = start - next_start
@@ -214,6 +326,9 @@ class Daemon:
                 if late > self.jitter_max:
                     self.jitter_max = late
             plc.scan()  # in HALT or STOP it still applies writes and refreshes the snapshot
+            self._scanning = False
+            if self.interrupted:
+                break
             if plc.state != state:
                 state = plc.state
                 if state == "HALT":
@@ -233,9 +348,6 @@ class Daemon:
                     self._set_period(sw0)
                 else:
                     plc.mem.sw.w[0] = self.period_ms
-            if end >= next_save:
-                writer.submit(retain.capture(plc.mem, self.program_name))  # type: ignore
-                next_save = end + opt.save_interval
             if end >= next_stats:
                 req = server.stats.requests
                 rate = (req - last_requests) / (end - last_stats_t)
@@ -251,22 +363,28 @@ class Daemon:
         return (f"stats scans={st.scans} scan_last={_ms(st.last)} scan_max={_ms(st.max)} "
                 f"overruns={self.overruns} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
                 f"jitter_max={_ms(jmax)} clients={server.stats.clients} req/s={rate:.0f} "
-                f"exceptions={server.stats.exceptions} state={self.plc.state}")
+                f"exceptions={server.stats.exceptions} "
+                f"refused={server.stats.rejected + server.stats.denied} state={self.plc.state}")
 
-    def _shutdown(self, server: ServerThread, image: ModbusImage,
-                  writer: retain.RetainWriter | None) -> None:
+    def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
+                  persister: retain.Persister | None) -> None:
         plc = self.plc
         plc.stop_outputs()
         if self.web is not None:  # web monitor hook
             self.web.stop()
         server.stop()  # closes every client: nothing more can be acknowledged
-        # Writes acknowledged since the last scan are applied, so the saved state has them.
-        image.apply_writes()
-        image.take_snapshot()
+        # The store already holds the last scan boundary and every write acknowledged since
+        # (journal): flush it to disk.
         saved = ""
-        if writer is not None:
-            writer.close(retain.capture(plc.mem, self.program_name))
+        if persister is not None:
+            persister.stop()
+        if store is not None:
+            try:
+                store.persist()
+            finally:
+                store.close()
             saved = f", state saved to {self.opt.state}"
         plc.close()  # devices flush their files (the trace CSV)
+        cut = ", last scan interrupted (state as of the scan before)" if self.interrupted else ""
         self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns, "
-                 f"jitter max {_ms(self.jitter_max)}, outputs 0{saved}")
+                 f"jitter max {_ms(self.jitter_max)}, outputs 0{saved}{cut}")

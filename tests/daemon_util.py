@@ -12,6 +12,8 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
+
 from softplc.modbus.rawclient import RawClient
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -70,3 +72,18 @@ class Daemon:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait(10)
+
+
+@pytest.fixture
+def daemons():
+    """Daemons a test starts (`started(daemons, ...)`); killed at the end if still running."""
+    started: list[Daemon] = []
+    yield started
+    for d in started:
+        d.kill()
+
+
+def started(daemons: list[Daemon], tmp: Path, *args: str, **kw) -> Daemon:
+    d = Daemon(tmp, *args, **kw)
+    daemons.append(d)
+    return d

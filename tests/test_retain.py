@@ -1,13 +1,17 @@
-"""Retained state files: round trip, atomic save, and clear errors for damaged files."""
+"""Retained state files: round trip, journal, kill-safety, and clear errors for damage."""
 
 from __future__ import annotations
 
+import shutil
+import struct
+
 import pytest
 
+from softplc.modbus.image import ModbusImage
 from softplc.runtime import retain
 from softplc.runtime.blocks import Counter, Timer, TimeSource
 from softplc.runtime.memory import MemoryImage
-from softplc.runtime.retain import StateFileError
+from softplc.runtime.retain import StateFileError, StateStore
 
 
 def image_with_data() -> MemoryImage:
@@ -37,18 +41,33 @@ class FakePLC:
         self.started = "cold"
 
 
+APP = b"\x01" * 32
+
+
+def started_store(path, mem: MemoryImage) -> StateStore:
+    """A store on `path`, laid out for `mem` and holding it."""
+    store = StateStore.open(path)
+    store.start(retain.capture(mem))
+    return store
+
+
+def commit(store: StateStore, mem: MemoryImage) -> None:
+    store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m))
+
+
 def test_round_trip(tmp_path):
     path = tmp_path / "plc.state"
     src = image_with_data()
-    retain.save(path, retain.capture(src, "prog.il"))
+    retain.save(path, retain.capture(src, APP))
     assert [p.name for p in tmp_path.iterdir()] == ["plc.state"]  # no temp file left
     dst = image_with_data()
     dst.mw.buf[:] = bytes(len(dst.mw.buf))
-    dst.m[:] = bytes(len(dst.m))
+    dst.m[:] = [0] * len(dst.m)
     dst.blocks["TM"][0].P = 0
     dst.blocks["C"][3].V = 0
     plc = FakePLC(dst)
-    assert retain.restart(plc, path) == "warm" and plc.started == "warm"
+    assert retain.restart(plc, retain.load(path), app=APP)[0] == "warm"
+    assert plc.started == "warm"
     assert dst.mw.w[0] == -7 and dst.mw.get_f(40) == 2.5 and dst.mw.w[2999] == 1234
     assert dst.m[255] == 1
     assert dst.blocks["TM"][0].P == 321
@@ -73,41 +92,89 @@ def test_running_timer_keeps_its_elapsed_time(tmp_path):
     assert new.blocks["TM"][0].V == 250 and new.blocks["TM"][0].Q == 0
 
 
-def test_missing_file_is_a_cold_start(tmp_path):
+def test_missing_or_empty_file_is_a_cold_start(tmp_path):
     plc = FakePLC(MemoryImage())
-    assert retain.restart(plc, tmp_path / "absent.state") == "cold" and plc.started == "cold"
-    assert retain.restart(plc, None) == "cold"
+    assert retain.load(tmp_path / "absent.state") is None
+    assert retain.restart(plc, None) == ("cold", "no retained state yet")
+    (tmp_path / "empty.state").write_bytes(b"")  # a creation that never finished
+    assert retain.load(tmp_path / "empty.state") is None
 
 
-def damaged_files(good: bytes) -> dict[str, bytes]:
-    head, _, body = good.partition(b"\n")
-    flipped = bytearray(good)
-    flipped[len(head) + 20] ^= 0x01
+def test_changed_application_is_a_cold_start_unless_keep_state(tmp_path):
+    path = tmp_path / "plc.state"
+    retain.save(path, retain.capture(image_with_data(), APP))
+    state = retain.load(path)
+    mem = MemoryImage()
+    plc = FakePLC(mem)
+    mode, why = retain.restart(plc, state, app=b"\x02" * 32)
+    assert mode == "cold" and "changed" in why and "--keep-state" in why
+    assert plc.started == "cold" and mem.mw.w[0] == 0
+    mode, why = retain.restart(plc, state, app=b"\x02" * 32, keep_state=True)
+    assert mode == "warm" and "--keep-state" in why and mem.mw.w[0] == -7
+    assert retain.application_id(b"LD 1", {"timers": {"%TM0": {"preset": 50}}}) != \
+        retain.application_id(b"LD 1", {"timers": {"%TM0": {"preset": 7}}})
+    assert retain.application_id(b"LD 1", {"modbus": {"port": 1}}) == \
+        retain.application_id(b"LD 1", {"modbus": {"port": 2}})
+
+
+def _slot_offsets(path) -> list[int]:
+    store = StateStore.open(path)
+    try:
+        store.load()
+        lay = store._layout
+        return [lay.slot_offset(i) for i in range(4)]
+    finally:
+        store.close()
+
+
+def damaged_files(good: bytes, slots: list[int]) -> dict[str, bytes]:
+    every_slot = bytearray(good)
+    for off in slots:
+        every_slot[off + 100] ^= 0x01
+    bad_header = bytearray(good)
+    bad_header[20] ^= 0x01
     return {
-        "empty": b"",
         "truncated": good[: len(good) // 2],
         "truncated header": good[:10],
-        "one bit flipped": bytes(flipped),
+        "every copy damaged": bytes(every_slot),
+        "header damaged": bytes(bad_header),
         "padded": good + b"\0",
-        "future version": good.replace(b"SOFTPLC-STATE 1 ", b"SOFTPLC-STATE 9 ", 1),
+        "future version": good.replace(b"SOFTPLC-STATE 2", b"SOFTPLC-STATE 9", 1),
+        "format 1": b"SOFTPLC-STATE 1 13 " + b"0" * 64 + b'\n{"format": 1}',
         "not a state file": b"hello world\n{}",
-        "bad length": head.replace(head.split()[2], b"x") + b"\n" + body,
     }
 
 
-@pytest.mark.parametrize("case", ["empty", "truncated", "truncated header", "one bit flipped",
-                                  "padded", "future version", "not a state file",
-                                  "bad length"])
+CASES = {"truncated": "truncated", "truncated header": "not a softplc state file",
+         "every copy damaged": "corrupt", "header damaged": "corrupt header",
+         "padded": "padded", "future version": "version 9", "format 1": "version 1",
+         "not a state file": "not a softplc state file"}
+
+
+@pytest.mark.parametrize("case", list(CASES))
 def test_damaged_file_is_an_error_unless_cold(tmp_path, case):
     path = tmp_path / "plc.state"
     retain.save(path, retain.capture(image_with_data()))
-    path.write_bytes(damaged_files(path.read_bytes())[case])
-    mem = MemoryImage()
-    plc = FakePLC(mem)
-    with pytest.raises(StateFileError, match="--cold"):
-        retain.restart(plc, path)
-    assert plc.started == "" and mem.mw.w[0] == 0  # nothing touched
-    assert retain.restart(plc, path, cold=True) == "cold" and plc.started == "cold"
+    path.write_bytes(damaged_files(path.read_bytes(), _slot_offsets(path))[case])
+    with pytest.raises(StateFileError, match="--cold") as e:
+        retain.load(path)
+    assert CASES[case] in str(e.value)
+
+
+def test_newest_copy_damaged_falls_back_to_the_previous(tmp_path):
+    path = tmp_path / "plc.state"
+    mem = image_with_data()
+    store = started_store(path, mem)
+    mem.mw.w[1] = 11
+    commit(store, mem)
+    mem.mw.w[1] = 22
+    store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m))  # newest: slot seq 3
+    newest = store._layout.slot_offset(store._slot)
+    store.close()
+    data = bytearray(path.read_bytes())
+    data[newest + 100] ^= 1  # e.g. the kill came while this copy was being written
+    path.write_bytes(bytes(data))
+    assert struct.unpack_from("<h", retain.load(path).mw, 2)[0] == 11
 
 
 def test_other_controller_is_an_error(tmp_path):
@@ -116,27 +183,117 @@ def test_other_controller_is_an_error(tmp_path):
     state.mw = state.mw[:100]
     retain.save(path, state)
     with pytest.raises(StateFileError, match="50 %MW"):
-        retain.restart(FakePLC(MemoryImage()), path)
+        retain.restart(FakePLC(MemoryImage()), retain.load(path))
 
 
-def test_checksummed_json_with_valid_sum_but_bad_content(tmp_path):
-    import hashlib
-    body = b'{"format": 1}'
-    data = f"SOFTPLC-STATE 1 {len(body)} {hashlib.sha256(body).hexdigest()}\n".encode() + body
-    with pytest.raises(StateFileError, match="unreadable content"):
-        retain.decode(data)
-
-
-def test_writer_thread_saves_latest_and_reports_errors(tmp_path):
-    path = tmp_path / "w.state"
+def test_checksummed_slot_with_bad_content(tmp_path):
+    path = tmp_path / "plc.state"
     mem = image_with_data()
-    w = retain.RetainWriter(path)
-    for k in range(5):
-        mem.mw.w[7] = k
-        w.submit(retain.capture(mem))
-    mem.mw.w[7] = 99
-    w.close(retain.capture(mem))
-    assert retain.load(path).mw == bytes(mem.mw.buf)
-    bad = retain.RetainWriter(tmp_path / "no" / "such" / "dir" / "s")
-    with pytest.raises(StateFileError, match="cannot save"):
-        bad.close(retain.capture(mem))
+    store = started_store(path, mem)
+    store.commit(retain.words_to_be(mem.mw.buf), bytes(mem.m), b"not json")
+    store.close()
+    with pytest.raises(StateFileError, match="unreadable content"):
+        retain.load(path)
+
+
+def test_second_store_on_one_file_is_refused(tmp_path):
+    path = tmp_path / "plc.state"
+    first = StateStore.open(path)
+    first.start(retain.capture(image_with_data()))
+    first.set_pid()
+    try:
+        with pytest.raises(StateFileError, match=r"in use by another softplc \(pid \d+\)"):
+            StateStore.open(path)
+    finally:
+        first.close()
+    StateStore.open(path).close()  # free again
+
+
+def _kill_copy(path, tmp_path):
+    """What a killed process leaves: the file as the page cache holds it, unclosed."""
+    copy = tmp_path / "after-kill.state"
+    shutil.copyfile(path, copy)
+    return copy
+
+
+def test_acknowledged_writes_survive_the_process_dying(tmp_path):
+    """Writes are journaled before they are acknowledged; a new scan-boundary commit
+    includes them. The file as left at any point holds every acknowledged write."""
+    path = tmp_path / "plc.state"
+    mem = image_with_data()
+    store = started_store(path, mem)
+    img = ModbusImage(mem, store=store, blocks=lambda: b"{}")
+    img.write_words(100, [1, 2, 3])
+    img.write_bits(7, [1])
+    img.write_words(101, [20])
+    st = retain.load(_kill_copy(path, tmp_path))  # killed before the next scan
+    assert struct.unpack_from("<3h", st.mw, 200) == (1, 20, 3) and st.m[7] == 1
+    img.apply_writes()
+    mem.mw.w[102] = 30  # the program's work in the scan
+    img.take_snapshot()  # scan boundary: committed
+    img.write_words(100, [10])
+    st = retain.load(_kill_copy(path, tmp_path))
+    assert struct.unpack_from("<3h", st.mw, 200) == (10, 20, 30)
+    for k in range(20_000):  # far more than the journal holds: it compacts into slots
+        img.write_words(k % 3000, [k & 0x7FFF])
+    st = retain.load(_kill_copy(path, tmp_path))
+    expect = {k % 3000: k & 0x7FFF for k in range(20_000)}
+    assert all(struct.unpack_from("<h", st.mw, 2 * a)[0] == v for a, v in expect.items())
+    store.close()
+
+
+def test_a_write_cut_off_mid_journal_entry_is_ignored(tmp_path):
+    path = tmp_path / "plc.state"
+    mem = image_with_data()
+    store = started_store(path, mem)
+    store.journal(retain.REGISTERS, 5, b"\x00\x05")
+    pos = store._layout.journal_offset + store._jpos
+    store.journal(retain.REGISTERS, 6, b"\x00\x06")
+    store._mm[pos + 8] ^= 0xFF  # second entry torn
+    store._mm.flush()
+    st = retain.load(_kill_copy(path, tmp_path))
+    assert struct.unpack_from("<2h", st.mw, 10) == (5, 0)
+    store.close()
+
+
+def test_persist_keeps_a_durable_copy(tmp_path):
+    """Power loss: the durable slots are only written by persist (then msync'ed)."""
+    path = tmp_path / "plc.state"
+    mem = image_with_data()
+    store = started_store(path, mem)
+    mem.mw.w[9] = 99
+    commit(store, mem)
+    store.persist()
+    mem.mw.w[9] = 100
+    commit(store, mem)
+    lay = store._layout
+    data = bytearray(_kill_copy(path, tmp_path).read_bytes())
+    store.close()
+    for i in retain.VOLATILE:  # as if the volatile copies never reached the disk
+        off = lay.slot_offset(i)
+        data[off:off + lay.slot_size] = bytes(lay.slot_size)
+    path.write_bytes(bytes(data))
+    assert struct.unpack_from("<h", retain.load(path).mw, 18)[0] == 99
+
+
+def test_persist_alternates_durable_copies(tmp_path):
+    """A power cut during an msync tears at most the copy being written: the other
+    durable copy holds the previous flush."""
+    path = tmp_path / "plc.state"
+    mem = image_with_data()
+    store = started_store(path, mem)
+    written = []
+    for v in (1, 2, 3):
+        mem.mw.w[9] = v
+        commit(store, mem)
+        store.persist()
+        written.append(store._durable_seq.index(store.persisted_seq))
+    assert written == [0, 1, 0]
+    lay = store._layout
+    data = bytearray(_kill_copy(path, tmp_path).read_bytes())
+    store.close()
+    for i in (*retain.VOLATILE, retain.DURABLE[0]):  # volatile lost, last flush torn
+        off = lay.slot_offset(i)
+        data[off + 200] ^= 0xFF
+    path.write_bytes(bytes(data))
+    assert struct.unpack_from("<h", retain.load(path).mw, 18)[0] == 2

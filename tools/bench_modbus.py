@@ -11,7 +11,13 @@ and p99/max are the largest window values (an upper bound).
 
 Targets (issue 3): >= 4000 req/s, p99 <= 2 ms, jitter p99 <= 1 ms, no overrun.
 
+`--storm N` adds a connection storm while the clients run (issue 9): N more connections
+against the daemon's 32-client limit, each reconnecting as soon as it is refused (the
+ones that get a slot stay connected, idle); reported: refused attempts per second and the
+scan jitter meanwhile (target p99 <= 1 ms at a 10 ms period with N = 500).
+
     .venv/bin/python tools/bench_modbus.py [--duration 3] [--clients 1 8] [--program X.il]
+                                           [--storm 500]
 """
 
 from __future__ import annotations
@@ -92,6 +98,42 @@ def _client(port: int, start_at: float, duration: float, out: mp.Queue) -> None:
     out.put(lat.tobytes())
 
 
+def _storm(port: int, n: int, start_at: float, duration: float, out: mp.Queue) -> None:
+    """n connections kept in flight: each reconnects as soon as the server refuses it."""
+    import selectors
+    import socket
+
+    sel = selectors.DefaultSelector()
+    refused = 0
+
+    def connect() -> None:
+        s = socket.socket()
+        s.setblocking(False)
+        s.connect_ex(("127.0.0.1", port))
+        sel.register(s, selectors.EVENT_READ)  # readable = reset or closed: refused
+
+    while time.time() < start_at:
+        time.sleep(0.001)
+    for _ in range(n):
+        connect()
+    end = time.time() + duration
+    while time.time() < end:
+        for key, _ev in sel.select(0.05):
+            s = key.fileobj
+            try:
+                data = s.recv(1)  # type: ignore[union-attr]
+            except OSError:
+                data = b""
+            if not data:
+                sel.unregister(s)
+                s.close()  # type: ignore[union-attr]
+                refused += 1
+                connect()
+    for key in list(sel.get_map().values()):
+        key.fileobj.close()  # type: ignore[union-attr]
+    out.put(refused)
+
+
 class DaemonProcess:
     """`python -m softplc run` with statistics every second, read from its stdout."""
 
@@ -131,18 +173,28 @@ def _ms(v: str) -> float:
     return float(v.removesuffix("ms"))
 
 
-def _load(daemon: DaemonProcess, clients: int, duration: float) -> dict[str, float]:
+STORM_PROCESSES = 2
+
+
+def _load(daemon: DaemonProcess, clients: int, duration: float, storm: int = 0
+          ) -> dict[str, float]:
     ctx = mp.get_context("fork")
     q: mp.Queue = ctx.Queue()
+    sq: mp.Queue = ctx.Queue()
     start_at = time.time() + 0.5
     procs = [ctx.Process(target=_client, args=(daemon.port, start_at, duration, q))
              for _ in range(clients)]
-    for p in procs:
+    share = [storm // STORM_PROCESSES + (i < storm % STORM_PROCESSES)
+             for i in range(STORM_PROCESSES)] if storm else []
+    storms = [ctx.Process(target=_storm, args=(daemon.port, k, start_at, duration, sq))
+              for k in share if k]
+    for p in procs + storms:
         p.start()
     lats = array("d")
     for _ in procs:
         lats.frombytes(q.get(timeout=duration + 30))
-    for p in procs:
+    refused = sum(sq.get(timeout=duration + 30) for _ in storms)
+    for p in procs + storms:
         p.join()
     # Stats lines covering only the load: emitted after start + 1 s, up to its end.
     t_end = start_at + duration
@@ -167,11 +219,12 @@ def _load(daemon: DaemonProcess, clients: int, duration: float) -> dict[str, flo
         "scan_max_ms": max((_ms(f["scan_max"]) for f in window), default=float("nan")),
         "overruns": overruns1 - overruns0,
         "stats_windows": len(window),
+        "storm_refused_per_s": refused / duration,
     }
 
 
 def run(clients: tuple[int, ...] = (1, 8), duration: float = 3.0, period_ms: int = 10,
-        program: Path | None = None, daemon_args: tuple[str, ...] = ()
+        program: Path | None = None, daemon_args: tuple[str, ...] = (), storm: int = 0
         ) -> dict[str, dict[str, float]]:
     """Benchmark a fresh daemon per client count; returns {"1": {...}, "8": {...}}.
     `daemon_args` go to `softplc run` (e.g. ("--rt-priority", "0"))."""
@@ -185,7 +238,7 @@ def run(clients: tuple[int, ...] = (1, 8), duration: float = 3.0, period_ms: int
             try:
                 time.sleep(1.0)  # let it settle
                 idle = [f for _, f in daemon.stats]
-                results[str(n)] = _load(daemon, n, duration)
+                results[str(n)] = _load(daemon, n, duration, storm)
                 results[str(n)]["idle_windows"] = len(idle)
             finally:
                 daemon.stop()
@@ -202,14 +255,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=3.0, help="seconds of load per case")
     ap.add_argument("--period", type=int, default=10, help="scan period, ms")
     ap.add_argument("--program", type=Path, help="IL program (default: a small built-in one)")
+    ap.add_argument("--storm", type=int, default=0,
+                    help="connections storming the 32-client limit meanwhile (e.g. 500)")
     ap.add_argument("--daemon-args", default="",
                     help="extra `softplc run` arguments, e.g. \"--rt-priority 0\"")
     a = ap.parse_args(argv)
-    res = run(tuple(a.clients), a.duration, a.period, a.program, tuple(a.daemon_args.split()))
+    res = run(tuple(a.clients), a.duration, a.period, a.program, tuple(a.daemon_args.split()),
+              a.storm)
     keys = ["requests_per_s", "latency_p50_ms", "latency_p99_ms", "latency_max_ms",
             "jitter_p50_ms", "jitter_p99_ms", "jitter_max_ms", "scan_max_ms", "overruns"]
+    if a.storm:
+        keys.append("storm_refused_per_s")
     print(f"FC 3 x 10 registers, scan period {a.period} ms, {a.duration:g} s per case, "
-          f"{os.cpu_count()} CPUs")
+          f"{os.cpu_count()} CPUs" + (f", storm of {a.storm} connections" if a.storm else ""))
     print(f"{'':16}" + "".join(f"{n + ' client' + ('s' if n != '1' else ''):>14}" for n in res)
           + "   target")
     for k in keys:

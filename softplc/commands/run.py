@@ -6,6 +6,7 @@ Settings come from the command line, else from the machine config, else defaults
     [modbus]  host = "127.0.0.1"  port = 5020  max_clients = 32
               frame_timeout = "2s"  idle_timeout = "0s"      # 0 = never
               read_only = ["%MW100:20", "%M0:8"]             # writes there get exception 02
+              allow = ["127.0.0.1", "192.168.1.0/24"]        # --allow; default: anyone
     [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "5s"
               rt_priority = 10                               # 0 = normal scheduling
 """
@@ -79,7 +80,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "saved.")
     p.add_argument("program", type=Path, help="Instruction List program (.il)")
     p.add_argument("--config", type=Path, help="machine configuration (TOML)")
-    p.add_argument("--host", help="address to listen on (default 127.0.0.1; 0.0.0.0 for all)")
+    p.add_argument("--host", help="address to listen on (default 127.0.0.1; 'localhost' = "
+                                  "127.0.0.1 and ::1; 0.0.0.0 for all IPv4)")
     p.add_argument("--port", type=_port,
                    help="TCP port (default 5020; a real Twido uses 502; 0 = any free port)")
     p.add_argument("--period", type=_period,
@@ -89,16 +91,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "at shutdown")
     p.add_argument("--cold", action="store_true",
                    help="cold start even if the state file holds data (or is damaged)")
+    p.add_argument("--keep-state", action="store_true",
+                   help="warm restart even if the program or configuration changed since the "
+                        "state was saved (default: a new application cold-starts)")
     p.add_argument("--save-interval", type=_duration,
-                   help="how often to save the state file (default 5s; 0 = only at shutdown)")
+                   help="how often to flush the state file to disk, for power loss (default "
+                        "5s; 0 = only at shutdown); a killed process loses nothing anyway")
     p.add_argument("--speed", type=_speed, default=None,
                    help="virtual clock N times faster than real time, or 'max'")
     p.add_argument("--stats-interval", type=_duration,
                    help="statistics line every ... (default 5s; 0 = none)")
     p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
+    p.add_argument("--read-only", action="store_true",
+                   help="refuse every Modbus write (exception 01, illegal function)")
+    p.add_argument("--allow", action="append", metavar="ADDR[/NET],...",
+                   help="accept clients only from these addresses or networks (IPv4/IPv6, "
+                        "comma-separated, repeatable); others are disconnected before any "
+                        "byte is read")
     p.add_argument("--rt-priority", type=int,
-                   help="SCHED_FIFO priority of the scan thread, 1..99 (default 10; 0 = "
-                        "normal scheduling); needs root or CAP_SYS_NICE, else ignored")
+                   help="SCHED_FIFO priority of the scan thread, 1..99, the Modbus thread "
+                        "one below (default 10; 0 = normal scheduling); needs root or "
+                        "CAP_SYS_NICE, else ignored")
     p.add_argument("--trace", type=Path, metavar="FILE.csv",
                    help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
                         "this CSV file (flushed every simulated second and at shutdown)")
@@ -130,24 +143,38 @@ def _pick(cli: Any, table: dict[str, Any], key: str, default: Any, conv=lambda v
     return default
 
 
+_LOCKED: list[int] = []  # descriptors held open (and locked) until the process ends
+
+
 def run(args: argparse.Namespace) -> int:
     from ..daemon import Daemon, DaemonOptions
     from ..plc import PLC
 
     logging.basicConfig(level=getattr(logging, args.log_level.upper()),
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    from ..modbus.server import parse_allow
+    from ..runtime.retain import application_id, open_locked
+
     plc = PLC.from_file(args.program, config=args.config,
                         clock="real" if args.speed is None else "virtual")
+    outputs = []
     if args.trace is not None:
         recorder = next((d for d in plc.devices.values()
                          if getattr(d, "type_name", "") == "trace"), None)
         if recorder is None:
             raise ConfigError("--trace: the machine config has no trace device")
-        args.trace.parent.mkdir(parents=True, exist_ok=True)
-        recorder.record_to(args.trace)
+        trace = args.trace
+
+        def open_trace() -> None:
+            trace.parent.mkdir(parents=True, exist_ok=True)
+            # locked for the process' life before record_to truncates it
+            _LOCKED.append(open_locked(trace, "trace file"))
+            recorder.record_to(trace)
+        outputs.append(open_trace)
     cfg = plc.config
     mb = check_keys("[modbus]", cfg.get("modbus", {}) or {},
-                    ("host", "port", "read_only", "max_clients", "frame_timeout", "idle_timeout"))
+                    ("host", "port", "read_only", "max_clients", "frame_timeout", "idle_timeout",
+                     "allow"))
     dm = check_keys("[daemon]", cfg.get("daemon", {}) or {},
                     ("state", "save_interval", "stats_interval", "rt_priority"))
     dur = duration
@@ -157,12 +184,19 @@ def run(args: argparse.Namespace) -> int:
     base = plc.config_dir
     if args.state is None and state is not None and base is not None and not state.is_absolute():
         state = base / state  # a path in the config is relative to the config file
+    allow = None
+    if args.allow:
+        allow = parse_allow(a for arg in args.allow for a in arg.split(",") if a.strip())
+    elif "allow" in mb:
+        entries = mb["allow"]
+        allow = parse_allow([entries] if isinstance(entries, str) else entries)
     opts = DaemonOptions(
         host=_pick(args.host, mb, "host", "127.0.0.1", str),
         port=_pick(args.port, mb, "port", 5020, _port),
         period=period,
         state=state,
         cold=args.cold,
+        keep_state=args.keep_state,
         save_interval=_pick(args.save_interval, dm, "save_interval", 5.0, dur),
         speed=args.speed,
         stats_interval=_pick(args.stats_interval, dm, "stats_interval", 5.0, dur),
@@ -170,13 +204,17 @@ def run(args: argparse.Namespace) -> int:
         frame_timeout=_pick(None, mb, "frame_timeout", 2.0, dur),
         idle_timeout=_pick(None, mb, "idle_timeout", 0.0, dur) or None,
         rt_priority=_pick(args.rt_priority, dm, "rt_priority", 10, int),
+        read_only=args.read_only,
+        allow=allow,
+        open_outputs=outputs,
         web=_web_options(args),
     )
     if opts.max_clients < 1:
         raise SoftPLCError("max_clients must be at least 1")
     if not 0 <= opts.rt_priority <= 99:
         raise SoftPLCError("rt_priority must be 0..99")
-    return Daemon(plc, opts, program_name=str(args.program)).run()
+    app = application_id(args.program.read_bytes(), cfg)
+    return Daemon(plc, opts, program_name=str(args.program), app=app).run()
 
 
 def _web_options(args: argparse.Namespace) -> Any:

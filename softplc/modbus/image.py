@@ -1,4 +1,4 @@
-"""What Modbus clients see of the memory image, and when.
+"""What hosts see of the memory image, and when; the one write path for every front-end.
 
 Consistency rules (the scan never sees a half-applied request, clients never see a
 half-finished scan):
@@ -8,95 +8,139 @@ half-finished scan):
   since then laid over it: a real Twido serves requests between scans, so a host reads
   back what it has just written (the seed's host relies on it: it writes INICIO = 120 and
   waits for the PLC to clear it);
-- writes are queued and applied at the start of the next scan (`apply_writes`, run from
-  `before_scan`), before inputs are latched; one request is one queue entry, so an FC 16
-  frame lands in one piece.
+- writes wait in a pending image (one slot per register and per coil: the last value
+  written wins) and all of them are applied together at the start of the next scan
+  (`apply_writes`, run from `before_scan`), before inputs are latched. So an FC 16 frame
+  lands in one piece, and however long the scan period, pending writes never take more
+  memory than one copy of %MW and %M: nothing to refuse, no queue to grow.
+
+With a retained-state store (`--state`), every write is journaled into it before the
+caller acknowledges it, and every snapshot is committed to it: a process that dies loses
+nothing it acknowledged (see `softplc.runtime.retain`).
+
+Front-ends (Modbus, a web monitor...) call `write_words` / `write_bits`, which refuse with
+`WriteRefused` (carrying the Modbus exception code that fits); the Modbus protocol code
+checks the same rules itself on its hot path and calls `queue_registers` / `queue_coils`.
 
 The server and the scan may run in different threads: snapshots are immutable `bytes`
 replaced by one reference assignment; a lock orders queueing a write (and laying it over
-the snapshot) against taking a new snapshot (which lays the still-queued writes over it).
+the snapshot) against applying the pending writes and taking a new snapshot.
 """
 
 from __future__ import annotations
 
-import sys
 import threading
-from array import array
-from collections import deque
+from collections.abc import Callable, Iterable
+from struct import pack
 
 import numpy as np
 
+from ..errors import SoftPLCError
 from ..runtime.memory import MemoryImage
-from .regmap import ReadOnly
+from ..runtime.retain import COILS as J_COILS
+from ..runtime.retain import REGISTERS as J_REGISTERS
+from ..runtime.retain import StateStore, be_to_words, words_to_be
+from .regmap import COILS, REGISTERS, ExceptionCode, ReadOnly
 
-_SWAP = sys.byteorder == "little"  # Modbus registers are big-endian on the wire
-
-
-def words_to_wire(buf: bytes | bytearray | memoryview) -> bytes:
-    """Native unsigned 16-bit words -> big-endian bytes."""
-    a = array("H", bytes(buf))
-    if _SWAP:
-        a.byteswap()
-    return a.tobytes()
+# Modbus registers are big-endian on the wire
+words_to_wire = words_to_be
+wire_to_words = be_to_words
 
 
-def wire_to_words(data: bytes) -> bytes:
-    """Big-endian register bytes -> native 16-bit words."""
-    a = array("H", data)
-    if _SWAP:
-        a.byteswap()
-    return a.tobytes()
+class WriteRefused(SoftPLCError):
+    """A host write that is not accepted; `code` is the Modbus exception that says why."""
+
+    def __init__(self, message: str, code: ExceptionCode):
+        super().__init__(message)
+        self.code = code
 
 
 class ModbusImage:
-    """Snapshot for reads, queue for writes, in front of a `MemoryImage`."""
+    """Snapshot for reads, pending image for writes, in front of a `MemoryImage`."""
 
-    def __init__(self, mem: MemoryImage, read_only: ReadOnly | None = None):
+    def __init__(self, mem: MemoryImage, read_only: ReadOnly | None = None, *,
+                 store: StateStore | None = None,
+                 blocks: Callable[[], bytes] | None = None, writes_allowed: bool = True):
         self.mem = mem
         self.read_only = read_only or ReadOnly()
-        self.n_registers = mem.mw.n
-        self.n_coils = len(mem.m)
-        # (space "r"/"c", address, native data, wire data for the snapshot overlay)
-        self._queue: deque[tuple[str, int, bytes, bytes]] = deque()
+        self.writes_allowed = writes_allowed  # False: `--read-only`, every write refused
+        self.n_registers = n = mem.mw.n
+        self.n_coils = c = len(mem.m)
+        self._regs_native = np.frombuffer(mem.mw.buf, np.uint16)
+        self._pend_regs = np.zeros(n, ">u2")  # wire order, like the snapshot
+        self._pend_rmask = np.zeros(n, bool)
+        self._pend_coils = np.zeros(c, np.uint8)
+        self._pend_cmask = np.zeros(c, bool)
+        self._rlo, self._rhi, self._clo, self._chi = n, 0, c, 0  # pending bounds
+        self._pending = 0  # writes acknowledged since the last apply
         self._lock = threading.Lock()
+        self.store = store
+        self._blocks = blocks
+        self.hold = False  # True: keep the last snapshot (a scan was interrupted)
         self.regs_wire = b""  # %MW as big-endian bytes, ready to slice into a response
         self.coils = b""  # %M, one byte (0/1) per bit
         self.writes_applied = 0
         self.take_snapshot()
 
+    def protect(self, extra: ReadOnly) -> None:
+        """Add read-only ranges (e.g. a device's status words) to those of the config."""
+        ro = self.read_only
+        self.read_only = ReadOnly(ro.registers + extra.registers, ro.coils + extra.coils)
+
     # -- scan side -----------------------------------------------------------------------
+    def _overlay(self, regs: bytes, coils: bytes) -> tuple[bytes, bytes]:
+        """`regs`/`coils` with the pending writes laid over them (lock held)."""
+        if self._rhi > self._rlo:
+            r = np.frombuffer(regs, ">u2").copy()
+            lo, hi = self._rlo, self._rhi
+            np.copyto(r[lo:hi], self._pend_regs[lo:hi], where=self._pend_rmask[lo:hi])
+            regs = r.tobytes()
+        if self._chi > self._clo:
+            cc = np.frombuffer(coils, np.uint8).copy()
+            lo, hi = self._clo, self._chi
+            np.copyto(cc[lo:hi], self._pend_coils[lo:hi], where=self._pend_cmask[lo:hi])
+            coils = cc.tobytes()
+        return regs, coils
+
     def take_snapshot(self) -> None:
-        """Copy %MW and %M for readers. Called after each scan."""
+        """Copy %MW and %M for readers (and commit them to the store). After each scan."""
+        if self.hold:
+            return
         regs = words_to_wire(self.mem.mw.buf)
         coils = bytes(self.mem.m)
+        blocks = self._blocks() if self._blocks is not None else None
         with self._lock:
-            if self._queue:  # acknowledged but not yet scanned: still what hosts read
-                r, c = bytearray(regs), bytearray(coils)
-                for space, addr, _data, wire in self._queue:
-                    if space == "r":
-                        r[2 * addr: 2 * addr + len(wire)] = wire
-                    else:
-                        c[addr: addr + len(wire)] = wire
-                regs, coils = bytes(r), bytes(c)
+            if self._pending:  # acknowledged but not yet scanned: still what hosts read
+                regs, coils = self._overlay(regs, coils)
             self.regs_wire, self.coils = regs, coils
+            if self.store is not None:
+                self.store.commit(regs, coils, blocks)
 
     def apply_writes(self) -> int:
-        """Apply every queued write, in arrival order. Called at the start of a scan."""
-        q = self._queue
-        n = 0
-        while q:
-            space, addr, data, _wire = q.popleft()
-            if space == "r":
-                self.mem.mw.buf[2 * addr: 2 * addr + len(data)] = data
-            else:
-                self.mem.m[addr: addr + len(data)] = data
-            n += 1
+        """Apply every pending write at once. Called at the start of a scan."""
+        if not self._pending:
+            return 0
+        with self._lock:
+            if self._rhi > self._rlo:
+                lo, hi = self._rlo, self._rhi
+                mask = self._pend_rmask[lo:hi]
+                np.copyto(self._regs_native[lo:hi], self._pend_regs[lo:hi], where=mask)
+                mask[:] = False
+            if self._chi > self._clo:
+                lo, hi = self._clo, self._chi
+                m = self.mem.m
+                for i in np.flatnonzero(self._pend_cmask[lo:hi]).tolist():
+                    m[lo + i] = int(self._pend_coils[lo + i])
+                self._pend_cmask[lo:hi] = False
+            n, self._pending = self._pending, 0
+            self._rlo, self._rhi, self._clo, self._chi = self.n_registers, 0, self.n_coils, 0
         self.writes_applied += n
         return n
 
     @property
     def pending(self) -> int:
-        return len(self._queue)
+        """Writes acknowledged since the last scan start (coalesced in the pending image)."""
+        return self._pending
 
     # -- client side ---------------------------------------------------------------------
     def read_registers_wire(self, addr: int, count: int) -> bytes:
@@ -107,15 +151,55 @@ class ModbusImage:
         return np.packbits(bits, bitorder="little").tobytes()
 
     def queue_registers(self, addr: int, wire: bytes) -> None:
-        """Queue a write of big-endian register bytes at register `addr`."""
+        """Accept a write of big-endian register bytes at register `addr` (checked)."""
+        n = len(wire) // 2
         with self._lock:
-            self._queue.append(("r", addr, wire_to_words(wire), wire))
+            self._pend_regs[addr:addr + n] = np.frombuffer(wire, ">u2")
+            self._pend_rmask[addr:addr + n] = True
+            self._rlo, self._rhi = min(self._rlo, addr), max(self._rhi, addr + n)
+            self._pending += 1
             r = self.regs_wire
             self.regs_wire = r[:2 * addr] + wire + r[2 * addr + len(wire):]
+            store = self.store
+            if store is not None and not store.journal(J_REGISTERS, addr, wire):
+                store.commit(self.regs_wire, self.coils)  # includes this write
 
     def queue_coils(self, addr: int, values: bytes) -> None:
-        """Queue a write of coil values (one byte 0/1 per coil) at coil `addr`."""
+        """Accept a write of coil values (one byte 0/1 per coil) at coil `addr` (checked)."""
+        n = len(values)
         with self._lock:
-            self._queue.append(("c", addr, values, values))
+            self._pend_coils[addr:addr + n] = np.frombuffer(values, np.uint8)
+            self._pend_cmask[addr:addr + n] = True
+            self._clo, self._chi = min(self._clo, addr), max(self._chi, addr + n)
+            self._pending += 1
             c = self.coils
-            self.coils = c[:addr] + values + c[addr + len(values):]
+            self.coils = c[:addr] + values + c[addr + n:]
+            store = self.store
+            if store is not None and not store.journal(J_COILS, addr, values):
+                store.commit(self.regs_wire, self.coils)
+
+    # -- any front-end -------------------------------------------------------------------
+    def check_write(self, space: str, addr: int, count: int) -> None:
+        """Raise WriteRefused if a write of `count` items at `addr` is not allowed."""
+        if not self.writes_allowed:
+            raise WriteRefused("writes are disabled (--read-only)",
+                               ExceptionCode.ILLEGAL_FUNCTION)
+        size = self.n_registers if space == REGISTERS else self.n_coils
+        if addr < 0 or count < 1 or addr + count > size:
+            raise WriteRefused(f"{space} {addr}..{addr + count - 1} outside 0..{size - 1}",
+                               ExceptionCode.ILLEGAL_DATA_ADDRESS)
+        if self.read_only.blocks(space, addr, count):
+            raise WriteRefused(f"{space} {addr}..{addr + count - 1} are read-only",
+                               ExceptionCode.ILLEGAL_DATA_ADDRESS)
+
+    def write_words(self, addr: int, values: Iterable[int]) -> None:
+        """Write %MW`addr`.. (16-bit values, signed or not) at the next scan start."""
+        vals = [int(v) & 0xFFFF for v in values]
+        self.check_write(REGISTERS, addr, len(vals))
+        self.queue_registers(addr, pack(f">{len(vals)}H", *vals))
+
+    def write_bits(self, addr: int, values: Iterable[int | bool]) -> None:
+        """Write %M`addr`.. at the next scan start."""
+        vals = bytes(1 if v else 0 for v in values)
+        self.check_write(COILS, addr, len(vals))
+        self.queue_coils(addr, vals)

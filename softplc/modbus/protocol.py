@@ -3,6 +3,12 @@
 Checks follow the order of the Modbus Application Protocol (v1.1b3, figures 9-21):
 function code (01), then quantity and PDU length (03), then address range and read-only
 ranges (02). Every request gets an answer: a normal response or an exception response.
+
+`--read-only` (`ModbusImage.writes_allowed` False) answers every writing function (5, 6,
+15, 16 and 23, whose read part goes unanswered too) with 01, ILLEGAL FUNCTION: the spec
+gives 01 for a function "not an allowable action for the server", including "the server
+is in the wrong state to process a request of this type"; 02 stays what it is elsewhere,
+an address (range) that cannot be written while others can.
 """
 
 from __future__ import annotations
@@ -139,6 +145,8 @@ def _device_identification(img: ModbusImage, pdu: bytes) -> bytes:
     return bytes(out)
 
 
+WRITE_FUNCTIONS = frozenset(f.code for f in FUNCTIONS.values() if "write" in f.access)
+
 HANDLERS: dict[int, Callable[[ModbusImage, bytes], bytes]] = {
     1: _read, 2: _read, 3: _read, 4: _read,
     5: _write_single_coil, 6: _write_single_register,
@@ -153,7 +161,7 @@ def process_pdu(img: ModbusImage, pdu: bytes) -> bytes:
     if not pdu:
         return exception(0, ILLEGAL_FUNCTION)
     handler = HANDLERS.get(pdu[0])
-    if handler is None:
+    if handler is None or not img.writes_allowed and pdu[0] in WRITE_FUNCTIONS:
         return exception(pdu[0], ILLEGAL_FUNCTION)
     return handler(img, pdu)
 

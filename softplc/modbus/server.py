@@ -11,23 +11,44 @@ frames and decodes itself. pymodbus stays the reference client in the tests.
 Framing errors (protocol id not 0, length field outside 2..254) close the connection:
 the stream cannot be resynchronised. A frame left incomplete for `frame_timeout`
 seconds, or a client silent for `idle_timeout` seconds, is closed too.
+
+Connections are accepted by the server itself: one from an address outside the allow
+list, or past the client limit, is reset right after `accept()`, before a byte is read
+or any asyncio object exists for it (see `ModbusTcpServer`). Warnings a client can
+repeat at will go through `RateLimitedLog`: one per kind per 10 s, then a count.
 """
 
 from __future__ import annotations
 
 import asyncio
+import errno
+import ipaddress
 import logging
+import os
+import socket
 import threading
 import time
-from struct import unpack_from
+from collections.abc import Callable, Iterable
+from struct import pack, unpack_from
 from typing import Any
 
+from ..errors import SoftPLCError
 from .image import ModbusImage
 from .protocol import ExceptionCode, exception, pack_mbap, process_pdu
 
 log = logging.getLogger("softplc.modbus")
 
+IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
 MAX_PDU_LENGTH = 253  # MBAP length field = unit id + PDU <= 254
+LISTEN_BACKLOG = 128
+ACCEPT_BATCH = 16  # connections accepted per event-loop turn
+ACCEPT_PAUSE = 0.1  # seconds without accepting after accept() fails (e.g. out of fds)
+# After a batch with refusals, stop accepting for this long: the kernel holds the rest in
+# the listen backlog, so a storm costs at most ACCEPT_BATCH refusals per pause of CPU
+# (and of GIL time the scan thread might wait for), however many clients storm.
+REFUSE_PAUSE = 0.010
+LOG_INTERVAL = 10.0  # seconds: at most one warning of a kind per interval, then a summary
+_LINGER_RESET = pack("ii", 1, 0)  # SO_LINGER on, 0 s: close() sends an RST
 
 
 class ServerStats:
@@ -38,8 +59,116 @@ class ServerStats:
         self.exceptions = 0
         self.connections = 0  # accepted since start
         self.rejected = 0  # refused: too many clients
+        self.denied = 0  # refused: address not in the allow list
         self.dropped = 0  # closed for a framing error or a timeout
         self.clients = 0  # connected now
+
+
+class RateLimitedLog:
+    """Warnings that may repeat as fast as a client can loop (refused connections, bad
+    headers): the first of each kind in an interval is logged, the others are counted and
+    summarised in one line when the interval is over ("... 1234 more in the last 10 s")."""
+
+    def __init__(self, logger: logging.Logger, interval: float = 10.0,
+                 clock: Callable[[], float] = time.monotonic):
+        self.log = logger
+        self.interval = interval
+        self.clock = clock
+        self._kinds: dict[str, list[Any]] = {}  # kind -> [interval end, suppressed, label]
+
+    def warning(self, kind: str, label: str, msg: str, *args: Any) -> None:
+        """Log `msg` unless a `kind` warning was logged less than `interval` ago."""
+        now = self.clock()
+        st = self._kinds.get(kind)
+        if st is not None and now < st[0]:
+            st[1] += 1
+            return
+        if st is not None:
+            self._summarise(st)
+        self.log.warning(msg, *args)
+        self._kinds[kind] = [now + self.interval, 0, label]
+
+    def _summarise(self, st: list[Any]) -> None:
+        if st[1]:
+            self.log.warning("%d more %s in the last %g s", st[1], st[2], self.interval)
+            st[1] = 0
+
+    def flush(self, force: bool = False) -> None:
+        """Summarise the kinds whose interval is over (all of them if `force`)."""
+        now = self.clock()
+        for kind, st in list(self._kinds.items()):
+            if force or now >= st[0]:
+                self._summarise(st)
+                if now >= st[0]:
+                    del self._kinds[kind]
+
+
+def listen_addresses(host: str) -> list[str]:
+    """The addresses to bind for `host`: "localhost" is both loopbacks, 127.0.0.1 and ::1;
+    a name resolves to each of its addresses."""
+    if host == "localhost":
+        return ["127.0.0.1", "::1"]
+    try:
+        infos = socket.getaddrinfo(host or None, None, type=socket.SOCK_STREAM,
+                                   flags=socket.AI_PASSIVE)
+    except socket.gaierror as e:
+        raise OSError(e.errno, f"unknown host {host!r} ({e.strerror})") from None
+    return list(dict.fromkeys(str(info[4][0]) for info in infos))
+
+
+def bind_listeners(host: str, port: int, backlog: int = LISTEN_BACKLOG) -> list[socket.socket]:
+    """Bound, listening, non-blocking sockets for `host`:`port` (0: one free port for all).
+    Binding happens before anything else at start-up. ::1 is skipped for "localhost"
+    on a machine without IPv6 loopback."""
+    socks: list[socket.socket] = []
+    try:
+        for addr in listen_addresses(host):
+            family = socket.AF_INET6 if ":" in addr else socket.AF_INET
+            try:
+                s = socket.socket(family, socket.SOCK_STREAM)
+            except OSError:
+                if host == "localhost" and family == socket.AF_INET6:
+                    continue
+                raise
+            socks.append(s)
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            if family == socket.AF_INET6:
+                s.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+            try:
+                s.bind((addr, port))
+            except OSError as e:
+                if host == "localhost" and family == socket.AF_INET6 and e.errno in (
+                        errno.EADDRNOTAVAIL, errno.EAFNOSUPPORT):
+                    socks.pop().close()
+                    continue
+                raise
+            port = s.getsockname()[1]
+            s.listen(backlog)
+            s.setblocking(False)
+    except BaseException:
+        for s in socks:
+            s.close()
+        raise
+    if not socks:
+        raise OSError(errno.EADDRNOTAVAIL, f"no address to listen on for {host!r}")
+    return socks
+
+
+def format_address(sockname: Any) -> str:
+    host, port = sockname[0], sockname[1]
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
+def parse_allow(entries: Iterable[str]) -> tuple[IPNetwork, ...]:
+    """`--allow` entries (addresses or networks, IPv4 or IPv6) -> networks."""
+    nets = []
+    for e in entries:
+        try:
+            nets.append(ipaddress.ip_network(str(e).strip(), strict=False))
+        except ValueError:
+            raise SoftPLCError(f"--allow {e!r}: not an IP address or network "
+                               f"(e.g. 192.168.1.0/24, 10.0.0.5, ::1)") from None
+    return tuple(nets)
 
 
 class _Connection(asyncio.Protocol):
@@ -59,12 +188,10 @@ class _Connection(asyncio.Protocol):
         self.transport = transport
         self.peer = transport.get_extra_info("peername")
         srv = self.server
-        if len(srv.connections) >= srv.max_clients:
-            self.stats.rejected += 1
-            log.warning("refusing %s: %d clients already connected", self.peer, srv.max_clients)
-            transport.abort()
-            return
         srv.connections.add(self)
+        sock = transport.get_extra_info("socket")
+        if sock is not None:
+            srv._adopting.discard(sock.fileno())  # counted once, as a connection now
         self.stats.connections += 1
         self.stats.clients = len(srv.connections)
         log.info("client %s connected", self.peer)
@@ -93,8 +220,8 @@ class _Connection(asyncio.Protocol):
             self.transport.resume_reading()
             self._process(time.monotonic())
 
-    def drop(self, reason: str) -> None:
-        log.warning("closing client %s: %s", self.peer, reason)
+    def drop(self, kind: str, label: str, reason: str) -> None:
+        self.server.warn.warning(kind, label, "closing client %s: %s", self.peer, reason)
         self.stats.dropped += 1
         self.buf.clear()
         if self.transport is not None:
@@ -113,7 +240,8 @@ class _Connection(asyncio.Protocol):
         while len(buf) >= 7 and not self.paused:
             tid, pid, length, unit = unpack_from(">HHHB", buf)
             if pid != 0 or not 2 <= length <= MAX_PDU_LENGTH + 1:
-                self.drop(f"bad MBAP header (protocol id {pid}, length {length})")
+                self.drop("header", "clients closed for a bad MBAP header",
+                          f"bad MBAP header (protocol id {pid}, length {length})")
                 return
             end = 6 + length
             if len(buf) < end:
@@ -133,31 +261,117 @@ class _Connection(asyncio.Protocol):
 
 
 class ModbusTcpServer:
-    """A Modbus TCP server over a `ModbusImage`. Start and stop it inside an event loop."""
+    """A Modbus TCP server over a `ModbusImage`. Start and stop it inside an event loop.
+
+    Connections are accepted by the server itself, not by `loop.create_server`: one that
+    is refused (address not allowed, client limit reached) is reset right after
+    `accept()`, before any byte is read and before asyncio builds a transport and a
+    protocol for it, so a connection storm costs a few microseconds per attempt.
+    """
 
     def __init__(self, image: ModbusImage, host: str = "127.0.0.1", port: int = 5020, *,
                  max_clients: int = 32, frame_timeout: float = 2.0,
-                 idle_timeout: float | None = None):
+                 idle_timeout: float | None = None,
+                 sockets: list[socket.socket] | None = None,
+                 allow: tuple[IPNetwork, ...] | None = None,
+                 log_interval: float = LOG_INTERVAL):
         self.image = image
         self.host = host
         self.port = port
         self.max_clients = max_clients
         self.frame_timeout = frame_timeout
         self.idle_timeout = idle_timeout
+        self.allow = allow  # None: any address
+        self.sockets = sockets or []
         self.stats = ServerStats()
+        self.warn = RateLimitedLog(log, log_interval)
         self.connections: set[_Connection] = set()
-        self._server: asyncio.base_events.Server | None = None
+        self._adopting: set[int] = set()  # fds accepted, transport being built
+        self._loop: asyncio.AbstractEventLoop | None = None
         self._sweeper: asyncio.Task | None = None
+        self._allowed_cache: dict[str, bool] = {}
+
+    @property
+    def addresses(self) -> list[str]:
+        return [format_address(s.getsockname()) for s in self.sockets]
 
     async def start(self) -> None:
-        loop = asyncio.get_running_loop()
-        self._server = await loop.create_server(
-            lambda: _Connection(self), self.host, self.port, reuse_address=True)
-        self.port = self._server.sockets[0].getsockname()[1]  # the real one if port was 0
+        loop = self._loop = asyncio.get_running_loop()
+        if not self.sockets:
+            self.sockets = bind_listeners(self.host, self.port)
+        self.port = self.sockets[0].getsockname()[1]  # the real one if port was 0
+        for s in self.sockets:
+            loop.add_reader(s.fileno(), self._accept, s)
         self._sweeper = asyncio.create_task(self._sweep())
 
+    def _allowed(self, host: str) -> bool:
+        ok = self._allowed_cache.get(host)
+        if ok is None:
+            ip = ipaddress.ip_address(host.split("%", 1)[0])
+            if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
+                ip = ip.ipv4_mapped
+            ok = any(ip in net for net in self.allow or ())
+            if len(self._allowed_cache) > 4096:
+                self._allowed_cache.clear()
+            self._allowed_cache[host] = ok
+        return ok
+
+    def _pause_accepting(self, lsock: socket.socket, seconds: float) -> None:
+        loop = self._loop
+        assert loop is not None
+        loop.remove_reader(lsock.fileno())
+        loop.call_later(seconds, self._resume_accepting, lsock)
+
+    def _resume_accepting(self, lsock: socket.socket) -> None:
+        if self._loop is not None and lsock.fileno() >= 0:
+            self._loop.add_reader(lsock.fileno(), self._accept, lsock)
+
+    def _accept(self, lsock: socket.socket) -> None:
+        """Accept what is waiting (a bounded batch, so the loop stays fair)."""
+        loop = self._loop
+        assert loop is not None
+        refused = False
+        for _ in range(ACCEPT_BATCH):
+            try:
+                conn, peer = lsock.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as e:  # e.g. EMFILE: pause accepting instead of spinning
+                self.warn.warning("accept", "failed accepts", "accept failed: %s", e)
+                self._pause_accepting(lsock, ACCEPT_PAUSE)
+                return
+            if self.allow is not None and not self._allowed(peer[0]):
+                self.stats.denied += 1
+                self.warn.warning("deny", "connections refused (not in --allow)",
+                                  "refusing %s: address not in the allow list", peer[0])
+                _reset(conn)
+                refused = True
+            elif len(self.connections) + len(self._adopting) >= self.max_clients:
+                self.stats.rejected += 1
+                self.warn.warning("limit", "connections refused (client limit)",
+                                  "refusing %s: %d clients already connected", peer[0],
+                                  self.max_clients)
+                _reset(conn)
+                refused = True
+            else:
+                self._adopting.add(conn.fileno())
+                loop.create_task(self._adopt(conn))
+        if refused:
+            self._pause_accepting(lsock, REFUSE_PAUSE)
+
+    async def _adopt(self, conn: socket.socket) -> None:
+        fd = conn.fileno()
+        try:
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            await self._loop.connect_accepted_socket(  # type: ignore[union-attr]
+                lambda: _Connection(self), conn)
+        except OSError:
+            conn.close()
+        finally:
+            self._adopting.discard(fd)
+
     async def _sweep(self) -> None:
-        """Close clients stuck mid-frame or silent for too long."""
+        """Close clients stuck mid-frame or silent for too long; summarise warnings."""
         limits = [t for t in (self.frame_timeout, self.idle_timeout) if t]
         period = min([*limits, 1.0]) / 4
         while True:
@@ -166,22 +380,35 @@ class ModbusTcpServer:
             for c in list(self.connections):
                 if c.partial_since is not None and self.frame_timeout \
                         and now - c.partial_since > self.frame_timeout:
-                    c.drop(f"incomplete frame for {self.frame_timeout:g} s")
+                    c.drop("timeout", "clients closed for a timeout",
+                           f"incomplete frame for {self.frame_timeout:g} s")
                 elif self.idle_timeout and now - c.last_rx > self.idle_timeout:
-                    c.drop(f"silent for {self.idle_timeout:g} s")
+                    c.drop("timeout", "clients closed for a timeout",
+                           f"silent for {self.idle_timeout:g} s")
+            self.warn.flush()
 
     async def close(self) -> None:
         """Stop listening and close every client."""
         if self._sweeper is not None:
             self._sweeper.cancel()
-        if self._server is not None:
-            self._server.close()
+        for s in self.sockets:
+            if self._loop is not None:
+                self._loop.remove_reader(s.fileno())
+            s.close()
         for c in list(self.connections):
             if c.transport is not None:
                 c.transport.close()
-        if self._server is not None:
-            await self._server.wait_closed()
         await asyncio.sleep(0)  # let connection_lost callbacks run
+        self.warn.flush(force=True)
+
+
+def _reset(conn: socket.socket) -> None:
+    """Close with an RST: no FIN handshake, no TIME_WAIT, nothing read."""
+    try:
+        conn.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, _LINGER_RESET)
+    except OSError:
+        pass
+    conn.close()
 
 
 class ServerThread:
@@ -226,6 +453,26 @@ class ServerThread:
         if self._error is not None:
             raise self._error
         return self
+
+    def set_priority(self, prio: int) -> None:
+        """Put the server thread in SCHED_FIFO at `prio` (below the scan thread's). The
+        scan thread waits for the GIL whenever this thread holds it: at normal priority a
+        busy machine can preempt it while it holds the GIL, and the scan waits for the
+        whole time slice (priority inversion: tens of ms under a connection storm)."""
+        done = threading.Event()
+        error: list[OSError] = []
+
+        def apply() -> None:
+            try:
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(prio))
+            except OSError as e:
+                error.append(e)
+            done.set()
+
+        self.loop.call_soon_threadsafe(apply)
+        done.wait(5)
+        if error:
+            raise error[0]
 
     def stop(self, timeout: float = 5.0) -> None:
         if self._thread.is_alive():

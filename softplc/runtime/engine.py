@@ -13,6 +13,7 @@ One `scan()`:
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -75,6 +76,13 @@ class Engine:
 
     def watchdog_expired(self) -> bool:
         return time.perf_counter() > self._deadline
+
+    def interrupt(self) -> None:
+        """End the running scan at its next watchdog check, and any later scan at once, as
+        a watchdog trip (HALT): for a daemon told to stop while a program loops. Safe from
+        a signal handler."""
+        self.watchdog_s = -math.inf
+        self._deadline = -math.inf
 
     def cold_start(self) -> None:
         """Reset %M, %MW, %Q, timers, counters, Grafcet; %S0 and %S13 on the next scan."""

@@ -1,29 +1,56 @@
 """Retained state: %MW, %M and function-block values kept across restarts (`--state FILE`).
 
-File format (version 1): one ASCII header line, then a JSON body::
+A Twido keeps its data in battery-backed RAM: nothing it acknowledged is lost when it is
+cut off. Here the retained image lives in a memory-mapped file (`StateStore`): a write
+into a shared mapping is in the kernel's page cache as soon as it is made, and the kernel
+keeps it when the process dies (kill -9, a crash, the OOM killer). So the image of every
+scan boundary, and every host write before it is acknowledged, is stored without a system
+call; `msync` every save interval makes it durable against power loss as well.
 
-    SOFTPLC-STATE 1 <body length> <sha256 of the body, hex>\\n
-    {"format": 1, "profile": "TWDLCAE40DRF", "mw": "<base64>", "m": "<base64>",
-     "blocks": {"TM": {"0": {...}}, "C": {...}}, "program": "...", "saved": "..."}
+File format (version 2): little-endian, every region page-aligned::
 
-The header makes truncation and corruption detectable before anything is parsed. Saving
-is atomic: temp file in the same directory, fsync, rename over the old file, fsync of the
-directory; a crash at any point leaves either the old or the new file, never a mix.
+    page 0    header: b"SOFTPLC-STATE 2\\n", layout (register and coil counts, blocks and
+              journal capacities), profile name, crc32 of all that; at byte 256 the pid
+              of the daemon holding the lock (informative, outside the checksum)
+    slot 0, 1 volatile images, rewritten alternately at every scan boundary
+    slot 2, 3 durable copies, rewritten alternately every save interval, then msync'ed
+    journal   writes acknowledged since the newest volatile slot, appended in order
 
-Starting with a state file that does not exist is a cold start (first run). A file that is
-present but unreadable, truncated, corrupt or for another controller is an error unless
-the user asks for a cold start: the data is never reset silently.
+    slot    = seq (u64), application hash (32 bytes), blocks length (u32), crc32 (u32),
+              then %MW as big-endian words, %M one byte per bit, blocks as JSON
+    journal entry = generation (u64: the seq of the slot it follows), space (0 = %MW,
+              1 = %M), address (u16), data length (u16), crc32 (u32), data
+
+A slot's header is written after its payload and checks it, so a slot being written when
+the process dies does not verify and the other one is used. Loading takes the verified
+slot with the highest seq and replays the journal entries of its generation up to the
+first that does not verify (a write cut off before it was acknowledged).
+
+Starting with a state file that does not exist (or is empty: a creation that never
+finished) is a cold start. A file that is present but unreadable, truncated, corrupt or
+for another controller is an error unless the user asks for a cold start: the data is
+never reset silently. The file is locked (`flock`) while a daemon uses it.
+
+The format is fed by plain bytes (`StateStore.commit`) and `capture`/`apply` turn a
+`MemoryImage` into a `RetainedState` and back, so another way of collecting the state
+(e.g. an engine snapshot API) can feed the same store.
 """
 
 from __future__ import annotations
 
-import base64
+import errno
+import fcntl
 import hashlib
 import json
 import logging
+import mmap
 import os
+import struct
+import sys
 import threading
-import time
+import zlib
+from array import array
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,13 +60,37 @@ from .memory import MemoryImage
 
 log = logging.getLogger("softplc.retain")
 
-MAGIC = "SOFTPLC-STATE"
-FORMAT_VERSION = 1
+MAGIC = b"SOFTPLC-STATE 2\n"
+FORMAT_VERSION = 2
+PAGE = mmap.PAGESIZE
 _HINT = "; start with --cold to discard it and cold-start"
+_HEADER = struct.Struct("<16sIIIII32sI")  # magic version n_regs n_coils blocks journal prof crc
+_PID = struct.Struct("<I")
+_PID_OFFSET = 256
+_SLOT = struct.Struct("<Q32sII")  # seq, application hash, blocks length, crc32
+_ENTRY = struct.Struct("<QBHHI")  # generation, space, address, data length, crc32
+REGISTERS, COILS = 0, 1  # journal entry spaces
+VOLATILE, DURABLE = (0, 1), (2, 3)
+BLOCKS_MIN_CAPACITY = 64 * 1024  # bytes of blocks JSON a slot holds (at least)
+JOURNAL_CAPACITY = 64 * 1024  # bytes; when full, the store commits a new slot instead
+_SWAP = sys.byteorder == "little"
 
 
 class StateFileError(SoftPLCError):
     """A retained-state file cannot be used."""
+
+
+def words_to_be(buf: bytes | bytearray | memoryview) -> bytes:
+    """Native unsigned 16-bit words -> big-endian bytes (Modbus and state-file order)."""
+    a = array("H", bytes(buf))
+    if _SWAP:
+        a.byteswap()
+    return a.tobytes()
+
+
+def be_to_words(data: bytes | bytearray) -> bytes:
+    """Big-endian 16-bit words -> native words."""
+    return words_to_be(data)  # a byte swap is its own inverse
 
 
 @dataclass
@@ -47,10 +98,20 @@ class RetainedState:
     """What survives a restart. `capture` takes it between two scans."""
 
     profile: str
-    mw: bytes
+    mw: bytes  # native-order words, as in `MemoryImage.mw.buf`
     m: bytes
     blocks: dict[str, dict[int, Any]] = field(default_factory=dict)
-    program: str = ""
+    app: bytes = b""  # `application_id` of the program and configuration that saved it
+
+
+def application_id(program: bytes, config: dict[str, Any]) -> bytes:
+    """What makes an application (as a TwidoSuite download): the program text and the
+    controller configuration. The daemon's own settings (`[daemon]`, `[modbus]`) and the
+    simulated machine (`[devices]`) are not part of it."""
+    app_cfg = {k: v for k, v in config.items() if k not in ("daemon", "modbus", "devices")}
+    h = hashlib.sha256(program)
+    h.update(json.dumps(app_cfg, sort_keys=True, default=str).encode())
+    return h.digest()
 
 
 # Block state fields holding an absolute clock time (µs): retained relative to the clock,
@@ -82,17 +143,21 @@ def _set_block_state(block: Any, st: dict[str, Any]) -> None:
     block.set_state(st)
 
 
-def capture(mem: MemoryImage, program: str = "") -> RetainedState:
+def capture_blocks(mem: MemoryImage) -> dict[str, dict[int, Any]]:
+    return {kind: {i: _block_state(b) for i, b in d.items()}
+            for kind, d in mem.blocks.items() if d}
+
+
+def capture(mem: MemoryImage, app: bytes = b"") -> RetainedState:
     """Copy the retained objects out of the image (cheap: call it between scans)."""
-    blocks = {kind: {i: _block_state(b) for i, b in d.items()}
-              for kind, d in mem.blocks.items() if d}
-    return RetainedState(mem.profile.name, bytes(mem.mw.buf), bytes(mem.m), blocks, program)
+    return RetainedState(mem.profile.name, bytes(mem.mw.buf), bytes(mem.m),
+                         capture_blocks(mem), app)
 
 
 def apply(mem: MemoryImage, state: RetainedState) -> None:
     """Put a retained state back into the image. Blocks no longer configured are skipped."""
     mem.mw.buf[:] = state.mw
-    mem.m[:] = state.m
+    mem.m[:] = list(state.m)
     for kind, d in state.blocks.items():
         present = mem.blocks.get(kind, {})
         for i, st in d.items():
@@ -100,18 +165,9 @@ def apply(mem: MemoryImage, state: RetainedState) -> None:
                 _set_block_state(present[i], st)
 
 
-def encode(state: RetainedState) -> bytes:
-    body = json.dumps({
-        "format": FORMAT_VERSION,
-        "profile": state.profile,
-        "program": state.program,
-        "saved": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "mw": base64.b64encode(state.mw).decode(),
-        "m": base64.b64encode(state.m).decode(),
-        "blocks": {k: {str(i): st for i, st in d.items()} for k, d in state.blocks.items()},
-    }, separators=(",", ":"), default=_jsonable).encode()
-    header = f"{MAGIC} {FORMAT_VERSION} {len(body)} {hashlib.sha256(body).hexdigest()}\n"
-    return header.encode() + body
+def encode_blocks(blocks: dict[str, dict[int, Any]]) -> bytes:
+    return json.dumps({k: {str(i): st for i, st in d.items()} for k, d in blocks.items()},
+                      separators=(",", ":"), default=_jsonable).encode()
 
 
 def _jsonable(o: Any) -> Any:
@@ -124,34 +180,333 @@ def _jsonable(o: Any) -> Any:
     raise TypeError(f"cannot retain a {type(o).__name__}")
 
 
-def decode(data: bytes, where: str = "state file") -> RetainedState:
-    """Parse and verify a state file's bytes. Raises StateFileError with a clear reason."""
-    head, sep, body = data.partition(b"\n")
-    parts = head.split()
-    if not sep or len(parts) != 4 or parts[0] != MAGIC.encode():
-        raise StateFileError(f"{where} is not a softplc state file"
-                             f"{' (empty)' if not data else ''}{_HINT}")
+def _round_page(n: int) -> int:
+    return -(-n // PAGE) * PAGE
+
+
+@dataclass(frozen=True)
+class _Layout:
+    profile: str
+    n_regs: int
+    n_coils: int
+    blocks_cap: int
+    journal_cap: int = JOURNAL_CAPACITY
+
+    @property
+    def slot_size(self) -> int:
+        return _round_page(_SLOT.size + 2 * self.n_regs + self.n_coils + self.blocks_cap)
+
+    def slot_offset(self, i: int) -> int:
+        return PAGE + i * self.slot_size
+
+    @property
+    def journal_offset(self) -> int:
+        return self.slot_offset(4)
+
+    @property
+    def file_size(self) -> int:
+        return self.journal_offset + _round_page(self.journal_cap)
+
+    def header(self) -> bytes:
+        fields = (MAGIC, FORMAT_VERSION, self.n_regs, self.n_coils, self.blocks_cap,
+                  self.journal_cap, self.profile.encode()[:32])
+        crc = zlib.crc32(_HEADER.pack(*fields, 0)[:-4])
+        return _HEADER.pack(*fields, crc)
+
+
+def open_locked(path: str | os.PathLike[str], what: str,
+                error: type[SoftPLCError] = SoftPLCError,
+                holder: Callable[[int], str] = lambda fd: "; choose another file") -> int:
+    """Open `path` read-write (created if absent, never truncated) and `flock` it for as
+    long as the descriptor stays open; `error` if another process holds it (`holder(fd)`
+    adds who and what to do)."""
     try:
-        version, length = int(parts[1]), int(parts[2])
-    except ValueError:
-        raise StateFileError(f"{where} has a corrupt header{_HINT}") from None
-    if version != FORMAT_VERSION:
-        raise StateFileError(f"{where} has format version {version}; this softplc reads "
-                             f"version {FORMAT_VERSION}{_HINT}")
-    if len(body) != length:
-        raise StateFileError(f"{where} is truncated or padded ({len(body)} of {length} "
-                             f"bytes){_HINT}")
-    if hashlib.sha256(body).hexdigest().encode() != parts[3]:
-        raise StateFileError(f"{where} is corrupt (checksum mismatch){_HINT}")
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    except OSError as e:
+        raise error(f"cannot open {what} {path}: {e.strerror or e}") from None
     try:
-        d = json.loads(body)
-        blocks = {k: {int(i): st for i, st in v.items()} for k, v in d["blocks"].items()}
-        return RetainedState(d["profile"], base64.b64decode(d["mw"], validate=True),
-                             base64.b64decode(d["m"], validate=True), blocks,
-                             d.get("program", ""))
-    except (ValueError, KeyError, TypeError, AttributeError) as e:
-        raise StateFileError(f"{where} has a valid checksum but unreadable content "
-                             f"({e}){_HINT}") from None
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as e:
+        busy = e.errno in (errno.EWOULDBLOCK, errno.EAGAIN)
+        why = holder(fd) if busy else ""
+        os.close(fd)
+        if busy:
+            raise error(f"{what} {path} is in use by another softplc{why}") from None
+        raise error(f"cannot lock {what} {path}: {e.strerror or e}") from None
+    return fd
+
+
+class StateStore:
+    """One retained-state file, locked, mapped and kept current by its user.
+
+    `open` locks the file (a second daemon on it gets a clear error), `load` reads what
+    the last run left, `start` lays the file out for this controller; then `commit` at
+    every scan boundary (image with the acknowledged writes laid over it), `journal`
+    before a write is acknowledged, `persist` every save interval, `close` at the end.
+    `commit`, `journal` and `persist` may be called from different threads.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], fd: int):
+        self.path = Path(path)
+        self._fd = fd
+        self._mm: mmap.mmap | None = None
+        self._layout: _Layout | None = None
+        self._lock = threading.Lock()
+        self.seq = 0  # of the newest slot
+        self._slot = 0  # newest slot written (or loaded)
+        self._jpos = 0
+        self._blocks = b"{}"  # blocks JSON of the newest scan-boundary commit
+        self.app = b""
+        self.persisted_seq = 0
+        self.commits = 0
+        self._loaded = False  # load() succeeded: self.seq is the newest slot's
+        self._durable_seq = [0, 0]  # of the durable slots (0: none that verifies)
+
+    # -- opening -------------------------------------------------------------------------
+    @classmethod
+    def open(cls, path: str | os.PathLike[str]) -> StateStore:
+        """Open (create if absent) and lock. Nothing in the file is changed here."""
+
+        def holder(fd: int) -> str:
+            pid = _PID.unpack(os.pread(fd, _PID.size, _PID_OFFSET).ljust(_PID.size, b"\0"))[0]
+            return (f" (pid {pid})" if pid else "") + (
+                ": two controllers on one state file would overwrite each other's data; stop "
+                "it or use another --state file")
+
+        fd = open_locked(path, "state file", StateFileError, holder)
+        return cls(path, fd)
+
+    def _where(self) -> str:
+        return f"state file {self.path}"
+
+    def load(self) -> RetainedState | None:
+        """What the last run left (newest verified slot + its journal); None for a new
+        file. Raises StateFileError for anything else that cannot be used."""
+        size = os.fstat(self._fd).st_size
+        if size == 0:
+            return None
+        where = self._where()
+        head = os.pread(self._fd, _HEADER.size, 0)
+        if len(head) < _HEADER.size or not head.startswith(MAGIC[:14]):
+            raise StateFileError(f"{where} is not a softplc state file{_HINT}")
+        magic, version, n_regs, n_coils, blocks_cap, journal_cap, prof, crc = \
+            _HEADER.unpack(head)
+        if magic != MAGIC or version != FORMAT_VERSION:
+            found = head[14:16].strip().decode(errors="replace") or "?"
+            raise StateFileError(f"{where} has format version {found}; this softplc reads "
+                                 f"version {FORMAT_VERSION}{_HINT}")
+        if zlib.crc32(head[:-4]) != crc:
+            raise StateFileError(f"{where} has a corrupt header (checksum mismatch){_HINT}")
+        lay = _Layout(prof.rstrip(b"\0").decode(errors="replace"), n_regs, n_coils,
+                      blocks_cap, journal_cap)
+        if size != lay.file_size:
+            raise StateFileError(f"{where} is truncated or padded ({size} of {lay.file_size} "
+                                 f"bytes){_HINT}")
+        self._map(lay)
+        best = self._newest_slot()
+        if best is None:
+            raise StateFileError(f"{where} is corrupt (no copy of the data passes its "
+                                 f"checksum){_HINT}")
+        seq, off, app, blen = best
+        mm = self._mm
+        assert mm is not None
+        p = off + _SLOT.size
+        regs = bytearray(mm[p:p + 2 * n_regs])
+        p += 2 * n_regs
+        coils = bytearray(mm[p:p + n_coils])
+        p += n_coils
+        try:
+            raw = json.loads(mm[p:p + blen])
+            blocks = {k: {int(i): st for i, st in v.items()} for k, v in raw.items()}
+        except (ValueError, TypeError, AttributeError) as e:
+            raise StateFileError(f"{where} has a valid checksum but unreadable content "
+                                 f"({e}){_HINT}") from None
+        replayed = self._replay(seq, regs, coils)
+        if replayed:
+            log.info("%s: %d acknowledged writes replayed from the journal", where, replayed)
+        self.seq, self._slot = seq, (off - lay.slot_offset(0)) // lay.slot_size
+        self._durable_seq = [self._slot_seq(i) for i in DURABLE]
+        self.app = app
+        self._loaded = True
+        return RetainedState(lay.profile, be_to_words(regs), bytes(coils), blocks, app)
+
+    def _map(self, lay: _Layout) -> None:
+        if self._mm is not None:
+            self._mm.close()
+        self._layout = lay
+        self._mm = mmap.mmap(self._fd, lay.file_size, mmap.MAP_SHARED,
+                             mmap.PROT_READ | mmap.PROT_WRITE)
+
+    def _newest_slot(self) -> tuple[int, int, bytes, int] | None:
+        lay, mm = self._layout, self._mm
+        assert lay is not None and mm is not None
+        best = None
+        damaged = 0  # highest seq claimed by a slot that does not verify
+        for i in (*VOLATILE, *DURABLE):
+            seq = self._slot_seq(i)
+            off = lay.slot_offset(i)
+            if not seq:
+                damaged = max(damaged, _SLOT.unpack_from(mm, off)[0])
+            elif best is None or seq > best[0]:
+                _seq, app, blen, _crc = _SLOT.unpack_from(mm, off)
+                best = (seq, off, app, blen)
+        if best is not None and damaged > best[0]:
+            # (a commit cut off by a kill still carries its slot's older seq: no warning)
+            log.warning("%s: a newer copy of the data (%d) is damaged; using copy %d",
+                        self._where(), damaged, best[0])
+        return best
+
+    def _replay(self, gen: int, regs: bytearray, coils: bytearray) -> int:
+        lay, mm = self._layout, self._mm
+        assert lay is not None and mm is not None
+        pos, end, n = lay.journal_offset, lay.journal_offset + lay.journal_cap, 0
+        while pos + _ENTRY.size <= end:
+            g, space, addr, length, crc = _ENTRY.unpack_from(mm, pos)
+            data = mm[pos + _ENTRY.size: pos + _ENTRY.size + length]
+            if g != gen or len(data) != length or \
+                    zlib.crc32(data, zlib.crc32(mm[pos:pos + _ENTRY.size - 4])) != crc:
+                break
+            if space == REGISTERS and 2 * addr + length <= len(regs):
+                regs[2 * addr: 2 * addr + length] = data
+            elif space == COILS and addr + length <= len(coils):
+                coils[addr: addr + length] = data
+            else:
+                break
+            pos += _ENTRY.size + length
+            n += 1
+        return n
+
+    def start(self, state: RetainedState) -> None:
+        """Lay the file out for the controller `state` comes from (its starting image),
+        keeping what `load` read if the layout fits (new commits win: their seq is
+        higher), and commit `state`."""
+        blocks = encode_blocks(state.blocks)
+        want = _Layout(state.profile, len(state.mw) // 2, len(state.m),
+                       max(BLOCKS_MIN_CAPACITY, _round_page(8 * len(blocks))))
+        lay = self._layout
+        self.app = state.app
+        self._blocks = blocks
+        if self._loaded and lay is not None and (lay.profile, lay.n_regs, lay.n_coils) == (
+                want.profile, want.n_regs, want.n_coils) and lay.blocks_cap >= 2 * len(blocks):
+            self.commit(words_to_be(state.mw), state.m, blocks)
+            return
+        if self._mm is not None:
+            self._mm.close()
+            self._mm = None
+        try:
+            os.ftruncate(self._fd, 0)  # no stale slot may survive a new layout
+            os.posix_fallocate(self._fd, 0, want.file_size)  # no SIGBUS on a full disk
+            os.pwrite(self._fd, want.header(), 0)
+            os.fsync(self._fd)
+        except OSError as e:
+            raise StateFileError(f"cannot write state file {self.path}: "
+                                 f"{e.strerror or e}") from None
+        _fsync_dir(self.path.parent)
+        self._map(want)
+        self.seq = 0
+        self._durable_seq = [0, 0]
+        self.commit(words_to_be(state.mw), state.m, blocks)
+
+    # -- running -------------------------------------------------------------------------
+    def set_pid(self) -> None:
+        os.pwrite(self._fd, _PID.pack(os.getpid()), _PID_OFFSET)
+
+    def commit(self, regs_be: bytes, coils: bytes, blocks: bytes | None = None) -> None:
+        """Write a new volatile slot: %MW (big-endian), %M (one byte each) and the blocks'
+        JSON (None: the last one). Empties the journal, whose writes it includes."""
+        lay, mm = self._layout, self._mm
+        assert lay is not None and mm is not None
+        with self._lock:
+            if blocks is None:
+                blocks = self._blocks
+            elif len(blocks) > lay.blocks_cap:
+                raise StateFileError(f"{self._where()}: the blocks' state ({len(blocks)} bytes) "
+                                     f"outgrew the file's {lay.blocks_cap}; restart to resize")
+            else:
+                self._blocks = blocks
+            seq = self.seq + 1
+            slot = VOLATILE[seq & 1]
+            off = lay.slot_offset(slot)
+            p = off + _SLOT.size
+            mm[p:p + len(regs_be)] = regs_be
+            p += len(regs_be)
+            mm[p:p + len(coils)] = coils
+            p += len(coils)
+            mm[p:p + len(blocks)] = blocks
+            head = _SLOT.pack(seq, self.app, len(blocks), 0)[:-4]
+            crc = zlib.crc32(blocks, zlib.crc32(coils, zlib.crc32(regs_be, zlib.crc32(head))))
+            mm[off:off + _SLOT.size] = head + struct.pack("<I", crc)  # last: validates it
+            self.seq, self._slot, self._jpos = seq, slot, 0
+            self.commits += 1
+
+    def journal(self, space: int, addr: int, data: bytes) -> bool:
+        """Append an acknowledged write (registers big-endian; coils one byte each).
+        False when the journal is full: commit a slot that includes the write instead."""
+        lay, mm = self._layout, self._mm
+        assert lay is not None and mm is not None
+        with self._lock:
+            pos = lay.journal_offset + self._jpos
+            size = _ENTRY.size + len(data)
+            if self._jpos + size > lay.journal_cap:
+                return False
+            head = _ENTRY.pack(self.seq, space, addr, len(data), 0)[:-4]
+            mm[pos + _ENTRY.size: pos + size] = data
+            mm[pos:pos + _ENTRY.size] = head + struct.pack("<I", zlib.crc32(data, zlib.crc32(head)))
+            self._jpos += size
+            return True
+
+    def _slot_seq(self, i: int) -> int:
+        """Seq of slot i if it verifies, else 0."""
+        lay, mm = self._layout, self._mm
+        assert lay is not None and mm is not None
+        off = lay.slot_offset(i)
+        seq, _app, blen, crc = _SLOT.unpack_from(mm, off)
+        if seq == 0 or blen > lay.blocks_cap:
+            return 0
+        body = mm[off + _SLOT.size: off + _SLOT.size + 2 * lay.n_regs + lay.n_coils + blen]
+        ok = zlib.crc32(body, zlib.crc32(mm[off:off + _SLOT.size - 4])) == crc
+        return seq if ok else 0
+
+    def persist(self) -> None:
+        """Copy the newest slot over the older durable one and msync it (power-loss
+        safety): the newer durable copy stays intact meanwhile. One thread at a time; the
+        disk write happens outside the commit lock."""
+        lay, mm = self._layout, self._mm
+        assert lay is not None and mm is not None
+        k = 0 if self._durable_seq[0] <= self._durable_seq[1] else 1
+        dst = lay.slot_offset(DURABLE[k])
+        with self._lock:
+            if self.seq == self.persisted_seq:
+                return
+            src = lay.slot_offset(self._slot)
+            used = _SLOT.size + 2 * lay.n_regs + lay.n_coils + _SLOT.unpack_from(mm, src)[2]
+            mm[dst:dst + used] = mm[src:src + used]
+            seq = self.seq
+        mm.flush(dst, lay.slot_size)
+        self._durable_seq[k] = self.persisted_seq = seq
+
+    def close(self) -> None:
+        """msync everything and unlock."""
+        if self._mm is not None:
+            self._mm.flush()
+            self._mm.close()
+            self._mm = None
+        if self._fd >= 0:
+            os.close(self._fd)  # releases the flock
+            self._fd = -1
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # some file systems cannot fsync a directory
+    finally:
+        os.close(fd)
 
 
 def check_compatible(state: RetainedState, mem: MemoryImage, where: str = "state file") -> None:
@@ -163,107 +518,82 @@ def check_compatible(state: RetainedState, mem: MemoryImage, where: str = "state
             f"and {len(mem.m)} %M{_HINT}")
 
 
+def restart(plc: Any, state: RetainedState | None, *, cold: bool = False,
+            keep_state: bool = False, app: bytes = b"", where: str = "state file"
+            ) -> tuple[str, str]:
+    """Warm restart from `state` if it belongs to this application, else cold start.
+
+    Returns ("warm" or "cold", why). A state saved by another program or configuration is
+    a new application: cold start, as a Twido after a download, unless `keep_state`.
+    """
+    if cold:
+        plc.cold_start()
+        return "cold", "--cold"
+    if state is None:
+        plc.cold_start()
+        return "cold", "no retained state yet"
+    check_compatible(state, plc.mem, where)
+    if app and state.app != app:
+        if not keep_state:
+            plc.cold_start()
+            return "cold", ("the program or configuration changed since the state was saved "
+                            "(a new application); --keep-state keeps the data")
+        why = "program or configuration changed, data kept (--keep-state)"
+    else:
+        why = "same program and configuration"
+    apply(plc.mem, state)
+    plc.warm_start()
+    return "warm", why
+
+
 def save(path: str | os.PathLike[str], state: RetainedState) -> None:
-    """Write atomically: temp file, fsync, rename, fsync the directory."""
-    path = Path(path)
-    data = encode(state)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    """Write `state` to `path` (tools and tests; the daemon keeps its store open)."""
+    store = StateStore.open(path)
     try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except OSError as e:
-        tmp.unlink(missing_ok=True)
-        raise StateFileError(f"cannot save state to {path}: {e.strerror or e}") from None
-    try:
-        fd = os.open(path.parent, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass  # some file systems cannot fsync a directory
+        try:
+            store.load()
+        except StateFileError:
+            pass  # replaced as a whole
+        store.start(state)
+        store.persist()
     finally:
-        os.close(fd)
+        store.close()
 
 
 def load(path: str | os.PathLike[str]) -> RetainedState | None:
-    """Read a state file; None if it does not exist."""
-    try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
+    """Read a state file; None if it does not exist (or was never written)."""
+    if not Path(path).exists():
         return None
-    except OSError as e:
-        raise StateFileError(f"cannot read state file {path}: {e.strerror or e}{_HINT}") from None
-    return decode(data, f"state file {path}")
+    store = StateStore.open(path)
+    try:
+        return store.load()
+    finally:
+        store.close()
 
 
-def restart(plc: Any, path: str | os.PathLike[str] | None, cold: bool = False,
-            program: str = "") -> str:
-    """Warm restart from `path` if it holds a good state, else cold start.
+class Persister:
+    """`store.persist()` every `interval` seconds on its own thread, so an msync never
+    delays a scan. `stop` ends it (the caller persists a last time)."""
 
-    Returns "warm" or "cold"; raises StateFileError for an unusable file unless `cold`.
-    """
-    if path is not None and not cold:
-        state = load(path)
-        if state is not None:
-            check_compatible(state, plc.mem, f"state file {path}")
-            if program and state.program and state.program != program:
-                log.warning("state file %s was saved by %s; warm restart of %s anyway",
-                            path, state.program, program)
-            apply(plc.mem, state)
-            plc.warm_start()
-            return "warm"
-    plc.cold_start()
-    return "cold"
-
-
-class RetainWriter:
-    """Saves states on a background thread, so fsync never delays a scan.
-
-    `submit` replaces any state not yet written (only the newest matters); `close`
-    writes what is pending and waits.
-    """
-
-    def __init__(self, path: str | os.PathLike[str]):
-        self.path = path
-        self._pending: RetainedState | None = None
-        self._cv = threading.Condition()
-        self._closing = False
-        self.saves = 0
-        self.error: StateFileError | None = None
-        self._thread = threading.Thread(target=self._run, name="retain", daemon=True)
-        self._thread.start()
-
-    def submit(self, state: RetainedState) -> None:
-        with self._cv:
-            self._pending = state
-            self._cv.notify()
+    def __init__(self, store: StateStore, interval: float):
+        self.store = store
+        self.interval = interval
+        self.error: OSError | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="persist", daemon=True)
+        if interval > 0:
+            self._thread.start()
 
     def _run(self) -> None:
-        while True:
-            with self._cv:
-                while self._pending is None and not self._closing:
-                    self._cv.wait()
-                state, self._pending = self._pending, None
-                if state is None:
-                    return
+        while not self._stop.wait(self.interval):
             try:
-                save(self.path, state)
-                self.saves += 1
+                self.store.persist()
                 self.error = None
-            except StateFileError as e:
+            except OSError as e:
                 self.error = e
+                log.error("cannot flush state file %s: %s", self.store.path, e.strerror or e)
 
-    def close(self, final: RetainedState | None = None) -> None:
-        """Write `final` (or what is pending) and stop. Raises the last save error."""
-        with self._cv:
-            if final is not None:
-                self._pending = final
-            self._closing = True
-            self._cv.notify()
-        self._thread.join()
-        if self.error is not None:
-            raise self.error
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join()
