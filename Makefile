@@ -34,9 +34,12 @@ test: $(STAMP) sysdeps
 	$(BIN)/ruff check softplc tests tools
 	$(BIN)/python -m pytest -q
 
+# libmodbus-dev (Debian): the C library the benchmark's "C ceiling" row compiles against.
 bench: $(STAMP)
-	@dpkg -s libmodbus-dev >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
-	  apt-get install -y -qq libmodbus-dev >/dev/null; } || echo "note: no libmodbus-dev: the C ceiling row is skipped"
+	@dpkg -s libmodbus-dev >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && \
+	  echo "make bench: installing the Debian package libmodbus-dev (apt-get) for the C ceiling row (a C Modbus server to compare with)" && \
+	  apt-get update -qq && apt-get install -y -qq libmodbus-dev >/dev/null; } || \
+	  echo "note: no libmodbus-dev (installing it needs root): the C ceiling row is skipped"
 	$(BIN)/pip install -q -e '.[test,bench]'
 	# --no-deps: pyrung's pyclickplc pins pymodbus<3.13 (pyrung's core runs with ours)
 	$(BIN)/pip install -q --no-deps 'pyrung==0.15.2' 'pyclickplc==0.4.1'

@@ -22,6 +22,9 @@ SIMPLE_KINDS = {
     "MF": REAL, "KF": REAL,
 }
 IO_KINDS = {"I": BOOL, "Q": BOOL}
+# Analog I/O words %IWm.c / %QWm.c (module m, channel c) [manual].
+ANALOG_KINDS = {"IW": INT16, "QW": INT16}
+ANALOG_STRIDE = 8  # word channels per module in the flat index (the widest analog module)
 # Function-block objects: kind -> {field: (type, writable by the program)}.
 BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     "TM": {"Q": (BOOL, False), "V": (INT16, False), "P": (INT16, True)},
@@ -33,7 +36,7 @@ BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     "R": {"I": (INT16, True), "O": (INT16, True), "E": (BOOL, False), "F": (BOOL, False)},
 }
 # Objects the program may never write.
-READ_ONLY_KINDS = {"I", "KW", "KD", "KF"}
+READ_ONLY_KINDS = {"I", "IW", "KW", "KD", "KF"}
 # Word-backed kinds: the 16-bit family a 32-bit or float object overlays.
 WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF": "KW",
                "SW": "SW"}
@@ -76,6 +79,8 @@ class Ref:
             return BLOCK_FIELDS[self.kind][self.field][0]
         if self.kind in IO_KINDS:
             return BOOL
+        if self.kind in ANALOG_KINDS:
+            return INT16
         return SIMPLE_KINDS[self.kind]
 
     @property
@@ -83,8 +88,8 @@ class Ref:
         if self.kind in READ_ONLY_KINDS:
             return False
         if self.kind in BLOCK_FIELDS:
-            if self.kind == "SBR" and self.field == "J":
-                return True  # the program loads bits into a shift register [manual]
+            if self.field == "J":
+                return True  # %SBRi.j and %SCi.j bits can be written [manual]
             return self.field is not None and BLOCK_FIELDS[self.kind].get(
                 self.field, (BOOL, False))[1]
         return True
@@ -94,14 +99,14 @@ class Ref:
         return self.kind in BLOCK_FIELDS and self.field is None
 
     def __str__(self) -> str:
-        if self.kind in IO_KINDS:
+        if self.kind in IO_KINDS or self.kind in ANALOG_KINDS:
             s = f"%{self.kind}{self.module}.{self.channel}"
         else:
             s = f"%{self.kind}{self.index}"
-        if self.field is not None:
+        if self.field == "J":
+            s += f".{self.bit}"  # %SBR0.3, TwidoSuite's spelling
+        elif self.field is not None:
             s += f".{self.field}"
-            if self.bit is not None:
-                s += str(self.bit)
         elif self.bit is not None:
             s += f":X{self.bit}"
         if self.length is not None:
@@ -109,6 +114,32 @@ class Ref:
         if self.offset is not None:
             s += f"[{self.offset}]"
         return s
+
+
+# Bits of a shift register (%SBRi.0-15) and of a step counter (%SCi.0-255) [manual].
+BLOCK_BITS = {"SBR": 16, "SC": 256}
+
+
+def _block_bit(kind: str, a: int, k: int, text: str, profile: Profile) -> Ref:
+    count = profile.count(kind)
+    if a >= count:
+        raise AddressError(f"{text!r} is beyond the controller profile ({profile.name} has "
+                           f"%{kind}0..%{kind}{count - 1})")
+    if k >= BLOCK_BITS[kind]:
+        raise AddressError(f"{text!r}: bit {k} out of range: %{kind}{a}.0 .. "
+                           f"%{kind}{a}.{BLOCK_BITS[kind] - 1}")
+    return Ref(kind, a, field="J", bit=k)
+
+
+def _module_channel(kind: str, a: int, b: str | None, text: str,
+                    profile: Profile) -> tuple[int, int]:
+    """%Im.c, %QWm.c...: (module, channel), the module within the profile's slots."""
+    if b is None:
+        raise AddressError(f"{text!r}: I/O addresses are %{kind}module.channel")
+    if a > profile.expansion_slots:
+        raise AddressError(f"{text!r}: module {a} beyond the "
+                           f"{profile.expansion_slots} expansion slots of {profile.name}")
+    return a, int(b)
 
 
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
@@ -123,18 +154,19 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     bit = int(m["bit"]) if m["bit"] is not None else None
     length = int(m["length"]) if m["length"] is not None else None
     offset = parse_address(m["offset"], profile) if m["offset"] else None
-    if kind in ("IW", "QW"):
-        raise AddressError(f"analog objects like {text!r} are not emulated")
+    if kind in ANALOG_KINDS:
+        module, channel = _module_channel(kind, a, m["b"], text, profile)
+        if channel >= ANALOG_STRIDE:
+            raise AddressError(f"{text!r}: analog channel {channel} beyond "
+                               f"{ANALOG_STRIDE - 1}")
+        if field or bit is not None or offset or length is not None:
+            raise AddressError(f"{text!r}: analog I/O words take no suffix")
+        return Ref(kind, module * ANALOG_STRIDE + channel, module, channel)
     if kind == "L":
         raise AddressError(f"{text!r} is a label, not an object")
 
     if kind in IO_KINDS:
-        if m["b"] is None:
-            raise AddressError(f"{text!r}: I/O addresses are %{kind}module.channel")
-        module, channel = a, int(m["b"])
-        if module > profile.expansion_slots:
-            raise AddressError(f"{text!r}: module {module} beyond the "
-                               f"{profile.expansion_slots} expansion slots of {profile.name}")
+        module, channel = _module_channel(kind, a, m["b"], text, profile)
         limit = (profile.inputs_base if kind == "I" else profile.outputs_base) if module == 0 \
             else profile.channels_per_module
         if channel >= limit:
@@ -147,6 +179,10 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         return Ref(kind, module * profile.channels_per_module + channel, module, channel,
                    length=length)
 
+    if m["b"] is not None and kind in ("SBR", "SC") and not (m["field"] or bit is not None
+                                                           or length or offset):
+        # %SBRi.j / %SCi.j: TwidoSuite's spelling of bit j [manual]; %SBRi.Jj is the same
+        return _block_bit(kind, a, int(m["b"]), text, profile)
     if m["b"] is not None:
         raise AddressError(f"malformed address {text!r}")
     base_kind = WORD_FAMILY.get(kind, kind)
@@ -162,11 +198,9 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         if field is not None:
             if kind in ("SBR", "SC"):
                 if field != "J" or m["fbit"] is None:
-                    raise AddressError(f"{text!r}: %{kind} bits are .Jk")
-                k = int(m["fbit"])
-                if k >= (16 if kind == "SBR" else 256):
-                    raise AddressError(f"{text!r}: bit {k} out of range")
-                return Ref(kind, a, field="J", bit=k)
+                    raise AddressError(f"{text!r}: %{kind} bits are %{kind}{a}.j "
+                                       f"(or .Jj)")
+                return _block_bit(kind, a, int(m["fbit"]), text, profile)
             if field not in fields or m["fbit"] is not None:
                 raise AddressError(f"{text!r}: %{kind} has fields "
                                    f"{', '.join('.' + f for f in fields)}")

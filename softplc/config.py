@@ -1,4 +1,4 @@
-"""Configuration: a dict or a TOML file with the same keys.
+"""Configuration: a dict or a TOML file with the same keys, checked against one typed schema.
 
     scan_period = "10ms"     # virtual scan length / periodic-mode period
     watchdog = "150ms"       # %SW11
@@ -9,25 +9,49 @@
     registers."%R0" = { type = "FIFO" }
     constants = { "%KW0" = 100, "%KF2" = 1.5 }
     modules = { 1 = "TM2DDO8TT" }    # expansion modules; when given, I/O addresses are checked
+    analog."%IW2.0" = { type = "PT100", range = "celsius" }   # analog channels
+    [pid.0]                  # PID functions, [rtc] the clock's calendar start,
+    [schedule.0]             # schedule blocks: see softplc/config_models.py
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
     [daemon]                 # the daemon's state file, save and statistics intervals
+
+The schema is the pydantic model `Config` below (device options: each device class's
+`Options` model, looked up by `type`). Every problem found is reported at once, as
+`key.path: what is wrong (got VALUE)`, in one `ConfigError`. Durations are strings with a
+unit ("10ms", "1.5s", "1min", "200us"): a bare number is refused, since `scan_period = 10`
+could mean 10 ms or 10 s. What the schema cannot know (whether an address exists in the
+profile, whether a device names another device of the machine) is checked where it is used,
+with the same kind of message.
 """
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+)
 
 from .errors import ConfigError
+from .profile import DEFAULT_PROFILE, PROFILES
+from .runtime.blocks import MAX_VALUE, TIME_BASES_US
 
-KNOWN_KEYS = {"scan_period", "watchdog", "profile", "timers", "counters", "drums", "registers",
-              "constants", "modules", "devices", "modbus", "daemon", "name", "description"}
-
-_DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+)\s*(us|ms|s|min)?\s*$", re.I)
-_UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0, None: 1.0}
+_DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(us|ms|s|min)?\s*$", re.I)
+_UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0}
+MAX_DURATION_S = 86400.0  # a day: longer is a typo, and keeps every duration finite in code
 
 
 def check_keys(section: str, table: Any, allowed: tuple[str, ...]) -> dict[str, Any]:
@@ -41,46 +65,315 @@ def check_keys(section: str, table: Any, allowed: tuple[str, ...]) -> dict[str, 
     return table
 
 
-def duration(value: Any, what: str = "duration") -> float:
-    """'10ms', '1.5s', '1min', 0.01 -> seconds."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        if value < 0:
-            raise ConfigError(f"{what}: negative duration {value}")
-        return float(value)
+def _parse_duration(value: Any) -> float:
+    """'10ms', '1.5s', '1min', '200us' -> seconds (ValueError with a hint otherwise)."""
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise ValueError("expected a duration string with a unit, like \"10ms\" or \"1s\"")
     m = _DUR.match(str(value))
+    if m and not m.group(2):
+        raise ValueError(f"a bare number is ambiguous: write the unit, e.g. \"{value}ms\" or "
+                         f"\"{value}s\"")
     if not m:
-        raise ConfigError(f"{what}: {value!r} is not a duration like '10ms', '1s', '1min'")
-    unit = m.group(2).lower() if m.group(2) else None
-    return float(m.group(1)) * _UNIT_S[unit]
+        raise ValueError("not a duration like \"10ms\", \"1s\", \"1min\"")
+    secs = float(m.group(1)) * _UNIT_S[m.group(2).lower()]
+    if not secs <= MAX_DURATION_S:
+        raise ValueError(f"longer than {MAX_DURATION_S / 3600:g} h")
+    return secs
 
 
-def time_base(value: Any) -> str:
-    """Normalise a timer time base to '1ms' | '10ms' | '100ms' | '1s' | '1min'."""
-    s = duration(value, "time base")
-    for name, sec in (("1ms", 1e-3), ("10ms", 1e-2), ("100ms", 0.1), ("1s", 1.0),
-                      ("1min", 60.0)):
-        if abs(s - sec) < 1e-9:
+def duration(value: Any, what: str = "duration") -> float:
+    """'10ms', '1.5s', '1min' -> seconds, as a ConfigError naming `what` when wrong."""
+    try:
+        return _parse_duration(value)
+    except ValueError as e:
+        raise ConfigError(f"{what}: {e} (got {value!r})") from None
+
+
+def _parse_time_base(value: Any) -> str:
+    s = _parse_duration(value)
+    for name, us in TIME_BASES_US.items():
+        if abs(s * 1e6 - us) < 1e-3:
             return name
-    raise ConfigError(f"time base {value!r}: one of 1ms, 10ms, 100ms, 1s, 1min")
+    raise ValueError(f"one of {', '.join(TIME_BASES_US)}")
 
 
-def load_config(config: str | Path | dict[str, Any] | None) -> tuple[dict[str, Any], Path | None]:
-    """Returns (config dict, folder of the config file for relative paths)."""
+def _positive(v: float) -> float:
+    if not v > 0:
+        raise ValueError("must be longer than 0")
+    return v
+
+
+# ---- field types shared by the schema and the devices' Options ---------------------------------
+Duration = Annotated[float, BeforeValidator(_parse_duration)]
+"""Seconds, written with a unit ("10ms"); bare numbers refused."""
+PositiveDuration = Annotated[Duration, AfterValidator(_positive)]
+TimeBase = Annotated[str, BeforeValidator(_parse_time_base)]
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Address = Annotated[str, Field(min_length=1)]
+
+
+def _no_nan(v: float) -> float:
+    if math.isnan(v):
+        raise ValueError("nan is not a number here")
+    return v
+
+
+InfFloat = Annotated[float, AfterValidator(_no_nan)]
+"""A float where `inf` means "no limit" (nan still refused)."""
+
+
+class Section(BaseModel):
+    """A config table: unknown keys are errors, no silent type conversion (a string is not a
+    number, a number is not a bool)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+
+class TimerConfig(Section):
+    type: Literal["TON", "TOF", "TP"] = "TON"
+    base: TimeBase = "1s"
+    preset: int = Field(0, ge=0, le=MAX_VALUE)
+
+
+class CounterConfig(Section):
+    preset: int = Field(MAX_VALUE, ge=0, le=MAX_VALUE)
+
+
+class DrumConfig(Section):
+    steps: list[int] = Field(default_factory=lambda: [0], min_length=1)
+    outputs: list[Address] = Field(default_factory=list)
+
+
+class RegisterConfig(Section):
+    type: Literal["FIFO", "LIFO"] = "FIFO"
+
+
+class ModbusConfig(Section):
+    """`[modbus]`: the daemon's server (softplc run)."""
+
+    host: str = "127.0.0.1"
+    port: int = Field(5020, ge=0, le=65535)
+    read_only: list[Address] | Address = Field(default_factory=list)
+    allow: list[str] | str | None = None  # client addresses/networks (the daemon's --allow)
+    max_clients: int = Field(32, ge=1)
+    frame_timeout: Duration = 2.0
+    idle_timeout: Duration = 0.0
+
+
+class DaemonConfig(Section):
+    """`[daemon]`: state file and intervals (softplc run)."""
+
+    state: str | None = Field(None, min_length=1)
+    save_interval: Duration = 5.0
+    stats_interval: Duration = 5.0
+    rt_priority: int = Field(10, ge=0, le=99)
+
+
+class DeviceSection(BaseModel):
+    """`[devices.NAME]`: `type` picks the device class, whose `Options` model checks the rest
+    (see `validate_config`); `options` is that validated model."""
+
+    model_config = ConfigDict(extra="allow", strict=True)
+    type: str
+    _options: Any = PrivateAttr(None)
+
+    @property
+    def options(self) -> Any:
+        return self._options
+
+
+def _str_keys(v: Any) -> Any:
+    # TOML keys are strings; a Python dict may say {1: "TM2DDO8TT"}
+    return {str(k): x for k, x in v.items()} if isinstance(v, dict) else v
+
+
+class Config(Section):
+    """The whole machine/PLC configuration."""
+
+    name: str = ""
+    description: str = ""
+    scan_period: PositiveDuration = 0.010
+    watchdog: Duration | None = None  # None: the controller's default (engine)
+    profile: str = DEFAULT_PROFILE.name
+    timers: dict[str, TimerConfig] = Field(default_factory=dict)
+    counters: dict[str, CounterConfig] = Field(default_factory=dict)
+    drums: dict[str, DrumConfig] = Field(default_factory=dict)
+    registers: dict[str, RegisterConfig] = Field(default_factory=dict)
+    constants: dict[str, int | FiniteFloat] = Field(default_factory=dict)
+    modules: Annotated[dict[str, str] | None, BeforeValidator(_str_keys)] = None
+    devices: dict[str, DeviceSection] = Field(default_factory=dict)
+    modbus: ModbusConfig = Field(default_factory=ModbusConfig)
+    daemon: DaemonConfig = Field(default_factory=DaemonConfig)
+    # controller functions: checked by their own models in softplc/config_models.py when the
+    # PLC builds them (they need the profile and the memory image to resolve addresses)
+    analog: dict[str, Any] = Field(default_factory=dict)
+    pid: dict[str, Any] = Field(default_factory=dict)
+    rtc: dict[str, Any] | None = None
+    schedule: dict[str, Any] = Field(default_factory=dict)
+
+    @field_validator("profile")
+    @classmethod
+    def _known_profile(cls, v: str) -> str:
+        if v not in PROFILES:
+            raise ValueError(f"unknown profile; known: {', '.join(PROFILES)}")
+        return v
+
+
+# ---- error messages ------------------------------------------------------------------------------
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
+
+
+def key_path(loc: tuple[Any, ...]) -> str:
+    """('timers', '%TM0', 'preset') -> 'timers."%TM0".preset'; list indexes as [2]."""
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            s = part if _IDENT.match(part) else f'"{part}"'
+            out += f".{s}" if out else s
+    return out or "(top level)"
+
+
+def _known_keys(t: Any, loc: tuple[Any, ...]) -> list[str]:
+    """The keys the table at `loc` of schema type `t` accepts (walks the schema)."""
+    import types
+    import typing
+
+    while typing.get_origin(t) is typing.Annotated:
+        t = typing.get_args(t)[0]
+    if typing.get_origin(t) in (typing.Union, types.UnionType):
+        for member in typing.get_args(t):
+            if known := _known_keys(member, loc):
+                return known
+        return []
+    is_model = isinstance(t, type) and issubclass(t, BaseModel)
+    if not loc:
+        return sorted(t.model_fields) if is_model else []
+    part, rest = loc[0], loc[1:]
+    if is_model:
+        f = t.model_fields.get(part) if isinstance(part, str) else None
+        return _known_keys(f.annotation, rest) if f is not None else []
+    if typing.get_origin(t) is dict:
+        return _known_keys(typing.get_args(t)[1], rest)
+    if typing.get_origin(t) is list:
+        return _known_keys(typing.get_args(t)[0], rest)
+    return []
+
+
+def _short(value: Any) -> str:
+    s = repr(value)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def error_lines(e: ValidationError, model: type[BaseModel],
+                prefix: tuple[Any, ...] = ()) -> list[str]:
+    """One line per problem: `key.path: message (got VALUE)`."""
+    by_path: dict[str, str] = {}
+    for err in e.errors(include_url=False):
+        loc = tuple(err["loc"])
+        # a `X | Y` field reports the loc through the member tried: drop type names
+        loc = tuple(p for p in loc if not (isinstance(p, str) and
+                                           (p in ("int", "float", "str", "bool")
+                                            or p.startswith(("function-", "list[", "dict[",
+                                                             "constrained-")))))
+        path = key_path(prefix + loc)
+        kind = err["type"]
+        msg = err["msg"]
+        if kind == "extra_forbidden":
+            known = _known_keys(model, loc[:-1])
+            by_path[path] = "unknown key" + (f"; known: {', '.join(known)}" if known else "")
+            continue
+        if kind == "missing":
+            by_path[path] = "required key missing"
+            continue
+        if msg.startswith("Value error, "):
+            msg = msg[len("Value error, "):]
+        if msg.startswith("Input should be "):
+            msg = "expected " + msg[len("Input should be "):]
+        if re.match(r"[A-Z][a-z]+ should ", msg):  # pydantic's "List should ...", not "Ixx30 ..."
+            msg = msg[0].lower() + msg[1:]
+        if kind in ("dict_type", "model_type"):
+            msg = "expected a table"
+        elif kind == "list_type":
+            msg = "expected a list"
+        got = f" (got {_short(err['input'])})"
+        if path in by_path:  # a union (`int | float`) reports one problem per member
+            by_path[path] = by_path[path][:-len(got)] + " or " + \
+                msg.removeprefix("expected ") + got
+        else:
+            by_path[path] = f"{msg}{got}"
+    # a union (`list[str] | str`) that failed inside its list member also says the list is
+    # not a string: the deeper problem is the one to show
+    return [f"{p}: {m}" for p, m in by_path.items()
+            if not any(q.startswith((p + "[", p + ".")) for q in by_path)]
+
+
+def validate_config(raw: Any, device_types: Mapping[str, Any] | None = None) -> Config:
+    """Check a whole configuration. `device_types` maps a device `type` to its class (with an
+    `Options` model); given, every `[devices.NAME]` table is checked against it too."""
+    lines: list[str] = []
+    try:
+        cfg = Config.model_validate(raw)
+    except ValidationError as e:
+        lines = error_lines(e, Config)
+        cfg = None
+    if device_types is not None:
+        devices = raw.get("devices") if isinstance(raw, dict) else None
+        for name, section in (devices.items() if isinstance(devices, dict) else ()):
+            if not isinstance(section, dict) or not isinstance(section.get("type"), str):
+                continue  # reported by the schema above
+            cls = device_types.get(section["type"])
+            where = ("devices", name)
+            if cls is None:
+                lines.append(f"{key_path(where + ('type',))}: unknown device type "
+                             f"{section['type']!r}; known: {', '.join(sorted(device_types))}")
+                continue
+            opts = {k: v for k, v in section.items() if k != "type"}
+            try:
+                model = cls.Options.model_validate(opts)
+            except ValidationError as e:
+                lines += error_lines(e, cls.Options, where)
+                continue
+            if cfg is not None:
+                cfg.devices[name]._options = model
+    if lines:
+        raise ConfigError("\n".join(lines))
+    assert cfg is not None
+    return cfg
+
+
+def read_config(config: str | Path | dict[str, Any] | None) -> tuple[dict[str, Any], Path | None]:
+    """The raw configuration (TOML parsed) and the folder of its file for relative paths."""
     if config is None:
         return {}, None
     if isinstance(config, dict):
-        cfg, base = dict(config), None
-    else:
-        p = Path(config)
-        try:
-            cfg = tomllib.loads(p.read_text(encoding="utf-8"))
-        except OSError as e:
-            raise ConfigError(f"cannot read config {p}: {e.strerror}") from None
-        except tomllib.TOMLDecodeError as e:
-            raise ConfigError(f"{p}: {e}") from None
-        base = p.parent
-    unknown = set(cfg) - KNOWN_KEYS
-    if unknown:
-        raise ConfigError(f"unknown configuration key(s) {', '.join(sorted(unknown))}; "
-                          f"known: {', '.join(sorted(KNOWN_KEYS))}")
-    return cfg, base
+        return dict(config), None
+    p = Path(config)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: no such file") from None
+    except OSError as e:
+        raise ConfigError(f"cannot read config {p}: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{p}: not a UTF-8 text file") from None
+    try:
+        return tomllib.loads(text), p.parent
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{p}: {e}") from None
+
+
+def load_config(config: str | Path | dict[str, Any] | None,
+                device_types: Mapping[str, Any] | None = None,
+                ) -> tuple[dict[str, Any], Path | None, Config]:
+    """(raw dict, folder of the config file, validated `Config`). Raises ConfigError naming
+    the file and every wrong key."""
+    raw, base = read_config(config)
+    try:
+        cfg = validate_config(raw, device_types)
+    except ConfigError as e:
+        if base is not None:
+            raise ConfigError(f"{config}:\n  " + str(e).replace("\n", "\n  ")) from None
+        raise
+    return raw, base, cfg

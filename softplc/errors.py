@@ -55,7 +55,9 @@ class Diagnostic:
     code: Code = Code.OTHER
 
     def __str__(self) -> str:
-        s = f"{self.file}:{self.line}:{self.column}: {self.message}"
+        # line 0: about the whole file (it cannot be read, ...), no position to give
+        where = f"{self.file}:{self.line}:{self.column}" if self.line else self.file
+        s = f"{where}: {self.message}"
         if self.text:
             s += f" (at {self.text!r})"
         if self.expected:

@@ -6,12 +6,15 @@
 
 from __future__ import annotations
 
+import re
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from .address import BLOCK_FIELDS, Ref, parse_address
+from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
 from .compiler import Resolved, compile_program, resolve
-from .config import check_keys, duration, load_config, time_base
+from .config import Config, key_path, load_config, time_base
+from .config_models import parse_analog, parse_pid, parse_rtc, parse_schedules, pid_params
 from .errors import (
     AddressError,
     Code,
@@ -23,51 +26,59 @@ from .errors import (
 )
 from .il import ast as A
 from .il.parser import parse, parse_file
-from .profile import DEFAULT_PROFILE, MODULES, PROFILES, Profile
+from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
 from .program import CompiledProgram, ProgramState, bind
+from .runtime.analog import AnalogChannel, AnalogIO, normal_range
 from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Register, Timer, TimeSource
-from .runtime.clock import Clock, make_clock
+from .runtime.clock import Clock, VirtualClock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
+from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
+from .runtime.pid import Pid
+from .runtime.rtc import DEFAULT_START, RTC
 from .semantics import Ops
 
-# Configuration sections of the function blocks: kind -> (section, its keys).
-BLOCK_SECTIONS = {"TM": ("timers", ("type", "base", "preset")), "C": ("counters", ("preset",)),
-                  "DR": ("drums", ("steps", "outputs")), "R": ("registers", ("type",))}
+# signed or unsigned views of a word / double word
+_INT_CONSTANT_RANGE = {"KW": (-(1 << 15), (1 << 16) - 1), "KD": (-(1 << 31), (1 << 32) - 1)}
 
 
 class PLC:
     def __init__(self, program: A.Program, config: str | Path | dict[str, Any] | None = None,
                  *, clock: str | Clock = "virtual", devices: bool = True):
-        cfg, self.config_dir = load_config(config)
-        self.config = cfg
-        prof_name = cfg.get("profile", DEFAULT_PROFILE.name)
-        if prof_name not in PROFILES:
-            raise ConfigError(f"unknown profile {prof_name!r}; known: {', '.join(PROFILES)}")
-        self.profile: Profile = PROFILES[prof_name]
+        from .devices import DEVICE_TYPES
+
+        cfg, self.config_dir, settings = load_config(config, DEVICE_TYPES)
+        self.config = cfg  # as written; `settings` is the same, checked and typed
+        self.settings: Config = settings
+        self.profile: Profile = PROFILES[settings.profile]
         self.ast = program
         self._refs: dict[str, Ref] = {}
         self.mem = MemoryImage(self.profile)
         self.time_source = TimeSource()
-        self.scan_period = duration(cfg.get("scan_period", "10ms"), "scan_period")
-        if self.scan_period <= 0:
-            raise ConfigError("scan_period must be > 0")
-        watchdog = duration(cfg.get("watchdog", DEFAULT_WATCHDOG_S), "watchdog")
+        self.scan_period = settings.scan_period
+        watchdog = settings.watchdog if settings.watchdog is not None else DEFAULT_WATCHDOG_S
         self._clock = make_clock(clock)
-        self._modules = self._load_modules(cfg.get("modules"))
-        self._configure_blocks(cfg)
-        self._configure_constants(cfg.get("constants", {}))
-        self.ops = Ops(self.mem.s)
+        self._analog_modules: dict[int, AnalogModule] = {}
+        self._modules = self._load_modules(settings.modules)
+        self.mem.analog = self._configure_analog(settings.analog)
+        self._configure_blocks(settings)
+        self._configure_constants(settings.constants)
+        self._configure_pid(settings.pid)
+        self.ops = Ops(self.mem.s, self.mem.sw.w)
+        self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
-        self.program_state = ProgramState()  # shared by the fast and the debug build
+        self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
+        self._rtc_start = parse_rtc(cfg.get("rtc"))
+        self._schedules = parse_schedules(cfg.get("schedule", {}), self.mem)
+        self._attach_rtc(program, "rtc" in cfg)
         self.program_version = 0  # bumped when the running code is rebuilt
         self.devices: dict[str, Any] = {}
-        if devices and cfg.get("devices"):
+        if devices and settings.devices:
             from .devices import build_devices
 
-            self.devices = build_devices(self._device_config(cfg["devices"]), self.mem)
+            self.devices = build_devices(self._device_config(settings), self.mem)
             self.engine.devices = self.devices
         self._forced: dict[Ref, Any] = {}
         self.engine.cold_start()
@@ -105,19 +116,20 @@ class PLC:
             raise
         return cls(program, config, **kw)
 
-    def _device_config(self, devs: dict[str, Any]) -> dict[str, Any]:
+    def _device_config(self, settings: Config) -> dict[str, tuple[str, Any]]:
+        """Device name -> (type, validated options), relative files made relative to the
+        config file's folder."""
         out = {}
-        for name, opts in devs.items():
-            opts = dict(opts)
-            # relative output files are relative to the config file's folder
-            if self.config_dir is not None and isinstance(opts.get("csv"), str):
-                p = Path(opts["csv"])
-                if not p.is_absolute():
-                    opts["csv"] = str(self.config_dir / p)
-            out[name] = opts
+        for name, section in settings.devices.items():
+            opts = section.options
+            csv = getattr(opts, "csv", None)
+            if self.config_dir is not None and isinstance(csv, str) \
+                    and not Path(csv).is_absolute():
+                opts = opts.model_copy(update={"csv": str(self.config_dir / csv)})
+            out[name] = (section.type, opts)
         return out
 
-    def _load_modules(self, mods: dict[str, Any] | None) -> dict[int, tuple[int, int]] | None:
+    def _load_modules(self, mods: dict[str, str] | None) -> dict[int, tuple[int, int]] | None:
         if mods is None:
             return None
         out = {}
@@ -125,33 +137,101 @@ class PLC:
             try:
                 slot = int(k)
             except ValueError:
-                raise ConfigError(f"modules: slot {k!r} is not a number") from None
+                raise ConfigError(f"modules.{k}: slot {k!r} is not a number") from None
             if not 1 <= slot <= self.profile.expansion_slots:
-                raise ConfigError(f"modules: slot {slot} outside 1..{self.profile.expansion_slots}")
-            if str(name).upper() not in MODULES:
-                raise ConfigError(f"modules: unknown module {name!r}; known: "
-                                  f"{', '.join(sorted(MODULES))}")
-            out[slot] = MODULES[str(name).upper()]
+                raise ConfigError(f"modules.{k}: slot {slot} outside "
+                                  f"1..{self.profile.expansion_slots}")
+            name = str(name).upper()
+            if name in ANALOG_MODULES:
+                self._analog_modules[slot] = ANALOG_MODULES[name]
+                out[slot] = (0, 0)
+                continue
+            if name not in MODULES:
+                raise ConfigError(f"modules.{k}: unknown module {name!r}; known: "
+                                  f"{', '.join(sorted(MODULES | ANALOG_MODULES))}")
+            out[slot] = MODULES[name]
         return out
+
+    def _configure_analog(self, section: Any) -> AnalogIO:
+        """The analog channels: the base's inputs, those of the analog modules in
+        [modules], with the signal type and range [analog] gives them."""
+        chans: dict[Ref, AnalogChannel] = {}
+        allowed: dict[Ref, tuple[str, ...]] = {}
+        for c, (sig, full) in enumerate(self.profile.analog_base):
+            ref = Ref("IW", c, 0, c)
+            chans[ref] = AnalogChannel(ref, sig, "normal", *normal_range(sig, full), full)
+            allowed[ref] = (sig,)
+        for slot, mod in self._analog_modules.items():
+            for kind, n, types in (("IW", mod.inputs, mod.input_types),
+                                   ("QW", mod.outputs, mod.output_types)):
+                for c in range(n):
+                    ref = parse_address(f"%{kind}{slot}.{c}", self.profile)
+                    chans[ref] = AnalogChannel(ref, types[0], "normal",
+                                               *normal_range(types[0], mod.full_scale),
+                                               mod.full_scale)
+                    allowed[ref] = types
+        for text, o in parse_analog(section).items():
+            try:
+                ref = parse_address(text, self.profile)
+            except AddressError as e:
+                raise ConfigError(f"analog: {e}") from None
+            ch = chans.get(ref)
+            if ch is None:
+                raise ConfigError(f"analog.{text}: no such analog channel: configure an "
+                                  f"analog module in its slot ([modules])")
+            if o.type not in allowed[ref]:
+                raise ConfigError(f"analog.{text}: type {o.type!r} not available on this "
+                                  f"channel; one of {', '.join(allowed[ref])}")
+            ch.signal, ch.range = o.type, o.range
+            ch.lo, ch.hi = (o.min, o.max) if o.range == "custom" else \
+                normal_range(o.type, ch.full_scale)
+        return AnalogIO(self.mem, chans)
 
     def _cfg_ref(self, text: str, kind: str, section: str) -> Ref:
         try:
             ref = parse_address(text, self.profile)
         except AddressError as e:
-            raise ConfigError(f"{section}: {e}") from None
+            raise ConfigError(f"{key_path((section, text))}: {e}") from None
         if ref.kind != kind or not (ref.is_block or kind in ("KW", "KD", "KF")):
-            raise ConfigError(f"{section}: {text!r} is not a %{kind} object")
+            raise ConfigError(f"{key_path((section, text))}: {text!r} is not a %{kind} object")
         return ref
 
-    def _configure_blocks(self, cfg: dict[str, Any]) -> None:
-        for kind, (section, keys) in BLOCK_SECTIONS.items():
-            for text, o in cfg.get(section, {}).items():
-                ref = self._cfg_ref(text, kind, section)
-                check_keys(f"{section}.{text}", o, keys)
+    def _configure_blocks(self, cfg: Config) -> None:
+        blocks = self.mem.blocks
+        for text, t in cfg.timers.items():
+            ref = self._cfg_ref(text, "TM", "timers")
+            try:
+                blocks["TM"][ref.index] = Timer(self.time_source, t.type, t.base, t.preset)
+            except ValueError as e:
+                raise ConfigError(f"timers.{text}: {e}") from None
+        for text, c in cfg.counters.items():
+            ref = self._cfg_ref(text, "C", "counters")
+            try:
+                blocks["C"][ref.index] = Counter(c.preset)
+            except ValueError as e:
+                raise ConfigError(f"counters.{text}: {e}") from None
+        for text, d in cfg.drums.items():
+            ref = self._cfg_ref(text, "DR", "drums")
+            outs = []
+            for k, a in enumerate(d.outputs):
                 try:
-                    self.mem.blocks[kind][ref.index] = self._new_block(kind, o, f"{section}.{text}")
-                except (ValueError, TypeError) as e:
-                    raise ConfigError(f"{section}.{text}: {e}") from None
+                    r = parse_address(a, self.profile)
+                except AddressError as e:
+                    raise ConfigError(f"drums.{text}.outputs[{k}]: {e}") from None
+                if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
+                    raise ConfigError(f"drums.{text}.outputs[{k}]: %Q or %M bits, not {a!r}")
+                self.mem.use_io(r)
+                outs.append((self.mem.bits(r.kind), r.index))
+            try:
+                blocks["DR"][ref.index] = Drum(d.steps, outs)
+            except ValueError as e:
+                raise ConfigError(f"drums.{text}: {e}") from None
+        for text, g in cfg.registers.items():
+            ref = self._cfg_ref(text, "R", "registers")
+            try:
+                blocks["R"][ref.index] = Register(g.type, self.profile.count("FIFO_DEPTH"))
+            except ValueError as e:
+                raise ConfigError(f"registers.{text}: {e}") from None
 
     def _new_block(self, kind: str, o: dict[str, Any], where: str) -> Any:
         """The one constructor of blocks, from their configuration options `o` (empty for a
@@ -179,6 +259,15 @@ class PLC:
             return Register(o.get("type", "FIFO"), self.profile.count("FIFO_DEPTH"))
         return BLOCK_CLASSES[kind]()  # %SBR, %SC: nothing to configure
 
+    def _configure_pid(self, section: Any) -> None:
+        """The PID functions of [pid], addresses resolved and checked once."""
+        self.mem.blocks["PID"] = pids = {}
+        for n, o in parse_pid(section).items():
+            if not 0 <= n < self.profile.count("PID"):
+                raise ConfigError(f"pid.{n}: PID 0 .. PID {self.profile.count('PID') - 1}")
+            params = pid_params(f"pid.{n}", o, self.mem, self.scan_period)
+            pids[n] = Pid(self.mem, self.time_source, params)
+
     def _block_factory(self, ref: Ref) -> str | None:
         """Create a block the program uses but the configuration does not name, where
         Twido has an obvious default; otherwise say what to configure."""
@@ -196,19 +285,32 @@ class PLC:
             blocks[ref.index] = self._new_block(ref.kind, {}, str(ref))
         return None
 
-    def _configure_constants(self, consts: dict[str, Any]) -> None:
+    def _configure_constants(self, consts: dict[str, int | float]) -> None:
         for text, v in consts.items():
             try:
                 ref = parse_address(text, self.profile)
             except AddressError as e:
-                raise ConfigError(f"constants: {e}") from None
-            if ref.kind not in ("KW", "KD", "KF"):
-                raise ConfigError(f"constants: {text!r} is not a %KW/%KD/%KF constant")
-            if ref.kind == "KW" and not -32768 <= int(v) <= 65535:
-                raise ConfigError(f"constants: {text} = {v} does not fit a word")
+                raise ConfigError(f"{key_path(('constants', text))}: {e}") from None
+            if ref.kind not in ("KW", "KD", "KF") or ref.length is not None \
+                    or ref.bit is not None:
+                raise ConfigError(f"{key_path(('constants', text))}: {text!r} is not a "
+                                  f"%KW/%KD/%KF constant")
+            if ref.kind != "KF":
+                lo, hi = _INT_CONSTANT_RANGE[ref.kind]
+                if not isinstance(v, int) or not lo <= v <= hi:
+                    raise ConfigError(f"{key_path(('constants', text))}: expected an integer "
+                                      f"{lo}..{hi} (got {v!r})")
             self.mem.write(ref, v)
 
     def _io_check(self, ref: Ref) -> str | None:
+        if ref.kind in ("IW", "QW"):
+            if self.mem.analog is not None and ref in self.mem.analog.channels:
+                return None
+            if ref.module == 0 or self._modules is not None:
+                return (f"{ref}: no such analog channel (the base has %IW0.0.."
+                        f"%IW0.{len(self.profile.analog_base) - 1}; expansion channels need "
+                        f"an analog module in [modules])")
+            return None
         if ref.module and self._modules is not None:
             mod = self._modules.get(ref.module)
             n = None if mod is None else (mod[0] if ref.kind == "I" else mod[1])
@@ -232,7 +334,8 @@ class PLC:
             if msg:
                 problem(msg, ref, pos, "a configured block within the profile", Code.BLOCK)
         for ref, pos in resolved.io.items():
-            self.mem.use_io(ref)
+            if ref.kind in IO_KINDS:  # analog words need no scan-boundary copy
+                self.mem.use_io(ref)
             msg = self._io_check(ref)
             if msg:
                 problem(msg, ref, pos, "an I/O channel of a configured module", Code.IO)
@@ -258,8 +361,24 @@ class PLC:
         compiled = compile_program(program, resolved, env, state, counts, debug, forced,
                                    problems)
         state.size_edges(resolved.edges)
-        state.initial_steps = resolved.initial_steps
+        state.initial_steps = self.grafcet.initial = resolved.initial_steps
+        ts = self.time_source
+        ts.track = _conditional_execution(program)
+        if not ts.track:
+            ts.running.clear()
         return compiled
+
+    def _attach_rtc(self, program: A.Program, configured: bool = False) -> None:
+        """The real-time clock costs a little every scan: give the engine one only when the
+        program names its words or bits, or the configuration has [rtc] / [schedule]."""
+        if self.engine.rtc is not None or not (
+                configured or self._schedules or _RTC_OBJECTS.search(program.source)):
+            return
+        start = self._rtc_start
+        if start is None:
+            start = DEFAULT_START if isinstance(self._clock, VirtualClock) else \
+                datetime.now().replace(microsecond=0) - timedelta(seconds=self.time)
+        self.engine.rtc = RTC(self.mem, start, self._schedules)
 
     def compile_debug(self) -> CompiledProgram:
         """The debug build: `main()` is a generator yielding (rung, instruction) before each
@@ -272,6 +391,7 @@ class PLC:
         compiled = self._compile(program)
         self.ast, self.program = program, compiled
         self.engine.load(compiled)
+        self._attach_rtc(program)
         self.program_version += 1
 
     # -- running --------------------------------------------------------------------------------
@@ -347,6 +467,15 @@ class PLC:
         return {str(r): v for r, v in self._forced.items()}
 
     # -- state ----------------------------------------------------------------------------------
+    def __repr__(self) -> str:
+        """State, PLC time, scan count and the I/O that is on (what a failing test shows)."""
+        stride, shown = self.mem.stride, 16
+        on = [f"%{kind}{i // stride}.{i % stride}" for kind, bits in
+              (("I", self.mem.i), ("Q", self.mem.q)) for i, v in enumerate(bits) if v]
+        io = " ".join(on[:shown]) + (f" (+{len(on) - shown} more)" if len(on) > shown else "")
+        return (f"<PLC {Path(self.ast.file).name} {self.state} t={self.time:.3f}s "
+                f"scans={self.scan_count} on: {io or 'none'}>")
+
     @property
     def time(self) -> float:
         """PLC time in seconds (virtual: scans x scan_period)."""
@@ -471,5 +600,16 @@ def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
                 out.add(d)
     return out
 
+
+def _conditional_execution(program: A.Program) -> bool:
+    """Can a block be skipped in a scan (a jump, a subroutine, a Grafcet step, ENDC/ENDCN)?
+    Only then do timers need updating when not executed."""
+    return any(isinstance(i, (A.Jump, A.SRCall, A.Grafcet))
+               or isinstance(i, A.End) and i.op != "END"
+               for r in program.rungs for i in r.instructions)
+
+
+# Objects of the real-time clock: %SW49-%SW53, %S50, %S51 (not %SW490, %S500...).
+_RTC_OBJECTS = re.compile(r"%SW(49|5[0-3])(?!\d)|%S5[01](?!\d)", re.I)
 
 __all__ = ["PLC", "SoftPLCError"]

@@ -17,6 +17,8 @@ class Profile:
     expansion_slots: int  # modules 1..n
     channels_per_module: int  # widest expansion module (TM2 DDI32/DDO32)
     counts: dict[str, int] = field(default_factory=dict)
+    # The base's analog inputs %IW0.0, %IW0.1...: (signal type, full-scale count) each.
+    analog_base: tuple[tuple[str, int], ...] = ()
 
     def count(self, kind: str) -> int:
         return self.counts[kind]
@@ -47,7 +49,11 @@ TWDLCAE40DRF = Profile(
         "DRUM_STEPS": 8,
         "STACK": 8,  # MPS depth [m221]
         "PAREN": 8,  # parenthesis nesting [manual]
+        "PID": 14,  # PID functions PID 0 .. PID 13 [manual, from memory]
     },
+    # two analog potentiometers and one 0-10 V input, 10 bits [manual, from memory: the
+    # hardware guide's figures were not found in the search corpora; check the counts]
+    analog_base=(("pot", 1023), ("pot", 1023), ("0-10V", 1023)),
 )
 
 # Known expansion modules: digital inputs / outputs per module.
@@ -62,6 +68,30 @@ MODULES: dict[str, tuple[int, int]] = {
     "TM2DDO32TK": (0, 32),
     "TM2DMM8DRT": (4, 4),
     "TM2DMM24DRF": (16, 8),
+}
+
+
+
+@dataclass(frozen=True)
+class AnalogModule:
+    """An analog expansion module: %IWm.0.. inputs, %QWm.0.. outputs, the signal types
+    TwidoSuite offers for them, 12-bit resolution (0..4095 in the normal range)."""
+
+    inputs: int
+    outputs: int
+    input_types: tuple[str, ...]
+    output_types: tuple[str, ...]
+    full_scale: int = 4095
+
+
+_V_MA = ("0-10V", "4-20mA")
+# [manual, from memory of the Twido hardware guide; not found in the search corpora]
+ANALOG_MODULES: dict[str, AnalogModule] = {
+    "TWDAMI2HT": AnalogModule(2, 0, _V_MA, ()),
+    "TWDAMO1HT": AnalogModule(0, 1, (), _V_MA),
+    "TWDAMM3HT": AnalogModule(2, 1, _V_MA, _V_MA),
+    "TWDALM3LT": AnalogModule(2, 1, ("PT100", "J", "K", "T"), _V_MA),
+    "TWDAVO2HT": AnalogModule(0, 2, (), ("+-10V",)),
 }
 
 PROFILES = {TWDLCAE40DRF.name: TWDLCAE40DRF}

@@ -34,8 +34,9 @@ class Names:
     """The names compiled code may use (besides its own locals and functions)."""
 
     BIT = {"I": "_I", "Q": "_Q", "M": "_M", "S": "_S", "X": "_X"}  # bit lists
-    WORD = {"MW": "_MW", "KW": "_KW", "SW": "_SW"}  # signed 16-bit views
-    UWORD = {"MW": "_UMW", "KW": "_UKW", "SW": "_USW"}  # unsigned 16-bit views
+    # signed 16-bit views (%IW/%QW: analog I/O words)
+    WORD = {"MW": "_MW", "KW": "_KW", "SW": "_SW", "IW": "_IW", "QW": "_QW"}
+    UWORD = {"MW": "_UMW", "KW": "_UKW", "SW": "_USW", "IW": "_UIW", "QW": "_UQW"}
     # 32-bit views at even / odd word offsets (index i -> view[i & 1][i >> 1])
     PAIR = {"MD": ("_MDE", "_MDO"), "KD": ("_KDE", "_KDO"),
             "MF": ("_MFE", "_MFO"), "KF": ("_KFE", "_KFO")}
@@ -45,7 +46,8 @@ class Names:
     EDGE = "_EDGE"  # edge memory of LDR/LDF/ANDR...: ProgramState.edges
     ACTIVATE = "_GA"  # Grafcet steps to activate at the end of sequential processing
     DEACTIVATE = "_GD"  # ... and to deactivate
-    GRAFCET_POST = "_gpost"  # apply them
+    GRAFCET_PRE = "_gpre"  # end of preprocessing: act on %S21-%S23
+    GRAFCET_POST = "_gpost"  # apply them (unless %S23 froze the chart)
     STEPS_AT_START = "_XS"  # local: the step bits as the scan's sequential part began
     WATCHDOG = "_wd"  # () -> bool: the scan overran the watchdog
     WATCHDOG_EXC = "_Watchdog"
@@ -74,11 +76,11 @@ class Names:
         """Every name of the table except blocks and subroutines (patterns)."""
         out = set(cls.BIT.values()) | set(cls.WORD.values()) | set(cls.UWORD.values())
         out |= {n for pair in cls.PAIR.values() for n in pair} | set(cls.FAMILY.values())
-        out |= {cls.MEM, cls.EDGE, cls.ACTIVATE, cls.DEACTIVATE, cls.GRAFCET_POST,
+        out |= {cls.MEM, cls.EDGE, cls.ACTIVATE, cls.DEACTIVATE, cls.GRAFCET_PRE, cls.GRAFCET_POST,
                 cls.WATCHDOG, cls.WATCHDOG_EXC, cls.LOG, cls.MAIN}
         return frozenset(out | cls.HELPERS)
 
-    _BLOCK = re.compile(r"_(TM|C|DR|SBR|SC|R)\d+$")
+    _BLOCK = re.compile(r"_(TM|C|DR|SBR|SC|R|PID)\d+$")
     _SR = re.compile(r"_sr\d+$")
 
     @classmethod
@@ -98,6 +100,13 @@ class ProgramState:
     activate: list[int] = field(default_factory=list)  # Grafcet: steps to set at POST
     deactivate: list[int] = field(default_factory=list)  # ... and to reset
     initial_steps: tuple[int, ...] = ()
+    # the runtime's Grafcet (`runtime.grafcet.Grafcet`: %S21-%S23, applying the transitions);
+    # when given, `activate`/`deactivate` are its lists
+    grafcet: Any = None
+
+    def __post_init__(self) -> None:
+        if self.grafcet is not None:
+            self.activate, self.deactivate = self.grafcet.ga, self.grafcet.gd
 
     def size_edges(self, n: int) -> None:
         """At least `n` edge cells (in place: compiled code holds the list)."""
@@ -115,14 +124,8 @@ class ProgramState:
         """Forget the transitions of an abandoned scan (the debugger's stepping back)."""
         self.activate.clear()
         self.deactivate.clear()
-
-    def post(self, x: list[int]) -> None:
-        """Apply the Grafcet transitions at the end of sequential processing."""
-        for k in self.deactivate:
-            x[k] = 0
-        for k in self.activate:
-            x[k] = 1
-        self.clear_transitions()
+        if self.grafcet is not None:
+            self.grafcet.frozen = 0
 
     def snapshot(self) -> dict[str, Any]:
         return {"edges": list(self.edges), "activate": list(self.activate),
@@ -172,6 +175,5 @@ def bind(mem: Any, ops: Ops, state: ProgramState, watchdog: Callable[[], bool],
     for kind, by_index in blocks.items():
         for i, b in by_index.items():
             env[N.block(kind, i)] = b
-    x = mem.bits("X")
-    env[N.GRAFCET_POST] = lambda: state.post(x)
+    env[N.GRAFCET_PRE], env[N.GRAFCET_POST] = state.grafcet.pre, state.grafcet.post
     return env

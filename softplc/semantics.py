@@ -12,11 +12,16 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Callable
+from typing import Any
 
 from .address import INT16, INT32, REAL
-from .numeric import F32_MAX, wrap16, wrap32
+from .numeric import F32_MAX, bcd_decode, bcd_encode, wrap16, wrap32
 
 S_CARRY, S_ARITH, S_INDEX = 17, 18, 20  # system bit numbers
+# %SW17, the floating-point error word: which kind of fault set %S18; reset by the program
+# [manual: TWD USE 10AE system words, quoted from memory: not found in the search corpora]
+SW_FLOAT = 17
+FLOAT_INVALID, FLOAT_DIV0, FLOAT_OVERFLOW = 1 << 0, 1 << 2, 1 << 3
 
 # Function name -> (argument types, result type). "num" means int16/int32/real, result
 # of the same type as the argument; "int" means int16 or int32.
@@ -35,6 +40,10 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
     "REAL_TO_INT": ((REAL,), INT16), "REAL_TO_DINT": ((REAL,), INT32),
     "BCD_TO_INT": ((INT16,), INT16), "INT_TO_BCD": ((INT16,), INT16),
     "GRAY_TO_INT": ((INT16,), INT16),
+    # TwidoSuite names of the BCD conversions (the M221 names above) [manual]
+    "BTI": ((INT16,), INT16), "ITB": ((INT16,), INT16),
+    # single / double word conversions [manual]: low word, high word, (low, high) -> %MD
+    "LW": ((INT32,), INT16), "HW": ((INT32,), INT16), "CONCATW": ((INT16, INT16), INT32),
     # table functions: one argument, a table %MWi:L, %MDi:L or %MFi:L [manual]
     "SUM": (("table",), "element"), "MAX": (("table",), "element"),
     "MIN": (("table",), "element"), "MEAN": (("table",), REAL),
@@ -59,8 +68,14 @@ def _tdiv(a: int, b: int) -> int:
 class Ops:
     """Helpers bound to one memory image's system bits (`s`)."""
 
-    def __init__(self, s: list[int]):
+    def __init__(self, s: list[int], sw: Any = None):
         self.s = s
+        self.sw = sw if sw is not None else [0] * (SW_FLOAT + 1)  # system words
+
+    def _float_fault(self, kind: int) -> None:
+        """A floating-point fault: %S18 and its kind in %SW17 [manual]."""
+        self.s[S_ARITH] = 1
+        self.sw[SW_FLOAT] |= kind
 
     @classmethod
     def helper_names(cls) -> tuple[str, ...]:
@@ -204,9 +219,10 @@ class Ops:
     # -- floats (IEEE single on store; %S18 on domain errors) [manual] -----------------------
     def fdiv(self, a: float, b: float) -> float:
         if b == 0:
-            self.s[S_ARITH] = 1
             if a == 0 or a != a:
+                self._float_fault(FLOAT_INVALID)
                 return math.nan
+            self._float_fault(FLOAT_DIV0)
             return math.copysign(math.inf, a) * math.copysign(1.0, b)
         return a / b
 
@@ -214,15 +230,18 @@ class Ops:
         try:
             return a * b
         except OverflowError:  # pragma: no cover - floats give inf, not an error
-            self.s[S_ARITH] = 1
+            self._float_fault(FLOAT_OVERFLOW)
             return math.inf
 
     def _dom(self, f: Callable[[float], float], x: float) -> float:
         try:
             r = f(x)
-        except (ValueError, OverflowError):
-            self.s[S_ARITH] = 1
+        except ValueError:  # outside the domain: sqrt(-1), ln(0)...
+            self._float_fault(FLOAT_INVALID)
             return math.nan
+        except OverflowError:  # exp(1000)
+            self._float_fault(FLOAT_OVERFLOW)
+            return math.inf
         return r
 
     def fsqrt(self, x: float) -> float:
@@ -246,11 +265,14 @@ class Ops:
     def fexpt(self, x: float, y: float) -> float:
         try:
             r = x ** y
-        except (ZeroDivisionError, OverflowError):
-            self.s[S_ARITH] = 1
+        except ZeroDivisionError:  # 0 ** negative
+            self._float_fault(FLOAT_DIV0)
+            return math.nan
+        except OverflowError:
+            self._float_fault(FLOAT_OVERFLOW)
             return math.nan
         if isinstance(r, complex):
-            self.s[S_ARITH] = 1
+            self._float_fault(FLOAT_INVALID)
             return math.nan
         return r
 
@@ -299,25 +321,39 @@ class Ops:
     # -- BCD and Gray codes [manual] -------------------------------------------------------
     def bcd_to_int(self, w: int) -> int:
         """A BCD word (#0000..#9999) to its value; a nibble above 9 is %S18, result 0."""
-        u, v = w & 0xFFFF, 0
-        for shift in (12, 8, 4, 0):
-            d = (u >> shift) & 0xF
-            if d > 9:
-                self.s[S_ARITH] = 1
-                return 0
-            v = v * 10 + d
+        v = bcd_decode(w)
+        if v is None:
+            self.s[S_ARITH] = 1
+            return 0
         return v
 
     def int_to_bcd(self, v: int) -> int:
         """0..9999 to a BCD word; out of range is %S18, result 0."""
-        if not 0 <= v <= 9999:
+        u = bcd_encode(v)
+        if u is None:
             self.s[S_ARITH] = 1
             return 0
-        u = 0
-        for shift in (0, 4, 8, 12):
-            u |= (v % 10) << shift
-            v //= 10
-        return wrap16(u)
+        return u
+
+    bti = bcd_to_int  # TwidoSuite's name [manual]
+    itb = int_to_bcd
+
+    # -- single / double words [manual] ------------------------------------------------------
+    @staticmethod
+    def lw(d: int) -> int:
+        """Low word of a double word."""
+        return wrap16(d)
+
+    @staticmethod
+    def hw(d: int) -> int:
+        """High word of a double word."""
+        return wrap16(d >> 16)
+
+    @staticmethod
+    def concatw(low: int, high: int) -> int:
+        """Two words into a double word: the first argument is the low word [manual, from
+        memory: unverified]."""
+        return wrap32(((high & 0xFFFF) << 16) | (low & 0xFFFF))
 
     def gray_to_int(self, w: int) -> int:
         u = w & 0xFFFF
@@ -364,11 +400,12 @@ class Ops:
 
     # -- stores ------------------------------------------------------------------------------
     def stf(self, view: memoryview, k: int, v: float) -> None:
-        """Store a float in an IEEE single: out of range -> +-inf and %S18."""
-        if v != v or -F32_MAX <= v <= F32_MAX:
+        """Store a float in an IEEE single: a finite value out of range -> +-inf, %S18 and
+        %SW17 overflow (an infinity already computed was reported where it arose)."""
+        if v != v or -F32_MAX <= v <= F32_MAX or math.isinf(v):
             view[k] = v
         else:
-            self.s[S_ARITH] = 1
+            self._float_fault(FLOAT_OVERFLOW)
             view[k] = math.copysign(math.inf, v)
 
     def ix(self, base: int, offset: int, count: int) -> int:

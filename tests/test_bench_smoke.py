@@ -80,3 +80,16 @@ def test_bench_rejects_unknown_section() -> None:
     r = subprocess.run([sys.executable, str(TOOLS / "bench.py"), "--sections", "engine,warp"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "unknown section" in r.stderr
+
+
+def test_cutting_benchmark_small() -> None:
+    import bench_cutting
+
+    from softplc.cutting import load_piece
+
+    square = Path(__file__).resolve().parents[1] / "ladder_programs" / "pieces" / "cuadrado.toml"
+    r = bench_cutting.run(speed=20.0, piece_file=square)
+    assert r["segments"] == len(load_piece(square, speed=20.0).segments())
+    for key in ("simulated_s", "wall_s", "cpu_s", "speedup", "speedup_cpu"):
+        assert _positive(r[key]), key
+    assert "Cutting table" in bench_cutting.report(r)

@@ -49,4 +49,8 @@ def test_summary_rungs_json_format_and_python(capsys):
 
 def test_missing_file(capsys):
     assert softplc(["check", "no/such/program.il"]) == 1
-    assert "cannot read program" in capsys.readouterr().err
+    assert "no/such/program.il: no such file (program)" in capsys.readouterr().err
+    assert softplc(["check", "no/such/program.il", "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert out["ok"] is False and out["errors"][0]["file"] == "no/such/program.il"
+    assert "no such file" in out["errors"][0]["message"]

@@ -13,18 +13,22 @@ TM0 = {"type": "TON", "base": "10ms", "preset": 3}
 
 
 @pytest.mark.parametrize("config, message", [
-    ({"timers": {"%TM0": {"type": "TON", "base": "10ms", "prest": 3}}}, "unknown key(s) prest"),
-    ({"timers": {"%TM0": {"type": "TOX", "base": "10ms"}}}, "TON, TOF or TP"),
+    ({"timers": {"%TM0": {"type": "TON", "base": "10ms", "prest": 3}}},
+     'timers."%TM0".prest: unknown key; known: base, preset, type'),
+    ({"timers": {"%TM0": {"type": "TOX", "base": "10ms"}}}, "expected 'TON', 'TOF' or 'TP'"),
     ({"timers": {"%TM0": {"type": "TON", "base": "20ms"}}}, "1ms, 10ms, 100ms, 1s, 1min"),
-    ({"timers": {"%TM0": {"type": "TON", "preset": 10000}}}, "0..9999"),
-    ({"timers": {"%C0": TM0}}, "not a %TM object"),
-    ({"timers": {"%TM0": TM0}, "counters": {"%C0": {"preset": 5, "up": 1}}}, "unknown key"),
+    ({"timers": {"%TM0": {"type": "TON", "preset": 10000}}}, "less than or equal to 9999"),
+    ({"timers": {"%C0": TM0}}, 'timers."%C0": \'%C0\' is not a %TM object'),
+    ({"timers": {"%TM0": TM0}, "counters": {"%C0": {"preset": 5, "up": 1}}},
+     "counters.\"%C0\".up: unknown key"),
     ({"timers": {"%TM0": TM0}, "scan_period": "fast"}, "not a duration"),
-    ({"timers": {"%TM0": TM0}, "scan_periode": "10ms"}, "unknown configuration key"),
+    ({"timers": {"%TM0": TM0}, "scan_periode": "10ms"},
+     "scan_periode: unknown key; known: analog, constants"),
     ({"timers": {"%TM0": TM0}, "constants": {"%MW0": 3}}, "not a %KW/%KD/%KF constant"),
-    ({"timers": {"%TM0": TM0}, "modules": {"9": "TM2DDO8TT"}}, "slot 9 outside 1..7"),
+    ({"timers": {"%TM0": TM0}, "modules": {"9": "TM2DDO8TT"}}, "modules.9: slot 9 outside 1..7"),
     ({"timers": {"%TM0": TM0}, "modules": {"1": "TM2XYZ"}}, "unknown module"),
-    ({"timers": {"%TM0": TM0}, "devices": {"X": {"type": "servo"}}}, "unknown type 'servo'"),
+    ({"timers": {"%TM0": TM0}, "devices": {"X": {"type": "servo"}}},
+     "devices.X.type: unknown device type 'servo'"),
     ({"timers": {"%TM0": TM0}, "profile": "TWDLCAE99"}, "unknown profile"),
 ])
 def test_config_mistakes_are_named(config, message):
@@ -47,4 +51,4 @@ def test_daemon_rejects_an_unknown_modbus_key(tmp_path, capsys):
     cfg.write_text("[modbus]\nprot = 5021\n")
     assert softplc(["run", str(prog), "--config", str(cfg), "--port", "0"]) == 1
     err = capsys.readouterr().err
-    assert "[modbus]: unknown key(s) prot" in err and "Traceback" not in err
+    assert "modbus.prot: unknown key" in err and "Traceback" not in err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 
 import pytest
 from hypothesis import given, settings
@@ -365,8 +366,8 @@ def test_pen():
 
 
 def test_pen_delays():
-    rig = Rig({"pen": {"type": "pen", "output": "%Q0.14", "lower_delay": 0.005,
-                       "lift_delay": 0.002}})
+    rig = Rig({"pen": {"type": "pen", "output": "%Q0.14", "lower_delay": "5ms",
+                       "lift_delay": "2ms"}})
     pen = rig.devs["pen"]
     rig.mem.q_field[PEN_IDX] = 1
     for _ in range(5):
@@ -464,7 +465,7 @@ def test_trace_csv(tmp_path):
 
 def test_trace_csv_option_written_periodically_and_at_close(tmp_path):
     path = tmp_path / "run.csv"
-    rig = Rig(table(csv=str(path), flush_every=0.005))
+    rig = Rig(table(csv=str(path), flush_every="5ms"))
     tr = rig.devs["trace"]
     assert not path.exists()
     for pattern in ["A", "B", "C", "D", "A", "B"]:
@@ -511,21 +512,28 @@ def test_trace_plot_bad_extension(tmp_path):
 
 
 @pytest.mark.parametrize("config, message", [
-    (axis(phases=["%Q1.0", "%Q1.1", "%Q1.2"]), "four outputs"),
+    (axis(phases=["%Q1.0", "%Q1.1", "%Q1.2"]), "devices.X.phases: list should have at least 4"),
     (axis(phases=["%Q1.0", "%Q1.1", "%Q1.2", "%Q1.2"]), "distinct"),
-    (axis(phases=["%Q1.0", "%Q1.1", "%Q1.2", "%I0.3"]), r"phases\[3\] must be a %Q"),
+    (axis(phases=["%Q1.0", "%Q1.1", "%Q1.2", "%I0.3"]),
+     r"devices.X.phases\[3\]: expected a %Q bit address"),
     (axis(phases=["%Q1.0", "%Q1.1", "%Q1.2", "%Q9.0"]), "module 9"),
-    (axis(steps_per_unit=0), "steps_per_unit must be > 0"),
+    (axis(steps_per_unit=0), "devices.X.steps_per_unit: expected greater than 0"),
     (axis(start=30.0), "beyond the hard stops"),
-    (axis(bogus=1), "unexpected keyword"),
+    (axis(bogus=1), "devices.X.bogus: unknown key; known: hard_stop_margin"),
+    (axis(travel="25"), r"devices.X.travel: expected a valid number \(got '25'\)"),
+    (axis(max_step_rate=math.nan),
+     "devices.X.max_step_rate: expected greater than 0 \\(got nan\\)"),
+    ({"p": {"type": "pen", "output": "%Q0.14", "lift_delay": 0.5}}, "bare number"),
     ({**axis(), "s": {"type": "limit_switch", "axis": "Y", "input": "%I0.12"}},
      "not a stepper"),
     ({**axis(), "s": {"type": "limit_switch", "axis": "X", "input": "%I0.12", "at": "mid"}},
      "home"),
     ({**axis(), "s": {"type": "limit_switch", "axis": "X", "input": "%Q0.1"}},
-     "must be a %I"),
-    ({"p": {"type": "pen", "output": "%Q0.14", "lift_delay": -1}}, "lift_delay"),
-    ({**axis(), "t": {"type": "trace", "axes": ["X"]}}, "two stepper"),
+     "devices.s.input: expected a %I bit address"),
+    ({"p": {"type": "pen", "output": "%Q0.14", "lift_delay": "-1ms"}},
+     "devices.p.lift_delay: not a duration"),
+    ({**axis(),
+     "t": {"type": "trace", "axes": ["X"]}}, "devices.t.axes: list should have at least 2"),
     ({**axis(), **axis("Z", Z_PHASES), "t": {"type": "trace", "pen": "nib"}}, "not a pen"),
 ])
 def test_config_errors(config, message):

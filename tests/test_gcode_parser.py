@@ -253,3 +253,48 @@ def test_missing_file_is_a_clear_error(tmp_path):
     with pytest.raises(GCodeError) as e:
         parse_file(tmp_path / "nope.gcode")
     assert "cannot read the file" in str(e.value)
+
+
+# ---- errors and warnings together; XY G-code read in the seed's XZ plane ----------------------
+def test_warnings_are_shown_with_the_errors_in_line_order():
+    with pytest.raises(GCodeError) as e:
+        parse_gcode("G18\nM3\nG1 X999 Z1\nG40\n")
+    lines = str(e.value).splitlines()
+    assert lines == [
+        "<string>:2:1: warning: M code M3 is not supported; ignored (at 'M3')",
+        "<string>:3:4: point X999 Z1 cm is outside the 25 x 25 cm table",
+        "<string>:4:1: warning: G40 (cutter compensation off) is not supported; ignored "
+        "(at 'G40')",
+    ]
+    assert len(e.value.diagnostics) == 1 and len(e.value.warnings) == 2
+
+
+@pytest.mark.parametrize("text, message", [
+    ("G1 X10 Y10\nG1 X0 Y0\n", "1:8: Y10 is not a pen word (Y1 down, Y0 up)"),
+    ("G0 X1 Y0\nG1 X10 Y1\nX20\n", "1:7: the program moves along X with Y words but never "
+                                  "names Z"),
+])
+def test_xy_gcode_in_the_xz_plane_is_refused_with_a_hint(text, message):
+    with pytest.raises(GCodeError) as e:
+        parse_gcode(text)
+    assert message in str(e.value) and "--plane XY" in str(e.value)
+    assert len(e.value.diagnostics) == 1  # one problem, said once
+
+
+def test_the_same_program_reads_as_xy_or_as_the_seed_dialect_when_told():
+    prog = parse_gcode("G1 X10 Y10\n", GCodeConfig(plane="XY", pen="depth"))
+    assert prog.segments[-1].end == (10.0, 10.0)
+    seed = parse_gcode("G1 X10 Y10\n", GCodeConfig(dialect="seed"))
+    assert seed.segments[-1].end == (10.0, 0.0) and seed.segments[-1].pen_down
+    assert "taken as down" in seed.warnings[0].message
+
+
+def test_draw_command_refuses_ambiguous_y(tmp_path, capsys):
+    from softplc.cli import main
+
+    f = tmp_path / "xy.gcode"
+    f.write_text("G21\nG1 X10 Y10\n")
+    assert main(["draw", str(f), "--dry-run"]) == 1
+    err = capsys.readouterr().err
+    assert "--plane XY" in err and "Traceback" not in err
+    assert main(["draw", str(f), "--dry-run", "--plane", "XY", "--pen", "depth"]) == 0

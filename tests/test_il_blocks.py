@@ -33,8 +33,8 @@ ST    %Q0.0
 
 
 def timer_plc(make, form: str, type_: str, base: str, preset: int) -> PLC:
-    period = BASES_S[base]  # one scan per time-base tick keeps every base fast
-    cfg = {"scan_period": period,
+    # one scan per time-base tick keeps every base fast
+    cfg = {"scan_period": base,
            "timers": {"%TM0": {"type": type_, "base": base, "preset": preset}}}
     return make(TIMER_BLK if form == "blk" else TIMER_SHORT, cfg)
 

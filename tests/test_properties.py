@@ -156,7 +156,7 @@ LD 1
 [ %TM0.P := %MW0 ]
 LD %M0
 IN %TM0
-""", {"scan_period": period_ms / 1000,
+""", {"scan_period": f"{period_ms}ms",
       "timers": {"%TM0": {"type": type_, "base": "10ms", "preset": 0}}})
 
 

@@ -2,7 +2,7 @@
 
     .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
                                     [--png results/bench.png]
-                                    [--sections engine,peers,modbus,drawing,servo]
+                                    [--sections engine,peers,modbus,drawing,servo,cutting]
 
 Sections:
   engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
@@ -14,6 +14,9 @@ Sections:
           scan, in simulated seconds per wall second (bench_drawing.py; target >= 50x)
   servo   servo table: two servo axes at 2.26 kHz, 1 ms scans, simulated seconds per wall
           and CPU second, devices alone and the whole machine (bench_servo.py; >= 50x)
+  cutting cutting table: the rounded rectangle (E3) cut by cutting_table.il on two servo
+          axes at 1 ms scans, simulated seconds per wall and CPU second (bench_cutting.py;
+          >= 50x)
 
 Figures go to stdout, progress to stderr; the JSON and the bar chart go under results/.
 Absolute numbers vary from run to run and with whatever else the machine is doing (the
@@ -30,6 +33,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import bench_cutting
 import bench_drawing
 import bench_engine
 import bench_peers
@@ -38,7 +42,7 @@ from peers.common import describe_machine, machine_info, progress
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SECTIONS = ("engine", "peers", "modbus", "drawing", "servo")
+SECTIONS = ("engine", "peers", "modbus", "drawing", "servo", "cutting")
 
 
 def run_modbus_section(quick: bool) -> dict[str, Any]:
@@ -180,6 +184,10 @@ def main(argv: list[str] | None = None) -> int:
         progress("section servo")
         res["servo"] = bench_servo.run(seconds=2.0 if a.quick else 5.0)
         print("\n" + bench_servo.report(res["servo"]))
+    if "cutting" in sections:
+        progress("section cutting")
+        res["cutting"] = bench_cutting.run(speed=10.0 if a.quick else 2.0)
+        print("\n" + bench_cutting.report(res["cutting"]))
     res["seconds"] = time.monotonic() - t0
     res["load_average_end"] = __import__("os").getloadavg()
     if a.json:

@@ -1,9 +1,18 @@
-"""Argument types shared by the subcommands."""
+"""Arguments shared by the subcommands: argument types, and the program and configuration
+arguments every command takes, in one place:
+
+    add_program_arguments(parser)          # PROGRAM.il and --config FILE.toml
+    plc = load_plc(args, clock="virtual")  # both files checked, then PLC.from_file
+"""
 
 from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..errors import ConfigError, SoftPLCError
 
 
 def size_arg(what: str, unit: str, example: str) -> Callable[[str], tuple[float, float]]:
@@ -18,3 +27,37 @@ def size_arg(what: str, unit: str, example: str) -> Callable[[str], tuple[float,
                                              f"e.g. {example}") from None
 
     return parse
+
+
+PROGRAM_HELP = "Instruction List program (.il, or a TwidoSuite List export)"
+CONFIG_HELP = ("machine/PLC configuration (TOML): scan period, timers, counters, constants, "
+               "simulated devices, [modbus], [daemon]")
+
+
+def add_program_arguments(p: argparse.ArgumentParser) -> None:
+    """PROGRAM and --config, the same for every command."""
+    p.add_argument("program", type=Path, metavar="PROGRAM.il", help=PROGRAM_HELP)
+    p.add_argument("--config", type=Path, metavar="FILE.toml", help=CONFIG_HELP)
+
+
+def existing_file(path: Path, what: str, error: type[SoftPLCError] = SoftPLCError) -> Path:
+    """`path`, or a clear error if there is no such file."""
+    if not path.exists():
+        raise error(f"{path}: no such file ({what})")
+    if path.is_dir():
+        raise error(f"{path}: is a folder, not a {what} file")
+    return path
+
+
+def check_files(args: argparse.Namespace) -> None:
+    existing_file(args.program, "program")
+    if args.config is not None:
+        existing_file(args.config, "configuration", ConfigError)
+
+
+def load_plc(args: argparse.Namespace, **kw: Any) -> Any:
+    """The PLC of `args.program` with `args.config` (keyword arguments go to `PLC`)."""
+    from ..plc import PLC
+
+    check_files(args)
+    return PLC.from_file(args.program, config=args.config, **kw)

@@ -83,10 +83,45 @@ def _report_simulation(piece: Piece, dt: float, seed: bool) -> None:
               f"tolerance {piece.tolerance:g})")
 
 
+def _machine_axes(path: str) -> tuple[tuple[float, float], float]:
+    """The axes' `start` (true counts at power-up) and counts per mm from a machine TOML:
+    what maps the trace's true positions onto work coordinates."""
+    import tomllib
+
+    try:
+        devs = tomllib.loads(Path(path).read_text(encoding="utf-8"))["devices"]
+        x, y = devs["X"], devs["Y"]
+        return (float(x.get("start", 0.0)), float(y.get("start", 0.0))), \
+            float(x["counts_per_mm"])
+    except (OSError, KeyError, ValueError, tomllib.TOMLDecodeError) as e:
+        raise CuttingError(f"--machine {path}: cannot read the X/Y axes' start and "
+                           f"counts_per_mm ({e})") from None
+
+
 def _stream(piece: Piece, args: argparse.Namespace) -> int:
-    """The device round's streaming client plugs in here (handshake of regmap.py)."""
-    raise CuttingError("streaming to the PLC needs the cutting-table device and program "
-                       "(issue 13, device round); run with --dry-run to check and preview")
+    """Stream to the daemon (handshake of regmap.py), then the deviation from the trace."""
+    import time
+
+    from ..cutting.client import CutClient, trace_deviation
+
+    with CutClient(args.host, args.port) as client:
+        res = client.stream(piece, args.start_at)
+    state = "interrupted" if res.interrupted else "done"
+    print(f"{state}: {res.done} segments in {res.wall:.2f} s (last {res.last_number} of "
+          f"{res.total}); the carriage is at ({res.pos_mm[0]:.3f}, {res.pos_mm[1]:.3f}) mm")
+    if res.interrupted:
+        print(f"resume with --start-at {res.next_number}")
+        return 130
+    if args.trace:
+        start, per_mm = _machine_axes(args.machine)
+        time.sleep(0.5)  # the daemon writes its trace every second of simulated time
+        origin = (start[0] + res.origin_counts[0], start[1] + res.origin_counts[1])
+        rep = trace_deviation(piece, args.trace, origin, per_mm)
+        print(f"trace {args.trace}: {rep.samples} torch-on samples, at most "
+              f"{rep.worst:.6f} mm from the ideal shape (at {rep.at[0]:.4f}, "
+              f"{rep.at[1]:.4f}; chord tolerance {piece.tolerance:g}); last sample "
+              f"({rep.end[0]:.6f}, {rep.end[1]:.6f}) mm")
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:

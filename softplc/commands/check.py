@@ -8,7 +8,8 @@ import sys
 from collections import Counter
 from dataclasses import asdict
 
-from ..errors import ProgramError
+from ..errors import ConfigError, Diagnostic, ProgramError, SoftPLCError
+from ._args import add_program_arguments, load_plc
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,8 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "check", help="parse and compile a program; list its rungs or every error",
         description="Parse and compile an Instruction List program with its configuration. "
                     "Prints every error as FILE:LINE:COL (exit 1), else a summary.")
-    p.add_argument("program", help="Instruction List file (.il), TwidoSuite List export")
-    p.add_argument("--config", help="machine/PLC configuration (TOML)")
+    add_program_arguments(p)
     p.add_argument("--rungs", action="store_true", help="list the rungs with their titles")
     p.add_argument("--python", action="store_true",
                    help="print the Python code the rungs compile to")
@@ -30,10 +30,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..plc import PLC
-
     try:
-        plc = PLC.from_file(args.program, args.config, devices=False)
+        plc = load_plc(args, devices=False)
     except ProgramError as e:
         if args.json:
             print(json.dumps({"ok": False, "errors": [asdict(d) for d in e.diagnostics]},
@@ -41,8 +39,14 @@ def run(args: argparse.Namespace) -> int:
             return 1
         for d in e.diagnostics:
             print(d, file=sys.stderr)
-        n = len(e.diagnostics)
-        print(f"{n} error{'s' if n != 1 else ''}", file=sys.stderr)
+        print(_count(len(e.diagnostics), "error"), file=sys.stderr)
+        return 1
+    except SoftPLCError as e:  # a missing file, a configuration error
+        if not args.json:
+            raise
+        where = args.config if isinstance(e, ConfigError) and args.config else args.program
+        print(json.dumps({"ok": False, "errors": [asdict(Diagnostic(str(e), str(where)))]},
+                         indent=2))
         return 1
     prog = plc.ast
     if args.json:
@@ -54,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
     kinds = Counter(type(i).__name__ for r in prog.rungs for i in r.instructions)
     n_instr = sum(kinds.values())
     subs = prog.subroutines
-    print(f"{args.program}: OK - {len(prog.rungs)} rungs, {n_instr} instructions"
+    print(f"{args.program}: OK - {_count(len(prog.rungs), 'rung')}, "
+          f"{_count(n_instr, 'instruction')}"
           + (f", subroutines {', '.join(f'SR{n}' for n in subs)}" if subs else ""))
     if args.rungs:
         for r in prog.rungs:
@@ -70,3 +75,6 @@ def run(args: argparse.Namespace) -> int:
         print(plc.program.source)
     return 0
 
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"

@@ -1,10 +1,11 @@
 """`softplc cut PIECE`: check a cutting-table piece, preview it, list the PLC words.
 
-Today the command validates (schema, geometry, work area), reports, previews and writes the
-segment words the host will send; streaming to the PLC comes with the cutting-table device
-(issue 13, device round) and plugs in at `_cut_run._stream`, with the connection options
-already parsed here. The work is in `_cut_run.py`, imported only when the command runs (the
-cutting library loads pydantic: every other `softplc` command stays as quick to start).
+The command validates (schema, geometry, work area), reports, previews, writes the segment
+words and, without --dry-run, streams the piece to the daemon running
+ladder_programs/cutting_table.il (`softplc.cutting.client`), then reports how far the
+torch-on trace got from the ideal shape. The work is in `_cut_run.py`, imported only when
+the command runs (the cutting library loads pydantic: every other `softplc` command stays
+as quick to start).
 """
 
 from __future__ import annotations
@@ -18,6 +19,9 @@ examples:
   softplc cut ladder_programs/pieces/achaflanado.toml --dry-run --preview out/e3.png
   softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed --preview out/e5.svg
   softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run --frames out/e3.csv
+  softplc run ladder_programs/cutting_table.il --config ladder_programs/cutting_table.toml \\
+      --port 5020 --speed max --trace out/cut.csv &
+  softplc cut ladder_programs/pieces/achaflanado.toml --port 5020 --trace out/cut.csv
 """
 
 
@@ -26,12 +30,13 @@ _area = size_arg("work area", "mm", "240x240")
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "cut", help="check, preview and (device round) stream a piece to the cutting table",
+        "cut", help="check, preview and stream a piece to the cutting table",
         description="Read a cutting-table piece (.toml, or G-code: XY plane, mm, G00 move,\n"
                     "G01-G03 cut), check its geometry and the work area, report it, plot it\n"
                     "and list the segment words the host sends (%MD100/%MD102 end in um,\n"
-                    "%MF104 speed, %MW106 kind, %MW107 number, %MW108 INICIO).\n"
-                    "Streaming to the PLC comes with the cutting-table device: use --dry-run.",
+                    "%MF104 speed, %MW106 kind, %MW107 number, %MW108 INICIO), then stream\n"
+                    "it to the PLC (Modbus TCP) with progress and ETA; Ctrl-C stops the axes\n"
+                    "with the torch off (resume with --start-at).",
         epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("piece", metavar="PIECE", help="the piece: FILE.toml or FILE.gcode")
     r = p.add_argument_group("piece values (G-code: these or the defaults; TOML: override "
@@ -63,11 +68,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "path from the ideal shape")
     o.add_argument("--dry-run", action="store_true",
                    help="check, report and write outputs only; do not connect")
-    g = p.add_argument_group("connection (used from the device round on)")
+    g = p.add_argument_group("connection")
     g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
     g.add_argument("--port", type=int, default=5020, help="Modbus TCP port (default %(default)s)")
     g.add_argument("--start-at", type=int, default=1, metavar="N",
                    help="resume from segment N (1-based)")
+    g.add_argument("--trace", metavar="TRACE.csv",
+                   help="the daemon's trace file (softplc run --trace): report the torch-on "
+                        "samples' distance from the ideal shape after the run")
+    g.add_argument("--machine", default="ladder_programs/cutting_table.toml",
+                   metavar="TOML", help="machine config of the daemon, for the trace's "
+                                        "axis start and counts per mm (default %(default)s)")
     p.set_defaults(func=run)
 
 

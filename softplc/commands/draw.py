@@ -22,8 +22,10 @@ examples:
 _table = size_arg("table size", "cm", "25x25")
 
 
-def _plot_drawn(trace: str, since: float | None, steps: list, out: str) -> None:
-    """The drawing recorded by the daemon (this run only) over the programmed path."""
+def _plot_drawn(trace: str, since: float | None, steps: list, out: str,
+                cfg: GCodeConfig) -> None:
+    """The drawing recorded by the daemon (this run only) over the programmed path, in cm
+    like the preview."""
     from ..devices.trace import plot_samples
 
     rows = load_trace(trace)
@@ -31,18 +33,28 @@ def _plot_drawn(trace: str, since: float | None, steps: list, out: str) -> None:
         rows = rows[rows[:, 0] > since]
     programmed = [(s.start, s.end) for s in steps if s.pen_down and s.start != s.end]
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    plot_samples(rows, out, programmed, title=f"{Path(trace).name}: drawn (black) "
-                 f"over programmed (red)")
+    spu = cfg.steps_per_unit
+    plot_samples(rows, out, programmed, units="units", unit_name="cm",
+                 steps_per_unit=(spu, spu),
+                 travel_steps=(cfg.table_width * spu, cfg.table_height * spu),
+                 title=f"{Path(trace).name}: drawn over programmed", full_area=True)
     print(f"drawing plotted to {out}", file=sys.stderr)
 
 
-def _wait_for_trace(path: str, since: float | None, timeout: float) -> None:
-    """Give the daemon time to flush the end of the run (last sample newer, pen up)."""
+def _wait_for_trace(path: str, since: float | None, end: tuple[int, int] | None,
+                    timeout: float) -> bool:
+    """Give the daemon time to flush the end of the run: the trace's last sample is newer
+    than `since`, pen up at `end` (steps), where the stream left the pen. A pen-up sample
+    elsewhere is only a travel move: the trace is flushed once a (simulated) second, so it
+    may hold part of the drawing only. True if the end was seen."""
     deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+    while True:
         last = last_sample(path)
-        if last and (since is None or last[0] > since) and not last[3]:
-            return
+        if last and (since is None or last[0] > since) and not last[3] and (
+                end is None or (last[1], last[2]) == tuple(end)):
+            return True
+        if time.monotonic() >= deadline:
+            return False
         time.sleep(0.1)
 
 
@@ -87,6 +99,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--plane", default="XZ", type=str.upper, choices=["XZ", "XY", "YZ"],
                    help="drawing plane; the other axis is the pen (default %(default)s, "
                         "the seed table: X, Z plane and Y1/Y0 pen)")
+    r.add_argument("--dialect", choices=["auto", "seed"], default="auto",
+                   help="auto (default): refuse a program whose Y words are ambiguous in the "
+                        "XZ plane (ordinary XY G-code read as the seed's Y1/Y0 pen flag); "
+                        "seed: always read Y as the pen flag")
     r.add_argument("--pen", choices=["flag", "depth"], default=None,
                    help="pen axis meaning: flag = nonzero is down (default for Y), "
                         "depth = down while <= 0 (default for Z or X)")
@@ -108,7 +124,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    cfg = GCodeConfig(plane=args.plane, pen=args.pen, units=args.units,
+    cfg = GCodeConfig(plane=args.plane, pen=args.pen, units=args.units, dialect=args.dialect,
                       table_width=args.table[0], table_height=args.table[1],
                       chord_tolerance=args.chord_tolerance, steps_per_unit=args.steps_per_unit)
     prog = parse_file(args.file, cfg)
@@ -140,9 +156,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"done: {result.sent} segments sent ({client.frames_sent} frames)", file=sys.stderr)
     if args.trace:
         since = before[0] if before else None
-        _wait_for_trace(args.trace, since, args.trace_wait)
+        if not _wait_for_trace(args.trace, since, result.point, args.trace_wait):
+            print(f"warning: the trace {args.trace} does not reach the end of the drawing "
+                  f"yet (waited {args.trace_wait:g} s; --trace-wait)", file=sys.stderr)
         dev = max_deviation(steps, args.trace, cfg.steps_per_unit, since=since)
         print(dev)
         if args.plot:
-            _plot_drawn(args.trace, since, steps, args.plot)
+            _plot_drawn(args.trace, since, steps, args.plot, cfg)
     return 0

@@ -7,6 +7,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from ._args import add_program_arguments, check_files, load_plc
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -14,8 +16,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Render every rung of PROGRAM.il as a ladder diagram: contacts (negated "
                     "/, rising P, falling N), coils ( ) (/) (S) (R), comparison and "
                     "operation blocks, parallel branches, function blocks. Text goes to "
-                    "stdout unless --txt or --svg names a file.")
-    p.add_argument("program", type=Path, help="Instruction List program (.il)")
+                    "stdout unless --txt or --svg names a file. With --config, timer, "
+                    "counter, drum and register boxes show their configuration (type, time "
+                    "base, preset).")
+    add_program_arguments(p)
     out = p.add_mutually_exclusive_group()
     out.add_argument("--svg", type=Path, metavar="FILE", help="write an SVG drawing")
     out.add_argument("--txt", type=Path, metavar="FILE", help="write the text drawing")
@@ -31,7 +35,14 @@ def run(args: argparse.Namespace) -> int:
     from ..il import ast as A
     from ..il.parser import parse_file
 
-    program = parse_file(args.program)
+    blocks = None
+    if args.config is not None:  # the configured blocks, for their boxes
+        plc = load_plc(args, devices=False)
+        program, mem = plc.ast, plc.mem
+        blocks = lambda ref: mem.blocks.get(ref.kind, {}).get(ref.index)  # noqa: E731
+    else:
+        check_files(args)
+        program = parse_file(args.program)
     if args.rung:
         picked = []
         for key in args.rung:
@@ -41,10 +52,10 @@ def run(args: argparse.Namespace) -> int:
                 raise SoftPLCError(f"no rung {key!r} in {args.program}") from None
         program = A.Program(program.file, program.source, picked, program.section_titles)
     if args.svg:
-        args.svg.write_text(ladder.render_program_svg(program), encoding="utf-8")
+        args.svg.write_text(ladder.render_program_svg(program, blocks), encoding="utf-8")
         print(f"wrote {args.svg}")
         return 0
-    text = ladder.render_program_text(program, ascii=args.ascii)
+    text = ladder.render_program_text(program, ascii=args.ascii, blocks=blocks)
     if args.txt:
         args.txt.write_text(text, encoding="utf-8")
         print(f"wrote {args.txt}")

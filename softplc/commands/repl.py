@@ -4,7 +4,8 @@ virtual clock, with the machine's simulated devices attached."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+
+from ._args import add_program_arguments, load_plc
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -15,8 +16,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "breakpoints on rungs, labels and conditions, watches, print/set/force, "
                     "the live ladder view of a rung, going back in time. 'help' inside "
                     "lists the commands.")
-    p.add_argument("program", type=Path, help="Instruction List program (.il)")
-    p.add_argument("--config", type=Path, help="machine configuration (TOML)")
+    add_program_arguments(p)
     p.add_argument("-x", "--execute", action="append", default=[], metavar="CMD",
                    help="run this debugger command first (repeatable); end with -x quit "
                         "for a batch run")
@@ -28,9 +28,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..debug.repl import run_repl
     from ..debug.session import Session
-    from ..plc import PLC
-
-    plc = PLC.from_file(args.program, config=args.config, clock="virtual")
+    plc = load_plc(args, clock="virtual")
     session = Session(plc, args.program, history=max(1, args.history))
     n = len(plc.ast.rungs)
     intro = (f"softplc debugger: {args.program} ({n} rungs), scan period "

@@ -22,6 +22,7 @@ from typing import Any
 
 from ..config import check_keys, duration
 from ..errors import ConfigError, SoftPLCError
+from ._args import add_program_arguments, load_plc
 
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
 
@@ -78,8 +79,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "image of the last scan with the writes acknowledged since. Stop with "
                     "Ctrl-C or SIGTERM: the scan finishes, outputs go to 0, the state file is "
                     "saved.")
-    p.add_argument("program", type=Path, help="Instruction List program (.il)")
-    p.add_argument("--config", type=Path, help="machine configuration (TOML)")
+    add_program_arguments(p)
     p.add_argument("--host", help="address to listen on (default 127.0.0.1; 'localhost' = "
                                   "127.0.0.1 and ::1; 0.0.0.0 for all IPv4)")
     p.add_argument("--port", type=_port,
@@ -148,15 +148,13 @@ _LOCKED: list[int] = []  # descriptors held open (and locked) until the process 
 
 def run(args: argparse.Namespace) -> int:
     from ..daemon import Daemon, DaemonOptions
-    from ..plc import PLC
 
     logging.basicConfig(level=getattr(logging, args.log_level.upper()),
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
     from ..modbus.server import parse_allow
     from ..runtime.retain import application_id, open_locked
 
-    plc = PLC.from_file(args.program, config=args.config,
-                        clock="real" if args.speed is None else "virtual")
+    plc = load_plc(args, clock="real" if args.speed is None else "virtual")
     outputs = []
     if args.trace is not None:
         recorder = next((d for d in plc.devices.values()

@@ -18,6 +18,7 @@ from ..address import Ref
 from ..errors import Code, CompileError, Diagnostic
 from ..il import ast as A
 from ..program import CompiledProgram, Names, ProgramState, Watchdog
+from ..runtime.grafcet import GRAFCET_BITS
 from .resolve import Resolved
 from .values import (
     BLOCK_KIND_PINS,
@@ -445,6 +446,13 @@ class Compiler(ValueCompiler):
                 if marker is not None:
                     if marker.op == "POST" or step is None and name == "main":
                         if step is None:
+                            if not ctx.get("pre_done"):  # end of preprocessing:
+                                ctx["pre_done"] = True  # %S21-%S23 act here [manual]
+                                s = Names.BIT["S"]
+                                self.use(Names.GRAFCET_PRE, s)
+                                self.emit(" or ".join(f"{s}[{b}]" for b in GRAFCET_BITS)
+                                          .join(("if ", ":")))  # rarely set: skip the call
+                                self.emit(f"    {Names.GRAFCET_PRE}()")
                             self.use(Names.BIT["X"])
                             self.emit(f"{Names.STEPS_AT_START} = bytes({Names.BIT['X']})")
                     if marker.op == "POST":
@@ -489,6 +497,7 @@ def compile_program(program: A.Program, resolved: Resolved, env: dict[str, Any],
     every problem. Stores to the `forced` bits are left out, so forcing holds all through
     a scan."""
     c = Compiler(program, counts, debug, forced)
+    c.env = env
     c.diags.extend(resolved.diags)
     c.diags.extend(diagnostics)
     base_ctx = {"subroutines": set(resolved.subroutines), "grafcet": resolved.grafcet}

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from ..address import BLOCK_FIELDS, IO_KINDS, Ref
+from ..address import ANALOG_KINDS, BLOCK_FIELDS, IO_KINDS, Ref
 from ..errors import Code, Diagnostic
 from ..il import ast as A
 
@@ -132,7 +132,7 @@ class _Resolver:
         for ref, p in _instruction_refs(instr):
             if ref.kind in BLOCK_FIELDS:
                 out.blocks.setdefault(Ref(ref.kind, ref.index), p)
-            elif ref.kind in IO_KINDS:
+            elif ref.kind in IO_KINDS or ref.kind in ANALOG_KINDS:
                 out.io.setdefault(ref, p)
         if isinstance(instr, A.Jump):
             self.jump(instr, rung)

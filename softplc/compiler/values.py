@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import Any
 
 from ..address import BLOCK_FIELDS, BOOL, INT16, INT32, REAL, Ref
 from ..errors import Code, Diagnostic
@@ -70,6 +71,7 @@ class ValueCompiler:
         self.fn: _Fn
         self.indent = 1
         self.ninstr = 0
+        self.env: dict[str, Any] = {}  # the bound names (`program.bind`): configured PIDs
 
     # ---- diagnostics ----------------------------------------------------------------------
     def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "",
@@ -165,6 +167,9 @@ class ValueCompiler:
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
+            if k in ("IW", "QW"):
+                self.io_check(ref, pos)
+                return f"{buf}[{ref.index}]", INT16
             return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
         if k in PAIR_VIEWS:
             typ = REAL if k in ("MF", "KF") else INT32
@@ -190,6 +195,7 @@ class ValueCompiler:
     def check_writable(self, ref: Ref, pos: A.Pos | None) -> bool:
         if not ref.writable:
             what = {"I": "an input: the program cannot write inputs",
+                    "IW": "an analog input: the program cannot write inputs",
                     "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
                 ref.kind, "read-only")
             self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
@@ -211,7 +217,7 @@ class ValueCompiler:
             self.use(buf)
             idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
             self.emit(f"{buf}[{idx}] = {value}")
-        elif k == "SBR" and ref.field == "J":
+        elif ref.field == "J":  # %SBRi.j, %SCi.j
             b = self.block_name(Ref(k, ref.index))
             self.emit(f"{b}.set_bit({ref.bit}, {value})")
         elif ref.bit is not None and k in WORD_BUFFERS:
@@ -383,6 +389,18 @@ class ValueCompiler:
 
     # ---- operation blocks -----------------------------------------------------------------
     def statement(self, st: A.Statement) -> None:
+        if isinstance(st, A.PidCall):
+            name = Names.block("PID", st.number)
+            if self.env.get(name) is None:
+                n = self.counts["PID"]
+                self.err(f"PID {st.number} is used but not configured" if st.number < n
+                         else f"PID {st.number} beyond PID 0 .. PID {n - 1}", st.pos,
+                         f"PID {st.number}", f"a [pid.{st.number}] table in the configuration"
+                         if st.number < n else f"PID 0 .. PID {n - 1}", code=Code.BLOCK)
+                return
+            self.use(name)
+            self.emit(f"{name}.run()")
+            return
         if isinstance(st, A.IncDec):
             ref = st.target
             if not self.check_writable(ref, st.pos):
@@ -425,7 +443,11 @@ class ValueCompiler:
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind
-        if k in WORD_BUFFERS:
+        if k in ("IW", "QW"):
+            self.io_check(ref, pos)
+            self.use(WORD_BUFFERS[k])
+            self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
+        elif k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
             self.emit(f"{buf}[{self.index_code(ref, self.counts[k])}] = {code}")

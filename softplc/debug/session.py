@@ -164,7 +164,8 @@ class Session(Controller):
             walk(r.instructions)
         for kind, blocks in self.plc.mem.blocks.items():
             for i in blocks:
-                found.add(f"%{kind}{i}")
+                if kind != "PID":  # PID n is no address
+                    found.add(f"%{kind}{i}")
         return sorted(found)
 
     def interrupt(self) -> None:
@@ -560,6 +561,34 @@ class Session(Controller):
         return "\n".join(f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} "
                          f"F={int(c.F)}" for i, c in sorted(cs.items()))
 
+    def cmd_pid(self, arg: str) -> str:
+        """pid: every PID function with its mode, set point, measure, output, Kp/Ti/Td,
+        diagnostic word and auto-tuning state."""
+        pids = self.plc.mem.blocks.get("PID", {})
+        if not pids:
+            return "no PID functions"
+        lines = []
+        for i, pid in sorted(pids.items()):
+            p, get = pid.p, pid._get
+            at = pid._at or "-"
+            lines.append(f"PID {i:<2} {p.mode:<6} {p.action:<7} SP={get(p.setpoint):<6} "
+                         f"PV={get(p.measure):<6} OUT={round(pid.u):<5} Kp={get(p.kp)}/100 "
+                         f"Ti={get(p.ti)}/10s Td={get(p.td)}/10s diag={pid.diag:#06x} AT={at}")
+        return "\n".join(lines)
+
+    def cmd_analog(self, arg: str) -> str:
+        """analog: every analog channel with its signal, range, word and physical value."""
+        analog = self.plc.mem.analog
+        if analog is None or not analog.channels:
+            return "no analog channels"
+        lines = []
+        for ref, ch in sorted(analog.channels.items(), key=lambda kv: (kv[0].kind, kv[0].index)):
+            word = self.plc.mem.read(ref)
+            rng = f"{ch.range} {ch.lo}..{ch.hi}" if ch.range in ("normal", "custom") else ch.range
+            extra = f"  = {analog.output(ref):.3f}" if ref.kind == "QW" else ""
+            lines.append(f"{str(ref):<8} {ch.signal:<6} {rng:<18} {word}{extra}")
+        return "\n".join(lines)
+
     def cmd_status(self, arg: str) -> str:
         """status: PLC state, scan count, virtual time, scan times, position, forced."""
         st = self.plc.stats
@@ -604,7 +633,10 @@ class Session(Controller):
             raise DebugError("trace ADDR... to FILE.csv")
         refs = [r for a in m[1].split() for r in self.parse_obj(a)]
         self._close_trace()
-        self.trace_file = open(m[2], "w", newline="", encoding="utf-8")  # noqa: SIM115
+        try:
+            self.trace_file = open(m[2], "w", newline="", encoding="utf-8")  # noqa: SIM115
+        except OSError as e:
+            raise DebugError(f"cannot write {m[2]}: {_why(e, m[2])}") from None
         self.trace_writer = csv.writer(self.trace_file)
         self.trace_refs = refs
         self.trace_writer.writerow(["scan", "t"] + [str(r) for r in refs])
@@ -725,3 +757,18 @@ def diff_programs(old: A.Program, new: A.Program) -> list[str]:
         if names:
             out.append(f"{what}: " + ", ".join(names))
     return out
+
+
+def _why(e: OSError, path: str) -> str:
+    """An OSError as words, e.g. "the folder /x does not exist"."""
+    import errno
+    import os
+
+    folder = os.path.dirname(path) or "."
+    if e.errno == errno.ENOENT:
+        return f"the folder {folder} does not exist"
+    if e.errno in (errno.EACCES, errno.EPERM):
+        return "permission denied"
+    if e.errno == errno.EISDIR:
+        return "it is a folder"
+    return e.strerror or str(e)

@@ -1,6 +1,14 @@
 """Simulated machines: devices that read the PLC's field outputs and write its field inputs."""
 
-from . import axis, pen, stepper, switches, trace  # noqa: F401  (each registers its device type)
+from . import (  # noqa: F401  (each registers its device type)
+    analog_source,
+    axis,
+    oven,
+    pen,
+    stepper,
+    switches,
+    trace,
+)
 from .base import DEVICE_TYPES, Device, build_devices, register_device
 
 __all__ = ["Device", "DEVICE_TYPES", "build_devices", "register_device"]

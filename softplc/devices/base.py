@@ -5,6 +5,14 @@ A device reads the field outputs (`mem.q_field`, published at the end of the sca
 its physics on by `dt` seconds to time `t`, and writes field inputs (`mem.i_field`), which
 the next scan latches into its input image. Devices resolve their addresses once, in
 `bind`, into (buffer, index) pairs, so `update` costs a few list lookups per scan.
+
+Options: each device class declares its TOML options as a pydantic model, the class
+attribute `Options` (a `softplc.config.Section`: unknown keys refused, no silent type
+conversion; field types such as `Duration`, `FiniteFloat`, `Address` from `softplc.config`).
+The configuration is checked against it with the rest of the schema, and the device is
+built from the validated model: `Stepper(name, Stepper.Options(phases=[...]))`. What needs
+the memory image or other devices (does the address exist, is `axis` a stepper) is checked
+in `bind`, as a ConfigError naming `devices.NAME.option`.
 """
 
 from __future__ import annotations
@@ -13,6 +21,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..address import parse_address
+from ..config import Section, validate_config
 from ..errors import AddressError, ConfigError
 from ..runtime.memory import MemoryImage
 
@@ -26,8 +35,12 @@ class Device:
     STATE: tuple[str, ...] = ()
     RECORDS: tuple[str, ...] = ()
 
-    def __init__(self, name: str, **options: Any):
+    class Options(Section):
+        """No options."""
+
+    def __init__(self, name: str, options: Any = None):
         self.name = name
+        self.options = options if options is not None else self.Options()
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         """Resolve addresses (and other devices this one depends on) once."""
@@ -67,15 +80,16 @@ class Device:
     def io_index(self, mem: MemoryImage, address: Any, kind: str, option: str) -> int:
         """Flat index of an `%I` or `%Q` (kind) bit, with a config error naming the option."""
         if not isinstance(address, str):
-            raise ConfigError(f"device {self.name!r}: {option} must be an address string, "
-                              f"not {address!r}")
+            raise ConfigError(f"{self.where(option)}: expected an address string "
+                              f"(got {address!r})")
         try:
             ref = parse_address(address, mem.profile)
         except AddressError as e:
-            raise ConfigError(f"device {self.name!r}: {option}: {e}") from None
-        if ref.kind != kind:
-            raise ConfigError(f"device {self.name!r}: {option} must be a %{kind} address, "
-                              f"not {address!r}")
+            raise ConfigError(f"{self.where(option)}: {e}") from None
+        if ref.kind != kind or ref.bit is not None or ref.length is not None \
+                or ref.field is not None:
+            raise ConfigError(f"{self.where(option)}: expected a %{kind} bit address "
+                              f"(got {address!r})")
         mem.use_io(ref)
         return ref.index
 
@@ -84,9 +98,13 @@ class Device:
         dev = devices.get(name) if isinstance(name, str) else None
         if not isinstance(dev, cls):
             kind = getattr(cls, "type_name", cls.__name__)
-            raise ConfigError(f"device {self.name!r}: {option} = {name!r} is not a {kind} "
-                              f"device of this machine")
+            raise ConfigError(f"{self.where(option)}: {name!r} is not a {kind} device of "
+                              f"this machine")
         return dev
+
+    def where(self, option: str) -> str:
+        """The key path of one of this device's options, for error messages."""
+        return f"devices.{self.name}.{option}"
 
 
 class AxisDevice(Device):
@@ -103,8 +121,16 @@ class AxisDevice(Device):
         """The position from which an `at = "end"` switch is made."""
         raise NotImplementedError
 
+    def trace_position(self) -> float:
+        """The position a trace records (default: the true position, axis units)."""
+        return self.axis_position()
 
-DEVICE_TYPES: dict[str, Callable[..., Device]] = {}
+    def missed(self) -> int:
+        """Steps lost so far (a stepper's missed steps; 0 for a closed-loop axis)."""
+        return 0
+
+
+DEVICE_TYPES: dict[str, type[Device]] = {}
 
 
 def register_device(type_name: str) -> Callable[[type[Device]], type[Device]]:
@@ -116,19 +142,17 @@ def register_device(type_name: str) -> Callable[[type[Device]], type[Device]]:
     return deco
 
 
-def build_devices(config: dict[str, dict[str, Any]], mem: MemoryImage) -> dict[str, Device]:
-    """Create and bind the devices of a machine config's `[devices.NAME]` tables, in order."""
+def build_devices(config: dict[str, Any], mem: MemoryImage) -> dict[str, Device]:
+    """Create and bind a machine's devices, in order. `config` maps a device name to its
+    `[devices.NAME]` table (a dict with `type`), or to (type, validated Options)."""
     devices: dict[str, Device] = {}
-    for name, opts in config.items():
-        opts = dict(opts)
-        type_name = opts.pop("type", None)
-        if type_name not in DEVICE_TYPES:
-            raise ConfigError(f"device {name!r}: unknown type {type_name!r}; known: "
-                              f"{', '.join(sorted(DEVICE_TYPES))}")
-        try:
-            devices[name] = DEVICE_TYPES[type_name](name, **opts)
-        except TypeError as e:
-            raise ConfigError(f"device {name!r} ({type_name}): {e}") from None
+    for name, entry in config.items():
+        if isinstance(entry, tuple):
+            type_name, options = entry
+        else:  # a raw table: checked against the same schema as a whole configuration
+            section = validate_config({"devices": {name: entry}}, DEVICE_TYPES).devices[name]
+            type_name, options = section.type, section.options
+        devices[name] = DEVICE_TYPES[type_name](name, options)
     for dev in devices.values():
         dev.bind(mem, devices)
     return devices

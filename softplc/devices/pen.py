@@ -4,9 +4,9 @@ TOML options, table `[devices.NAME]` with `type = "pen"`:
 
 - `output` (required): the `%Q` output that drives it, energised = pen down, e.g.
   `"%Q0.14"`.
-- `lower_delay` (float >= 0 seconds, default 0.0): how long the output must have been on
-  before the pen touches the paper.
-- `lift_delay` (float >= 0 seconds, default 0.0): how long it must have been off before
+- `lower_delay` (duration, default "0ms"): how long the output must have been on
+  before the pen touches the paper, e.g. `"50ms"`.
+- `lift_delay` (duration, default "0ms"): how long it must have been off before
   the pen leaves the paper.
 
 Attributes: `down` (the pen is on the paper), `moves` (how many times it went down or up).
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..errors import ConfigError
+from ..config import Address, Duration, Section
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
 
@@ -25,16 +25,16 @@ from .base import Device, register_device
 class Pen(Device):
     STATE = ("down", "moves", "_cmd", "_t_cmd", "_settled")
 
-    def __init__(self, name: str, *, output: Any, lower_delay: Any = 0.0,
-                 lift_delay: Any = 0.0):
-        super().__init__(name)
-        for option, v in (("lower_delay", lower_delay), ("lift_delay", lift_delay)):
-            if isinstance(v, bool) or not isinstance(v, int | float) or not v >= 0:
-                raise ConfigError(f"device {name!r}: {option} must be a number of seconds "
-                                  f">= 0, not {v!r}")
-        self.output = output
-        self.lower_delay = float(lower_delay)
-        self.lift_delay = float(lift_delay)
+    class Options(Section):
+        output: Address
+        lower_delay: Duration = 0.0
+        lift_delay: Duration = 0.0
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        self.output = options.output
+        self.lower_delay = options.lower_delay
+        self.lift_delay = options.lift_delay
         self._q: list[int] | None = None
         self._idx = 0
         self.reset()
@@ -70,3 +70,29 @@ class Pen(Device):
 
     def status(self) -> dict[str, Any]:
         return {"down": self.down}
+
+
+@register_device("torch")
+class Torch(Pen):
+    """The cutting torch: the pen device under the cutting table's names. Options `output`
+    (energised = cutting), `ignition_delay` (duration before the flame cuts, default
+    "0ms") and `extinction_delay` (duration before it stops cutting, default "0ms");
+    attribute `lit` (= `down`)."""
+
+    class Options(Section):  # type: ignore[assignment]
+        output: Address
+        ignition_delay: Duration = 0.0
+        extinction_delay: Duration = 0.0
+
+    def __init__(self, name: str, options: Options):  # type: ignore[override]
+        super().__init__(name, Pen.Options.model_construct(output=options.output,
+                                           lower_delay=options.ignition_delay,
+                                           lift_delay=options.extinction_delay))
+        self.options = options
+
+    @property
+    def lit(self) -> bool:
+        return self.down
+
+    def status(self) -> dict[str, Any]:
+        return {"lit": self.down}

@@ -46,6 +46,9 @@ from collections import deque
 from operator import itemgetter
 from typing import Any
 
+from pydantic import Field, field_validator
+
+from ..config import Address, InfFloat, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
 from .base import AxisDevice, Device, register_device
@@ -60,19 +63,13 @@ for _e, _p in enumerate((1, 3, 2, 6, 4, 12, 8, 9)):
     PATTERN_TO_E[_p] = _e
 PHASE_NAMES = "ABCD"
 _LOGGED_MISSES = 5  # per device; the rest go to `events` and the counter only
+MAX_UNITS = 1e4  # longest travel / margin (units): keeps step counts exact in a float
+MAX_STEPS_PER_UNIT = 1e6
 
 
 def half_steps_to_steps(h: int) -> int | float:
     """A position kept in half steps, as steps: an int on a whole step."""
     return h >> 1 if not h & 1 else h * 0.5
-
-
-def _number(name: str, option: str, value: Any, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or value != value:
-        raise ConfigError(f"device {name!r}: {option} must be a number, not {value!r}")
-    if positive and not value > 0:
-        raise ConfigError(f"device {name!r}: {option} must be > 0, not {value!r}")
-    return float(value)
 
 
 @register_device("stepper")
@@ -81,23 +78,29 @@ class Stepper(AxisDevice):
 
     STATE = ("_h", "_last", "_last_move_t", "_taken_h", "missed_steps", "_logged")
 
-    def __init__(self, name: str, *, phases: Any, steps_per_unit: Any = 111.11,
-                 travel: Any = 25.0, start: Any = 0.0, max_step_rate: Any = 1000.0,
-                 hard_stop_margin: Any = 0.5):
-        super().__init__(name)
-        if not isinstance(phases, list | tuple) or len(phases) != 4:
-            raise ConfigError(f"device {name!r}: phases must list the four outputs of phases "
-                              f"A, B, C, D, not {phases!r}")
-        self.phases = list(phases)
-        self.steps_per_unit = _number(name, "steps_per_unit", steps_per_unit, positive=True)
-        self.travel = _number(name, "travel", travel, positive=True)
-        self.max_step_rate = _number(name, "max_step_rate", max_step_rate, positive=True)
-        margin = _number(name, "hard_stop_margin", hard_stop_margin)
-        if margin < 0:
-            raise ConfigError(f"device {name!r}: hard_stop_margin must be >= 0")
-        start = _number(name, "start", start)
-        if math.isinf(start):
-            raise ConfigError(f"device {name!r}: start must be finite")
+    class Options(Section):
+        phases: list[Address] = Field(min_length=4, max_length=4)
+        steps_per_unit: float = Field(111.11, gt=0, le=MAX_STEPS_PER_UNIT, allow_inf_nan=False)
+        travel: float = Field(25.0, gt=0, le=MAX_UNITS, allow_inf_nan=False)
+        start: float = Field(0.0, ge=-MAX_UNITS, le=MAX_UNITS, allow_inf_nan=False)
+        max_step_rate: InfFloat = Field(1000.0, gt=0)
+        hard_stop_margin: InfFloat = Field(0.5, ge=0)
+
+        @field_validator("hard_stop_margin")
+        @classmethod
+        def _finite_or_none(cls, v: float) -> float:
+            if not (math.isinf(v) or v <= MAX_UNITS):
+                raise ValueError(f"at most {MAX_UNITS:g} units, or inf for no stops")
+            return v
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        self.phases = list(options.phases)
+        self.steps_per_unit = options.steps_per_unit
+        self.travel = options.travel
+        self.max_step_rate = options.max_step_rate
+        margin = options.hard_stop_margin
+        start = options.start
         self.travel_steps = self.travel * self.steps_per_unit
         self.hard_stop_margin = margin
         if math.isinf(margin):
@@ -108,7 +111,7 @@ class Stepper(AxisDevice):
             self._hi_h = math.floor(2 * (self.travel + margin) * self.steps_per_unit)
         self._start_h = 2 * round(start * self.steps_per_unit)
         if not self._lo_h <= self._start_h <= self._hi_h:
-            raise ConfigError(f"device {name!r}: start = {start} is beyond the hard stops "
+            raise ConfigError(f"{self.where('start')}: {start} is beyond the hard stops "
                               f"(-{margin} .. {self.travel + margin} units)")
         # Shortest time per half step, a hair shorter so that stepping exactly at the limit
         # survives float rounding of t.
@@ -122,8 +125,8 @@ class Stepper(AxisDevice):
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         idx = [self.io_index(mem, a, "Q", f"phases[{k}]") for k, a in enumerate(self.phases)]
         if len(set(idx)) != 4:
-            raise ConfigError(f"device {self.name!r}: the four phases must be distinct "
-                              f"outputs, not {self.phases!r}")
+            raise ConfigError(f"{self.where('phases')}: the four phases must be distinct "
+                              f"outputs (got {self.phases!r})")
         self._q = mem.q_field
         self._get_phases = itemgetter(*idx)
 
@@ -192,6 +195,12 @@ class Stepper(AxisDevice):
 
     def axis_end(self) -> float:
         return math.ceil(2 * self.travel_steps) * 0.5  # the first half step at the end
+
+    def trace_position(self) -> int | float:
+        return half_steps_to_steps(self._h)
+
+    def missed(self) -> int:
+        return self.missed_steps
 
     @staticmethod
     def pattern_name(cur: tuple[int, ...]) -> str:

@@ -20,41 +20,46 @@ beyond each end are the stepper's (`hard_stop_margin`). The switch writes its in
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal, get_args
 
+from pydantic import Field
+
+from ..config import Address, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
 from .base import AxisDevice, Device, register_device
 
-FAULTS = ("none", "stuck_open", "stuck_closed")
+Fault = Literal["none", "stuck_open", "stuck_closed"]
+FAULTS: tuple[str, ...] = get_args(Fault)
 
 
 @register_device("limit_switch")
 class LimitSwitch(Device):
     STATE = ("fault", "_sign", "_thr")
 
-    def __init__(self, name: str, *, axis: Any, input: Any, at: Any = "home",
-                 normally_closed: Any = False, fault: Any = "none"):
-        super().__init__(name)
-        if at not in ("home", "end"):
-            raise ConfigError(f"device {name!r}: at must be \"home\" or \"end\", not {at!r}")
-        if not isinstance(normally_closed, bool):
-            raise ConfigError(f"device {name!r}: normally_closed must be true or false")
-        self.axis_name = axis
-        self.input = input
-        self.at = at
-        self.normally_closed = normally_closed
+    class Options(Section):
+        axis: str = Field(min_length=1)
+        input: Address
+        at: Literal["home", "end"] = "home"
+        normally_closed: bool = False
+        fault: Fault = "none"
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        self.axis_name = options.axis
+        self.input = options.input
+        self.at = options.at
+        self.normally_closed = options.normally_closed
         self.fault = "none"
-        self._fault0 = fault
+        self._fault0 = options.fault
         self._axis: AxisDevice | None = None
         self._i: list[int] | None = None
         self._idx = 0
-        self._check_fault(fault)
 
     def _check_fault(self, fault: Any) -> None:
         if fault not in FAULTS:
-            raise ConfigError(f"device {self.name!r}: fault must be one of "
-                              f"{', '.join(FAULTS)}, not {fault!r}")
+            raise ConfigError(f"{self.where('fault')}: expected one of "
+                              f"{', '.join(FAULTS)} (got {fault!r})")
 
     def set_fault(self, fault: str) -> None:
         """Break (or repair, with "none") the switch at run time."""
@@ -94,3 +99,48 @@ class LimitSwitch(Device):
 
     def status(self) -> dict[str, Any]:
         return {"made": self.made}
+
+
+@register_device("push_button")
+class PushButton(Device):
+    """A push button or E-stop on an `%I` input. Options: `input` (required),
+    `normally_closed` (default false: the input is on while pressed; an E-stop is
+    normally closed, so its input is on while released and a broken wire reads as
+    pressed), `pressed` (default false: the state at power-up). `press()` / `release()`
+    operate it at run time (tests, the debugger)."""
+
+    class Options(Section):
+        input: Address
+        normally_closed: bool = False
+        pressed: bool = False
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        self.input = options.input
+        self.normally_closed = options.normally_closed
+        self._pressed0 = options.pressed
+        self.pressed = options.pressed
+        self._i: list[int] | None = None
+        self._idx = 0
+
+    def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
+        self._idx = self.io_index(mem, self.input, "I", "input")
+        self._i = mem.i_field
+        self.update(0.0, 0.0)
+
+    def reset(self) -> None:
+        self.pressed = self._pressed0
+        if self._i is not None:
+            self.update(0.0, 0.0)
+
+    def press(self) -> None:
+        self.pressed = True
+
+    def release(self) -> None:
+        self.pressed = False
+
+    def update(self, t: float, dt: float) -> None:
+        self._i[self._idx] = int(self.pressed ^ self.normally_closed)  # type: ignore[index]
+
+    def status(self) -> dict[str, Any]:
+        return {"pressed": self.pressed}

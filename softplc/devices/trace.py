@@ -3,17 +3,19 @@
 TOML options, table `[devices.NAME]` with `type = "trace"`. Put it after the axes and the
 pen in the config, so that it sees their state of the same scan:
 
-- `axes` (default `["X", "Z"]`): names of the two `stepper` devices, horizontal (x) then
-  vertical (z) axis of the drawing.
-- `pen` (default `"pen"`): name of the `pen` device; `""` for none (pen column 0).
+- `axes` (default `["X", "Z"]`): names of the two axis devices (`stepper` or
+  `servo_axis`), horizontal (x) then vertical (z) axis of the drawing.
+- `pen` (default `"pen"`): name of the `pen` (or `torch`) device; `""` for none (pen
+  column 0).
 - `csv` (path, default none): also write the samples to this CSV file, relative to the
   current directory, every `flush_every` seconds of simulated time and at `close()`.
-- `flush_every` (float > 0 seconds of simulated time, default 1.0): CSV write period.
+- `flush_every` (duration > 0 of simulated time, default "1s"): CSV write period.
 - `max_samples` (int > 0, default 1000000): stop recording (and warn) after this many.
 
 A sample `(t, x, z, pen, missed)` is recorded at bind (t = 0) and after every scan that
 changed something: t in seconds, x and z the axis positions in motor steps (a float on a
-half step), pen 1 if down, missed the total of both axes' missed steps. `samples` is the
+half step; a servo axis's true position in counts), pen 1 if down (torch lit), missed the
+total of both axes' missed steps. `samples` is the
 list; `to_csv(path)` writes it with the header `t,x,z,pen,missed`; `plot(path)` draws it.
 """
 
@@ -24,11 +26,13 @@ import math
 import os
 from typing import Any
 
+from pydantic import Field
+
+from ..config import PositiveDuration, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
-from .base import Device, register_device
+from .base import AxisDevice, Device, register_device
 from .pen import Pen
-from .stepper import Stepper, half_steps_to_steps
 
 log = logging.getLogger(__name__)
 
@@ -50,25 +54,20 @@ class Trace(Device):
     STATE = ("truncated", "_key", "_written", "_next_flush")
     RECORDS = ("samples",)
 
-    def __init__(self, name: str, *, axes: Any = ("X", "Z"), pen: Any = "pen",
-                 csv: Any = None, flush_every: Any = 1.0, max_samples: Any = 1_000_000):
-        super().__init__(name)
-        if not isinstance(axes, list | tuple) or len(axes) != 2:
-            raise ConfigError(f"device {name!r}: axes must name two stepper devices "
-                              f"(x then z), not {axes!r}")
-        if csv is not None and (not isinstance(csv, str) or not csv):
-            raise ConfigError(f"device {name!r}: csv must be a file path, not {csv!r}")
-        if isinstance(flush_every, bool) or not isinstance(flush_every, int | float) \
-                or not flush_every > 0:
-            raise ConfigError(f"device {name!r}: flush_every must be > 0 seconds")
-        if isinstance(max_samples, bool) or not isinstance(max_samples, int) \
-                or max_samples < 1:
-            raise ConfigError(f"device {name!r}: max_samples must be an integer > 0")
-        self.axis_names = list(axes)
-        self.pen_name = pen
-        self.csv_path = csv
-        self.flush_every = float(flush_every)
-        self.max_samples = max_samples
+    class Options(Section):
+        axes: list[str] = Field(["X", "Z"], min_length=2, max_length=2)
+        pen: str = "pen"
+        csv: str | None = Field(None, min_length=1)
+        flush_every: PositiveDuration = 1.0
+        max_samples: int = Field(1_000_000, ge=1)
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        self.axis_names = list(options.axes)
+        self.pen_name = options.pen
+        self.csv_path = options.csv
+        self.flush_every = options.flush_every
+        self.max_samples = options.max_samples
         self.samples: list[Sample] = []
         self.truncated = False
         self._x: Any = None
@@ -79,8 +78,8 @@ class Trace(Device):
         self._next_flush = math.inf
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
-        self._x = self.peer(devices, self.axis_names[0], Stepper, "axes[0]")
-        self._z = self.peer(devices, self.axis_names[1], Stepper, "axes[1]")
+        self._x = self.peer(devices, self.axis_names[0], AxisDevice, "axes[0]")
+        self._z = self.peer(devices, self.axis_names[1], AxisDevice, "axes[1]")
         if self.pen_name != "":
             self._pen = self.peer(devices, self.pen_name, Pen, "pen")
         self.reset()
@@ -97,7 +96,8 @@ class Trace(Device):
     def update(self, t: float, dt: float) -> None:
         x = self._x
         z = self._z
-        key = (x._h, z._h, self._pen.down, x.missed_steps + z.missed_steps)
+        key = (x.trace_position(), z.trace_position(), self._pen.down,
+               x.missed() + z.missed())
         if key != self._key:
             self._key = key
             self._record(t, key)
@@ -112,9 +112,8 @@ class Trace(Device):
                 log.warning("%s: %d samples recorded, recording stops", self.name,
                             self.max_samples)
             return
-        xh, zh, down, missed = key
-        self.samples.append((t, half_steps_to_steps(xh), half_steps_to_steps(zh),
-                             1 if down else 0, missed))
+        x, z, down, missed = key
+        self.samples.append((t, x, z, 1 if down else 0, missed))
 
     def status(self) -> dict[str, Any]:
         return {"samples": len(self.samples)}
@@ -153,22 +152,34 @@ class Trace(Device):
              full_area: bool = False) -> None:
         """Draw the trace to a PNG or SVG file (see `plot_samples`)."""
         plot_samples(self.samples, path, programmed, units=units,
-                     steps_per_unit=(self._x.steps_per_unit, self._z.steps_per_unit),
-                     travel_steps=(self._x.travel_steps, self._z.travel_steps),
+                     steps_per_unit=(_per_unit(self._x), _per_unit(self._z)),
+                     travel_steps=(_travel(self._x), _travel(self._z)),
                      title=title or None, name=self.name, full_area=full_area)
+
+
+def _per_unit(axis: Any) -> float:
+    """Positions per drawing unit: a stepper's steps per unit, a servo's counts per mm."""
+    return getattr(axis, "steps_per_unit", None) or axis.opt.counts_per_mm
+
+
+def _travel(axis: Any) -> float:
+    return getattr(axis, "travel_steps", None) or axis.axis_end()
 
 
 def plot_samples(samples: Any, path: str | os.PathLike[str],
                  programmed: list[Segment] | None = None, *, units: str = "steps",
                  steps_per_unit: tuple[float, float] = (111.11, 111.11),
                  travel_steps: tuple[float, float] = (2778, 2778), title: str | None = None,
-                 name: str = "trace", full_area: bool = False) -> None:
+                 name: str = "trace", full_area: bool = False,
+                 unit_name: str | None = None) -> None:
     """Draw trace samples (t, x, z, pen, missed) to a PNG or SVG file (by the extension).
 
-    Pen-down moves are solid black, pen-up travel thin dashed grey, the optional
-    `programmed` path (segments ((x0, z0), (x1, z1)) in steps) thin red on top. The
-    axes are in motor steps, or in drawing units with `units="units"`, equal aspect.
-    The view fits the drawing; `full_area=True` shows the whole table (0..travel).
+    The optional `programmed` path (segments ((x0, z0), (x1, z1)) in steps) is drawn first,
+    wide and light red; what the pen drew goes on top, thin solid black, so both stay
+    visible where they coincide; pen-up travel thin dashed grey. The axes are in motor
+    steps, or in drawing units with `units="units"` (`unit_name` labels them, e.g. "cm"),
+    equal aspect. The view fits the drawing; `full_area=True` shows the whole table. The
+    legend (table outline included) sits outside the plot area, on the right.
     """
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext not in (".png", ".svg"):
@@ -186,14 +197,22 @@ def plot_samples(samples: Any, path: str | os.PathLike[str],
     if units == "units":
         sx, sz = 1 / steps_per_unit[0], 1 / steps_per_unit[1]
     scale = np.array([sx, sz])
+    label = unit_name or units
 
-    fig = Figure(figsize=(7, 7))
+    fig = Figure(figsize=(9, 7), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     # the table's drawing area, dotted; add_artist keeps it out of the autoscale
     w, h = travel_steps[0] * sx, travel_steps[1] * sz
-    ax.add_artist(_rectangle((0, 0), w, h))
-    handles = []
+    table = _rectangle((0, 0), w, h)
+    ax.add_artist(table)
+    handles: list[Any] = []
+    if programmed:
+        prog = np.array(programmed, dtype=float).reshape(-1, 2, 2) * scale
+        ax.add_collection(LineCollection(prog, colors="tab:red", linewidths=4.0,
+                                         alpha=0.35, zorder=2, capstyle="round"))
+        handles.append(Line2D([], [], color="tab:red", lw=4.0, alpha=0.35,
+                              label="programmed"))
     if samples:
         pts = np.array([(s[1], s[2]) for s in samples], dtype=float) * scale
         pen = np.array([s[3] for s in samples], dtype=bool)
@@ -201,30 +220,26 @@ def plot_samples(samples: Any, path: str | os.PathLike[str],
         moved = np.any(segs[:, 0] != segs[:, 1], axis=1)
         down = pen[:-1] & pen[1:]  # drawn only if the pen was down at both ends
         ax.add_collection(LineCollection(segs[moved & ~down], colors="0.55",
-                                         linewidths=0.6, linestyles="--", zorder=2))
+                                         linewidths=0.6, linestyles="--", zorder=3))
         ax.add_collection(LineCollection(segs[moved & down], colors="black",
-                                         linewidths=1.5, zorder=3))
+                                         linewidths=1.0, zorder=4))
         ax.plot(*pts[0], "o", color="tab:green", ms=5, zorder=5)
         ax.plot(*pts[-1], "s", color="tab:blue", ms=5, zorder=5)
-        handles += [Line2D([], [], color="black", lw=1.5, label="pen down"),
-                    Line2D([], [], color="0.55", lw=0.6, ls="--", label="pen up"),
+        handles += [Line2D([], [], color="black", lw=1.0, label="drawn (pen down)"),
+                    Line2D([], [], color="0.55", lw=0.6, ls="--", label="pen-up travel"),
                     Line2D([], [], color="tab:green", marker="o", ls="", label="start"),
                     Line2D([], [], color="tab:blue", marker="s", ls="", label="end")]
-    if programmed:
-        prog = np.array(programmed, dtype=float).reshape(-1, 2, 2) * scale
-        ax.add_collection(LineCollection(prog, colors="tab:red", linewidths=0.8,
-                                         alpha=0.7, zorder=4))
-        handles.append(Line2D([], [], color="tab:red", lw=0.8, label="programmed"))
+    handles.append(Line2D([], [], color=table.get_edgecolor(), lw=table.get_linewidth(),
+                          ls=":", label="table area"))
     if full_area:
         ax.update_datalim([(0, 0), (w, h)])
     ax.autoscale_view()
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel(f"x ({units})")
-    ax.set_ylabel(f"z ({units})")
+    ax.set_xlabel(f"x ({label})")
+    ax.set_ylabel(f"z ({label})")
     missed = samples[-1][4] if samples else 0
-    ax.set_title(title or f"{name}: {len(samples)} samples, {int(missed)} missed steps")
-    if handles:
-        ax.legend(handles=handles, loc="best", fontsize="small")
+    ax.set_title(f"{title or name}: {len(samples)} samples, {int(missed)} missed steps")
+    fig.legend(handles=handles, loc="outside right upper", fontsize="small")
     ax.grid(True, lw=0.3)
     fig.savefig(path)
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from typing import TextIO
 
 from ..errors import HostError
-from ..modbus.host import ModbusHost
+from ..modbus.host import ModbusHost, ProgressLine
 from .parser import StepSegment
 
 __all__ = ["DrawClient", "HostError", "StreamResult", "make_frame"]
@@ -63,31 +63,38 @@ class StreamResult:
     point: tuple[int, int] | None = None  # where the pen stopped, in steps
 
 
-class ProgressBar:
-    """A one-line text progress bar (carriage return updates) on a text stream."""
+def _mmss(seconds: float) -> str:
+    m, sec = divmod(int(round(seconds)), 60)
+    return f"{m // 60}:{m % 60:02d}:{sec:02d}" if m >= 60 else f"{m}:{sec:02d}"
 
-    def __init__(self, total: int, stream: TextIO | None = sys.stderr, width: int = 30):
+
+class ProgressBar(ProgressLine):
+    """A one-line text progress bar (carriage return updates) on a text stream, with the
+    elapsed time and an estimate of the time left (from the pace since the first update)."""
+
+    def __init__(self, total: int, stream: TextIO | None = sys.stderr, width: int = 30,
+                 clock: Callable[[], float] = time.monotonic):
+        super().__init__(stream, width)
         self.total = max(total, 1)
-        self.stream = stream
-        self.width = width
-        self.shown = False
+        self.clock = clock
+        self._t0 = clock()
+        self._done0: int | None = None  # segments already done at the first update (resume)
+
+    def timing(self, done: int) -> str:
+        """'0:12 elapsed, ETA 1:05' (ETA once a segment has been timed)."""
+        elapsed = self.clock() - self._t0
+        if self._done0 is None:
+            self._done0 = done
+        text = f"{_mmss(elapsed)} elapsed"
+        if done > self._done0 and done < self.total:
+            left = elapsed / (done - self._done0) * (self.total - done)
+            text += f", ETA {_mmss(left)}"
+        return text
 
     def update(self, done: int, seg: StepSegment | None = None) -> None:
-        if self.stream is None:
-            return
-        filled = int(self.width * done / self.total)
-        bar = "#" * filled + "-" * (self.width - filled)
         where = f" line {seg.line} ({seg.kind}, pen {'down' if seg.pen_down else 'up'})" \
             if seg else ""
-        self.stream.write(f"\r[{bar}] {done}/{self.total}{where}\x1b[K")
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.stream is not None and self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
-            self.shown = False
+        self.show(done / self.total, f"{done}/{self.total} {self.timing(done)}{where}")
 
 
 class DrawClient(ModbusHost):

@@ -14,15 +14,22 @@ the pen down; in "depth" mode (default otherwise) the pen is down while that coo
 program that selects another plane is rejected (pass the plane it needs instead).
 
 Problems are collected over the whole program and raised together as one `GCodeError`
-(line:column for each), so nothing is sent to a machine from a program with an error.
-Unsupported codes (G40-G42, M codes, T, S...) are reported as warnings and ignored.
+(line:column for each, the warnings with them), so nothing is sent to a machine from a
+program with an error. Unsupported codes (G40-G42, M codes, T, S...) are reported as
+warnings and ignored.
+
+Ambiguity: in the seed's XZ plane with Y as the pen flag, ordinary XY G-code such as
+`G1 X10 Y10` would silently draw along X only. With `dialect="auto"` (default) a pen flag
+other than 0/1, or a program that moves in X with Y words but never names Z, is refused
+with a hint to `--plane XY`; `dialect="seed"` reads such Y words as the seed's pen flag
+(nonzero = down, with a warning).
 """
 
 from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..errors import ConfigError, Diagnostic, ProgramError
@@ -35,6 +42,7 @@ UNIT_CM = {"cm": 1.0, "mm": 0.1, "in": 2.54}
 MAX_STEPS = 32767
 
 PLANES = {"XY": 17, "XZ": 18, "YZ": 19}
+DIALECTS = ("auto", "seed")
 _PLANE_OF_G = {17: "XY", 18: "XZ", 19: "YZ"}
 _OFFSET_LETTER = {"X": "I", "Y": "J", "Z": "K"}
 
@@ -51,11 +59,18 @@ _WORD_RE = re.compile(r"([A-Za-z])[ \t]*([+-]?(?:\d+\.?\d*|\.\d+))")
 
 
 class GCodeError(ProgramError):
-    """A G-code program cannot be drawn. Carries every problem found (line:column)."""
+    """A G-code program cannot be drawn. Carries every problem found (line:column), and the
+    warnings of the same reading (shown with the errors, in line order)."""
+
+    def __init__(self, diagnostics: list[Diagnostic] | Diagnostic | str,
+                 warnings: list[Diagnostic] | None = None):
+        super().__init__(diagnostics)
+        self.warnings: list[Diagnostic] = list(warnings or [])
 
     def __str__(self) -> str:
-        return "\n".join(f"{d.file}: {d.message}" if d.line == 0 else str(d)
-                         for d in self.diagnostics)
+        tagged = [(d, "") for d in self.diagnostics] + [(w, "warning: ") for w in self.warnings]
+        tagged.sort(key=lambda dw: (dw[0].line, dw[0].column))
+        return "\n".join(str(replace(d, message=tag + d.message)) for d, tag in tagged)
 
 
 @dataclass(frozen=True)
@@ -73,6 +88,7 @@ class GCodeConfig:
     chord_tolerance: float = 0.01
     arc_radius_tolerance: float = 0.01  # allowed start/end radius mismatch of I/J/K arcs
     steps_per_unit: float = 111.11
+    dialect: str = "auto"  # "auto": refuse XY G-code read as the seed's pen word; "seed"
 
     def __post_init__(self) -> None:
         plane = self.plane.upper()
@@ -81,6 +97,8 @@ class GCodeConfig:
         if plane not in PLANES:
             raise ConfigError(f"drawing plane {self.plane!r}: expected one of XY, XZ, YZ")
         object.__setattr__(self, "plane", plane)
+        if self.dialect not in DIALECTS:
+            raise ConfigError(f"dialect {self.dialect!r}: expected one of {', '.join(DIALECTS)}")
         if self.pen not in (None, "flag", "depth"):
             raise ConfigError(f"pen mode {self.pen!r}: expected 'flag' or 'depth'")
         if self.units not in UNIT_CM:
@@ -280,6 +298,11 @@ class _Reader:
         self.u_axis, self.v_axis = config.axes
         self.pen_axis = config.pen_axis
         self.pen_mode = config.pen_mode
+        # ambiguity check (dialect "auto", pen flag): saw the plane's second axis at all;
+        # the first block that moved along the first axis with a pen word
+        self.saw_v = False
+        self.first_u_with_pen: tuple[int, _Word] | None = None
+        self.ambiguous = False  # an ambiguity error already said it
 
     def err(self, line: int, col: int, msg: str, text: str = "", expected: str = "") -> None:
         self.errors.append(Diagnostic(msg, self.file, line, col, text, expected))
@@ -363,6 +386,10 @@ class _Reader:
             self.warn(line, args["P"].col, "P outside a G04 block is ignored", args["P"].text)
         if motion is not None:
             self.st.motion = int(motion.value)
+        if self.v_axis in args:
+            self.saw_v = True
+        if self.u_axis in args and self.pen_axis in args and self.first_u_with_pen is None:
+            self.first_u_with_pen = (line, args[self.pen_axis])
         self.do_pen(line, args)
         self.do_motion(line, words[0].col, args)
 
@@ -387,7 +414,12 @@ class _Reader:
         if w is None:
             return
         if self.pen_mode == "flag":
-            if w.value not in (0.0, 1.0):
+            if w.value not in (0.0, 1.0) and self.ambiguity_checked:
+                self.err(line, w.col, f"{w.text} is not a pen word ({self.pen_axis}1 down, "
+                         f"{self.pen_axis}0 up) of the seed dialect in the "
+                         f"{self.cfg.plane} plane; {self.hint}", w.text)
+                self.ambiguous = True
+            elif w.value not in (0.0, 1.0):
                 self.warn(line, w.col, f"pen word {w.text}: expected {self.pen_axis}1 (down) "
                           f"or {self.pen_axis}0 (up); taken as "
                           f"{'down' if w.value else 'up'}", w.text)
@@ -496,6 +528,26 @@ class _Reader:
             return None
         return linearise_arc(start, end, centre, sweep, self.cfg.chord_tolerance)
 
+    @property
+    def ambiguity_checked(self) -> bool:
+        return self.cfg.dialect == "auto" and self.pen_mode == "flag"
+
+    @property
+    def hint(self) -> str:
+        return (f"if this is ordinary {self.u_axis}{self.pen_axis} G-code, draw it with "
+                f"--plane {''.join(sorted(self.u_axis + self.pen_axis))} (or with "
+                f"--dialect seed to read {self.pen_axis} as the pen flag)")
+
+    def finish(self) -> None:
+        """Whole-program checks, after the last block."""
+        if self.ambiguity_checked and not self.saw_v and not self.ambiguous \
+                and self.first_u_with_pen is not None:
+            line, w = self.first_u_with_pen
+            self.err(line, w.col, f"the program moves along {self.u_axis} with "
+                     f"{self.pen_axis} words but never names {self.v_axis}: in the "
+                     f"{self.cfg.plane} plane {self.pen_axis} only lifts and lowers the "
+                     f"pen; {self.hint}", w.text)
+
     def check_on_table(self, line: int, col: int, pts: list[Point]) -> bool:
         w, h = self.cfg.table_width, self.cfg.table_height
         eps = 1e-9
@@ -513,8 +565,9 @@ def parse_gcode(text: str, config: GCodeConfig | None = None,
     cfg = config or GCodeConfig()
     reader = _Reader(cfg, file)
     reader.read(text)
+    reader.finish()
     if reader.errors:
-        raise GCodeError(reader.errors)
+        raise GCodeError(reader.errors, reader.warnings)
     return Program(reader.segments, cfg, reader.warnings, file)
 
 

@@ -42,10 +42,10 @@ def preview(program: Program | str | Path, out: str | Path,
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure  # no pyplot: no global state, no display
 
-    fig = Figure(figsize=(6, 6))
+    fig = Figure(figsize=(7.5, 6), layout="constrained")
     ax = fig.add_subplot()
     w, h = cfg.table_width, cfg.table_height
-    ax.plot([0, w, w, 0, 0], [0, 0, h, h, 0], color="0.7", linewidth=0.8)
+    ax.plot([0, w, w, 0, 0], [0, 0, h, h, 0], color="0.7", linewidth=0.8, label="table area")
     first_down = first_up = True
     for run in _runs(program.segments, pen_down=False):
         xs, ys = zip(*run, strict=True)
@@ -65,8 +65,7 @@ def preview(program: Program | str | Path, out: str | Path,
     ax.set_xlim(-margin, w + margin)
     ax.set_ylim(-margin, h + margin)
     ax.set_title(title or Path(program.file).name)
-    if not (first_down and first_up):
-        ax.legend(loc="upper right", fontsize="small")
+    fig.legend(loc="outside right upper", fontsize="small")  # never over the drawing
     try:
         fig.savefig(out)
     except OSError as e:

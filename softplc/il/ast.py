@@ -120,7 +120,15 @@ class IncDec:
     pos: Pos = _pos()
 
 
-Statement = Assign | IncDec
+@dataclass(frozen=True)
+class PidCall:
+    """`[ PID n ]`: run PID function n (configured in [pid]) [manual]."""
+
+    number: int
+    pos: Pos = _pos()
+
+
+Statement = Assign | IncDec | PidCall
 
 
 # ---- instructions -------------------------------------------------------------------------

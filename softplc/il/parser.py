@@ -43,7 +43,8 @@ TERMINAL_NAMES = {
     "GRAF_INIT": "=*=", "GRAF_STEP": "-*-", "GRAF_JUMP": "#", "JUMP_KW": "JMP",
     "RET_KW": "RET", "NOP_KW": "NOP", "NEG_KW": "N", "STACK_KW": "MPS/MRD/MPP",
     "SETRESET_KW": "S/R", "PIN_KW": "a block input (IN, CU, CD...)", "PAREN_KW": "AND(/OR(",
-    "INCDEC_KW": "INC/DEC", "SR_CALL": "SRn", "SR_DEF": "SRn:", "LABEL_DEF": "%Ln:",
+    "INCDEC_KW": "INC/DEC", "PID_KW": "PID", "SR_CALL": "SRn", "SR_DEF": "SRn:",
+    "LABEL_DEF": "%Ln:",
     "SECTION_KW": "SECTION",
 }
 INSTRUCTIONS = ("LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR XORF ST STN S R "
@@ -163,6 +164,10 @@ class _ToAST(Transformer):
     def incdec(self, meta, items):
         op, target = items
         return A.IncDec(str(op).upper(), self._ref(target), _pos(meta))
+
+    @v_args(meta=True)
+    def pid_call(self, meta, items):
+        return A.PidCall(int(items[1]), _pos(meta))
 
     # -- instructions --
     @v_args(meta=True)

@@ -45,6 +45,8 @@ def format_operand(op: A.BoolOperand | None) -> str:
 def format_statement(st: A.Statement) -> str:
     if isinstance(st, A.IncDec):
         return f"[ {st.op} {st.target} ]"
+    if isinstance(st, A.PidCall):
+        return f"[ PID {st.number} ]"
     return f"[ {st.target} := {format_expr(st.expr)} ]"
 
 

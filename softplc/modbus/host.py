@@ -1,12 +1,13 @@
 """A Modbus TCP host (client) talking to the soft Twido: connection, retries and the word
-helpers the host programs share (`softplc draw`, `softplc tune`)."""
+helpers the host programs share (`softplc draw`, `softplc tune`, `softplc cut`), polling
+until a condition holds, and the one-line progress display."""
 
 from __future__ import annotations
 
 import logging
 import time
 from collections.abc import Callable, Sequence
-from typing import Self
+from typing import Any, Self, TextIO
 
 from ..errors import HostError
 from .regmap import float_to_registers, registers_to_float
@@ -16,6 +17,30 @@ from .regmap import float_to_registers, registers_to_float
 _pymodbus_log = logging.getLogger("pymodbus")
 if not _pymodbus_log.handlers:
     _pymodbus_log.addHandler(logging.NullHandler())
+
+
+class ProgressLine:
+    """One text line redrawn in place (carriage return) on a text stream (None: silent):
+    a bar of `width` characters for a fraction done, then any text."""
+
+    def __init__(self, stream: TextIO | None, width: int = 30):
+        self.stream = stream
+        self.width = width
+        self.shown = False
+
+    def show(self, fraction: float, text: str) -> None:
+        if self.stream is None:
+            return
+        filled = min(self.width, max(0, int(self.width * fraction)))
+        self.stream.write(f"\r[{'#' * filled}{'-' * (self.width - filled)}] {text}\x1b[K")
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.stream is not None and self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.shown = False
 
 
 class ModbusHost:
@@ -117,3 +142,24 @@ class ModbusHost:
 
     def write_float(self, address: int, value: float) -> None:
         self.write_words(address, float_to_registers(value))
+
+    def write_bit(self, index: int, value: bool) -> None:
+        """%M<index> (coil, FC 5)."""
+        self._call(f"writing %M{index}", lambda c, **kw: c.write_coil(index, value, **kw))
+
+    # -- waiting -----------------------------------------------------------------------
+    def poll(self, read: Callable[[], Any], ready: Callable[[Any], bool], timeout: float,
+             what: str, check: Callable[[Any], None] | None = None,
+             describe: Callable[[Any], str] = str) -> Any:
+        """Call `read()` until `ready(state)`; `check(state)` may raise first (a fault);
+        HostError after `timeout` seconds, naming `what` and `describe(state)`."""
+        deadline = time.monotonic() + timeout
+        while True:
+            state = read()
+            if check is not None:
+                check(state)
+            if ready(state):
+                return state
+            if time.monotonic() >= deadline:
+                raise HostError(f"{what}: timed out after {timeout:g} s ({describe(state)})")
+            time.sleep(self.poll_interval)

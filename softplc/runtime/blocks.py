@@ -21,9 +21,30 @@ TIME_BASES_US = {"1ms": 1_000, "10ms": 10_000, "100ms": 100_000, "1s": 1_000_000
 
 
 class TimeSource:
-    """Shared with the engine: the current scan's start time."""
+    """Shared with the engine: the current scan's start time, and the timers in the middle
+    of timing (so that the engine can update those the program did not execute)."""
 
-    now_us: int = 0
+    def __init__(self) -> None:
+        self.now_us = 0
+        self.running: set[Timer] = set()
+        # False when every timer block runs in every scan (no jump, subroutine, Grafcet
+        # step or conditional end in the program): then nothing needs tracking
+        self.track = True
+
+    def update_running(self) -> None:
+        """End of the scan: a timer keeps timing when its block is not executed (jumped
+        over, in an uncalled subroutine or an inactive step): %TMi.V counts on and %TMi.Q
+        changes at the preset [manual: TWD USE 10AE, timer "special cases", "effect of a
+        program jump"]; those the program executed in this scan are up to date."""
+        done = []
+        now = self.now_us
+        for t in self.running:
+            if t._seen != now:
+                t.run(t._in)
+            if not (t._on if t._is_ton is False else t._in and t.V < t.P):  # t.timing
+                done.append(t)
+        for t in done:
+            self.running.discard(t)
 
 
 class Block:
@@ -73,15 +94,22 @@ class Timer(Block):
         if not 0 <= int(preset) <= MAX_VALUE:
             raise BlockError(f"preset {preset}: 0..{MAX_VALUE}")
         self.clock, self.type, self.base = clock, type, base
+        self._is_ton = type == "TON"
         self.base_us = TIME_BASES_US[base]
         self.P, self.V, self.Q = int(preset), 0, 0
         self._in, self._t0, self._on = 0, 0, 0  # last IN, start time, timing in progress
+        self._seen = -1  # the scan time of the last execution
         self.run = {"TON": self._ton, "TOF": self._tof, "TP": self._tp}[type]
 
     @property
     def last_in(self) -> int:
         """The IN input at the last execution (what the debugger shows)."""
         return self._in
+
+    @property
+    def timing(self) -> bool:
+        """Counting towards the preset (V still changes with time)."""
+        return bool(self._in and self.V < self.P) if self._is_ton else bool(self._on)
 
     def state(self) -> dict[str, Any]:
         """As `Block.state`, with the start time as the time elapsed since (`_elapsed_us`):
@@ -95,42 +123,54 @@ class Timer(Block):
         if "_elapsed_us" in d:
             d["_t0"] = self.clock.now_us - d.pop("_elapsed_us")
         super().set_state(d)
-
-    def _elapsed(self) -> int:
-        v = (self.clock.now_us - self._t0) // self.base_us
-        return v if v < self.P else self.P
+        if self.timing and self.clock.track:  # a retained timer that was timing goes on
+            self.clock.running.add(self)
 
     def _ton(self, IN: Any) -> None:
+        now = self._seen = self.clock.now_us
         if IN:
             if not self._in:
-                self._t0 = self.clock.now_us
-            v = self._elapsed()
-            self.V, self.Q = v, 1 if v >= self.P else 0
+                self._t0 = now
+                if self.clock.track:
+                    self.clock.running.add(self)
+            v = (now - self._t0) // self.base_us
+            if v >= self.P:
+                self.V, self.Q = self.P, 1
+            else:
+                self.V, self.Q = v, 0
         else:
             self.V = self.Q = 0
         self._in = 1 if IN else 0
 
     def _tof(self, IN: Any) -> None:
+        now = self._seen = self.clock.now_us
         if IN:
             self.V, self.Q, self._on = 0, 1, 0
         else:
             if self._in:  # falling edge: start counting
-                self._t0, self._on = self.clock.now_us, 1
+                self._t0, self._on = now, 1
+                if self.clock.track:
+                    self.clock.running.add(self)
             if self._on:
-                v = self._elapsed()
-                self.V = v
+                v = (now - self._t0) // self.base_us
                 if v >= self.P:
-                    self.Q, self._on = 0, 0
+                    self.V, self.Q, self._on = self.P, 0, 0
+                else:
+                    self.V = v
         self._in = 1 if IN else 0
 
     def _tp(self, IN: Any) -> None:
+        now = self._seen = self.clock.now_us
         if IN and not self._in and not self._on:
-            self._t0, self._on, self.Q = self.clock.now_us, 1, 1
+            self._t0, self._on, self.Q = now, 1, 1
+            if self.clock.track:
+                self.clock.running.add(self)
         if self._on:
-            v = self._elapsed()
-            self.V = v
+            v = (now - self._t0) // self.base_us
             if v >= self.P:
-                self.Q, self._on = 0, 0
+                self.V, self.Q, self._on = self.P, 0, 0
+            else:
+                self.V = v
         if not self._on and not IN:
             self.V = 0
         self._in = 1 if IN else 0
@@ -183,7 +223,11 @@ class Counter(Block):
 class Drum(Block):
     """%DRi drum controller [m221]: up to 8 steps of 16 control bits; U advances on a rising
     edge (wrapping), R (level) goes back to step 0; .S current step, .F on the last step.
-    The current step's bits are written to the configured bit objects at each execution."""
+
+    The step's bits are written to the configured bit objects only when the step changes
+    [m221: recorded simulator runs, issue 11], so a rung that resets a drum output holds
+    until the next step change. The first execution after a cold start writes step 0's
+    bits (our choice: the M221 runs start with the drum's outputs in step 0's state)."""
 
     PINS = ("R", "U")
     FIELDS = ("S", "F", "_u")
@@ -195,11 +239,20 @@ class Drum(Block):
         self.steps = [int(s) & 0xFFFF for s in steps]
         self.outputs = outputs  # resolved (buffer, index) pairs
         self.S, self.F, self._u = 0, 0, 0
+        self._written = -1  # the step whose bits the outputs last received
+
+    def set_state(self, d: dict[str, Any]) -> None:
+        """Cold start or restored state: the next execution writes the step's bits (our
+        choice; the outputs were reset or restored meanwhile)."""
+        super().set_state(d)
+        self._written = -1
 
     def _apply(self) -> None:
-        bits = self.steps[self.S]
-        for k, (buf, idx) in enumerate(self.outputs):
-            buf[idx] = (bits >> k) & 1
+        if self.S != self._written:
+            self._written = self.S
+            bits = self.steps[self.S]
+            for k, (buf, idx) in enumerate(self.outputs):
+                buf[idx] = (bits >> k) & 1
         self.F = 1 if self.S == len(self.steps) - 1 else 0
 
     def r(self, v: Any) -> None:
@@ -264,26 +317,39 @@ class ShiftRegister(_UpDownBlock):
 
 
 class StepCounter(_UpDownBlock):
-    """%SCi step counter [manual]: one active bit out of 256 (%SCi.Jk); CU steps up, CD
-    down (rising edges, wrapping), R back to step 0."""
+    """%SCi step counter [manual]: 256 bits %SCi.0-255, one active; CU steps up, CD down
+    (rising edges, wrapping), R back to step 0. The program may also write the bits
+    (`ST %SC0.5`) [manual]: setting bit j makes j the current step for CU/CD, clearing it
+    leaves the current step alone (our reading: the manual only says the bits can be
+    written), so several bits can be 1 until the next CU/CD/R."""
 
-    FIELDS = ("V", "_cu", "_cd")
+    FIELDS = ("V", "W", "_cu", "_cd")
 
     def __init__(self) -> None:
-        self.V, self._cu, self._cd = 0, 0, 0
+        self.V, self.W, self._cu, self._cd = 0, 1, 0, 0
 
     def bit(self, k: int) -> int:
-        return 1 if self.V == k else 0
+        return (self.W >> k) & 1
+
+    def set_bit(self, k: int, v: Any) -> None:
+        if v:
+            self.W |= 1 << k
+            self.V = k
+        else:
+            self.W &= ~(1 << k)
 
     def run(self, R: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
         cu, cd = (1 if CU else 0), (1 if CD else 0)
+        v = self.V
         if R:
-            self.V = 0
+            v = 0
         else:
             if cu > self._cu:
-                self.V = (self.V + 1) % 256
+                v = (v + 1) % 256
             if cd > self._cd:
-                self.V = (self.V - 1) % 256
+                v = (v - 1) % 256
+        if v != self.V or R:
+            self.V, self.W = v, 1 << v
         self._cu, self._cd = cu, cd
 
 

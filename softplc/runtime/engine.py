@@ -2,10 +2,12 @@
 
 One `scan()`:
   1. `before_scan` hooks (the daemon applies queued Modbus writes here)
-  2. system objects: %S0/%S1/%S13 first-scan bits, %S4-%S7 clocks, %SW0, %SW11
+  2. system objects: %S0/%S1/%S13/%S21 first-scan bits, %S12 (RUN), %S4-%S7 clocks,
+     %SW0, %SW11
   3. latch the field inputs into the input image, apply forced values
   4. run the compiled program (a watchdog overrun or fault -> HALT, %S11)
-  5. re-assert forced values, publish the output image to the field
+  5. timers the program did not execute keep timing; re-assert forced values, publish the
+     output image to the field
   6. simulated devices read field outputs / write field inputs
   7. scan time statistics (%SW30-%SW32), `after_scan` hooks
 """
@@ -26,6 +28,8 @@ from .memory import MemoryImage
 
 RUN, STOP, HALT = "RUN", "STOP", "HALT"
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
+S_RUNNING = 12  # 1 in RUN, 0 in STOP/HALT [manual]; set on each change of state
+S_GRAFCET_INIT = 21  # set by the system on a cold start [manual]; see runtime/grafcet.py
 S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}  # period in us [manual]
 S_WATCHDOG, S_OVERRUN = 11, 19
 SW_PERIOD, SW_WATCHDOG, SW_LAST, SW_MAX, SW_MIN = 0, 11, 30, 31, 32
@@ -59,13 +63,15 @@ class Engine:
         self.after_scan: list[Callable[[], None]] = []
         self.devices: dict[str, Any] = {}
         self.cold_states: dict[tuple[str, int], dict[str, Any]] = {}  # (kind, i) -> state
+        self.rtc: Any = None  # runtime.rtc.RTC when the program or the config uses it
         self.forced: dict[Ref, Any] = {}
         self._forced_bits: list[tuple[list[int], int, int]] = []
         self._forced_inputs: list[tuple[list[int], int, int]] = []
         self._forced_other: list[tuple[Ref, Any]] = []
-        self._first = {S_COLD: 1, S_FIRST: 1}  # first-scan system bits to raise
+        self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}  # first-scan bits to raise
         self._clocks = tuple((bit, p, p // 2) for bit, p in S_CLOCKS.items())
         self._deadline = 0.0
+        mem.s[S_RUNNING] = 1
         mem.sw.w[SW_PERIOD] = min(32767, round(period_s * 1000))
         mem.sw.w[SW_WATCHDOG] = min(32767, round(watchdog_s * 1000))
 
@@ -94,27 +100,34 @@ class Engine:
             m.blocks[kind][i].set_state(st)
         if self.program is not None:
             self.program.state.cold_start(m.x)
-        self._first = {S_COLD: 1, S_FIRST: 1}
+        self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}
+        if self.rtc is not None:
+            self.rtc.cold_start()
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
+        self.mem.s[S_RUNNING] = 1
 
     def warm_start(self) -> None:
         """Keep data; %S1 and %S13 on the next scan."""
         self._first = {S_WARM: 1, S_FIRST: 1}
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
+        self.mem.s[S_RUNNING] = 1
 
     def stop(self) -> None:
         self.state = STOP
+        self.mem.s[S_RUNNING] = 0
 
     def start(self) -> None:
         """STOP -> RUN (%S13 on the first scan). A HALT needs cold_start/warm_start."""
         if self.state == STOP:
             self.state = RUN
             self._first = {S_FIRST: 1}
+            self.mem.s[S_RUNNING] = 1
 
     def halt(self, reason: str) -> None:
         self.state, self.fault = HALT, reason
+        self.mem.s[S_RUNNING] = 0
         self.stop_outputs()
 
     def stop_outputs(self) -> None:
@@ -191,12 +204,16 @@ class Engine:
         if not self._begin():
             return
         self._deadline = float("inf")
+        busy = 0.0  # execution time only: time stopped at a yield (a breakpoint) is not scan
         t0 = time.perf_counter()
         try:
-            yield from debug_main()
+            for pos in debug_main():
+                busy += time.perf_counter() - t0
+                yield pos
+                t0 = time.perf_counter()
         except Exception as e:  # as scan()
             self._fault(e)
-        self._finish(time.perf_counter() - t0)
+        self._finish(busy + time.perf_counter() - t0)
 
     def _begin(self) -> bool:
         """Steps 1-3 of the scan. False when not in RUN (the scan is then complete)."""
@@ -212,6 +229,8 @@ class Engine:
         now = clock.start_scan(period)
         if self.time_source is not None:
             self.time_source.now_us = now
+        if self.rtc is not None:
+            self.rtc.tick(now)
         s = mem.s
         for bit, p, half in self._clocks:  # %S4..%S7: 50 % clocks
             s[bit] = 1 if now % p < half else 0
@@ -229,6 +248,11 @@ class Engine:
     def _finish(self, dt: float) -> None:
         """Steps 5-7 of the scan; dt is the measured execution time."""
         mem = self.mem
+        ts = self.time_source
+        if ts is not None and ts.running:  # timers whose block this scan did not execute
+            ts.update_running()
+        if self.rtc is not None:
+            self.rtc.end_of_scan(self.clock.now_us)
         if self._first:
             s = mem.s
             for bit in self._first:

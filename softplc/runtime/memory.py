@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..address import BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
+from ..address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
 from ..errors import AddressError
 from ..numeric import to_f32, wrap16, wrap32
 from ..profile import DEFAULT_PROFILE, Profile
@@ -75,6 +75,13 @@ class MemoryImage:
         self.mw = WordFamily(c("MW"))
         self.kw = WordFamily(c("KW"))
         self.sw = WordFamily(c("SW"))
+        # Analog I/O words %IWm.c / %QWm.c: devices and the API write %IW between scans,
+        # the program writes %QW; no scan-boundary copy (an analog module converts on its
+        # own, asynchronously to the scan).
+        n_aio = (profile.expansion_slots + 1) * ANALOG_STRIDE
+        self.iw = WordFamily(n_aio)
+        self.qw = WordFamily(n_aio)
+        self.analog: Any = None  # the AnalogIO converter, when analog channels are configured
         # Function blocks, filled in by the engine from the configuration.
         self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
 
@@ -87,7 +94,7 @@ class MemoryImage:
 
     def words(self, kind: str) -> WordFamily:
         return {"MW": self.mw, "MD": self.mw, "MF": self.mw, "KW": self.kw,
-                "KD": self.kw, "KF": self.kw, "SW": self.sw}[kind]
+                "KD": self.kw, "KF": self.kw, "SW": self.sw, "IW": self.iw, "QW": self.qw}[kind]
 
     def block(self, ref: Ref) -> Any:
         try:
@@ -136,7 +143,7 @@ class MemoryImage:
         ref = self.ref(address)
         if ref.kind in BLOCK_FIELDS:
             b = self.block(ref)
-            if ref.kind == "SBR" and ref.field == "J":
+            if ref.field == "J":  # %SBRi.j, %SCi.j
                 b.set_bit(ref.bit, value)
                 return
             if ref.field is None or ref.field == "J":
@@ -199,7 +206,7 @@ class MemoryImage:
             name: bytes(getattr(self, name))
             for name in ("i", "i_field", "q", "q_field", "m", "s", "x")
         }
-        for name in ("mw", "kw", "sw"):
+        for name in ("mw", "kw", "sw", "iw", "qw"):
             snap[name] = bytes(getattr(self, name).buf)
         snap["blocks"] = {k: {i: b.state() for i, b in d.items()} for k, d in self.blocks.items()}
         return snap
@@ -207,8 +214,9 @@ class MemoryImage:
     def restore(self, snap: dict[str, Any]) -> None:
         for name in ("i", "i_field", "q", "q_field", "m", "s", "x"):
             getattr(self, name)[:] = snap[name]
-        for name in ("mw", "kw", "sw"):
-            getattr(self, name).buf[:] = snap[name]
+        for name in ("mw", "kw", "sw", "iw", "qw"):
+            if name in snap:
+                getattr(self, name).buf[:] = snap[name]
         for k, d in snap["blocks"].items():
             for i, st in d.items():
                 if i in self.blocks[k]:

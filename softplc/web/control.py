@@ -441,7 +441,10 @@ class Controller:
                 "period_ms": round(plc.scan_period * 1000, 3), "modules": self.io_layout(),
                 "device_io": self.device_io, "devices": devices, "rungs": rungs,
                 "read_only": self.read_only, "actions": list(ACTIONS),
-                "analog": "analog I/O (%IW/%QW) is not emulated"}
+                "analog": "analog channels " + " ".join(
+                    str(r) for r in sorted(plc.mem.analog.channels,
+                                           key=lambda r: (r.kind, r.index)))
+                if plc.mem.analog is not None else ""}
 
     def status(self) -> dict[str, Any]:
         plc = self.plc

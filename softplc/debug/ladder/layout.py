@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -72,10 +73,32 @@ def _box_info(b: Any) -> list[str]:
     return out
 
 
+BlockReader = Callable[[Ref], Any]
+"""A configured function block by reference (None if not configured): the static view of
+`softplc ladder --config`."""
+
+
+def _config_info(b: Any) -> list[str]:
+    """A block's configuration (no live values) for the inside of its box."""
+    if b is None:
+        return []
+    out = []
+    kind = getattr(b, "type", None)
+    if kind is not None:
+        out.append(f"{kind} {b.base}" if hasattr(b, "base") else str(kind))
+    if isinstance(getattr(b, "P", None), int):
+        out.append(f"P={b.P}")
+    if isinstance(getattr(b, "steps", None), list):
+        out.append(f"{len(b.steps)} steps")
+    return out
+
+
 class _Layout:
-    def __init__(self, live: Live | None, marker: int | None = None):
+    def __init__(self, live: Live | None, marker: int | None = None,
+                 blocks: BlockReader | None = None):
         self.g = Grid()
         self.live = live
+        self.blocks = blocks
         self.marker = marker
         self.outs: list[tuple[int, int, Elem, bool]] = []
         self.pins: list[tuple[int, int, Elem, bool]] | None = None  # inside a block's inputs
@@ -258,6 +281,8 @@ class _Layout:
                 info = _box_info(self.live.read(b.elem.ref))
             except Exception:
                 info = []
+        elif self.blocks is not None:
+            info = _config_info(self.blocks(b.elem.ref))
         height = max(h_in, row - r, len(info), 1)
         for i in range(height):
             ln, lw, lp, lk = left.get(r + i, ("", False, False, -1))
@@ -281,12 +306,13 @@ class _Layout:
         return g
 
 
-def layout(rung: A.Rung, live: Live | None = None, marker: int | None = None) -> Grid:
+def layout(rung: A.Rung, live: Live | None = None, marker: int | None = None,
+           blocks: BlockReader | None = None) -> Grid:
     """The rung on a grid. An OR after an output is drawn once, its rail logic coming up
     from below; where that would cross other wires, the junction's merges are drawn after
     its other outputs, and failing that the logic before the OR is drawn again."""
     for tree in (build(rung), _merges_last(build(rung)), build(rung, merge=False)):
-        lay = _Layout(live, marker)
+        lay = _Layout(live, marker, blocks)
         lay.junction(tree, 0, 0, True)
         if not lay.crossed():
             break

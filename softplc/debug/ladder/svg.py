@@ -6,14 +6,14 @@ import html
 
 from ...il import ast as A
 from ...il.printer import format_instruction
-from .layout import Cell, layout
+from .layout import BlockReader, Cell, layout
 from .live import Live
 from .text import box_inner_width, program_sections
 
 CH, ROW_H, PAD = 7.2, 48, 20  # pixels per character, per row, margin
 
 
-def render_program_svg(program: A.Program) -> str:
+def render_program_svg(program: A.Program, blocks: BlockReader | None = None) -> str:
     """The whole program as one SVG document (hand-written, no dependencies)."""
     body: list[str] = []
     y = PAD
@@ -23,7 +23,7 @@ def render_program_svg(program: A.Program) -> str:
             body.append(_text(PAD, y + 14, title_sec, size=16, weight="bold"))
             y += 30
         for r in rungs:
-            h, w = _svg_rung(r, PAD, y, body)
+            h, w = _svg_rung(r, PAD, y, body, blocks=blocks)
             y += h + 16
             width = max(width, w + PAD, PAD + (len(r.title) + 12) * CH)
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{y + PAD:.0f}" '
@@ -61,13 +61,14 @@ def render_rung_svg(rung: A.Rung, live: Live | None = None) -> str:
 
 
 def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str],
-              live: Live | None = None) -> tuple[float, float]:
+              live: Live | None = None, blocks: BlockReader | None = None
+              ) -> tuple[float, float]:
     """Draw one rung at (x0, y0); returns (height, width)."""
     title = f"rung {rung.index}" + (f" %L{rung.label}:" if rung.label is not None else "") + \
         (f"  {rung.title}" if rung.title else "")
     body.append(_text(x0, y0 + 12, title, weight="bold"))
     top = y0 + 20
-    g = layout(rung, live)
+    g = layout(rung, live, blocks=blocks)
     pw = live is not None  # power is drawn only in the live view
     if not g.cells:
         body.append(_text(x0 + 10, top + 16, "; ".join(format_instruction(i)
@@ -155,7 +156,7 @@ def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y:
         body.append(_text(left + 4, y + 4, b.left, size=11))
     if b.right:
         body.append(_text(right - 4, y + 4, b.right, size=11, anchor="end"))
-    if b.info and pw:
+    if b.info:  # live values, or the configuration (ladder --config)
         body.append(_text((left + right) / 2, y + 12, b.info, size=10, anchor="middle",
                           fill="#0b4f8a"))  # under the pins, above the box's bottom line
     if b.left_wired:

@@ -6,7 +6,7 @@ from typing import Any
 
 from ...il import ast as A
 from ...il.printer import format_instruction
-from .layout import Cell, layout
+from .layout import BlockReader, Cell, layout
 from .live import Live
 from .tree import ASCII
 
@@ -61,10 +61,11 @@ def _joins(cell: Cell | None, side: str) -> bool:
 
 
 def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
-                header: bool = True, marker: int | None = None) -> str:
+                header: bool = True, marker: int | None = None,
+                blocks: BlockReader | None = None) -> str:
     """The rung as terminal text. `marker`: instruction index of the next instruction to
-    run (drawn `>` before its element)."""
-    g = layout(rung, live, marker)
+    run (drawn `>` before its element); `blocks`: show each box's configuration."""
+    g = layout(rung, live, marker, blocks)
     out: list[str] = []
     if header:
         where = f" SR{rung.subroutine}" if rung.subroutine is not None else ""
@@ -151,8 +152,10 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
             rows[3].append(" " * w)
         box_ends = any(cell.box is not None and cell.box.last
                        for (rr, _), cell in g.cells.items() if rr == r)
+        box_info = any(cell.box is not None and cell.box.info
+                       for (rr, _), cell in g.cells.items() if rr == r)
         for i in (0, 1, 2, 3):
-            if (i == 2 and not pw) or (i == 3 and not box_ends):
+            if (i == 2 and not (pw or box_info)) or (i == 3 and not box_ends):
                 continue
             if i in (0, 2) and r > 0 and not "".join(rows[i]).strip(" │║"):
                 continue
@@ -161,13 +164,14 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
     return text.translate(ASCII) if ascii else text
 
 
-def render_program_text(program: A.Program, *, ascii: bool = False) -> str:
+def render_program_text(program: A.Program, *, ascii: bool = False,
+                        blocks: BlockReader | None = None) -> str:
     parts = []
     for title_sec, rungs in program_sections(program):
         if title_sec:
             parts.append(f"== {title_sec} ==\n")
         for r in rungs:
-            parts.append(render_text(r, ascii=ascii))
+            parts.append(render_text(r, ascii=ascii, blocks=blocks))
     return "\n".join(parts)
 
 

@@ -137,7 +137,7 @@ def _output_elem(instr: A.Instruction, k: int, blk: Ref | None) -> Elem | None:
         return Elem("coil", COIL[instr.op], str(instr.target), k, instr, instr.target)
     if isinstance(instr, A.OpBlock):
         st = instr.stmt
-        return Elem("box", format_statement(st), "", k, instr, st.target)
+        return Elem("box", format_statement(st), "", k, instr, getattr(st, "target", None))
     if isinstance(instr, A.Jump):
         return Elem("box", f">>%L{instr.label}", instr.op, k, instr)
     if isinstance(instr, A.SRCall):

@@ -27,8 +27,6 @@ from math import floor
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
 from ...address import parse_address
 from ...errors import AddressError, ConfigError
 from ...runtime.memory import MemoryImage
@@ -41,29 +39,15 @@ from .plant import ZOH, step
 TRACE_HEADER = "t,commanded,actual,fe,output"
 
 
-def config_error(name: str, e: ValidationError) -> ConfigError:
-    """A pydantic error as one ConfigError line per problem, with the key path."""
-    lines = []
-    for err in e.errors():
-        path = ".".join(str(p) for p in err["loc"]) or "(options)"
-        got = f" (got {err['input']!r})" if "input" in err and err["type"] != "missing" else ""
-        lines.append(f"device {name!r}: {path}: {err['msg']}{got}")
-    return ConfigError("; ".join(lines))
-
-
 @register_device("servo_axis")
 class ServoAxis(AxisDevice):
     """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts."""
 
     Options = ServoAxisOptions
 
-    def __init__(self, name: str, **options: Any):
-        super().__init__(name)
-        try:
-            self.opt = self.Options(**options)
-        except ValidationError as e:
-            raise config_error(name, e) from None
-        o = self.opt
+    def __init__(self, name: str, options: ServoAxisOptions):
+        super().__init__(name, options)
+        self.opt = o = options
         self.gains = o.ivars
         g = o.geometry
         self.loop_hz = o.servo_clock_hz / (self.gains.servo_ext + 1)
@@ -82,14 +66,14 @@ class ServoAxis(AxisDevice):
         self._hp = g.hard_stop_plus if g.hard_stop_plus is not None else math.inf
         self._hm = g.hard_stop_minus if g.hard_stop_minus is not None else -math.inf
         if not self._hm <= o.start <= self._hp:
-            raise ConfigError(f"device {name!r}: start = {o.start} is beyond the hard stops")
+            raise ConfigError(f"{self.where('start')}: {o.start} is beyond the hard stops")
         self._enc0 = math.floor(o.start)
         self._ideal = p.encoder == "ideal"
         self._ready = True  # the drive's READY, evaluated once per scan in update()
         gn = self.gains
         c = self.coef
         inf = math.inf
-        ideal = p.encoder == "ideal"
+        ideal = self._ideal
         # Everything the servo loop reads but never changes, unpacked in one statement.
         self._consts = (
             c.fe, c.cv, c.ca, c.ie, c.av, gn.int_mode == 0,
@@ -116,12 +100,12 @@ class ServoAxis(AxisDevice):
         try:
             ref = parse_address(self.opt.words, mem.profile)
         except AddressError as e:
-            raise ConfigError(f"device {self.name!r}: words: {e}") from None
+            raise ConfigError(f"{self.where('words')}: {e}") from None
         if ref.kind != "MW" or ref.bit is not None or ref.length or ref.offset is not None:
-            raise ConfigError(f"device {self.name!r}: words must be a %MW address, "
-                              f"not {self.opt.words!r}")
+            raise ConfigError(f"{self.where('words')}: expected a %MW address "
+                              f"(got {self.opt.words!r})")
         if ref.index + Word.SIZE > mem.mw.n:
-            raise ConfigError(f"device {self.name!r}: words {self.opt.words} + {Word.SIZE} "
+            raise ConfigError(f"{self.where('words')}: {self.opt.words} + {Word.SIZE} "
                               f"words run past %MW{mem.mw.n - 1}")
         self._mem = mem
         self._base = b = ref.index

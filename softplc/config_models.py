@@ -1,0 +1,255 @@
+"""Pydantic v2 models of the configuration sections added by issue 11, each with
+`extra="forbid"` (a misspelt key is an error) and a `parse_*` function that turns a
+validation error into a `ConfigError` naming the key path:
+
+- `[analog]` (`parse_analog`): one entry per analog channel, as TwidoSuite's module
+  configuration screen sets it (signal type and range of each channel);
+- `[pid.n]` (`parse_pid`): the PID functions, as TwidoSuite's PID screen sets them;
+- `[rtc]` (`parse_rtc`): the calendar start of the clock; `[schedule.n]`
+  (`parse_schedules`): the schedule blocks.
+
+For the schema in `softplc/config.py`: `analog: dict[str, AnalogChannelConfig]` and
+`pid: dict[str, PidConfig]` (keys "0".."13"), `rtc: RtcConfig`,
+`schedule: dict[str, ScheduleConfig]` (keys "0".."15").
+
+    modules = { 1 = "TWDAMM3HT", 2 = "TWDALM3LT" }
+    analog."%IW1.0" = { type = "4-20mA", range = "custom", min = 0, max = 1000 }
+    analog."%IW1.1" = { type = "0-10V" }                       # normal: 0..4095
+    analog."%QW1.0" = { type = "0-10V" }
+    analog."%IW2.0" = { type = "PT100", range = "celsius" }    # tenths of a degree
+    analog."%IW0.0" = { type = "pot" }                         # the base's potentiometer
+
+`[analog]`: channels of a configured analog module that the section does not name get the module's
+first signal type and the normal range; the base's inputs get their profile type.
+Pydantic v2 models with `extra="forbid"` (a misspelt key is an error); `parse_analog` turns
+a validation error into a `ConfigError` naming the key path.
+"""
+
+from __future__ import annotations
+
+from datetime import date, datetime
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from .address import Ref, parse_address
+from .errors import AddressError, ConfigError
+from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
+from .runtime.pid import PidParams
+from .runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
+
+Signal = Literal["0-10V", "4-20mA", "+-10V", "pot", "PT100", "J", "K", "T"]
+
+
+class AnalogChannelConfig(BaseModel):
+    """One channel: `type`, `range`, and `min`/`max` for a custom range."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    type: Signal
+    range: Literal["normal", "custom", "celsius", "fahrenheit"] = "normal"
+    min: int = Field(0, ge=-32768, le=32767)
+    max: int = Field(4095, ge=-32768, le=32767)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> AnalogChannelConfig:
+        if self.range in ("celsius", "fahrenheit") and self.type not in TEMPERATURE_TYPES:
+            raise ValueError(f"range {self.range!r} is for temperature sensors "
+                             f"({', '.join(TEMPERATURE_TYPES)}), not {self.type}")
+        if self.range == "custom" and self.min == self.max:
+            raise ValueError("a custom range needs min != max")
+        if self.range != "custom" and {"min", "max"} & self.model_fields_set:
+            raise ValueError("min/max apply to range = \"custom\" only")
+        return self
+
+
+assert set(SIGNAL_SPAN) == set(Signal.__args__)  # one list of signal types
+
+
+def parse_analog(section: Any) -> dict[str, AnalogChannelConfig]:
+    """Validate the `[analog]` table: address -> channel config."""
+    if not isinstance(section, dict):
+        raise ConfigError(f"analog must be a table of channels, not {section!r}")
+    return {addr: _validated("analog", addr, AnalogChannelConfig, table)
+            for addr, table in section.items()}
+
+
+Word = str  # an address, checked when the PLC resolves it
+WordOrConst = str | int
+
+
+class PidConfig(BaseModel):
+    """One PID function (`[pid.n]`, run by `[ PID n ]`). Units as TwidoSuite's PID screen
+    [manual, from memory]: kp x 0.01, ti and td in 0.1 s, ts and pwm_period in 10 ms,
+    the output 0..10000. A parameter is a constant or a %MW word (read at each sample;
+    auto-tuning writes its results into kp/ti/td words)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: Literal["PID", "AT", "AT+PID"] = "PID"
+    measure: Word
+    setpoint: WordOrConst
+    output: Word | None = None
+    kp: WordOrConst = 100
+    ti: WordOrConst = 0
+    td: WordOrConst = 0
+    ts: int = Field(100, ge=1, le=32767)
+    output_min: int = Field(0, ge=0, le=10000)
+    output_max: int = Field(10000, ge=0, le=10000)
+    action: Literal["reverse", "direct"] = "reverse"
+    manual: Word | None = None
+    manual_output: WordOrConst = 0
+    pwm_output: Word | None = None
+    pwm_period: int = Field(100, ge=1, le=32767)
+    diagnostic: Word | None = None
+    at_output: int = Field(10000, ge=1, le=10000)
+    at_timeout: float = Field(14400.0, gt=0)  # seconds
+    measure_span: int = Field(10000, ge=1)
+
+    @model_validator(mode="after")
+    def _limits(self) -> PidConfig:
+        if self.output_min > self.output_max:
+            raise ValueError("output_min > output_max")
+        return self
+
+
+def _validated(section: str, key: str, model: type[BaseModel], table: Any) -> Any:
+    try:
+        return model.model_validate(table)
+    except ValidationError as e:
+        err = e.errors()[0]
+        where = ".".join(str(p) for p in err["loc"] if not str(p).startswith(("str", "int")))
+        path = ".".join(p for p in (section, key, where) if p)
+        raise ConfigError(f"{path}: {err['msg']} (got {err.get('input')!r})") from None
+
+
+def parse_pid(section: Any) -> dict[int, PidConfig]:
+    """Validate the `[pid]` table: PID number -> its config."""
+    if not isinstance(section, dict):
+        raise ConfigError(f"pid must be a table of PID functions, not {section!r}")
+    out = {}
+    for key, table in section.items():
+        try:
+            n = int(key)
+        except ValueError:
+            raise ConfigError(f"pid: {key!r} is not a PID number (pid.0, pid.1 ...)") from None
+        out[n] = _validated("pid", str(key), PidConfig, table)
+    return out
+
+
+def _address(where: str, key: str, text: str, mem: Any) -> Ref:
+    try:
+        return parse_address(text, mem.profile)
+    except AddressError as e:
+        raise ConfigError(f"{where}.{key}: {e}") from None
+
+
+def _word(where: str, key: str, v: Any, mem: Any, writable: bool = False) -> Any:
+    """A constant stays an int; an address must be a single 16-bit word."""
+    if v is None or isinstance(v, int):
+        return v
+    ref = _address(where, key, v, mem)
+    if ref.type != "int16" or ref.length is not None or ref.offset is not None:
+        raise ConfigError(f"{where}.{key}: {v!r} is not a word (%MW, %IW, %QW...)")
+    if writable and not ref.writable:
+        raise ConfigError(f"{where}.{key}: {v!r} cannot be written")
+    return ref
+
+
+def _bit(where: str, key: str, v: Any, mem: Any, kinds: tuple[str, ...]) -> Ref | None:
+    if v is None:
+        return None
+    ref = _address(where, key, v, mem)
+    if ref.kind not in kinds or ref.type != "bool" or ref.length is not None:
+        raise ConfigError(f"{where}.{key}: {v!r} is not a "
+                          f"{'/'.join('%' + k for k in kinds)} bit")
+    if ref.kind == "Q":
+        mem.use_io(ref)
+    return ref
+
+
+def pid_params(where: str, o: PidConfig, mem: Any, scan_period_s: float) -> PidParams:
+    """A validated `[pid.n]` table resolved against the memory image."""
+    measure = _word(where, "measure", o.measure, mem)
+    return PidParams(
+        measure=measure, setpoint=_word(where, "setpoint", o.setpoint, mem),
+        output=_word(where, "output", o.output, mem, True),
+        kp=_word(where, "kp", o.kp, mem, True), ti=_word(where, "ti", o.ti, mem, True),
+        td=_word(where, "td", o.td, mem, True), ts_us=o.ts * 10_000,
+        out_min=o.output_min, out_max=o.output_max, action=o.action, mode=o.mode,
+        manual=_bit(where, "manual", o.manual, mem, ("M", "I", "Q")),
+        manual_output=_word(where, "manual_output", o.manual_output, mem),
+        pwm_output=_bit(where, "pwm_output", o.pwm_output, mem, ("Q",)),
+        pwm_period_us=o.pwm_period * 10_000,
+        diagnostic=_word(where, "diagnostic", o.diagnostic, mem, True),
+        at_output=o.at_output, at_timeout_us=round(o.at_timeout * 1e6),
+        measure_span=o.measure_span, period_us=round(scan_period_s * 1e6))
+
+
+class RtcConfig(BaseModel):
+    """`[rtc] start`: the calendar date and time at PLC time 0 (a TOML date-time or an
+    ISO string); without it, the virtual clock starts on 2000-01-01 00:00:00 and the real
+    clock on the host's local time."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    start: datetime | date | None = None
+
+
+Day = Literal["mon", "tue", "wed", "thu", "fri", "sat", "sun"]
+
+
+class ScheduleConfig(BaseModel):
+    """A schedule block: `output` is 1 from `start` to `stop` ("HH:MM") on `days`, from
+    the date `first` to `last` ("MM-DD")."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    output: Word
+    start: str
+    stop: str
+    days: list[Day] = list(DAYS)
+    first: str = "01-01"
+    last: str = "12-31"
+
+    @field_validator("start", "stop", "first", "last")
+    @classmethod
+    def _when(cls, v: str, info: Any) -> str:
+        parse, form = ((parse_time_of_day, "a time of day \"HH:MM\"")
+                       if info.field_name in ("start", "stop")
+                       else (parse_month_day, "a date \"MM-DD\""))
+        try:
+            parse(v)
+        except ValueError:
+            raise ValueError(f"{form}, not {v!r}") from None
+        return v
+
+
+def parse_rtc(section: Any) -> datetime | None:
+    o = _validated("rtc", "", RtcConfig, section if section is not None else {})
+    if isinstance(o.start, datetime):
+        return o.start.replace(tzinfo=None)
+    if isinstance(o.start, date):
+        return datetime(o.start.year, o.start.month, o.start.day)
+    return None
+
+
+def parse_schedules(section: Any, mem: Any) -> list[Schedule]:
+    """Validate `[schedule]` and resolve the output bits."""
+    if not isinstance(section, dict):
+        raise ConfigError(f"schedule must be a table of schedule blocks, not {section!r}")
+    out = []
+    for key, table in section.items():
+        try:
+            n = int(key)
+        except ValueError:
+            n = -1
+        if not 0 <= n < SCHEDULE_BLOCKS:
+            raise ConfigError(f"schedule: {key!r}: schedule blocks are 0 .. "
+                              f"{SCHEDULE_BLOCKS - 1}")
+        o = _validated("schedule", str(key), ScheduleConfig, table)
+        ref = _bit(f"schedule.{key}", "output", o.output, mem, ("Q", "M"))
+        out.append(Schedule(n, ref, parse_time_of_day(o.start), parse_time_of_day(o.stop),
+                            frozenset(DAYS.index(d) for d in o.days),
+                            parse_month_day(o.first), parse_month_day(o.last)))
+    return out

@@ -1,0 +1,253 @@
+"""Stream a piece to the cutting-table PLC over Modbus TCP (`softplc cut PIECE`).
+
+Handshake per segment on the words of `regmap.py` (the PLC program is
+ladder_programs/cutting_table.il): wait until the PLC is READY and idle (INICIO = 0,
+EJECUTANDO = 0), write the segment in one FC 16 frame (INICIO = 1 last), wait until
+SEG_DONE is that segment's number and EJECUTANDO = 0 again. A fault code stops the run
+with its meaning. Resume: `start_at` N first moves (torch off) to segment N's start if
+the carriage is elsewhere. Ctrl-C sets HOLD (%M101): the PLC stops both axes now, torch
+off, and the result says where to resume. The connection, retries and polling are
+`softplc.modbus.host.ModbusHost`'s (shared with the drawing table's client).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from ..errors import HostError
+from ..modbus.host import ModbusHost, ProgressLine
+from .motion import split_line
+from .piece import MOVE, Piece, Segment
+from .regmap import (
+    EJECUTANDO,
+    FAULT,
+    FAULTS,
+    INICIO,
+    KIND_CODE,
+    POS_X,
+    POS_Y,
+    SEG_BASE,
+    SEG_DONE,
+    SEG_NO_MODULO,
+    STATE,
+    SegmentWords,
+    seg_no,
+    segment_words,
+    to_um,
+    words_dint,
+)
+
+READY_STEP = 4
+HOLD_COIL = 101
+#: %MD130 / %MD132: the work origin in the axes' raw counts (cutting_table.il, internal)
+ORIGIN_X = 130
+STATE_LEN = ORIGIN_X + 4 - SEG_BASE
+
+
+@dataclass(frozen=True)
+class PlcState:
+    inicio: int
+    ejecutando: int
+    fault: int
+    step: int
+    pos_um: tuple[int, int]
+    seg_done: int
+    origin_counts: tuple[int, int]
+
+    @classmethod
+    def of(cls, regs: list[int]) -> PlcState:
+        def w(i: int) -> int:
+            return regs[i - SEG_BASE]
+
+        def d(i: int) -> int:
+            return words_dint(w(i), w(i + 1))
+
+        return cls(w(INICIO), w(EJECUTANDO), w(FAULT), w(STATE), (d(POS_X), d(POS_Y)),
+                   w(SEG_DONE), (d(ORIGIN_X), d(ORIGIN_X + 2)))
+
+    def __str__(self) -> str:
+        return (f"STATE={self.step}, INICIO={self.inicio}, EJECUTANDO={self.ejecutando}, "
+                f"SEG_DONE={self.seg_done}")
+
+
+@dataclass
+class CutResult:
+    """What `CutClient.stream` did; `next_number` is where `--start-at` resumes."""
+
+    done: int  # segments completed in this run
+    last_number: int  # last completed segment (0: none)
+    next_number: int
+    total: int
+    interrupted: bool
+    pos_mm: tuple[float, float]
+    origin_counts: tuple[int, int]
+    wall: float
+
+
+class Progress(ProgressLine):
+    """Bar, segments, ETA (wall seconds: the planned motion time still to go at the rate
+    seen so far in this run)."""
+
+    def __init__(self, planned: Sequence[float], stream: TextIO | None):
+        super().__init__(stream)
+        self.planned = list(planned)
+        self.total = sum(self.planned) or 1.0
+        self.t0 = time.monotonic()
+        self.base = 0.0  # planned time already done before this run (resume)
+
+    def update(self, done: int, seg: Segment | None = None) -> None:
+        t_done = sum(self.planned[:done])
+        ran = t_done - self.base
+        rate = (time.monotonic() - self.t0) / ran if ran > 0 else 1.0
+        where = f" {seg.kind} {seg.where}" if seg else ""
+        self.show(t_done / self.total, f"{done}/{len(self.planned)} segments, ETA "
+                  f"{(self.total - t_done) * rate:.1f} s{where}")
+
+
+class CutClient(ModbusHost):
+    def __init__(self, host: str = "127.0.0.1", port: int = 5020, *,
+                 poll_interval: float = 0.01, idle_timeout: float = 60.0,
+                 move_timeout: float = 600.0, progress: TextIO | None = sys.stderr,
+                 **kw: object):
+        super().__init__(host, port, poll_interval=poll_interval, **kw)  # type: ignore[arg-type]
+        self.idle_timeout = idle_timeout
+        self.move_timeout = move_timeout
+        self.progress = progress
+        self.frames_sent = 0
+
+    def read_state(self) -> PlcState:
+        return PlcState.of(self.read_words(SEG_BASE, STATE_LEN))
+
+    def wait_for(self, ready: object, timeout: float, what: str) -> PlcState:
+        def check(s: PlcState) -> None:
+            if s.fault:
+                raise HostError(f"{what}: the PLC reports fault {s.fault} in %MW{FAULT} "
+                                f"({FAULTS.get(s.fault, 'unknown fault')})")
+
+        return self.poll(self.read_state, ready, timeout, what, check)  # type: ignore[arg-type]
+
+    def send(self, words: SegmentWords, label: str) -> PlcState:
+        """One segment: idle, frame, done (SEG_DONE = its number, EJECUTANDO = 0)."""
+        self.wait_for(lambda s: s.step == READY_STEP and not s.inicio and not s.ejecutando,
+                      self.idle_timeout, f"{label}: waiting for the PLC to be READY")
+        self.write_words(SEG_BASE, words.frame())
+        self.frames_sent += 1
+        return self.wait_for(lambda s: s.seg_done == words.number and not s.inicio
+                             and not s.ejecutando, self.move_timeout,
+                             f"{label}: waiting for the segment to end")
+
+    def stream(self, piece: Piece, start_at: int = 1) -> CutResult:
+        segs = piece.segments()
+        total = len(segs)
+        if not 1 <= start_at <= max(total, 1):
+            raise HostError(f"--start-at {start_at}: the piece has {total} segments")
+        planned = [split_line(s.start, s.end, s.speed, piece.accel).duration for s in segs]
+        bar = Progress(planned, self.progress)
+        bar.base = sum(planned[:start_at - 1])
+        done = start_at - 1
+        t0 = time.monotonic()
+        interrupted = False
+        try:
+            state = self.wait_for(lambda s: s.step == READY_STEP and not s.ejecutando,
+                                  self.idle_timeout, "waiting for the PLC to be READY "
+                                  "(homed, no fault)")
+            if segs:
+                first = segs[start_at - 1]
+                want = (to_um(first.start[0]), to_um(first.start[1]))
+                if any(abs(a - b) > 1 for a, b in zip(state.pos_um, want, strict=True)):
+                    # torch off to the start; a number distinct from N and N-1
+                    number = seg_no(first.number + SEG_NO_MODULO // 2)
+                    self.send(SegmentWords(*want, first.speed, KIND_CODE[MOVE], number),
+                              f"move to the start of segment {first.number}")
+            bar.update(done)
+            for seg in segs[start_at - 1:]:
+                self.send(segment_words(seg), f"segment {seg.number}/{total} ({seg.where})")
+                done = seg.number
+                bar.update(done, seg)
+        except KeyboardInterrupt:
+            interrupted = True
+            bar.close()
+            self._hold()
+        finally:
+            bar.close()
+        state = self.read_state()
+        pos = (state.pos_um[0] / 1000.0, state.pos_um[1] / 1000.0)
+        return CutResult(done - start_at + 1, done, done + 1, total, interrupted, pos,
+                         state.origin_counts, time.monotonic() - t0)
+
+    def _hold(self) -> None:
+        """After Ctrl-C: HOLD stops the axes now with the torch off; then release HOLD."""
+        if self.progress:
+            self.progress.write("interrupted: stopping the axes, torch off (HOLD)\n")
+        try:
+            self.write_bit(HOLD_COIL, True)
+            self.wait_for(lambda s: not s.ejecutando, self.idle_timeout, "stopping")
+            self.write_bit(HOLD_COIL, False)
+        except KeyboardInterrupt:
+            raise HostError("interrupted twice: HOLD may still be set (%M101)") from None
+
+
+@dataclass(frozen=True)
+class TraceReport:
+    samples: int  # torch-on samples checked
+    worst: float  # mm from the ideal shape
+    at: tuple[float, float]
+    end: tuple[float, float]  # last sample, work mm
+
+
+def trace_deviation(piece: Piece, trace_csv: str | Path, origin_true: tuple[float, float],
+                    counts_per_mm: float) -> TraceReport:
+    """Torch-on samples of a trace CSV (true positions in counts) against the ideal shape;
+    `origin_true` is the work origin in true counts (the axis's `start` + the PLC's origin
+    in raw counts)."""
+    worst, at, n = 0.0, (math.nan, math.nan), 0
+    end = (math.nan, math.nan)
+    try:
+        with open(trace_csv, newline="") as f:
+            for row in csv.DictReader(f):
+                p = ((float(row["x"]) - origin_true[0]) / counts_per_mm,
+                     (float(row["z"]) - origin_true[1]) / counts_per_mm)
+                end = p
+                if row["pen"] == "1":
+                    n += 1
+                    d = piece.deviation(p)
+                    if d > worst:
+                        worst, at = d, p
+    except (OSError, KeyError, ValueError) as e:
+        raise HostError(f"cannot read the trace {trace_csv}: {e}") from None
+    return TraceReport(n, worst, at, end)
+
+
+def feed_plc(plc: object, piece: Piece, timeout: float = 600.0) -> int:
+    """The same handshake in-process on a `softplc.PLC` (virtual clock, no Modbus): write
+    each segment's frame into the words, run scans until SEG_DONE is its number and
+    EJECUTANDO = 0. Deterministic (the frame lands at a known scan): for tests and the
+    benchmark. Returns the number of segments cut; HostError on a fault or a timeout."""
+    segs = piece.segments()
+    for seg in segs:
+        words = segment_words(seg)
+        for i, v in enumerate(words.frame()):
+            plc[f"%MW{SEG_BASE + i}"] = v - 0x10000 if v > 0x7FFF else v  # type: ignore[index]
+
+        def ended(p: object, n: int = words.number) -> bool:
+            return (p[f"%MW{SEG_DONE}"] == n and not p[f"%MW{EJECUTANDO}"]  # type: ignore[index]
+                    or p[f"%MW{FAULT}"] != 0 or p.state != "RUN")  # type: ignore[index,attr-defined]
+
+        if not plc.run_until(ended, timeout=timeout):  # type: ignore[attr-defined]
+            raise HostError(f"segment {seg.number} ({seg.where}): not done after "
+                            f"{timeout:g} simulated s")
+        if plc.state != "RUN":  # type: ignore[attr-defined]
+            raise HostError(f"segment {seg.number} ({seg.where}): the PLC is in "
+                            f"{plc.state} ({plc.fault})")  # type: ignore[attr-defined]
+        fault = plc[f"%MW{FAULT}"]  # type: ignore[index]
+        if fault:
+            raise HostError(f"segment {seg.number} ({seg.where}): the PLC reports fault "
+                            f"{fault} ({FAULTS.get(fault, 'unknown fault')})")
+    return len(segs)

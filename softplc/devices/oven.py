@@ -1,0 +1,107 @@
+"""An electric oven: a first-order-plus-dead-time thermal process driven by an analog
+output (heater power) or a digital output (heater on/off, e.g. PID's PWM), measured by an
+analog input (a temperature sensor channel).
+
+    dT/dt = (ambient + gain * u(t - dead_time) - T) / tau,   u = heater power 0..1
+
+TOML options, table `[devices.NAME]` with `type = "oven"`:
+
+- `sensor` (required): the analog input the temperature drives, e.g. `"%IW2.0"` (its
+  `[analog]` entry sets how degrees become a word: PT100 in celsius = tenths of a degree).
+- `heater` (an analog output such as `"%QW1.0"`: power = its signal over the signal's
+  span, 0-10 V -> 0..1) or `heater_bit` (a `%Q` output: power 1 while on); one of them.
+- `gain` (degrees C at full power above ambient, default 200.0), `tau` (time constant,
+  seconds, default 60.0), `dead_time` (seconds, default 5.0), `ambient` (degrees C,
+  default 20.0), `start` (initial temperature, default ambient).
+
+Attributes: `temperature` (degrees C), `power` (the heater power now, 0..1).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Any
+
+from pydantic import Field
+
+from ..address import parse_address
+from ..config import Address, FiniteFloat, Section
+from ..errors import AddressError, ConfigError
+from ..runtime.analog import SIGNAL_SPAN
+from ..runtime.memory import MemoryImage
+from .base import Device, register_device
+
+
+@register_device("oven")
+class Oven(Device):
+    # physical constants in plain units (degrees C, seconds), as in the process model above
+    class Options(Section):
+        sensor: Address
+        heater: Address | None = None
+        heater_bit: Address | None = None
+        gain: FiniteFloat = Field(200.0, ge=-1e6)
+        tau: FiniteFloat = Field(60.0, ge=1e-6)
+        dead_time: FiniteFloat = Field(5.0, ge=0.0)
+        ambient: FiniteFloat = Field(20.0, ge=-273.0)
+        start: FiniteFloat | None = Field(None, ge=-273.0)
+
+    def __init__(self, name: str, options: Options):
+        super().__init__(name, options)
+        o = options
+        if (o.heater is None) == (o.heater_bit is None):
+            raise ConfigError(f"device {name!r}: give one of heater (a %QW) or heater_bit "
+                              f"(a %Q)")
+        self.sensor, self.heater, self.heater_bit = o.sensor, o.heater, o.heater_bit
+        self.gain, self.tau, self.dead_time = o.gain, o.tau, o.dead_time
+        self.ambient = o.ambient
+        self.start = self.ambient if o.start is None else o.start
+        self._mem: MemoryImage | None = None
+        self.reset()
+
+    def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
+        self._mem = mem
+        analog = mem.analog
+        for option, addr, kind in (("sensor", self.sensor, "IW"), ("heater", self.heater, "QW")):
+            if addr is None:
+                continue
+            try:
+                ref = parse_address(str(addr), mem.profile)
+            except AddressError as e:
+                raise ConfigError(f"device {self.name!r}: {option}: {e}") from None
+            if analog is None or ref not in analog.channels or ref.kind != kind:
+                raise ConfigError(f"device {self.name!r}: {option} = {addr!r} is not a "
+                                  f"configured analog {'input' if kind == 'IW' else 'output'}")
+        if self.heater_bit is not None:
+            self._bit = self.io_index(mem, self.heater_bit, "Q", "heater_bit")
+        self._write_sensor()
+
+    def reset(self) -> None:
+        self.temperature = self.start
+        self.power = 0.0
+        self._delay: deque[float] = deque()
+
+    def _heater_power(self) -> float:
+        mem = self._mem
+        if self.heater_bit is not None:
+            return 1.0 if mem.q_field[self._bit] else 0.0
+        ch = mem.analog.channel(self.heater, "QW")
+        a, b = SIGNAL_SPAN[ch.signal]
+        return (mem.analog.output(self.heater) - a) / (b - a)
+
+    def _write_sensor(self) -> None:
+        self._mem.analog.set_input(self.sensor, self.temperature)
+
+    def update(self, t: float, dt: float) -> None:
+        self.power = self._heater_power()
+        self._delay.append(self.power)
+        n = max(1, round(self.dead_time / dt)) if self.dead_time > 0 else 0
+        u = self._delay.popleft() if len(self._delay) > n else 0.0
+        # exact discretisation of the first-order lag over dt (stable for any dt)
+        target = self.ambient + self.gain * u
+        k = dt / self.tau
+        self.temperature = target + (self.temperature - target) * math.exp(-k)
+        self._write_sensor()
+
+    def status(self) -> dict[str, Any]:
+        return {"temperature": round(self.temperature, 2), "power": round(self.power, 3)}

@@ -1,0 +1,214 @@
+"""The cutting table's PLC program (ladder_programs/cutting_table.il) on its machine, through
+the PLC API on the virtual clock: homing (E8), the segment handshake, the line split in float
+IL, the torch, the work-area check, limit switch and E-stop stops (E9), RESET."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from softplc.cutting.regmap import (
+    EJECUTANDO,
+    FAULT,
+    INICIO,
+    SEG_DONE,
+    SEG_KIND,
+    SEG_NO,
+    SEG_V,
+    SEG_X,
+    SEG_Y,
+    STATE,
+)
+from softplc.plc import PLC
+
+ROOT = Path(__file__).resolve().parent.parent
+IL = ROOT / "ladder_programs" / "cutting_table.il"
+TOML = ROOT / "ladder_programs" / "cutting_table.toml"
+COUNTS_PER_MM = 100_000.0
+READY, MOVING, FAULT_STEP = 4, 5, 9
+
+
+def machine(start_mm: tuple[float, float] | None = None) -> PLC:
+    cfg = tomllib.loads(TOML.read_text(encoding="utf-8"))
+    if start_mm is not None:
+        cfg["devices"]["X"]["start"] = start_mm[0] * COUNTS_PER_MM
+        cfg["devices"]["Y"]["start"] = start_mm[1] * COUNTS_PER_MM
+    return PLC.from_file(IL, cfg)
+
+
+def homed(start_mm: tuple[float, float] = (1.0, 1.0)) -> PLC:
+    plc = machine(start_mm)
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=20)
+    return plc
+
+
+def true_mm(plc: PLC) -> tuple[float, float]:
+    return (plc.devices["X"].position / COUNTS_PER_MM, plc.devices["Y"].position / COUNTS_PER_MM)
+
+
+def offer(plc: PLC, x_um: int, y_um: int, v: float, kind: int = 1, number: int = 1) -> None:
+    plc[f"%MD{SEG_X}"] = x_um
+    plc[f"%MD{SEG_Y}"] = y_um
+    plc[f"%MF{SEG_V}"] = v
+    plc[f"%MW{SEG_KIND}"] = kind
+    plc[f"%MW{SEG_NO}"] = number
+    plc[f"%MW{INICIO}"] = 1
+
+
+def test_e8_homing_both_axes_at_once_with_the_30_mm_retract():
+    plc = machine()  # E8: X 123.4 mm, Y 57.0 mm from the min trip points
+    y_done = None
+    while plc.time < 20 and plc[f"%MW{STATE}"] != READY:
+        plc.scan()
+        if y_done is None and plc["%M33"] and plc["%MW248:X3"] and plc["%MW248:X2"]:
+            y_done = plc.time
+    assert plc[f"%MW{STATE}"] == READY and plc["%M110"]
+    assert plc.time == pytest.approx(15.59, abs=0.05)
+    assert y_done == pytest.approx(8.95, abs=0.05)
+    assert plc[f"%MD{112}"] == pytest.approx(0, abs=1) and plc["%MD114"] == pytest.approx(0, abs=1)
+    for axis in true_mm(plc):  # the stop after the trip (spec: 0.50-0.53 mm), then 30 mm back
+        assert 29.47 <= axis <= 29.505  # measured 29.503: the stop ramp is 0.497 mm (NOTES)
+    assert plc[f"%MW{FAULT}"] == 0
+
+
+def test_homing_with_an_axis_starting_on_its_min_switch():
+    plc = homed((1.0, -0.2))  # Y starts with its min switch made: zero where it stands
+    assert plc[f"%MW{FAULT}"] == 0
+    assert 29.47 <= true_mm(plc)[0] <= 29.505
+    assert true_mm(plc)[1] == pytest.approx(29.8, abs=1e-3)
+
+
+def test_broken_min_switch_fails_homing_at_the_timeout():
+    """The %TM0 timeout (36 s in the machine) shortened to 2 s here to keep the suite
+    quick; the rubber stop removed so that nothing else stops the search."""
+    cfg = tomllib.loads(TOML.read_text(encoding="utf-8"))
+    cfg["devices"]["SensX_Min"]["fault"] = "stuck_open"
+    del cfg["devices"]["X"]["geometry"]["hard_stop_minus"]
+    assert cfg["timers"]["%TM0"]["preset"] == 360  # 100 ms base: 36 s
+    cfg["timers"]["%TM0"]["preset"] = 20
+    plc = PLC.from_file(IL, cfg)
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == FAULT_STEP, timeout=5)
+    assert plc[f"%MW{FAULT}"] == 2
+    assert plc.time == pytest.approx(2.0, abs=0.11)
+
+
+def test_a_cut_line_splits_speed_and_acceleration_so_the_path_stays_straight():
+    plc = homed()
+    x0 = true_mm(plc)
+    offer(plc, 80_000, 60_000, 50.0)  # E7: (0,0)->(80,60), corrected split
+    plc.scan()
+    # the handshake: taken in one scan
+    assert plc[f"%MW{INICIO}"] == 0 and plc[f"%MW{EJECUTANDO}"] == 1
+    assert plc[f"%MW{STATE}"] == MOVING and plc["%Q0.2"]
+    assert plc["%MF116"] == pytest.approx(40.0, rel=1e-6)
+    assert plc["%MF118"] == pytest.approx(30.0, rel=1e-6)
+    worst = 0.0
+    t0 = plc.time
+    while plc[f"%MW{EJECUTANDO}"]:
+        plc.scan()
+        x, y = true_mm(plc)
+        dx, dy = x - x0[0], y - x0[1]
+        worst = max(worst, abs(dx * 0.6 - dy * 0.8))  # distance from the line
+    assert worst < 1e-4
+    assert plc.time - t0 == pytest.approx(100 / 50 + 50 / 100, abs=0.02)
+    assert plc[f"%MW{SEG_DONE}"] == 1 and not plc["%Q0.2"]
+    assert plc["%MD112"] == pytest.approx(80_000, abs=1)
+    assert plc["%MD114"] == pytest.approx(60_000, abs=1)
+
+
+def test_a_move_segment_keeps_the_torch_off():
+    plc = homed()
+    offer(plc, 5_000, 0, 10.0, kind=2)
+    lit = False
+    for _ in range(2000):
+        plc.scan()
+        lit |= plc["%Q0.2"] or plc.devices["torch"].lit
+        if not plc[f"%MW{EJECUTANDO}"]:
+            break
+    assert not lit and plc["%MD112"] == pytest.approx(5000, abs=1)
+
+
+@pytest.mark.parametrize("x_um,y_um", [(240_001, 0), (0, -1)])
+def test_a_target_outside_the_work_area_is_refused(x_um, y_um):
+    plc = homed()
+    before = true_mm(plc)
+    offer(plc, x_um, y_um, 10.0)
+    plc.run(0.2)
+    assert plc[f"%MW{FAULT}"] == 3 and plc[f"%MW{STATE}"] == FAULT_STEP
+    assert true_mm(plc) == pytest.approx(before, abs=1e-3)  # settling only
+
+
+def test_e9_limit_switch_stops_both_axes_torch_off_reset_refused_while_made():
+    plc = homed()
+    offer(plc, 200_000, 0, 20.0)
+    plc.run(2.0)  # cruising along X at 20 mm/s
+    y0 = true_mm(plc)[1]
+    plc.devices["SensX_Max"].set_fault("stuck_closed")
+    x_trip = true_mm(plc)[0]
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == FAULT_STEP, timeout=0.01)
+    assert not plc["%Q0.2"] and plc[f"%MW{FAULT}"] == 1
+    plc.run(1.0)
+    stop = true_mm(plc)[0] - x_trip
+    assert 0 < stop <= 20.0 ** 2 / (2 * 100.0) + 2 * 0.001 * 20.0 + 1e-6
+    assert true_mm(plc)[1] == y0
+    plc["%M102"] = 1  # RESET refused while the switch is made
+    plc.run(0.01)
+    assert plc[f"%MW{STATE}"] == FAULT_STEP and plc[f"%MW{FAULT}"] == 1
+    plc.devices["SensX_Max"].set_fault("none")
+    plc.scan()  # the input follows at the next device update
+    plc["%M102"] = 1
+    plc.run(0.01)
+    assert plc[f"%MW{STATE}"] == READY and plc[f"%MW{FAULT}"] == 0
+    assert plc[f"%MW{EJECUTANDO}"] == 0
+
+
+def test_estop_stops_and_latches_fault_5():
+    plc = homed()
+    offer(plc, 50_000, 50_000, 10.0)
+    plc.run(1.0)
+    plc.devices["estop"].press()
+    plc.run(0.5)
+    assert plc[f"%MW{FAULT}"] == 5 and not plc["%Q0.2"]
+    assert math.isclose(plc.devices["X"].v, 0.0, abs_tol=1e-6)
+    plc["%M102"] = 1
+    plc.run(0.01)
+    assert plc[f"%MW{STATE}"] == FAULT_STEP  # still pressed
+    plc.devices["estop"].release()
+    plc.scan()
+    plc["%M102"] = 1
+    plc.run(0.01)
+    assert plc[f"%MW{STATE}"] == READY
+
+
+def run_piece(plc: PLC, piece_file: str) -> list[tuple]:
+    """Feed a piece's segment frames through the words, as the Modbus host does; the trace."""
+    from softplc.cutting import load_piece
+    from softplc.cutting.client import feed_plc
+
+    piece = load_piece(ROOT / "ladder_programs" / "pieces" / piece_file, speed=10.0,
+                       move_speed=10.0)
+    assert feed_plc(plc, piece, timeout=30) == len(piece.segments())
+    return list(plc.devices["trace"].samples)
+
+
+def test_two_runs_on_the_virtual_clock_give_identical_traces():
+    a = run_piece(homed(), "escudo.toml")
+    b = run_piece(homed(), "escudo.toml")
+    assert len(a) > 1000 and a == b
+
+
+def test_hold_while_moving_stops_now_torch_off_and_the_next_segment_starts_there():
+    plc = homed()
+    offer(plc, 100_000, 0, 20.0, number=7)
+    plc.run(1.0)
+    plc["%M101"] = 1  # HOLD (the host's Ctrl-C)
+    assert plc.run_until(lambda p: p[f"%MW{EJECUTANDO}"] == 0, timeout=2)
+    assert not plc["%Q0.2"] and plc[f"%MW{SEG_DONE}"] != 7
+    assert 10_000 < plc["%MD112"] < 100_000
+    plc["%M101"] = 0
+    offer(plc, 5_000, 0, 20.0, number=8)
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 8, timeout=10)
+    assert plc["%MD112"] == pytest.approx(5_000, abs=1)
