@@ -13,7 +13,7 @@ from typing import Any
 
 from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
 from .compiler import Resolved, compile_program, resolve
-from .config import Config, key_path, load_config, time_base
+from .config import Config, key_path, load_config
 from .config_models import parse_analog, parse_pid, parse_rtc, parse_schedules, pid_params
 from .errors import (
     AddressError,
@@ -233,31 +233,12 @@ class PLC:
             except ValueError as e:
                 raise ConfigError(f"registers.{text}: {e}") from None
 
-    def _new_block(self, kind: str, o: dict[str, Any], where: str) -> Any:
-        """The one constructor of blocks, from their configuration options `o` (empty for a
-        block the program uses and the configuration does not name). Options not given
-        take the block class's own defaults."""
-        if kind == "TM":
-            kw: dict[str, Any] = {k: o[k] for k in ("type",) if k in o}
-            if "base" in o:
-                kw["base"] = time_base(o["base"])
-            if "preset" in o:
-                kw["preset"] = int(o["preset"])
-            return Timer(self.time_source, **kw)
-        if kind == "C":
-            return Counter(int(o["preset"])) if "preset" in o else Counter()
-        if kind == "DR":
-            outs = []
-            for a in o.get("outputs", []):
-                r = parse_address(a, self.profile)
-                if r.type != "bool" or r.kind not in ("Q", "M"):
-                    raise ConfigError(f"{where}: outputs are %Q or %M bits, not {a!r}")
-                self.mem.use_io(r)
-                outs.append((self.mem.bits(r.kind), r.index))
-            return Drum(o.get("steps", [0]), outs)
+    def _default_block(self, kind: str) -> Any:
+        """A block the program uses and the configuration does not name (%C, %R, %SBR, %SC:
+        the block class's own defaults; timers and drums must be configured)."""
         if kind == "R":
-            return Register(o.get("type", "FIFO"), self.profile.count("FIFO_DEPTH"))
-        return BLOCK_CLASSES[kind]()  # %SBR, %SC: nothing to configure
+            return Register("FIFO", self.profile.count("FIFO_DEPTH"))
+        return BLOCK_CLASSES[kind]()
 
     def _configure_pid(self, section: Any) -> None:
         """The PID functions of [pid], addresses resolved and checked once."""
@@ -282,7 +263,7 @@ class PLC:
                         f"base = \"100ms\", preset = 10}}}}")
             if ref.kind == "DR":
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
-            blocks[ref.index] = self._new_block(ref.kind, {}, str(ref))
+            blocks[ref.index] = self._default_block(ref.kind)
         return None
 
     def _configure_constants(self, consts: dict[str, int | float]) -> None:

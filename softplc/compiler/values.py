@@ -167,8 +167,7 @@ class ValueCompiler:
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
-            if k in ("IW", "QW"):
-                self.io_check(ref, pos)
+            if k in ("IW", "QW"):  # the resolve pass checked the module (PLC._allocate)
                 return f"{buf}[{ref.index}]", INT16
             return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
         if k in PAIR_VIEWS:
@@ -444,7 +443,6 @@ class ValueCompiler:
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind
         if k in ("IW", "QW"):
-            self.io_check(ref, pos)
             self.use(WORD_BUFFERS[k])
             self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
         elif k in WORD_BUFFERS:
