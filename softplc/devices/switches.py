@@ -109,6 +109,8 @@ class PushButton(Device):
     pressed), `pressed` (default false: the state at power-up). `press()` / `release()`
     operate it at run time (tests, the debugger)."""
 
+    STATE = ("pressed",)
+
     class Options(Section):
         input: Address
         normally_closed: bool = False
