@@ -711,7 +711,8 @@ class Session(Controller):
         for name, (_, doc) in sorted(self.commands.items()):
             lines += textwrap.wrap(first_sentence(doc) if doc else name,
                                    max(40, self.width - 1), initial_indent="  ",
-                                   subsequent_indent="      ")
+                                   subsequent_indent="      ",
+                                   break_on_hyphens=False)  # "auto-tuning" stays whole
         lines += textwrap.wrap("aliases: " + ", ".join(f"{a}={n}" for a, n in
                                                        sorted(self.aliases.items())),
                                max(40, self.width - 1), subsequent_indent="  ")
