@@ -6,12 +6,11 @@ from .errors import (
     ConfigError,
     Diagnostic,
     ParseError,
-    PLCHalt,
     ProgramError,
     SoftPLCError,
 )
 from .plc import PLC
 
 __all__ = ["PLC", "ProgramError", "ParseError", "CompileError", "ConfigError", "AddressError",
-           "Diagnostic", "PLCHalt", "SoftPLCError"]
+           "Diagnostic", "SoftPLCError"]
 __version__ = "0.1.0"

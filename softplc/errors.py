@@ -3,10 +3,43 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 
 
 class SoftPLCError(Exception):
     """Base of every error softplc raises on purpose."""
+
+
+class Code(StrEnum):
+    """What kind of problem a diagnostic is: stable, whatever its message says. Tools (the
+    follow-up filter of `PLC`, `check --json`) decide on the code, never on the wording."""
+
+    SYNTAX = "syntax"  # the text does not follow the grammar
+    UNKNOWN_INSTRUCTION = "unknown-instruction"
+    NESTING = "nesting"  # an expression nested deeper than the parser takes
+    ADDRESS = "address"  # malformed address or outside the profile
+    CONSTANT = "constant"  # a literal out of range
+    CANNOT_READ = "cannot-read"  # the program file
+    # rung structure: an opening instruction missing before, or a closing one after
+    NEEDS_LOAD = "needs-load"
+    UNMATCHED_CLOSE = "unmatched-close"  # ')' without '('
+    NO_MPS = "no-mps"  # MRD / MPP without MPS
+    OUTSIDE_BLK = "outside-blk"  # OUT_BLK / END_BLK / a pin without BLK
+    AFTER_OUT_BLK = "after-out-blk"  # an input pin after OUT_BLK
+    NOT_CLOSED = "not-closed"  # '(' or BLK not closed in the rung
+    STRUCTURE = "structure"  # other rung-structure rules (BLK in BLK, stack depth...)
+    # names
+    LABEL = "label"  # undefined, duplicate, out of range, jump leaving its function
+    SUBROUTINE = "subroutine"  # undefined or out of range
+    STEP = "step"  # Grafcet step out of range or outside a step
+    BLOCK = "block"  # function block unknown, unconfigured, beyond the profile
+    IO = "io"  # I/O channel of a module that is not configured
+    # values
+    TYPE = "type"  # bit/word/float mix, wrong argument type
+    READ_ONLY = "read-only"
+    FUNCTION = "function"  # unknown function, wrong argument count
+    CONTROL = "control"  # RET in main, END in a subroutine
+    OTHER = "other"
 
 
 @dataclass(frozen=True)
@@ -19,6 +52,7 @@ class Diagnostic:
     column: int = 0
     text: str = ""  # the offending text
     expected: str = ""  # what would have been accepted
+    code: Code = Code.OTHER
 
     def __str__(self) -> str:
         # line 0: about the whole file (it cannot be read, ...), no position to give
@@ -80,8 +114,8 @@ class AddressError(SoftPLCError, ValueError):
     """An address string is malformed or outside the controller profile."""
 
 
-class PLCHalt(SoftPLCError):
-    """The controller went to HALT (watchdog, runtime fault)."""
+class BlockError(SoftPLCError, ValueError):
+    """A function block's parameters are wrong (timer type, preset range, drum steps...)."""
 
 
 class MassEstimationError(SoftPLCError):

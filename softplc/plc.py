@@ -11,16 +11,25 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from .address import BLOCK_FIELDS, Ref, parse_address
-from .compiler.codegen import CompiledProgram, compile_program
+from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
+from .compiler import Resolved, compile_program, resolve
 from .config import Config, key_path, load_config
 from .config_models import parse_analog, parse_pid, parse_rtc, parse_schedules, pid_params
-from .errors import AddressError, ConfigError, ParseError, ProgramError, SoftPLCError
+from .errors import (
+    AddressError,
+    Code,
+    ConfigError,
+    Diagnostic,
+    ParseError,
+    ProgramError,
+    SoftPLCError,
+)
 from .il import ast as A
 from .il.parser import parse, parse_file
 from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
+from .program import CompiledProgram, ProgramState, bind
 from .runtime.analog import AnalogChannel, AnalogIO, normal_range
-from .runtime.blocks import Counter, Drum, Register, ShiftRegister, StepCounter, Timer, TimeSource
+from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Register, Timer, TimeSource
 from .runtime.clock import Clock, VirtualClock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
 from .runtime.grafcet import Grafcet
@@ -58,6 +67,7 @@ class PLC:
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
+        self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
         self._rtc_start = parse_rtc(cfg.get("rtc"))
@@ -223,6 +233,13 @@ class PLC:
             except ValueError as e:
                 raise ConfigError(f"registers.{text}: {e}") from None
 
+    def _default_block(self, kind: str) -> Any:
+        """A block the program uses and the configuration does not name (%C, %R, %SBR, %SC:
+        the block class's own defaults; timers and drums must be configured)."""
+        if kind == "R":
+            return Register("FIFO", self.profile.count("FIFO_DEPTH"))
+        return BLOCK_CLASSES[kind]()
+
     def _configure_pid(self, section: Any) -> None:
         """The PID functions of [pid], addresses resolved and checked once."""
         self.mem.blocks["PID"] = pids = {}
@@ -240,21 +257,13 @@ class PLC:
             return f"{ref} beyond the {count} %{ref.kind} of {self.profile.name}"
         blocks = self.mem.blocks[ref.kind]
         if ref.index not in blocks:
-            if ref.kind == "C":
-                blocks[ref.index] = Counter()
-            elif ref.kind == "SBR":
-                blocks[ref.index] = ShiftRegister()
-            elif ref.kind == "SC":
-                blocks[ref.index] = StepCounter()
-            elif ref.kind == "R":
-                blocks[ref.index] = Register("FIFO", self.profile.count("FIFO_DEPTH"))
-            elif ref.kind == "TM":
+            if ref.kind == "TM":
                 return (f"timer {ref} is used but not configured: give its type, time base "
                         f"and preset, e.g. timers = {{\"{ref}\" = {{type = \"TON\", "
                         f"base = \"100ms\", preset = 10}}}}")
-            else:
+            if ref.kind == "DR":
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
-            blocks[ref.index]._initial = blocks[ref.index].state()  # its cold-start state
+            blocks[ref.index] = self._default_block(ref.kind)
         return None
 
     def _configure_constants(self, consts: dict[str, int | float]) -> None:
@@ -293,50 +302,51 @@ class PLC:
                 return f"{ref}: the module in slot {ref.module} has {n} channels"
         return None
 
-    def env(self) -> dict[str, Any]:
-        """Names the compiled code sees."""
-        m = self.mem
-        env: dict[str, Any] = {
-            "_I": m.i, "_Q": m.q, "_M": m.m, "_S": m.s, "_X": m.x,
-            "_MW": m.mw.w, "_UMW": m.mw.uw, "_KW": m.kw.w, "_UKW": m.kw.uw,
-            "_SW": m.sw.w, "_USW": m.sw.uw, "_IW": m.iw.w, "_QW": m.qw.w,
-            "_MDE": m.mw.d[0], "_MDO": m.mw.d[1], "_MFE": m.mw.f[0], "_MFO": m.mw.f[1],
-            "_KDE": m.kw.d[0], "_KDO": m.kw.d[1], "_KFE": m.kw.f[0], "_KFO": m.kw.f[1],
-            "_MWF": m.mw, "_KWF": m.kw, "_SWF": m.sw, "_mem": m,
-            "_EDGE": [0] * 4096, "_wd": self.engine.watchdog_expired,
-            "_block_factory": self._block_factory, "_io_check": self._io_check,
-        }
-        for name, f in self.ops.table().items():
-            env["_" + name] = f
-        for kind, blocks in m.blocks.items():
-            for i, b in blocks.items():
-                env[f"_{kind}{i}"] = b
-                if getattr(b, "_initial", None) is None:  # a later build keeps the cold state
-                    b._initial = b.state()
+    def _allocate(self, program: A.Program, resolved: Resolved) -> list[Diagnostic]:
+        """Create the blocks and I/O copies the resolve pass found; the problems found."""
+        problems = []
 
-        g = self.grafcet
-        env["_GA"], env["_GD"], env["_gpre"], env["_gpost"] = g.ga, g.gd, g.pre, g.post
-        return env
+        def problem(msg: str, ref: Any, pos: A.Pos, expected: str, code: Code) -> None:
+            problems.append(Diagnostic(msg, program.file, pos.line, pos.column, str(ref),
+                                       expected, code))
 
-    def _compile(self, program: A.Program, debug: bool = False,
-                 edge: list[int] | None = None) -> CompiledProgram:
-        env = self.env()
-        if edge is not None:  # share the edge memory (LDR/LDF) with another build
-            env["_EDGE"] = edge
-        forced = frozenset(r for r in getattr(self, "_forced", {})
-                           if r.kind in ("I", "Q", "M", "S", "X") and r.offset is None)
-        compiled = compile_program(program, env, dict(self.profile.counts), debug, forced)
-        # bind blocks created during compilation (defaults) into the namespace
+        for ref, pos in resolved.blocks.items():
+            msg = self._block_factory(ref)
+            if msg:
+                problem(msg, ref, pos, "a configured block within the profile", Code.BLOCK)
+        for ref, pos in resolved.io.items():
+            if ref.kind in IO_KINDS:  # analog words need no scan-boundary copy
+                self.mem.use_io(ref)
+            msg = self._io_check(ref)
+            if msg:
+                problem(msg, ref, pos, "an I/O channel of a configured module", Code.IO)
+        # cold start puts a block back to its state when first allocated (a later build,
+        # e.g. after forcing, keeps that one)
+        cold = self.engine.cold_states
         for kind, blocks in self.mem.blocks.items():
             for i, b in blocks.items():
-                compiled.namespace.setdefault(f"_{kind}{i}", b)
+                if (kind, i) not in cold:
+                    cold[kind, i] = b.state()
+        return problems
+
+    def _compile(self, program: A.Program, debug: bool = False) -> CompiledProgram:
+        """Resolve, allocate, bind, generate. The program state (edge memory, initial
+        steps) changes only once the program compiled."""
+        counts = dict(self.profile.counts)
+        resolved = resolve(program, counts)
+        problems = self._allocate(program, resolved)
+        state = self.program_state
+        env = bind(self.mem, self.ops, state, self.engine.watchdog_expired, self.mem.blocks)
+        forced = frozenset(r for r in getattr(self, "_forced", {})
+                           if r.kind in ("I", "Q", "M", "S", "X") and r.offset is None)
+        compiled = compile_program(program, resolved, env, state, counts, debug, forced,
+                                   problems)
+        state.size_edges(resolved.edges)
+        state.initial_steps = self.grafcet.initial = resolved.initial_steps
         ts = self.time_source
         ts.track = _conditional_execution(program)
         if not ts.track:
             ts.running.clear()
-        compiled.namespace["_INITIAL_STEPS"] = self.grafcet.initial = tuple(
-            i.step for r in program.rungs for i in r.instructions
-            if isinstance(i, A.Grafcet) and i.op == "=*=" and i.step is not None)
         return compiled
 
     def _attach_rtc(self, program: A.Program, configured: bool = False) -> None:
@@ -354,12 +364,12 @@ class PLC:
     def compile_debug(self) -> CompiledProgram:
         """The debug build: `main()` is a generator yielding (rung, instruction) before each
         instruction; `log[rung][k]` holds the accumulator after instruction k."""
-        return self._compile(self.ast, debug=True, edge=self.program.namespace.get("_EDGE"))
+        return self._compile(self.ast, debug=True)
 
     def replace_program(self, program: A.Program) -> None:
         """Run `program` from the next scan on, keeping memory (the debugger's reload).
         Raises CompileError, leaving the running program in place, if it does not compile."""
-        compiled = self._compile(program, edge=self.program.namespace.get("_EDGE"))
+        compiled = self._compile(program)
         self.ast, self.program = program, compiled
         self.engine.load(compiled)
         self._attach_rtc(program)
@@ -532,11 +542,11 @@ class PLC:
         self.close()
 
 
-# Rung-structure messages that a skipped (syntax error) line can cause further down: those
+# Rung-structure problems that a skipped (syntax error) line can cause further down: those
 # looking back for an opening instruction, and those looking forward for a closing one.
-_NEEDS_EARLIER = ("needs a preceding load", "without a matching", "without a preceding MPS",
-                  "outside a BLK", "END_BLK without BLK", "after OUT_BLK")
-_NEEDS_LATER = ("not closed",)
+_NEEDS_EARLIER = frozenset({Code.NEEDS_LOAD, Code.UNMATCHED_CLOSE, Code.NO_MPS,
+                            Code.OUTSIDE_BLK, Code.AFTER_OUT_BLK})
+_NEEDS_LATER = frozenset({Code.NOT_CLOSED})
 
 
 def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
@@ -558,14 +568,14 @@ def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
     for d in semantic:
         if d.line in bad:
             out.add(d)
-        elif any(m in d.message for m in _NEEDS_EARLIER):
+        elif d.code in _NEEDS_EARLIER:
             n = d.line - 1
             while n > 0 and not is_load(n):
                 if n in bad:
                     out.add(d)
                     break
                 n -= 1
-        elif any(m in d.message for m in _NEEDS_LATER):
+        elif d.code in _NEEDS_LATER:
             end = ends.get(d.line, d.line)
             if any(d.line < b <= end + 1 for b in bad):
                 out.add(d)

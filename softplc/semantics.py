@@ -10,11 +10,12 @@ system, reset only by the program), %S20 index overflow. Tags as in the referenc
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable
 from typing import Any
 
 from .address import INT16, INT32, REAL
-from .runtime.memory import F32_MAX, bcd_decode, bcd_encode, wrap16, wrap32
+from .numeric import F32_MAX, bcd_decode, bcd_encode, wrap16, wrap32
 
 S_CARRY, S_ARITH, S_INDEX = 17, 18, 20  # system bit numbers
 # %SW17, the floating-point error word: which kind of fault set %S18; reset by the program
@@ -49,6 +50,15 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
 }
 
 
+# Comparison blocks [ a OP b ]: the one table of what each operator means (compiled code
+# uses the Python operator of the same meaning, the ladder view and the debugger the
+# function).
+COMPARE: dict[str, Callable[[object, object], bool]] = {
+    "=": operator.eq, "<>": operator.ne, ">": operator.gt, ">=": operator.ge,
+    "<": operator.lt, "<=": operator.le}
+COMPARE_PY = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
+
+
 def _tdiv(a: int, b: int) -> int:
     """Integer division truncating towards zero, as the Twido (and C) does [manual]."""
     q = abs(a) // abs(b)
@@ -67,10 +77,15 @@ class Ops:
         self.s[S_ARITH] = 1
         self.sw[SW_FLOAT] |= kind
 
+    @classmethod
+    def helper_names(cls) -> tuple[str, ...]:
+        """Names of the helpers compiled code may call (bound as `_<name>`)."""
+        return tuple(name for name in dir(cls)
+                     if not name.startswith("_") and name not in ("table", "helper_names"))
+
     def table(self) -> dict[str, Callable]:
         """Name -> helper, bound into compiled code's namespace."""
-        return {name: getattr(self, name) for name in dir(self)
-                if not name.startswith("_") and name not in ("table", "s", "sw")}
+        return {name: getattr(self, name) for name in self.helper_names()}
 
     # -- overflow bookkeeping ---------------------------------------------------------------
     def _chk16(self, v: int) -> int:

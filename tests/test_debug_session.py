@@ -295,3 +295,49 @@ def test_subroutine_rungs_and_where() -> None:
     assert "before rung 1 (inside)" in s.execute("where")
     assert "rung 1 SR1  inside" in s.execute("rung")
     assert "not loaded from a file" in s.execute("reload")
+
+
+def test_step_count_is_not_cut_by_rung_titles_that_read_like_stops() -> None:
+    """The stepping controller stops on typed reasons, not on words in its own output."""
+    src = ("(* watch the pump *)\nLD %I0.0\nST %Q0.0\n(* breakpoint zone *)\nLD %I0.1\n"
+           "ST %Q0.1\n(* third *)\nLD %I0.2\nST %Q0.2\n(* fourth *)\nLD %I0.3\nST %Q0.3\n")
+    ses = Session(PLC.from_source(src))
+    ses.execute("stepi")  # into the scan, before rung 0
+    out = ses.execute("step 3")
+    assert ses.pos == (3, 0), out
+    ses.execute("back 1")
+    ses.execute("break 2")
+    out = ses.execute("step 3")  # a real breakpoint still ends the count early
+    assert ses.pos == (2, 0) and "breakpoint #1" in out
+
+
+@pytest.mark.parametrize("width", [60, 100])
+def test_help_lists_whole_first_sentences_wrapped(s: Session, width: int) -> None:
+    from softplc.debug.session import first_sentence
+
+    s.width = width
+    out = s.execute("help")
+    assert all(len(line) < width for line in out.splitlines())
+    flat = " ".join(out.split())
+    for name, (_, doc) in s.commands.items():
+        sentence = first_sentence(doc)
+        assert sentence.endswith("."), name  # whole, not cut mid-sentence
+        assert " ".join(sentence.split()) in flat, name
+    assert first_sentence("a: b, e.g. c. More.") == "a: b, e.g. c."
+
+
+def test_the_controller_runs_without_the_command_layer() -> None:
+    """What the web monitor will drive: typed results, no terminal, no command parsing."""
+    from softplc.debug.controller import Controller, StopKind
+
+    plc = PLC.from_file(SAMPLE, config=CONFIG)
+    ctl = Controller(plc)
+    ran = ctl.step_instruction()
+    assert ran.reason == StopKind.DONE and ctl.pos == (0, 0)
+    ran = ctl.run_scans(3)
+    # the scan in progress is finished first, then 3 whole scans
+    assert ran.reason == StopKind.DONE and plc.scan_count == 4 and ctl.pos is None
+    ctl.back(2)
+    assert plc.scan_count == 2 and len(ctl.ring) == 2
+    ctl.close()
+    assert ctl._apply_pending not in plc.before_scan

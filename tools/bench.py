@@ -35,19 +35,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-TOOLS = Path(__file__).resolve().parent
-ROOT = TOOLS.parent
-for _p in (str(ROOT), str(TOOLS)):
-    if _p not in sys.path:
-        sys.path.insert(0, _p)
+import bench_cutting
+import bench_drawing
+import bench_engine
+import bench_mass
+import bench_peers
+import bench_servo
+from peers.common import describe_machine, machine_info, progress
 
-import bench_cutting  # noqa: E402
-import bench_drawing  # noqa: E402
-import bench_engine  # noqa: E402
-import bench_mass  # noqa: E402
-import bench_peers  # noqa: E402
-import bench_servo  # noqa: E402
-from peers.common import describe_machine, machine_info, progress  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 SECTIONS = ("engine", "peers", "modbus", "drawing", "servo", "cutting", "mass")
 

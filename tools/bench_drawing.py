@@ -16,10 +16,9 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from softplc import PLC
 
-from softplc import PLC  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def figure(n: int, steps_per_cm: float = 111.11) -> list[tuple[int, int, int]]:

@@ -18,23 +18,18 @@ scan of a 40-rung program.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
-TOOLS = Path(__file__).resolve().parent
-ROOT = TOOLS.parent
-for _p in (str(ROOT), str(TOOLS)):
-    if _p not in sys.path:
-        sys.path.insert(0, _p)
+from gen_programs import boolean_program
+from peers.common import best_interleaved, best_per_batch, loop, print_report, progress
+from peers.programs import mixed_program
 
-from gen_programs import boolean_program  # noqa: E402
-from peers.common import best_interleaved, best_per_batch, loop, progress  # noqa: E402
-from peers.programs import mixed_program  # noqa: E402
+from softplc.errors import SoftPLCError
+from softplc.plc import PLC
 
-from softplc.errors import SoftPLCError  # noqa: E402
-from softplc.plc import PLC  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 TARGET_NS_PER_BOOL = 10.0
 TARGET_US_PER_SCAN_40 = 20.0
@@ -175,10 +170,7 @@ def main(argv: list[str] | None = None) -> int:
         print(profile(a.profile))
         return 0
     res = run(quick=a.quick)
-    print(report(res))
-    if a.json:
-        a.json.parent.mkdir(parents=True, exist_ok=True)
-        a.json.write_text(json.dumps(res, indent=2))
+    print_report(report(res), res, a.json)
     return 0
 
 

@@ -16,19 +16,14 @@ A peer that is not installed prints "unavailable: <reason>" (make bench installs
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
-TOOLS = Path(__file__).resolve().parent
-ROOT = TOOLS.parent
-for _p in (str(ROOT), str(TOOLS)):
-    if _p not in sys.path:
-        sys.path.insert(0, _p)
+from peers import awlsim_peer, libmodbus_peer, modbus_peer, pyrung_peer
+from peers.common import print_report, progress, version_of
 
-from peers import awlsim_peer, libmodbus_peer, modbus_peer, pyrung_peer  # noqa: E402
-from peers.common import progress, version_of  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 DRAWING_IL = ROOT / "ladder_programs" / "drawing_table.il"
 TARGET_PYRUNG = 100.0
@@ -165,10 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
     a = ap.parse_args(argv)
     res = run(a.quick, modbus=not a.no_modbus)
-    print(report(res))
-    if a.json:
-        a.json.parent.mkdir(parents=True, exist_ok=True)
-        a.json.write_text(json.dumps(res, indent=2))
+    print_report(report(res), res, a.json)
     return 0
 
 

@@ -1,5 +1,6 @@
-"""Rungs (AST) -> Python source -> callable scan functions."""
+"""Rungs (AST) -> resolve pass -> Python source -> callable scan functions."""
 
 from .codegen import CompiledProgram, compile_program
+from .resolve import Resolved, resolve
 
-__all__ = ["CompiledProgram", "compile_program"]
+__all__ = ["CompiledProgram", "Resolved", "compile_program", "resolve"]

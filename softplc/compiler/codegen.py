@@ -12,14 +12,14 @@ step by rung or by instruction and read the power flow (`_log[rung][k]`).
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 from ..address import Ref
-from ..errors import CompileError
+from ..errors import Code, CompileError, Diagnostic
 from ..il import ast as A
+from ..program import CompiledProgram, Names, ProgramState, Watchdog
 from ..runtime.grafcet import GRAFCET_BITS
+from .resolve import Resolved
 from .values import (
     BLOCK_KIND_PINS,
     BLOCK_OUTPUTS,
@@ -32,24 +32,7 @@ from .values import (
 
 MAX_EXPR = 2000  # characters of a fused expression before it is materialised
 
-
-class Watchdog(Exception):
-    """Raised by compiled code when a scan overruns the watchdog inside a loop."""
-
-
-@dataclass
-class CompiledProgram:
-    program: A.Program
-    source: str
-    main: Callable[[], Any]
-    namespace: dict[str, Any]
-    debug: bool = False
-    log: list[list[Any]] = field(default_factory=list)  # debug: accumulator per instruction
-    instruction_count: int = 0
-
-    @property
-    def rungs(self) -> list[A.Rung]:
-        return self.program.rungs
+__all__ = ["CompiledProgram", "Compiler", "Watchdog", "compile_program"]
 
 
 class Compiler(ValueCompiler):
@@ -66,14 +49,14 @@ class Compiler(ValueCompiler):
         if isinstance(op, A.BlockOutput):
             if blk is None:
                 self.err(f"block output {op.name} outside BLK ... OUT_BLK", op.pos, op.name,
-                         "a full address such as %TM0.Q")
+                         "a full address such as %TM0.Q", code=Code.BLOCK)
                 return "0"
             outs = BLOCK_OUTPUTS.get(blk.kind, ())
             if op.name not in outs:
                 self.err(f"%{blk.kind} has no output {op.name}", op.pos, op.name,
-                         ", ".join(outs) or "no output")
+                         ", ".join(outs) or "no output", code=Code.BLOCK)
                 return "0"
-            return f"{self.block_name(blk, pos)}.{op.name}"
+            return f"{self.block_name(blk)}.{op.name}"
         if isinstance(op, A.Compare):
             a, b = self.operand_pair(op.left, op.right, None)
             if self.unify(a, b, op.pos, "comparison") is None:
@@ -84,19 +67,21 @@ class Compiler(ValueCompiler):
                 self.emit(f"{t} = {code}")
                 return t
             return code
-        self.err("unsupported operand", pos, "", "a bit, 0/1 or a comparison block")
+        self.err("unsupported operand", pos, "", "a bit, 0/1 or a comparison block",
+                 code=Code.OTHER)
         return "0"
 
     def modified(self, code: str, mod: str) -> _Acc:
         if mod == "N":
             return _Acc(f"(not {code})")
         if mod in ("R", "F"):
-            self.use("_EDGE")
+            edge = Names.EDGE
+            self.use(edge)
             k = next(self.edge)
             v, r = self.new_tmp(), self.new_tmp()
             self.emit(f"{v} = {code}")
-            self.emit(f"{r} = {v} {'>' if mod == 'R' else '<'} _EDGE[{k}]")
-            self.emit(f"_EDGE[{k}] = {v}")
+            self.emit(f"{r} = {v} {'>' if mod == 'R' else '<'} {edge}[{k}]")
+            self.emit(f"{edge}[{k}] = {v}")
             return _Acc(r)
         return _Acc(code)
 
@@ -125,7 +110,7 @@ class Compiler(ValueCompiler):
         base_indent = self.indent
         step = ctx.get("step")
         if step is not None:
-            self.emit(f"if _XS[{step}]:")  # _XS: a local, the step bits at the start
+            self.emit(f"if {Names.STEPS_AT_START}[{step}]:")  # the step bits at the start
             self.indent += 1
             base_indent = self.indent
         body_start = len(self.fn.lines)
@@ -146,7 +131,8 @@ class Compiler(ValueCompiler):
             nonlocal acc
             if acc is None:
                 self.err(f"{self.describe(instr)} needs a preceding load",
-                         getattr(instr, "pos", None), "", "LD / LDN / LDR / LDF (or BLK) before it")
+                         getattr(instr, "pos", None), "", "LD / LDN / LDR / LDF (or BLK) before it",
+                         code=Code.NEEDS_LOAD)
                 acc = _Acc("0")
             return acc
 
@@ -154,7 +140,7 @@ class Compiler(ValueCompiler):
             nonlocal blk_phase
             if blk is None or blk_phase != "in":
                 return
-            b = self.block_name(blk, None)
+            b = self.block_name(blk)
             pins = BLOCK_KIND_PINS.get(blk.kind, ())
             args = ", ".join(blk_pins.get(p, "0") for p in pins)
             self.emit(f"{b}.run({args})")
@@ -177,20 +163,22 @@ class Compiler(ValueCompiler):
                 outer = need(instr)
                 if len(parens) >= self.counts["PAREN"]:
                     self.err(f"parentheses nested deeper than {self.counts['PAREN']}", pos, "",
-                             f"at most {self.counts['PAREN']} levels")
+                             f"at most {self.counts['PAREN']} levels", code=Code.STRUCTURE)
                 if not outer.simple and len(outer.code) > MAX_EXPR // 2:
                     outer = self.materialize(outer)
                 parens.append((instr.op, instr.modifier, outer, pos))
                 code = self.operand(instr.operand, blk, pos) if instr.operand else None
                 if instr.operand is None:
-                    self.err(f"{instr.op}( needs an operand", pos, "", "a bit or a comparison")
+                    self.err(f"{instr.op}( needs an operand", pos, "", "a bit or a comparison",
+                             code=Code.STRUCTURE)
                     code = "0"
                 # the modifier applies to the first operand inside the parenthesis, as
                 # LDN/LDR/LDF would [manual, see NOTES]
                 acc = self.modified(code, instr.modifier)
             elif isinstance(instr, A.ParenClose):
                 if not parens:
-                    self.err("')' without a matching '('", pos, ")", "AND( / OR( / XOR( first")
+                    self.err("')' without a matching '('", pos, ")", "AND( / OR( / XOR( first",
+                             code=Code.UNMATCHED_CLOSE)
                     continue
                 op, _mod, outer, _p = parens.pop()
                 inner = need(instr)
@@ -204,11 +192,13 @@ class Compiler(ValueCompiler):
                     a = self.materialize(need(instr))
                     if len(mps) >= self.counts["STACK"]:
                         self.err(f"MPS stack deeper than {self.counts['STACK']}", pos, "MPS",
-                                 f"at most {self.counts['STACK']} MPS without MPP")
+                                 f"at most {self.counts['STACK']} MPS without MPP",
+                                 code=Code.STRUCTURE)
                     mps.append(a.code)
                     acc = a
                 elif not mps:
-                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op, "MPS first")
+                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op, "MPS first",
+                             code=Code.NO_MPS)
                 else:
                     acc = _Acc(mps[-1] if instr.op == "MRD" else mps.pop())
             elif isinstance(instr, A.Store):
@@ -222,7 +212,8 @@ class Compiler(ValueCompiler):
                 else:
                     if instr.target.is_block:
                         self.err(f"{instr.op} {instr.target} on a block", pos, str(instr.target),
-                                 "a bit; a block's inputs are R / S / CU / CD / IN pins")
+                                 "a bit; a block's inputs are R / S / CU / CD / IN pins",
+                                 code=Code.BLOCK)
                         continue
                     value = "1" if instr.op == "S" else "0"
                     if a.code in ("1", "True"):
@@ -248,46 +239,47 @@ class Compiler(ValueCompiler):
             elif isinstance(instr, A.SRCall):
                 a = need(instr)
                 if instr.number not in ctx["subroutines"]:
-                    self.err(f"SR{instr.number} is called but not defined", pos,
-                             f"SR{instr.number}", f"a subroutine 'SR{instr.number}:' after END")
-                    continue
+                    continue  # reported by the resolve pass
                 if acc_used_later(k) or self.debug:
                     a = acc = self.materialize(a)
-                call = f"yield from _sr{instr.number}()" if self.debug else \
-                    f"_sr{instr.number}()"
+                sr = Names.subroutine(instr.number)
+                call = f"yield from {sr}()" if self.debug else f"{sr}()"
                 self.conditional(a.code, call)
             elif isinstance(instr, A.Return):
                 if ctx["function"] == "main":
-                    self.err("RET outside a subroutine", pos, instr.op, "END in the main program")
+                    self.err("RET outside a subroutine", pos, instr.op, "END in the main program",
+                             code=Code.CONTROL)
                     continue
                 self.end_like(instr.op, acc, "RET", "return")
             elif isinstance(instr, A.End):
                 if ctx["function"] != "main":
-                    self.err(f"{instr.op} inside a subroutine", pos, instr.op, "RET")
+                    self.err(f"{instr.op} inside a subroutine", pos, instr.op, "RET",
+                             code=Code.CONTROL)
                     continue
                 self.end_like(instr.op, acc, "END", ctx["end_code"])
             elif isinstance(instr, A.Nop):
                 pass
             elif isinstance(instr, A.Blk):
                 if blk is not None:
-                    self.err("BLK inside a BLK", pos, "BLK", "END_BLK first")
+                    self.err("BLK inside a BLK", pos, "BLK", "END_BLK first", code=Code.STRUCTURE)
                 if not instr.block.is_block:
                     self.err(f"BLK {instr.block}: not a function block", pos, str(instr.block),
-                             "%TM, %C, %DR, %SBR, %SC or %R")
+                             "%TM, %C, %DR, %SBR, %SC or %R", code=Code.BLOCK)
                     continue
                 blk, blk_pins, blk_phase = instr.block, {}, "in"
-                self.block_name(blk, pos)
+                self.block_name(blk)
                 acc = None
             elif isinstance(instr, A.OutBlk):
                 if blk is None:
                     self.err("OUT_BLK outside a BLK ... END_BLK block", pos, "OUT_BLK",
-                             "BLK %TMi (or another block) before it")
+                             "BLK %TMi (or another block) before it", code=Code.OUTSIDE_BLK)
                     continue
                 close_block_inputs()
                 acc = None
             elif isinstance(instr, A.EndBlk):
                 if blk is None:
-                    self.err("END_BLK without BLK", pos, "END_BLK", "BLK before it")
+                    self.err("END_BLK without BLK", pos, "END_BLK", "BLK before it",
+                             code=Code.OUTSIDE_BLK)
                     continue
                 close_block_inputs()
                 blk, blk_phase = None, ""
@@ -299,16 +291,18 @@ class Compiler(ValueCompiler):
             elif isinstance(instr, A.Grafcet):
                 self.grafcet(instr, acc, ctx)
             else:  # pragma: no cover - the parser makes no other nodes
-                self.err(f"unsupported instruction {instr}", pos, "", "an instruction")
+                self.err(f"unsupported instruction {instr}", pos, "", "an instruction",
+                         code=Code.OTHER)
             if self.debug and acc is not None:
                 acc = self.materialize(acc)
-                self.use("_LOG")
-                self.emit(f"_LOG[{rung.index}][{k}] = {acc.code}")
+                self.use(Names.LOG)
+                self.emit(f"{Names.LOG}[{rung.index}][{k}] = {acc.code}")
         if parens:
-            self.err("'(' not closed before the end of the rung", parens[-1][3], "", "')'")
+            self.err("'(' not closed before the end of the rung", parens[-1][3], "", "')'",
+                     code=Code.NOT_CLOSED)
         if blk is not None:
             self.err(f"BLK {blk} not closed", rung.instructions[0].pos
-                     if rung.instructions else None, "", "END_BLK")
+                     if rung.instructions else None, "", "END_BLK", code=Code.NOT_CLOSED)
         if len(self.fn.lines) == body_start:  # e.g. a lone LD in a step: keep `if` valid
             self.indent = base_indent
             self.emit("pass")
@@ -330,7 +324,7 @@ class Compiler(ValueCompiler):
             self.emit(code)
             return
         if acc is None:
-            self.err(f"{op} needs a preceding load", None, op, "LD before it")
+            self.err(f"{op} needs a preceding load", None, op, "LD before it", code=Code.NEEDS_LOAD)
             return
         cond = f"not ({acc.code})" if op.endswith("CN") else acc.code
         self.emit(f"if {cond}:")
@@ -341,22 +335,23 @@ class Compiler(ValueCompiler):
         target = instr.block or blk
         if target is None:
             self.err(f"input {instr.name} outside a BLK and without a block", instr.pos,
-                     instr.name, f"BLK ... {instr.name} ... END_BLK, or {instr.name} %C0")
+                     instr.name, f"BLK ... {instr.name} ... END_BLK, or {instr.name} %C0",
+                     code=Code.OUTSIDE_BLK)
             return
         allowed = BLOCK_KIND_PINS.get(target.kind, ())
         if instr.name not in allowed:
             self.err(f"%{target.kind} has no input {instr.name}", instr.pos, instr.name,
-                     ", ".join(allowed))
+                     ", ".join(allowed), code=Code.BLOCK)
             return
         if instr.block is None:  # inside BLK: remember, run at OUT_BLK / END_BLK
             if phase != "in":
                 self.err(f"input {instr.name} after OUT_BLK", instr.pos, instr.name,
-                         "inputs between BLK and OUT_BLK")
+                         "inputs between BLK and OUT_BLK", code=Code.AFTER_OUT_BLK)
                 return
             a = self.materialize(acc)
             pins[instr.name] = a.code
             return
-        b = self.block_name(target, instr.pos)
+        b = self.block_name(target)
         method = BLOCK_PIN_METHODS[instr.name]
         self.emit(f"{b}.{method}({acc.code})")
 
@@ -368,14 +363,15 @@ class Compiler(ValueCompiler):
         cur = ctx.get("step")
         if cur is None:
             self.err(f"{instr.op} outside a Grafcet step", instr.pos, instr.op,
-                     "a step first (=*= i or -*- i)")
+                     "a step first (=*= i or -*- i)", code=Code.STEP)
             return
-        self.use("_GA", "_GD")
+        ga, gd = Names.ACTIVATE, Names.DEACTIVATE
+        self.use(ga, gd)
         if instr.op == "#":
-            stmts = [f"_GD.append({cur})"] + ([f"_GA.append({instr.step})"]
+            stmts = [f"{gd}.append({cur})"] + ([f"{ga}.append({instr.step})"]
                                                if instr.step is not None else [])
         else:  # "#D i": deactivate step i and the current step [manual, unsure]
-            stmts = [f"_GD.append({cur})", f"_GD.append({instr.step})"]
+            stmts = [f"{gd}.append({cur})", f"{gd}.append({instr.step})"]
         code = acc.code if acc is not None else "1"
         if code not in ("1", "True"):
             self.emit(f"if {code}:")
@@ -390,25 +386,21 @@ class Compiler(ValueCompiler):
     def jump(self, instr: A.Jump, acc: _Acc | None, ctx: dict[str, Any], rung: A.Rung) -> None:
         labels = ctx["labels"]
         if instr.label not in labels:
-            where = ctx["all_labels"].get(instr.label)
-            msg = (f"%L{instr.label} is in {where}; a jump cannot leave its program or "
-                   f"subroutine") if where else f"unknown label %L{instr.label}"
-            self.err(msg, instr.pos, f"%L{instr.label}",
-                     f"a label %L{instr.label}: in the same program or subroutine")
-            return
+            return  # reported by the resolve pass
         target = labels[instr.label]
         here = ctx["block_of"][rung.index]
         stmts = [f"_pc = {target}"]
         if target <= here:  # backward: a loop, watch the watchdog
-            self.use("_wd")
-            stmts += ["_n += 1", "if not _n & 1023 and _wd():", "    raise _Watchdog()"]
+            self.use(Names.WATCHDOG)
+            stmts += ["_n += 1", f"if not _n & 1023 and {Names.WATCHDOG}():",
+                      f"    raise {Names.WATCHDOG_EXC}()"]
         stmts.append("continue")
         if instr.op == "JMP":
             cond = "1"
         else:
             if acc is None:
                 self.err(f"{instr.op} needs a preceding load", instr.pos, instr.op,
-                         "LD before it (or JMP, unconditional)")
+                         "LD before it (or JMP, unconditional)", code=Code.NEEDS_LOAD)
                 return
             cond = acc.code if instr.op == "JMPC" else f"not ({acc.code})"
         if cond != "1":
@@ -427,18 +419,14 @@ class Compiler(ValueCompiler):
         blocks: list[list[A.Rung]] = [[]]
         for r in rungs:
             if r.label is not None:
-                if r.label in labels or r.label in ctx["seen_labels"]:
-                    self.err(f"label %L{r.label} defined twice",
-                             A.Pos(r.label_line or r.first_line, 1),
-                             f"%L{r.label}:", "each label defined once")
                 if blocks[-1]:
                     blocks.append([])
-                labels[r.label] = len(blocks) - 1
-                ctx["seen_labels"].add(r.label)
+                labels.setdefault(r.label, len(blocks) - 1)  # a second one is reported
             blocks[-1].append(r)
             block_of[r.index] = len(blocks) - 1
         ctx = dict(ctx, labels=labels, block_of=block_of, function=name,
-                   end_code="return" if not ctx.get("grafcet") else "_gpost(); return")
+                   end_code="return" if not ctx.get("grafcet") else
+                   f"{Names.GRAFCET_POST}(); return")
         dispatch = any(isinstance(i, A.Jump) for r in rungs for i in r.instructions)
         self.indent = 1
         if dispatch:
@@ -460,22 +448,20 @@ class Compiler(ValueCompiler):
                         if step is None:
                             if not ctx.get("pre_done"):  # end of preprocessing:
                                 ctx["pre_done"] = True  # %S21-%S23 act here [manual]
-                                self.use("_gpre", "_S")
-                                self.emit(" or ".join(f"_S[{b}]" for b in GRAFCET_BITS)
+                                s = Names.BIT["S"]
+                                self.use(Names.GRAFCET_PRE, s)
+                                self.emit(" or ".join(f"{s}[{b}]" for b in GRAFCET_BITS)
                                           .join(("if ", ":")))  # rarely set: skip the call
-                                self.emit("    _gpre()")
-                            self.use("_X")
-                            self.emit("_XS = bytes(_X)")
+                                self.emit(f"    {Names.GRAFCET_PRE}()")
+                            self.use(Names.BIT["X"])
+                            self.emit(f"{Names.STEPS_AT_START} = bytes({Names.BIT['X']})")
                     if marker.op == "POST":
-                        self.use("_gpost")
-                        self.emit("_gpost()")
+                        self.use(Names.GRAFCET_POST)
+                        self.emit(f"{Names.GRAFCET_POST}()")
                         step = None
                         ctx["post_done"] = True
                     else:
-                        step = marker.step
-                        if step is not None and step >= self.counts["X"]:
-                            self.err(f"Grafcet step {step} beyond %X{self.counts['X'] - 1}",
-                                     marker.pos, str(step), f"0 .. {self.counts['X'] - 1}")
+                        step = marker.step  # beyond %X: reported by the resolve pass
                     if self.debug:
                         self.emit(f"yield ({r.index}, 0)")
                     continue
@@ -488,8 +474,8 @@ class Compiler(ValueCompiler):
             self.emit("return")
         if name == "main" and ctx.get("grafcet") and not ctx.get("post_done"):
             self.indent = 1
-            self.use("_gpost")
-            self.emit("_gpost()")
+            self.use(Names.GRAFCET_POST)
+            self.emit(f"{Names.GRAFCET_POST}()")
         return fn
 
     def render(self, fn: _Fn, fname: str) -> str:
@@ -501,46 +487,39 @@ class Compiler(ValueCompiler):
         return f"def {fname}({args}):\n" + "\n".join(body) + "\n"
 
 
-def compile_program(program: A.Program, env: dict[str, Any], counts: dict[str, int],
-                    debug: bool = False, forced: frozenset[Ref] = frozenset()
-                    ) -> CompiledProgram:
-    """Generate, check and exec the program. Raises CompileError with every problem.
-    Stores to the `forced` bits are left out, so forcing holds all through a scan."""
-    c = Compiler(program, env, counts, debug, forced)
-    subs = program.subroutines
-    all_labels: dict[int, str] = {}
-    for r in program.rungs:
-        if r.label is not None:
-            all_labels.setdefault(r.label, f"SR{r.subroutine}" if r.subroutine is not None
-                                  else "the main program")
-    grafcet = any(isinstance(i, A.Grafcet) for r in program.rungs for i in r.instructions)
-    for n in subs:
-        if n >= counts["SR"]:
-            c.err(f"SR{n} beyond the {counts['SR']} subroutines of the profile",
-                  A.Pos(program.subroutine(n)[0].first_line, 1), f"SR{n}:",
-                  f"SR0 .. SR{counts['SR'] - 1}")
-    base_ctx = {"subroutines": set(subs), "all_labels": all_labels, "seen_labels": set(),
-                "grafcet": grafcet}
-    for r in program.rungs:
-        if r.label is not None and r.label >= counts["L"]:
-            c.err(f"label %L{r.label} beyond %L{counts['L'] - 1}",
-                  A.Pos(r.label_line or r.first_line, 1), f"%L{r.label}:",
-                  f"%L0 .. %L{counts['L'] - 1}")
+def compile_program(program: A.Program, resolved: Resolved, env: dict[str, Any],
+                    state: ProgramState, counts: dict[str, int], debug: bool = False,
+                    forced: frozenset[Ref] = frozenset(),
+                    diagnostics: list[Diagnostic] = ()) -> CompiledProgram:
+    """Generate and exec the program in namespace `env` (see `program.bind`), with edge
+    memory and Grafcet transitions in `state`. `resolved` is the resolve pass's result and
+    `diagnostics` the problems found allocating what it lists: raises CompileError with
+    every problem. Stores to the `forced` bits are left out, so forcing holds all through
+    a scan."""
+    c = Compiler(program, counts, debug, forced)
+    c.env = env
+    c.diags.extend(resolved.diags)
+    c.diags.extend(diagnostics)
+    base_ctx = {"subroutines": set(resolved.subroutines), "grafcet": resolved.grafcet}
     parts = []
-    for n in subs:
-        fn = c.function(f"SR{n}", program.subroutine(n), dict(base_ctx, seen_labels=set()))
-        parts.append(c.render(fn, f"_sr{n}"))
+    for n in resolved.subroutines:
+        fn = c.function(f"SR{n}", program.subroutine(n), dict(base_ctx))
+        parts.append(c.render(fn, Names.subroutine(n)))
     fn = c.function("main", program.main, base_ctx)
-    parts.append(c.render(fn, "_main"))
+    parts.append(c.render(fn, Names.MAIN))
     if c.diags:
         uniq = sorted(set(c.diags), key=lambda d: (d.line, d.column, d.message))
         raise CompileError(uniq)
+    edges = next(c.edge)
+    if edges > resolved.edges:  # the two passes must agree on what is an edge instruction
+        raise CompileError(Diagnostic(f"internal: {edges} edge instructions generated, "
+                                      f"{resolved.edges} resolved", program.file,
+                                      code=Code.OTHER))
     source = "\n".join(parts)
     ns = dict(env)
-    ns["_Watchdog"] = Watchdog
     if debug:
-        ns["_LOG"] = [[None] * len(r.instructions) for r in program.rungs]
+        ns[Names.LOG] = [[None] * len(r.instructions) for r in program.rungs]
     code = compile(source, f"<softplc:{program.file}>", "exec")
     exec(code, ns)
-    return CompiledProgram(program, source, ns["_main"], ns, debug, ns.get("_LOG", []),
-                           c.ninstr)
+    return CompiledProgram(program, source, ns[Names.MAIN], ns, state, debug,
+                           ns.get(Names.LOG, []), c.ninstr)

@@ -13,30 +13,26 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..address import BLOCK_FIELDS, BOOL, INT16, INT32, REAL, Ref
-from ..errors import Diagnostic
+from ..errors import Code, Diagnostic
 from ..il import ast as A
-from ..runtime.blocks import BLOCK_CLASSES
-from ..semantics import FUNCTIONS
+from ..program import Names
+from ..runtime.blocks import BLOCK_CLASSES, MAX_VALUE
+from ..semantics import COMPARE_PY, FUNCTIONS
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
-CMP = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
-BIT_BUFFERS = {"I": "_I", "Q": "_Q", "M": "_M", "S": "_S", "X": "_X"}
-WORD_BUFFERS = {"MW": "_MW", "KW": "_KW", "SW": "_SW", "IW": "_IW", "QW": "_QW"}
-PAIR_VIEWS = {"MD": ("_MDE", "_MDO"), "KD": ("_KDE", "_KDO"),
-              "MF": ("_MFE", "_MFO"), "KF": ("_KFE", "_KFO")}
-FAMILY = {"MW": "_MWF", "MD": "_MWF", "MF": "_MWF", "KW": "_KWF", "KD": "_KWF",
-          "KF": "_KWF", "SW": "_SWF"}
-FLOAT_FUNCS = {"SQRT": "_fsqrt", "ABS": "_fabs", "TRUNC": "_ftrunc", "LOG": "_flog",
-               "LN": "_fln", "EXP": "_fexp", "EXPT": "_fexpt", "SIN": "_fsin",
-               "COS": "_fcos", "TAN": "_ftan", "ASIN": "_fasin", "ACOS": "_facos",
-               "ATAN": "_fatan", "DEG_TO_RAD": "_fdeg_to_rad", "RAD_TO_DEG": "_frad_to_deg"}
-BLOCK_PIN_METHODS = {"IN": "run", "R": "r", "S": "s", "CU": "cu", "CD": "cd", "U": "u",
-                     "I": "i", "O": "o"}
+CMP = COMPARE_PY
+BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
+# Float functions: the helper is "f" + the function name in lower case (semantics.Ops.fsqrt)
+FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SIN", "COS",
+                         "TAN", "ASIN", "ACOS", "ATAN", "DEG_TO_RAD", "RAD_TO_DEG"})
+# Short form (`CU %C0`): the block method of each input pin (see blocks.Block: `run` for a
+# timer's IN, else the pin's name in lower case).
+BLOCK_PIN_METHODS = {pin: "run" if pin == "IN" else pin.lower()
+                     for cls in BLOCK_CLASSES.values() for pin in cls.PINS}
 # A block's input pins (as its class declares them) and its bit outputs (its bit fields).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
 BLOCK_OUTPUTS = {kind: tuple(f for f, (t, _w) in fields.items() if t == BOOL)
                  for kind, fields in BLOCK_FIELDS.items() if fields}
-FAMILY_COUNT = {"MD": "MW", "MF": "MW", "KD": "KW", "KF": "KW"}
 
 
 @dataclass
@@ -63,11 +59,10 @@ class _Fn:
 class ValueCompiler:
     """Shared state of one compilation, diagnostics, emission, object access, expressions."""
 
-    def __init__(self, program: A.Program, env: dict[str, Any], profile_counts: dict[str, int],
+    def __init__(self, program: A.Program, profile_counts: dict[str, int],
                  debug: bool = False, forced: frozenset[Ref] = frozenset()):
         self.program = program
         self.forced = forced  # bits the program may not change (forced from outside)
-        self.env = env  # name -> object for the generated namespace
         self.counts = profile_counts
         self.debug = debug
         self.diags: list[Diagnostic] = []
@@ -76,18 +71,27 @@ class ValueCompiler:
         self.fn: _Fn
         self.indent = 1
         self.ninstr = 0
+        self.env: dict[str, Any] = {}  # the bound names (`program.bind`): configured PIDs
 
     # ---- diagnostics ----------------------------------------------------------------------
-    def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "") -> None:
+    def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "",
+            code: Code = Code.OTHER) -> None:
         p = pos or A.NOPOS
         if not text and p.line:
             lines = self.program.source.splitlines()
             text = lines[p.line - 1].strip() if p.line <= len(lines) else ""
-        self.diags.append(Diagnostic(msg, self.program.file, p.line, p.column, text, expected))
+        self.diags.append(Diagnostic(msg, self.program.file, p.line, p.column, text, expected,
+                                     code))
 
     # ---- emission helpers -----------------------------------------------------------------
     def use(self, *names: str) -> None:
         self.fn.names.update(names)
+
+    def helper(self, name: str) -> str:
+        """The bound name of the instruction helper `semantics.Ops.<name>`, used."""
+        bound = Names.helper(name)
+        self.use(bound)
+        return bound
 
     def emit(self, line: str) -> None:
         self.fn.lines.append("    " * self.indent + line)
@@ -103,16 +107,9 @@ class ValueCompiler:
         return _Acc(t)
 
     # ---- object access --------------------------------------------------------------------
-    def block_name(self, ref: Ref, pos: A.Pos | None) -> str:
-        name = f"_{ref.kind}{ref.index}"
-        if name not in self.env:
-            factory = self.env["_block_factory"]
-            problem = factory(ref)
-            if problem:
-                self.err(problem, pos, str(ref), "a configured block within the profile")
-                self.env[name] = None
-            else:
-                self.env[name] = self.env["_mem"].blocks[ref.kind][ref.index]
+    def block_name(self, ref: Ref) -> str:
+        """The bound name of a block (the resolve pass collected it, the PLC allocated it)."""
+        name = Names.block(ref.kind, ref.index)
         self.use(name)
         return name
 
@@ -120,22 +117,12 @@ class ValueCompiler:
         """Index expression for a possibly indexed object."""
         if ref.offset is None:
             return str(ref.index)
-        self.use("_ix", "_MW")
-        return f"_ix({ref.index}, _MW[{ref.offset.index}], {count})"
-
-    def io_check(self, ref: Ref, pos: A.Pos | None) -> None:
-        """Expansion-module I/O exists when the configuration lists modules; the scan
-        boundary copies cover every module the program uses."""
-        if ref.kind in ("I", "Q", "IW", "QW"):
-            if ref.kind in ("I", "Q"):
-                self.env["_mem"].use_io(ref)
-            problem = self.env["_io_check"](ref)
-            if problem:
-                self.err(problem, pos, str(ref), "an I/O channel of a configured module")
+        ix, mw = self.helper("ix"), WORD_BUFFERS["MW"]
+        self.use(mw)
+        return f"{ix}({ref.index}, {mw}[{ref.offset.index}], {count})"
 
     def read_bit(self, ref: Ref, pos: A.Pos | None) -> str:
         k = ref.kind
-        self.io_check(ref, pos)
         if k in BIT_BUFFERS:
             buf = BIT_BUFFERS[k]
             self.use(buf)
@@ -147,13 +134,13 @@ class ValueCompiler:
             self.use(buf)
             return f"({buf}[{ref.index}] >> {ref.bit} & 1)"
         if ref.type == BOOL and ref.kind in BLOCK_OUTPUTS or ref.field == "J":
-            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            b = self.block_name(Ref(ref.kind, ref.index))
             if ref.field == "J":
                 return f"{b}.bit({ref.bit})"
             return f"{b}.{ref.field}"
         self.err(f"{ref} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
                  f"a bit (%I, %Q, %M, %S, %MWi:Xk, block output) or a comparison block "
-                 f"such as [ {ref} <> 0 ]")
+                 f"such as [ {ref} <> 0 ]", code=Code.BLOCK)
         return "0"
 
     def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[str, str]:
@@ -162,26 +149,25 @@ class ValueCompiler:
         if ref.length is not None and k in BIT_BUFFERS and ref.offset is None:
             if ref.length > 32:  # a bit string read as a word (<= 16) or double word
                 self.err(f"{ref}: a bit string of {ref.length} bits", pos, str(ref),
-                         "at most 16 bits for a word, 32 for a double word")
+                         "at most 16 bits for a word, 32 for a double word", code=Code.TYPE)
                 return "0", INT16
-            h = "_bitstr16" if ref.length <= 16 else "_bitstr32"
-            self.io_check(ref, pos)
-            self.use(h, BIT_BUFFERS[k])
+            h = self.helper("bitstr16" if ref.length <= 16 else "bitstr32")
+            self.use(BIT_BUFFERS[k])
             return f"{h}({BIT_BUFFERS[k]}, {ref.index}, {ref.length})", \
                 INT16 if ref.length <= 16 else INT32
         if ref.length is not None:
             self.err(f"{ref}: a word table cannot be used in an expression", pos, str(ref),
-                     "a single word, double word or float, or a bit string %Mi:L")
+                     "a single word, double word or float, or a bit string %Mi:L", code=Code.TYPE)
             return "0", INT16
         if ref.bit is not None or ref.type == BOOL:
             self.err(f"{ref} is a bit, not a number", pos, str(ref),
-                     "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)")
+                     "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)",
+                     code=Code.TYPE)
             return "0", INT16
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
-            if k in ("IW", "QW"):
-                self.io_check(ref, pos)
+            if k in ("IW", "QW"):  # the resolve pass checked the module (PLC._allocate)
                 return f"{buf}[{ref.index}]", INT16
             return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
         if k in PAIR_VIEWS:
@@ -189,7 +175,7 @@ class ValueCompiler:
             if ref.offset is not None:
                 fam = FAMILY[k]
                 self.use(fam)
-                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                idx = self.index_code(ref, self.counts[k[0] + "W"] - 1)  # of the word family
                 return f"{fam}.get_{'f' if typ == REAL else 'd'}({idx})", typ
             view = PAIR_VIEWS[k][ref.index & 1]
             self.use(view)
@@ -197,12 +183,12 @@ class ValueCompiler:
         if k in BLOCK_OUTPUTS or k in ("TM", "C", "DR", "R"):
             if ref.field is None:
                 self.err(f"{ref} is a function block, not a value", pos, str(ref),
-                         f"a field of it, such as {ref}.V or {ref}.P")
+                         f"a field of it, such as {ref}.V or {ref}.P", code=Code.TYPE)
                 return "0", INT16
-            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            b = self.block_name(Ref(ref.kind, ref.index))
             return f"{b}.{ref.field}", INT16
         self.err(f"{ref} cannot be used in an expression", pos, str(ref),
-                 "a word, double word or float")
+                 "a word, double word or float", code=Code.TYPE)
         return "0", INT16
 
     def check_writable(self, ref: Ref, pos: A.Pos | None) -> bool:
@@ -212,7 +198,8 @@ class ValueCompiler:
                     "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
                 ref.kind, "read-only")
             self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
-                     "a writable object (%Q, %M, %MW, %MD, %MF, %TMi.P, %Ci.P...)")
+                     "a writable object (%Q, %M, %MW, %MD, %MF, %TMi.P, %Ci.P...)",
+                     code=Code.READ_ONLY)
             return False
         return True
 
@@ -220,7 +207,6 @@ class ValueCompiler:
         """Emit `ref := value` for a bit target."""
         if not self.check_writable(ref, pos):
             return
-        self.io_check(ref, pos)
         if ref in self.forced:  # a forced bit keeps its value all through the scan
             self.emit(f"pass  # {ref} is forced")
             return
@@ -231,17 +217,17 @@ class ValueCompiler:
             idx = str(ref.index) if k in ("I", "Q") else self.index_code(ref, self.counts[k])
             self.emit(f"{buf}[{idx}] = {value}")
         elif ref.field == "J":  # %SBRi.j, %SCi.j
-            b = self.block_name(Ref(k, ref.index), pos)
+            b = self.block_name(Ref(k, ref.index))
             self.emit(f"{b}.set_bit({ref.bit}, {value})")
         elif ref.bit is not None and k in WORD_BUFFERS:
-            u = "_U" + WORD_BUFFERS[k][1:]
+            u = Names.UWORD[k]
             self.use(u)
             mask = 1 << ref.bit
             self.emit(f"{u}[{ref.index}] = ({u}[{ref.index}] | {mask}) if {value} else "
                       f"({u}[{ref.index}] & {0xFFFF ^ mask})")
         else:
             self.err(f"{ref} is not a bit that can be stored to", pos, str(ref),
-                     "%Q, %M, %S, %X or %MWi:Xk")
+                     "%Q, %M, %S, %X or %MWi:Xk", code=Code.TYPE)
 
     # ---- expressions ----------------------------------------------------------------------
     def expr(self, e: A.Expr, want: str | None = None) -> tuple[str, str]:
@@ -257,7 +243,7 @@ class ValueCompiler:
             if want == INT32 or not -32768 <= v <= 32767:
                 if not -2147483648 <= v <= 2147483647:
                     self.err(f"constant {e.text or v} does not fit 32 bits", e.pos,
-                             e.text or str(v), "-2147483648 .. 2147483647")
+                             e.text or str(v), "-2147483648 .. 2147483647", code=Code.CONSTANT)
                 return str(v), INT32
             return str(v), INT16
         if isinstance(e, A.Addr):
@@ -266,15 +252,14 @@ class ValueCompiler:
             code, t = self.expr(e.operand, want)
             if t == REAL:
                 return f"(-{code})", REAL
-            h = "_neg16" if t == INT16 else "_neg32"
-            self.use(h)
+            h = self.helper("neg16" if t == INT16 else "neg32")
             return f"{h}({code})", t
         if isinstance(e, A.BinOp):
             return self.binop(e, want)
         if isinstance(e, A.Call):
             return self.call(e, want)
         self.err("unsupported expression", getattr(e, "pos", None), "",
-                 "a number, an object, an operator or a function")
+                 "a number, an object, an operator or a function", code=Code.OTHER)
         return "0", INT16
 
     def unify(self, a: tuple[str, str], b: tuple[str, str], pos: A.Pos | None,
@@ -286,7 +271,7 @@ class ValueCompiler:
             self.err(f"{what} mixes a float with a {'word' if INT16 in (ta, tb) else 'double word'}"
                      f" without conversion", pos, "",
                      "operands of one type: convert with INT_TO_REAL, DINT_TO_REAL, "
-                     "REAL_TO_INT or REAL_TO_DINT")
+                     "REAL_TO_INT or REAL_TO_DINT", code=Code.TYPE)
             return None
         return INT32
 
@@ -308,23 +293,22 @@ class ValueCompiler:
         if e.op in ("AND", "OR", "XOR"):
             if t == REAL:
                 self.err(f"word logic {e.op} needs words, not floats", e.pos, e.op,
-                         "words or double words")
+                         "words or double words", code=Code.TYPE)
                 return self.poison(want)
             py = {"AND": "&", "OR": "|", "XOR": "^"}[e.op]
             return f"({a[0]} {py} {b[0]})", t
         if e.op not in ARITH:
-            self.err(f"unknown operator {e.op}", e.pos, e.op, "+ - * / REM AND OR XOR")
+            self.err(f"unknown operator {e.op}", e.pos, e.op, "+ - * / REM AND OR XOR",
+                     code=Code.FUNCTION)
             return "0", t
         if t == REAL:
             if e.op == "REM":
-                self.err("REM on floats", e.pos, "REM", "words or double words")
+                self.err("REM on floats", e.pos, "REM", "words or double words", code=Code.TYPE)
                 return "0", REAL
             if e.op == "/":
-                self.use("_fdiv")
-                return f"_fdiv({a[0]}, {b[0]})", REAL
+                return f"{self.helper('fdiv')}({a[0]}, {b[0]})", REAL
             return f"({a[0]} {e.op} {b[0]})", REAL
-        h = f"_{ARITH[e.op]}{16 if t == INT16 else 32}"
-        self.use(h)
+        h = self.helper(f"{ARITH[e.op]}{16 if t == INT16 else 32}")
         return f"{h}({a[0]}, {b[0]})", t
 
     @staticmethod
@@ -336,12 +320,12 @@ class ValueCompiler:
     def call(self, e: A.Call, want: str | None) -> tuple[str, str]:
         if e.func not in FUNCTIONS:
             self.err(f"unknown function {e.func}", e.pos, e.func,
-                     ", ".join(sorted(FUNCTIONS)))
+                     ", ".join(sorted(FUNCTIONS)), code=Code.FUNCTION)
             return self.poison(want)
         params, result = FUNCTIONS[e.func]
         if len(e.args) != len(params):
             self.err(f"{e.func} takes {len(params)} argument(s), got {len(e.args)}", e.pos,
-                     e.func, f"{len(params)} argument(s)")
+                     e.func, f"{len(params)} argument(s)", code=Code.FUNCTION)
             return self.poison(want)
         if params == ("table",):
             return self.table_function(e, want)
@@ -353,25 +337,25 @@ class ValueCompiler:
                     not (p == INT16 and isinstance(arg, A.Num) and t == INT16):
                 if {t, p} & {REAL} or p == INT16:
                     self.err(f"{e.func} takes a {self.tname(p)}, got a {self.tname(t)}",
-                             e.pos, e.func, f"a {self.tname(p)} argument")
+                             e.pos, e.func, f"a {self.tname(p)} argument", code=Code.TYPE)
             if p == "int" and t == REAL:
-                self.err(f"{e.func} on a float", e.pos, e.func, "a word or double word")
+                self.err(f"{e.func} on a float", e.pos, e.func, "a word or double word",
+                         code=Code.TYPE)
             args.append((code, t))
         t0 = args[0][1]
         f = e.func
         if f in ("SHL", "SHR", "ROL", "ROR"):
-            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+            h = self.helper(f"{f.lower()}{16 if t0 == INT16 else 32}")
         elif f == "NOT":
             return f"(~{args[0][0]})", t0
         elif f in ("SQRT", "ABS") and t0 != REAL:
-            h = f"_{f.lower()}{16 if t0 == INT16 else 32}"
+            h = self.helper(f"{f.lower()}{16 if t0 == INT16 else 32}")
         elif f in FLOAT_FUNCS:
-            h = FLOAT_FUNCS[f]
+            h = self.helper("f" + f.lower())
         elif f in ("INT_TO_REAL", "DINT_TO_REAL"):
             return f"float({args[0][0]})", REAL
         else:  # REAL_TO_INT / REAL_TO_DINT, BCD and Gray conversions
-            h = "_" + f.lower()
-        self.use(h)
+            h = self.helper(f.lower())
         rtype = t0 if result == "same" else result
         return f"{h}({', '.join(c for c, _ in args)})", rtype
 
@@ -382,20 +366,20 @@ class ValueCompiler:
         if not (isinstance(arg, A.Addr) and arg.ref.length and arg.ref.kind in kinds
                 and arg.ref.offset is None):
             self.err(f"{e.func} takes a table", e.pos, e.func,
-                     "a table such as %MW0:10, %MD0:5 or %MF0:5")
+                     "a table such as %MW0:10, %MD0:5 or %MF0:5", code=Code.FUNCTION)
             return self.poison(want)
         ref = arg.ref
         t = {"MW": INT16, "KW": INT16, "MD": INT32, "KD": INT32}.get(ref.kind, REAL)
         if e.func == "MEAN" and t != REAL:
-            self.err("MEAN takes a float table", e.pos, str(ref), "a table such as %MF0:5")
+            self.err("MEAN takes a float table", e.pos, str(ref), "a table such as %MF0:5",
+                     code=Code.TYPE)
             return self.poison(want)
-        self.use("_mem")
-        values = f"_mem.read({str(ref)!r})"
+        self.use(Names.MEM)
+        values = f"{Names.MEM}.read({str(ref)!r})"
         if e.func == "SUM":
-            h = {INT16: "_tsum16", INT32: "_tsum32", REAL: "_tsumf"}[t]
+            h = self.helper({INT16: "tsum16", INT32: "tsum32", REAL: "tsumf"}[t])
         else:
-            h = "_t" + e.func.lower()
-        self.use(h)
+            h = self.helper("t" + e.func.lower())
         return f"{h}({values})", t
 
     @staticmethod
@@ -405,13 +389,13 @@ class ValueCompiler:
     # ---- operation blocks -----------------------------------------------------------------
     def statement(self, st: A.Statement) -> None:
         if isinstance(st, A.PidCall):
-            name = f"_PID{st.number}"
+            name = Names.block("PID", st.number)
             if self.env.get(name) is None:
                 n = self.counts["PID"]
                 self.err(f"PID {st.number} is used but not configured" if st.number < n
                          else f"PID {st.number} beyond PID 0 .. PID {n - 1}", st.pos,
                          f"PID {st.number}", f"a [pid.{st.number}] table in the configuration"
-                         if st.number < n else f"PID 0 .. PID {n - 1}")
+                         if st.number < n else f"PID 0 .. PID {n - 1}", code=Code.BLOCK)
                 return
             self.use(name)
             self.emit(f"{name}.run()")
@@ -422,10 +406,10 @@ class ValueCompiler:
                 return
             code, t = self.read_word(ref, st.pos)
             if t == REAL:
-                self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word")
+                self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word",
+                         code=Code.TYPE)
                 return
-            h = ("_add" if st.op == "INC" else "_sub") + ("16" if t == INT16 else "32")
-            self.use(h)
+            h = self.helper(("add" if st.op == "INC" else "sub") + ("16" if t == INT16 else "32"))
             self.store_value(ref, f"{h}({code}, 1)", t, st.pos)
             return
         ref, e = st.target, st.expr
@@ -436,7 +420,8 @@ class ValueCompiler:
             return
         if ref.type == BOOL or ref.is_block:
             self.err(f"cannot assign to {ref} with :=", st.pos, str(ref),
-                     "a word, double word or float target (use ST / S / R for bits)")
+                     "a word, double word or float target (use ST / S / R for bits)",
+                     code=Code.TYPE)
             return
         _, tt = self.read_word(ref, st.pos)
         code, t = self.expr(e, tt)
@@ -444,21 +429,20 @@ class ValueCompiler:
             self.err(f"assignment of a {self.tname(t)} to the {self.tname(tt)} {ref} needs a "
                      f"conversion", st.pos, str(ref),
                      f"a {self.tname(tt)} value: INT_TO_REAL, DINT_TO_REAL, REAL_TO_INT, "
-                     f"REAL_TO_DINT convert")
+                     f"REAL_TO_DINT convert", code=Code.TYPE)
             return
         if tt == INT16 and t == INT32:
             if isinstance(e, A.Num):
                 self.err(f"constant {e.text or e.value} does not fit the word {ref}", st.pos,
-                         e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)")
+                         e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)",
+                         code=Code.CONSTANT)
                 return
-            self.use("_narrow16")
-            code = f"_narrow16({code})"
+            code = f"{self.helper('narrow16')}({code})"
         self.store_value(ref, code, tt, st.pos)
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind
         if k in ("IW", "QW"):
-            self.io_check(ref, pos)
             self.use(WORD_BUFFERS[k])
             self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
         elif k in WORD_BUFFERS:
@@ -469,50 +453,50 @@ class ValueCompiler:
             if ref.offset is not None:
                 fam = FAMILY[k]
                 self.use(fam)
-                idx = self.index_code(ref, self.counts[FAMILY_COUNT[k]] - 1)
+                idx = self.index_code(ref, self.counts[k[0] + "W"] - 1)  # of the word family
                 self.emit(f"{fam}.set_{'f' if t == REAL else 'd'}({idx}, {code})")
                 return
             view = PAIR_VIEWS[k][ref.index & 1]
             self.use(view)
             if t == REAL:
-                self.use("_stf")
-                self.emit(f"_stf({view}, {ref.index >> 1}, {code})")
+                self.emit(f"{self.helper('stf')}({view}, {ref.index >> 1}, {code})")
             else:
                 self.emit(f"{view}[{ref.index >> 1}] = {code}")
         elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
-            b = self.block_name(Ref(ref.kind, ref.index), pos)
+            b = self.block_name(Ref(ref.kind, ref.index))
             if ref.field == "P":
-                self.emit(f"{b}.P = min(max({code}, 0), 9999)")
+                self.emit(f"{b}.P = min(max({code}, 0), {MAX_VALUE})")
             else:
                 self.emit(f"{b}.{ref.field} = {code}")
         else:
             self.err(f"cannot assign to {ref}", pos, str(ref),
-                     "a word, double word, float or block preset")
+                     "a word, double word, float or block preset", code=Code.TYPE)
 
     def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
         """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,
         %MW3 := %M0:16 is handled by the caller as an expression error (rare)."""
-        self.use("_mem")
+        mem = Names.MEM
+        self.use(mem)
         if isinstance(e, A.Addr) and e.ref.length is not None:
             src = e.ref
             if src.length != ref.length:
                 self.err(f"table lengths differ: {ref} := {src}", pos, str(src),
-                         f"a table of {ref.length}")
+                         f"a table of {ref.length}", code=Code.TYPE)
                 return
-            self.emit(f"_mem.write({str(ref)!r}, _mem.read({str(src)!r}))")
+            self.emit(f"{mem}.write({str(ref)!r}, {mem}.read({str(src)!r}))")
             return
         if ref.kind == "M":
             code, t = self.expr(e, INT16)
             if t == REAL:
-                self.err("a bit string from a float", pos, str(ref), "a word value")
+                self.err("a bit string from a float", pos, str(ref), "a word value", code=Code.TYPE)
                 return
-            self.emit(f"_mem.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
+            self.emit(f"{mem}.write({str(ref)!r}, [({code}) >> _k & 1 for _k in "
                       f"range({ref.length})])")
             return
         _, tt = self.read_word(Ref(ref.kind, ref.index), pos)
         code, t = self.expr(e, tt)
         if (t == REAL) != (tt == REAL):
             self.err(f"table {ref} and value types differ", pos, str(ref),
-                     f"a {self.tname(tt)} value")
+                     f"a {self.tname(tt)} value", code=Code.TYPE)
             return
-        self.emit(f"_mem.write({str(ref)!r}, [{code}] * {ref.length})")
+        self.emit(f"{mem}.write({str(ref)!r}, [{code}] * {ref.length})")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import cmd
 import os
+import shutil
 import signal
 import sys
 from pathlib import Path
@@ -97,6 +98,7 @@ def run_repl(session: Session, intro: str = "", commands: list[str] | None = Non
     """Run commands given on the command line, then the interactive loop (unless one of
     them quit)."""
     repl = Repl(session)
+    session.width = shutil.get_terminal_size().columns
     for c in commands or []:
         repl.stdout.write(PROMPT + c + "\n")
         if repl.onecmd(c):

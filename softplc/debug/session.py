@@ -23,8 +23,9 @@ import difflib
 import math
 import re
 import struct
+import textwrap
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -33,46 +34,28 @@ from ..config import duration
 from ..errors import ConfigError, SoftPLCError
 from ..il import ast as A
 from ..il.parser import parse_file
-from ..il.printer import format_instruction
 from ..plc import PLC
+from ..semantics import COMPARE
 from . import ladder
+from .controller import (
+    HISTORY,
+    STOPS_A_COMMAND,
+    Breakpoint,
+    Controller,
+    Ran,
+    StopKind,
+)
 
-HISTORY = 1000  # scans kept for `back`
 CONTINUE_LIMIT = 100_000  # scans `continue` runs before giving up
 WORDS = ("MW", "KW", "SW")
 DWORDS = ("MD", "KD")
 FLOATS = ("MF", "KF")
-CMP_OPS = {"=": lambda a, b: a == b, "==": lambda a, b: a == b, "<>": lambda a, b: a != b,
-           "!=": lambda a, b: a != b, "<": lambda a, b: a < b, "<=": lambda a, b: a <= b,
-           ">": lambda a, b: a > b, ">=": lambda a, b: a >= b}
+CMP_OPS = {**COMPARE, "==": COMPARE["="], "!=": COMPARE["<>"]}  # as users also type them
 _COND = re.compile(r"^\s*(\S+)\s*(==|=|<>|!=|<=|>=|<|>)\s*(\S+)\s*$")
 
 
 class DebugError(SoftPLCError):
     """A command the debugger cannot do (bad argument, unknown rung...)."""
-
-
-@dataclasses.dataclass
-class Breakpoint:
-    id: int
-    kind: str  # rung | cond | watch
-    text: str  # as shown in the list
-    rung: int | None = None
-    key: str = ""  # how the rung was named (re-resolved after reload)
-    test: Callable[[], Any] | None = None  # cond: -> bool; watch: -> value
-    mode: str = ""  # cond: "" (becomes true) | rises | falls | changes
-    enabled: bool = True
-    hits: int = 0
-    last: Any = None
-
-
-@dataclasses.dataclass
-class Change:
-    scan: int
-    time: float
-    where: str
-    old: Any
-    new: Any
 
 
 def parse_value(text: str) -> int | float:
@@ -101,33 +84,22 @@ def parse_value(text: str) -> int | float:
     return v
 
 
-class Session:
-    """A debugging session over one PLC. `execute(line)` runs a command, returns text."""
+class Session(Controller):
+    """A debugging session over one PLC: the command layer over the stepping controller.
+    `execute(line)` runs a command, returns text."""
 
     def __init__(self, plc: PLC, program_path: str | Path | None = None,
                  history: int = HISTORY):
-        self.plc = plc
+        super().__init__(plc, history)
         self.path = Path(program_path) if program_path else None
-        self.dbg = plc.compile_debug()
-        self.dbg_version = plc.program_version
-        self.gen: Iterator[tuple[int, int]] | None = None
-        self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
-        self.ring: deque[dict[str, Any]] = deque(maxlen=history)
-        self.breaks: list[Breakpoint] = []
         self.next_id = 1
-        self.changes: dict[str, deque[Change]] = {}
-        self.pending: list[tuple[Ref, Any]] = []
+        self.width = 80  # of the text `help` wraps to (the REPL sets the terminal's)
         self.trace_file: Any = None
         self.trace_writer: Any = None
         self.trace_refs: list[Ref] = []
         self.done = False
-        self.interrupted = False
-        self.last_rung = 0
-        self.ran = ""  # what the last step ran, for the watch history
         self.continue_limit = CONTINUE_LIMIT
-        self._rung_bp: dict[int | None, Breakpoint] = {}
-        self._data = False
-        plc.before_scan.append(self._apply_pending)
+        self.scan_end_hooks.append(self._scan_done)
         self.commands: dict[str, tuple[Callable[[str], str], str]] = {}
         for name in dir(self):
             if name.startswith("cmd_"):
@@ -255,60 +227,6 @@ class Session:
         return s
 
     # ---- snapshots ----------------------------------------------------------------------------
-    def _edge(self) -> list[int]:
-        return self.plc.program.namespace.get("_EDGE", [])
-
-    def _snapshot(self) -> dict[str, Any]:
-        eng = self.plc.engine
-        devs = {}
-        for name, dev in self.plc.devices.items():
-            st = {}
-            for k, v in vars(dev).items():
-                if isinstance(v, (bool, int, float, str, tuple)) or v is None:
-                    st[k] = v
-                elif isinstance(v, list):  # append-only records (samples, events)
-                    st[k] = ("__len__", len(v))
-            devs[name] = st
-        return {"mem": self.plc.mem.snapshot(), "now": eng.clock.now_us,
-                "ts": getattr(eng.time_source, "now_us", 0),
-                "stats": dataclasses.replace(eng.stats), "first": dict(eng._first),
-                "state": (eng.state, eng.fault), "edge": list(self._edge()), "devs": devs,
-                "pending": list(self.pending)}
-
-    def _restore(self, snap: dict[str, Any]) -> None:
-        eng = self.plc.engine
-        self.plc.mem.restore(snap["mem"])
-        eng.clock.now_us = snap["now"]
-        if eng.time_source is not None:
-            eng.time_source.now_us = snap["ts"]
-        eng.stats = dataclasses.replace(snap["stats"])
-        eng._first = dict(snap["first"])
-        eng.state, eng.fault = snap["state"]
-        self._edge()[:] = snap["edge"]
-        self.pending = list(snap["pending"])
-        for name, st in snap["devs"].items():
-            dev = self.plc.devices[name]
-            for k, v in st.items():
-                if isinstance(v, tuple) and len(v) == 2 and v[0] == "__len__":
-                    lst = getattr(dev, k)
-                    del lst[v[1]:]
-                else:
-                    setattr(dev, k, v)
-        for name in ("_GA", "_GD"):  # Grafcet transitions of an abandoned scan
-            for ns in (self.plc.program.namespace, self.dbg.namespace):
-                if name in ns:
-                    ns[name].clear()
-        self.plc.grafcet.frozen = 0
-
-    # ---- running ---------------------------------------------------------------------------------
-    def _apply_pending(self) -> None:
-        pending, self.pending = self.pending, []
-        for ref, v in pending:
-            self.plc[str(ref)] = v
-
-    def _begin(self) -> None:
-        self.ring.append(self._snapshot())
-
     def _scan_done(self) -> None:
         if self.trace_writer is not None:
             self.trace_writer.writerow([self.plc.scan_count, f"{self.plc.time:.6f}"] +
@@ -318,181 +236,30 @@ class Session:
         v = self.read(ref)
         return int(v) if isinstance(v, bool) else v
 
-    def _tick(self) -> bool:
-        """One step of the debug build: enter a scan (stop before its first instruction) or
-        run the next instruction. True when a scan ended."""
-        if self.gen is None:
-            self._begin()
-            if self.dbg_version != self.plc.program_version:  # rebuilt (force, reload)
-                self.dbg = self.plc.compile_debug()
-                self.dbg_version = self.plc.program_version
-            self.gen = self.plc.engine.scan_stepwise(self.dbg.main)
-            self.ran = "scan start"
-        else:
-            r, k = self.pos
-            self.ran = f"rung {r} instr {k}"
-        try:
-            self.pos = next(self.gen)
-            self.last_rung = self.pos[0]
-            return False
-        except StopIteration:
-            self.gen, self.pos = None, None
-            self.ran += " + scan end" if self.ran != "scan start" else ""
-            self._scan_done()
-            return True
-
-    def _fast_scan(self) -> None:
-        self._begin()
-        self.plc.engine.scan()
-        self.ran = "scan"
-        self._scan_done()
-
-    def _check_data(self, commit: bool = True) -> list[str]:
-        """Watches and conditions after a step or a scan: messages of those that hit.
-        With commit False only tell whether one would hit (no state changes)."""
-        hits: list[str] = []
-        for b in self.breaks:
-            if b.kind == "rung" or b.test is None:
-                continue
-            try:
-                v = b.test()
-            except SoftPLCError:
-                continue
-            old = b.last
-            if not commit:
-                if b.enabled and (v != old if b.kind == "watch" or b.mode == "changes" else
-                                  (bool(old) and not v) if b.mode == "falls" else
-                                  (bool(v) and not old)):
-                    return ["hit"]
-                continue
-            b.last = v
-            if b.kind == "watch":
-                if v != old:
-                    self.changes.setdefault(b.text, deque(maxlen=HISTORY)).append(
-                        Change(self.plc.scan_count, self.plc.time, self.ran, old, v))
-                    if b.enabled:
-                        b.hits += 1
-                        hits.append(f"watch #{b.id} {b.text}: {old} -> {v} (in {self.ran})")
-            elif b.enabled:
-                hit = (b.mode in ("", "rises") and v and not old) or \
-                    (b.mode == "falls" and old and not v) or (b.mode == "changes" and v != old)
-                if hit:
-                    b.hits += 1
-                    hits.append(f"breakpoint #{b.id} when {b.text} (in {self.ran})")
-        return hits
-
-    def _hits(self) -> str:
-        hits = self._check_data() if self._data else []
-        if self.pos is not None and self.pos[1] == 0:
-            b = self._rung_bp.get(self.pos[0])
-            if b is not None:
-                b.hits += 1
-                hits.insert(0, f"breakpoint #{b.id} at {b.text}")
-        return "; ".join(hits)
-
-    def _arm(self) -> None:
-        """Index the breakpoints for the per-instruction checks of a run."""
-        self._rung_bp = {}
-        for b in self.breaks:
-            if b.kind == "rung" and b.enabled:
-                self._rung_bp.setdefault(b.rung, b)
-        self._data = any(b.kind != "rung" for b in self.breaks)
-
-    def _debug_scan(self) -> str:
-        """Run the debug build to the end of the scan (starting one if needed); a hit or an
-        interrupt stops it early. Returns why it stopped early, else ''."""
-        while True:
-            done = self._tick()
-            stop = self._hits()
-            if stop or done:
-                return stop
-            if self.interrupted:
-                return "interrupted"
-
-    def _run(self, scans: int | None, *, until_rung_change: bool = False,
-             one_instr: bool = False) -> str:
-        """The one driver. `scans`: whole scans to run after finishing the one in progress;
-        None: a step (one instruction, or to the next rung). Stops at breakpoints."""
-        self.interrupted = False
-        self._arm()
-        stop = ""
-        if scans is None:
-            start_rung = self.pos[0] if self.pos else None
-            while True:
-                done = self._tick()
-                stop = self._hits()
-                if stop:
-                    break
-                if done:
-                    stop = f"scan {self.plc.scan_count} complete"
-                    break
-                if one_instr or self.pos[0] != start_rung or self.interrupted:
-                    break
-        else:
-            if self.gen is not None:
-                stop = self._debug_scan()
-            remaining = scans
-            debug = bool(self._rung_bp)
-            while remaining > 0 and not stop:
-                if self.interrupted:
-                    stop = "interrupted"
-                elif debug or remaining == 1:  # the last scan feeds the power-flow view
-                    stop = self._debug_scan()
-                    if self.gen is None:
-                        remaining -= 1
-                else:
-                    self._fast_scan()
-                    if self._data and self._check_data(commit=False):
-                        # replay the scan on the debug build to stop where it happened
-                        self._restore(self.ring.pop())
-                        stop = self._debug_scan()
-                        if self.gen is None:
-                            remaining -= 1
-                    else:
-                        remaining -= 1
-                        stop = self._hits()
-        msgs = [stop] if stop else []
-        if self.plc.state != "RUN":
-            msgs.append(f"PLC in {self.plc.state}" + (f": {self.plc.fault}"
-                                                        if self.plc.fault else ""))
-        msgs.append(self._position())
-        return "\n".join(msgs)
-
-    def _position(self) -> str:
-        t = f"scan {self.plc.scan_count}, t = {self.plc.time:.3f} s"
-        if self.pos is None:
-            return f"[{t}] at the scan boundary"
-        r, k = self.pos
-        rung = self.plc.ast.rungs[r]
-        ins = rung.instructions[k] if k < len(rung.instructions) else None
-        text = format_instruction(ins) if ins is not None else ""
-        title = f" ({rung.title})" if rung.title else ""
-        return f"[{t}] before rung {r}{title} instr {k}: {text}"
-
     # ---- commands: execution -----------------------------------------------------------------
     def cmd_scan(self, arg: str) -> str:
         """scan [N]: finish the scan in progress, then run N more scans (default 1; 0 when a
         scan is in progress). Stops at breakpoints."""
         n = self._count(arg, 0 if self.gen is not None else 1)
-        return self._run(n)
+        return self.run_scans(n).text
 
     def cmd_step(self, arg: str) -> str:
         """step [N]: run to the start of the next rung (entering a scan if at the boundary)."""
-        out = ""
+        ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            out = self._run(None, until_rung_change=True)
-            if "breakpoint" in out or "watch" in out:
+            ran = self.step()
+            if ran.reason in STOPS_A_COMMAND:
                 break
-        return out
+        return ran.text
 
     def cmd_stepi(self, arg: str) -> str:
         """stepi [N]: run one instruction (entering a scan if at the boundary)."""
-        out = ""
+        ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            out = self._run(None, one_instr=True)
-            if "breakpoint" in out or "watch" in out:
+            ran = self.step_instruction()
+            if ran.reason in STOPS_A_COMMAND:
                 break
-        return out
+        return ran.text
 
     def cmd_run(self, arg: str) -> str:
         """run N | run Ts: run N scans (run 100) or T seconds of PLC time (run 2s, run 500ms).
@@ -510,7 +277,7 @@ class Session:
             n = max(1, round(secs / self.plc.scan_period))
         if self.gen is not None:
             n = max(0, n - 1)  # the scan in progress counts as one
-        return self._run(n)
+        return self.run_scans(n).text
 
     def cmd_continue(self, arg: str) -> str:
         """continue: run until a breakpoint or watch stops it (at most 100000 scans;
@@ -518,10 +285,10 @@ class Session:
         if not self.breaks or not any(b.enabled for b in self.breaks):
             raise DebugError("no breakpoint is enabled: continue would never stop "
                              "(use 'run N' or set one with 'break')")
-        out = self._run(self.continue_limit)
-        if "breakpoint" not in out and "watch" not in out and "interrupted" not in out:
-            out = f"no breakpoint hit in {self.continue_limit} scans\n" + out
-        return out
+        ran = self.run_scans(self.continue_limit)
+        if ran.reason not in STOPS_A_COMMAND:
+            return f"no breakpoint hit in {self.continue_limit} scans\n" + ran.text
+        return ran.text
 
     def _count(self, arg: str, default: int) -> int:
         if not arg:
@@ -541,24 +308,7 @@ class Session:
             return self._position()
         if n > len(self.ring):
             raise DebugError(f"only {len(self.ring)} scans of history")
-        if self.gen is not None:
-            self.gen.close()
-            self.gen, self.pos = None, None
-        snap = None
-        for _ in range(n):
-            snap = self.ring.pop()
-        queued = self.pending  # sets typed since the last scan stay queued
-        self._restore(snap)
-        self.pending += [q for q in queued if q not in self.pending]
-        for hist in self.changes.values():  # changes from the undone scans are gone
-            while hist and hist[-1].scan >= self.plc.scan_count:
-                hist.pop()
-        for b in self.breaks:
-            if b.test is not None:
-                try:
-                    b.last = b.test()
-                except SoftPLCError:
-                    pass
+        self.back(n)
         return self._position()
 
     # ---- commands: breakpoints -----------------------------------------------------------------
@@ -799,7 +549,7 @@ class Session:
         lines = []
         for i, t in sorted(tms.items()):
             lines.append(f"%TM{i:<3} {t.type:<3} base {t.base:<5} P={t.P:<5} V={t.V:<5} "
-                         f"Q={int(t.Q)} IN={int(t._in)}")
+                         f"Q={int(t.Q)} IN={int(t.last_in)}")
         return "\n".join(lines)
 
     def cmd_counters(self, arg: str) -> str:
@@ -959,8 +709,13 @@ class Session:
             return self.commands[name][1]
         lines = ["commands (help NAME for details):"]
         for name, (_, doc) in sorted(self.commands.items()):
-            lines.append(f"  {doc.splitlines()[0] if doc else name}")
-        lines.append("aliases: " + ", ".join(f"{a}={n}" for a, n in sorted(self.aliases.items())))
+            lines += textwrap.wrap(first_sentence(doc) if doc else name,
+                                   max(40, self.width - 1), initial_indent="  ",
+                                   subsequent_indent="      ",
+                                   break_on_hyphens=False)  # "auto-tuning" stays whole
+        lines += textwrap.wrap("aliases: " + ", ".join(f"{a}={n}" for a, n in
+                                                       sorted(self.aliases.items())),
+                               max(40, self.width - 1), subsequent_indent="  ")
         return "\n".join(lines)
 
     def cmd_quit(self, arg: str) -> str:
@@ -971,11 +726,15 @@ class Session:
 
     def close(self) -> None:
         self._close_trace()
-        if self.gen is not None:
-            self.gen.close()
-            self.gen = None
-        if self._apply_pending in self.plc.before_scan:
-            self.plc.before_scan.remove(self._apply_pending)
+        super().close()
+
+
+def first_sentence(doc: str) -> str:
+    """The first sentence of a docstring, whole, on one line ("e.g.", "i.e.", an ellipsis
+    and decimal points do not end it)."""
+    text = " ".join(doc.split("\n\n")[0].split())
+    m = re.search(r"(?<!\be\.g)(?<!\bi\.e)(?<!\.)\.(?=\s|$)", text)
+    return text[: m.end()] if m else text
 
 
 def diff_programs(old: A.Program, new: A.Program) -> list[str]:

@@ -26,6 +26,8 @@ from .base import Device, register_device
 
 @register_device("analog_source")
 class AnalogSource(Device):
+    STATE = ("value",)
+
     class Options(Section):
         input: Address
         value: FiniteFloat = 0.0

@@ -30,6 +30,10 @@ class Device:
     """Base class of simulated devices. `name` is the key in the machine config."""
 
     type_name = "device"
+    # The simulated state, declared by each device: attributes holding immutable values
+    # (numbers, strings, tuples), and append-only lists kept as their length (records).
+    STATE: tuple[str, ...] = ()
+    RECORDS: tuple[str, ...] = ()
 
     class Options(Section):
         """No options."""
@@ -46,6 +50,19 @@ class Device:
 
     def reset(self) -> None:
         """Back to the configured initial state."""
+
+    def state(self) -> dict[str, Any]:
+        """The simulated state (for the debugger's `back`, its history, retained state)."""
+        st: dict[str, Any] = {k: getattr(self, k) for k in self.STATE}
+        st.update({k: len(getattr(self, k)) for k in self.RECORDS})
+        return st
+
+    def set_state(self, st: dict[str, Any]) -> None:
+        """Back to a `state()`: records are cut back to the length they had."""
+        for k in self.STATE:
+            setattr(self, k, st[k])
+        for k in self.RECORDS:
+            del getattr(self, k)[st[k]:]
 
     def status(self) -> dict[str, Any]:
         """A short state summary for the daemon's statistics line and the debugger."""

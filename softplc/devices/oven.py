@@ -35,6 +35,9 @@ from .base import Device, register_device
 
 @register_device("oven")
 class Oven(Device):
+    # not the heater's dead-time queue `_delay` (mutable): `back` leaves it as it is
+    STATE = ("temperature", "power")
+
     # physical constants in plain units (degrees C, seconds), as in the process model above
     class Options(Section):
         sensor: Address

@@ -23,6 +23,8 @@ from .base import Device, register_device
 
 @register_device("pen")
 class Pen(Device):
+    STATE = ("down", "moves", "_cmd", "_t_cmd", "_settled")
+
     class Options(Section):
         output: Address
         lower_delay: Duration = 0.0

@@ -76,6 +76,8 @@ def half_steps_to_steps(h: int) -> int | float:
 class Stepper(AxisDevice):
     """A four-phase stepper axis. Internal position: `_h`, in half steps from home."""
 
+    STATE = ("_h", "_last", "_last_move_t", "_taken_h", "missed_steps", "_logged")
+
     class Options(Section):
         phases: list[Address] = Field(min_length=4, max_length=4)
         steps_per_unit: float = Field(111.11, gt=0, le=MAX_STEPS_PER_UNIT, allow_inf_nan=False)

@@ -35,6 +35,8 @@ FAULTS: tuple[str, ...] = get_args(Fault)
 
 @register_device("limit_switch")
 class LimitSwitch(Device):
+    STATE = ("fault", "_sign", "_thr")
+
     class Options(Section):
         axis: str = Field(min_length=1)
         input: Address
@@ -106,6 +108,8 @@ class PushButton(Device):
     normally closed, so its input is on while released and a broken wire reads as
     pressed), `pressed` (default false: the state at power-up). `press()` / `release()`
     operate it at run time (tests, the debugger)."""
+
+    STATE = ("pressed",)
 
     class Options(Section):
         input: Address

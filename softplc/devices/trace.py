@@ -51,6 +51,9 @@ def _row(s: Sample) -> str:
 
 @register_device("trace")
 class Trace(Device):
+    STATE = ("truncated", "_key", "_written", "_next_flush")
+    RECORDS = ("samples",)
+
     class Options(Section):
         axes: list[str] = Field(["X", "Z"], min_length=2, max_length=2)
         pen: str = "pen"

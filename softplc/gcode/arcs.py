@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import math
 
+from ..errors import SoftPLCError
+
 Point = tuple[float, float]
 
 TAU = 2.0 * math.pi
 
 
-class ArcGeometryError(ValueError):
+class ArcGeometryError(SoftPLCError, ValueError):
     """An arc cannot be built from its words (the parser turns it into a diagnostic)."""
 
 

@@ -8,16 +8,20 @@ after the previous rung's outputs.
 
 from __future__ import annotations
 
+import bisect
+import dataclasses
+import itertools
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 
 from ..address import Ref, parse_address
-from ..errors import AddressError, Diagnostic, ParseError
+from ..errors import AddressError, Code, Diagnostic, ParseError
 from ..profile import DEFAULT_PROFILE
 from . import ast as A
 
@@ -85,7 +89,8 @@ class _ToAST(Transformer):
             return parse_address(str(tok))
         except AddressError as e:
             self.diags.append(Diagnostic(str(e), self.file, tok.line, tok.column, str(tok),
-                                         f"an address within the {DEFAULT_PROFILE.name} profile"))
+                                         f"an address within the {DEFAULT_PROFILE.name} profile",
+                                         Code.ADDRESS))
             return Ref("M", 0)  # placeholder; the program is rejected anyway
 
     # -- operands --
@@ -97,7 +102,8 @@ class _ToAST(Transformer):
         (tok,) = items
         if str(tok) not in ("0", "1"):
             self.diags.append(Diagnostic("a boolean operand constant is 0 or 1", self.file,
-                                         tok.line, tok.column, str(tok), "0 or 1"))
+                                         tok.line, tok.column, str(tok), "0 or 1",
+                                         Code.CONSTANT))
         return A.Const(int(str(tok) == "1"), _pos(tok))
 
     def block_output(self, items):
@@ -294,43 +300,156 @@ def _syntax_diag(e: UnexpectedInput, file: str, lines: list[str]) -> Diagnostic:
     if src and col == len(src) - len(stripped) + 1 and text and not text.startswith(("%", "(")):
         word = stripped.split()[0]
         return Diagnostic(f"unknown instruction {word!r}", file, line, col, src.strip(),
-                          f"an instruction ({INSTRUCTIONS})")
-    return Diagnostic(f"syntax error: {what}", file, line, col, src.strip(), exp)
+                          f"an instruction ({INSTRUCTIONS})", Code.UNKNOWN_INSTRUCTION)
+    return Diagnostic(f"syntax error: {what}", file, line, col, src.strip(), exp, Code.SYNTAX)
+
+
+# Nesting of an expression (operators and function calls inside each other) the parser
+# takes. Twido limits IL parentheses (AND( OR( XOR() to 8 levels [manual]; the depth of an
+# operation block's expression is not documented, and a TwidoSuite operation block holds
+# far fewer than this. Deeper expressions would overflow Python's recursion and nesting
+# limits in the later stages, so they are refused here with their line.
+MAX_EXPR_DEPTH = 64
+_COMMENT = re.compile(r"\(\*(.|\n)*?\*\)")  # as the grammar's COMMENT terminal
+_NESTING_NODES = frozenset({"binop", "neg", "call"})
+
+
+def _expr_depth(tree: Tree) -> tuple[int, Tree]:
+    """Deepest nesting of operators/calls in a line's tree (iteratively), and that node."""
+    deepest, node = 0, tree
+    stack = [(tree, 0)]
+    while stack:
+        t, d = stack.pop()
+        if t.data in _NESTING_NODES:
+            d += 1
+            if d > deepest:
+                deepest, node = d, t
+        stack.extend((c, d) for c in t.children if isinstance(c, Tree))
+    return deepest, node
+
+
+def _shift_lines(tree: Tree, offset: int) -> None:
+    """Add `offset` to the line numbers of a tree parsed from a chunk of the file."""
+    if not offset:
+        return
+    seen: set[int] = set()
+    for t in tree.iter_subtrees():
+        meta = t.meta
+        if not meta.empty and id(meta) not in seen:
+            seen.add(id(meta))
+            meta.line += offset
+            meta.end_line += offset
+        for c in t.children:
+            if isinstance(c, Token) and id(c) not in seen and c.line is not None:
+                seen.add(id(c))
+                c.line += offset
+                c.end_line += offset
+
+
+class _LineParser:
+    """Parse a program, skipping bad lines. On a syntax error at line L, the lines before
+    it are parsed once more on their own and parsing resumes after L, so a file with many
+    bad lines costs about two parses, not one per bad line."""
+
+    def __init__(self, text: str, file: str):
+        self.file = file
+        self.lines = text.splitlines()
+        self.diags: list[Diagnostic] = []
+        self.bad: set[int] = set()  # 1-based numbers of the lines left out
+        self.parses = 0  # grammar runs (the recovery's cost)
+        self.lost = False  # an error that could not be pinned to a line: give up
+
+    def parse_range(self, start: int, end: int) -> list:
+        """Items of lines start+1 .. end (1-based), bad lines left out."""
+        items: list = []
+        pos = start
+        while pos < end and not self.lost:
+            chunk = self.lines[pos:end]
+            self.parses += 1
+            try:
+                tree = _lark().parse("\n".join(chunk) + "\n")
+            except UnexpectedInput as e:
+                d = _syntax_diag(e, self.file, chunk)
+                d = dataclasses.replace(d, line=d.line + pos)
+                self.diags.append(d)
+                line = d.line
+                if not (pos < line <= end) or not self.lines[line - 1].strip():
+                    self.lost = True
+                    break
+                self.bad.add(line)
+                items += self.parse_range(pos, line - 1)
+                pos = line
+                continue
+            _shift_lines(tree, pos)
+            items += self.transform(tree)
+            break
+        return items
+
+    def transform(self, tree: Tree) -> list:
+        tx = _ToAST(self.file, self.lines)
+        items = []
+        for child in tree.children:  # one line item each (start's children)
+            if not isinstance(child, Tree):
+                continue
+            depth, node = _expr_depth(child)
+            if depth > MAX_EXPR_DEPTH:
+                line = getattr(node.meta, "line", 0)
+                src = self.lines[line - 1].strip() if 0 < line <= len(self.lines) else ""
+                self.diags.append(Diagnostic(
+                    f"expression nested {depth} levels deep", self.file, line,
+                    getattr(node.meta, "column", 0), src,
+                    f"at most {MAX_EXPR_DEPTH} levels of operators and functions inside each "
+                    f"other: split it over several operation blocks", Code.NESTING))
+                self.bad.add(line)
+                continue
+            items.append(tx.transform(child))
+        self.diags.extend(tx.diags)
+        return items
+
+
+CHUNK_LINES = 40  # lines parsed at once: a syntax error costs a re-parse of at most this
+
+
+def _chunks(text: str, lines: list[str]) -> Iterator[tuple[int, int]]:
+    """Line ranges [start, end) of about CHUNK_LINES lines, cut only where a line does not
+    start inside a comment (comments may span lines), so each parses on its own."""
+    starts = list(itertools.accumulate((len(ln) + 1 for ln in lines), initial=0))
+    inside = bytearray(len(lines) + 1)  # 1: line k starts inside a comment
+    for m in _COMMENT.finditer(text):
+        first = bisect.bisect_right(starts, m.start())  # 1-based line of "(*"
+        last = bisect.bisect_right(starts, m.end() - 1)
+        for k in range(first, last):  # lines first+1 .. last start inside: 0-based k
+            inside[k] = 1
+    pos = 0
+    while pos < len(lines):
+        end = min(pos + CHUNK_LINES, len(lines))
+        while end < len(lines) and inside[end]:
+            end += 1
+        yield pos, end
+        pos = end
 
 
 def parse_lines(text: str, file: str = "<string>") -> tuple[list, list, list[Diagnostic]]:
     """Parse to a flat list of line items (instructions, sections, SR defs, labels).
 
     Returns (items, comments, diagnostics); comments are (line, column, text)."""
-    lines = text.splitlines()
-    work = list(lines)
-    diags: list[Diagnostic] = []
-    for _ in range(200):  # each pass blanks one bad line
-        comments: list[tuple[int, int, str]] = []
-        parser = _lark()
-        src = "\n".join(work) + "\n"
-        try:
-            tree = parser.parse(src)
-        except UnexpectedInput as e:
-            d = _syntax_diag(e, file, lines)
-            diags.append(d)
-            line = d.line
-            if not (0 < line <= len(work)) or not work[line - 1].strip():
-                break
-            work[line - 1] = ""
-            continue
-        # comments: re-scan (the lexer ignores them)
-        for m in re.finditer(r"\(\*(.|\n)*?\*\)", src):
-            ln = src.count("\n", 0, m.start()) + 1
-            col = m.start() - (src.rfind("\n", 0, m.start()) + 1) + 1
-            comments.append((ln, col, m.group(0)[2:-2].strip()))
-        tx = _ToAST(file, lines)
-        items = tx.transform(tree)
-        diags.extend(tx.diags)
-        diags.sort(key=lambda d: (d.line, d.column))
-        return items, comments, diags
-    diags.sort(key=lambda d: (d.line, d.column))
-    return [], [], diags
+    lp = _LineParser(text, file)
+    items = []
+    for start, end in _chunks(text, lp.lines):
+        items += lp.parse_range(start, end)
+        if lp.lost:
+            break
+    diags = sorted(lp.diags, key=lambda d: (d.line, d.column))
+    if lp.lost:
+        return [], [], diags
+    work = [("" if n + 1 in lp.bad else ln) for n, ln in enumerate(lp.lines)]
+    src = "\n".join(work) + "\n"
+    starts = list(itertools.accumulate((len(ln) + 1 for ln in work), initial=0))
+    comments: list[tuple[int, int, str]] = []  # re-scanned: the lexer ignores them
+    for m in _COMMENT.finditer(src):
+        ln = bisect.bisect_right(starts, m.start())  # 1-based line of the comment
+        comments.append((ln, m.start() - starts[ln - 1] + 1, m.group(0)[2:-2].strip()))
+    return items, comments, diags
 
 
 # Instructions that end a rung: after one of these, the next load starts a new rung.
@@ -440,5 +559,6 @@ def parse_file(path: str | Path) -> A.Program:
     try:
         text = p.read_text(encoding="utf-8-sig", errors="replace")
     except OSError as e:
-        raise ParseError(Diagnostic(f"cannot read program: {e.strerror}", str(p))) from None
+        raise ParseError(Diagnostic(f"cannot read program: {e.strerror}", str(p),
+                                    code=Code.CANNOT_READ)) from None
     return parse(text, str(p))

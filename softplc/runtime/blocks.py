@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..errors import BlockError
+
 MAX_VALUE = 9999  # %TMi.P/.V, %Ci.P/.V range [manual]
 
 TIME_BASES_US = {"1ms": 1_000, "10ms": 10_000, "100ms": 100_000, "1s": 1_000_000,
@@ -48,6 +50,22 @@ class TimeSource:
 class Block:
     PINS: tuple[str, ...] = ()
     FIELDS: tuple[str, ...] = ()
+    EDGE_PINS: dict[str, str] = {}  # rising-edge inputs -> attribute with their last value
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        """The short form (`CU %C0`, `R %R0`): one method per input pin (`cu`, `r`...) that
+        runs the block with that input, holding the edge inputs at their last value (no
+        edge) and the level inputs at 0. Generated, so each is one plain call to `run`.
+        A class may still define a pin method itself (`run` serves a timer's IN)."""
+        super().__init_subclass__(**kw)
+        for pin in cls.PINS:
+            name = pin.lower()
+            if pin == "IN" or name in cls.__dict__:
+                continue
+            held = "".join(f", {p}=self.{a}" for p, a in cls.EDGE_PINS.items() if p != pin)
+            ns: dict[str, Any] = {}
+            exec(f"def {name}(self, v):\n    self.run({pin}=v{held})\n", ns)
+            setattr(cls, name, ns[name])
 
     def state(self) -> dict[str, Any]:
         return {f: getattr(self, f) for f in self.FIELDS}
@@ -70,11 +88,11 @@ class Timer(Block):
     def __init__(self, clock: TimeSource, type: str = "TON", base: str = "1s", preset: int = 0):
         type = type.upper()
         if type not in ("TON", "TOF", "TP"):
-            raise ValueError(f"timer type {type!r}: TON, TOF or TP")
+            raise BlockError(f"timer type {type!r}: TON, TOF or TP")
         if base not in TIME_BASES_US:
-            raise ValueError(f"time base {base!r}: one of {', '.join(TIME_BASES_US)}")
+            raise BlockError(f"time base {base!r}: one of {', '.join(TIME_BASES_US)}")
         if not 0 <= int(preset) <= MAX_VALUE:
-            raise ValueError(f"preset {preset}: 0..{MAX_VALUE}")
+            raise BlockError(f"preset {preset}: 0..{MAX_VALUE}")
         self.clock, self.type, self.base = clock, type, base
         self._is_ton = type == "TON"
         self.base_us = TIME_BASES_US[base]
@@ -84,11 +102,26 @@ class Timer(Block):
         self.run = {"TON": self._ton, "TOF": self._tof, "TP": self._tp}[type]
 
     @property
+    def last_in(self) -> int:
+        """The IN input at the last execution (what the debugger shows)."""
+        return self._in
+
+    @property
     def timing(self) -> bool:
         """Counting towards the preset (V still changes with time)."""
         return bool(self._in and self.V < self.P) if self._is_ton else bool(self._on)
 
+    def state(self) -> dict[str, Any]:
+        """As `Block.state`, with the start time as the time elapsed since (`_elapsed_us`):
+        valid whatever clock the state is restored under (a restart's starts again at 0)."""
+        st = super().state()
+        st["_elapsed_us"] = self.clock.now_us - st.pop("_t0")
+        return st
+
     def set_state(self, d: dict[str, Any]) -> None:
+        d = dict(d)
+        if "_elapsed_us" in d:
+            d["_t0"] = self.clock.now_us - d.pop("_elapsed_us")
         super().set_state(d)
         if self.timing and self.clock.track:  # a retained timer that was timing goes on
             self.clock.running.add(self)
@@ -150,25 +183,16 @@ class Counter(Block):
 
     PINS = ("R", "S", "CU", "CD")
     FIELDS = ("P", "V", "D", "E", "F", "_cu", "_cd")
+    EDGE_PINS = {"CU": "_cu", "CD": "_cd"}
 
     def __init__(self, preset: int = MAX_VALUE):
         if not 0 <= int(preset) <= MAX_VALUE:
-            raise ValueError(f"preset {preset}: 0..{MAX_VALUE}")
+            raise BlockError(f"preset {preset}: 0..{MAX_VALUE}")
         self.P, self.V, self.D, self.E, self.F = int(preset), 0, 0, 0, 0
         self._cu = self._cd = 0
 
     def _done(self) -> None:
         self.D = 1 if self.V == self.P else 0
-
-    def r(self, v: Any) -> None:
-        if v:
-            self.V, self.E, self.F = 0, 0, 0
-        self._done()
-
-    def s(self, v: Any) -> None:
-        if v:
-            self.V = self.P
-        self._done()
 
     def _count(self, up: int, down: int) -> None:
         if up == down:
@@ -182,18 +206,6 @@ class Counter(Block):
             self.V -= 1
             if self.V < 0:
                 self.V, self.E = MAX_VALUE, 1
-
-    def cu(self, v: Any) -> None:
-        v = 1 if v else 0
-        self._count(v > self._cu, 0)
-        self._cu = v
-        self._done()
-
-    def cd(self, v: Any) -> None:
-        v = 1 if v else 0
-        self._count(0, v > self._cd)
-        self._cd = v
-        self._done()
 
     def run(self, R: Any = 0, S: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
         cu, cd = (1 if CU else 0), (1 if CD else 0)
@@ -219,10 +231,11 @@ class Drum(Block):
 
     PINS = ("R", "U")
     FIELDS = ("S", "F", "_u")
+    EDGE_PINS = {"U": "_u"}
 
     def __init__(self, steps: list[int], outputs: list[Any]):
         if not 1 <= len(steps) <= 8:
-            raise ValueError("a drum has 1 to 8 steps")
+            raise BlockError("a drum has 1 to 8 steps")
         self.steps = [int(s) & 0xFFFF for s in steps]
         self.outputs = outputs  # resolved (buffer, index) pairs
         self.S, self.F, self._u = 0, 0, 0
@@ -269,19 +282,11 @@ class _UpDownBlock(Block):
     `run` one input at a time, holding the others at their last value."""
 
     PINS = ("R", "CU", "CD")
+    EDGE_PINS = {"CU": "_cu", "CD": "_cd"}
     _cu = _cd = 0
 
     def run(self, R: Any = 0, CU: Any = 0, CD: Any = 0) -> None:  # pragma: no cover
         raise NotImplementedError
-
-    def r(self, v: Any) -> None:
-        self.run(R=v, CU=self._cu, CD=self._cd)
-
-    def cu(self, v: Any) -> None:
-        self.run(CU=v, CD=self._cd)
-
-    def cd(self, v: Any) -> None:
-        self.run(CU=self._cu, CD=v)
 
 
 class ShiftRegister(_UpDownBlock):
@@ -354,11 +359,12 @@ class Register(Block):
 
     PINS = ("R", "I", "O")
     FIELDS = ("I", "O", "E", "F", "_i", "_o", "_data")
+    EDGE_PINS = {"I": "_i", "O": "_o"}
 
     def __init__(self, type: str = "FIFO", depth: int = 16):
         type = type.upper()
         if type not in ("FIFO", "LIFO"):
-            raise ValueError(f"register type {type!r}: FIFO or LIFO")
+            raise BlockError(f"register type {type!r}: FIFO or LIFO")
         self.type, self.depth = type, depth
         self.I = self.O = 0
         self.E, self.F = 1, 0
@@ -383,14 +389,6 @@ class Register(Block):
         self.E = 0 if self._data else 1
         self.F = 1 if len(self._data) >= self.depth else 0
 
-    def r(self, v: Any) -> None:
-        self.run(R=v, I=self._i, O=self._o)
-
-    def i(self, v: Any) -> None:
-        self.run(I=v, O=self._o)
-
-    def o(self, v: Any) -> None:
-        self.run(I=self._i, O=v)
 
 
 # Block classes by address kind: each declares its input pins (`PINS`) once.

@@ -51,22 +51,6 @@ class RealClock(Clock):
         return (time.perf_counter_ns() - self._t0) / 1e9
 
 
-class ScaledClock(RealClock):
-    """Wall time multiplied by `speed` (the daemon's --speed N)."""
-
-    def __init__(self, speed: float):
-        super().__init__()
-        self.speed = speed
-
-    def start_scan(self, period_us: int) -> int:
-        self.now_us = int((time.perf_counter_ns() - self._t0) * self.speed) // 1000
-        return self.now_us
-
-    @property
-    def seconds(self) -> float:
-        return (time.perf_counter_ns() - self._t0) * self.speed / 1e9
-
-
 def make_clock(kind: str | Clock) -> Clock:
     if isinstance(kind, Clock):
         return kind

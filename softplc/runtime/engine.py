@@ -14,6 +14,7 @@ One `scan()`:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..address import Ref
-from ..compiler.codegen import CompiledProgram, Watchdog
+from ..program import CompiledProgram, Watchdog
 from .clock import Clock
 from .memory import MemoryImage
 
@@ -61,6 +62,7 @@ class Engine:
         self.before_scan: list[Callable[[], None]] = []
         self.after_scan: list[Callable[[], None]] = []
         self.devices: dict[str, Any] = {}
+        self.cold_states: dict[tuple[str, int], dict[str, Any]] = {}  # (kind, i) -> state
         self.rtc: Any = None  # runtime.rtc.RTC when the program or the config uses it
         self.forced: dict[Ref, Any] = {}
         self._forced_bits: list[tuple[list[int], int, int]] = []
@@ -94,17 +96,10 @@ class Engine:
         for buf in (m.m, m.q, m.q_field, m.x):
             buf[:] = [0] * len(buf)
         m.mw.buf[:] = bytes(len(m.mw.buf))
-        for blocks in m.blocks.values():
-            for b in blocks.values():
-                init = getattr(b, "_initial", None)
-                if init is not None:
-                    b.set_state(init)
+        for (kind, i), st in self.cold_states.items():
+            m.blocks[kind][i].set_state(st)
         if self.program is not None:
-            edge = self.program.namespace.get("_EDGE")
-            if edge is not None:
-                edge[:] = [0] * len(edge)
-            for step in self.program.namespace.get("_INITIAL_STEPS", ()):
-                m.x[step] = 1
+            self.program.state.cold_start(m.x)
         self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}
         if self.rtc is not None:
             self.rtc.cold_start()
@@ -140,6 +135,34 @@ class Engine:
         self.mem.q[:] = [0] * len(self.mem.q)
         self.mem.q_field[:] = [0] * len(self.mem.q_field)
 
+    # -- snapshots ----------------------------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        """Everything a scan changes, at a scan boundary: memory and blocks, the program's
+        state, the clock, first-scan flags, run state, statistics, and the devices. One
+        mechanism for the debugger's `back`, its history and retained state."""
+        program = self.program
+        return {"mem": self.mem.snapshot(), "now_us": self.clock.now_us,
+                "scan_start_us": getattr(self.time_source, "now_us", 0),
+                "stats": dataclasses.replace(self.stats), "first": dict(self._first),
+                "state": (self.state, self.fault),
+                "program": program.state.snapshot() if program is not None else None,
+                "devices": {name: dev.state() for name, dev in self.devices.items()}}
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        """Back to a `snapshot()` (of this engine, with the same program and devices)."""
+        self.clock.now_us = snap["now_us"]
+        if self.time_source is not None:  # before the blocks: timers keep elapsed times
+            self.time_source.now_us = snap["scan_start_us"]
+        self.mem.restore(snap["mem"])
+        self.stats = dataclasses.replace(snap["stats"])
+        self._first = dict(snap["first"])
+        self.state, self.fault = snap["state"]
+        if self.program is not None and snap["program"] is not None:
+            self.program.state.restore(snap["program"])
+            self.program.state.clear_transitions()  # those of an abandoned scan
+        for name, st in snap["devices"].items():
+            self.devices[name].set_state(st)
+
     # -- forcing ------------------------------------------------------------------------------
     def set_forced(self, forced: dict[Ref, Any]) -> None:
         self.forced = forced
@@ -167,8 +190,8 @@ class Engine:
             self.main()
         except Watchdog:
             self._watchdog_trip(time.perf_counter() - t0)
-        except RecursionError:
-            self.halt("subroutine calls nested too deep (recursion)")
+        except Exception as e:  # any fault of the program: HALT, keep serving
+            self._fault(e)
         dt = time.perf_counter() - t0
         if self.state == RUN and dt > self.watchdog_s:
             self._watchdog_trip(dt)
@@ -188,8 +211,8 @@ class Engine:
                 busy += time.perf_counter() - t0
                 yield pos
                 t0 = time.perf_counter()
-        except RecursionError:
-            self.halt("subroutine calls nested too deep (recursion)")
+        except Exception as e:  # as scan()
+            self._fault(e)
         self._finish(busy + time.perf_counter() - t0)
 
     def _begin(self) -> bool:
@@ -260,6 +283,14 @@ class Engine:
                 dev.update(t, dts)
         for h in self.after_scan:
             h()
+
+    def _fault(self, e: Exception) -> None:
+        """An exception inside the program: HALT with the fault recorded, as a Twido
+        halts on a system error; the daemon goes on serving Modbus."""
+        if isinstance(e, RecursionError):
+            self.halt("subroutine calls nested too deep (recursion)")
+        else:
+            self.halt(f"runtime fault: {type(e).__name__}: {e}")
 
     def _watchdog_trip(self, dt: float) -> None:
         self.mem.s[S_WATCHDOG] = 1

@@ -1,26 +1,22 @@
 """The Twido memory image.
 
-Words: each word family (%MW, %KW, %SW) is one `bytearray`. Compiled rungs index
-`memoryview` casts of it; numpy arrays are `np.frombuffer` views of the same bytes, for
-bulk work (Modbus, snapshots, the debugger). `%MDi`/`%MFi` overlay `%MWi` (low word) and
+Words: each word family (%MW, %KW, %SW) is one `bytearray`. Compiled rungs, the Modbus
+map and snapshots index `memoryview` casts of it. `%MDi`/`%MFi` overlay `%MWi` (low word) and
 `%MWi+1` (high word): they are 32-bit casts of the word buffer at an even or an odd word
 offset, so a write through one view is seen by all the others with no copying.
 
 Bits (%I, %Q, %M, %S, %X) are plain Python lists of 0/1: CPython specialises list
 indexing, and boolean rungs run 3.3x faster over lists than over a bytearray (3.3 vs
-10.9 ns per instruction on the generated 1,000-instruction program, this machine). Bulk
-numpy access to bits is by copy (`bits_np`).
+10.9 ns per instruction on the generated 1,000-instruction program, this machine).
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
-
-import numpy as np
 
 from ..address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
 from ..errors import AddressError
+from ..numeric import to_f32, wrap16, wrap32
 from ..profile import DEFAULT_PROFILE, Profile
 
 
@@ -37,7 +33,6 @@ class WordFamily:
         # index i of a 32-bit object -> (view, i >> 1): even i in the first, odd in the second
         self.d = (mv[: 4 * n_even].cast("i"), mv[2 : 2 + 4 * n_odd].cast("i"))
         self.f = (mv[: 4 * n_even].cast("f"), mv[2 : 2 + 4 * n_odd].cast("f"))
-        self.np = np.frombuffer(self.buf, dtype=np.int16)
 
     def get_d(self, i: int) -> int:
         return self.d[i & 1][i >> 1]
@@ -50,47 +45,6 @@ class WordFamily:
 
     def set_f(self, i: int, v: float) -> None:
         self.f[i & 1][i >> 1] = to_f32(v)
-
-
-def wrap16(v: int) -> int:
-    return ((int(v) + 0x8000) & 0xFFFF) - 0x8000
-
-
-def wrap32(v: int) -> int:
-    return ((int(v) + 0x80000000) & 0xFFFFFFFF) - 0x80000000
-
-
-def bcd_decode(w: int) -> int | None:
-    """A BCD word (16#0000..16#9999) -> its value; None if a nibble is above 9."""
-    u, v = w & 0xFFFF, 0
-    for shift in (12, 8, 4, 0):
-        d = (u >> shift) & 0xF
-        if d > 9:
-            return None
-        v = v * 10 + d
-    return v
-
-
-def bcd_encode(v: int) -> int | None:
-    """0..9999 -> its BCD word (signed 16-bit); None out of range."""
-    if not 0 <= v <= 9999:
-        return None
-    u = 0
-    for shift in (0, 4, 8, 12):
-        u |= (v % 10) << shift
-        v //= 10
-    return wrap16(u)
-
-
-F32_MAX = 3.4028234663852886e38
-
-
-def to_f32(v: float) -> float:
-    """Clamp a Python float to what an IEEE single can hold (overflow -> +-inf)."""
-    v = float(v)
-    if v != v or -F32_MAX <= v <= F32_MAX:
-        return v
-    return math.copysign(math.inf, v)
 
 
 class MemoryImage:
@@ -130,11 +84,6 @@ class MemoryImage:
         self.analog: Any = None  # the AnalogIO converter, when analog channels are configured
         # Function blocks, filled in by the engine from the configuration.
         self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
-        self.np = {"MW": self.mw.np, "KW": self.kw.np, "SW": self.sw.np}
-
-    def bits_np(self, kind: str) -> np.ndarray:
-        """A numpy copy of a bit family."""
-        return np.array(self.bits(kind), dtype=np.uint8)
 
     # -- address resolution ---------------------------------------------------------------
     def ref(self, address: str | Ref) -> Ref:

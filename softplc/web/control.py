@@ -29,8 +29,9 @@ from ..errors import AddressError, SoftPLCError
 from ..il.printer import format_instruction
 from ..modbus.image import ModbusImage, words_to_wire
 from ..modbus.regmap import COILS, REGISTERS
+from ..numeric import F32_MAX, wrap16
 from ..profile import MODULES
-from ..runtime.memory import F32_MAX, WordFamily, wrap16
+from ..runtime.memory import WordFamily
 
 # Value ranges the API accepts, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import os
 import platform
 import sys
 import time
 from collections.abc import Callable
 from importlib import metadata
+from pathlib import Path
 from typing import Any
 
 
@@ -111,3 +113,11 @@ def describe_machine(info: dict[str, Any]) -> str:
     return (f"{info['cpus']} CPUs, {info['cpu_model']}, {info['implementation']} "
             f"{info['python']}, {info['platform']}; load average at start "
             f"{info['load_average'][0]:.2f}")
+
+
+def print_report(text: str, res: dict[str, Any], json_path: Path | None) -> None:
+    """A benchmark's figures to stdout, and as JSON to `json_path` if given."""
+    print(text)
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(res, indent=2))

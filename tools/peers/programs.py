@@ -9,18 +9,13 @@ other. `crosscheck_*` functions compare the outputs of both sides after the same
 from __future__ import annotations
 
 import random
-import sys
 from pathlib import Path
 from typing import Any
 
-TOOLS = Path(__file__).resolve().parents[1]
-ROOT = TOOLS.parent
-for p in (str(ROOT), str(TOOLS)):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+from softplc.il import ast as A
+from softplc.il.parser import parse
 
-from softplc.il import ast as A  # noqa: E402
-from softplc.il.parser import parse  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]  # the repository
 
 # ---- IL programs ------------------------------------------------------------------------------
 

@@ -1,0 +1,95 @@
+"""Live values for the ladder view: memory, the rung's accumulator log, forced objects."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from ...address import Ref
+from ...il import ast as A
+from ...il.printer import format_expr
+from ...semantics import COMPARE
+from .tree import Elem
+
+
+class Live:
+    """What the live view reads: memory, the rung's accumulator log, forced objects."""
+
+    def __init__(self, read: Callable[[Ref], Any], log: list[Any] | None,
+                 forced: set[str] | None = None):
+        self.read = read
+        self.log = log
+        self.forced = forced or set()
+
+    def acc(self, k: int) -> bool | None:
+        if self.log is None or not 0 <= k < len(self.log):
+            return None
+        return bool(self.log[k])
+
+    def value(self, ref: Ref | None) -> str:
+        if ref is None:
+            return ""
+        try:
+            v = self.read(ref)
+        except Exception:  # an unconfigured block and the like: show nothing
+            return "?"
+        if ref.is_block:
+            return block_summary(v)
+        s = str(int(v)) if isinstance(v, bool) else (f"{v:g}" if isinstance(v, float)
+                                                      else str(v))
+        return s + ("F" if str(ref) in self.forced else "")
+
+    def expr_text(self, e: A.Expr) -> str:
+        """An expression with its objects replaced by their values."""
+        if isinstance(e, A.Addr):
+            return self.value(e.ref)
+        if isinstance(e, A.BinOp):
+            return f"{self.expr_text(e.left)} {e.op} {self.expr_text(e.right)}"
+        if isinstance(e, A.Neg):
+            return f"-{self.expr_text(e.operand)}"
+        return format_expr(e)
+
+    def closed(self, el: Elem) -> bool | None:
+        """Whether a contact passes power (None: cannot tell)."""
+        ins = el.instr
+        if isinstance(ins, A.ParenOpen) or (el.op == "LD" and self.log is not None):
+            return self.acc(el.k)
+        if el.op == "AND" and self.acc(el.k):
+            return True
+        if el.op == "OR" and self.acc(el.k - 1) is False:
+            return self.acc(el.k)
+        op = getattr(ins, "operand", None)
+        mod = getattr(ins, "modifier", "")
+        if isinstance(op, A.Const):
+            return bool(op.value)
+        if isinstance(op, A.Compare):
+            vals = []
+            for side in (op.left, op.right):
+                if isinstance(side, A.Num):
+                    vals.append(side.value)
+                elif isinstance(side, A.Addr):
+                    try:
+                        vals.append(self.read(side.ref))
+                    except Exception:
+                        return None
+                else:
+                    return None
+            a, b = vals
+            r = COMPARE[op.op](a, b)
+            return (not r) if mod == "N" else r
+        if el.ref is not None and mod in ("", "N"):
+            try:
+                v = bool(self.read(el.ref))
+            except Exception:
+                return None
+            return v != (mod == "N")
+        return None
+
+
+def block_summary(b: Any) -> str:
+    """A function block's fields in one short string."""
+    parts = []
+    for f in ("Q", "V", "P", "D", "E", "F", "S", "W"):
+        if hasattr(b, f) and not callable(getattr(b, f)):
+            parts.append(f"{f}={int(getattr(b, f))}")
+    return " ".join(parts)
