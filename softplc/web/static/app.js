@@ -209,7 +209,7 @@ function showIO(io) {
 
 // Analog channels: a slider per input (its signal span, in the signal's unit), a value per
 // output. A slider sends its value when released (or on keys), not on every pixel of a drag.
-const num = (x) => (Math.abs(x) >= 100 ? x.toFixed(1) : x.toFixed(3).replace(/\.?0+$/, ""));
+const num = (x) => String(Number(x.toFixed(Math.abs(x) >= 100 ? 1 : 3)));
 const span = (ch) => `${num(ch.min)}..${num(ch.max)} ${ch.unit || "(position)"}`;
 function buildAnalog() {
   const box = $("#analog"); box.innerHTML = "";
@@ -227,7 +227,7 @@ function buildAnalog() {
       const step = (ch.max - ch.min) / 1000;
       const slider = h("input", { type: "range", min: ch.min, max: ch.max, step, value: ch.min,
         "aria-label": a });
-      slider.addEventListener("input", () => { row.dataset.moving = "1"; value.textContent = num(Number(slider.value)) + " " + ch.unit; });
+      slider.addEventListener("input", () => { row.dataset.moving = "1"; value.textContent = (num(Number(slider.value)) + " " + ch.unit).trim(); });
       slider.addEventListener("change", async () => {
         await setAnalog(a, Number(slider.value), a in state.forced);
         delete row.dataset.moving;
@@ -236,6 +236,10 @@ function buildAnalog() {
       row.append(h("button", { class: "f", title: "force / unforce", onclick: async () => {
         if (a in state.forced) await unforce(a); else await setAnalog(a, Number(slider.value), true);
       } }, "F"), h("span", { class: "forced-mark" }, "F"));
+    } else {  // an output: a bar over its span, where an input has its slider
+      row.append(h("span", { class: "lo" }, num(ch.min)),
+        h("meter", { min: ch.min, max: ch.max, value: ch.min, "aria-label": a }),
+        h("span", { class: "hi" }, num(ch.max) + " " + ch.unit), h("span", { class: "fpad" }));
     }
     row.append(value, word,
       h("span", { class: "dev", title: dev ? (ch.input ? "driven by device " : "drives device ") + dev : "" }, dev ? "⚙ " + dev : ""));
@@ -258,7 +262,9 @@ function showAnalog(values) {
       if (row.dataset.moving) continue;  // the user is dragging: leave the slider alone
       slider.value = v.value;
     }
-    row.querySelector(".aval").textContent = num(v.value) + " " + ch.unit;
+    const meter = row.querySelector("meter");
+    if (meter) meter.value = v.value;
+    row.querySelector(".aval").textContent = (num(v.value) + " " + ch.unit).trim();
   }
 }
 
