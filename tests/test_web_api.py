@@ -537,3 +537,71 @@ def test_fast_reader_agrees_with_memory_read():
     plc.force("%I0.20", 0)  # now latched and forced: the reader is rebuilt
     plc.scan()
     assert ctl.values_fn(refs)()["%I0.20"] == 0 == plc["%I0.20"]
+
+
+# ---- analog channels --------------------------------------------------------------------------
+THERMO = ROOT / "ladder_programs" / "analog_thermostat.il"
+
+
+@pytest.fixture(scope="module")
+def thermo():
+    s = Stack(THERMO, THERMO.with_suffix(".toml"))
+    yield s
+    s.close()
+
+
+def test_analog_channels_listed_with_span_and_device(thermo):
+    chans = {ch["address"]: ch for ch in thermo.client().request("info")["analog"]}
+    assert chans["%IW0.0"] == {"address": "%IW0.0", "input": True, "signal": "pot",
+                               "range": "normal", "unit": "", "min": 0.0, "max": 1.0,
+                               "word_min": 0, "word_max": 1023, "driven_by": ""}
+    pt = chans["%IW2.0"]
+    assert (pt["signal"], pt["unit"], pt["min"], pt["max"]) == ("PT100", "°C", -200, 600)
+    assert (pt["word_min"], pt["word_max"], pt["driven_by"]) == (-2000, 6000, "oven")
+    assert not chans["%QW2.0"]["input"] and chans["%QW2.0"]["unit"] == "V"
+
+
+def test_analog_input_written_at_scan_boundary(thermo):
+    c = thermo.client()
+    reply = c.request("analog", {"object": "%IW0.0", "value": 0.5})
+    assert reply == {"queued": "%IW0.0", "value": 0.5, "word": 512, "forced": False}
+    thermo.scans()
+    assert thermo.plc["%IW0.0"] == 512 and thermo.plc["%MW0"] == 128  # the program's copy
+    io = c.request("io")["analog"]
+    assert io["%IW0.0"]["word"] == 512 and io["%IW0.0"]["value"] == pytest.approx(0.5, abs=1e-3)
+    heater = io["%QW2.0"]  # an output: its word and the signal it gives
+    assert heater["value"] == pytest.approx(heater["word"] * 10 / 4095, abs=1e-3)
+
+
+@pytest.mark.parametrize("obj, value, status, message", [
+    ("%IW0.0", 1.5, 400, r"out of range 0\.\.1 \(pot\)"),
+    ("%IW0.0", "abc", 400, "expected a number"),
+    ("%IW0.0", True, 400, "expected a number"),
+    ("%IW1.0", 0.2, 400, "not a configured analog channel|unknown object"),
+    ("%MW0", 1, 400, "not a configured analog channel"),
+    ("%QW2.0", 5.0, 403, "analog output"),
+    ("%IW2.0", 25.0, 403, "driven by the simulated device 'oven'"),
+])
+def test_bad_analog_write_refused_nothing_applied(thermo, obj, value, status, message):
+    before = thermo.plc["%IW0.0"]
+    with pytest.raises(IoError, match=message) as e:
+        thermo.client().request("analog", {"object": obj, "value": value})
+    assert f"HTTP {status}" in str(e.value)
+    assert thermo.client().request("status")["pending"] == 0
+    thermo.scans()
+    assert thermo.plc["%IW0.0"] == before  # the pot (no device) unchanged
+
+
+def test_device_driven_analog_input_forced_then_released(thermo):
+    c = thermo.client()
+    assert c.request("analog", {"object": "%IW2.0", "value": 500.0, "force": True})["word"] \
+        == 5000
+    thermo.scans(5)
+    assert thermo.plc.forced["%IW2.0"] == 5000
+    assert thermo.plc["%QW2.0"] == 0  # the program sees 500 degrees, not the oven: heater off
+    assert c.request("io")["analog"]["%IW2.0"]["word"] == 5000
+    with pytest.raises(IoError, match="forced: unforce it first"):
+        c.request("analog", {"object": "%IW2.0", "value": 20.0})
+    c.request("unforce", {"object": "%IW2.0"})
+    thermo.scans(5)
+    assert "%IW2.0" not in thermo.plc.forced and thermo.plc["%IW2.0"] < 5000  # the oven again

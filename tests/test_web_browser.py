@@ -186,3 +186,34 @@ def test_drawing_table_machine_view(browser, tmp_path):
         page.close()
     finally:
         d.kill()
+
+
+def test_analog_slider_reaches_the_plc(browser, tmp_path):
+    """analog_thermostat: the base's potentiometer %IW0.0 is a slider; the program copies it
+    to %MW0 (/4). The PT100 %IW2.0 follows the oven (slider locked), %QW2.0 is a value."""
+    d = Daemon(tmp_path, "--config", str(PROGRAMS / "analog_thermostat.toml"), "--web", "0",
+               "--stats-interval", "0", program=PROGRAMS / "analog_thermostat.il")
+    try:
+        url = web_url(d)
+        page = open_page(browser, url)
+        pot = page.locator('#analog .aio[data-addr="%IW0.0"]')
+        assert pot.locator(".lo").inner_text() == "0" and pot.locator(".hi").inner_text() == "1"
+        pot.locator("input[type=range]").fill("0.5")  # input + change, as a drag released
+        api = Client("127.0.0.1", int(re.search(r":(\d+)/$", url)[1]))
+        for _ in range(100):
+            if api.get("%MW0")["%MW0"] == 128:
+                break
+            page.wait_for_timeout(50)
+        assert api.get("%IW0.0", "%MW0") == {"%IW0.0": 512, "%MW0": 128}  # 0.5 * 1023, / 4
+        sync_api.expect(pot.locator(".aword")).to_have_text("(%IW0.0 = 512)")
+        sync_api.expect(pot.locator(".aval")).to_have_text("0.5")
+        pt100 = page.locator('#analog .aio[data-addr="%IW2.0"]')
+        assert pt100.locator("input[type=range]").is_disabled()  # the oven drives it
+        assert "°C" in pt100.locator(".aval").inner_text()
+        heater = page.locator('#analog .aio.out[data-addr="%QW2.0"]')
+        sync_api.expect(heater.locator(".aval")).to_have_text(re.compile(r"^(10|0) V$"))
+        assert heater.locator("input").count() == 0
+        shot(page, "analog")
+        page.close()
+    finally:
+        d.kill()

@@ -28,6 +28,9 @@ SIGNAL_SPAN: dict[str, tuple[float, float]] = {
     "PT100": (-200.0, 600.0), "J": (-200.0, 760.0), "K": (-270.0, 1370.0),
     "T": (-200.0, 400.0),
 }
+# The unit of each signal type's physical value (a potentiometer: its position, 0..1).
+SIGNAL_UNIT: dict[str, str] = {"0-10V": "V", "4-20mA": "mA", "+-10V": "V", "pot": "",
+                               "PT100": "°C", "J": "°C", "K": "°C", "T": "°C"}
 TEMPERATURE_TYPES = ("PT100", "J", "K", "T")
 BIPOLAR_TYPES = ("+-10V",)  # normal range -2048..2047 on a 12-bit channel [issue 11]
 
@@ -74,7 +77,12 @@ class AnalogChannel:
         return round(self._scale(x)), status
 
     def to_physical(self, word: int) -> float:
-        """An output word -> the physical signal, the word clamped to the range."""
+        """A word -> the physical signal, the word clamped to the range (an output's signal,
+        or the value an input's word stands for)."""
+        if self.range == "celsius":
+            return word / 10.0
+        if self.range == "fahrenheit":
+            return (word / 10.0 - 32.0) * 5.0 / 9.0
         a, b = SIGNAL_SPAN[self.signal]
         lo, hi = (self.lo, self.hi) if self.lo <= self.hi else (self.hi, self.lo)
         w = min(max(word, lo), hi)

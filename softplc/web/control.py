@@ -31,6 +31,7 @@ from ..modbus.image import ModbusImage, words_to_wire
 from ..modbus.regmap import COILS, REGISTERS
 from ..numeric import F32_MAX, wrap16
 from ..profile import MODULES
+from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
 from ..runtime.memory import WordFamily
 
 # Value ranges the API accepts, per value type.
@@ -260,6 +261,82 @@ class Controller:
                 return
         self._queue.append(("write", ref, value))
 
+    def write_analog(self, obj: Any, value: Any, force: bool = False) -> dict[str, Any]:
+        """Queue a new physical value (V, mA, degrees C, pot position) for an analog input:
+        applied at the next scan boundary through `AnalogIO.set_input`, as a device drives
+        it. An input a device drives is refused unless `force` (then the word is forced,
+        `PLC.force`, and held until unforced), as for %I inputs."""
+        ref, ch = self._analog_channel(obj)
+        name = str(ref)
+        if self.read_only:
+            raise ApiError("the web monitor is read-only (--web-read-only)", 403)
+        if ref.kind != "IW":
+            raise ApiError(f"{name} is an analog output: the program drives it", 403)
+        if not force and name in self.plc.forced:
+            raise ApiError(f"{name} is forced: unforce it first, or force a new value", 403)
+        if not force and name in self.device_io:
+            raise ApiError(f"{name} is driven by the simulated device "
+                           f"{self.device_io[name]!r}: force it to override", 403)
+        a, b = SIGNAL_SPAN[ch.signal]
+        unit = SIGNAL_UNIT[ch.signal]
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not math.isfinite(value):
+            raise ApiError(f"{name}: expected a number ({a:g}..{b:g} {unit}), not {value!r}")
+        if not a <= value <= b:
+            raise ApiError(f"{name}: {value:g} is out of range {a:g}..{b:g} {unit} "
+                           f"({ch.signal})".replace("  ", " "))
+        word = ch.to_word(float(value))[0]
+        if force:
+            self._queue.append(("force", ref, word))
+        else:
+            self._queue.append(("analog", ref, float(value)))
+        return {"queued": name, "value": float(value), "word": word, "forced": force}
+
+    def _analog_channel(self, obj: Any) -> tuple[Ref, Any]:
+        analog = self.plc.mem.analog
+        refs = self.resolve(obj)
+        if len(refs) != 1 or analog is None or refs[0] not in analog.channels:
+            raise ApiError(f"{obj!r} is not a configured analog channel (see [analog] and "
+                           f"[modules] in the configuration)")
+        return refs[0], analog.channels[refs[0]]
+
+    def analog_channels(self) -> list[dict[str, Any]]:
+        """The configured analog channels: address, direction, signal, its span in the
+        signal's unit, the words of that span, the device driving or reading it."""
+        analog = self.plc.mem.analog
+        out: list[dict[str, Any]] = []
+        if analog is None:
+            return out
+        for ref, ch in sorted(analog.channels.items(),
+                              key=lambda kv: (kv[0].kind, kv[0].index)):
+            a, b = SIGNAL_SPAN[ch.signal]
+            out.append({"address": str(ref), "input": ref.kind == "IW", "signal": ch.signal,
+                        "range": ch.range, "unit": SIGNAL_UNIT[ch.signal], "min": a, "max": b,
+                        "word_min": ch.to_word(a)[0], "word_max": ch.to_word(b)[0],
+                        "driven_by": self.device_io.get(str(ref), "")})
+        return out
+
+    def analog_values_fn(self) -> Callable[[], dict[str, dict[str, float]]]:
+        """A function (for the scan thread) giving each analog channel's word and the
+        physical value it stands for: {address: {"word": w, "value": x}}."""
+        analog = self.plc.mem.analog
+        if analog is None:
+            return dict
+        plc, mem = self.plc, self.plc.mem
+        chans = [(str(ref), (mem.iw if ref.kind == "IW" else mem.qw).w, ref.index, ch)
+                 for ref, ch in analog.channels.items()]
+
+        def values() -> dict[str, dict[str, float]]:
+            # a forced input: the value the program reads (a device rewrites the word after
+            # the scan; the force is re-asserted before the next one)
+            forced = plc.forced if plc.engine.forced else {}
+            out = {}
+            for name, words, i, ch in chans:
+                w = int(forced.get(name, words[i]))
+                out[name] = {"word": w, "value": round(ch.to_physical(w), 4)}
+            return out
+        return values
+
     def force(self, obj: Any, value: Any) -> list[str]:
         refs = self.resolve(obj)
         checked = []
@@ -317,6 +394,8 @@ class Controller:
             try:
                 if op == "write":
                     plc.mem.write(ref, value)
+                elif op == "analog":
+                    plc.mem.analog.set_input(ref, value)
                 elif op == "force":
                     plc.force(str(ref), value)
                 elif op == "unforce":
@@ -441,10 +520,7 @@ class Controller:
                 "period_ms": round(plc.scan_period * 1000, 3), "modules": self.io_layout(),
                 "device_io": self.device_io, "devices": devices, "rungs": rungs,
                 "read_only": self.read_only, "actions": list(ACTIONS),
-                "analog": "analog channels " + " ".join(
-                    str(r) for r in sorted(plc.mem.analog.channels,
-                                           key=lambda r: (r.kind, r.index)))
-                if plc.mem.analog is not None else ""}
+                "analog": self.analog_channels()}
 
     def status(self) -> dict[str, Any]:
         plc = self.plc

@@ -108,6 +108,7 @@ class WebServer:
         r.add_get("/api/machine", self._machine)
         r.add_post("/api/write", self._write)
         r.add_post("/api/force", self._force)
+        r.add_post("/api/analog", self._analog)
         r.add_post("/api/unforce", self._unforce)
         r.add_post("/api/control", self._control)
         r.add_get("/api/ws", self._ws)
@@ -216,12 +217,16 @@ class WebServer:
 
     async def _io(self, request: web.Request) -> web.Response:
         refs = self.ctl.io_refs()
-        values = await self.ctl.sample(self.ctl.values_fn(refs))
+        read_io, read_analog = self.ctl.values_fn(refs), self.ctl.analog_values_fn()
+        values, analog = await self.ctl.sample(lambda: (read_io(), read_analog()))
         forced = self.ctl.plc.forced
         return _json({"modules": self.ctl.io_layout(),
                       "io": {name: {"value": v, "forced": name in forced,
                                     "driven_by": self.ctl.device_io.get(name, "")}
-                             for name, v in values.items()}})
+                             for name, v in values.items()},
+                      "analog": {ch["address"]: ch | analog[ch["address"]]
+                                 | {"forced": ch["address"] in forced}
+                                 for ch in self.ctl.analog_channels()}})
 
     async def _ladder(self, request: web.Request) -> web.Response:
         try:
@@ -315,6 +320,15 @@ class WebServer:
                 "trace_total": n}
 
     # -- websocket ---------------------------------------------------------------------------
+    async def _analog(self, request: web.Request) -> web.Response:
+        data = await self._body(request)
+        if "value" not in data:
+            raise ApiError('missing "value": {"object": "%IW0.0", "value": 0.5}')
+        force = data.get("force", False)
+        if not isinstance(force, bool):
+            raise ApiError(f'"force": true or false, not {force!r}')
+        return _json(self.ctl.write_analog(self._obj(data), data["value"], force))
+
     async def _ws(self, request: web.Request) -> web.WebSocketResponse:
         ws = web.WebSocketResponse(heartbeat=30)
         await ws.prepare(request)
@@ -392,10 +406,11 @@ class WebServer:
         machine = any(c.machine for c in clients)
         # prepared here, run in the scan thread: there, only the reads themselves
         read_values, read_io = ctl.values_fn(list(objs.items())), ctl.values_fn(io)
+        read_analog = ctl.analog_values_fn() if io else dict
         read_rungs = {n: ctl.reader(r) for n, r in rung_refs.items()}
 
         def take() -> dict[str, Any]:
-            return {"values": read_values(), "io": read_io(),
+            return {"values": read_values(), "io": read_io(), "analog": read_analog(),
                     "ladder": {n: read() for n, read in read_rungs.items()},
                     "devices": self._devices_now() if machine else {},
                     "status": ctl.status()}
@@ -411,6 +426,7 @@ class WebServer:
                 msg["values"] = {name: values.get(name) for name, _ in c.objects}
             if c.io:
                 msg["io"] = snap["io"]
+                msg["analog"] = snap["analog"]
                 msg["device_io"] = ctl.device_io
             changed = {}
             for n in c.rungs:

@@ -54,6 +54,7 @@ async function post(path, body, retry = true) {
 const write = (object, value) => post("write", { object, value });
 const force = (object, value) => post("force", { object, value });
 const unforce = (object) => post("unforce", { object });
+const setAnalog = (object, value, force = false) => post("analog", { object, value, force });
 
 // ---- websocket ---------------------------------------------------------------------------
 function subscribe() {
@@ -85,6 +86,7 @@ function connect() {
     if (msg.type !== "update") return;
     showStatus(msg.status);
     if (msg.io) showIO(msg.io);
+    if (msg.analog) showAnalog(msg.analog);
     if (msg.values) { Object.assign(state.values, msg.values); showTable(); trendSample(msg); }
     if (msg.ladder) for (const [n, svg] of Object.entries(msg.ladder)) {
       const box = $(`#ladder div[data-rung="${n}"]`);
@@ -136,7 +138,7 @@ for (const b of $$("#tabs button")) {
 // ---- simulation panel ----------------------------------------------------------------------
 function buildModules() {
   const box = $("#modules"); box.innerHTML = "";
-  $("#analog").textContent = state.info.analog ? "(" + state.info.analog + ")" : "";
+  buildAnalog();
   for (const m of state.info.modules) {
     const ins = h("div", { class: "col" }, h("h4", {}, `inputs (${m.inputs})`));
     const outs = h("div", { class: "col" }, h("h4", {}, `outputs (${m.outputs})`));
@@ -202,6 +204,67 @@ function showIO(io) {
       t.disabled = locked; row.querySelector(".push").disabled = locked;
       t.title = forced ? "forced: unforce first" : locked ? "driven by a simulated device: force it to override" : "switch: toggles";
     }
+  }
+}
+
+// Analog channels: a slider per input (its signal span, in the signal's unit), a value per
+// output. A slider sends its value when released (or on keys), not on every pixel of a drag.
+const num = (x) => String(Number(x.toFixed(Math.abs(x) >= 100 ? 1 : 3)));
+const span = (ch) => `${num(ch.min)}..${num(ch.max)} ${ch.unit || "(position)"}`;
+function buildAnalog() {
+  const box = $("#analog"); box.innerHTML = "";
+  const chans = state.info.analog || [];
+  if (!chans.length) return;
+  box.append(h("h3", {}, "analog I/O"));
+  for (const ch of chans) {
+    const a = ch.address, dev = ch.driven_by;
+    const title = `${ch.signal}, range ${ch.range}: ${span(ch)} = words ${ch.word_min}..${ch.word_max}`;
+    const value = h("span", { class: "aval" }, "?");
+    const word = h("span", { class: "aword" }, "");
+    const row = h("div", { class: "aio " + (ch.input ? "in" : "out") + (dev ? " driven" : ""), "data-addr": a, title },
+      h("span", { class: "addr" }, a), h("span", { class: "sig" }, ch.signal));
+    if (ch.input) {
+      const step = (ch.max - ch.min) / 1000;
+      const slider = h("input", { type: "range", min: ch.min, max: ch.max, step, value: ch.min,
+        "aria-label": a });
+      slider.addEventListener("input", () => { row.dataset.moving = "1"; value.textContent = (num(Number(slider.value)) + " " + ch.unit).trim(); });
+      slider.addEventListener("change", async () => {
+        await setAnalog(a, Number(slider.value), a in state.forced);
+        delete row.dataset.moving;
+      });
+      row.append(h("span", { class: "lo" }, num(ch.min)), slider, h("span", { class: "hi" }, num(ch.max) + " " + ch.unit));
+      row.append(h("button", { class: "f", title: "force / unforce", onclick: async () => {
+        if (a in state.forced) await unforce(a); else await setAnalog(a, Number(slider.value), true);
+      } }, "F"), h("span", { class: "forced-mark" }, "F"));
+    } else {  // an output: a bar over its span, where an input has its slider
+      row.append(h("span", { class: "lo" }, num(ch.min)),
+        h("meter", { min: ch.min, max: ch.max, value: ch.min, "aria-label": a }),
+        h("span", { class: "hi" }, num(ch.max) + " " + ch.unit), h("span", { class: "fpad" }));
+    }
+    row.append(value, word,
+      h("span", { class: "dev", title: dev ? (ch.input ? "driven by device " : "drives device ") + dev : "" }, dev ? "⚙ " + dev : ""));
+    box.append(row);
+  }
+}
+
+function showAnalog(values) {
+  for (const row of $$("#analog .aio")) {
+    const a = row.dataset.addr, v = values[a];
+    if (!v) continue;
+    const ch = state.info.analog.find((c) => c.address === a);
+    const forced = a in state.forced;
+    row.classList.toggle("forced", forced);
+    row.querySelector(".aword").textContent = `(${a} = ${v.word})`;
+    const slider = row.querySelector("input[type=range]");
+    if (slider) {
+      slider.disabled = state.info.read_only || (row.classList.contains("driven") && !forced);
+      slider.title = slider.disabled ? "driven by a simulated device: force it (F) to override" : span(ch);
+      if (row.dataset.moving) continue;  // the user is dragging: leave the slider alone
+      slider.value = v.value;
+    }
+    const meter = row.querySelector("meter");
+    if (meter) meter.value = v.value;
+    row.querySelector(".aval").textContent = (num(v.value) + " " + ch.unit).trim();
   }
 }
 
