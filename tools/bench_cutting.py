@@ -20,6 +20,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))
+
+from peers.common import speed_line  # noqa: E402
 
 from softplc import PLC  # noqa: E402
 from softplc.cutting import load_piece  # noqa: E402
@@ -55,10 +58,7 @@ def report(r: dict) -> str:
     return (f"Cutting table: {r['piece']} at {r['speed_mm_s']:g} mm/s, {r['segments']} "
             f"segments, 1 ms scans, cutting_table.il + two servo axes + trace "
             f"(tools/bench_cutting.py; load average {r['load_average'][0]:.1f})\n"
-            f"  {r['simulated_s']:.1f} simulated s in {r['wall_s']:.2f} wall s: "
-            f"{r['speedup']:.1f}x real time (wall), {r['speedup_cpu']:.1f}x (CPU), "
-            f"{r['us_per_scan']:.0f} us per scan  target >= {TARGET:.0f}x  "
-            f"{'met' if r['speedup_cpu'] >= TARGET else 'MISSED'} (CPU)")
+            + speed_line(r, TARGET))
 
 
 def main(argv: list[str] | None = None) -> int:

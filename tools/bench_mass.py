@@ -23,6 +23,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
 from bench_servo import _calib, _timed  # noqa: E402
+from peers.common import speed_line  # noqa: E402
 
 from softplc import PLC  # noqa: E402
 from softplc.massest import handshake, tuning  # noqa: E402
@@ -77,11 +78,8 @@ def report(r: dict) -> str:
     return (f"Machining centre: one measurement sequence of mass_tuning.il at 1 ms scans "
             f"(tools/bench_mass.py; python loop {r['calib_ns']:.0f} ns/iter, load average "
             f"{r['load_average'][0]:.1f})\n"
-            f"  {x['simulated_s']:.1f} simulated s in {x['wall_s']:.2f} wall s: "
-            f"{x['speedup']:.1f}x real time (wall), {x['speedup_cpu']:.1f}x (CPU), "
-            f"{x['us_per_scan']:.1f} us per scan; estimate {x['mass']:.1f} kg -> row "
-            f"{x['row']}  target >= {TARGET:.0f}x  "
-            f"{'met' if x['speedup_cpu'] >= TARGET else 'MISSED'} (CPU)")
+            + speed_line(x, TARGET, us_digits=1,
+                         extra=f"; estimate {x['mass']:.1f} kg -> row {x['row']}"))
 
 
 def main(argv: list[str] | None = None) -> int:

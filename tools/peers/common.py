@@ -121,3 +121,12 @@ def print_report(text: str, res: dict[str, Any], json_path: Path | None) -> None
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
         json_path.write_text(json.dumps(res, indent=2))
+
+
+def speed_line(r: dict[str, Any], target: float, us_digits: int = 0, extra: str = "") -> str:
+    """'  S simulated s in W wall s: Nx real time (wall), Mx (CPU), U us per scan', `extra`,
+    then the target verdict, judged on CPU time (the wall figure depends on the load)."""
+    return (f"  {r['simulated_s']:.1f} simulated s in {r['wall_s']:.2f} wall s: "
+            f"{r['speedup']:.1f}x real time (wall), {r['speedup_cpu']:.1f}x (CPU), "
+            f"{r['us_per_scan']:.{us_digits}f} us per scan{extra}  "
+            f"target >= {target:.0f}x  {'met' if r['speedup_cpu'] >= target else 'MISSED'} (CPU)")
