@@ -75,6 +75,9 @@ class Scope(Device):
     """The oscilloscope: four channels of one servo axis (thesis IDs 2, 6, 19, 29)."""
 
     Options = ScopeOptions
+    STATE = ("recording", "stored", "truncated", "error", "_next_us", "_ctl_prev", "_v_prev",
+             "last_file")
+    RECORDS = ("rows",)  # START begins a new list: a restored state gets its own back
 
     def __init__(self, name: str, options: ScopeOptions):
         super().__init__(name, options)
