@@ -20,14 +20,15 @@ import re
 from pathlib import Path
 from typing import Any
 
-from ..config import duration
 from ..errors import ConfigError, SoftPLCError
-from ._args import add_program_arguments, load_plc
+from ._args import add_program_arguments, load_plc, port
 
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
 
 
 def _duration(text: str, bare_unit: str = "s") -> float:
+    from ..config import duration  # pydantic: imported when a duration is given, not for --help
+
     if _BARE_NUMBER.match(text):
         text += bare_unit
     try:
@@ -52,21 +53,11 @@ def _speed(text: str) -> float:
     return v
 
 
-def _port(value: Any) -> int:
-    try:
-        v = int(value)
-    except (TypeError, ValueError):
-        v = -1
-    if not 0 <= v <= 65535:
-        raise argparse.ArgumentTypeError(f"bad port {value!r} (0..65535; 0 = any free port)")
-    return v
-
-
 _WEB_OFF = -1
 
 
 def _web_port(text: str) -> int:
-    return _WEB_OFF if text.strip().lower() == "off" else _port(text)
+    return _WEB_OFF if text.strip().lower() == "off" else port(text)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -82,7 +73,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_program_arguments(p)
     p.add_argument("--host", help="address to listen on (default 127.0.0.1; 'localhost' = "
                                   "127.0.0.1 and ::1; 0.0.0.0 for all IPv4)")
-    p.add_argument("--port", type=_port,
+    p.add_argument("--port", type=port,
                    help="TCP port (default 5020; a real Twido uses 502; 0 = any free port)")
     p.add_argument("--period", type=_period,
                    help="scan period = %%SW0, whole ms (default: config scan_period, or 10ms)")
