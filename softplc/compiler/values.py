@@ -219,6 +219,8 @@ class ValueCompiler:
         elif ref.field == "J":  # %SBRi.j, %SCi.j
             b = self.block_name(Ref(k, ref.index))
             self.emit(f"{b}.set_bit({ref.bit}, {value})")
+        elif ref.kind in BLOCK_OUTPUTS and ref.field is not None:  # %VFCi.R / .S enables
+            self.emit(f"{self.block_name(Ref(k, ref.index))}.{ref.field} = {value}")
         elif ref.bit is not None and k in WORD_BUFFERS:
             u = Names.UWORD[k]
             self.use(u)
@@ -464,8 +466,9 @@ class ValueCompiler:
                 self.emit(f"{view}[{ref.index >> 1}] = {code}")
         elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
             b = self.block_name(Ref(ref.kind, ref.index))
-            if ref.field == "P":
-                self.emit(f"{b}.P = min(max({code}, 0), {MAX_VALUE})")
+            if ref.field == "P" or k in ("FC", "VFC"):  # presets, %VFCi.S0/S1: clamped
+                top = getattr(BLOCK_CLASSES.get(k), "MAX_PRESET", MAX_VALUE)  # %FC/%VFC: 65535
+                self.emit(f"{b}.{ref.field} = min(max({code}, 0), {top})")
             else:
                 self.emit(f"{b}.{ref.field} = {code}")
         else:
