@@ -560,7 +560,7 @@ class Session(Controller):
         lines = [f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} F={int(c.F)}"
                  for i, c in sorted(cs.items())]
         for kind in ("FC", "VFC"):  # fast counters (runtime/fastcount.py)
-            lines += [f"%{kind}{i:<2} {c.mode:<10} {ladder.block_summary(c)}"
+            lines += [f"{f'%{kind}{i}':<6} {c.mode:<10} {ladder.block_summary(c)}"
                       for i, c in sorted(self.plc.mem.blocks.get(kind, {}).items())]
         return "\n".join(lines) or "no counters"
 
