@@ -98,14 +98,25 @@ def test_fc_above_the_input_frequency_loses_pulses():
     assert fc.lost == 880 - 550
 
 
-def test_fc_program_writes_the_preset_up_to_65535():
-    plc = fc_plc(src=FC_BLOCK + "LD 1\n[ %FC0.P := %MW0 ]\n")
-    plc["%MW0"] = -1  # 16#FFFF as a word; the preset is clamped into 0..65535
+def test_fc_values_are_unsigned_words():
+    # [manual, from memory] 16-bit values 0..65535: the program reads and writes them as
+    # words (16#9C40 = 40000 reads as -25536, as a %MW would), the counter counts them
+    # unsigned
+    plc = fc_plc({"preset": 40010}, src=FC_BLOCK + "LD 1\n[ %MW0 := %FC0.V ]\n")
+    fc = plc.mem.blocks["FC"][0]
+    fc.V = 39980 - 65536
+    plc.scan(2)  # 20 pulses; the program copied V before the second scan's pulses
+    assert plc["%FC0.V"] == 40000 - 65536 and plc["%MW0"] == 39990 - 65536
+    assert not plc["%FC0.D"]
     plc.scan()
-    assert plc.mem.blocks["FC"][0].P == 0
-    plc["%MW0"] = 30000
+    assert plc["%FC0.D"] and plc["%FC0.V"] == 0  # the preset 40010 reached
+
+
+def test_fc_program_writes_the_preset():
+    plc = fc_plc({"preset": 100}, src=FC_BLOCK + "LD %M9\n[ %FC0.P := 16#9C40 ]\n")
+    plc["%M9"] = 1
     plc.scan()
-    assert plc["%FC0.P"] == 30000
+    assert plc["%FC0.P"] == 40000 - 65536 and plc.mem.blocks["FC"][0].P & 0xFFFF == 40000
 
 
 # ---- %VFC -----------------------------------------------------------------------------------
@@ -134,7 +145,7 @@ def test_vfc_down_below_zero_wraps_and_sets_f():
     plc = vfc_plc({"mode": "down", "preset": 5})
     assert plc["%VFC0.V"] == 5  # down counting starts from the preset
     plc.scan()
-    assert plc["%VFC0.V"] == 65536 - 5 and plc["%VFC0.F"]  # 5 - 10 wraps, overflow bit
+    assert plc["%VFC0.V"] == -5 and plc["%VFC0.F"]  # 5 - 10 wraps to 65531, overflow
 
 
 def test_vfc_up_down_reads_its_direction_input():

@@ -466,9 +466,8 @@ class ValueCompiler:
                 self.emit(f"{view}[{ref.index >> 1}] = {code}")
         elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
             b = self.block_name(Ref(ref.kind, ref.index))
-            if ref.field == "P" or k in ("FC", "VFC"):  # presets, %VFCi.S0/S1: clamped
-                top = getattr(BLOCK_CLASSES.get(k), "MAX_PRESET", MAX_VALUE)  # %FC/%VFC: 65535
-                self.emit(f"{b}.{ref.field} = min(max({code}, 0), {top})")
+            if ref.field == "P" and k not in ("FC", "VFC"):  # %FC/%VFC: any word (unsigned)
+                self.emit(f"{b}.P = min(max({code}, 0), {MAX_VALUE})")
             else:
                 self.emit(f"{b}.{ref.field} = {code}")
         else:

@@ -38,6 +38,7 @@ import math
 from collections import deque
 from typing import Any
 
+from ..numeric import wrap16
 from .blocks import Block
 
 MAX_COUNT = 65535  # 16-bit values [manual]
@@ -46,13 +47,14 @@ FC_MODES = ("up", "down")
 VFC_MODES = ("up", "down", "up_down", "quadrature", "frequency")
 TIME_BASES_MS = (100, 1000)  # frequency meter [manual, from memory]
 N_ZONES = 3  # V < S0, S0 <= V < S1, V >= S1
+MASK = 0xFFFF
+word = wrap16  # an unsigned count 0..65535 as the signed 16-bit word the program reads
 
 
 class _PulseCounter(Block):
     """What both counters share: the enable (IN), the frequency limit, the input wiring."""
 
     PINS = ("IN", "S")
-    MAX_PRESET = MAX_COUNT
 
     def __init__(self, mode: str, preset: int, max_hz: float, modes: tuple[str, ...]):
         if mode not in modes:
@@ -60,7 +62,9 @@ class _PulseCounter(Block):
         if not 0 <= int(preset) <= MAX_COUNT:
             raise ValueError(f"preset {preset}: 0..{MAX_COUNT}")
         self.mode, self.max_hz = mode, max_hz
-        self.P = int(preset)
+        # the words the program sees are signed 16-bit (V = 40000 reads as -25536, as a
+        # %MW would); the counting uses them unsigned (& MASK)
+        self.P = word(int(preset))
         self._en = 0
         self.lost = 0  # edges above the input's frequency limit
         self._credit = 0.0
@@ -100,18 +104,19 @@ class FastCounter(_PulseCounter):
         n = self._take(edges, dt)
         if not self._en or not n:
             return
-        p = self.P or SPAN  # preset 0: a plain 16-bit counter (our choice)
+        preset = self.P & MASK
+        p = preset or SPAN  # preset 0: a plain 16-bit counter (our choice)
         if self.mode == "up":
-            v = self.V + n
+            v = (self.V & MASK) + n
             if v >= p:
-                self.D = 1 if self.P else self.D
+                self.D = 1 if preset else self.D
                 v %= p
         else:
-            v = self.V - n
+            v = (self.V & MASK) - n
             if v <= 0:
-                self.D = 1 if self.P else self.D
-                v = (v - 1) % p + 1 if self.P else v % SPAN
-        self.V = v
+                self.D = 1 if preset else self.D
+                v = (v - 1) % p + 1 if preset else v % SPAN
+        self.V = word(v)
 
 
 class VeryFastCounter(_PulseCounter):
@@ -132,7 +137,7 @@ class VeryFastCounter(_PulseCounter):
             raise ValueError(f"time base {time_base_ms} ms: 100 or 1000")
         self.V = 0 if mode in ("up", "frequency") else self.P
         self.U, self.C, self.F, self.TH0, self.TH1 = 1, 0, 0, 0, 0
-        self.S0, self.S1 = int(s0), int(s1)
+        self.S0, self.S1 = word(int(s0)), word(int(s1))
         self.R = self.S = 0  # reflex outputs enabled by the program [manual, from memory]
         self.T = time_base_ms
         self.zones, self.outputs = zones, outputs
@@ -173,7 +178,7 @@ class VeryFastCounter(_PulseCounter):
             self._acc += n
             self._acc_t += dt
             if self._acc_t >= self.T / 1000 - 1e-9:
-                self.V = min(MAX_COUNT, round(self._acc / self._acc_t))
+                self.V = word(min(MAX_COUNT, round(self._acc / self._acc_t)))
                 self._acc, self._acc_t = 0, 0.0
                 self._thresholds(t)
             return
@@ -181,18 +186,18 @@ class VeryFastCounter(_PulseCounter):
             return
         d = n if self.mode == "up" else -n if self.mode == "down" else n * direction
         self.U = 1 if d > 0 else 0
-        v = self.V + d
+        v = (self.V & MASK) + d
         if not 0 <= v <= MAX_COUNT:
             v %= SPAN
             self.F = 1
-        self.V = v
+        self.V = word(v)
         self._thresholds(t)
 
     def _thresholds(self, t: float | None = None) -> None:
-        v = self.V
-        self.TH0 = 1 if v >= self.S0 else 0
-        self.TH1 = 1 if v >= self.S1 else 0
-        zone = self.TH0 + self.TH1 if self.S0 <= self.S1 else (1 if self.TH0 else 0)
+        v, s0, s1 = self.V & MASK, self.S0 & MASK, self.S1 & MASK
+        self.TH0 = 1 if v >= s0 else 0
+        self.TH1 = 1 if v >= s1 else 0
+        zone = self.TH0 + self.TH1 if s0 <= s1 else (1 if self.TH0 else 0)
         key = zone * 4 + self.R * 2 + self.S  # an enable bit set by the program counts too
         if key == self._zone:
             return
