@@ -29,9 +29,10 @@ FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SI
 # timer's IN, else the pin's name in lower case).
 BLOCK_PIN_METHODS = {pin: "run" if pin == "IN" else pin.lower()
                      for cls in BLOCK_CLASSES.values() for pin in cls.PINS}
-# A block's input pins (as its class declares them) and its bit outputs (its bit fields).
+# A block's input pins (as its class declares them) and its bit outputs (its read-only bit
+# fields; the writable %VFCi.R / %VFCi.S are enable bits, not outputs).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
-BLOCK_OUTPUTS = {kind: tuple(f for f, (t, _w) in fields.items() if t == BOOL)
+BLOCK_OUTPUTS = {kind: tuple(f for f, (t, w) in fields.items() if t == BOOL and not w)
                  for kind, fields in BLOCK_FIELDS.items() if fields}
 
 
