@@ -150,7 +150,10 @@ class MemoryImage:
                 return
             if ref.field is None or ref.field == "J":
                 raise AddressError(f"{ref} cannot be written")
-            setattr(b, ref.field, int(value))
+            v = int(value)
+            if BLOCK_FIELDS[ref.kind][ref.field][0] == "int16":
+                v = wrap16(v)  # a word (%VFCi.S0 := 40000 from the API is 16#9C40)
+            setattr(b, ref.field, v)
             return
         if ref.length is not None:
             step = WIDTH.get(ref.kind, 1)
