@@ -225,6 +225,8 @@ def test_cold_start_restores_the_counters():
     ("LD %VFC0.TH2\nST %Q0.5\n", "%VFC has fields"),
     ("LD 1\n[ %FC0.V := 3 ]\n", "cannot write %FC0.V"),
     ("LD %FC0.V\nST %Q0.5\n", "not a bit"),
+    ("LD 1\nST %FC0.D\n", "cannot write %FC0.D"),
+    ("BLK %FC0\nLD 1\nCU\nEND_BLK\n", "CU"),
 ])
 def test_misuse_is_reported(src, message):
     with pytest.raises(ProgramError) as e:

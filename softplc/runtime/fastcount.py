@@ -69,10 +69,6 @@ class _PulseCounter(Block):
         self.lost = 0  # edges above the input's frequency limit
         self._credit = 0.0
 
-    def s(self, v: Any) -> None:
-        """Short form `S %FCi`: the preset input, counting left as it was."""
-        self.run(self._en, v)
-
     def _take(self, edges: int, dt: float) -> int:
         """How many of `edges` in `dt` seconds the input can follow (the rest is lost)."""
         rate = self.max_hz * dt
