@@ -22,7 +22,8 @@ through the slower `_special` path.
 from __future__ import annotations
 
 import math
-from collections import deque
+import struct
+from itertools import repeat
 from math import floor
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,13 @@ class ServoAxis(AxisDevice):
     """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts."""
 
     Options = ServoAxisOptions
+    # Everything a scan changes (Device.state); K, a and the loop constants follow from
+    # load_mass_ratio and are rebuilt by set_state. The trace is a record: see state().
+    STATE = ("x", "v", "k", "origin", "fault", "closed", "open_loop", "_ol_u", "_ol_end",
+             "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
+             "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped", "_traj", "_active",
+             "_k0", "_tail_v", "_ctl_prev", "_vel", "_x_prev_scan", "_ready", "_mass_f",
+             "load_mass_ratio", "_fixed")
 
     def __init__(self, name: str, options: ServoAxisOptions):
         super().__init__(name, options)
@@ -63,6 +71,7 @@ class ServoAxis(AxisDevice):
         self._lm = g.limit_minus if g.limit_minus is not None else -math.inf
         self._hp = g.hard_stop_plus if g.hard_stop_plus is not None else math.inf
         self._hm = g.hard_stop_minus if g.hard_stop_minus is not None else -math.inf
+        self._lo, self._hi = max(self._lm, self._hm), min(self._lp, self._hp)
         if not self._hm <= o.start <= self._hp:
             raise ConfigError(f"{self.where('start')}: {o.start} is beyond the hard stops")
         self._enc0 = math.floor(o.start)
@@ -71,8 +80,10 @@ class ServoAxis(AxisDevice):
         self._mass_word: int | None = None
         self._mass_f = 0.0  # the load mass word's value last seen
         self._build_consts()
-        self.trace: deque[tuple[int, float, float, float]] = deque(
-            maxlen=o.trace_max)
+        # The servo-rate trace: a list trimmed to the last `trace_max` rows once it holds
+        # twice that many (cheaper than a ring per row); `_trace_dropped` rows were cut.
+        self.trace: list[tuple[int, float, float, float]] = []
+        self._trace_dropped = 0
         self._rec = self.trace.append if o.trace else None
         self._mem: MemoryImage | None = None
         self._base = 0
@@ -102,6 +113,7 @@ class ServoAxis(AxisDevice):
             self.zoh.g2, ideal, o.start if ideal else self._enc0, self._lp, self._lm,
             self._hp, self._hm, *g.home_switch, g.index_period, g.index_offset, self.T)
         self._warn_lim = self._consts[11]
+        self._fixed = False
 
     def set_load_mass_ratio(self, ratio: float) -> None:
         """Change the moving mass at run time (a workpiece loaded or removed): `ratio` is
@@ -188,14 +200,16 @@ class ServoAxis(AxisDevice):
         self._app = ap
         self._ie = 0.0
         self._clamped = False
-        self._traj: list[float] = []
+        self._traj: tuple[float, ...] = ()
         self._active = False  # a trajectory was started and has not been seen to end
         self._k0 = 1
         self._tail_v = 0.0  # counts per cycle after the trajectory's end
         self._ctl_prev = 0
         self._vel = 0.0
         self._x_prev_scan = self.x
+        self._fixed = False  # the loop's state is a fixed point: see _probe_fixed
         self.trace.clear()
+        self._trace_dropped = 0
 
     def set_fault(self, fault: str) -> None:
         """Inject a fault at run time: "jammed" (the carriage is frozen), "estop" (the
@@ -203,6 +217,7 @@ class ServoAxis(AxisDevice):
         if fault not in ("none", "jammed", "estop", "amp_fault"):
             raise ConfigError(f"device {self.name!r}: unknown fault {fault!r}")
         self.fault = fault
+        self._fixed = False
 
     # -- positions (the interface limit switches and tools use) ----------------------------
     def _raw(self) -> float:
@@ -245,11 +260,23 @@ class ServoAxis(AxisDevice):
         due = floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9)
         n = due - self.k
         if n > 0:
-            if not self.closed and self._at_rest_open():
+            if self._fixed:
+                self._repeat(n)
+            elif not self.closed and self._at_rest_open():
                 self.k = due  # killed and stuck: nothing moves, nothing to record
             else:
+                if self.v == 0.0 and self._fixed_candidate():
+                    n = self._probe_fixed(n)
+                    if self._fixed:
+                        self._repeat(n)
+                        n = 0
                 while n > 0:
                     n = self._cycles(n)
+            rec = self.trace
+            if len(rec) >= 2 * self.opt.trace_max:  # keep the last trace_max rows
+                cut = len(rec) - self.opt.trace_max
+                del rec[:cut]
+                self._trace_dropped += cut
         if dt > 0:
             self._vel = (self.x - self._x_prev_scan) / dt
         self._x_prev_scan = self.x
@@ -288,7 +315,7 @@ class ServoAxis(AxisDevice):
         self.open_loop = False
         self._coast = False
         self.u = 0.0
-        self._traj = []
+        self._traj = ()
         self._tail_v = 0.0
         self.homing = 0
         if latch:
@@ -298,6 +325,7 @@ class ServoAxis(AxisDevice):
 
     # -- commands ---------------------------------------------------------------------------
     def _commands(self) -> None:
+        self._fixed = False  # whatever the commands change, the fixed point is re-proved
         mw = self._mem.mw  # type: ignore[union-attr]
         b = self._base
         ctl = mw.uw[b + Word.CONTROL]
@@ -339,7 +367,7 @@ class ServoAxis(AxisDevice):
         self._cvp = 0.0
         self._app = ap
         self._ie = 0.0
-        self._traj, self._tail_v = [], 0.0
+        self._traj, self._tail_v = (), 0.0
 
     def _rule(self, acc_ms: int = 0, s_ms: int = 0, trapezoid: bool = False) -> tj.RampRule:
         g = self.gains
@@ -393,13 +421,14 @@ class ServoAxis(AxisDevice):
     def _follow(self, prof: tj.Profile, end: float | None = None, v_end: float = 0.0) -> None:
         """Start a trajectory at the next cycle; `end` is the exact final position, `v_end`
         the velocity (counts/s) that continues after the profile (a jog's)."""
-        self._traj = tj.sample(prof, self.T)
+        traj = tj.sample(prof, self.T)
         self._tail_v = v_end * self.T
         self._active = True
-        if self._traj and end is not None:
-            self._traj[-1] = end
-        elif not self._traj and not self._tail_v:
+        if traj and end is not None:
+            traj[-1] = end
+        elif not traj and not self._tail_v:
             self._cp = end if end is not None else self._cp
+        self._traj = tuple(traj)  # immutable: a state() shares it
         self._k0 = self.k + 1
 
     def _cmd_velocity(self) -> float:
@@ -444,7 +473,7 @@ class ServoAxis(AxisDevice):
     def _after_ticks(self) -> None:
         """Scan-level sequencing once the trajectory has ended."""
         if self._traj and self.k - self._k0 + 1 >= len(self._traj) and not self._tail_v:
-            self._traj = []  # a finished move holds its end exactly
+            self._traj = ()  # a finished move holds its end exactly
         if self._traj or self._tail_v:
             return
         self._active = False
@@ -458,6 +487,43 @@ class ServoAxis(AxisDevice):
             self.done = True
         elif self.closed:
             self.done = True
+
+    # -- the fixed point ----------------------------------------------------------------------
+    # A servo cycle maps the loop state L = (x, v, CP, CP', CV', AP', IE, clamped) to the next
+    # one; with the loop closed, no trajectory left (CP constant), no tail velocity, the drive
+    # ready, no fault, no homing search and the carriage inside the limits, the map depends
+    # on nothing else (not on the cycle number). So if one cycle leaves L bit for bit as it
+    # was, every later cycle does too and computes the same u, w, FE: the cycles can be
+    # skipped, their trace rows written in one go, until a command, a fault, the drive's
+    # READY or the moving mass changes (_commands, set_fault, _build_consts clear the flag).
+    # The test is on the packed bytes (-0.0 and 0.0 differ), so it is exact, not approximate.
+    _PACK = struct.Struct("<8d").pack
+
+    def _loop_state(self) -> bytes:
+        return self._PACK(self.x, self.v, self._cp, self._cpp, self._cvp, self._app,
+                          self._ie, self._clamped)
+
+    def _fixed_candidate(self) -> bool:
+        """The conditions under which the cycle map is the same for every cycle."""
+        return (self.closed and not self.open_loop and not self._tail_v
+                and self.k + 1 - self._k0 >= len(self._traj) and self.homing != 1
+                and self._ready and self.fault == "none" and self._lo < self.x < self._hi)
+
+    def _probe_fixed(self, n: int) -> int:
+        """Run one of the n due cycles; note a fixed point. Returns the cycles left."""
+        before = self._loop_state()
+        left = self._cycles(1)
+        self._fixed = self._fixed_candidate() and self._loop_state() == before
+        return n - 1 + left
+
+    def _repeat(self, n: int) -> None:
+        """n cycles at the fixed point: only the cycle count and the trace move on."""
+        k = self.k
+        if self._rec is not None:
+            o = self.origin
+            self.trace.extend(zip(range(k + 1, k + n + 1), repeat(self._cp - o),
+                                  repeat(self._app - o), repeat(self.u)))
+        self.k = k + n
 
     # -- the servo loop ---------------------------------------------------------------------
     def _cycles(self, n: int) -> int:
@@ -663,12 +729,31 @@ class ServoAxis(AxisDevice):
         return {"pos": round(self.actual), "fe": round(self.fe, 2), "homed": self.homed,
                 "error": Err.TEXT[self.error]}
 
+    # -- snapshots --------------------------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        st = super().state()
+        st["trace"] = self._trace_dropped + len(self.trace)  # rows recorded so far
+        return st
+
+    def set_state(self, st: dict[str, Any]) -> None:
+        ratio = self.load_mass_ratio
+        fixed = st["_fixed"]
+        super().set_state(st)
+        if self.load_mass_ratio != ratio:
+            self._build_consts()
+            self._fixed = fixed
+        keep = st["trace"] - self._trace_dropped
+        del self.trace[max(keep, 0):]
+        if keep < 0:  # the rows back to there were trimmed: the trace restarts at the cut
+            self._trace_dropped = st["trace"]
+
     # -- trace ------------------------------------------------------------------------------
     def samples(self) -> list[tuple[float, float, float, float, float]]:
         """The servo-rate trace: (t s, commanded, actual, following error, output bits),
         positions in counts (user coordinates of the time)."""
         T = self.T
-        return [(k * T, cp, ap, cp - ap, u) for k, cp, ap, u in self.trace]
+        return [(k * T, cp, ap, cp - ap, u)
+                for k, cp, ap, u in self.trace[-self.opt.trace_max:]]
 
     def trace_to_csv(self, path: str | Path) -> None:
         with open(path, "w", encoding="utf-8") as f:
