@@ -32,6 +32,7 @@ from ...address import parse_address
 from ...errors import AddressError, ConfigError
 from ...runtime.memory import MemoryImage
 from ..base import AxisDevice, Device, register_device
+from . import loop
 from . import trajectory as tj
 from .law import Coefficients
 from .options import Ctl, Err, Mode, ServoAxisOptions, St, Word
@@ -79,12 +80,12 @@ class ServoAxis(AxisDevice):
         self._ready = True  # the drive's READY, evaluated once per scan in update()
         self._mass_word: int | None = None
         self._mass_f = 0.0  # the load mass word's value last seen
-        self._build_consts()
         # The servo-rate trace: a list trimmed to the last `trace_max` rows once it holds
         # twice that many (cheaper than a ring per row); `_trace_dropped` rows were cut.
         self.trace: list[tuple[int, float, float, float]] = []
         self._trace_dropped = 0
         self._rec = self.trace.append if o.trace else None
+        self._build_consts()
         self._mem: MemoryImage | None = None
         self._base = 0
         self._estop_idx: int | None = None
@@ -102,17 +103,33 @@ class ServoAxis(AxisDevice):
         gn = self.gains
         c = self.coef
         inf = math.inf
-        ideal = self._ideal
-        # Everything the servo loop reads but never changes, unpacked in one statement.
-        self._consts = (
-            c.fe, c.cv, c.ca, c.ie, c.av, gn.int_mode == 0,
-            gn.int_limit / 16 if gn.int_limit else inf, gn.friction_ff, gn.offset,
-            gn.output_limit, gn.fatal_fe / 16 if gn.fatal_fe else inf,
-            gn.warn_fe / 16 if gn.warn_fe else inf, self._dac_q, self.K, p.coulomb,
-            p.amp_offset, self.u_peak, p.load, p.load_table, self.zoh.phi, self.zoh.g1,
-            self.zoh.g2, ideal, o.start if ideal else self._enc0, self._lp, self._lm,
-            self._hp, self._hm, *g.home_switch, g.index_period, g.index_offset, self.T)
-        self._warn_lim = self._consts[11]
+        table = p.load_table
+        # Everything the servo loop reads but never changes: literals of its generated code
+        # (loop.py), with the flags that drop the branches this configuration never takes.
+        fatal = gn.fatal_fe / 16 if gn.fatal_fe else inf
+        warn = gn.warn_fe / 16 if gn.warn_fe else inf
+        ilim = gn.int_limit / 16 if gn.int_limit else inf
+        z = self.zoh
+        self._loop_values = dict(
+            cfe=c.fe, ccv=c.cv, cca=c.ca, cie=c.ie, cav=c.av, ilim=ilim, nilim=-ilim,
+            ff=gn.friction_ff, off=gn.offset, lim=gn.output_limit, nlim=-gn.output_limit,
+            fatal=fatal, warn_lim=warn, check=min(warn, fatal), q=self._dac_q, K=self.K,
+            a=self.a, fc=p.coulomb, nfc=-p.coulomb, uoff=p.amp_offset, up=self.u_peak,
+            nup=-self.u_peak, load=p.load, phi=z.phi, g1=z.g1, g2=z.g2, T=self.T,
+            enc0=o.start if self._ideal else self._enc0, lo=self._lo, hi=self._hi,
+            hlo=g.home_switch[0], hhi=g.home_switch[1], iper=g.index_period,
+            ioff=g.index_offset)
+        if len(table) == 2:
+            (x0, y0), (x1, y1) = table
+            self._loop_values.update(t_x0=x0, t_y0=y0, t_x1=x1, t_y1=y1, t_dy=y1 - y0,
+                                     t_dx=x1 - x0)
+        self._loop_flags = dict(
+            ideal=self._ideal, int_always=gn.int_mode == 0, ilim=ilim != inf,
+            check=min(warn, fatal) != inf, warn_on=warn != inf, fatal_on=fatal != inf,
+            dac=bool(self._dac_q), trace=self._rec is not None, up=self.u_peak != inf,
+            load=p.load != 0, table2=len(table) == 2, table=len(table) not in (0, 2))
+        self._loops: dict[tuple[bool, ...], Any] = {}
+        self._warn_lim = warn
         self._fixed = False
 
     def set_load_mass_ratio(self, ratio: float) -> None:
@@ -528,129 +545,20 @@ class ServoAxis(AxisDevice):
     # -- the servo loop ---------------------------------------------------------------------
     def _cycles(self, n: int) -> int:
         """Run up to n loop cycles; returns how many are left when an event interrupts."""
-        (cfe, ccv, cca, cie, cav, int_always, ilim, ff, off, lim, fatal, warn_lim, q, K, fc,
-         uoff, up, load, table, phi, g1, g2, ideal, enc0, lp, lm, hp, hm, hlo, hhi, iper,
-         ioff, T) = self._consts
-        floor = math.floor  # a local: looked up every cycle
-        ready = self._ready
-        special = not ready or self.fault != "none"
         closed, open_loop = self.closed, self.open_loop
-        traj, k0, tail_v = self._traj, self._k0, self._tail_v
-        ntraj = len(traj)
-        last = traj[-1] if traj else self._cp
-        searching = self.homing == 1
-        lo, hi = max(lm, hm), min(lp, hp)
-        x, v, k = self.x, self.v, self.k
-        cp, cpp, cvp, app, ie = self._cp, self._cpp, self._cvp, self._app, self._ie
-        clamped = self._clamped
-        u = self.u
-        w = self.w
-        T = self.T
-        rec = self._rec
-        origin = self.origin
-        fe = self.fe
-        fe_max = self.fe_max
-        warn = False
-        event = None
-        ol_end = self._ol_end
-        ilim_on = ilim != math.inf
-        check = min(warn_lim, fatal)
-        stop = k + n
-        for k in range(k + 1, stop + 1):  # noqa: B020  (k carries on after the loop)
-            ap = (x - enc0) if ideal else floor(x) - enc0
-            if closed:
-                if ntraj:
-                    j = k - k0
-                    cp = traj[j] if j < ntraj else last + tail_v * (j - ntraj + 1)
-                elif tail_v:
-                    cp += tail_v
-                fe = cp - ap
-                cv = cp - cpp
-                ca = cv - cvp
-                if (int_always or cv == 0) and not clamped:
-                    ie += fe
-                    if ilim_on:
-                        ie = ilim if ie > ilim else (-ilim if ie < -ilim else ie)
-                u = cfe * fe + ccv * cv + cca * ca + cie * ie - cav * (ap - app) + off
-                if cv > 0:
-                    u += ff
-                elif cv < 0:
-                    u -= ff
-                clamped = True
-                if u > lim:
-                    u = lim
-                elif u < -lim:
-                    u = -lim
-                else:
-                    clamped = False
-                cpp, cvp = cp, cv
-                afe = fe if fe >= 0 else -fe
-                if afe > fe_max:
-                    fe_max = afe
-                if afe > check:
-                    if afe > warn_lim:
-                        warn = True
-                    if afe > fatal:
-                        event = "fatal"
-                        u = 0.0
-            elif open_loop:
-                cp = ap
-                u = self._ol_u
-                if ol_end and k >= ol_end:
-                    event = "open loop end"
-            else:
-                u = 0.0
-                cp = ap
-            if q:
-                u = q * floor(u / q)
-            app = ap
-            if rec is not None:
-                rec((k, cp - origin, ap - origin, u))
-            # the drive: offset, current limit, load
-            w = u + uoff if ready else 0.0
-            if w > up:
-                w = up
-            elif w < -up:
-                w = -up
-            wl = w - load
-            if table:
-                wl -= _interp(table, x)
-            x0 = x
-            if special or not lo < x < hi:
-                x, v = self._special(x, v, wl)
-            else:
-                if v > 0:
-                    we = wl - fc
-                elif v < 0:
-                    we = wl + fc
-                elif -fc <= wl <= fc:
-                    we = None
-                else:
-                    we = wl - fc if wl > 0 else wl + fc
-                if we is not None:
-                    kw = K * we
-                    v1 = phi * v + kw * g1
-                    if v * v1 < 0:  # the velocity changes sign within the cycle
-                        x, v = step(x, v, wl, K, self.a, fc, T, self.zoh)
-                    else:
-                        x += v * g1 + kw * g2
-                        v = v1
-            if searching and hlo <= x0 < hhi and floor((x - ioff) / iper) > \
-                    floor((x0 - ioff) / iper):
-                # the first index pulse (crossed going +) while the home flag is made
-                xi = floor((x - ioff) / iper) * iper + ioff
-                event = ("home", (xi - self.opt.start) if ideal else floor(xi) - enc0)
-            if event is not None:
-                break
-        n = stop - k
-        self.x, self.v, self.k = x, v, k
-        self._cp, self._cpp, self._cvp, self._app, self._ie = cp, cpp, cvp, app, ie
-        self._clamped = clamped
-        self.u, self.w, self.fe, self.fe_max = u, w, fe, fe_max
-        self.warn = warn or (closed and abs(fe) > self._warn_lim)
+        key = (closed, open_loop, self.homing == 1, not self._ready or self.fault != "none")
+        fn = self._loops.get(key)
+        if fn is None:
+            flags = dict(self._loop_flags, closed=closed, open_loop=open_loop,
+                         killed=not (closed or open_loop), search=key[2], special=key[3],
+                         ready=self._ready)
+            fn = self._loops[key] = loop.compile_cycles(
+                loop.render(self._loop_values, flags), _interp, step)
+        n, warn, event = fn(self, n)
+        self.warn = warn or (closed and abs(self.fe) > self._warn_lim)
         if event == "fatal":
-            on_limit = x >= lp or x <= lm
-            self._kill(Err.LIMIT if on_limit else Err.FATAL_FE)
+            x = self.x
+            self._kill(Err.LIMIT if x >= self._lp or x <= self._lm else Err.FATAL_FE)
         elif event == "open loop end":  # output 0: the carriage coasts to a stop
             self._ol_u = 0.0
             self._ol_end = 0
