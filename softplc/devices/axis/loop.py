@@ -1,19 +1,20 @@
 """The servo loop's cycles, generated per configuration and drive state (issue 12's speed).
 
-`cycles_function(consts, mode)` returns `cycles(dev, n) -> cycles left`: up to n servo
-cycles of the device `dev` (a ServoAxis), reading its state into locals once, writing it
-back once, and stopping early on an event (fatal following error, end of an open-loop
-output, the homing index pulse), which the device then handles.
+`compile_cycles(render(values, flags), ...)` gives `cycles(dev, n) -> cycles left`: up to
+n servo cycles of the device `dev` (a ServoAxis), its state read into locals once and
+written back once; an event (fatal following error, end of an open-loop output, the homing
+index pulse) stops the cycles and goes to `dev._on_event`.
 
 The source below is the one description of a cycle. Lines tagged `?flag` are kept only
-when the flag holds, `!flag` only when it does not; `$name` is a constant of the
-configuration written as a literal (`repr` of a float round-trips exactly). What is
-dropped is only code that cannot change a result: a branch whose test is false for the
-configuration (a DAC with no quantisation, an infinite current limit, no load table, no
-trace, the loop mode of this scan), or `- 0.0` (an exact identity). The arithmetic that
-remains is the same operations in the same order as the generic form, so the results are
-bit for bit those of the generic loop. A function is compiled once per distinct source
-(a few per axis: closed loop, open loop, killed, homing search, faulted) and cached.
+when the flag holds, `!flag` only when it does not (`?a&!b`, `?a|b` combine flags);
+`$name` is a constant of the configuration, written as a literal (`repr` of a float
+round-trips exactly). Only code that cannot change a result is dropped: a branch whose
+test is false for the configuration (no DAC quantisation, no current limit, no load
+table, no trace) or the drive state of the scan (loop closed, open loop, killed, homing
+search, faulted), or `- 0.0` (an exact identity). What remains is the same operations in
+the same order, so the results are bit for bit those of one generic loop (checked against
+the previous generic implementation: identical traces and words). A function is compiled
+once per distinct source and cached.
 """
 
 from __future__ import annotations
@@ -133,12 +134,19 @@ def cycles(dev, n):
     dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie = cp, cpp, cvp, app, ie
     dev._clamped = clamped
     dev.u, dev.w, dev.fe, dev.fe_max = u, w, fe, fe_max
-    return stop - k, warn, event
+?closed&warn_on    dev.warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
+!closed|!warn_on    dev.warn = False
+    if event is not None:
+        dev._on_event(event)
+    return stop - k
 """
 _CACHE: dict[str, Callable[..., Any]] = {}
 
 
 def _keep(tags: str, flags: dict[str, bool]) -> bool:
+    """`a&!b`: a and not b; `a|b`: a or b (one operator per tag list)."""
+    if "|" in tags:
+        return any(_keep(t, flags) for t in tags.split("|"))
     for tag in tags.split("&"):
         want = not tag.startswith("!")
         if flags[tag.lstrip("!")] != want:

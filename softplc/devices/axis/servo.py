@@ -39,6 +39,7 @@ from .options import Ctl, Err, Mode, ServoAxisOptions, St, Word
 from .plant import ZOH, step
 
 TRACE_HEADER = "t,commanded,actual,fe,output"
+_STATUS, _ERROR = Word.STATUS, Word.ERROR
 
 
 @register_device("servo_axis")
@@ -76,6 +77,7 @@ class ServoAxis(AxisDevice):
         if not self._hm <= o.start <= self._hp:
             raise ConfigError(f"{self.where('start')}: {o.start} is beyond the hard stops")
         self._enc0 = math.floor(o.start)
+        self._start = o.start
         self._ideal = p.encoder == "ideal"
         self._ready = True  # the drive's READY, evaluated once per scan in update()
         self._mass_word: int | None = None
@@ -85,10 +87,12 @@ class ServoAxis(AxisDevice):
         self.trace: list[tuple[int, float, float, float]] = []
         self._trace_dropped = 0
         self._rec = self.trace.append if o.trace else None
+        self._trim_at = 2 * o.trace_max
         self._build_consts()
         self._mem: MemoryImage | None = None
         self._base = 0
         self._estop_idx: int | None = None
+        self._wired = False  # the drive's READY depends on an input or an output
         self._power_idx: int | None = None
         self._i: list[int] = []
         self._q: list[int] = []
@@ -172,6 +176,7 @@ class ServoAxis(AxisDevice):
             self._estop_idx = self.io_index(mem, self.opt.estop_input, "I", "estop_input")
         if self.opt.power_output is not None:
             self._power_idx = self.io_index(mem, self.opt.power_output, "Q", "power_output")
+        self._wired = self._estop_idx is not None or self._power_idx is not None
         self._write_status()
 
     def _float_word(self, mem: MemoryImage, address: str, option: str) -> int:
@@ -239,7 +244,7 @@ class ServoAxis(AxisDevice):
     # -- positions (the interface limit switches and tools use) ----------------------------
     def _raw(self) -> float:
         if self._ideal:
-            return self.x - self.opt.start
+            return self.x - self._start
         return floor(self.x) - self._enc0
 
     @property
@@ -270,16 +275,20 @@ class ServoAxis(AxisDevice):
                 self._mass_f = r
                 r += self.opt.plant.load_mass_ratio
                 self.set_load_mass_ratio(r if math.isfinite(r) and r >= 0 else 0.0)
-        self._ready = ready = self.amp_ready()
-        if self._w[self._ctl_i] != self._ctl_prev or not self.closed or \
-                self.fault != "none" or not ready:
+        fault = self.fault
+        # (amp_ready() inlined for the common case: no fault, drive not wired to inputs)
+        self._ready = ready = True if fault == "none" and not self._wired else self.amp_ready()
+        closed = self.closed
+        if self._w[self._ctl_i] != self._ctl_prev or not closed or fault != "none" or \
+                not ready:
             self._commands()
+            closed = self.closed
         due = floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9)
         n = due - self.k
         if n > 0:
             if self._fixed:
                 self._repeat(n)
-            elif not self.closed and self._at_rest_open():
+            elif not closed and self._at_rest_open():
                 self.k = due  # killed and stuck: nothing moves, nothing to record
             else:
                 if self.v == 0.0 and self._fixed_candidate():
@@ -289,16 +298,17 @@ class ServoAxis(AxisDevice):
                         n = 0
                 while n > 0:
                     n = self._cycles(n)
-            rec = self.trace
-            if len(rec) >= 2 * self.opt.trace_max:  # keep the last trace_max rows
+            if self._rec is not None and len(self.trace) >= self._trim_at:
+                rec = self.trace  # keep the last trace_max rows
                 cut = len(rec) - self.opt.trace_max
                 del rec[:cut]
                 self._trace_dropped += cut
+        x = self.x
         if dt > 0:
-            self._vel = (self.x - self._x_prev_scan) / dt
-        self._x_prev_scan = self.x
-        if self._active:
-            self._after_ticks()
+            self._vel = (x - self._x_prev_scan) / dt
+        self._x_prev_scan = x
+        if self._active and not self._tail_v and self.k - self._k0 + 1 >= len(self._traj):
+            self._after_ticks()  # (it does nothing before the trajectory's end)
         if self._coast and self.v == 0.0:  # after an open-loop output: close the loop here
             self._coast = False
             if self.open_loop:
@@ -546,16 +556,19 @@ class ServoAxis(AxisDevice):
     def _cycles(self, n: int) -> int:
         """Run up to n loop cycles; returns how many are left when an event interrupts."""
         closed, open_loop = self.closed, self.open_loop
-        key = (closed, open_loop, self.homing == 1, not self._ready or self.fault != "none")
+        ready = self._ready
+        key = (closed, open_loop, self.homing == 1, ready, self.fault != "none")
         fn = self._loops.get(key)
         if fn is None:
             flags = dict(self._loop_flags, closed=closed, open_loop=open_loop,
-                         killed=not (closed or open_loop), search=key[2], special=key[3],
-                         ready=self._ready)
+                         killed=not (closed or open_loop), search=key[2],
+                         special=not ready or key[4], ready=ready)
             fn = self._loops[key] = loop.compile_cycles(
                 loop.render(self._loop_values, flags), _interp, step)
-        n, warn, event = fn(self, n)
-        self.warn = warn or (closed and abs(self.fe) > self._warn_lim)
+        return fn(self, n)
+
+    def _on_event(self, event: Any) -> None:
+        """What interrupted the cycles (called by the loop with its state written back)."""
         if event == "fatal":
             x = self.x
             self._kill(Err.LIMIT if x >= self._lp or x <= self._lm else Err.FATAL_FE)
@@ -563,9 +576,8 @@ class ServoAxis(AxisDevice):
             self._ol_u = 0.0
             self._ol_end = 0
             self._coast = True
-        elif event is not None:
+        else:
             self._home_trigger(event[1])
-        return n
 
     def _special(self, x: float, v: float, w: float) -> tuple[float, float]:
         """The drive's and the mechanics' exceptional states, one cycle."""
@@ -622,12 +634,15 @@ class ServoAxis(AxisDevice):
         (d_act, i_act), (d_cmd, i_cmd), (f_fe, i_fe), (f_max, i_max), (d_tk, i_tk), \
             (f_out, i_out), (f_cur, i_cur), (f_vel, i_vel) = self._views
         w, b = self._w, self._base
-        d_act[i_act] = round(self._raw() - self.origin)
-        d_cmd[i_cmd] = round(self._cp - self.origin)
+        origin = self.origin
+        x = self.x
+        d_act[i_act] = round((x - self._start if self._ideal else floor(x) - self._enc0)
+                             - origin)  # _raw() inlined
+        d_cmd[i_cmd] = round(self._cp - origin)
         f_fe[i_fe] = self.fe if self.closed else 0.0
         f_max[i_max] = self.fe_max
-        w[b + Word.STATUS] = self.status_bits()
-        w[b + Word.ERROR] = self.error
+        w[b + _STATUS] = self.status_bits()
+        w[b + _ERROR] = self.error
         d_tk[i_tk] = self.k & 0x7FFFFFFF
         f_out[i_out] = self.u
         f_cur[i_cur] = self.w * self._cur_scale
