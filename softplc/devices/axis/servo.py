@@ -291,7 +291,9 @@ class ServoAxis(AxisDevice):
             elif not closed and self._at_rest_open():
                 self.k = due  # killed and stuck: nothing moves, nothing to record
             else:
-                if self.v == 0.0 and self._fixed_candidate():
+                # (a pre-filter: with FE != 0 and no clamp the integrator moves: no probe)
+                if self.v == 0.0 and (self.fe == 0.0 or self._clamped) and \
+                        self._fixed_candidate():
                     n = self._probe_fixed(n)
                     if self._fixed:
                         self._repeat(n)
