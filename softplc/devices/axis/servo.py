@@ -39,7 +39,14 @@ from .options import Ctl, Err, Mode, ServoAxisOptions, St, Word
 from .plant import ZOH, step
 
 TRACE_HEADER = "t,commanded,actual,fe,output"
-_STATUS, _ERROR = Word.STATUS, Word.ERROR
+# The status words in word order, (offset, struct code): one `pack_into` writes them all.
+_STATUS_WORDS = ((Word.ACTUAL, "i"), (Word.COMMANDED, "i"), (Word.FE, "f"), (Word.FE_MAX, "f"),
+                 (Word.STATUS, "H"), (Word.ERROR, "H"), (Word.TICKS, "i"), (Word.OUTPUT, "f"),
+                 (Word.CURRENT, "f"), (Word.VELOCITY, "f"))
+_STATUS_PACK = struct.Struct("=" + "".join(c for _, c in _STATUS_WORDS)).pack_into
+assert [o for o, _ in _STATUS_WORDS] == [  # contiguous, from ACTUAL to the block's end
+    Word.ACTUAL + sum(struct.calcsize(c) // 2 for _, c in _STATUS_WORDS[:i])
+    for i in range(len(_STATUS_WORDS))] and Word.VELOCITY + 2 == Word.SIZE
 
 
 @register_device("servo_axis")
@@ -163,12 +170,8 @@ class ServoAxis(AxisDevice):
         self._base = b = ref.index
         self._w = mem.mw.uw
         self._ctl_i = b + Word.CONTROL
-        mw = mem.mw
-        self._views = [(mw.d[i & 1], i >> 1) for i in (b + Word.ACTUAL, b + Word.COMMANDED)] \
-            + [(mw.f[i & 1], i >> 1) for i in (b + Word.FE, b + Word.FE_MAX)] \
-            + [(mw.d[(b + Word.TICKS) & 1], (b + Word.TICKS) >> 1)] \
-            + [(mw.f[i & 1], i >> 1) for i in (b + Word.OUTPUT, b + Word.CURRENT,
-                                               b + Word.VELOCITY)]
+        self._buf = mem.mw.buf
+        self._status_at = 2 * (b + Word.ACTUAL)  # byte offset of the status words
         self._i, self._q = mem.i_field, mem.q_field
         if self.opt.load_mass_word is not None:
             self._mass_word = self._float_word(mem, self.opt.load_mass_word, "load_mass_word")
@@ -632,23 +635,16 @@ class ServoAxis(AxisDevice):
         return s
 
     def _write_status(self) -> None:
-        # Straight into the memoryview casts (the 'f' cast rounds to single precision).
-        (d_act, i_act), (d_cmd, i_cmd), (f_fe, i_fe), (f_max, i_max), (d_tk, i_tk), \
-            (f_out, i_out), (f_cur, i_cur), (f_vel, i_vel) = self._views
-        w, b = self._w, self._base
+        # The status words are one contiguous run: one pack_into (its 'f' rounds to single
+        # precision as the memory image's %MF casts do; native order as theirs).
         origin = self.origin
         x = self.x
-        d_act[i_act] = round((x - self._start if self._ideal else floor(x) - self._enc0)
-                             - origin)  # _raw() inlined
-        d_cmd[i_cmd] = round(self._cp - origin)
-        f_fe[i_fe] = self.fe if self.closed else 0.0
-        f_max[i_max] = self.fe_max
-        w[b + _STATUS] = self.status_bits()
-        w[b + _ERROR] = self.error
-        d_tk[i_tk] = self.k & 0x7FFFFFFF
-        f_out[i_out] = self.u
-        f_cur[i_cur] = self.w * self._cur_scale
-        f_vel[i_vel] = self._vel
+        _STATUS_PACK(self._buf, self._status_at,
+                     round((x - self._start if self._ideal else floor(x) - self._enc0)
+                           - origin),  # _raw() inlined
+                     round(self._cp - origin), self.fe if self.closed else 0.0, self.fe_max,
+                     self.status_bits(), self.error, self.k & 0x7FFFFFFF, self.u,
+                     self.w * self._cur_scale, self._vel)
 
     def status(self) -> dict[str, Any]:
         return {"pos": round(self.actual), "fe": round(self.fe, 2), "homed": self.homed,
