@@ -16,7 +16,7 @@ from softplc import PLC
 from softplc.devices import DEVICE_TYPES, Device
 
 ROOT = Path(__file__).resolve().parents[1] / "ladder_programs"
-MACHINES = ("drawing_table", "cutting_table", "mass_tuning", "analog_thermostat")
+MACHINES = ("drawing_table", "cutting_table", "mass_tuning", "analog_thermostat", "fast_counter")
 SCOPE_START, SCOPE_STOP = 1, 2  # devices/scope.py SW.START, SW.STOP
 
 
