@@ -28,6 +28,8 @@ class Daemon:
         else:
             prog = tmp / "prog.il"
             prog.write_text(program)
+        if "--web" not in args:  # no web monitor unless the test asks (a faster start, and
+            args = (*args, "--web", "off")  # no daemon on the default port 8020)
         env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get(
             "PYTHONPATH", ""))
         self.proc = subprocess.Popen(
