@@ -55,4 +55,4 @@ clean:
 # The fuzzers and slow property tests with their full example counts (the suite runs a
 # quarter: tests/fuzz_budget.py).
 fuzz: $(STAMP)
-	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/test_fuzz.py tests/test_properties.py tests/test_config_fuzz.py tests/test_il_recovery.py
+	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/test_fuzz.py tests/test_properties.py tests/test_config_fuzz.py tests/test_il_recovery.py tests/test_examples.py
