@@ -9,18 +9,21 @@ The PLC-API tests' short geometry (4-6 mm moves, 10 ms dwells: under 2 s of mach
 per run) keeps this module short; the estimate itself runs through the daemon in
 test_mass_tuning_e2e.py.
 
-Why the files are identical although the softkey arrives at any scan: PLC time advances by
-the scan period per scan (virtual clock), the axis rests at a fixed point before the first
-run (the same bits whatever scan the softkey arrives at: checked here), timers count from
-their own start and the recorder samples from its START; the host's requests only come
-after both files are stored. Two runs in ONE daemon differ in a few torque LSBs: the second
-starts from the state the first left (the position integrator), as on a real axis."""
+Why the recordings do not depend on when the softkey arrives: PLC time advances by the
+scan period per scan (virtual clock), the axis rests at a fixed point before the first run,
+timers count from their own start and the recorder samples from its START; the host's
+request only comes after both files are stored. Checked by comparing the daemon's first
+run with the same machine run through the PLC API, pressed at another scan: byte-identical.
+A second run in the SAME daemon differs in a few torque LSBs: it starts from the state the
+first left (the integrator holding the position force at the park position), as a real
+axis would."""
 
 from __future__ import annotations
 
 import re
 import threading
 import time
+import tomllib
 from pathlib import Path
 
 from daemon_util import Daemon
@@ -29,6 +32,7 @@ from softplc.cli import main
 from softplc.errors import MassFileError
 from softplc.massest import handshake, tuning
 from softplc.modbus.host import ModbusHost
+from softplc.plc import PLC
 
 ROOT = Path(__file__).resolve().parents[1]
 IL = ROOT / "ladder_programs" / "mass_tuning.il"
@@ -94,65 +98,68 @@ def reset(h: ModbusHost) -> None:
     wait_step(h, IDLE)
 
 
-def machine(directory: Path, host_timeout_s: int) -> Path:
+HOST_TIMEOUT_S = 10  # %TM10 in machine seconds: about 0.5 s wall at --speed max, ample
+# time for `softplc tune` (polling every 10 ms, a few tens of ms to estimate) to answer
+
+
+def machine(directory: Path) -> Path:
     """A directory with the host's files (settings, template, the parameters in force) and
     the short-geometry configuration; the recorder writes its files there."""
-    directory.mkdir()
     paths = tuning.write_example(directory, geometry="macro")
     for f in FILES:
         (directory / f).unlink()  # the recorder writes them
     (directory / tuning.OUTPUT_FILE).write_bytes(paths["template"].read_bytes())
-    return short_toml(directory / "machine.toml", host_timeout_s)
+    return short_toml(directory / "machine.toml", HOST_TIMEOUT_S)
 
 
-def start(directory: Path, host_timeout_s: int) -> Daemon:
-    return Daemon(directory, "--config", str(machine(directory, host_timeout_s)), "--speed",
-                  "max", "--stats-interval", "0", program=IL, wait=False)
+def in_process(config: Path, directory: Path) -> list[bytes]:
+    """The same machine through the PLC API, the softkey pressed at another scan than in
+    the daemon: the recordings."""
+    cfg = tomllib.loads(config.read_text(encoding="utf-8"))
+    cfg["devices"]["scope"]["directory"] = str(directory)
+    p = PLC.from_file(IL, cfg)
+    p.scan(7)
+    p["%M205"] = 1  # automatic mode from the HMI
+    p.scan(11)
+    p["%M200"] = 1  # the softkey
+    assert p.run_until(lambda q: q["%MW400"] == REQUEST_WAIT, 30.0)
+    p.close()
+    return [(directory / f).read_bytes() for f in FILES]
 
 
-def session(daemon: Daemon, directory: Path, rest: float, answer: bool
-            ) -> tuple[list[bytes], int]:
-    """The softkey pressed `rest` wall seconds after the daemon is up; `softplc tune --once`
-    answering if `answer`. Checks the fault and that the parameters did not change; returns
-    the recordings and the host's status word."""
-    port = daemon.wait_listening()
+def test_refusal_and_timeout_leave_the_parameters_and_the_files_repeat(tmp_path, capsys):
+    config = machine(tmp_path)
+    daemon = Daemon(tmp_path, "--config", str(config), "--speed", "max", "--stats-interval",
+                    "0", program=IL)
     rc: list[int] = []
     host = threading.Thread(target=lambda: rc.append(main(
-        ["tune", "--dir", str(directory), "--port", str(port), "--once", "--wait", "60",
-         "--poll", "0.01"])))
-    with ModbusHost("127.0.0.1", port) as h:
-        h.write_bit(AUTO, True)
-        before = parameters(h, directory)
-        time.sleep(rest)
-        if answer:
-            host.start()
-        files = measure(h, directory)
-        if answer:
-            host.join(60)
-            assert rc == [1]  # refused
-        code = fault(h)
-        status = h.read_words(handshake.W_STATUS, 1)[0]
-        assert parameters(h, directory) == before
-        reset(h)
-        assert h.read_words(W_FAULT, 1) == [code[0]]  # kept until the next run
-    assert daemon.stop() == 0
-    assert code == ((3 if answer else 4), 1.0)  # fault code, ACC_LIMIT restored
-    return files, status
-
-
-def test_timeout_and_refusal_leave_the_parameters_and_the_files_repeat(tmp_path, capsys):
-    # two daemons started together (their start-ups overlap)
-    quiet = start(tmp_path / "a", host_timeout_s=2)  # no host: timeout after 2 s
-    refusing = start(tmp_path / "b", host_timeout_s=120)  # the host answers first
+        ["tune", "--dir", str(tmp_path), "--port", str(daemon.port), "--once", "--wait",
+         "60", "--poll", "0.01"])))
     try:
-        first, _ = session(quiet, tmp_path / "a", 0.0, answer=False)
-        # the host refuses: the short moves leave the settings' measurement range (a
-        # recording that does not fit the settings file); pressed thousands of scans later
-        second, status = session(refusing, tmp_path / "b", 0.3, answer=True)
+        with ModbusHost("127.0.0.1", daemon.port) as h:
+            h.write_bit(AUTO, True)
+            before = parameters(h, tmp_path)
+            # 1: the host refuses: the short moves leave the settings file's measurement
+            # range (a recording that does not fit the settings)
+            host.start()
+            first = measure(h, tmp_path)
+            host.join(60)
+            assert rc == [1]
+            assert fault(h) == (3, 1.0)  # fault code, ACC_LIMIT restored
+            assert h.read_words(handshake.W_STATUS, 1) == [MassFileError.status]
+            assert parameters(h, tmp_path) == before
+            reset(h)
+            assert h.read_words(W_FAULT, 1) == [3]  # kept until the next run
+            # 2: no host answers: the timeout after HOST_TIMEOUT_S of machine time
+            measure(h, tmp_path)
+            assert fault(h) == (4, 1.0)
+            assert parameters(h, tmp_path) == before
+            reset(h)
+        assert daemon.stop() == 0
     finally:
-        quiet.kill()
-        refusing.kill()
+        daemon.kill()
     err = capsys.readouterr().err
-    assert status == MassFileError.status and "request 1: status 1" in err
-    assert "leave the measurement range" in err
-    assert second == first  # byte-identical recordings, whatever the host did
+    assert "request 1: status 1" in err and "leave the measurement range" in err
+    # the daemon's first run (pressed whenever the Modbus write arrived) and the PLC API's
+    # run give byte-identical recordings
+    assert in_process(config, tmp_path / "api") == first
