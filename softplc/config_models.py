@@ -36,6 +36,7 @@ from .address import Ref, parse_address
 from .errors import AddressError, ConfigError
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.pid import PidParams
+from .runtime.pulse import N_MAX, RATIO_MAX, TIME_BASES_US
 from .runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
 
 Signal = Literal["0-10V", "4-20mA", "+-10V", "pot", "PT100", "J", "K", "T"]
@@ -253,3 +254,41 @@ def parse_schedules(section: Any, mem: Any) -> list[Schedule]:
                             frozenset(DAYS.index(d) for d in o.days),
                             parse_month_day(o.first), parse_month_day(o.last)))
     return out
+
+
+# ---- pulse outputs (issue 11 B): [pls] and [pwm] ---------------------------------------------
+PulseBase = Literal["0.142ms", "0.57ms", "10ms", "1s"]
+assert set(PulseBase.__args__) == set(TIME_BASES_US)  # one list of time bases
+
+
+class PlsConfig(BaseModel):
+    """`pls."%PLSi"`: what TwidoSuite's configuration of %Q0.i as a pulse generator sets:
+    the time base, the period preset (%PLSi.P) and the number of pulses (%PLSi.N, 0 = no
+    limit) [manual, from memory]. The preset's range depends on the base (checked by the
+    block)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base: PulseBase = "10ms"
+    preset: int = Field(0, ge=0, le=32767)
+    pulses: int = Field(0, ge=0, le=N_MAX)
+
+
+class PwmConfig(BaseModel):
+    """`pwm."%PWMi"`: time base, period preset (%PWMi.P), initial ratio (%PWMi.R, %)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base: PulseBase = "10ms"
+    preset: int = Field(0, ge=0, le=32767)
+    ratio: int = Field(0, ge=0, le=RATIO_MAX)
+
+
+def parse_pulse(kind: str, section: Any) -> dict[str, BaseModel]:
+    """Validate `[pls]` or `[pwm]` (kind "PLS" / "PWM"): block address -> its config."""
+    name = kind.lower()
+    if not isinstance(section, dict):
+        raise ConfigError(f"{name} must be a table of %{kind} blocks, not {section!r}")
+    model = PlsConfig if kind == "PLS" else PwmConfig
+    return {addr: _validated(name, f'"{addr}"', model, table)
+            for addr, table in section.items()}

@@ -14,7 +14,14 @@ from typing import Any
 from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
 from .compiler import Resolved, compile_program, resolve
 from .config import Config, key_path, load_config
-from .config_models import parse_analog, parse_pid, parse_rtc, parse_schedules, pid_params
+from .config_models import (
+    parse_analog,
+    parse_pid,
+    parse_pulse,
+    parse_rtc,
+    parse_schedules,
+    pid_params,
+)
 from .errors import (
     AddressError,
     Code,
@@ -35,6 +42,7 @@ from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
 from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
 from .runtime.pid import Pid
+from .runtime.pulse import PulseGenerator, PulseOutputs, PwmOutput
 from .runtime.rtc import DEFAULT_START, RTC
 from .semantics import Ops
 
@@ -67,6 +75,7 @@ class PLC:
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
+        self._configure_pulses(settings)
         self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
@@ -249,6 +258,36 @@ class PLC:
             params = pid_params(f"pid.{n}", o, self.mem, self.scan_period)
             pids[n] = Pid(self.mem, self.time_source, params)
 
+    def _configure_pulses(self, cfg: Config) -> None:
+        """%PLS / %PWM of [pls] / [pwm] on the profile's transistor outputs; the engine
+        updates them only when there are some."""
+        pulses = PulseOutputs(self.mem.q)
+        owner: dict[int, str] = {}
+        outputs = self.profile.pulse_outputs
+        for kind, section in (("PLS", cfg.pls), ("PWM", cfg.pwm)):
+            for text, o in parse_pulse(kind, section).items():
+                ref = self._cfg_ref(text, kind, kind.lower())
+                where = key_path((kind.lower(), text))
+                if ref.index >= len(outputs):
+                    raise ConfigError(f"{where}: {self.profile.name} has no output for {text}")
+                q = outputs[ref.index]
+                if q in owner:
+                    raise ConfigError(f"{where}: %Q0.{q} is already the output of "
+                                      f"{owner[q]} (an output is one pulse block or none)")
+                owner[q] = str(ref)
+                try:
+                    gen = (PulseGenerator(self.time_source, o.base, o.preset, o.pulses)
+                           if kind == "PLS" else
+                           PwmOutput(self.time_source, o.base, o.preset, o.ratio))
+                except ValueError as e:
+                    raise ConfigError(f"{where}: {e}") from None
+                self.mem.blocks[kind][ref.index] = gen
+                out = parse_address(f"%Q0.{q}", self.profile)
+                self.mem.use_io(out)
+                pulses.add(out.index, gen)
+        if pulses.by_output:
+            self.mem.pulses = self.engine.pulses = pulses
+
     def _block_factory(self, ref: Ref) -> str | None:
         """Create a block the program uses but the configuration does not name, where
         Twido has an obvious default; otherwise say what to configure."""
@@ -263,6 +302,12 @@ class PLC:
                         f"base = \"100ms\", preset = 10}}}}")
             if ref.kind == "DR":
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
+            if ref.kind in ("PLS", "PWM"):  # TwidoSuite configures the output as one
+                q = self.profile.pulse_outputs[ref.index]
+                return (f"{ref} is used but not configured: %Q0.{q} must be configured as "
+                        f"a {'pulse generator' if ref.kind == 'PLS' else 'PWM output'}, "
+                        f"e.g. {ref.kind.lower()}.\"{ref}\" = {{base = \"10ms\", "
+                        f"preset = 100}}")
             blocks[ref.index] = self._default_block(ref.kind)
         return None
 

@@ -82,6 +82,7 @@ class MemoryImage:
         self.iw = WordFamily(n_aio)
         self.qw = WordFamily(n_aio)
         self.analog: Any = None  # the AnalogIO converter, when analog channels are configured
+        self.pulses: Any = None  # runtime.pulse.PulseOutputs, when %PLS/%PWM are configured
         # Function blocks, filled in by the engine from the configuration.
         self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
 
