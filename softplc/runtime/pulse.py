@@ -49,9 +49,23 @@ N_MAX = 32767  # %PLSi.N; 0 = no limit
 RATIO_MAX = 100  # %PWMi.R, per cent
 
 
-def _clamp(v: Any, hi: int) -> int:
-    v = int(v)
-    return 0 if v < 0 else hi if v > hi else v
+class _Clamped:
+    """A field the program may write (`.P`, `.N`, `.R`), kept within 0..limit [our choice:
+    clamped]; `limit` is a number or the name of the block attribute holding it."""
+
+    def __init__(self, limit: int | str):
+        self.limit = limit
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.attr = "_" + name
+
+    def __get__(self, obj: Any, cls: type | None = None) -> Any:
+        return self if obj is None else getattr(obj, self.attr)
+
+    def __set__(self, obj: Any, v: Any) -> None:
+        hi = self.limit if isinstance(self.limit, int) else getattr(obj, self.limit)
+        v = int(v)
+        setattr(obj, self.attr, 0 if v < 0 else hi if v > hi else v)
 
 
 class PulseOutput(Block):
@@ -69,13 +83,7 @@ class PulseOutput(Block):
         self._on = 0  # generating
         self._t0 = 0  # start of the current run of pulses (us)
 
-    @property
-    def P(self) -> int:
-        return self._P
-
-    @P.setter
-    def P(self, v: Any) -> None:
-        self._P = _clamp(v, self.p_max)
+    P = _Clamped("p_max")
 
     @property
     def period_us(self) -> int:
@@ -114,13 +122,7 @@ class PulseGenerator(PulseOutput):
         self._base = 0  # pulses out before the current run (since the last R)
         self._offset = 0  # pulses out before the last R (the devices' count is monotonic)
 
-    @property
-    def N(self) -> int:
-        return self._N
-
-    @N.setter
-    def N(self, v: Any) -> None:
-        self._N = _clamp(v, N_MAX)
+    N = _Clamped(N_MAX)
 
     # -- time: pulses are rising edges, pulse k of a run at _t0 + k * _T -----------------------
     def _started(self, t_us: int) -> int:
@@ -193,13 +195,7 @@ class PwmOutput(PulseOutput):
         self._R = int(ratio)
         self._count_before = 0  # periods of the runs before the current one
 
-    @property
-    def R(self) -> int:
-        return self._R
-
-    @R.setter
-    def R(self, v: Any) -> None:
-        self._R = _clamp(v, RATIO_MAX)
+    R = _Clamped(RATIO_MAX)
 
     def duty(self) -> float:
         return self._R / RATIO_MAX if self._on and self._P else 0.0
