@@ -17,6 +17,7 @@ from softplc import PLC
 from softplc.cli import main as softplc
 from softplc.debug.session import Session
 from softplc.errors import ConfigError, ProgramError
+from softplc.runtime import retain
 
 PLS = "LD %M0\nIN %PLS0\nLD %M1\nR %PLS0\nLD %PLS0.D\nST %M2\nLD %PLS0.Q\nST %M3\n"
 
@@ -164,6 +165,33 @@ def test_bad_configuration_is_a_clear_config_error(cfg, message):
     with pytest.raises(ConfigError) as e:
         PLC.from_source("LD 1\nST %Q0.5\n", cfg)
     assert message in str(e.value)
+
+
+def test_a_retained_generator_goes_on_at_the_same_point(tmp_path):
+    # its run's start is saved relative to the clock (as a timer's), which restarts at 0
+    plc = pls(preset=2, pulses=10)
+    plc["%M0"] = 1
+    plc.run(0.05)  # pulses at 0, 20, 40 ms
+    retain.save(tmp_path / "s", retain.capture(plc.mem))
+    new = pls(preset=2, pulses=10)
+    retain.apply(new.mem, retain.load(tmp_path / "s"))
+    new["%M0"] = 1
+    new.run(0.15)  # the 40 ms pulse is at 0 on the new clock: 7 due at 20 .. 140 ms
+    assert count(new) == 10 and not new["%M2"]
+    new.scan(2)  # the 10th ends at 160 ms
+    assert new["%M2"]
+
+
+def test_the_debugger_back_restores_the_generator():
+    plc = pls(preset=2, pulses=0)
+    plc["%M0"] = 1
+    plc.scan(3)
+    snap = plc.engine.snapshot()
+    plc.scan(10)
+    plc.engine.restore(snap)
+    assert count(plc) == 2  # pulses at 0 and 20 ms, as at t = 30 ms
+    plc.scan(10)
+    assert count(plc) == 7
 
 
 def test_programs_without_pulse_outputs_pay_nothing():

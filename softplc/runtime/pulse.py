@@ -85,6 +85,20 @@ class PulseOutput(Block):
 
     P = _Clamped("p_max")
 
+    def state(self) -> dict[str, Any]:
+        """As `Block.state`, with the run's start as the time elapsed since (as the timers
+        do): valid under whatever clock the state is restored (a warm restart's starts
+        again at 0), so a retained generator goes on at the same phase."""
+        st = super().state()
+        st["_since_us"] = self.clock.now_us - st.pop("_t0")
+        return st
+
+    def set_state(self, d: dict[str, Any]) -> None:
+        d = dict(d)
+        if "_since_us" in d:
+            d["_t0"] = self.clock.now_us - d.pop("_since_us")
+        super().set_state(d)
+
     @property
     def period_us(self) -> int:
         return self._P * self.base_us
