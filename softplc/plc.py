@@ -284,7 +284,7 @@ class PLC:
                 self.mem.blocks[kind][ref.index] = gen
                 out = parse_address(f"%Q0.{q}", self.profile)
                 self.mem.use_io(out)
-                pulses.add(out.index, gen)
+                pulses.add(out.index, gen, f"{ref} on {out}")
         if pulses.by_output:
             self.mem.pulses = self.engine.pulses = pulses
 

@@ -137,6 +137,11 @@ def test_pls_and_pwm_objects_in_the_repl():
     out = s.execute("print %PLS0")
     assert "P=3" in out and "N=7" in out and "D=0" in out
     assert s.execute("print %PLS0.N").strip().endswith("7")
+    plc["%M0"] = 1
+    s.execute("run 100ms")
+    out = s.execute("pulses")
+    assert out.startswith("%PLS0 on %Q0.0") and "P=3 (30 ms, 33.33 Hz) N=7" in out
+    assert "pulses=4 duty=0.50" in out
 
 
 @pytest.mark.parametrize(("src", "cfg", "message"), [

@@ -119,6 +119,16 @@ class PulseOutput(Block):
     def pulses_at(self, t_us: int) -> int:
         raise NotImplementedError
 
+    def summary(self, now_us: int) -> str:
+        """One line for the debugger: period, frequency, fields, pulses so far, duty."""
+        per = self.period_us
+        freq = f"{1e6 / per:.4g} Hz" if per else "not in use"
+        fields = " ".join(f"{f}={int(getattr(self, f))}" for f in ("N", "R", "Q", "D")
+                          if f in self.FIELDS)
+        return (f"base {self.base} P={self.P} ({per / 1000:g} ms, {freq}) {fields} "
+                f"{'on' if self._on else 'off'} pulses={self.pulses_at(now_us)} "
+                f"duty={self.duty():.2f}")
+
 
 class PulseGenerator(PulseOutput):
     """%PLSi: N pulses (or an endless train) of period P x base, 50 % duty."""
@@ -241,9 +251,11 @@ class PulseOutputs:
     def __init__(self, q: list[int]):
         self._q = q
         self.by_output: dict[int, PulseOutput] = {}
+        self.names: dict[int, str] = {}  # q index -> "%PLS0 on %Q0.0"
 
-    def add(self, q_index: int, gen: PulseOutput) -> None:
+    def add(self, q_index: int, gen: PulseOutput, name: str = "") -> None:
         self.by_output[q_index] = gen
+        self.names[q_index] = name
 
     def source(self, q_index: int) -> PulseOutput | None:
         return self.by_output.get(q_index)
