@@ -365,6 +365,16 @@ class PLC:
             msg = self._io_check(ref)
             if msg:
                 problem(msg, ref, pos, "an I/O channel of a configured module", Code.IO)
+        pulses = self.mem.pulses
+        if pulses is not None:  # [our choice] a pulse block owns its output: no coil on it
+            for rung in program.rungs:
+                for ins in rung.instructions:
+                    if isinstance(ins, A.Store) and ins.target.kind == "Q" \
+                            and ins.target.length is None and ins.target.index in pulses.names:
+                        problem(f"{ins.op} {ins.target}: the output is driven by "
+                                f"{pulses.names[ins.target.index].split()[0]}",
+                                ins.target, ins.pos, "another output (or no pulse block on it)",
+                                Code.IO)
         # cold start puts a block back to its state when first allocated (a later build,
         # e.g. after forcing, keeps that one)
         cold = self.engine.cold_states

@@ -151,6 +151,7 @@ def test_pls_and_pwm_objects_in_the_repl():
     ("LD 1\nST %PLS0.D\n", {"pls": {"%PLS0": {}}}, "cannot write %PLS0.D"),
     ("LD %PWM0.R\nST %Q0.5\n", {"pwm": {"%PWM0": {}}}, "not a bit"),
     ("LD 1\nCU %PLS0\n", {"pls": {"%PLS0": {}}}, "%PLS has no input CU"),
+    ("LD 1\nST %Q0.1\n", {"pwm": {"%PWM1": {}}}, "ST %Q0.1: the output is driven by %PWM1"),
 ])
 def test_misuse_is_a_clear_program_error(src, cfg, message):
     with pytest.raises(ProgramError) as e:

@@ -105,10 +105,14 @@ class PulseOutput(Block):
 
     def level(self, t_us: int) -> int:
         """The output's level at time t (what %Q shows at the end of a scan)."""
-        if not self._on or self._P == 0 or t_us < self._t0:
+        period = self._run_period()
+        if not self._on or period == 0 or t_us < self._t0:
             return 0
-        period = self.period_us
         return 1 if (t_us - self._t0) % period < period * self.duty() else 0
+
+    def _run_period(self) -> int:
+        """The period the running output has (a new .P may wait for the next pulse)."""
+        return self.period_us
 
     def update(self, now_us: int) -> None:
         """End of a scan: the hardware went on generating (see PulseOutputs)."""
@@ -160,6 +164,9 @@ class PulseGenerator(PulseOutput):
 
     def pulses_at(self, t_us: int) -> int:
         return self._offset + self._base + self._started(t_us)
+
+    def _run_period(self) -> int:
+        return self._T
 
     def duty(self) -> float:
         return 0.5 if self._on else 0.0
