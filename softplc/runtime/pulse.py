@@ -39,7 +39,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import BlockError
-from .blocks import BLOCK_CLASSES, Block
+from .blocks import BLOCK_CLASSES, TimedBlock
 
 # Time bases of %PLS / %PWM [manual, from memory] (microseconds: 0.142 ms = 142 us).
 TIME_BASES_US = {"0.142ms": 142, "0.57ms": 570, "10ms": 10_000, "1s": 1_000_000}
@@ -68,8 +68,10 @@ class _Clamped:
         setattr(obj, self.attr, 0 if v < 0 else hi if v > hi else v)
 
 
-class PulseOutput(Block):
-    """What %PLS and %PWM share: the owned output, the time base, the period `.P`."""
+class PulseOutput(TimedBlock):
+    """What %PLS and %PWM share: the owned output, the time base, the period `.P`; the
+    state keeps the run's start relative to the clock (a retained generator goes on at
+    the same phase after a warm restart)."""
 
     def __init__(self, clock: Any, base: str = "10ms", preset: int = 0):
         if base not in TIME_BASES_US:
@@ -84,20 +86,6 @@ class PulseOutput(Block):
         self._t0 = 0  # start of the current run of pulses (us)
 
     P = _Clamped("p_max")
-
-    def state(self) -> dict[str, Any]:
-        """As `Block.state`, with the run's start as the time elapsed since (as the timers
-        do): valid under whatever clock the state is restored (a warm restart's starts
-        again at 0), so a retained generator goes on at the same phase."""
-        st = super().state()
-        st["_since_us"] = self.clock.now_us - st.pop("_t0")
-        return st
-
-    def set_state(self, d: dict[str, Any]) -> None:
-        d = dict(d)
-        if "_since_us" in d:
-            d["_t0"] = self.clock.now_us - d.pop("_since_us")
-        super().set_state(d)
 
     @property
     def period_us(self) -> int:
