@@ -233,6 +233,14 @@ def test_stepper_misses_pulses_faster_than_it_can_follow():
     assert x.position == 200 and x.missed_steps == count(plc) - 200
 
 
+def test_stepper_pulses_into_the_hard_stop_are_missed():
+    plc = stepper_plc(travel=1.0, hard_stop_margin=0.5)  # the stop at 1.5 units: 150 steps
+    x = plc.devices["x"]
+    plc["%M0"] = plc["%M1"] = 1
+    plc.run(1.0)
+    assert x.position == 150 and x.missed_steps == count(plc) - 150
+
+
 @pytest.mark.parametrize(("dev", "message"), [
     ({"step": "%Q0.3"}, "%Q0.3 is not driven by a configured %PLS or %PWM"),
     ({"phases": ["%Q1.0", "%Q1.1", "%Q1.2", "%Q1.3"]}, "phases"),

@@ -193,8 +193,8 @@ class Stepper(AxisDevice):
                                   f"{self.max_step_rate:g} steps/s")
         nh = self._h + 2 * sign * ok
         stop = min(max(nh, self._lo_h), self._hi_h)
-        if stop != nh:
-            self._lose(t, abs(nh - stop) // 2, "hard stop")
+        if abs(nh - stop) >= 2:
+            self._lose(t, int(abs(nh - stop)) // 2, "hard stop")
         if stop != self._h:
             self._taken_h += abs(stop - self._h)
             self._h = int(stop)
