@@ -285,6 +285,11 @@ class PLC:
                 out = parse_address(f"%Q0.{q}", self.profile)
                 self.mem.use_io(out)
                 pulses.add(out.index, gen, f"{ref} on {out}")
+        for n, pid in self.mem.blocks["PID"].items():  # the PID's PWM writes its output too
+            out = pid.p.pwm_output
+            if out is not None and out.kind == "Q" and out.module == 0 and out.channel in owner:
+                raise ConfigError(f"pid.{n}.pwm_output: %Q0.{out.channel} is the output of "
+                                  f"{owner[out.channel]}")
         if pulses.by_output:
             self.mem.pulses = self.engine.pulses = pulses
 

@@ -166,6 +166,9 @@ def test_misuse_is_a_clear_program_error(src, cfg, message):
     ({"pwm": {"%PWM0": {"ratio": 101}}}, "pwm.\"%PWM0\".ratio"),
     ({"pls": {"%PLS0": {"pulse": 3}}}, "pulse"),
     ({"pls": {"%TM0": {}}}, "is not a %PLS object"),
+    ({"pwm": {"%PWM0": {}}, "pid": {"0": {"measure": "%MW0", "setpoint": 5,
+                                         "pwm_output": "%Q0.0"}}},
+     "pid.0.pwm_output: %Q0.0 is the output of %PWM0"),
 ])
 def test_bad_configuration_is_a_clear_config_error(cfg, message):
     with pytest.raises(ConfigError) as e:
