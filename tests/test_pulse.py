@@ -223,6 +223,7 @@ def test_stepper_takes_one_step_per_pulse_in_the_direction_output():
     plc["%M0"] = plc["%M1"] = 1
     plc.run(1.0)
     assert x.position == count(plc) == 1_000_000 // 2280 + 1 and x.missed_steps == 0
+    assert x.status() == {"pos": 439, "units": 4.39, "missed": 0, "pulses": 439}
     plc["%M1"] = 0  # direction output 0: - steps
     plc.run(0.5)
     assert x.position == 2 * 439 - count(plc)

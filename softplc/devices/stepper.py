@@ -206,8 +206,10 @@ class Stepper(AxisDevice):
         self.missed_steps += n - 1
 
     def status(self) -> dict[str, Any]:
+        drive = {"pulses": self._seen} if self.step is not None else \
+            {"phases": self.pattern_name(self._last)}
         return {"pos": self.position, "units": round(self.position_units, 3),
-                "missed": self.missed_steps, "phases": self.pattern_name(self._last)}
+                "missed": self.missed_steps, **drive}
 
     # -- physics ----------------------------------------------------------------------------
     def _change(self, t: float, cur: tuple[int, ...]) -> None:
