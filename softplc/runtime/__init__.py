@@ -1,4 +1,3 @@
 """Run time: memory image, function blocks, clocks, the scan engine."""
 
-# pulse outputs (issue 11 B): registers %PLS / %PWM in blocks.BLOCK_CLASSES on import
-from . import pulse  # noqa: E402,F401
+from . import blocks  # noqa: F401,E402  (first: runtime/fastcount.py imports blocks.Block)

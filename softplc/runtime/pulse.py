@@ -39,7 +39,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import BlockError
-from .blocks import BLOCK_CLASSES, TimedBlock
+from .blocks import TimedBlock
 
 # Time bases of %PLS / %PWM [manual, from memory] (microseconds: 0.142 ms = 142 us).
 TIME_BASES_US = {"0.142ms": 142, "0.57ms": 570, "10ms": 10_000, "1s": 1_000_000}
@@ -127,6 +127,7 @@ class PulseGenerator(PulseOutput):
 
     PINS = ("IN", "R")
     FIELDS = ("P", "N", "Q", "D", "_on", "_t0", "_T", "_base", "_offset")
+    SUMMARY = ("Q", "P", "N", "D")  # the debugger's one-line summary
 
     def __init__(self, clock: Any, base: str = "10ms", preset: int = 0, pulses: int = 0):
         super().__init__(clock, base, preset)
@@ -206,6 +207,7 @@ class PwmOutput(PulseOutput):
 
     PINS = ("IN",)
     FIELDS = ("P", "R", "_on", "_t0", "_count_before")
+    SUMMARY = ("P", "R")
 
     def __init__(self, clock: Any, base: str = "10ms", preset: int = 0, ratio: int = 0):
         super().__init__(clock, base, preset)
@@ -233,9 +235,6 @@ class PwmOutput(PulseOutput):
         elif not IN and self._on:
             self._count_before = self.pulses_at(now)
             self._on = 0
-
-
-BLOCK_CLASSES.update({"PLS": PulseGenerator, "PWM": PwmOutput})
 
 
 class PulseOutputs:
