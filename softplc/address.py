@@ -34,6 +34,9 @@ BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     "SBR": {},  # bits %SBRi.Jk
     "SC": {},  # bits %SCi.Jk
     "R": {"I": (INT16, True), "O": (INT16, True), "E": (BOOL, False), "F": (BOOL, False)},
+    # pulse outputs (issue 11 B, runtime/pulse.py) [manual]
+    "PLS": {"Q": (BOOL, False), "D": (BOOL, False), "P": (INT16, True), "N": (INT16, True)},
+    "PWM": {"P": (INT16, True), "R": (INT16, True)},
     # fast counters (runtime/fastcount.py) [manual, from memory of TWD USE 10AE]
     "FC": {"V": (INT16, False), "P": (INT16, True), "D": (BOOL, False)},
     "VFC": {"V": (INT16, False), "P": (INT16, True), "U": (BOOL, False), "C": (INT16, False),
@@ -50,7 +53,7 @@ WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF":
 WIDTH = {"MW": 1, "KW": 1, "SW": 1, "MD": 2, "MF": 2, "KD": 2, "KF": 2}
 
 _ADDR = re.compile(
-    r"""%(?P<kind>SBR|SC|TM|DR|VFC|FC|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
+    r"""%(?P<kind>SBR|SC|TM|DR|PLS|PWM|VFC|FC|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
         (?P<a>\d+)
         (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
         (?:\.(?P<field>TH|[A-Z])(?P<fbit>\d+)?)?   # %TM0.Q, %SBR0.J3, %VFC0.TH1

@@ -37,6 +37,7 @@ from .errors import AddressError, ConfigError
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.fastcount import MAX_COUNT, N_ZONES, CountingInputs, FastCounter, VeryFastCounter
 from .runtime.pid import PidParams
+from .runtime.pulse import N_MAX, RATIO_MAX, TIME_BASES_US
 from .runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
 
 Signal = Literal["0-10V", "4-20mA", "+-10V", "pot", "PT100", "J", "K", "T"]
@@ -256,6 +257,42 @@ def parse_schedules(section: Any, mem: Any) -> list[Schedule]:
     return out
 
 
+# ---- pulse outputs (issue 11 B): [pls] and [pwm] ---------------------------------------------
+PulseBase = Literal["0.142ms", "0.57ms", "10ms", "1s"]
+assert set(PulseBase.__args__) == set(TIME_BASES_US)  # one list of time bases
+
+
+class PlsConfig(BaseModel):
+    """`pls."%PLSi"`: what TwidoSuite's configuration of %Q0.i as a pulse generator sets:
+    the time base, the period preset (%PLSi.P) and the number of pulses (%PLSi.N, 0 = no
+    limit) [manual, from memory]. The preset's range depends on the base (checked by the
+    block)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base: PulseBase = "10ms"
+    preset: int = Field(0, ge=0, le=32767)
+    pulses: int = Field(0, ge=0, le=N_MAX)
+
+
+class PwmConfig(BaseModel):
+    """`pwm."%PWMi"`: time base, period preset (%PWMi.P), initial ratio (%PWMi.R, %)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base: PulseBase = "10ms"
+    preset: int = Field(0, ge=0, le=32767)
+    ratio: int = Field(0, ge=0, le=RATIO_MAX)
+
+
+def parse_pulse(kind: str, section: Any) -> dict[str, BaseModel]:
+    """Validate `[pls]` or `[pwm]` (kind "PLS" / "PWM"): block address -> its config."""
+    name = kind.lower()
+    if not isinstance(section, dict):
+        raise ConfigError(f"{name} must be a table of %{kind} blocks, not {section!r}")
+    model = PlsConfig if kind == "PLS" else PwmConfig
+    return {addr: _validated(name, f'"{addr}"', model, table)
+            for addr, table in section.items()}
 # ---- fast counters %FC / %VFC (runtime/fastcount.py) ---------------------------------------
 class FastCounterConfig(BaseModel):
     """`[fast_counters."%FCi"]`, as TwidoSuite's fast counter screen: type and preset."""

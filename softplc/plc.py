@@ -18,6 +18,7 @@ from .config_models import (
     build_counters,
     parse_analog,
     parse_pid,
+    parse_pulse,
     parse_rtc,
     parse_schedules,
     pid_params,
@@ -42,6 +43,7 @@ from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
 from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
 from .runtime.pid import Pid
+from .runtime.pulse import PulseGenerator, PulseOutputs, PwmOutput
 from .runtime.rtc import DEFAULT_START, RTC
 from .semantics import Ops
 
@@ -76,6 +78,7 @@ class PLC:
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
+        self._configure_pulses(settings)
         if self.mem.counting is not None and self.mem.counting.vfc:  # preset/catch inputs
             self.engine.before_scan.append(self.mem.counting.poll)
         self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
@@ -260,6 +263,41 @@ class PLC:
             params = pid_params(f"pid.{n}", o, self.mem, self.scan_period)
             pids[n] = Pid(self.mem, self.time_source, params)
 
+    def _configure_pulses(self, cfg: Config) -> None:
+        """%PLS / %PWM of [pls] / [pwm] on the profile's transistor outputs; the engine
+        updates them only when there are some."""
+        pulses = PulseOutputs(self.mem.q)
+        owner: dict[int, str] = {}
+        outputs = self.profile.pulse_outputs
+        for kind, section in (("PLS", cfg.pls), ("PWM", cfg.pwm)):
+            for text, o in parse_pulse(kind, section).items():
+                ref = self._cfg_ref(text, kind, kind.lower())
+                where = key_path((kind.lower(), text))
+                if ref.index >= len(outputs):
+                    raise ConfigError(f"{where}: {self.profile.name} has no output for {text}")
+                q = outputs[ref.index]
+                if q in owner:
+                    raise ConfigError(f"{where}: %Q0.{q} is already the output of "
+                                      f"{owner[q]} (an output is one pulse block or none)")
+                owner[q] = str(ref)
+                try:
+                    gen = (PulseGenerator(self.time_source, o.base, o.preset, o.pulses)
+                           if kind == "PLS" else
+                           PwmOutput(self.time_source, o.base, o.preset, o.ratio))
+                except ValueError as e:
+                    raise ConfigError(f"{where}: {e}") from None
+                self.mem.blocks[kind][ref.index] = gen
+                out = parse_address(f"%Q0.{q}", self.profile)
+                self.mem.use_io(out)
+                pulses.add(out.index, gen, f"{ref} on {out}")
+        for n, pid in self.mem.blocks["PID"].items():  # the PID's PWM writes its output too
+            out = pid.p.pwm_output
+            if out is not None and out.kind == "Q" and out.module == 0 and out.channel in owner:
+                raise ConfigError(f"pid.{n}.pwm_output: %Q0.{out.channel} is the output of "
+                                  f"{owner[out.channel]}")
+        if pulses.by_output:
+            self.mem.pulses = self.engine.pulses = pulses
+
     def _block_factory(self, ref: Ref) -> str | None:
         """Create a block the program uses but the configuration does not name, where
         Twido has an obvious default; otherwise say what to configure."""
@@ -274,6 +312,12 @@ class PLC:
                         f"base = \"100ms\", preset = 10}}}}")
             if ref.kind == "DR":
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
+            if ref.kind in ("PLS", "PWM"):  # TwidoSuite configures the output as one
+                q = self.profile.pulse_outputs[ref.index]
+                return (f"{ref} is used but not configured: %Q0.{q} must be configured as "
+                        f"a {'pulse generator' if ref.kind == 'PLS' else 'PWM output'}, "
+                        f"e.g. {ref.kind.lower()}.\"{ref}\" = {{base = \"10ms\", "
+                        f"preset = 100}}")
             if ref.kind in ("FC", "VFC"):
                 section = "fast_counters" if ref.kind == "FC" else "very_fast_counters"
                 return (f"counter {ref} is used but not configured: add "
@@ -335,6 +379,16 @@ class PLC:
             msg = self._io_check(ref)
             if msg:
                 problem(msg, ref, pos, "an I/O channel of a configured module", Code.IO)
+        pulses = self.mem.pulses
+        if pulses is not None:  # [our choice] a pulse block owns its output: no coil on it
+            for rung in program.rungs:
+                for ins in rung.instructions:
+                    if isinstance(ins, A.Store) and ins.target.kind == "Q" \
+                            and ins.target.length is None and ins.target.index in pulses.names:
+                        problem(f"{ins.op} {ins.target}: the output is driven by "
+                                f"{pulses.names[ins.target.index].split()[0]}",
+                                ins.target, ins.pos, "another output (or no pulse block on it)",
+                                Code.IO)
         # cold start puts a block back to its state when first allocated (a later build,
         # e.g. after forcing, keeps that one)
         cold = self.engine.cold_states

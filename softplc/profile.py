@@ -40,6 +40,8 @@ class Profile:
     counts: dict[str, int] = field(default_factory=dict)
     # The base's analog inputs %IW0.0, %IW0.1...: (signal type, full-scale count) each.
     analog_base: tuple[tuple[str, int], ...] = ()
+    # %Q0.x driven by %PLSi / %PWMi (index i): the base's transistor outputs
+    pulse_outputs: tuple[int, ...] = ()
     # fast counters (runtime/fastcount.py): the wiring of %FCi and %VFCi on the base
     fast_counters: tuple[FastCounterWiring, ...] = ()
     very_fast_counters: tuple[VeryFastCounterWiring, ...] = ()
@@ -74,12 +76,17 @@ TWDLCAE40DRF = Profile(
         "STACK": 8,  # MPS depth [m221]
         "PAREN": 8,  # parenthesis nesting [manual]
         "PID": 14,  # PID functions PID 0 .. PID 13 [manual, from memory]
+        "PLS": 2,  # pulse generators %PLS0-1 [manual]
+        "PWM": 2,  # pulse width modulators %PWM0-1 [manual]
         "FC": 4,  # fast counters %FC0..%FC3 [manual, from memory]
         "VFC": 2,  # very fast counters %VFC0..%VFC1 [manual, from memory]
     },
     # two analog potentiometers and one 0-10 V input, 10 bits [manual, from memory: the
     # hardware guide's figures were not found in the search corpora; check the counts]
     analog_base=(("pot", 1023), ("pot", 1023), ("0-10V", 1023)),
+    # 14 relay outputs and 2 transistor outputs %Q0.0, %Q0.1: those carry PLS / PWM
+    # [manual: hardware guide quoted in seed thesis 003]
+    pulse_outputs=(0, 1),
     # fast counters [manual, from memory of TWD USE 10AE / the hardware guide: not found in
     # the search corpora; check]: %FC0..3 on %I0.2..%I0.5 at 5 kHz; %VFC0 pulses (phase A)
     # %I0.1, direction (phase B) %I0.0, preset %I0.2, catch %I0.3, reflex %Q0.2/%Q0.3;

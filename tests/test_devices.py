@@ -519,7 +519,7 @@ def test_trace_plot_bad_extension(tmp_path):
     (axis(phases=["%Q1.0", "%Q1.1", "%Q1.2", "%Q9.0"]), "module 9"),
     (axis(steps_per_unit=0), "devices.X.steps_per_unit: expected greater than 0"),
     (axis(start=30.0), "beyond the hard stops"),
-    (axis(bogus=1), "devices.X.bogus: unknown key; known: hard_stop_margin"),
+    (axis(bogus=1), "devices.X.bogus: unknown key; known: direction, hard_stop_margin"),
     (axis(travel="25"), r"devices.X.travel: expected a valid number \(got '25'\)"),
     (axis(max_step_rate=math.nan),
      "devices.X.max_step_rate: expected greater than 0 \\(got nan\\)"),

@@ -467,7 +467,7 @@ class ValueCompiler:
                 self.emit(f"{view}[{ref.index >> 1}] = {code}")
         elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
             b = self.block_name(Ref(ref.kind, ref.index))
-            if ref.field == "P" and k not in ("FC", "VFC"):  # %FC/%VFC: any word (unsigned)
+            if ref.field == "P" and k in ("TM", "C"):  # %PLS/%PWM clamp; %FC/%VFC: any word
                 self.emit(f"{b}.P = min(max({code}, 0), {MAX_VALUE})")
             else:
                 self.emit(f"{b}.{ref.field} = {code}")

@@ -579,6 +579,16 @@ class Session(Controller):
                          f"Ti={get(p.ti)}/10s Td={get(p.td)}/10s diag={pid.diag:#06x} AT={at}")
         return "\n".join(lines)
 
+    def cmd_pulses(self, arg: str) -> str:
+        """pulses: every pulse output (%PLS, %PWM) with its period, frequency, fields, the
+        pulses sent so far and the duty cycle."""
+        pulses = self.plc.mem.pulses
+        if pulses is None:
+            return "no pulse outputs"
+        now = self.plc.engine.clock.now_us
+        return "\n".join(f"{pulses.names[i]:<16} {g.summary(now)}"
+                         for i, g in sorted(pulses.by_output.items()))
+
     def cmd_analog(self, arg: str) -> str:
         """analog: every analog channel with its signal, range, word and physical value."""
         analog = self.plc.mem.analog

@@ -9,7 +9,9 @@ TOML options, table `[devices.NAME]` with `type = "oven"`:
 - `sensor` (required): the analog input the temperature drives, e.g. `"%IW2.0"` (its
   `[analog]` entry sets how degrees become a word: PT100 in celsius = tenths of a degree).
 - `heater` (an analog output such as `"%QW1.0"`: power = its signal over the signal's
-  span, 0-10 V -> 0..1) or `heater_bit` (a `%Q` output: power 1 while on); one of them.
+  span, 0-10 V -> 0..1) or `heater_bit` (a `%Q` output: power 1 while on; on an output
+  driven by a `%PWM`/`%PLS` the power is its duty cycle, read through the runtime's pulse
+  interface, `softplc/runtime/pulse.py`); one of them.
 - `gain` (degrees C at full power above ambient, default 200.0), `tau` (time constant,
   seconds, default 60.0), `dead_time` (seconds, default 5.0), `ambient` (degrees C,
   default 20.0), `start` (initial temperature, default ambient).
@@ -75,8 +77,11 @@ class Oven(Device):
             if analog is None or ref not in analog.channels or ref.kind != kind:
                 raise ConfigError(f"device {self.name!r}: {option} = {addr!r} is not a "
                                   f"configured analog {'input' if kind == 'IW' else 'output'}")
+        self._pulse = None
         if self.heater_bit is not None:
             self._bit = self.io_index(mem, self.heater_bit, "Q", "heater_bit")
+            if mem.pulses is not None:  # a PWM heater: mean power = duty cycle
+                self._pulse = mem.pulses.source(self._bit)
         self._write_sensor()
 
     def reset(self) -> None:
@@ -86,6 +91,8 @@ class Oven(Device):
 
     def _heater_power(self) -> float:
         mem = self._mem
+        if self._pulse is not None:
+            return self._pulse.duty()
         if self.heater_bit is not None:
             return 1.0 if mem.q_field[self._bit] else 0.0
         ch = mem.analog.channel(self.heater, "QW")

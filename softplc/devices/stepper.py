@@ -2,8 +2,13 @@
 
 TOML options, table `[devices.NAME]` with `type = "stepper"`:
 
-- `phases` (required): list of exactly four distinct `%Q` outputs, the coils of phases
-  A, B, C, D in that order, e.g. `["%Q1.0", "%Q1.1", "%Q1.2", "%Q1.3"]`.
+- `phases`: list of exactly four distinct `%Q` outputs, the coils of phases
+  A, B, C, D in that order, e.g. `["%Q1.0", "%Q1.1", "%Q1.2", "%Q1.3"]`; or
+- `step` (instead of `phases`): a `%Q` output driven by a `%PLS`/`%PWM` pulse output (a
+  step/direction driver): one full step per pulse, counted through the runtime's pulse
+  interface (`softplc/runtime/pulse.py`), not by sampling the output; `direction`
+  (optional, with `step`): a `%Q` output, 1 = + (towards the far end), 0 = -; without it
+  every pulse is a + step.
 - `steps_per_unit` (float > 0, default 111.11): motor steps per drawing unit (cm).
 - `travel` (float > 0, default 25.0): axis length in units, home (0) to the far end.
 - `start` (float, default 0.0): initial position in units, rounded to the nearest whole
@@ -33,6 +38,9 @@ step; all phases off leaves the rotor free where it is (no move, no torque). A m
 comes too fast or runs into a hard stop is a missed step too. A missed step leaves the
 rotor where it was; it is counted in `missed_steps` and recorded in `events`.
 
+With `step`, the pulses since the last update move the rotor as many full steps; those
+beyond `max_step_rate` x dt, and those into a hard stop, are missed steps.
+
 Attributes: `position` (motor steps from home, a float on a half step), `position_units`,
 `missed_steps` (count of lost steps), `steps_taken` (steps moved, either direction),
 `events` (the last 100 missed steps as (t, reason, position)).
@@ -46,7 +54,7 @@ from collections import deque
 from operator import itemgetter
 from typing import Any
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from ..config import Address, InfFloat, Section
 from ..errors import ConfigError
@@ -76,10 +84,12 @@ def half_steps_to_steps(h: int) -> int | float:
 class Stepper(AxisDevice):
     """A four-phase stepper axis. Internal position: `_h`, in half steps from home."""
 
-    STATE = ("_h", "_last", "_last_move_t", "_taken_h", "missed_steps", "_logged")
+    STATE = ("_h", "_last", "_last_move_t", "_taken_h", "missed_steps", "_logged", "_seen")
 
     class Options(Section):
-        phases: list[Address] = Field(min_length=4, max_length=4)
+        phases: list[Address] | None = Field(None, min_length=4, max_length=4)
+        step: Address | None = None  # a %PLS/%PWM output: step/direction drive
+        direction: Address | None = None
         steps_per_unit: float = Field(111.11, gt=0, le=MAX_STEPS_PER_UNIT, allow_inf_nan=False)
         travel: float = Field(25.0, gt=0, le=MAX_UNITS, allow_inf_nan=False)
         start: float = Field(0.0, ge=-MAX_UNITS, le=MAX_UNITS, allow_inf_nan=False)
@@ -93,9 +103,18 @@ class Stepper(AxisDevice):
                 raise ValueError(f"at most {MAX_UNITS:g} units, or inf for no stops")
             return v
 
+        @model_validator(mode="after")
+        def _one_step_source(self) -> Stepper.Options:
+            if (self.phases is None) == (self.step is None):
+                raise ValueError("give phases (four coils) or step (a pulse output), one of them")
+            if self.direction is not None and self.step is None:
+                raise ValueError("direction goes with step")
+            return self
+
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
-        self.phases = list(options.phases)
+        self.phases = list(options.phases or ())
+        self.step, self.direction = options.step, options.direction
         self.steps_per_unit = options.steps_per_unit
         self.travel = options.travel
         self.max_step_rate = options.max_step_rate
@@ -123,12 +142,26 @@ class Stepper(AxisDevice):
 
     # -- contract ---------------------------------------------------------------------------
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
+        self._q = mem.q_field
+        if self.step is not None:
+            self._bind_pulses(mem)
+            return
         idx = [self.io_index(mem, a, "Q", f"phases[{k}]") for k, a in enumerate(self.phases)]
         if len(set(idx)) != 4:
             raise ConfigError(f"{self.where('phases')}: the four phases must be distinct "
                               f"outputs (got {self.phases!r})")
-        self._q = mem.q_field
         self._get_phases = itemgetter(*idx)
+
+    def _bind_pulses(self, mem: MemoryImage) -> None:
+        """Step/direction: the pulse output driving `step` (runtime/pulse.py)."""
+        i = self.io_index(mem, self.step, "Q", "step")
+        self._gen = mem.pulses.source(i) if mem.pulses is not None else None
+        if self._gen is None:
+            raise ConfigError(f"{self.where('step')}: {self.step} is not driven by a configured "
+                              f"%PLS or %PWM (pls.\"%PLS0\" drives %Q0.0, %PLS1 %Q0.1)")
+        self._dir = None if self.direction is None else \
+            self.io_index(mem, self.direction, "Q", "direction")
+        self.update = self._update_pulses  # type: ignore[method-assign]
 
     def reset(self) -> None:
         self._h = self._start_h
@@ -137,6 +170,7 @@ class Stepper(AxisDevice):
         self._taken_h = 0
         self.missed_steps = 0
         self._logged = 0
+        self._seen = 0  # pulses of the step output already applied
         self.events.clear()
 
     def update(self, t: float, dt: float) -> None:
@@ -145,9 +179,37 @@ class Stepper(AxisDevice):
             self._last = cur
             self._change(t, cur)
 
+    def _update_pulses(self, t: float, dt: float) -> None:
+        """Step/direction: one full step per pulse since the last update."""
+        total = self._gen.pulses_at(round(t * 1e6))
+        n, self._seen = total - self._seen, total
+        if n <= 0:
+            return  # none, or the generator's count restarted (a cold start)
+        sign = -1 if self._dir is not None and not self._q[self._dir] else 1
+        ok = n if math.isinf(self.max_step_rate) else \
+            min(n, math.floor(self.max_step_rate * dt * (1 + 1e-9)))
+        if ok < n:
+            self._lose(t, n - ok, f"{n} pulses in {dt:g} s: faster than "
+                                  f"{self.max_step_rate:g} steps/s")
+        nh = self._h + 2 * sign * ok
+        stop = min(max(nh, self._lo_h), self._hi_h)
+        if abs(nh - stop) >= 2:
+            self._lose(t, int(abs(nh - stop)) // 2, "hard stop")
+        if stop != self._h:
+            self._taken_h += abs(stop - self._h)
+            self._h = int(stop)
+            self._last_move_t = t
+
+    def _lose(self, t: float, n: int, reason: str) -> None:
+        """n steps missed at once (one event, one log line)."""
+        self._miss(t, reason)
+        self.missed_steps += n - 1
+
     def status(self) -> dict[str, Any]:
+        drive = {"pulses": self._seen} if self.step is not None else \
+            {"phases": self.pattern_name(self._last)}
         return {"pos": self.position, "units": round(self.position_units, 3),
-                "missed": self.missed_steps, "phases": self.pattern_name(self._last)}
+                "missed": self.missed_steps, **drive}
 
     # -- physics ----------------------------------------------------------------------------
     def _change(self, t: float, cur: tuple[int, ...]) -> None:

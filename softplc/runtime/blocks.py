@@ -75,7 +75,26 @@ class Block:
             setattr(self, k, v)
 
 
-class Timer(Block):
+class TimedBlock(Block):
+    """A block with a start time `_t0` on `self.clock` (a TimeSource): its state holds the
+    time elapsed since (`_elapsed_us`), valid whatever clock the state is restored under
+    (a restart's starts again at 0). Timers, pulse outputs (runtime/pulse.py)."""
+
+    clock: TimeSource
+
+    def state(self) -> dict[str, Any]:
+        st = super().state()
+        st["_elapsed_us"] = self.clock.now_us - st.pop("_t0")
+        return st
+
+    def set_state(self, d: dict[str, Any]) -> None:
+        d = dict(d)
+        if "_elapsed_us" in d:
+            d["_t0"] = self.clock.now_us - d.pop("_elapsed_us")
+        super().set_state(d)
+
+
+class Timer(TimedBlock):
     """%TMi: TON (on delay), TOF (off delay), TP (pulse) [manual].
 
     TON: V counts while IN = 1, Q = 1 once V reaches P, IN = 0 resets V and Q.
@@ -111,17 +130,7 @@ class Timer(Block):
         """Counting towards the preset (V still changes with time)."""
         return bool(self._in and self.V < self.P) if self._is_ton else bool(self._on)
 
-    def state(self) -> dict[str, Any]:
-        """As `Block.state`, with the start time as the time elapsed since (`_elapsed_us`):
-        valid whatever clock the state is restored under (a restart's starts again at 0)."""
-        st = super().state()
-        st["_elapsed_us"] = self.clock.now_us - st.pop("_t0")
-        return st
-
     def set_state(self, d: dict[str, Any]) -> None:
-        d = dict(d)
-        if "_elapsed_us" in d:
-            d["_t0"] = self.clock.now_us - d.pop("_elapsed_us")
         super().set_state(d)
         if self.timing and self.clock.track:  # a retained timer that was timing goes on
             self.clock.running.add(self)
@@ -400,3 +409,7 @@ BLOCK_CLASSES: dict[str, type[Block]] = {"TM": Timer, "C": Counter, "DR": Drum,
 from .fastcount import FastCounter, VeryFastCounter  # noqa: E402
 
 BLOCK_CLASSES.update(FC=FastCounter, VFC=VeryFastCounter)
+# pulse outputs (issue 11 B): runtime/pulse.py
+from .pulse import PulseGenerator, PwmOutput  # noqa: E402
+
+BLOCK_CLASSES.update(PLS=PulseGenerator, PWM=PwmOutput)

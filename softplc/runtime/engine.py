@@ -64,6 +64,7 @@ class Engine:
         self.devices: dict[str, Any] = {}
         self.cold_states: dict[tuple[str, int], dict[str, Any]] = {}  # (kind, i) -> state
         self.rtc: Any = None  # runtime.rtc.RTC when the program or the config uses it
+        self.pulses: Any = None  # runtime.pulse.PulseOutputs when %PLS/%PWM are configured
         self.forced: dict[Ref, Any] = {}
         self._forced_bits: list[tuple[list[int], int, int]] = []
         self._forced_inputs: list[tuple[list[int], int, int]] = []
@@ -253,6 +254,8 @@ class Engine:
             ts.update_running()
         if self.rtc is not None:
             self.rtc.end_of_scan(self.clock.now_us)
+        if self.pulses is not None:  # pulse generators run on; %Q shows their level
+            self.pulses.end_of_scan(self.clock.now_us)
         if self._first:
             s = mem.s
             for bit in self._first:

@@ -82,6 +82,7 @@ class MemoryImage:
         self.iw = WordFamily(n_aio)
         self.qw = WordFamily(n_aio)
         self.analog: Any = None  # the AnalogIO converter, when analog channels are configured
+        self.pulses: Any = None  # runtime.pulse.PulseOutputs, when %PLS/%PWM are configured
         # fast counters: the CountingInputs that pulse sources feed (runtime/fastcount.py)
         self.counting: Any = None
         # Function blocks, filled in by the engine from the configuration.
