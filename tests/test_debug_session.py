@@ -319,7 +319,7 @@ def test_help_lists_whole_first_sentences_wrapped(s: Session, width: int) -> Non
     out = s.execute("help")
     assert all(len(line) < width for line in out.splitlines())
     flat = " ".join(out.split())
-    for name, (_, doc) in s.commands.items():
+    for name, doc in ((c.name, c.doc) for c in s.commands.values()):
         sentence = first_sentence(doc)
         assert sentence.endswith("."), name  # whole, not cut mid-sentence
         assert " ".join(sentence.split()) in flat, name
