@@ -10,8 +10,9 @@ accumulator it leaves. The rung-structure checks live here too, with their `erro
 Consumers keep only their own values, indexed by instruction number (`Step.k`):
 code generation (`compiler/codegen.py`: Python expressions) and the ladder view
 (`debug/ladder/tree.py`: series/parallel drawings), so neither parses the stack machine.
-A new instruction kind is added in `Structure.step` (how it moves the machine) and in
-each consumer's handler for it.
+A new instruction kind that reads the accumulator is added to `READS_ACC`; one that
+changes the structure (a new kind of bracket or block) to `build`; then each consumer
+handles it.
 """
 
 from __future__ import annotations
@@ -57,6 +58,10 @@ class Step:
 # of a block and of Grafcet steps, NOP): `used_later` looks through them.
 _TRANSPARENT = (A.Blk, A.OutBlk, A.EndBlk, A.Nop)
 NO_LIMIT = 1 << 30
+# Instructions that use the accumulator as their condition or input, so need a load before
+# them (a new output-like instruction is added here). Jumps, END/RET and Grafcet
+# instructions are not: whether they need one depends on their variant and function.
+READS_ACC = (A.Negate, A.Store, A.OpBlock, A.SRCall, A.Pin)
 
 
 def describe(instr: A.Instruction) -> str:
@@ -171,10 +176,8 @@ def build(rung: A.Rung, max_parens: int = NO_LIMIT, max_stack: int = NO_LIMIT) -
                 st.ok = False
                 continue
             blk, blk_k, phase, acc = None, None, "", False
-        elif isinstance(instr, (A.Negate, A.Store, A.OpBlock, A.SRCall, A.Pin)):
+        elif isinstance(instr, READS_ACC):
             need(st)
-        # jumps, END/RET, Grafcet and NOP read the accumulator (if at all) without needing
-        # it here: the compiler checks them with the function's context
     if parens:
         s.problem("'(' not closed before the end of the rung", s.steps[parens[-1]].pos, "",
                   "')'", Code.NOT_CLOSED)
