@@ -380,6 +380,8 @@ class Controller:
 
     def back(self, n: int) -> None:
         """Go back n scans (1 <= n <= len(ring); a scan in progress counts as one)."""
+        if n > len(self.ring):
+            raise DebugError(f"only {len(self.ring)} scans of history")
         if self.gen is not None:
             self.gen.close()
             self.gen, self.pos = None, None

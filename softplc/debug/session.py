@@ -333,8 +333,6 @@ class Session:
         n = self._count(arg, 1)
         if n == 0:
             return self.ctl.position()
-        if n > len(self.ctl.ring):
-            raise DebugError(f"only {len(self.ctl.ring)} scans of history")
         self.ctl.back(n)
         return self.ctl.position()
 
