@@ -50,13 +50,15 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], str]] = {
 }
 
 
-# Comparison blocks [ a OP b ]: the one table of what each operator means (compiled code
-# uses the Python operator of the same meaning, the ladder view and the debugger the
-# function).
+# Comparison blocks [ a OP b ]: the one table of what each operator means, as the Python
+# operator compiled code uses and as the function of the same meaning the ladder view and
+# the debugger call (the two views below are derived from it).
+_COMPARISONS: dict[str, tuple[str, Callable[[object, object], bool]]] = {
+    "=": ("==", operator.eq), "<>": ("!=", operator.ne), ">": (">", operator.gt),
+    ">=": (">=", operator.ge), "<": ("<", operator.lt), "<=": ("<=", operator.le)}
 COMPARE: dict[str, Callable[[object, object], bool]] = {
-    "=": operator.eq, "<>": operator.ne, ">": operator.gt, ">=": operator.ge,
-    "<": operator.lt, "<=": operator.le}
-COMPARE_PY = {"=": "==", "<>": "!=", ">": ">", ">=": ">=", "<": "<", "<=": "<="}
+    op: fn for op, (_py, fn) in _COMPARISONS.items()}
+COMPARE_PY: dict[str, str] = {op: py for op, (py, _fn) in _COMPARISONS.items()}
 
 
 def _tdiv(a: int, b: int) -> int:

@@ -319,7 +319,7 @@ def test_help_lists_whole_first_sentences_wrapped(s: Session, width: int) -> Non
     out = s.execute("help")
     assert all(len(line) < width for line in out.splitlines())
     flat = " ".join(out.split())
-    for name, (_, doc) in s.commands.items():
+    for name, doc in ((c.name, c.doc) for c in s.commands.values()):
         sentence = first_sentence(doc)
         assert sentence.endswith("."), name  # whole, not cut mid-sentence
         assert " ".join(sentence.split()) in flat, name
@@ -341,3 +341,17 @@ def test_the_controller_runs_without_the_command_layer() -> None:
     assert plc.scan_count == 2 and len(ctl.ring) == 2
     ctl.close()
     assert ctl._apply_pending not in plc.before_scan
+
+
+def test_one_command_table() -> None:
+    """Every command comes from the table: a help text, aliases that name no other command
+    and are not given twice, and only print takes a /FORMAT."""
+    from softplc.debug.session import COMMANDS
+
+    aliases = [a for c in COMMANDS.values() for a in c.aliases]
+    assert len(aliases) == len(set(aliases)) and not set(aliases) & set(COMMANDS)
+    assert all(c.doc for c in COMMANDS.values())
+    assert [c.name for c in COMMANDS.values() if c.formats] == ["print"]
+    s = Session(PLC.from_file(SAMPLE, config=CONFIG))
+    assert s.execute("si") == s.execute("where")  # an alias runs its command
+    assert "takes no /format" in s.execute("where/x")

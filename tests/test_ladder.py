@@ -15,6 +15,7 @@ from softplc.cli import main
 from softplc.debug import ladder
 from softplc.debug.session import Session
 from softplc.il import ast as A
+from softplc.il import rungtree
 from softplc.il.parser import parse, parse_file
 from softplc.plc import PLC
 
@@ -253,28 +254,30 @@ def test_the_drawing_computes_what_the_il_computes(src: str) -> None:
 
 
 def _il_accumulator(rung: A.Rung, state: dict[str, bool]) -> dict[int, bool]:
-    """The accumulator at each output, by the IL's rules (LD AND OR, parentheses, MPS)."""
-    acc, stack, parens, blk, out = False, [], [], None, {}
-    for k, ins in enumerate(rung.instructions):
+    """The accumulator at each output, by the IL's rules (LD AND OR, parentheses, MPS),
+    evaluated here on its own; what each `)`, MRD and MPP refers to comes from the rung
+    structure (`il.rungtree`, tested in test_rungtree.py and through compiled behaviour)."""
+    acc, saved, out = False, {}, {}
+    for st in rungtree.build(rung).steps:
+        ins = st.instr
         if isinstance(ins, (A.BoolInstr, A.ParenOpen)):
             op = ins.operand
-            v = state[f"{blk}.{op.name}" if isinstance(op, A.BlockOutput) else str(op.ref)]
+            v = state[f"{st.block}.{op.name}" if isinstance(op, A.BlockOutput) else str(op.ref)]
             v = v != (ins.modifier == "N")
             if isinstance(ins, A.ParenOpen):
-                parens.append((ins.op, acc))
-                acc = v
+                saved[st.k], acc = acc, v
             else:
                 acc = v if ins.op == "LD" else (acc and v) if ins.op == "AND" else (acc or v)
         elif isinstance(ins, A.ParenClose):
-            op, outer = parens.pop()
-            acc = (outer and acc) if op == "AND" else (outer or acc)
+            outer = saved[st.opener]
+            acc = (outer and acc) if rung.instructions[st.opener].op == "AND" else (outer or acc)
         elif isinstance(ins, A.Stack):
-            acc = stack.append(acc) or acc if ins.op == "MPS" else \
-                stack[-1] if ins.op == "MRD" else stack.pop()
-        elif isinstance(ins, A.Blk):
-            blk = ins.block
+            if ins.op == "MPS":
+                saved[st.k] = acc
+            else:
+                acc = saved[st.opener]
         elif isinstance(ins, A.Store):
-            out[k] = acc
+            out[st.k] = acc
     return out
 
 

@@ -17,14 +17,15 @@ from typing import Any
 from ..address import Ref
 from ..errors import Code, CompileError, Diagnostic
 from ..il import ast as A
+from ..il import rungtree
 from ..program import CompiledProgram, Names, ProgramState, Watchdog
 from ..runtime.grafcet import GRAFCET_BITS
+from ..semantics import COMPARE_PY
 from .resolve import Resolved
 from .values import (
     BLOCK_KIND_PINS,
     BLOCK_OUTPUTS,
     BLOCK_PIN_METHODS,
-    CMP,
     ValueCompiler,
     _Acc,
     _Fn,
@@ -61,7 +62,7 @@ class Compiler(ValueCompiler):
             a, b = self.operand_pair(op.left, op.right, None)
             if self.unify(a, b, op.pos, "comparison") is None:
                 return "0"
-            code = f"({a[0]} {CMP[op.op]} {b[0]})"
+            code = f"({a[0]} {COMPARE_PY[op.op]} {b[0]})"
             if "(" in a[0] or "(" in b[0]:  # helpers may set %S18: evaluate exactly once
                 t = self.new_tmp()
                 self.emit(f"{t} = {code}")
@@ -99,14 +100,15 @@ class Compiler(ValueCompiler):
 
     # ---- rungs ----------------------------------------------------------------------------
     def rung(self, rung: A.Rung, ctx: dict[str, Any]) -> None:
-        """Emit one rung. ctx carries function-level facts (labels -> blocks, Grafcet step)."""
-        ins = rung.instructions
+        """Emit one rung. ctx carries function-level facts (labels -> blocks, Grafcet step).
+        The rung's structure (what each `)`, MRD and MPP refers to, the open BLK, the
+        structure errors) comes from `il.rungtree`; here only the code of each value."""
+        tree = rungtree.build(rung, self.counts["PAREN"], self.counts["STACK"])
+        for p in tree.problems:
+            self.err(p.message, p.pos, p.text, p.expected, code=p.code)
         acc: _Acc | None = None
-        parens: list[tuple[str, str, _Acc, A.Pos]] = []
-        mps: list[str] = []
-        blk: Ref | None = None  # current BLK
+        saved: dict[int, _Acc] = {}  # the accumulator at each `(` and MPS, by instruction
         blk_pins: dict[str, str] = {}
-        blk_phase = ""  # "in" before OUT_BLK, "out" after
         base_indent = self.indent
         step = ctx.get("step")
         if step is not None:
@@ -114,96 +116,62 @@ class Compiler(ValueCompiler):
             self.indent += 1
             base_indent = self.indent
         body_start = len(self.fn.lines)
-        if not ins:
+        if not rung.instructions:
             self.emit("pass")
 
-        def acc_used_later(k: int) -> bool:
-            for nxt in ins[k + 1:]:
-                if isinstance(nxt, A.BoolInstr) and nxt.is_load:
-                    return False
-                if isinstance(nxt, (A.Blk, A.OutBlk, A.EndBlk, A.Nop, A.Grafcet)) and \
-                        not (isinstance(nxt, A.Grafcet) and nxt.op in ("#", "#D")):
-                    continue
-                return True
-            return False
-
-        def need(instr: A.Instruction) -> _Acc:
+        def need() -> _Acc:  # a missing load is reported by the structure pass
             nonlocal acc
             if acc is None:
-                self.err(f"{self.describe(instr)} needs a preceding load",
-                         getattr(instr, "pos", None), "", "LD / LDN / LDR / LDF (or BLK) before it",
-                         code=Code.NEEDS_LOAD)
                 acc = _Acc("0")
             return acc
 
-        def close_block_inputs() -> None:
-            nonlocal blk_phase
-            if blk is None or blk_phase != "in":
+        def run_block(st: rungtree.Step) -> None:  # the block's inputs are all given
+            if st.block is None or st.phase != "in":
                 return
-            b = self.block_name(blk)
-            pins = BLOCK_KIND_PINS.get(blk.kind, ())
+            pins = BLOCK_KIND_PINS.get(st.block.kind, ())
             args = ", ".join(blk_pins.get(p, "0") for p in pins)
-            self.emit(f"{b}.run({args})")
-            blk_phase = "out"
+            self.emit(f"{self.block_name(st.block)}.run({args})")
 
-        for k, instr in enumerate(ins):
+        for st in tree.steps:
+            k, instr, pos, blk = st.k, st.instr, st.pos, st.block
             self.ninstr += 1
-            pos = getattr(instr, "pos", None)
             if self.debug:
                 self.indent = base_indent
                 self.emit(f"yield ({rung.index}, {k})")
+            if not st.ok:
+                continue
             if isinstance(instr, A.BoolInstr):
                 code = self.operand(instr.operand, blk, pos)
                 val = self.modified(code, instr.modifier)
                 if instr.op == "LD":
                     acc = val
                 else:
-                    acc = self.combine(instr.op, need(instr), val)
+                    acc = self.combine(instr.op, need(), val)
             elif isinstance(instr, A.ParenOpen):
-                outer = need(instr)
-                if len(parens) >= self.counts["PAREN"]:
-                    self.err(f"parentheses nested deeper than {self.counts['PAREN']}", pos, "",
-                             f"at most {self.counts['PAREN']} levels", code=Code.STRUCTURE)
+                outer = need()
                 if not outer.simple and len(outer.code) > MAX_EXPR // 2:
                     outer = self.materialize(outer)
-                parens.append((instr.op, instr.modifier, outer, pos))
-                code = self.operand(instr.operand, blk, pos) if instr.operand else None
-                if instr.operand is None:
-                    self.err(f"{instr.op}( needs an operand", pos, "", "a bit or a comparison",
-                             code=Code.STRUCTURE)
-                    code = "0"
+                saved[k] = outer
+                code = self.operand(instr.operand, blk, pos) if instr.operand else "0"
                 # the modifier applies to the first operand inside the parenthesis, as
                 # LDN/LDR/LDF would [manual, see NOTES]
                 acc = self.modified(code, instr.modifier)
             elif isinstance(instr, A.ParenClose):
-                if not parens:
-                    self.err("')' without a matching '('", pos, ")", "AND( / OR( / XOR( first",
-                             code=Code.UNMATCHED_CLOSE)
-                    continue
-                op, _mod, outer, _p = parens.pop()
-                inner = need(instr)
-                acc = self.combine(op, outer, _Acc(f"({inner.code})") if inner.kind != "atom"
-                                   else inner)
+                op = tree.steps[st.opener].instr.op
+                inner = need()
+                acc = self.combine(op, saved[st.opener], _Acc(f"({inner.code})")
+                                   if inner.kind != "atom" else inner)
             elif isinstance(instr, A.Negate):
-                a = need(instr)
+                a = need()
                 acc = _Acc(f"(not ({a.code}))" if a.kind != "atom" else f"(not {a.code})")
             elif isinstance(instr, A.Stack):
                 if instr.op == "MPS":
-                    a = self.materialize(need(instr))
-                    if len(mps) >= self.counts["STACK"]:
-                        self.err(f"MPS stack deeper than {self.counts['STACK']}", pos, "MPS",
-                                 f"at most {self.counts['STACK']} MPS without MPP",
-                                 code=Code.STRUCTURE)
-                    mps.append(a.code)
-                    acc = a
-                elif not mps:
-                    self.err(f"{instr.op} without a preceding MPS", pos, instr.op, "MPS first",
-                             code=Code.NO_MPS)
-                else:
-                    acc = _Acc(mps[-1] if instr.op == "MRD" else mps.pop())
+                    acc = saved[k] = self.materialize(need())
+                elif st.opener is not None:  # else no MPS (reported): acc unchanged
+                    acc = _Acc(saved[st.opener].code)
             elif isinstance(instr, A.Store):
-                a = need(instr)
-                if acc_used_later(k) or self.debug:
+                a = need()
+                if st.used_later or self.debug:
                     a = acc = self.materialize(a)
                 if instr.op == "ST":
                     self.write_bit(instr.target, a.code, pos)
@@ -224,8 +192,8 @@ class Compiler(ValueCompiler):
                         self.write_bit(instr.target, value, pos)
                         self.indent -= 1
             elif isinstance(instr, A.OpBlock):
-                a = need(instr)
-                if acc_used_later(k) or self.debug:
+                a = need()
+                if st.used_later or self.debug:
                     a = acc = self.materialize(a)
                 cond = a.code not in ("1", "True")
                 if cond:
@@ -237,10 +205,10 @@ class Compiler(ValueCompiler):
             elif isinstance(instr, A.Jump):
                 self.jump(instr, acc, ctx, rung)
             elif isinstance(instr, A.SRCall):
-                a = need(instr)
+                a = need()
                 if instr.number not in ctx["subroutines"]:
                     continue  # reported by the resolve pass
-                if acc_used_later(k) or self.debug:
+                if st.used_later or self.debug:
                     a = acc = self.materialize(a)
                 sr = Names.subroutine(instr.number)
                 call = f"yield from {sr}()" if self.debug else f"{sr}()"
@@ -260,33 +228,15 @@ class Compiler(ValueCompiler):
             elif isinstance(instr, A.Nop):
                 pass
             elif isinstance(instr, A.Blk):
-                if blk is not None:
-                    self.err("BLK inside a BLK", pos, "BLK", "END_BLK first", code=Code.STRUCTURE)
-                if not instr.block.is_block:
-                    self.err(f"BLK {instr.block}: not a function block", pos, str(instr.block),
-                             "%TM, %C, %DR, %SBR, %SC or %R", code=Code.BLOCK)
-                    continue
-                blk, blk_pins, blk_phase = instr.block, {}, "in"
-                self.block_name(blk)
+                blk_pins = {}
+                self.block_name(instr.block)
                 acc = None
-            elif isinstance(instr, A.OutBlk):
-                if blk is None:
-                    self.err("OUT_BLK outside a BLK ... END_BLK block", pos, "OUT_BLK",
-                             "BLK %TMi (or another block) before it", code=Code.OUTSIDE_BLK)
-                    continue
-                close_block_inputs()
-                acc = None
-            elif isinstance(instr, A.EndBlk):
-                if blk is None:
-                    self.err("END_BLK without BLK", pos, "END_BLK", "BLK before it",
-                             code=Code.OUTSIDE_BLK)
-                    continue
-                close_block_inputs()
-                blk, blk_phase = None, ""
+            elif isinstance(instr, (A.OutBlk, A.EndBlk)):
+                run_block(st)
                 acc = None
             elif isinstance(instr, A.Pin):
-                self.pin(instr, need(instr), blk, blk_phase, blk_pins)
-                if acc_used_later(k) or self.debug:
+                self.pin(instr, need(), blk, st.phase, blk_pins)
+                if st.used_later or self.debug:
                     acc = self.materialize(acc)
             elif isinstance(instr, A.Grafcet):
                 self.grafcet(instr, acc, ctx)
@@ -297,19 +247,10 @@ class Compiler(ValueCompiler):
                 acc = self.materialize(acc)
                 self.use(Names.LOG)
                 self.emit(f"{Names.LOG}[{rung.index}][{k}] = {acc.code}")
-        if parens:
-            self.err("'(' not closed before the end of the rung", parens[-1][3], "", "')'",
-                     code=Code.NOT_CLOSED)
-        if blk is not None:
-            self.err(f"BLK {blk} not closed", rung.instructions[0].pos
-                     if rung.instructions else None, "", "END_BLK", code=Code.NOT_CLOSED)
         if len(self.fn.lines) == body_start:  # e.g. a lone LD in a step: keep `if` valid
             self.indent = base_indent
             self.emit("pass")
         self.indent = base_indent - (1 if step is not None else 0)
-
-    def describe(self, instr: A.Instruction) -> str:
-        return type(instr).__name__.upper() if not hasattr(instr, "op") else instr.op
 
     def conditional(self, cond: str, stmt: str) -> None:
         if cond in ("1", "True"):

@@ -17,10 +17,9 @@ from ..errors import Code, Diagnostic
 from ..il import ast as A
 from ..program import Names
 from ..runtime.blocks import BLOCK_CLASSES, MAX_VALUE
-from ..semantics import COMPARE_PY, FUNCTIONS
+from ..semantics import FUNCTIONS
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
-CMP = COMPARE_PY
 BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
 # Float functions: the helper is "f" + the function name in lower case (semantics.Ops.fsqrt)
 FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SIN", "COS",

@@ -1,13 +1,15 @@
 """The stepping controller of the debugger: runs the debug or the fast build scan by scan,
 rung by rung or instruction by instruction, stops at breakpoints and watches, keeps the
 history of scans (on `Engine` snapshots) for `back`. No terminal I/O: every run returns a
-typed reason (`Ran.reason`) with the text to show; the REPL's command layer
-(`session.Session`) and, later, the web monitor drive it.
+typed reason (`Ran.reason`) with the text to show. The REPL's command layer
+(`session.Session`) holds one and drives it through the public methods below; the web
+monitor can drive the same controller.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections import deque
 from collections.abc import Callable, Iterator
 from enum import Enum
@@ -15,6 +17,7 @@ from typing import Any
 
 from ..address import Ref
 from ..errors import SoftPLCError
+from ..il import ast as A
 from ..il.printer import format_instruction
 from ..plc import PLC
 
@@ -33,6 +36,10 @@ class StopKind(Enum):
 
 # Reasons that end a repeated command (step 3, stepi 5, continue) early.
 STOPS_A_COMMAND = frozenset({StopKind.BREAKPOINT, StopKind.WATCH, StopKind.INTERRUPTED})
+
+
+class DebugError(SoftPLCError):
+    """A command the debugger cannot do (bad argument, unknown rung...)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,6 +95,7 @@ class Controller:
         self.interrupted = False
         self.last_rung = 0
         self.ran = ""  # what the last step ran, for the watch history
+        self.next_id = 1  # of the next breakpoint
         self.scan_end_hooks: list[Callable[[], None]] = []
         self._rung_bp: dict[int | None, Breakpoint] = {}
         self._data = False
@@ -259,10 +267,11 @@ class Controller:
         if self.plc.state != "RUN":
             msgs.append(f"PLC in {self.plc.state}" + (f": {self.plc.fault}"
                                                         if self.plc.fault else ""))
-        msgs.append(self._position())
+        msgs.append(self.position())
         return Ran(stop.kind if stop else StopKind.DONE, "\n".join(msgs))
 
-    def _position(self) -> str:
+    def position(self) -> str:
+        """Where the run is: the scan boundary or the next instruction, as text."""
         t = f"scan {self.plc.scan_count}, t = {self.plc.time:.3f} s"
         if self.pos is None:
             return f"[{t}] at the scan boundary"
@@ -286,8 +295,93 @@ class Controller:
         """Finish the scan in progress, then run n whole scans; breakpoints stop it."""
         return self._run(n)
 
+    @property
+    def in_scan(self) -> bool:
+        """A scan is in progress (stopped before one of its instructions)."""
+        return self.gen is not None
+
+    def finish_scan(self) -> Ran:
+        """Run the scan in progress to its end (breakpoints stop it)."""
+        return self._run(0)
+
+    def interrupt(self) -> None:
+        """Ask a running run to stop at the next scan or instruction (Ctrl-C)."""
+        self.interrupted = True
+
+    def queue(self, items: list[tuple[Ref, Any]]) -> None:
+        """Writes applied at the start of the next scan."""
+        self.pending.extend(items)
+
+    # -- breakpoints and watches ---------------------------------------------------------------
+    def resolve_rung(self, key: str) -> A.Rung:
+        """A rung named by number, title or label (%Li)."""
+        key = key.strip()
+        m = re.fullmatch(r"%L(\d+):?", key, re.I)
+        if m:
+            for r in self.plc.ast.rungs:
+                if r.label == int(m[1]):
+                    return r
+            raise DebugError(f"no label %L{m[1]} in the program")
+        if not key:
+            raise DebugError("which rung? a number, a title or a label %Li")
+        try:
+            return self.plc.ast.rung(key)
+        except (KeyError, IndexError):
+            raise DebugError(f"no rung {key!r} (rungs are 0..{len(self.plc.ast.rungs) - 1}; "
+                             f"'rungs' lists the titles)") from None
+
+    def add_breakpoint(self, **kw: Any) -> Breakpoint:
+        """A new breakpoint or watch (see `Breakpoint`); a watch records its changes."""
+        b = Breakpoint(self.next_id, **kw)
+        self.next_id += 1
+        if b.test is not None:
+            b.last = b.test()
+        self.breaks.append(b)
+        if b.kind == "watch":
+            self.changes.setdefault(b.text, deque(maxlen=HISTORY))
+        return b
+
+    def find_breakpoints(self, ids: list[int] | None) -> list[Breakpoint]:
+        """The breakpoints with these ids (all for None)."""
+        if ids is None:
+            return list(self.breaks)
+        out = []
+        for i in ids:
+            b = next((b for b in self.breaks if b.id == i), None)
+            if b is None:
+                raise DebugError(f"no breakpoint #{i}")
+            out.append(b)
+        return out
+
+    def delete_breakpoints(self, gone: list[Breakpoint]) -> None:
+        self.breaks = [b for b in self.breaks if b not in gone]
+
+    def reload(self, program: A.Program) -> tuple[bool, list[str]]:
+        """Run `program` from now on, keeping memory; a scan in progress is finished first.
+        Rung breakpoints follow their rung (by how it was named) or are disabled. Returns
+        whether a scan was finished and the breakpoints disabled (as text)."""
+        finished = self.in_scan
+        if finished:
+            self._run(0)
+        self.plc.replace_program(program)
+        self.dbg = self.plc.compile_debug()
+        self.dbg_version = self.plc.program_version
+        lost = []
+        for b in self.breaks:
+            if b.kind == "rung":
+                try:
+                    r = self.resolve_rung(b.key)
+                    b.rung, b.text = r.index, r.name
+                except DebugError:
+                    b.enabled = False
+                    lost.append(f"breakpoint #{b.id} ({b.key}) disabled: no such rung now")
+        self.last_rung = min(self.last_rung, max(0, len(program.rungs) - 1))
+        return finished, lost
+
     def back(self, n: int) -> None:
         """Go back n scans (1 <= n <= len(ring); a scan in progress counts as one)."""
+        if n > len(self.ring):
+            raise DebugError(f"only {len(self.ring)} scans of history")
         if self.gen is not None:
             self.gen.close()
             self.gen, self.pos = None, None

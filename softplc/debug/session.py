@@ -24,7 +24,6 @@ import math
 import re
 import struct
 import textwrap
-from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -35,13 +34,14 @@ from ..errors import ConfigError, SoftPLCError
 from ..il import ast as A
 from ..il.parser import parse_file
 from ..plc import PLC
-from ..semantics import COMPARE
+from ..semantics import COMPARE, COMPARE_PY
 from . import ladder
 from .controller import (
     HISTORY,
     STOPS_A_COMMAND,
     Breakpoint,
     Controller,
+    DebugError,
     Ran,
     StopKind,
 )
@@ -50,12 +50,9 @@ CONTINUE_LIMIT = 100_000  # scans `continue` runs before giving up
 WORDS = ("MW", "KW", "SW")
 DWORDS = ("MD", "KD")
 FLOATS = ("MF", "KF")
-CMP_OPS = {**COMPARE, "==": COMPARE["="], "!=": COMPARE["<>"]}  # as users also type them
+# the Twido operators and their Python spellings (== !=), as users also type them
+CMP_OPS = {**COMPARE, **{COMPARE_PY[op]: fn for op, fn in COMPARE.items()}}
 _COND = re.compile(r"^\s*(\S+)\s*(==|=|<>|!=|<=|>=|<|>)\s*(\S+)\s*$")
-
-
-class DebugError(SoftPLCError):
-    """A command the debugger cannot do (bad argument, unknown rung...)."""
 
 
 def parse_value(text: str) -> int | float:
@@ -84,31 +81,55 @@ def parse_value(text: str) -> int | float:
     return v
 
 
-class Session(Controller):
-    """A debugging session over one PLC: the command layer over the stepping controller.
-    `execute(line)` runs a command, returns text."""
+@dataclasses.dataclass(frozen=True)
+class Command:
+    """One debugger command: the method that runs it, its help text, its other names and
+    whether it takes a /FORMAT (print/x)."""
+
+    name: str
+    fn: Callable[..., str]
+    doc: str
+    aliases: tuple[str, ...] = ()
+    formats: bool = False
+
+
+# The command table: every command, filled by `@command` on the methods of `Session`.
+COMMANDS: dict[str, Command] = {}
+
+
+def command(name: str, *aliases: str, formats: bool = False
+            ) -> Callable[[Callable[..., str]], Callable[..., str]]:
+    """Register a `Session` method as the command `name` (and its aliases)."""
+    def register(fn: Callable[..., str]) -> Callable[..., str]:
+        COMMANDS[name] = Command(name, fn, (fn.__doc__ or "").strip(), aliases, formats)
+        return fn
+    return register
+
+
+class Session:
+    """A debugging session over one PLC: the command and format layer over a stepping
+    controller (`self.ctl`, which the web monitor can drive the same way). `execute(line)`
+    runs a command from the table `COMMANDS` and returns its text."""
 
     def __init__(self, plc: PLC, program_path: str | Path | None = None,
                  history: int = HISTORY):
-        super().__init__(plc, history)
+        self.plc = plc
+        self.ctl = Controller(plc, history)
         self.path = Path(program_path) if program_path else None
-        self.next_id = 1
         self.width = 80  # of the text `help` wraps to (the REPL sets the terminal's)
         self.trace_file: Any = None
         self.trace_writer: Any = None
         self.trace_refs: list[Ref] = []
         self.done = False
         self.continue_limit = CONTINUE_LIMIT
-        self.scan_end_hooks.append(self._scan_done)
-        self.commands: dict[str, tuple[Callable[[str], str], str]] = {}
-        for name in dir(self):
-            if name.startswith("cmd_"):
-                fn = getattr(self, name)
-                self.commands[name[4:]] = (fn, (fn.__doc__ or "").strip())
-        self.aliases = {"c": "continue", "cont": "continue", "s": "step", "si": "stepi",
-                        "p": "print", "b": "break", "q": "quit", "exit": "quit",
-                        "info": "status", "bt": "where", "l": "rungs", "r": "run",
-                        "breaks": "breakpoints", "tb": "breakpoints", "d": "delete"}
+        self.ctl.scan_end_hooks.append(self._scan_done)
+        self.commands = COMMANDS
+        self.aliases = {a: c.name for c in COMMANDS.values() for a in c.aliases}
+
+    @property
+    def pos(self) -> tuple[int, int] | None:
+        """The next instruction (rung, k), None at the scan boundary."""
+        return self.ctl.pos
 
     # ---- the command line -------------------------------------------------------------------
     def execute(self, line: str) -> str:
@@ -127,13 +148,13 @@ class Session(Controller):
             close = difflib.get_close_matches(name, list(self.commands), 1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             return f"error: unknown command {word!r}{hint}; 'help' lists the commands"
-        fn = self.commands[name][0]
+        cmd = self.commands[name]
         try:
-            if name == "print":
-                return fn(rest, fmt)
+            if cmd.formats:
+                return cmd.fn(self, rest, fmt)
             if fmt:
                 raise DebugError(f"{name} takes no /format")
-            return fn(rest.strip())
+            return cmd.fn(self, rest.strip())
         except (SoftPLCError, ValueError, KeyError, IndexError, TypeError, OSError) as e:
             msg = e.args[0] if isinstance(e, KeyError) and e.args else e
             return f"error: {msg}"
@@ -170,7 +191,7 @@ class Session(Controller):
 
     def interrupt(self) -> None:
         """Ask a running `run`/`continue` to stop at the next scan or instruction (Ctrl-C)."""
-        self.interrupted = True
+        self.ctl.interrupt()
 
     # ---- objects -------------------------------------------------------------------------
     def parse_obj(self, text: str) -> list[Ref]:
@@ -237,30 +258,34 @@ class Session(Controller):
         return int(v) if isinstance(v, bool) else v
 
     # ---- commands: execution -----------------------------------------------------------------
+    @command("scan")
     def cmd_scan(self, arg: str) -> str:
         """scan [N]: finish the scan in progress, then run N more scans (default 1; 0 when a
         scan is in progress). Stops at breakpoints."""
-        n = self._count(arg, 0 if self.gen is not None else 1)
-        return self.run_scans(n).text
+        n = self._count(arg, 0 if self.ctl.in_scan else 1)
+        return self.ctl.run_scans(n).text
 
+    @command("step", "s")
     def cmd_step(self, arg: str) -> str:
         """step [N]: run to the start of the next rung (entering a scan if at the boundary)."""
         ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            ran = self.step()
+            ran = self.ctl.step()
             if ran.reason in STOPS_A_COMMAND:
                 break
         return ran.text
 
+    @command("stepi", "si")
     def cmd_stepi(self, arg: str) -> str:
         """stepi [N]: run one instruction (entering a scan if at the boundary)."""
         ran = Ran(StopKind.DONE, "")
         for _ in range(self._count(arg, 1)):
-            ran = self.step_instruction()
+            ran = self.ctl.step_instruction()
             if ran.reason in STOPS_A_COMMAND:
                 break
         return ran.text
 
+    @command("run", "r")
     def cmd_run(self, arg: str) -> str:
         """run N | run Ts: run N scans (run 100) or T seconds of PLC time (run 2s, run 500ms).
         Stops at breakpoints."""
@@ -275,17 +300,18 @@ class Session(Controller):
             except ConfigError as e:
                 raise DebugError(str(e)) from None
             n = max(1, round(secs / self.plc.scan_period))
-        if self.gen is not None:
+        if self.ctl.in_scan:
             n = max(0, n - 1)  # the scan in progress counts as one
-        return self.run_scans(n).text
+        return self.ctl.run_scans(n).text
 
+    @command("continue", "c", "cont")
     def cmd_continue(self, arg: str) -> str:
         """continue: run until a breakpoint or watch stops it (at most 100000 scans;
         Ctrl-C stops it)."""
-        if not self.breaks or not any(b.enabled for b in self.breaks):
+        if not self.ctl.breaks or not any(b.enabled for b in self.ctl.breaks):
             raise DebugError("no breakpoint is enabled: continue would never stop "
                              "(use 'run N' or set one with 'break')")
-        ran = self.run_scans(self.continue_limit)
+        ran = self.ctl.run_scans(self.continue_limit)
         if ran.reason not in STOPS_A_COMMAND:
             return f"no breakpoint hit in {self.continue_limit} scans\n" + ran.text
         return ran.text
@@ -301,41 +327,17 @@ class Session(Controller):
             raise DebugError("the count must be >= 0")
         return n
 
+    @command("back")
     def cmd_back(self, arg: str) -> str:
         """back [N]: go back N scans (default 1; a scan in progress counts as one)."""
         n = self._count(arg, 1)
         if n == 0:
-            return self._position()
-        if n > len(self.ring):
-            raise DebugError(f"only {len(self.ring)} scans of history")
-        self.back(n)
-        return self._position()
+            return self.ctl.position()
+        self.ctl.back(n)
+        return self.ctl.position()
 
     # ---- commands: breakpoints -----------------------------------------------------------------
-    def _resolve_rung(self, key: str) -> A.Rung:
-        key = key.strip()
-        m = re.fullmatch(r"%L(\d+):?", key, re.I)
-        if m:
-            for r in self.plc.ast.rungs:
-                if r.label == int(m[1]):
-                    return r
-            raise DebugError(f"no label %L{m[1]} in the program")
-        if not key:
-            raise DebugError("which rung? a number, a title or a label %Li")
-        try:
-            return self.plc.ast.rung(key)
-        except (KeyError, IndexError):
-            raise DebugError(f"no rung {key!r} (rungs are 0..{len(self.plc.ast.rungs) - 1}; "
-                             f"'rungs' lists the titles)") from None
-
-    def _add(self, **kw: Any) -> Breakpoint:
-        b = Breakpoint(self.next_id, **kw)
-        self.next_id += 1
-        if b.test is not None:
-            b.last = b.test()
-        self.breaks.append(b)
-        return b
-
+    @command("break", "b")
     def cmd_break(self, arg: str) -> str:
         """break RUNG | break %Li | break when COND: stop before a rung (number or title), at a
         label, or when a condition becomes true: `break when %MW32 = 100` (= <> < <= > >=, a
@@ -346,8 +348,8 @@ class Session(Controller):
         m = re.match(r"when\s+(.*)$", arg, re.I)
         if m:
             return self._break_when(m[1])
-        r = self._resolve_rung(arg)
-        b = self._add(kind="rung", text=r.name, rung=r.index, key=arg)
+        r = self.ctl.resolve_rung(arg)
+        b = self.ctl.add_breakpoint(kind="rung", text=r.name, rung=r.index, key=arg)
         return f"breakpoint #{b.id} at {r.name}"
 
     def _break_when(self, text: str) -> str:
@@ -357,7 +359,7 @@ class Session(Controller):
             if len(refs) != 1:
                 raise DebugError("a condition names one object, not a range")
             ref = refs[0]
-            b = self._add(kind="cond", text=f"{ref} {parts[1].lower()}",
+            b = self.ctl.add_breakpoint(kind="cond", text=f"{ref} {parts[1].lower()}",
                           test=lambda: self.read(ref), mode=parts[1].lower())
             return f"breakpoint #{b.id} when {b.text}"
         m = _COND.match(text)
@@ -378,11 +380,12 @@ class Session(Controller):
 
             def right() -> Any:
                 return val
-        b = self._add(kind="cond", text=f"{lref} {m[2]} {m[3]}",
+        b = self.ctl.add_breakpoint(kind="cond", text=f"{lref} {m[2]} {m[3]}",
                       test=lambda: bool(op(self.read(lref), right())))
         return f"breakpoint #{b.id} when {b.text}" + (" (true now: stops when it becomes "
                                                       "true again)" if b.last else "")
 
+    @command("watch")
     def cmd_watch(self, arg: str) -> str:
         """watch ADDR: stop when the object changes (a data breakpoint); its changes are
         kept for `history`."""
@@ -390,16 +393,16 @@ class Session(Controller):
         if len(refs) != 1:
             raise DebugError("watch one object, e.g. watch %MW32")
         ref = refs[0]
-        b = self._add(kind="watch", text=str(ref), test=lambda: self.read(ref))
-        self.changes.setdefault(b.text, deque(maxlen=HISTORY))
+        b = self.ctl.add_breakpoint(kind="watch", text=str(ref), test=lambda: self.read(ref))
         return f"watch #{b.id} {ref} (now {self.fmt(ref, b.last)})"
 
+    @command("breakpoints", "breaks", "tb")
     def cmd_breakpoints(self, arg: str) -> str:
         """breakpoints: list breakpoints and watches."""
-        if not self.breaks:
+        if not self.ctl.breaks:
             return "no breakpoints"
         lines = []
-        for b in self.breaks:
+        for b in self.ctl.breaks:
             what = {"rung": "at", "cond": "when", "watch": "watch"}[b.kind]
             lines.append(f"#{b.id:<3} {what} {b.text}{'' if b.enabled else '  (disabled)'}"
                          f"  hits {b.hits}")
@@ -407,47 +410,47 @@ class Session(Controller):
 
     def _ids(self, arg: str) -> list[Breakpoint]:
         if not arg or arg == "all":
-            return list(self.breaks)
-        out = []
+            return self.ctl.find_breakpoints(None)
+        ids = []
         for t in arg.replace(",", " ").split():
             try:
-                i = int(t.lstrip("#"))
+                ids.append(int(t.lstrip("#")))
             except ValueError:
                 raise DebugError(f"{t!r} is not a breakpoint number") from None
-            b = next((b for b in self.breaks if b.id == i), None)
-            if b is None:
-                raise DebugError(f"no breakpoint #{i}")
-            out.append(b)
-        return out
+        return self.ctl.find_breakpoints(ids)
 
+    @command("delete", "d")
     def cmd_delete(self, arg: str) -> str:
         """delete [ID...]: delete breakpoints/watches (all without argument)."""
         gone = self._ids(arg)
-        self.breaks = [b for b in self.breaks if b not in gone]
+        self.ctl.delete_breakpoints(gone)
         return f"deleted {len(gone)} breakpoint(s)"
 
+    @command("disable")
     def cmd_disable(self, arg: str) -> str:
         """disable [ID...]: disable breakpoints (all without argument)."""
         for b in self._ids(arg):
             b.enabled = False
         return self.cmd_breakpoints("")
 
+    @command("enable")
     def cmd_enable(self, arg: str) -> str:
         """enable [ID...]: enable breakpoints (all without argument)."""
         for b in self._ids(arg):
             b.enabled = True
         return self.cmd_breakpoints("")
 
+    @command("history")
     def cmd_history(self, arg: str) -> str:
         """history [ADDR]: the recorded changes of watched objects (watch them first)."""
-        keys = [str(self.parse_obj(arg)[0])] if arg else list(self.changes)
+        keys = [str(self.parse_obj(arg)[0])] if arg else list(self.ctl.changes)
         if not keys:
             return "nothing watched: 'watch ADDR' records the changes of an object"
         lines = []
         for key in keys:
-            if key not in self.changes:
+            if key not in self.ctl.changes:
                 raise DebugError(f"{key} is not watched: 'watch {key}' first")
-            hist = self.changes[key]
+            hist = self.ctl.changes[key]
             lines.append(f"{key}: {len(hist)} change(s)")
             for c in hist:
                 lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {c.where:<18} "
@@ -455,6 +458,7 @@ class Session(Controller):
         return "\n".join(lines)
 
     # ---- commands: data -----------------------------------------------------------------------
+    @command("print", "p", formats=True)
     def cmd_print(self, arg: str, fmt: str = "") -> str:
         """print[/FMT] ADDR...: show objects or ranges: %MW0:15 (15 words from %MW0),
         %Q1.0:8 (8 bits), %MF40, %TM0, %C0. FMT: d decimal, u unsigned, x hex, b binary,
@@ -504,6 +508,7 @@ class Session(Controller):
             out.append((ref, v))
         return out
 
+    @command("set")
     def cmd_set(self, arg: str) -> str:
         """set ADDR VALUE...: write an object at the start of the next scan (a range takes
         one value per object: set %MW0:3 1 2 3). %I writes go to the field input."""
@@ -511,9 +516,10 @@ class Session(Controller):
         if len(parts) < 2:
             raise DebugError("set ADDR VALUE, e.g. set %MW3 120")
         items = self._check_set(self.parse_obj(parts[0]), parts[1:])
-        self.pending.extend(items)
+        self.ctl.queue(items)
         return "queued for the next scan: " + ", ".join(f"{r} := {v}" for r, v in items)
 
+    @command("force")
     def cmd_force(self, arg: str) -> str:
         """force ADDR VALUE: hold an object at a value every scan (force alone lists)."""
         parts = arg.split()
@@ -529,6 +535,7 @@ class Session(Controller):
         self.plc.force(str(ref), v)
         return f"{ref} forced to {v}"
 
+    @command("unforce")
     def cmd_unforce(self, arg: str) -> str:
         """unforce [ADDR | all]: release a forced object (all without argument)."""
         if not arg or arg == "all":
@@ -541,6 +548,7 @@ class Session(Controller):
         self.plc.unforce(str(ref))
         return f"{ref} released"
 
+    @command("timers")
     def cmd_timers(self, arg: str) -> str:
         """timers: every timer with its type, base, preset, value and output."""
         tms = self.plc.mem.blocks.get("TM", {})
@@ -552,6 +560,7 @@ class Session(Controller):
                          f"Q={int(t.Q)} IN={int(t.last_in)}")
         return "\n".join(lines)
 
+    @command("counters")
     def cmd_counters(self, arg: str) -> str:
         """counters: every counter with its preset, value and outputs (D done, E/F
         underflow/overflow); the fast counters %FC / %VFC with their mode (_en: IN, lost:
@@ -564,6 +573,7 @@ class Session(Controller):
                       for i, c in sorted(self.plc.mem.blocks.get(kind, {}).items())]
         return "\n".join(lines) or "no counters"
 
+    @command("pid")
     def cmd_pid(self, arg: str) -> str:
         """pid: every PID function with its mode, set point, measure, output, Kp/Ti/Td,
         diagnostic word and auto-tuning state."""
@@ -579,6 +589,7 @@ class Session(Controller):
                          f"Ti={get(p.ti)}/10s Td={get(p.td)}/10s diag={pid.diag:#06x} AT={at}")
         return "\n".join(lines)
 
+    @command("pulses")
     def cmd_pulses(self, arg: str) -> str:
         """pulses: every pulse output (%PLS, %PWM) with its period, frequency, fields, the
         pulses sent so far and the duty cycle."""
@@ -589,6 +600,7 @@ class Session(Controller):
         return "\n".join(f"{pulses.names[i]:<16} {g.summary(now)}"
                          for i, g in sorted(pulses.by_output.items()))
 
+    @command("analog")
     def cmd_analog(self, arg: str) -> str:
         """analog: every analog channel with its signal, range, word and physical value."""
         analog = self.plc.mem.analog
@@ -602,6 +614,7 @@ class Session(Controller):
             lines.append(f"{str(ref):<8} {ch.signal:<6} {rng:<18} {word}{extra}")
         return "\n".join(lines)
 
+    @command("status", "info")
     def cmd_status(self, arg: str) -> str:
         """status: PLC state, scan count, virtual time, scan times, position, forced."""
         st = self.plc.stats
@@ -612,13 +625,13 @@ class Session(Controller):
                  f"{self.plc.scan_period * 1000:g} ms",
                  f"scan     last {st.last * 1e6:.0f} us  min {st.min * 1e6:.0f} us  max "
                  f"{st.max * 1e6:.0f} us  mean {st.total / n * 1e6:.0f} us (execution, wall)",
-                 f"position {self._position()}",
-                 f"history  {len(self.ring)} scans (back)",
+                 f"position {self.ctl.position()}",
+                 f"history  {len(self.ctl.ring)} scans (back)",
                  f"forced   {', '.join(f'{k}={v}' for k, v in self.plc.forced.items()) or '-'}"]
-        if self.pending:
-            lines.append("pending  " + ", ".join(f"{r} := {v}" for r, v in self.pending))
-        if self.breaks:
-            lines.append(f"breaks   {len(self.breaks)}")
+        if self.ctl.pending:
+            lines.append("pending  " + ", ".join(f"{r} := {v}" for r, v in self.ctl.pending))
+        if self.ctl.breaks:
+            lines.append(f"breaks   {len(self.ctl.breaks)}")
         if self.trace_writer is not None:
             lines.append(f"trace    {', '.join(map(str, self.trace_refs))} -> "
                          f"{self.trace_file.name}")
@@ -628,10 +641,12 @@ class Session(Controller):
                 lines.append(f"device   {name}: " + " ".join(f"{k}={v}" for k, v in info.items()))
         return "\n".join(lines)
 
+    @command("where", "bt")
     def cmd_where(self, arg: str) -> str:
         """where: the current position (the next instruction to run)."""
-        return self._position()
+        return self.ctl.position()
 
+    @command("trace")
     def cmd_trace(self, arg: str) -> str:
         """trace ADDR... to FILE.csv: record these objects at the end of every scan from now
         on (trace off: stop)."""
@@ -662,66 +677,56 @@ class Session(Controller):
         self.trace_refs = []
 
     # ---- commands: program --------------------------------------------------------------------
+    @command("rung")
     def cmd_rung(self, arg: str) -> str:
         """rung [N | TITLE]: the rung as a ladder with live power flow (double lines) and
         values (F = forced); > marks the next instruction. Default: the current rung."""
-        r = self._resolve_rung(arg) if arg else self.plc.ast.rungs[self.last_rung]
-        live = ladder.Live(self.read, self.dbg.log[r.index] if r.index < len(self.dbg.log)
+        r = self.ctl.resolve_rung(arg) if arg else self.plc.ast.rungs[self.ctl.last_rung]
+        live = ladder.Live(self.read, self.ctl.dbg.log[r.index] if r.index < len(self.ctl.dbg.log)
                            else None, set(self.plc.forced))
-        marker = self.pos[1] if self.pos and self.pos[0] == r.index else None
+        marker = self.ctl.pos[1] if self.ctl.pos and self.ctl.pos[0] == r.index else None
         text = ladder.render_text(r, live, marker=marker)
-        if self.pos is not None and (r.index > self.pos[0] or marker is not None):
+        if self.ctl.pos is not None and (r.index > self.ctl.pos[0] or marker is not None):
             text += "(power flow of the previous scan where this scan has not run yet)\n"
         return text.rstrip("\n")
 
+    @command("rungs", "l")
     def cmd_rungs(self, arg: str) -> str:
         """rungs: list the rungs (* breakpoint, > current)."""
-        bp = {b.rung for b in self.breaks if b.kind == "rung" and b.enabled}
+        bp = {b.rung for b in self.ctl.breaks if b.kind == "rung" and b.enabled}
         lines = []
         for r in self.plc.ast.rungs:
-            mark = (">" if self.pos and self.pos[0] == r.index else " ") + \
+            mark = (">" if self.ctl.pos and self.ctl.pos[0] == r.index else " ") + \
                 ("*" if r.index in bp else " ")
             where = f"SR{r.subroutine} " if r.subroutine is not None else ""
             lbl = f"%L{r.label}: " if r.label is not None else ""
             lines.append(f"{mark}{r.index:>4}  {where}{lbl}{r.title or '(no title)'}")
         return "\n".join(lines)
 
+    @command("reload")
     def cmd_reload(self, arg: str) -> str:
         """reload: re-read the program file, keep memory, report the rungs added, removed,
         modified. A scan in progress is finished first."""
         if self.path is None:
             raise DebugError("the program was not loaded from a file")
         new = parse_file(self.path)
-        pre = ""
-        if self.gen is not None:
-            self._run(0)
-            pre = "finished the scan in progress\n"
         old = self.plc.ast
-        self.plc.replace_program(new)
-        self.dbg = self.plc.compile_debug()
-        self.dbg_version = self.plc.program_version
-        report = diff_programs(old, new)
-        for b in self.breaks:
-            if b.kind == "rung":
-                try:
-                    r = self._resolve_rung(b.key)
-                    b.rung, b.text = r.index, r.name
-                except DebugError:
-                    b.enabled = False
-                    report.append(f"breakpoint #{b.id} ({b.key}) disabled: no such rung now")
-        self.last_rung = min(self.last_rung, max(0, len(new.rungs) - 1))
+        finished, lost = self.ctl.reload(new)
+        pre = "finished the scan in progress\n" if finished else ""
+        report = diff_programs(old, new) + lost
         return pre + (f"reloaded {self.path}: " + ("; ".join(report) if report else
                                                    "no change"))
 
+    @command("help")
     def cmd_help(self, arg: str) -> str:
         """help [COMMAND]: list the commands, or explain one."""
         if arg:
             name = self.aliases.get(arg, arg)
             if name not in self.commands:
                 raise DebugError(f"no command {arg!r}")
-            return self.commands[name][1]
+            return self.commands[name].doc
         lines = ["commands (help NAME for details):"]
-        for name, (_, doc) in sorted(self.commands.items()):
+        for name, doc in sorted((c.name, c.doc) for c in self.commands.values()):
             lines += textwrap.wrap(first_sentence(doc) if doc else name,
                                    max(40, self.width - 1), initial_indent="  ",
                                    subsequent_indent="      ",
@@ -731,6 +736,7 @@ class Session(Controller):
                                max(40, self.width - 1), subsequent_indent="  ")
         return "\n".join(lines)
 
+    @command("quit", "q", "exit")
     def cmd_quit(self, arg: str) -> str:
         """quit: leave the debugger."""
         self.close()
@@ -739,7 +745,7 @@ class Session(Controller):
 
     def close(self) -> None:
         self._close_trace()
-        super().close()
+        self.ctl.close()
 
 
 def first_sentence(doc: str) -> str:

@@ -8,6 +8,7 @@ from typing import Any
 from ...address import Ref
 from ...compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
 from ...il import ast as A
+from ...il import rungtree
 from ...il.printer import format_expr, format_instruction, format_statement
 
 CONTACT = {"": "┤ ├", "N": "┤/├", "R": "┤P├", "F": "┤N├"}
@@ -180,9 +181,9 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
     root = Junction()
     rail = root  # where a load starts (inside BLK ... OUT_BLK: the block's input side)
     cur, pend = root, None  # the accumulator = power at `cur`, then through `pend`
-    mps: list[Junction] = []
-    parens: list[tuple[str, str, Junction, Any]] = []
-    blk: Ref | None = None
+    tree = rungtree.build(rung)  # what each `)`, MRD, MPP and block instruction refers to
+    saved: dict[int, Any] = {}  # at each `(`: (cur, pend); at each MPS: its junction
+    blocks: dict[int, Block] = {}  # by BLK instruction
     block: Block | None = None
 
     def attach() -> Junction:
@@ -217,8 +218,19 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
             pend = _ser(pend, Leaf(Elem("box", "[XOR]", "", k, None)), k)
             pend = _ser(pend, e, k)
 
-    for k, ins in enumerate(rung.instructions):
-        if isinstance(ins, A.BoolInstr):
+    for st in tree.steps:
+        k, ins, blk = st.k, st.instr, st.block
+        block = blocks.get(st.block_k) if st.block_k is not None else None
+        if isinstance(ins, (A.OutBlk, A.EndBlk)):  # (outside a block too: back to the rail)
+            if block is not None:
+                block.ks.add(k)
+                if isinstance(ins, A.EndBlk):
+                    _close_block(block, root, merge)
+            rail = cur = root
+            pend = None
+        elif not st.ok:
+            continue
+        elif isinstance(ins, A.BoolInstr):
             # an OR operand's own state is not the accumulator after it
             e = Leaf(_operand_elem(ins.operand, ins.modifier, k, ins, blk, ins.op),
                      None if ins.op == "OR" else k)
@@ -232,13 +244,12 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
             else:
                 combine(ins.op, e, k)
         elif isinstance(ins, A.ParenOpen):
-            parens.append((ins.op, ins.modifier, cur, pend))
+            saved[k] = (cur, pend)
             cur, pend = Junction(), Leaf(_operand_elem(ins.operand, ins.modifier, k, ins, blk,
                                                        "LD"), k)
         elif isinstance(ins, A.ParenClose):
-            if not parens:
-                continue
-            op, mod, cur, outer = parens.pop()
+            op = tree.steps[st.opener].instr.op
+            cur, outer = saved[st.opener]
             inner, pend = pend, outer
             if inner is not None:
                 inner.k_out = None  # the inner accumulator is not the power out
@@ -247,25 +258,17 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
             pend = _ser(pend, Leaf(Elem("box", "[NOT]", "", k, ins), k), k)
         elif isinstance(ins, A.Stack):
             if ins.op == "MPS":
-                mps.append(attach())
-            elif mps:
-                cur, pend = (mps[-1] if ins.op == "MRD" else mps.pop()), None
+                saved[k] = attach()
+            elif st.opener is not None:
+                cur, pend = saved[st.opener], None
         elif isinstance(ins, A.Blk):
             if pend is not None:
                 attach()
-            blk = ins.block
-            block = Block(blk, Elem("block", str(blk), "", k, ins, Ref(blk.kind, blk.index)))
+            blocks[k] = block = Block(blk, Elem("block", str(blk), "", k, ins,
+                                                Ref(blk.kind, blk.index)))
             block.ks.add(k)
             root.children.append(block)
             rail = cur = block.ins
-            pend = None
-        elif isinstance(ins, (A.OutBlk, A.EndBlk)):
-            if block is not None:
-                block.ks.add(k)
-                if isinstance(ins, A.EndBlk):
-                    _close_block(block, root, merge)
-                    blk = block = None
-            rail = cur = root
             pend = None
         else:
             el = _output_elem(ins, k, blk)
@@ -277,8 +280,8 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
                 rail.children.append(el)
             else:
                 attach().children.append(el)
-    if block is not None:
-        _close_block(block, root, merge)
+    if tree.open_block is not None:
+        _close_block(blocks[tree.open_block], root, merge)
     if pend is not None:  # logic with no output (an unfinished rung)
         attach()
     return root
