@@ -99,6 +99,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "5s; 0 = only at shutdown); a killed process loses nothing anyway")
     p.add_argument("--speed", type=_speed, default=None,
                    help="virtual clock N times faster than real time, or 'max'")
+    p.add_argument("--no-host-wait", action="store_true",
+                   help="with --speed, run the virtual clock on while the program waits for "
+                        "its host (ignore the config's [daemon] host_wait bit)")
     p.add_argument("--stats-interval", type=_duration,
                    help="statistics line every ... (default 5s; 0 = none)")
     p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
@@ -143,6 +146,16 @@ def _pick(cli: Any, table: dict[str, Any], key: str, default: Any, conv=lambda v
     return default
 
 
+def _memory_bit(text: str) -> int:
+    """`[daemon] host_wait`: the index of a %Mi bit."""
+    from ..address import parse_address
+
+    ref = parse_address(text)
+    if ref.kind != "M" or ref.bit is not None or ref.length is not None or ref.offset:
+        raise ValueError(f"{text!r} is not a memory bit %Mi")
+    return ref.index
+
+
 _LOCKED: list[int] = []  # descriptors held open (and locked) until the process ends
 
 
@@ -174,7 +187,7 @@ def run(args: argparse.Namespace) -> int:
                     ("host", "port", "read_only", "max_clients", "frame_timeout", "idle_timeout",
                      "allow"))
     dm = check_keys("[daemon]", cfg.get("daemon", {}) or {},
-                    ("state", "save_interval", "stats_interval", "rt_priority"))
+                    ("state", "save_interval", "stats_interval", "rt_priority", "host_wait"))
     dur = duration
     period = args.period if args.period is not None else (
         duration(cfg["scan_period"], "scan_period") if "scan_period" in cfg else 0.010)
@@ -202,6 +215,7 @@ def run(args: argparse.Namespace) -> int:
         frame_timeout=_pick(None, mb, "frame_timeout", 2.0, dur),
         idle_timeout=_pick(None, mb, "idle_timeout", 0.0, dur) or None,
         rt_priority=_pick(args.rt_priority, dm, "rt_priority", 10, int),
+        host_wait=None if args.no_host_wait else _pick(None, dm, "host_wait", None, _memory_bit),
         read_only=args.read_only,
         allow=allow,
         open_outputs=outputs,
