@@ -1,0 +1,67 @@
+"""`[daemon] host_wait`: with a virtual clock the daemon runs no scan while the program's
+"waiting for the host" bit is 1 and no write is pending (repeatable host-driven runs);
+real time and `--no-host-wait` ignore the bit; a bad address is a clear error."""
+
+from __future__ import annotations
+
+import time
+
+from daemon_util import Daemon, started
+
+# %M0: waiting while %MW0 = 0; %MW1 counts scans; a write to %MW0 is consumed at once
+PROGRAM = """\
+LD    [ %MW0 = 0 ]
+ST    %M0
+LD    1
+[ %MW1 := %MW1 + 1 ]
+LD    [ %MW0 <> 0 ]
+[ %MW0 := 0 ]
+"""
+CONFIG = '[daemon]\nhost_wait = "%M0"\n'
+
+
+def start(daemons, tmp, *args: str, config: str = CONFIG, wait: bool = True) -> Daemon:
+    cfg = tmp / "m.toml"
+    cfg.write_text(config)
+    return started(daemons, tmp, "--config", str(cfg), "--stats-interval", "0", "--web",
+                   "off", *args, program=PROGRAM, wait=wait)
+
+
+def scans(d: Daemon) -> int:
+    with d.client() as c:
+        return c.read_registers(1, 1)[0]
+
+
+def test_the_virtual_clock_waits_for_the_host(daemons, tmp_path):
+    d = start(daemons, tmp_path, "--speed", "max")
+    first = scans(d)
+    time.sleep(0.2)  # thousands of scans at --speed max, if any ran
+    assert scans(d) == first == 1  # one scan set the bit, then none
+    with d.client() as c:
+        for k in range(1, 4):
+            c.write_registers(0, [7])  # each write: one scan consumes it, one sets the bit
+            end = time.monotonic() + 5
+            while c.read_registers(1, 1)[0] != 1 + 2 * k:
+                assert time.monotonic() < end
+            time.sleep(0.05)
+            assert c.read_registers(1, 1)[0] == 1 + 2 * k
+    assert d.stop() == 0
+
+
+def test_no_host_wait_and_real_time_ignore_the_bit(daemons, tmp_path):
+    for args in (("--speed", "max", "--no-host-wait"), ("--period", "2ms")):
+        d = start(daemons, tmp_path, *args)
+        first = scans(d)
+        end = time.monotonic() + 5
+        while scans(d) < first + 20:  # scans go on with nobody writing
+            assert time.monotonic() < end
+            time.sleep(0.01)
+        assert d.stop() == 0
+
+
+def test_host_wait_must_be_a_memory_bit(daemons, tmp_path):
+    d = start(daemons, tmp_path, "--speed", "max",
+              config='[daemon]\nhost_wait = "%MW3"\n', wait=False)
+    assert d.proc.wait(15) != 0
+    err = d.proc.stderr.read()  # type: ignore[union-attr]
+    assert "host_wait" in err and "%MW3" in err and "Traceback" not in err
