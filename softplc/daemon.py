@@ -70,6 +70,9 @@ class DaemonOptions:
     # %M index of the program's "waiting for the host" bit: with a virtual clock (speed
     # set) no scan runs, so no PLC time passes, while it is 1 and no write is pending
     host_wait: int | None = None
+    # called each time the clock starts waiting for the host (e.g. flush the trace file:
+    # it is written every simulated second, and simulated time now stands still)
+    on_host_wait: list[Callable[[], None]] = field(default_factory=list)
     read_only: bool = False  # every host write refused (exception 01)
     allow: tuple[Any, ...] | None = None  # client networks (ipaddress); None = any
     # Opened once the port is bound and the state file locked (e.g. the trace CSV): a
@@ -320,14 +323,20 @@ class Daemon:
         image = self.image
         wait_bit = opt.host_wait if opt.speed is not None else None
         mem_m = plc.mem.m
+        held = False
         while not self._stop:
             if (wait_bit is not None and mem_m[wait_bit] and image is not None
                     and not image.pending and plc.state == "RUN"):
                 # the program waits for its host: hold the virtual clock until a write
                 # (short waits: signals and stop requests stay served)
+                if not held:
+                    held = True
+                    for hook in opt.on_host_wait:
+                        hook()
                 image.wait_for_write(0.1)
                 next_start = clock()
                 continue
+            held = False
             delay = next_start - clock()
             if delay > 0.1:  # long periods: stay responsive to signals
                 sleep(0.1)

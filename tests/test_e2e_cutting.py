@@ -64,7 +64,16 @@ def cut(daemon: Daemon, trace: Path, piece_file: str, poll: float = 0.01,
     with CutClient("127.0.0.1", daemon.port, progress=None, poll_interval=poll) as client:
         res = client.stream(piece)
         frames = client.frames_sent
-    assert daemon.stop() == 0  # the trace is complete once the daemon has closed it
+    # the daemon flushes the trace when the clock stops to wait for the host: the file is
+    # complete while the daemon still runs (`softplc cut --trace` reads it then)
+    end, size = time.monotonic() + 5, -1
+    while trace.stat().st_size != size:
+        assert time.monotonic() < end
+        size = trace.stat().st_size
+        time.sleep(0.1)
+    running = trace.read_bytes()
+    assert daemon.stop() == 0
+    assert trace.read_bytes() == running
     start = START_MM * COUNTS_PER_MM
     origin = (start + res.origin_counts[0], start + res.origin_counts[1])
     return piece, res, frames, trace_deviation(piece, trace, origin, COUNTS_PER_MM)

@@ -169,6 +169,7 @@ def run(args: argparse.Namespace) -> int:
 
     plc = load_plc(args, clock="real" if args.speed is None else "virtual")
     outputs = []
+    waits: list[Any] = []
     if args.trace is not None:
         recorder = next((d for d in plc.devices.values()
                          if getattr(d, "type_name", "") == "trace"), None)
@@ -182,6 +183,7 @@ def run(args: argparse.Namespace) -> int:
             _LOCKED.append(open_locked(trace, "trace file"))
             recorder.record_to(trace)
         outputs.append(open_trace)
+        waits.append(recorder.flush)  # the host reads the file while the clock is held
     cfg = plc.config
     mb = check_keys("[modbus]", cfg.get("modbus", {}) or {},
                     ("host", "port", "read_only", "max_clients", "frame_timeout", "idle_timeout",
@@ -219,6 +221,7 @@ def run(args: argparse.Namespace) -> int:
         read_only=args.read_only,
         allow=allow,
         open_outputs=outputs,
+        on_host_wait=waits,
         web=_web_options(args),
     )
     if opts.max_clients < 1:
