@@ -161,8 +161,10 @@ class CutClient(ModbusHost):
         self.offer(words, label)
         return self.finish(words.number, label)
 
-    def stream(self, piece: Piece, start_at: int = 1) -> CutResult:
-        segs = piece.segments()
+    def stream(self, piece: Piece, start_at: int = 1, seed: bool = False) -> CutResult:
+        """Cut `piece` from segment `start_at`; `seed`: the thesis's path (seed mode: its
+        arc steps and Newton evaluation), to see what the machine then cuts."""
+        segs = piece.segments(seed=seed)
         total = len(segs)
         if not 1 <= start_at <= max(total, 1):
             raise HostError(f"--start-at {start_at}: the piece has {total} segments")
@@ -261,12 +263,12 @@ def trace_deviation(piece: Piece, trace_csv: str | Path, origin_true: tuple[floa
     return TraceReport(int(lit.sum()), float(d[i]), (float(x[lit][i]), float(y[lit][i])), end)
 
 
-def feed_plc(plc: object, piece: Piece, timeout: float = 600.0) -> int:
+def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = False) -> int:
     """The same handshake in-process on a `softplc.PLC` (virtual clock, no Modbus): write
     each segment's frame into the words as soon as the mailbox is free (INICIO = 0), then
     run scans until SEG_DONE is the last number and EJECUTANDO = 0. Deterministic (each
     frame lands at a known scan): for tests and the benchmark. Returns the number of
-    segments cut; HostError on a fault or a timeout."""
+    segments cut; HostError on a fault or a timeout. `seed`: the thesis's path."""
     w = plc.mem.mw.w  # type: ignore[attr-defined]  # the words, read without parsing
 
     def stopped(p: object) -> bool:
@@ -284,7 +286,7 @@ def feed_plc(plc: object, piece: Piece, timeout: float = 600.0) -> int:
             raise HostError(f"segment {seg.number} ({seg.where}): the PLC reports fault "
                             f"{w[FAULT]} ({FAULTS.get(w[FAULT], 'unknown fault')})")
 
-    segs = piece.segments()
+    segs = piece.segments(seed=seed)
     for seg in segs:
         wait(seg, lambda p: not w[INICIO], "the previous segment not taken")
         for i, v in enumerate(segment_words(seg).frame()):
