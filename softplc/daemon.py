@@ -326,7 +326,10 @@ class Daemon:
         held = False
         while not self._stop:
             if (wait_bit is not None and mem_m[wait_bit] and image is not None
-                    and not image.pending and plc.state == "RUN"):
+                    and not image.pending and plc.state == "RUN"
+                    and not (self.web is not None and self.web.controller.pending)):
+                # (a change queued by the web monitor, e.g. a force, runs a scan too: it
+                # is seen within one 0.1 s wait slice)
                 # the program waits for its host: hold the virtual clock until a write
                 # (short waits: signals and stop requests stay served)
                 if not held:

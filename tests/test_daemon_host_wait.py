@@ -4,7 +4,9 @@ real time and `--no-host-wait` ignore the bit; a bad address is a clear error.""
 
 from __future__ import annotations
 
+import re
 import time
+import urllib.request
 
 from daemon_util import Daemon, started
 
@@ -20,11 +22,12 @@ LD    [ %MW0 <> 0 ]
 CONFIG = '[daemon]\nhost_wait = "%M0"\n'
 
 
-def start(daemons, tmp, *args: str, config: str = CONFIG, wait: bool = True) -> Daemon:
+def start(daemons, tmp, *args: str, config: str = CONFIG, wait: bool = True,
+          web: str = "off") -> Daemon:
     cfg = tmp / "m.toml"
     cfg.write_text(config)
     return started(daemons, tmp, "--config", str(cfg), "--stats-interval", "0", "--web",
-                   "off", *args, program=PROGRAM, wait=wait)
+                   web, *args, program=PROGRAM, wait=wait)
 
 
 def scans(d: Daemon) -> int:
@@ -33,7 +36,7 @@ def scans(d: Daemon) -> int:
 
 
 def test_the_virtual_clock_waits_for_the_host(daemons, tmp_path):
-    d = start(daemons, tmp_path, "--speed", "max")
+    d = start(daemons, tmp_path, "--speed", "max", web="0")
     end = time.monotonic() + 5
     while scans(d) == 0:  # the banner comes before the first scan
         assert time.monotonic() < end
@@ -47,6 +50,16 @@ def test_the_virtual_clock_waits_for_the_host(daemons, tmp_path):
                 assert time.monotonic() < end
             time.sleep(0.05)
             assert c.read_registers(1, 1)[0] == 1 + 2 * k
+        # a change queued by the web monitor runs one scan too (within a 0.1 s wait slice)
+        web = re.search(r"web monitor on (http://127\.0\.0\.1:\d+)", "".join(d.out))[1]
+        req = urllib.request.Request(web + "/api/force", b'{"object": "%M7", "value": 1}',
+                                     {"Content-Type": "application/json"})
+        urllib.request.urlopen(req, timeout=10).close()
+        end = time.monotonic() + 5
+        while c.read_registers(1, 1)[0] != 8:
+            assert time.monotonic() < end
+        time.sleep(0.2)
+        assert c.read_registers(1, 1)[0] == 8
     assert d.stop() == 0
 
 
