@@ -238,3 +238,14 @@ def test_seed_mode_streamed_the_machine_cuts_the_thesis_defects():
     assert worst > 2.0  # the thesis's curve leaves the ideal one by 2 mm and more
     assert (x[-1], y[-1]) == (pytest.approx(60.0, abs=1e-3), pytest.approx(199 / 9, abs=1e-3))
     assert piece.end == (90.0, 5.0)  # where the corrected curve ends
+
+
+def test_the_torch_stays_lit_from_cut_to_cut_and_goes_out_for_a_move():
+    """E2: a move, then seven cut segments in a row: one ignition (the queued cut starts in
+    the scan after the previous one ends, the torch bridges that scan), out at the end."""
+    samples = run_piece(homed(), "escudo.toml")
+    pen = [s[3] for s in samples]
+    first = pen.index(1)
+    last = len(pen) - 1 - pen[::-1].index(1)
+    assert all(pen[first:last + 1])  # never out between the cuts
+    assert not any(pen[:first]) and samples[first][0] > 0.5  # off during the move

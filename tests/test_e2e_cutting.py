@@ -196,3 +196,37 @@ def test_e8_homing_and_e9_limit_stop_through_the_daemon(table):
     assert 1.9 <= stop <= 20.0 ** 2 / (2 * 100.0) + 2 * 0.001 * 20.0
     y = [r[2] for r in rows[lit[0]:]]
     assert max(y) - min(y) <= 0.5 * UM  # Y holds (the P-D loop's settling creep: 0.2 um)
+
+
+class InterruptedClient(CutClient):
+    """Ctrl-C while segment `at` is moving (raised from a poll, as the signal would)."""
+
+    at = 3
+    fired = False
+
+    def read_state(self):
+        s = super().read_state()
+        if not self.fired and s.ejecutando and s.seg_done == self.at - 1:
+            self.fired = True
+            raise KeyboardInterrupt
+        return s
+
+
+def test_ctrl_c_stops_with_the_torch_off_and_the_piece_resumes(table):
+    daemon, trace = table()
+    piece = load_piece(PIECES / "escudo.toml", speed=10.0, move_speed=10.0)
+    with InterruptedClient("127.0.0.1", daemon.port, progress=None) as client:
+        res = client.stream(piece)
+        assert res.interrupted and res.next_number == 3 and res.last_number == 2
+        p3 = piece.segments()[2]
+        assert math.dist(res.pos_mm, p3.start) > 0.01  # stopped inside segment 3
+        state = client.read_state()
+        assert state.seg_done == 2 and not state.ejecutando and state.fault == 0
+        res2 = client.stream(piece, start_at=res.next_number)
+    assert not res2.interrupted and res2.last_number == len(piece.segments())
+    assert daemon.stop() == 0
+    start = START_MM * COUNTS_PER_MM
+    origin = (start + res2.origin_counts[0], start + res2.origin_counts[1])
+    rep = trace_deviation(piece, trace, origin, COUNTS_PER_MM)
+    assert rep.worst <= piece.tolerance + UM  # the torch was off back to segment 3's start
+    assert math.dist(rep.end, piece.end) <= UM
