@@ -328,10 +328,9 @@ class Daemon:
             if (wait_bit is not None and mem_m[wait_bit] and image is not None
                     and not image.pending and plc.state == "RUN"
                     and not (self.web is not None and self.web.controller.pending)):
-                # (a change queued by the web monitor, e.g. a force, runs a scan too: it
-                # is seen within one 0.1 s wait slice)
                 # the program waits for its host: hold the virtual clock until a write
-                # (short waits: signals and stop requests stay served)
+                # (short waits: signals, stop requests and a change queued by the web
+                # monitor, e.g. a force, are seen within one 0.1 s slice)
                 if not held:
                     held = True
                     for hook in opt.on_host_wait:

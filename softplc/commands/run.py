@@ -146,11 +146,11 @@ def _pick(cli: Any, table: dict[str, Any], key: str, default: Any, conv=lambda v
     return default
 
 
-def _memory_bit(text: str) -> int:
-    """`[daemon] host_wait`: the index of a %Mi bit."""
+def _memory_bit(text: str, profile: Any) -> int:
+    """`[daemon] host_wait`: the index of a %Mi bit of the controller `profile`."""
     from ..address import parse_address
 
-    ref = parse_address(text)
+    ref = parse_address(text, profile)
     if ref.kind != "M" or ref.bit is not None or ref.length is not None or ref.offset:
         raise ValueError(f"{text!r} is not a memory bit %Mi")
     return ref.index
@@ -217,7 +217,8 @@ def run(args: argparse.Namespace) -> int:
         frame_timeout=_pick(None, mb, "frame_timeout", 2.0, dur),
         idle_timeout=_pick(None, mb, "idle_timeout", 0.0, dur) or None,
         rt_priority=_pick(args.rt_priority, dm, "rt_priority", 10, int),
-        host_wait=None if args.no_host_wait else _pick(None, dm, "host_wait", None, _memory_bit),
+        host_wait=None if args.no_host_wait else _pick(
+            None, dm, "host_wait", None, lambda t: _memory_bit(t, plc.profile)),
         read_only=args.read_only,
         allow=allow,
         open_outputs=outputs,
