@@ -8,7 +8,7 @@ STAMP   := $(VENV)/.installed
 PORT    ?= 5020
 WEB_PORT ?= 8020
 
-.PHONY: run test bench lint draw clean sysdeps
+.PHONY: run test bench lint draw clean sysdeps fuzz
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -51,3 +51,8 @@ lint: $(STAMP)
 
 clean:
 	rm -rf $(VENV) *.egg-info .pytest_cache .ruff_cache results out
+
+# The fuzzers and slow property tests with their full example counts (the suite runs a
+# quarter: tests/fuzz_budget.py).
+fuzz: $(STAMP)
+	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/test_fuzz.py tests/test_properties.py tests/test_config_fuzz.py tests/test_il_recovery.py tests/test_examples.py

@@ -26,7 +26,10 @@ COMMAND_MODULES = [
 ]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every subcommand, or only of `command` when it is one: a command
+    then imports only what it needs (`softplc run` starts without loading the G-code host,
+    the plots or the servo client), which matters for a daemon started often."""
     parser = argparse.ArgumentParser(
         prog="softplc",
         description="A soft-PLC for Telemecanique Twido Instruction List programs.",
@@ -35,13 +38,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser.add_argument("--version", action="version", version=f"softplc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for modname in COMMAND_MODULES:
+    only = f"softplc.commands.{command}"
+    for modname in [only] if only in COMMAND_MODULES else COMMAND_MODULES:
         importlib.import_module(modname).register(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    # the top level has no option taking a value: the first word is the command
+    parser = build_parser(next((a for a in argv if not a.startswith("-")), None))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -28,6 +28,8 @@ class Daemon:
         else:
             prog = tmp / "prog.il"
             prog.write_text(program)
+        if "--web" not in args:  # no web monitor unless the test asks (a faster start, and
+            args = (*args, "--web", "off")  # no daemon on the default port 8020)
         env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get(
             "PYTHONPATH", ""))
         self.proc = subprocess.Popen(
@@ -38,8 +40,14 @@ class Daemon:
         threading.Thread(target=self._read, daemon=True).start()
         self.port = 0
         if wait:
-            line = self.wait_for(r"listening on 127\.0\.0\.1:(\d+)")
-            self.port = int(re.search(r":(\d+)$", line.strip())[1])
+            self.wait_listening()
+
+    def wait_listening(self) -> int:
+        """Wait for the banner's address line (`wait=False` starts several daemons at once,
+        overlapping their start-up); the port."""
+        line = self.wait_for(r"listening on 127\.0\.0\.1:(\d+)")
+        self.port = int(re.search(r":(\d+)$", line.strip())[1])
+        return self.port
 
     def _read(self) -> None:
         for line in self.proc.stdout:  # type: ignore[union-attr]

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from fuzz_budget import examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -94,7 +95,7 @@ def mutated(draw: st.DrawFn) -> tuple[Path, dict[str, Any], Any]:
     return path, cfg, program
 
 
-@settings(max_examples=150, deadline=None, derandomize=True,
+@settings(max_examples=examples(150), deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(case=mutated())
 def test_mutated_config_loads_or_is_a_config_error(case):

@@ -4,6 +4,7 @@ with the softplc pytest plugin (`plc_program` marker, `plc` fixture) on the virt
 from __future__ import annotations
 
 import pytest
+from fuzz_budget import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -102,7 +103,7 @@ event = st.tuples(st.sampled_from(["start", "stop", "overload", "ok", "reset", "
                   st.integers(1, 700))  # then that many 10 ms scans
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(st.lists(event, max_size=12))
 def test_star_and_delta_never_together(events):
     plc = PLC.from_file("ladder_programs/star_delta.il", "ladder_programs/star_delta.toml")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import struct
 
+from fuzz_budget import examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -35,7 +36,7 @@ line = st.one_of(
 CONFIG = {"watchdog": "5ms", "timers": {"%TM0": {"type": "TON", "base": "10ms", "preset": 3}}}
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(300), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(line, max_size=25))
 def test_random_programs_load_or_fail_cleanly(lines):
     text = "\n".join(lines) + "\n"
@@ -63,7 +64,7 @@ def pdus():
     return st.one_of(st.builds(lambda f, r: bytes([f]) + r, fc, raw), shaped, raw)
 
 
-@settings(max_examples=1500, deadline=None)
+@settings(max_examples=examples(1500), deadline=None)
 @given(pdus())
 def test_random_requests_get_a_reply_or_an_exception(pdu):
     mem = MemoryImage()
@@ -103,7 +104,7 @@ rung = st.builds(
 )
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(rung, min_size=1, max_size=15), st.integers(0, 14))
 def test_generated_valid_programs_compile_and_run(rungs, label_at):
     """Valid rungs (a backward JMPC may loop for ever: the watchdog ends it in HALT)."""

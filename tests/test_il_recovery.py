@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 
 import pytest
+from fuzz_budget import examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -180,7 +181,7 @@ def mutate(text: str, data) -> str:
     return out
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(40), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(sorted(PROGRAMS)), st.data())
 def test_mutated_programs_compile_or_fail_clearly(name, data):
     text = mutate(PROGRAMS[name], data)

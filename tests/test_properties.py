@@ -10,6 +10,7 @@ import math
 import struct
 from functools import lru_cache
 
+from fuzz_budget import examples
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -18,7 +19,7 @@ from softplc.errors import ProgramError
 from softplc.il.parser import parse
 from softplc.il.printer import format_program
 
-SETTINGS = settings(max_examples=150, deadline=None,
+SETTINGS = settings(max_examples=examples(150), deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
 int16 = st.integers(-32768, 32767)
 
@@ -329,7 +330,7 @@ rung = st.tuples(st.sampled_from(["LD", "LDN", "LDR", "LDF"]), operand,
     .map(lambda t: [f"{t[0]}    {t[1]}"] + [x for ls in t[2] for x in ls] + t[3])
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=examples(150), deadline=None)
 @given(rungs=st.lists(rung, min_size=1, max_size=8), noise=st.booleans())
 def test_parse_print_parse_round_trip(rungs, noise):
     lines = []
@@ -348,7 +349,7 @@ def test_parse_print_parse_round_trip(rungs, noise):
     assert format_program(again) == printed
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=examples(40), deadline=None)
 @given(rungs=st.lists(rung, min_size=1, max_size=4))
 def test_printed_program_behaves_like_the_original(rungs):
     text = "\n".join(x for r in rungs for x in r) + "\n"
@@ -375,7 +376,7 @@ TOKENS = ["LD", "ST", "AND(", ")", "[", "]", ":=", "%MW3", "%M1", "%Q0.0", "%L1:
           "\n=*= 0\n", "\n-*- 1\n", "\n# 1\n", "\n=*= POST\n", "\nLD %M0\n", "\nST %M1\n"]
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(st.lists(st.sampled_from(TOKENS), max_size=40).map(" ".join))
 def test_any_text_gives_a_program_or_a_program_error(text):
     try:

@@ -36,7 +36,7 @@ def start_daemon(program: Path, state: Path, save_interval: str) -> tuple[subpro
     proc = subprocess.Popen(
         [sys.executable, "-m", "softplc", "run", str(program), "--port", "0", "--state",
          str(state), "--save-interval", save_interval, "--stats-interval", "0",
-         "--rt-priority", "0"],
+         "--rt-priority", "0", "--web", "off"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         cwd=program.parent)
     for line in proc.stdout:  # type: ignore[union-attr]

@@ -121,18 +121,19 @@ class Scope(Device):
     def update(self, t: float, dt: float) -> None:
         ax = self.axis
         assert ax is not None
-        t_us = round(t * 1e6)
-        acc = (ax.v - self._v_prev) / dt if dt > 0 else 0.0
-        self._v_prev = ax.v
+        v, v_prev = ax.v, self._v_prev
+        self._v_prev = v
         ctl = self._w[self._base + SW.CONTROL] & 0xFFFF
         rise = ctl & ~self._ctl_prev
         self._ctl_prev = ctl
         if rise & SW.START:
             self.rows = []
             self.recording, self.stored, self.truncated, self.error = True, False, False, 0
-            self._next_us = t_us + self.options.sampling_us
-        elif self.recording and t_us >= self._next_us:
-            state = (ax.actual, ax.v, acc, ax.w)
+            self._next_us = round(t * 1e6) + self.options.sampling_us
+        elif self.recording and (t_us := round(t * 1e6)) >= self._next_us:
+            # the hot path samples only here: every scan costs a velocity copy and a rise test
+            acc = (v - v_prev) / dt if dt > 0 else 0.0
+            state = (ax.actual, v, acc, ax.w)
             while t_us >= self._next_us and self.recording:
                 self.rows.append(state)
                 self._next_us += self.options.sampling_us

@@ -11,7 +11,9 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import itertools
+import os
 import re
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
@@ -52,10 +54,26 @@ INSTRUCTIONS = ("LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR 
                 "BLK OUT_BLK END_BLK IN CU CD U")
 
 
+def _grammar_cache() -> str | bool:
+    """Where lark keeps the analysed grammar (its LALR tables): building them costs about
+    0.25 s in every process (each `softplc` command, each daemon start), loading them about
+    0.02 s. Lark checks the grammar's hash in the file and rebuilds when it differs. In the
+    user's cache directory rather than lark's default shared temp directory (the file is a
+    pickle); False (no cache) when that directory cannot be written."""
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "softplc"
+    try:
+        base.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    if not os.access(base, os.W_OK):
+        return False
+    return str(base / f"il-grammar-py{sys.version_info[0]}{sys.version_info[1]}.lark")
+
+
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
     return Lark(GRAMMAR.read_text(), parser="lalr", lexer="contextual",
-                propagate_positions=True, maybe_placeholders=False)
+                propagate_positions=True, maybe_placeholders=False, cache=_grammar_cache())
 
 
 def _pos(tok: Token | object) -> A.Pos:
