@@ -159,6 +159,9 @@ class DaemonConfig(Section):
     save_interval: Duration = 5.0
     stats_interval: Duration = 5.0
     rt_priority: int = Field(10, ge=0, le=99)
+    # a %M bit the program sets while it waits for its host: with --speed the daemon holds
+    # the virtual clock meanwhile (deterministic runs; softplc.daemon)
+    host_wait: Address | None = None
 
 
 class DeviceSection(BaseModel):

@@ -19,6 +19,11 @@ writes another value to %SW0 changes the period (2..150 ms on a Twido; 1..10000 
 
 `speed` runs the virtual clock: each scan advances PLC time by the period but starts
 every period/speed seconds of real time (`math.inf`: back to back), for simulations.
+With a virtual clock and `host_wait` (config `[daemon] host_wait = "%Mi"`, a bit the
+program sets while it waits for its host), the daemon holds the clock while that bit is 1
+and no host write is pending: it runs no scan until a host writes. A write reaches the
+PLC at the same PLC time however long the host took, so runs are repeatable (identical
+traces); real time (no `speed`) ignores the bit.
 """
 
 from __future__ import annotations
@@ -62,6 +67,12 @@ class DaemonOptions:
     frame_timeout: float = 2.0
     idle_timeout: float | None = None
     rt_priority: int = 10  # SCHED_FIFO priority of the scan thread; 0 = normal scheduling
+    # %M index of the program's "waiting for the host" bit: with a virtual clock (speed
+    # set) no scan runs, so no PLC time passes, while it is 1 and no write is pending
+    host_wait: int | None = None
+    # called each time the clock starts waiting for the host (e.g. flush the trace file:
+    # it is written every simulated second, and simulated time now stands still)
+    on_host_wait: list[Callable[[], None]] = field(default_factory=list)
     read_only: bool = False  # every host write refused (exception 01)
     allow: tuple[Any, ...] | None = None  # client networks (ipaddress); None = any
     # Opened once the port is bound and the state file locked (e.g. the trace CSV): a
@@ -122,6 +133,8 @@ class Daemon:
         if self._stop:
             return
         self._stop = True
+        if self.image is not None:
+            self.image.written.set()  # wakes a loop waiting for the host
         if self._scanning:
             self.interrupted = True
             if self.image is not None:
@@ -307,7 +320,25 @@ class Daemon:
         next_start = now
         next_stats = now + opt.stats_interval if opt.stats_interval else math.inf
         last_requests, last_stats_t = 0, now
+        image = self.image
+        wait_bit = opt.host_wait if opt.speed is not None else None
+        mem_m = plc.mem.m
+        held = False
         while not self._stop:
+            if (wait_bit is not None and mem_m[wait_bit] and image is not None
+                    and not image.pending and plc.state == "RUN"
+                    and not (self.web is not None and self.web.controller.pending)):
+                # the program waits for its host: hold the virtual clock until a write
+                # (short waits: signals, stop requests and a change queued by the web
+                # monitor, e.g. a force, are seen within one 0.1 s slice)
+                if not held:
+                    held = True
+                    for hook in opt.on_host_wait:
+                        hook()
+                image.wait_for_write(0.1)
+                next_start = clock()
+                continue
+            held = False
             delay = next_start - clock()
             if delay > 0.1:  # long periods: stay responsive to signals
                 sleep(0.1)

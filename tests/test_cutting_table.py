@@ -212,3 +212,40 @@ def test_hold_while_moving_stops_now_torch_off_and_the_next_segment_starts_there
     offer(plc, 5_000, 0, 20.0, number=8)
     assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 8, timeout=10)
     assert plc["%MD112"] == pytest.approx(5_000, abs=1)
+
+
+def test_seed_mode_streamed_the_machine_cuts_the_thesis_defects():
+    """The thesis's path for E5 (seed mode: h = x1 - x0 on unequal nodes, B12; sampling
+    stops at x_{n-1}, B16) fed to the PLC like the corrected one: the machine follows it
+    faithfully, so its trace shows the defects against the ideal curve (the corrected run:
+    test_e2e_cutting.py, within 0.0045 mm)."""
+    import numpy as np
+
+    from softplc.cutting import load_piece
+    from softplc.cutting.client import feed_plc
+
+    piece = load_piece(ROOT / "ladder_programs" / "pieces" / "polinomio.toml", speed=10.0,
+                       move_speed=10.0)
+    plc = homed()
+    assert feed_plc(plc, piece, timeout=30, seed=True) == len(piece.segments(seed=True))
+    origin = [plc.devices[a].position - plc[f"%MD{d}"] / 1000.0 * COUNTS_PER_MM
+              for a, d in (("X", 112), ("Y", 114))]  # true counts of the work origin
+    rows = [(s[1], s[2], s[3]) for s in plc.devices["trace"].samples]
+    x = (np.array([r[0] for r in rows]) - origin[0]) / COUNTS_PER_MM
+    y = (np.array([r[1] for r in rows]) - origin[1]) / COUNTS_PER_MM
+    lit = np.array([r[2] == 1 for r in rows])
+    worst = piece.deviations(x[lit], y[lit]).max()
+    assert worst > 2.0  # the thesis's curve leaves the ideal one by 2 mm and more
+    assert (x[-1], y[-1]) == (pytest.approx(60.0, abs=1e-3), pytest.approx(199 / 9, abs=1e-3))
+    assert piece.end == (90.0, 5.0)  # where the corrected curve ends
+
+
+def test_the_torch_stays_lit_from_cut_to_cut_and_goes_out_for_a_move():
+    """E2: a move, then seven cut segments in a row: one ignition (the queued cut starts in
+    the scan after the previous one ends, the torch bridges that scan), out at the end."""
+    samples = run_piece(homed(), "escudo.toml")
+    pen = [s[3] for s in samples]
+    first = pen.index(1)
+    last = len(pen) - 1 - pen[::-1].index(1)
+    assert all(pen[first:last + 1])  # never out between the cuts
+    assert not any(pen[:first]) and samples[first][0] > 0.5  # off during the move

@@ -1,12 +1,19 @@
 """Issue 13 end to end: the daemon runs cutting_table.il on its simulated table (--speed max,
 loopback Modbus); `softplc.cutting.client` streams worked examples; the trace is checked
 against the ideal shapes (torch-on samples within chord tolerance + 1 um, end point within
-1 um, no missed segment) and two runs give identical traces."""
+1 um, no missed segment) and two runs give byte-identical traces (the program's host_wait
+bit holds the virtual clock while it waits for the host). E8 (homing) and E9 (limit stop)
+through the daemon too; E9 forces the switch input through the web monitor's API."""
 
 from __future__ import annotations
 
+import csv
+import json
 import math
+import re
+import time
 import tomllib
+import urllib.request
 from pathlib import Path
 
 import pytest
@@ -14,6 +21,7 @@ from daemon_util import ROOT, Daemon
 
 from softplc.cutting import load_piece
 from softplc.cutting.client import CutClient, trace_deviation
+from softplc.cutting.regmap import SegmentWords
 
 IL = ROOT / "ladder_programs" / "cutting_table.il"
 PIECES = ROOT / "ladder_programs" / "pieces"
@@ -24,20 +32,24 @@ UM = 1e-3
 
 @pytest.fixture
 def table(tmp_path):
-    """Start a daemon on the cutting table; yields a function giving (daemon, trace)."""
+    """Start a daemon on the cutting table; yields a function giving (daemon, trace).
+    `start_mm=None` keeps the machine's own start (E8: X 123.4, Y 57.0 mm)."""
     text = (ROOT / "ladder_programs" / "cutting_table.toml").read_text(encoding="utf-8")
     cfg = tomllib.loads(text)
-    start = START_MM * COUNTS_PER_MM
-    text = text.replace(f"start = {cfg['devices']['X']['start']}", f"start = {start}")
-    text = text.replace(f"start = {cfg['devices']['Y']['start']}", f"start = {start}")
-    machine = tmp_path / "machine.toml"
-    machine.write_text(text, encoding="utf-8")
     started: list[Daemon] = []
 
-    def start_daemon(name: str = "trace") -> tuple[Daemon, Path]:
+    def start_daemon(name: str = "trace", *args: str,
+                     start_mm: float | None = START_MM) -> tuple[Daemon, Path]:
+        machine = tmp_path / "machine.toml"
+        new = text
+        if start_mm is not None:
+            for axis in "XY":
+                new = new.replace(f"start = {cfg['devices'][axis]['start']}",
+                                  f"start = {start_mm * COUNTS_PER_MM}")
+        machine.write_text(new, encoding="utf-8")
         trace = tmp_path / f"{name}.csv"
         d = Daemon(tmp_path, "--config", str(machine), "--speed", "max", "--trace",
-                   str(trace), "--stats-interval", "0", program=IL)
+                   str(trace), "--stats-interval", "0", *args, program=IL)
         started.append(d)
         return d, trace
 
@@ -46,12 +58,22 @@ def table(tmp_path):
         d.kill()
 
 
-def cut(daemon: Daemon, trace: Path, piece_file: str, **options: float):
+def cut(daemon: Daemon, trace: Path, piece_file: str, poll: float = 0.01,
+        **options: float):
     piece = load_piece(PIECES / piece_file, **options)
-    with CutClient("127.0.0.1", daemon.port, progress=None) as client:
+    with CutClient("127.0.0.1", daemon.port, progress=None, poll_interval=poll) as client:
         res = client.stream(piece)
         frames = client.frames_sent
-    assert daemon.stop() == 0  # the trace is complete once the daemon has closed it
+    # the daemon flushes the trace when the clock stops to wait for the host: the file is
+    # complete while the daemon still runs (`softplc cut --trace` reads it then)
+    end, size = time.monotonic() + 5, -1
+    while trace.stat().st_size != size:
+        assert time.monotonic() < end
+        size = trace.stat().st_size
+        time.sleep(0.1)
+    running = trace.read_bytes()
+    assert daemon.stop() == 0
+    assert trace.read_bytes() == running
     start = START_MM * COUNTS_PER_MM
     origin = (start + res.origin_counts[0], start + res.origin_counts[1])
     return piece, res, frames, trace_deviation(piece, trace, origin, COUNTS_PER_MM)
@@ -74,20 +96,106 @@ def test_e3_rounded_rectangle_follows_the_ideal_shape(table):
     check_run(*cut(daemon, trace, "achaflanado.toml", speed=10.0, move_speed=10.0))
 
 
-def test_e2_escudo_twice_the_same_path(table):
-    """E2 follows the ideal shape (check_run), twice. Through the daemon the host's frames
-    land at whatever scan they reach the PLC, so the traces' times differ; the path does
-    not: same end, same deviation. (Bit-identical runs on the virtual clock:
-    test_cutting_table.py.)"""
-    reports = []
-    for name in ("a", "b"):
+def test_e2_escudo_twice_byte_identical_traces(table):
+    """E2 follows the ideal shape (check_run), twice, with different host poll periods:
+    the traces are byte-identical. The host's frames reach the PLC at different wall
+    times, but while the program waits for its host (READY, nothing queued: %M118, the
+    config's [daemon] host_wait) the daemon runs no scan, so each frame lands at the
+    same PLC time; a frame written earlier waits in the PLC's queue."""
+    traces = []
+    for name, poll in (("a", 0.001), ("b", 0.02)):
         daemon, trace = table(name)
-        run = cut(daemon, trace, "escudo.toml", speed=10.0, move_speed=10.0)
-        check_run(*run)
-        reports.append(run[3])
-    a, b = reports
-    assert math.dist(a.end, b.end) <= 0.1 * UM
-    assert a.worst == pytest.approx(b.worst, abs=1e-4)
+        check_run(*cut(daemon, trace, "escudo.toml", poll, speed=10.0, move_speed=10.0))
+        traces.append(trace.read_bytes())
+    assert len(traces[0]) > 10_000 and traces[0] == traces[1]
+
+
+@pytest.mark.parametrize("piece_file", ["polinomio.toml", "arandela.toml"])
+def test_e5_newton_curve_and_e10_washer_follow_the_ideal_shape(table, piece_file):
+    """E5: 60 chords of the FIGURA 20 polynomial (non-equidistant nodes); E10: two full
+    circles of 55 and 87 chords with a move between them. Every chord is a segment that
+    stops at its end (the machine has no blending), queued while the previous one runs."""
+    daemon, trace = table()
+    check_run(*cut(daemon, trace, piece_file, speed=10.0, move_speed=10.0))
+
+
+def trace_rows(trace: Path) -> list[tuple[float, float, float, int]]:
+    """(t s, x mm, y mm, torch) of a trace CSV: true positions from the min trip points."""
+    with open(trace, newline="") as f:
+        return [(float(r["t"]), float(r["x"]) / COUNTS_PER_MM, float(r["z"]) / COUNTS_PER_MM,
+                 int(r["pen"])) for r in csv.DictReader(f)]
+
+
+def settled_at(rows: list, i: int, window: float) -> float:
+    """The time from which coordinate `i` stays within `window` mm of its last value."""
+    final = rows[-1][i]
+    t = rows[0][0]
+    for r in rows:
+        if abs(r[i] - final) > window:
+            t = None
+        elif t is None:
+            t = r[0]
+    return t
+
+
+def web_post(port: int, path: str, body: dict) -> dict:
+    req = urllib.request.Request(f"http://127.0.0.1:{port}{path}", json.dumps(body).encode(),
+                                 {"Content-Type": "application/json"})
+    with urllib.request.urlopen(req, timeout=10) as r:
+        return json.loads(r.read())
+
+
+def test_e8_homing_and_e9_limit_stop_through_the_daemon(table):
+    """E8 from the machine's start (X 123.4, Y 57.0 mm from the min trip points): both
+    axes search at once, stop, zero, retract 30 mm; Y is home at about 8.95 s, X and
+    HOMED at 15.59 s (+-0.05 s); the host reads (0, 0) +-1 um; each axis rests 29.47-29.505
+    mm from its trip point (the stop ramp is 0.497 mm, NOTES).
+    E9: then cutting along X at 20 mm/s, the X max switch input is forced made (through
+    the web monitor, as TwidoSuite forces an input): fault 1 in that scan, torch off, X
+    stops within v^2/2a = 2.0 mm (+ 2 scans, 0.04 mm) of where the torch went out, Y does
+    not move; RESET is refused while the input is made and accepted once it is released."""
+    daemon, trace = table("e8e9", "--web", "0", start_mm=None)
+    web = int(re.search(r"web monitor on http://127\.0\.0\.1:(\d+)", "".join(daemon.out))[1])
+    with CutClient("127.0.0.1", daemon.port, progress=None, poll_interval=0.002) as client:
+        homed = client.wait_for(lambda s: s.step == 4, 30.0, "homing")
+        client.offer(SegmentWords(200_000, 0, 20.0, 1, 1), "a long cut along X")
+        client.wait_for(lambda s: s.pos_um[0] >= 20_000, 10.0, "cruising")
+        web_post(web, "/api/force", {"object": "%I0.9", "value": 1})
+        state = client.poll(client.read_state, lambda s: s.step == 9, 5.0, "the fault")
+        assert state.fault == 1
+        client.write_bit(102, True)  # RESET, refused while the switch is made
+        deadline = time.monotonic() + 0.3
+        while time.monotonic() < deadline:
+            s = client.read_state()
+            assert s.step == 9 and s.fault == 1
+        web_post(web, "/api/unforce", {"object": "%I0.9"})
+        time.sleep(0.05)  # the input is seen at the next scan
+        client.write_bit(102, True)
+        state = client.poll(client.read_state, lambda s: s.step == 4, 5.0, "READY after RESET")
+        assert state.fault == 0 and state.ejecutando == 0
+    assert daemon.stop() == 0
+    rows = trace_rows(trace)
+    lit = [i for i, r in enumerate(rows) if r[3]]
+
+    # E8: the PLC clock stood still at READY until the segment came (the program waited
+    # for its host), so the segment's first scan follows HOMED by one scan
+    assert homed.fault == 0 and all(abs(p) <= 1 for p in homed.pos_um)
+    t_homed = rows[lit[0]][0] - 0.001
+    homing = [r for r in rows if r[0] <= t_homed]
+    in_position = 16 * UM  # the axes' in-position band (Ixx28 = 1600 counts)
+    assert settled_at(homing, 2, in_position) == pytest.approx(8.95, abs=0.05)
+    t_x = settled_at(homing, 1, in_position)
+    assert t_x == pytest.approx(15.59, abs=0.05) and t_x <= t_homed <= t_x + 0.05
+    for axis in (1, 2):
+        assert 29.47 <= homing[-1][axis] <= 29.505
+
+    # E9
+    off = lit[-1] + 1  # the first sample with the torch out: the fault scan
+    assert rows[off][0] - rows[lit[0]][0] > 1.0  # it was cutting for a while
+    stop = rows[-1][1] - rows[off][1]
+    assert 1.9 <= stop <= 20.0 ** 2 / (2 * 100.0) + 2 * 0.001 * 20.0
+    y = [r[2] for r in rows[lit[0]:]]
+    assert max(y) - min(y) <= 0.5 * UM  # Y holds (the P-D loop's settling creep: 0.2 um)
 
 
 class InterruptedClient(CutClient):

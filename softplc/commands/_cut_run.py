@@ -104,8 +104,11 @@ def _stream(piece: Piece, args: argparse.Namespace) -> int:
 
     from ..cutting.client import CutClient, trace_deviation
 
+    if args.seed:
+        print("seed mode: streaming the thesis's path (its arc steps and Newton "
+              "evaluation); the trace is measured against the ideal shape")
     with CutClient(args.host, args.port) as client:
-        res = client.stream(piece, args.start_at)
+        res = client.stream(piece, args.start_at, seed=args.seed)
     state = "interrupted" if res.interrupted else "done"
     print(f"{state}: {res.done} segments in {res.wall:.2f} s (last {res.last_number} of "
           f"{res.total}); the carriage is at ({res.pos_mm[0]:.3f}, {res.pos_mm[1]:.3f}) mm")

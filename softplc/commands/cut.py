@@ -56,7 +56,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="plot the piece in mm (cuts solid, moves dashed)")
     o.add_argument("--seed", action="store_true",
                    help="also compute the thesis's path (seed mode: arcs by round(θ/α), "
-                        "Newton without its last term) and overlay it on the preview")
+                        "Newton without its last term) and overlay it on the preview; "
+                        "when streaming, send that path instead (the trace report then "
+                        "shows what the machine cuts against the ideal shape)")
     o.add_argument("--frames", metavar="OUT.csv",
                    help="write every segment's words (%%MW100-%%MW108) and the axis split "
                         "the PLC should compute (speeds, accelerations, time) to a CSV file")

@@ -90,6 +90,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "5s; 0 = only at shutdown); a killed process loses nothing anyway")
     p.add_argument("--speed", type=_speed, default=None,
                    help="virtual clock N times faster than real time, or 'max'")
+    p.add_argument("--no-host-wait", action="store_true",
+                   help="with --speed, run the virtual clock on while the program waits for "
+                        "its host (ignore the config's [daemon] host_wait bit)")
     p.add_argument("--stats-interval", type=_duration,
                    help="statistics line every ... (default 5s; 0 = none)")
     p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
@@ -128,6 +131,19 @@ def _pick(cli: Any, configured: Any) -> Any:
     return configured if cli is None else cli
 
 
+def _memory_bit(text: str, profile: Any) -> int:
+    """`[daemon] host_wait`: the index of a %Mi bit of the controller `profile`."""
+    from ..address import parse_address
+
+    try:
+        ref = parse_address(text, profile)
+    except SoftPLCError as e:
+        raise ConfigError(f"config [daemon] host_wait: {e}") from None
+    if ref.kind != "M" or ref.bit is not None or ref.length is not None or ref.offset:
+        raise ConfigError(f"config [daemon] host_wait: {text!r} is not a memory bit %Mi")
+    return ref.index
+
+
 _LOCKED: list[int] = []  # descriptors held open (and locked) until the process ends
 
 
@@ -141,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
 
     plc = load_plc(args, clock="real" if args.speed is None else "virtual")
     outputs = []
+    waits: list[Any] = []
     if args.trace is not None:
         recorder = next((d for d in plc.devices.values()
                          if getattr(d, "type_name", "") == "trace"), None)
@@ -154,6 +171,7 @@ def run(args: argparse.Namespace) -> int:
             _LOCKED.append(open_locked(trace, "trace file"))
             recorder.record_to(trace)
         outputs.append(open_trace)
+        waits.append(recorder.flush)  # the host reads the file while the clock is held
     cfg = plc.config
     mb, dm = plc.settings.modbus, plc.settings.daemon  # checked by the configuration schema
     period = _pick(args.period, plc.settings.scan_period)
@@ -180,9 +198,12 @@ def run(args: argparse.Namespace) -> int:
         frame_timeout=mb.frame_timeout,
         idle_timeout=mb.idle_timeout or None,
         rt_priority=_pick(args.rt_priority, dm.rt_priority),
+        host_wait=None if args.no_host_wait or dm.host_wait is None else _memory_bit(
+            dm.host_wait, plc.profile),
         read_only=args.read_only,
         allow=allow,
         open_outputs=outputs,
+        on_host_wait=waits,
         web=_web_options(args),
     )
     if opts.max_clients < 1:

@@ -1,12 +1,16 @@
 """Stream a piece to the cutting-table PLC over Modbus TCP (`softplc cut PIECE`).
 
-Handshake per segment on the words of `regmap.py` (the PLC program is
-ladder_programs/cutting_table.il): wait until the PLC is READY and idle (INICIO = 0,
-EJECUTANDO = 0), write the segment in one FC 16 frame (INICIO = 1 last), wait until
-SEG_DONE is that segment's number and EJECUTANDO = 0 again. A fault code stops the run
+Handshake on the words of `regmap.py` (the PLC program is
+ladder_programs/cutting_table.il): wait until the PLC is READY and idle, then for each
+segment wait until the mailbox is free (INICIO = 0: the PLC has queued the previous
+segment) and write the segment in one FC 16 frame (INICIO = 1 last). The PLC queues one
+segment while another runs, so the next segment is there when the current one ends (no
+segment waits for the host's next poll); SEG_DONE counts the completed ones. At the end,
+wait until SEG_DONE is the last number and EJECUTANDO = 0. A fault code stops the run
 with its meaning. Resume: `start_at` N first moves (torch off) to segment N's start if
 the carriage is elsewhere. Ctrl-C sets HOLD (%M101): the PLC stops both axes now, torch
-off, and the result says where to resume. The connection, retries and polling are
+off, drops the queued segment, and the result says where to resume (SEG_DONE + 1).
+The connection, retries and polling are
 `softplc.modbus.host.ModbusHost`'s (shared with the drawing table's client).
 """
 
@@ -16,10 +20,12 @@ import csv
 import math
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
+
+import numpy as np
 
 from ..errors import HostError
 from ..modbus.host import ModbusHost, ProgressLine
@@ -45,6 +51,7 @@ from .regmap import (
 )
 
 READY_STEP = 4
+MOVING_STEP = 5
 HOLD_COIL = 101
 #: %MD130 / %MD132: the work origin in the axes' raw counts (cutting_table.il, internal)
 ORIGIN_X = 130
@@ -133,18 +140,31 @@ class CutClient(ModbusHost):
 
         return self.poll(self.read_state, ready, timeout, what, check)  # type: ignore[arg-type]
 
-    def send(self, words: SegmentWords, label: str) -> PlcState:
-        """One segment: idle, frame, done (SEG_DONE = its number, EJECUTANDO = 0)."""
-        self.wait_for(lambda s: s.step == READY_STEP and not s.inicio and not s.ejecutando,
-                      self.idle_timeout, f"{label}: waiting for the PLC to be READY")
+    def offer(self, words: SegmentWords, label: str) -> PlcState:
+        """Write one segment into the mailbox once it is free (the PLC has queued the
+        previous one); returns the state read just before."""
+        state = self.wait_for(lambda s: s.step in (READY_STEP, MOVING_STEP) and not s.inicio,
+                              self.move_timeout, f"{label}: waiting for the PLC to take "
+                              "the previous segment")
         self.write_words(SEG_BASE, words.frame())
         self.frames_sent += 1
-        return self.wait_for(lambda s: s.seg_done == words.number and not s.inicio
+        return state
+
+    def finish(self, number: int, label: str) -> PlcState:
+        """Wait until segment `number` (the last one offered) is done and the PLC idle."""
+        return self.wait_for(lambda s: s.seg_done == number and not s.inicio
                              and not s.ejecutando, self.move_timeout,
                              f"{label}: waiting for the segment to end")
 
-    def stream(self, piece: Piece, start_at: int = 1) -> CutResult:
-        segs = piece.segments()
+    def send(self, words: SegmentWords, label: str) -> PlcState:
+        """One segment alone: offer it, wait until it is done."""
+        self.offer(words, label)
+        return self.finish(words.number, label)
+
+    def stream(self, piece: Piece, start_at: int = 1, seed: bool = False) -> CutResult:
+        """Cut `piece` from segment `start_at`; `seed`: the thesis's path (seed mode: its
+        arc steps and Newton evaluation), to see what the machine then cuts."""
+        segs = piece.segments(seed=seed)
         total = len(segs)
         if not 1 <= start_at <= max(total, 1):
             raise HostError(f"--start-at {start_at}: the piece has {total} segments")
@@ -154,6 +174,19 @@ class CutClient(ModbusHost):
         done = start_at - 1
         t0 = time.monotonic()
         interrupted = False
+        todo = segs[start_at - 1:]
+        numbers = {seg_no(s.number): s.number for s in todo}  # SEG_DONE -> segment
+
+        offered = done
+
+        def count(st: PlcState, show: bool = True) -> None:  # segments done (SEG_DONE)
+            nonlocal done
+            n = numbers.get(st.seg_done, 0)
+            if done < n <= offered:  # (a SEG_DONE left by an earlier run is not ours)
+                done = n
+                if show:
+                    bar.update(done, segs[done - 1])
+
         try:
             state = self.wait_for(lambda s: s.step == READY_STEP and not s.ejecutando,
                                   self.idle_timeout, "waiting for the PLC to be READY "
@@ -167,10 +200,14 @@ class CutClient(ModbusHost):
                     self.send(SegmentWords(*want, first.speed, KIND_CODE[MOVE], number),
                               f"move to the start of segment {first.number}")
             bar.update(done)
-            for seg in segs[start_at - 1:]:
-                self.send(segment_words(seg), f"segment {seg.number}/{total} ({seg.where})")
-                done = seg.number
-                bar.update(done, seg)
+            for seg in todo:
+                count(self.offer(segment_words(seg),
+                                 f"segment {seg.number}/{total} ({seg.where})"))
+                offered = seg.number
+            if todo:
+                last = todo[-1]
+                count(self.finish(seg_no(last.number), f"segment {last.number}/{total} "
+                                  f"({last.where})"))
         except KeyboardInterrupt:
             interrupted = True
             bar.close()
@@ -178,6 +215,8 @@ class CutClient(ModbusHost):
         finally:
             bar.close()
         state = self.read_state()
+        if interrupted:  # what the PLC completed before HOLD
+            count(state, show=False)
         pos = (state.pos_um[0] / 1000.0, state.pos_um[1] / 1000.0)
         return CutResult(done - start_at + 1, done, done + 1, total, interrupted, pos,
                          state.origin_counts, time.monotonic() - t0)
@@ -189,6 +228,7 @@ class CutClient(ModbusHost):
         try:
             self.write_bit(HOLD_COIL, True)
             self.wait_for(lambda s: not s.ejecutando, self.idle_timeout, "stopping")
+            self.write_words(INICIO, [0])  # a segment offered meanwhile is not to be cut
             self.write_bit(HOLD_COIL, False)
         except KeyboardInterrupt:
             raise HostError("interrupted twice: HOLD may still be set (%M101)") from None
@@ -207,47 +247,52 @@ def trace_deviation(piece: Piece, trace_csv: str | Path, origin_true: tuple[floa
     """Torch-on samples of a trace CSV (true positions in counts) against the ideal shape;
     `origin_true` is the work origin in true counts (the axis's `start` + the PLC's origin
     in raw counts)."""
-    worst, at, n = 0.0, (math.nan, math.nan), 0
-    end = (math.nan, math.nan)
     try:
         with open(trace_csv, newline="") as f:
-            for row in csv.DictReader(f):
-                p = ((float(row["x"]) - origin_true[0]) / counts_per_mm,
-                     (float(row["z"]) - origin_true[1]) / counts_per_mm)
-                end = p
-                if row["pen"] == "1":
-                    n += 1
-                    d = piece.deviation(p)
-                    if d > worst:
-                        worst, at = d, p
+            rows = list(csv.DictReader(f))
+        x = (np.array([float(r["x"]) for r in rows]) - origin_true[0]) / counts_per_mm
+        y = (np.array([float(r["z"]) for r in rows]) - origin_true[1]) / counts_per_mm
+        lit = np.array([r["pen"] == "1" for r in rows], bool)
     except (OSError, KeyError, ValueError) as e:
         raise HostError(f"cannot read the trace {trace_csv}: {e}") from None
-    return TraceReport(n, worst, at, end)
+    end = (float(x[-1]), float(y[-1])) if len(x) else (math.nan, math.nan)
+    if not lit.any():
+        return TraceReport(0, 0.0, (math.nan, math.nan), end)
+    d = piece.deviations(x[lit], y[lit])
+    i = int(np.argmax(d))
+    return TraceReport(int(lit.sum()), float(d[i]), (float(x[lit][i]), float(y[lit][i])), end)
 
 
-def feed_plc(plc: object, piece: Piece, timeout: float = 600.0) -> int:
+def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = False) -> int:
     """The same handshake in-process on a `softplc.PLC` (virtual clock, no Modbus): write
-    each segment's frame into the words, run scans until SEG_DONE is its number and
-    EJECUTANDO = 0. Deterministic (the frame lands at a known scan): for tests and the
-    benchmark. Returns the number of segments cut; HostError on a fault or a timeout."""
-    segs = piece.segments()
-    for seg in segs:
-        words = segment_words(seg)
-        for i, v in enumerate(words.frame()):
-            plc[f"%MW{SEG_BASE + i}"] = v - 0x10000 if v > 0x7FFF else v  # type: ignore[index]
+    each segment's frame into the words as soon as the mailbox is free (INICIO = 0), then
+    run scans until SEG_DONE is the last number and EJECUTANDO = 0. Deterministic (each
+    frame lands at a known scan): for tests and the benchmark. Returns the number of
+    segments cut; HostError on a fault or a timeout. `seed`: the thesis's path."""
+    w = plc.mem.mw.w  # type: ignore[attr-defined]  # the words, read without parsing
 
-        def ended(p: object, n: int = words.number) -> bool:
-            return (p[f"%MW{SEG_DONE}"] == n and not p[f"%MW{EJECUTANDO}"]  # type: ignore[index]
-                    or p[f"%MW{FAULT}"] != 0 or p.state != "RUN")  # type: ignore[index,attr-defined]
+    def stopped(p: object) -> bool:
+        return bool(w[FAULT]) or p.state != "RUN"  # type: ignore[attr-defined]
 
-        if not plc.run_until(ended, timeout=timeout):  # type: ignore[attr-defined]
-            raise HostError(f"segment {seg.number} ({seg.where}): not done after "
+    def wait(seg: Segment, cond: Callable[[object], bool], what: str) -> None:
+        if not plc.run_until(lambda p: cond(p) or stopped(p),  # type: ignore[attr-defined]
+                             timeout=timeout):
+            raise HostError(f"segment {seg.number} ({seg.where}): {what} after "
                             f"{timeout:g} simulated s")
         if plc.state != "RUN":  # type: ignore[attr-defined]
             raise HostError(f"segment {seg.number} ({seg.where}): the PLC is in "
                             f"{plc.state} ({plc.fault})")  # type: ignore[attr-defined]
-        fault = plc[f"%MW{FAULT}"]  # type: ignore[index]
-        if fault:
+        if w[FAULT]:
             raise HostError(f"segment {seg.number} ({seg.where}): the PLC reports fault "
-                            f"{fault} ({FAULTS.get(fault, 'unknown fault')})")
+                            f"{w[FAULT]} ({FAULTS.get(w[FAULT], 'unknown fault')})")
+
+    segs = piece.segments(seed=seed)
+    for seg in segs:
+        wait(seg, lambda p: not w[INICIO], "the previous segment not taken")
+        for i, v in enumerate(segment_words(seg).frame()):
+            w[SEG_BASE + i] = v - 0x10000 if v > 0x7FFF else v
+    if segs:
+        last = seg_no(segs[-1].number)
+        wait(segs[-1], lambda p: w[SEG_DONE] == last and not w[EJECUTANDO] and not w[INICIO],
+             "not done")
     return len(segs)

@@ -426,34 +426,59 @@ def _max_on_chord(curve: NewtonCurve, a: Point, b: Point) -> tuple[float, float]
     return f(x), x
 
 
-def _golden_min(f, lo: float, hi: float, iterations: int = 80) -> float:
-    """x in [lo, hi] minimising a unimodal f."""
+def _golden_min(f, lo, hi, iterations: int = 80):
+    """x in [lo, hi] minimising a unimodal f; lo and hi may be arrays (one search per
+    element, f evaluated on arrays)."""
     g = (math.sqrt(5) - 1) / 2
     for _ in range(iterations):
         m1, m2 = hi - g * (hi - lo), lo + g * (hi - lo)
-        if f(m1) < f(m2):
-            hi = m2
-        else:
-            lo = m1
-    return (lo + hi) / 2
+        left = f(m1) < f(m2)
+        hi, lo = np.where(left, m2, hi), np.where(left, lo, m1)
+    x = (lo + hi) / 2
+    return float(x) if np.ndim(x) == 0 else x
 
 
 def distance_to(shape: Line | Arc | NewtonCurve, p: Point) -> float:
     """Distance from p to the ideal shape (not its chords)."""
+    return float(distances_to(shape, np.array([p[0]], float), np.array([p[1]], float))[0])
+
+
+#: points per block in `distances_to` (bounds the nearest-point matrix of a Newton curve)
+_BLOCK = 4096
+
+
+def distances_to(shape: Line | Arc | NewtonCurve, px: np.ndarray,
+                 py: np.ndarray) -> np.ndarray:
+    """Distances from the points (px, py) to the ideal shape (not its chords), all at
+    once: a trace check measures tens of thousands of samples."""
     if isinstance(shape, Line):
-        return point_to_segment(p, shape.start, shape.end)
+        (ax, ay), (bx, by) = shape.start, shape.end
+        dx, dy = bx - ax, by - ay
+        L2 = dx * dx + dy * dy
+        s = (np.clip(((px - ax) * dx + (py - ay) * dy) / L2, 0.0, 1.0) if L2 > 0.0
+             else np.zeros_like(px))
+        return np.hypot(px - ax - s * dx, py - ay - s * dy)
     if isinstance(shape, Arc):
-        d = distance(p, shape.centre)
-        phi = math.atan2(p[1] - shape.centre[1], p[0] - shape.centre[0]) - shape.start_angle
-        along = phi % TAU if shape.sweep > 0 else -(-phi % TAU)
-        if shape.full_circle or abs(along) <= abs(shape.sweep):
-            return abs(d - shape.radius)
-        return min(distance(p, shape.start), distance(p, shape.end))
+        (ox, oy), (sx, sy), (ex, ey) = shape.centre, shape.start, shape.end
+        d = np.hypot(px - ox, py - oy)
+        phi = np.arctan2(py - oy, px - ox) - shape.start_angle
+        along = np.mod(phi, TAU) if shape.sweep > 0 else -np.mod(-phi, TAU)
+        inside = shape.full_circle | (np.abs(along) <= abs(shape.sweep))
+        ends = np.minimum(np.hypot(px - sx, py - sy), np.hypot(px - ex, py - ey))
+        return np.where(inside, np.abs(d - shape.radius), ends)
+    if len(px) > _BLOCK:
+        return np.concatenate([distances_to(shape, px[i:i + _BLOCK], py[i:i + _BLOCK])
+                               for i in range(0, len(px), _BLOCK)])
+    # y = p(x): the nearest dense sample brackets the nearest point; golden-section search
+    # on the distance (unimodal inside one bracket), every point at once
     xs, ys = shape.dense
-    i = int(np.argmin(np.hypot(xs - p[0], ys - p[1])))
-    lo, hi = xs[max(i - 1, 0)], xs[min(i + 1, len(xs) - 1)]
-    x = _golden_min(lambda x: distance(p, (x, shape(x))), min(lo, hi), max(lo, hi), 50)
-    return distance(p, (x, shape(x)))
+    i = np.argmin(np.hypot(xs[None, :] - px[:, None], ys[None, :] - py[:, None]), axis=1)
+    a, b = xs[np.maximum(i - 1, 0)], xs[np.minimum(i + 1, len(xs) - 1)]
+
+    def f(x: np.ndarray) -> np.ndarray:
+        return np.hypot(px - x, py - shape(x))
+
+    return f(_golden_min(f, np.minimum(a, b), np.maximum(a, b), 50))
 
 
 def green_term(shape: Line | Arc) -> float:

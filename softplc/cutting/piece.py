@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ..config import error_lines
@@ -53,6 +54,7 @@ from .geometry import (
     Point,
     distance,
     distance_to,
+    distances_to,
     fillet,
     green_term,
 )
@@ -246,6 +248,14 @@ class Piece:
         """Distance from p to the nearest cut shape as designed (arcs and curves, not their
         chords): the trace check of the device round (<= chord tolerance + 1 µm)."""
         return min(distance_to(e.shape, p) for e in self.elements if e.cut)
+
+    def deviations(self, px: np.ndarray, py: np.ndarray) -> np.ndarray:
+        """`deviation` of many points at once (x and y arrays, mm)."""
+        out = np.full(len(px), np.inf)
+        for e in self.elements:
+            if e.cut:
+                np.minimum(out, distances_to(e.shape, px, py), out=out)
+        return out
 
     def area(self) -> float:
         """Signed area enclosed by the cut lines and arcs as designed (not their chords),

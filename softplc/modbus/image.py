@@ -74,6 +74,7 @@ class ModbusImage:
         self._rlo, self._rhi, self._clo, self._chi = n, 0, c, 0  # pending bounds
         self._pending = 0  # writes acknowledged since the last apply
         self._lock = threading.Lock()
+        self.written = threading.Event()  # set by every accepted write (see wait_for_write)
         self.store = store
         self._blocks = blocks
         self.hold = False  # True: keep the last snapshot (a scan was interrupted)
@@ -163,6 +164,7 @@ class ModbusImage:
             store = self.store
             if store is not None and not store.journal(J_REGISTERS, addr, wire):
                 store.commit(self.regs_wire, self.coils)  # includes this write
+        self.written.set()
 
     def queue_coils(self, addr: int, values: bytes) -> None:
         """Accept a write of coil values (one byte 0/1 per coil) at coil `addr` (checked)."""
@@ -177,6 +179,15 @@ class ModbusImage:
             store = self.store
             if store is not None and not store.journal(J_COILS, addr, values):
                 store.commit(self.regs_wire, self.coils)
+        self.written.set()
+
+    def wait_for_write(self, timeout: float) -> bool:
+        """Block until a write is pending (True) or `timeout` seconds pass (False); the
+        scan side's way to sleep until a host has written something."""
+        self.written.clear()
+        if self._pending:  # a write that came before the clear
+            return True
+        return self.written.wait(timeout) or bool(self._pending)
 
     # -- any front-end -------------------------------------------------------------------
     def check_write(self, space: str, addr: int, count: int) -> None:
