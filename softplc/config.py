@@ -210,6 +210,7 @@ class Config(Section):
     pid: dict[str, Any] = Field(default_factory=dict)
     rtc: dict[str, Any] | None = None
     schedule: dict[str, Any] = Field(default_factory=dict)
+    exch: dict[str, Any] = Field(default_factory=dict)  # EXCH3 remote devices (issue 11 B)
 
     @field_validator("profile")
     @classmethod

@@ -33,8 +33,10 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .address import Ref, parse_address
+from .config import PositiveDuration
 from .errors import AddressError, ConfigError
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
+from .runtime.exch import Remote
 from .runtime.pid import PidParams
 from .runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
 
@@ -253,3 +255,39 @@ def parse_schedules(section: Any, mem: Any) -> list[Schedule]:
                             frozenset(DAYS.index(d) for d in o.days),
                             parse_month_day(o.first), parse_month_day(o.last)))
     return out
+
+
+# ---- communication (issue 11 B): [exch], the Ethernet port's remote devices ---------------
+class ExchRemoteConfig(BaseModel):
+    """One row of TwidoSuite's Ethernet remote-device table (`[exch.remote.<index>]`)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    host: str = Field(min_length=1)
+    port: int = Field(502, ge=1, le=65535)
+    unit_id: int = Field(255, ge=0, le=255)  # 255: a Twido server's default [manual]
+
+
+class ExchConfig(BaseModel):
+    """`[exch]`: EXCH3 as a Modbus TCP client. `timeout` in seconds (or "500ms")."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    timeout: PositiveDuration = 1.0
+    remote: dict[str, ExchRemoteConfig] = Field(default_factory=dict)
+
+
+def parse_exch(section: Any, max_remotes: int) -> tuple[float, dict[int, Remote]] | None:
+    """Validate `[exch]`: (timeout in s, remote index -> Remote), None when absent."""
+    if not section:
+        return None
+    cfg: ExchConfig = _validated("exch", "", ExchConfig, section)
+    remotes = {}
+    for key, r in cfg.remote.items():
+        if not key.isdigit() or not 1 <= int(key) <= max_remotes:
+            raise ConfigError(f"exch.remote.{key}: the remote device index is 1 .. "
+                              f"{max_remotes} (the first byte of the EXCH table)")
+        remotes[int(key)] = Remote(r.host, r.port, r.unit_id)
+    if not remotes:
+        raise ConfigError("exch.remote: no remote device (e.g. [exch.remote.1] host = ...)")
+    return cfg.timeout, remotes

@@ -14,7 +14,14 @@ from typing import Any
 from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
 from .compiler import Resolved, compile_program, resolve
 from .config import Config, key_path, load_config
-from .config_models import parse_analog, parse_pid, parse_rtc, parse_schedules, pid_params
+from .config_models import (
+    parse_analog,
+    parse_exch,
+    parse_pid,
+    parse_rtc,
+    parse_schedules,
+    pid_params,
+)
 from .errors import (
     AddressError,
     Code,
@@ -29,10 +36,11 @@ from .il.parser import parse, parse_file
 from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
 from .program import CompiledProgram, ProgramState, bind
 from .runtime.analog import AnalogChannel, AnalogIO, normal_range
-from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Register, Timer, TimeSource
+from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Message, Register, Timer, TimeSource
 from .runtime.clock import Clock, VirtualClock, make_clock
-from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
+from .runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
 from .runtime.grafcet import Grafcet
+from .runtime.exch import ETHERNET_PORT, ExchPort
 from .runtime.memory import MemoryImage
 from .runtime.pid import Pid
 from .runtime.rtc import DEFAULT_START, RTC
@@ -64,9 +72,12 @@ class PLC:
         self._configure_blocks(settings)
         self._configure_constants(settings.constants)
         self._configure_pid(settings.pid)
+        self._exch = self._configure_exch(settings.exch)
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
+        if self._exch is not None:  # only then: programs without EXCH pay nothing
+            self.engine.before_scan.append(self._exch_boundary)
         self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
@@ -239,6 +250,26 @@ class PLC:
         if kind == "R":
             return Register("FIFO", self.profile.count("FIFO_DEPTH"))
         return BLOCK_CLASSES[kind]()
+
+    # ---- communication (issue 11 B) ----
+    def _configure_exch(self, section: Any) -> ExchPort | None:
+        """[exch]: the Ethernet port's remote devices; %MSG3 drives the port."""
+        parsed = parse_exch(section, self.profile.count("EXCH_REMOTES"))
+        if parsed is None:
+            return None
+        timeout, remotes = parsed
+        port = ExchPort(self.mem, lambda: round(self._clock.seconds * 1e6), remotes,
+                        timeout, wait_at_boundary=isinstance(self._clock, VirtualClock))
+        port.msg = msg = self.mem.blocks["MSG"].setdefault(ETHERNET_PORT, Message())
+        msg.port = port
+        return port
+
+    def _exch_boundary(self) -> None:
+        """Scan boundary: a finished exchange lands; leaving RUN ends the one in progress."""
+        if self.engine.state == RUN:
+            self._exch.poll()
+        else:
+            self._exch.stop()
 
     def _configure_pid(self, section: Any) -> None:
         """The PID functions of [pid], addresses resolved and checked once."""
@@ -529,7 +560,9 @@ class PLC:
         self.engine.note_overrun()
 
     def close(self) -> None:
-        """Flush and close devices (trace files)."""
+        """Flush and close devices (trace files) and the EXCH port's connections."""
+        if self._exch is not None:
+            self._exch.close()
         for dev in self.devices.values():
             close = getattr(dev, "close", None)
             if close:

@@ -50,6 +50,10 @@ TWDLCAE40DRF = Profile(
         "STACK": 8,  # MPS depth [m221]
         "PAREN": 8,  # parenthesis nesting [manual]
         "PID": 14,  # PID functions PID 0 .. PID 13 [manual, from memory]
+        # communication (issue 11 B, runtime/exch.py): %MSG1..%MSG3 (index 0 unused), the
+        # Ethernet port's remote devices 1..16 [manual, from memory]
+        "MSG": 4,
+        "EXCH_REMOTES": 16,
     },
     # two analog potentiometers and one 0-10 V input, 10 bits [manual, from memory: the
     # hardware guide's figures were not found in the search corpora; check the counts]

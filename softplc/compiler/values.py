@@ -400,6 +400,9 @@ class ValueCompiler:
             self.use(name)
             self.emit(f"{name}.run()")
             return
+        if isinstance(st, A.ExchCall):
+            self.exch(st)
+            return
         if isinstance(st, A.IncDec):
             ref = st.target
             if not self.check_writable(ref, st.pos):
@@ -439,6 +442,25 @@ class ValueCompiler:
                 return
             code = f"{self.helper('narrow16')}({code})"
         self.store_value(ref, code, tt, st.pos)
+
+    def exch(self, st: A.ExchCall) -> None:
+        """`EXCHi %MWj:n` (communication, issue 11 B; runtime/exch.py): the port's %MSG
+        block starts the exchange; only the Ethernet port 3 is emulated."""
+        t, n = st.table, self.counts["MSG"]
+        text = f"EXCH{st.port} {t}"
+        if not 1 <= st.port < n:
+            self.err(f"EXCH{st.port}: no such port", st.pos, text,
+                     f"EXCH1 .. EXCH{n - 1}", code=Code.BLOCK)
+        elif t.kind != "MW" or t.length is None or t.offset is not None:
+            self.err(f"EXCH{st.port}: {t} is not a word table", st.pos, text,
+                     "a %MW table such as %MW0:10", code=Code.TYPE)
+        elif getattr(self.env.get(Names.block("MSG", st.port)), "port", None) is None:
+            self.err(f"EXCH{st.port} is used but the port is not configured", st.pos, text,
+                     "an [exch] table in the configuration (remote devices of the "
+                     "Ethernet port; EXCH1/EXCH2, the serial ports, are not emulated)",
+                     code=Code.BLOCK)
+        else:
+            self.emit(f"{self.block_name(Ref('MSG', st.port))}.exch({t.index}, {t.length})")
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind

@@ -67,6 +67,8 @@ def format_instruction(i: A.Instruction) -> str:
         return "N"
     if isinstance(i, A.Stack):
         return i.op
+    if isinstance(i, A.OpBlock) and isinstance(i.stmt, A.ExchCall):
+        return pad(f"EXCH{i.stmt.port}", str(i.stmt.table))
     if isinstance(i, A.OpBlock):
         return format_statement(i.stmt)
     if isinstance(i, A.Jump):
