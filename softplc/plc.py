@@ -39,8 +39,8 @@ from .runtime.analog import AnalogChannel, AnalogIO, normal_range
 from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Message, Register, Timer, TimeSource
 from .runtime.clock import Clock, VirtualClock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
-from .runtime.grafcet import Grafcet
 from .runtime.exch import ETHERNET_PORT, ExchPort
+from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
 from .runtime.pid import Pid
 from .runtime.rtc import DEFAULT_START, RTC

@@ -16,10 +16,10 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from daemon_util import started
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from daemon_util import daemons, started  # noqa: F401 (fixture)
 from softplc.errors import ConfigError, ProgramError
 from softplc.il.parser import parse
 from softplc.il.printer import format_program
@@ -176,7 +176,7 @@ def test_one_exchange_at_a_time_and_reset():
         silent.bind(("127.0.0.1", 0))
         silent.listen()
         src = "LD %M0\nEXCH3 %MW0:10\nLD %M1\nEXCH3 %MW20:10\nBLK %MSG3\nLD %M2\nR\nEND_BLK\n"
-        plc = PLC.from_source(src, config(silent.getsockname()[1], timeout="1s"))
+        plc = PLC.from_source(src, config(silent.getsockname()[1], timeout="200ms"))
         for base, idx in ((0, 1), (20, 9)):  # the second names no device: would fail at once
             for k, v in enumerate([0x0106, 0x0300, idx << 8 | 3, 0, 1]):
                 plc.mem.mw.w[base + k] = v
@@ -205,7 +205,7 @@ def test_stop_ends_the_exchange():
 
 @pytest.mark.parametrize("src, cfg, message", [
     ("LD 1\nEXCH3 %MW0:10\n", {}, "not configured"),
-    ("LD 1\nEXCH1 %MW0:10\n", None, "not configured"),  # serial ports: not emulated
+    ("LD 1\nEXCH1 %MW0:10\n", None, "serial port 1 is not emulated"),
     ("LD 1\nEXCH4 %MW0:10\n", None, "no such port"),
     ("LD 1\nEXCH3 %MD0\n", None, "not a word table"),
     ("LD %MSG0.D\nST %Q0.0\n", None, "%MSG1"),
@@ -265,3 +265,49 @@ def test_remote_io_example_polls_a_second_softplc_daemon(tmp_path, daemons):
         pdu = c.request(bytes([3, 0, 10, 0, 1]))
     assert pdu[3] & 1 == 0
     plc.close()
+
+
+def test_real_clock_never_blocks_the_scan():
+    # on the real clock the scan only looks whether the reply arrived: scans go on while
+    # the silent server keeps the exchange pending, and the timeout ends it
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen()
+        plc = PLC.from_source(ONE_SHOT.format(n=10),
+                              config(silent.getsockname()[1], timeout="100ms"), clock="real")
+        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+        first = plc.scan_count
+        while not plc["%MSG3.D"]:
+            plc.scan()
+        assert plc.scan_count - first > 3  # 10 ms scans during a 100 ms wait
+        assert plc["%SW65"] == exch.ERR_TIMEOUT
+        plc.close()
+    with PymodbusServer() as srv:  # and a reply lands at a later scan boundary
+        plc = PLC.from_source(ONE_SHOT.format(n=10), config(srv.port), clock="real")
+        run_table(plc, [0x0106, 0x0300, 0x0103, 4, 1], 10, scans=0)
+        while not plc["%MSG3.D"]:
+            plc.scan()
+        assert not plc["%MSG3.E"] and u(plc, 7) == 104
+        plc.close()
+
+
+def test_repl_prints_the_block(tmp_path):
+    from softplc.debug.session import Session
+
+    prog = tmp_path / "p.il"
+    prog.write_text(ONE_SHOT.format(n=10))
+    plc = PLC.from_file(prog, config(free_port()))
+    s = Session(plc, prog)
+    assert s.execute("print %MSG3") == "%MSG3 = D=1 E=0"
+    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10)  # nothing listening: error 6
+    assert s.execute("print %MSG3.E %SW65") == "%MSG3.E = 1\n%SW65 = 6"
+    plc.close()
+
+
+def test_ladder_view_shows_the_exchange(capsys):
+    from softplc.cli import main
+
+    assert main(["ladder", str(EXAMPLES / "remote_io.il"),
+                 "--config", str(EXAMPLES / "remote_io.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "EXCH3 %MW0:9" in out and "EXCH3 %MW10:10" in out

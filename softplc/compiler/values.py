@@ -17,6 +17,7 @@ from ..errors import Code, Diagnostic
 from ..il import ast as A
 from ..program import Names
 from ..runtime.blocks import BLOCK_CLASSES, MAX_VALUE
+from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
 from ..semantics import COMPARE_PY, FUNCTIONS
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
@@ -454,10 +455,14 @@ class ValueCompiler:
         elif t.kind != "MW" or t.length is None or t.offset is not None:
             self.err(f"EXCH{st.port}: {t} is not a word table", st.pos, text,
                      "a %MW table such as %MW0:10", code=Code.TYPE)
+        elif st.port in SERIAL_PORTS:
+            self.err(f"EXCH{st.port}: the serial port {st.port} is not emulated", st.pos,
+                     text, f"EXCH{ETHERNET_PORT} (the Ethernet port, configured in [exch])",
+                     code=Code.BLOCK)
         elif getattr(self.env.get(Names.block("MSG", st.port)), "port", None) is None:
             self.err(f"EXCH{st.port} is used but the port is not configured", st.pos, text,
-                     "an [exch] table in the configuration (remote devices of the "
-                     "Ethernet port; EXCH1/EXCH2, the serial ports, are not emulated)",
+                     "an [exch] table in the configuration (the remote devices of the "
+                     "Ethernet port, e.g. [exch.remote.1] host = ...)",
                      code=Code.BLOCK)
         else:
             self.emit(f"{self.block_name(Ref('MSG', st.port))}.exch({t.index}, {t.length})")
