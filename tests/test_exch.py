@@ -311,3 +311,40 @@ def test_ladder_view_shows_the_exchange(capsys):
                  "--config", str(EXAMPLES / "remote_io.toml")]) == 0
     out = capsys.readouterr().out
     assert "EXCH3 %MW0:9" in out and "EXCH3 %MW10:10" in out
+
+
+def test_bits_against_a_second_plc():
+    # FC05 write one bit, FC15 write 10 bits, FC01 read them [manual: the master's bit
+    # tables are the same layout: command | length, offsets, index | FC, address, ...];
+    # the second PLC serves %M as coils (softplc's own server, in this process)
+    from softplc.modbus import ServerThread
+    from softplc.modbus.image import ModbusImage
+
+    station = PLC.from_source("LD %M3\nST %Q0.0\n")
+    image = ModbusImage(station.mem)
+    server = ServerThread(image, "127.0.0.1", 0).start()
+    try:
+        plc = PLC.from_source(ONE_SHOT.format(n=12), config(server.port))
+
+        def station_scan() -> None:
+            image.apply_writes()
+            station.scan()
+            image.take_snapshot()
+
+        # FC05: bit 3 := 1 (16#FF00), no offsets; the reply echoes the request
+        run_table(plc, [0x0106, 0x0000, 0x0105, 3, 0xFF00], 12)
+        assert not plc["%MSG3.E"] and [u(plc, 5), u(plc, 6), u(plc, 7)] == [0x0105, 3, 0xFF00]
+        station_scan()
+        assert station["%M3"] and station["%Q0.0"]
+        # FC15: bits 8..17 := 10 bits 2#10_1100_0101; Tx 8 + 2 data bytes = 10, Tx offset 7
+        run_table(plc, [0x010A, 0x0007, 0x010F, 8, 10, 0x0002, 0xC502], 12)
+        assert not plc["%MSG3.E"] and [u(plc, 7), u(plc, 8), u(plc, 9)] == [0x010F, 8, 10]
+        station_scan()
+        assert [station[f"%M{8 + k}"] for k in range(10)] == [1, 0, 1, 0, 0, 0, 1, 1, 0, 1]
+        # FC01: read 16 bits from 0, Rx offset 3: 16#0101, 16#0002, then the two bytes
+        run_table(plc, [0x0106, 0x0300, 0x0101, 0, 16], 12)
+        assert not plc["%MSG3.E"] and [u(plc, 5), u(plc, 6), u(plc, 7)] == \
+            [0x0101, 0x0002, 0x08C5]  # bits 0-7: %M3; bits 8-15 as written
+        plc.close()
+    finally:
+        server.stop()
