@@ -9,15 +9,13 @@ clock: the reply lands at the first scan boundary after the request (determinist
 
 from __future__ import annotations
 
-import asyncio
 import socket
-import threading
 import tomllib
 from pathlib import Path
 
 import pytest
 from daemon_util import started
-from pymodbus.server import ModbusTcpServer
+from modbus_util import PymodbusThread
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from softplc.errors import ConfigError, ProgramError
@@ -41,34 +39,22 @@ def config(port: int, timeout: str = "300ms", **more) -> dict:
             **more}
 
 
-class PymodbusServer:
-    """An independent Modbus TCP server (pymodbus): registers 0..19 and coils 0..15."""
+class PymodbusServer(PymodbusThread):
+    """An independent Modbus TCP server (pymodbus): registers 0..19 = 100..119."""
 
-    def __init__(self) -> None:
-        self.loop = asyncio.new_event_loop()
-        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
-        self.server: ModbusTcpServer | None = None
-        self.port = 0
-
-    async def _start(self) -> int:
-        device = SimDevice(id=1, simdata=[
+    def device(self) -> SimDevice:
+        return SimDevice(id=1, simdata=[
             SimData(0, count=20, values=[100 + k for k in range(20)],
                     datatype=DataType.REGISTERS)])
-        self.server = ModbusTcpServer(device, address=("127.0.0.1", 0))
-        await self.server.serve_forever(background=True)
-        return self.server.transport.sockets[0].getsockname()[1]
 
-    def __enter__(self) -> PymodbusServer:
-        self.thread.start()
-        self.port = asyncio.run_coroutine_threadsafe(self._start(), self.loop).result(5)
-        return self
 
-    def __exit__(self, *exc) -> None:
-        if self.server is not None:
-            asyncio.run_coroutine_threadsafe(self.server.shutdown(), self.loop).result(5)
-        self.loop.call_soon_threadsafe(self.loop.stop)
-        self.thread.join(5)
-        self.loop.close()
+@pytest.fixture
+def silent_port():
+    """A port where a server accepts connections and never answers."""
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen()
+        yield silent.getsockname()[1]
 
 
 # One exchange on request: %M0 starts it (the program tests %MSG3.D, as the manual says).
@@ -126,21 +112,17 @@ def test_exception_reply_lands_in_the_table():
         plc.close()
 
 
-def test_timeout_counts_in_virtual_time():
+def test_timeout_counts_in_virtual_time(silent_port):
     # a server that accepts and never answers: %SW65 = 5 [manual] once the configured
     # timeout has passed in PLC time, not earlier, whatever the machine's speed
-    with socket.socket() as silent:
-        silent.bind(("127.0.0.1", 0))
-        silent.listen()
-        plc = PLC.from_source(ONE_SHOT.format(n=10),
-                              config(silent.getsockname()[1], timeout="100ms"))
-        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
-        t0 = plc.time
-        while not plc["%MSG3.D"]:
-            plc.scan()
-        assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TIMEOUT
-        assert plc.time - t0 == pytest.approx(0.100, abs=0.011)
-        plc.close()
+    plc = PLC.from_source(ONE_SHOT.format(n=10), config(silent_port, timeout="100ms"))
+    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+    t0 = plc.time
+    while not plc["%MSG3.D"]:
+        plc.scan()
+    assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TIMEOUT
+    assert plc.time - t0 == pytest.approx(0.100, abs=0.011)
+    plc.close()
 
 
 def test_nothing_listening():
@@ -169,38 +151,32 @@ def test_malformed_table_is_a_status_code_not_a_crash(words, n, code):
         plc.close()
 
 
-def test_one_exchange_at_a_time_and_reset():
+def test_one_exchange_at_a_time_and_reset(silent_port):
     # an EXCH while one is in progress is ignored [manual: test %MSG.D first]; R drops
     # the exchange in progress: D = 1, E = 0 [manual]
-    with socket.socket() as silent:
-        silent.bind(("127.0.0.1", 0))
-        silent.listen()
-        src = "LD %M0\nEXCH3 %MW0:10\nLD %M1\nEXCH3 %MW20:10\nBLK %MSG3\nLD %M2\nR\nEND_BLK\n"
-        plc = PLC.from_source(src, config(silent.getsockname()[1], timeout="200ms"))
-        for base, idx in ((0, 1), (20, 9)):  # the second names no device: would fail at once
-            for k, v in enumerate([0x0106, 0x0300, idx << 8 | 3, 0, 1]):
-                plc.mem.mw.w[base + k] = v
-        plc["%M0"] = 1
-        plc.scan()
-        plc["%M0"], plc["%M1"] = 0, 1
-        plc.scan(3)
-        assert not plc["%MSG3.D"] and plc["%SW65"] == 0  # still the first, no error 8
-        plc["%M1"], plc["%M2"] = 0, 1
-        plc.scan()
-        assert plc["%MSG3.D"] and not plc["%MSG3.E"]
-        plc.close()
+    src = "LD %M0\nEXCH3 %MW0:10\nLD %M1\nEXCH3 %MW20:10\nBLK %MSG3\nLD %M2\nR\nEND_BLK\n"
+    plc = PLC.from_source(src, config(silent_port, timeout="200ms"))
+    for base, idx in ((0, 1), (20, 9)):  # the second names no device: would fail at once
+        for k, v in enumerate([0x0106, 0x0300, idx << 8 | 3, 0, 1]):
+            plc.mem.mw.w[base + k] = v
+    plc["%M0"] = 1
+    plc.scan()
+    plc["%M0"], plc["%M1"] = 0, 1
+    plc.scan(3)
+    assert not plc["%MSG3.D"] and plc["%SW65"] == 0  # still the first, no error 8
+    plc["%M1"], plc["%M2"] = 0, 1
+    plc.scan()
+    assert plc["%MSG3.D"] and not plc["%MSG3.E"]
+    plc.close()
 
 
-def test_stop_ends_the_exchange():
-    with socket.socket() as silent:
-        silent.bind(("127.0.0.1", 0))
-        silent.listen()
-        plc = PLC.from_source(ONE_SHOT.format(n=10), config(silent.getsockname()[1]))
-        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
-        plc.stop()
-        plc.scan()
-        assert plc["%MSG3.D"] and plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_STOPPED
-        plc.close()
+def test_stop_ends_the_exchange(silent_port):
+    plc = PLC.from_source(ONE_SHOT.format(n=10), config(silent_port))
+    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+    plc.stop()
+    plc.scan()
+    assert plc["%MSG3.D"] and plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_STOPPED
+    plc.close()
 
 
 @pytest.mark.parametrize("src, cfg, message", [
@@ -267,21 +243,18 @@ def test_remote_io_example_polls_a_second_softplc_daemon(tmp_path, daemons):
     plc.close()
 
 
-def test_real_clock_never_blocks_the_scan():
+def test_real_clock_never_blocks_the_scan(silent_port):
     # on the real clock the scan only looks whether the reply arrived: scans go on while
     # the silent server keeps the exchange pending, and the timeout ends it
-    with socket.socket() as silent:
-        silent.bind(("127.0.0.1", 0))
-        silent.listen()
-        plc = PLC.from_source(ONE_SHOT.format(n=10),
-                              config(silent.getsockname()[1], timeout="100ms"), clock="real")
-        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
-        first = plc.scan_count
-        while not plc["%MSG3.D"]:
-            plc.scan()
-        assert plc.scan_count - first > 3  # 10 ms scans during a 100 ms wait
-        assert plc["%SW65"] == exch.ERR_TIMEOUT
-        plc.close()
+    plc = PLC.from_source(ONE_SHOT.format(n=10),
+                          config(silent_port, timeout="100ms"), clock="real")
+    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+    first = plc.scan_count
+    while not plc["%MSG3.D"]:
+        plc.scan()
+    assert plc.scan_count - first > 3  # 10 ms scans during a 100 ms wait
+    assert plc["%SW65"] == exch.ERR_TIMEOUT
+    plc.close()
     with PymodbusServer() as srv:  # and a reply lands at a later scan boundary
         plc = PLC.from_source(ONE_SHOT.format(n=10), config(srv.port), clock="real")
         run_table(plc, [0x0106, 0x0300, 0x0103, 4, 1], 10, scans=0)
