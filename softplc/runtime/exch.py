@@ -215,11 +215,6 @@ class ExchPort:
         self._job: Future[bytes] | None = None
         self._req: _Request | None = None
         self._t0 = 0
-        self.exchanges = 0  # completed exchanges (statistics)
-
-    @property
-    def busy(self) -> bool:
-        return self._job is not None
 
     def start(self, start: int, n: int) -> None:
         """`EXCH3 %MW<start>:<n>` with the block done: check the table, send the request.
@@ -275,7 +270,6 @@ class ExchPort:
         except ExchError as e:
             self._finish(e.code)
             return
-        self.exchanges += 1
         self._finish(OK)
 
     def _drop(self, code: int) -> None:
