@@ -321,3 +321,18 @@ def test_bits_against_a_second_plc():
         plc.close()
     finally:
         server.stop()
+
+
+def test_softplc_check(tmp_path, capsys):
+    from softplc.cli import main
+
+    assert main(["check", str(EXAMPLES / "remote_io.il"),
+                 "--config", str(EXAMPLES / "remote_io.toml")]) == 0
+    bad = tmp_path / "bad.il"
+    bad.write_text("LD 1\nEXCH3 %MW0:10\nEXCH2 %MW20:4\nLD %MSG3.Q\nST %Q0.0\n")
+    assert main(["check", str(bad)]) == 1
+    out = capsys.readouterr()
+    text = out.out + out.err
+    assert "bad.il:2:1: EXCH3 is used but the port is not configured" in text
+    assert "bad.il:3:1: EXCH2: the serial port 2 is not emulated" in text
+    assert "%MSG has fields .D, .E" in text
