@@ -12,6 +12,7 @@
     analog."%IW2.0" = { type = "PT100", range = "celsius" }   # analog channels
     [pid.0]                  # PID functions, [rtc] the clock's calendar start,
     [schedule.0]             # schedule blocks: see softplc/config_models.py
+    [exch.remote.1]          # EXCH3's remote devices: host, port, unit_id; [exch] timeout
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
     [daemon]                 # the daemon's state file, save and statistics intervals

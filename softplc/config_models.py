@@ -6,7 +6,8 @@ validation error into a `ConfigError` naming the key path:
   configuration screen sets it (signal type and range of each channel);
 - `[pid.n]` (`parse_pid`): the PID functions, as TwidoSuite's PID screen sets them;
 - `[rtc]` (`parse_rtc`): the calendar start of the clock; `[schedule.n]`
-  (`parse_schedules`): the schedule blocks.
+  (`parse_schedules`): the schedule blocks;
+- `[exch]` (`parse_exch`): EXCH3's timeout and remote devices `[exch.remote.<index>]`.
 
 For the schema in `softplc/config.py`: `analog: dict[str, AnalogChannelConfig]` and
 `pid: dict[str, PidConfig]` (keys "0".."13"), `rtc: RtcConfig`,
