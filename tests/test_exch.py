@@ -10,6 +10,7 @@ clock: the reply lands at the first scan boundary after the request (determinist
 from __future__ import annotations
 
 import socket
+import threading
 import tomllib
 from pathlib import Path
 
@@ -139,6 +140,8 @@ def test_nothing_listening():
     ([0x0106, 0x0009, 0x0103, 0, 1], 10, exch.ERR_TX_OFFSET),  # offset 9 > 6 bytes
     ([0x0106, 0x0300, 0x0903, 0, 1], 10, exch.ERR_DEVICE),  # remote device 9: none
     ([0x0106, 0x0300, 0x0103, 0, 9], 10, exch.ERR_RX_OVERFLOW),  # 9 words do not fit
+    ([0x0106, 0x0F00, 0x0103, 0, 1], 6, exch.ERR_RX_OFFSET),  # offset 15, 2 bytes of room
+    ([0x0106, 0x0300], 2, exch.ERR_TABLE),  # no room for a request
 ])
 def test_malformed_table_is_a_status_code_not_a_crash(words, n, code):
     # [manual: %SW63 codes 1 too many bytes, 2 transmission table too small, 4 reception
@@ -148,6 +151,28 @@ def test_malformed_table_is_a_status_code_not_a_crash(words, n, code):
         run_table(plc, words, n)
         assert plc["%MSG3.D"] and plc["%MSG3.E"] and plc["%SW65"] == code
         assert plc.state == "RUN"
+        plc.close()
+
+
+def test_malformed_reply():
+    # a peer that answers with a bad MBAP header (protocol 5): reception error 9
+    # [manual: %SW63 code 9]
+    with socket.socket() as srv:
+        srv.bind(("127.0.0.1", 0))
+        srv.listen()
+
+        def answer() -> None:
+            conn, _ = srv.accept()
+            with conn:
+                conn.recv(64)
+                conn.sendall(bytes([0, 1, 0, 5, 0, 2, 1, 3]))
+
+        t = threading.Thread(target=answer, daemon=True)
+        t.start()
+        plc = PLC.from_source(ONE_SHOT.format(n=10), config(srv.getsockname()[1]))
+        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10)
+        assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_RX
+        t.join(5)
         plc.close()
 
 
