@@ -34,6 +34,12 @@ BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     "SBR": {},  # bits %SBRi.Jk
     "SC": {},  # bits %SCi.Jk
     "R": {"I": (INT16, True), "O": (INT16, True), "E": (BOOL, False), "F": (BOOL, False)},
+    # fast counters (runtime/fastcount.py) [manual, from memory of TWD USE 10AE]
+    "FC": {"V": (INT16, False), "P": (INT16, True), "D": (BOOL, False)},
+    "VFC": {"V": (INT16, False), "P": (INT16, True), "U": (BOOL, False), "C": (INT16, False),
+            "S0": (INT16, True), "S1": (INT16, True), "F": (BOOL, False),
+            "TH0": (BOOL, False), "TH1": (BOOL, False), "R": (BOOL, True), "S": (BOOL, True),
+            "T": (INT16, True)},
     "MSG": {"D": (BOOL, False), "E": (BOOL, False)},  # exchanges of port i (runtime/exch.py)
 }
 # Objects the program may never write.
@@ -45,10 +51,10 @@ WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF":
 WIDTH = {"MW": 1, "KW": 1, "SW": 1, "MD": 2, "MF": 2, "KD": 2, "KF": 2}
 
 _ADDR = re.compile(
-    r"""%(?P<kind>MSG|SBR|SC|TM|DR|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
+    r"""%(?P<kind>MSG|SBR|SC|TM|DR|VFC|FC|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
         (?P<a>\d+)
         (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
-        (?:\.(?P<field>[A-Z])(?P<fbit>\d+)?)?   # %TM0.Q, %SBR0.J3
+        (?:\.(?P<field>TH|[A-Z])(?P<fbit>\d+)?)?   # %TM0.Q, %SBR0.J3, %VFC0.TH1
         (?::X(?P<bit>\d+))?                     # %MW3:X5
         (?::(?P<length>\d+))?                   # %MW0:10 table / bit string
         (?:\[(?P<offset>%MW\d+)\])?             # %MW2[%MW5]
@@ -204,7 +210,11 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
                     raise AddressError(f"{text!r}: %{kind} bits are %{kind}{a}.j "
                                        f"(or .Jj)")
                 return _block_bit(kind, a, int(m["fbit"]), text, profile)
-            if field not in fields or m["fbit"] is not None:
+            if kind == "VFC" and m["fbit"] is not None:  # %VFCi.S0, .TH1: one field name
+                field = field + m["fbit"]
+            elif field not in fields or m["fbit"] is not None:
+                field = "?"
+            if field not in fields:
                 raise AddressError(f"{text!r}: %{kind} has fields "
                                    f"{', '.join('.' + f for f in fields)}")
         if bit is not None or offset or length:

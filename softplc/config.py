@@ -12,6 +12,7 @@
     analog."%IW2.0" = { type = "PT100", range = "celsius" }   # analog channels
     [pid.0]                  # PID functions, [rtc] the clock's calendar start,
     [schedule.0]             # schedule blocks: see softplc/config_models.py
+    [fast_counters."%FC0"]   # fast counters, [very_fast_counters."%VFC0"]: config_models.py
     [exch.remote.1]          # EXCH3's remote devices: host, port, unit_id; [exch] timeout
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
@@ -211,6 +212,9 @@ class Config(Section):
     pid: dict[str, Any] = Field(default_factory=dict)
     rtc: dict[str, Any] | None = None
     schedule: dict[str, Any] = Field(default_factory=dict)
+    # fast counters (config_models.build_counters)
+    fast_counters: dict[str, Any] = Field(default_factory=dict)
+    very_fast_counters: dict[str, Any] = Field(default_factory=dict)
     exch: dict[str, Any] = Field(default_factory=dict)  # EXCH3 remote devices (issue 11 B)
 
     @field_validator("profile")

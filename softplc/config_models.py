@@ -38,6 +38,7 @@ from .config import PositiveDuration
 from .errors import AddressError, ConfigError
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.exch import Remote
+from .runtime.fastcount import MAX_COUNT, N_ZONES, CountingInputs, FastCounter, VeryFastCounter
 from .runtime.pid import PidParams
 from .runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
 
@@ -256,6 +257,89 @@ def parse_schedules(section: Any, mem: Any) -> list[Schedule]:
                             frozenset(DAYS.index(d) for d in o.days),
                             parse_month_day(o.first), parse_month_day(o.last)))
     return out
+
+
+# ---- fast counters %FC / %VFC (runtime/fastcount.py) ---------------------------------------
+class FastCounterConfig(BaseModel):
+    """`[fast_counters."%FCi"]`, as TwidoSuite's fast counter screen: type and preset."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: Literal["up", "down"] = "up"
+    preset: int = Field(MAX_COUNT, ge=0, le=MAX_COUNT)
+
+
+class VeryFastCounterConfig(BaseModel):
+    """`[very_fast_counters."%VFCi"]`: mode, preset, thresholds, the optional preset and
+    catch inputs, the reflex outputs' state in the zones (V < S0, S0 <= V < S1, V >= S1),
+    the frequency meter's time base."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: Literal["up", "down", "up_down", "quadrature", "frequency"] = "up"
+    preset: int = Field(0, ge=0, le=MAX_COUNT)
+    s0: int = Field(MAX_COUNT, ge=0, le=MAX_COUNT)
+    s1: int = Field(MAX_COUNT, ge=0, le=MAX_COUNT)
+    preset_input: bool = False
+    catch_input: bool = False
+    reflex0: list[Literal[0, 1]] | None = Field(None, min_length=N_ZONES, max_length=N_ZONES)
+    reflex1: list[Literal[0, 1]] | None = Field(None, min_length=N_ZONES, max_length=N_ZONES)
+    time_base: Literal["100ms", "1s"] = "1s"
+
+
+def _counter_ref(section: str, key: str, kind: str, mem: Any) -> Ref:
+    ref = _address(section, f'"{key}"', key, mem)
+    if ref.kind != kind or not ref.is_block:
+        raise ConfigError(f'{section}."{key}": {key!r} is not a %{kind} counter (%{kind}0 ..)')
+    return ref
+
+
+def build_counters(fc: Any, vfc: Any, mem: Any) -> CountingInputs | None:
+    """Validate `[fast_counters]` and `[very_fast_counters]`, create the blocks in
+    `mem.blocks` on the profile's inputs (an input used by two counters is an error) and
+    return the `CountingInputs` the sources feed (None: no counter configured)."""
+    for name, section in (("fast_counters", fc), ("very_fast_counters", vfc)):
+        if not isinstance(section, dict):
+            raise ConfigError(f"{name} must be a table of counters, not {section!r}")
+    if not fc and not vfc:
+        return None
+    profile = mem.profile
+    hub = CountingInputs(mem.i_field)
+    owner: dict[int, str] = {}  # %I0.x channel -> what uses it
+
+    def claim(channel: int, who: str) -> int:
+        if channel in owner:
+            raise ConfigError(f"{who}: input %I0.{channel} is already {owner[channel]}")
+        owner[channel] = who
+        return channel  # base inputs: flat index = channel
+
+    for key, table in fc.items():
+        ref = _counter_ref("fast_counters", key, "FC", mem)
+        o = _validated("fast_counters", key, FastCounterConfig, table)
+        wiring = profile.fast_counters[ref.index]
+        where = f'fast_counters."{key}"'
+        mem.blocks["FC"][ref.index] = FastCounter(o.mode, o.preset, wiring.max_hz)
+        hub.attach(mem.blocks["FC"][ref.index], claim(wiring.input, f"{where} (counting)"))
+    for key, table in vfc.items():
+        ref = _counter_ref("very_fast_counters", key, "VFC", mem)
+        o = _validated("very_fast_counters", key, VeryFastCounterConfig, table)
+        w = profile.very_fast_counters[ref.index]
+        where = f'very_fast_counters."{key}"'
+        outputs = tuple(None if z is None else (mem.q, mem.q_field, w.reflex[k])
+                        for k, z in enumerate((o.reflex0, o.reflex1)))
+        c = VeryFastCounter(o.mode, o.preset, o.s0, o.s1, w.max_hz,
+                            100 if o.time_base == "100ms" else 1000,
+                            (o.reflex0 and tuple(o.reflex0), o.reflex1 and tuple(o.reflex1)),
+                            outputs, hub.events, str(ref))
+        mem.blocks["VFC"][ref.index] = c
+        two_inputs = o.mode in ("up_down", "quadrature")
+        hub.attach(c, claim(w.pulse, f"{where} (pulses / phase A)"),
+                   claim(w.direction, f"{where} (direction / phase B)") if two_inputs else None)
+        hub.attach_vfc(c, claim(w.preset, f"{where} (preset input)") if o.preset_input else None,
+                       claim(w.catch, f"{where} (catch input)") if o.catch_input else None)
+    for channel in owner:
+        mem.use_io(parse_address(f"%I0.{channel}", profile))
+    return hub
 
 
 # ---- communication (issue 11 B): [exch], the Ethernet port's remote devices ---------------

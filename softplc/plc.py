@@ -15,6 +15,7 @@ from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
 from .compiler import Resolved, compile_program, resolve
 from .config import Config, key_path, load_config
 from .config_models import (
+    build_counters,
     parse_analog,
     parse_exch,
     parse_pid,
@@ -72,10 +73,14 @@ class PLC:
         self._configure_blocks(settings)
         self._configure_constants(settings.constants)
         self._configure_pid(settings.pid)
+        self.mem.counting = build_counters(settings.fast_counters, settings.very_fast_counters,
+                                           self.mem)
         self._exch = self._configure_exch(settings.exch)
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
+        if self.mem.counting is not None and self.mem.counting.vfc:  # preset/catch inputs
+            self.engine.before_scan.append(self.mem.counting.poll)
         if self._exch is not None:  # only then: programs without EXCH pay nothing
             self.engine.before_scan.append(self._exch_boundary)
         self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
@@ -294,6 +299,10 @@ class PLC:
                         f"base = \"100ms\", preset = 10}}}}")
             if ref.kind == "DR":
                 return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
+            if ref.kind in ("FC", "VFC"):
+                section = "fast_counters" if ref.kind == "FC" else "very_fast_counters"
+                return (f"counter {ref} is used but not configured: add "
+                        f"[{section}.\"{ref}\"] with its mode (TwidoSuite's counter screen)")
             blocks[ref.index] = self._default_block(ref.kind)
         return None
 

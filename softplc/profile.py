@@ -10,6 +10,27 @@ from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True)
+class FastCounterWiring:
+    """%FCi: its counting input (channel of %I0.x) and the input's highest frequency."""
+
+    input: int
+    max_hz: float
+
+
+@dataclass(frozen=True)
+class VeryFastCounterWiring:
+    """%VFCi: pulse / phase A input, direction / phase B input, preset and catch inputs
+    (channels of %I0.x), the two reflex outputs (channels of %Q0.x), highest frequency."""
+
+    pulse: int
+    direction: int
+    preset: int
+    catch: int
+    reflex: tuple[int, int]
+    max_hz: float
+
+
+@dataclass(frozen=True)
 class Profile:
     name: str
     inputs_base: int  # %I0.0 .. %I0.(n-1)
@@ -19,6 +40,9 @@ class Profile:
     counts: dict[str, int] = field(default_factory=dict)
     # The base's analog inputs %IW0.0, %IW0.1...: (signal type, full-scale count) each.
     analog_base: tuple[tuple[str, int], ...] = ()
+    # fast counters (runtime/fastcount.py): the wiring of %FCi and %VFCi on the base
+    fast_counters: tuple[FastCounterWiring, ...] = ()
+    very_fast_counters: tuple[VeryFastCounterWiring, ...] = ()
 
     def count(self, kind: str) -> int:
         return self.counts[kind]
@@ -50,6 +74,8 @@ TWDLCAE40DRF = Profile(
         "STACK": 8,  # MPS depth [m221]
         "PAREN": 8,  # parenthesis nesting [manual]
         "PID": 14,  # PID functions PID 0 .. PID 13 [manual, from memory]
+        "FC": 4,  # fast counters %FC0..%FC3 [manual, from memory]
+        "VFC": 2,  # very fast counters %VFC0..%VFC1 [manual, from memory]
         # communication (issue 11 B, runtime/exch.py): %MSG1..%MSG3 (index 0 unused), the
         # Ethernet port's remote devices 1..16 [manual, from memory]
         "MSG": 4,
@@ -58,6 +84,13 @@ TWDLCAE40DRF = Profile(
     # two analog potentiometers and one 0-10 V input, 10 bits [manual, from memory: the
     # hardware guide's figures were not found in the search corpora; check the counts]
     analog_base=(("pot", 1023), ("pot", 1023), ("0-10V", 1023)),
+    # fast counters [manual, from memory of TWD USE 10AE / the hardware guide: not found in
+    # the search corpora; check]: %FC0..3 on %I0.2..%I0.5 at 5 kHz; %VFC0 pulses (phase A)
+    # %I0.1, direction (phase B) %I0.0, preset %I0.2, catch %I0.3, reflex %Q0.2/%Q0.3;
+    # %VFC1 %I0.7, %I0.6, %I0.5, %I0.4, reflex %Q0.4/%Q0.5; 20 kHz
+    fast_counters=tuple(FastCounterWiring(i, 5_000.0) for i in (2, 3, 4, 5)),
+    very_fast_counters=(VeryFastCounterWiring(1, 0, 2, 3, (2, 3), 20_000.0),
+                        VeryFastCounterWiring(7, 6, 5, 4, (4, 5), 20_000.0)),
 )
 
 # Known expansion modules: digital inputs / outputs per module.

@@ -30,9 +30,10 @@ FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SI
 # timer's IN, else the pin's name in lower case).
 BLOCK_PIN_METHODS = {pin: "run" if pin == "IN" else pin.lower()
                      for cls in BLOCK_CLASSES.values() for pin in cls.PINS}
-# A block's input pins (as its class declares them) and its bit outputs (its bit fields).
+# A block's input pins (as its class declares them) and its bit outputs (its read-only bit
+# fields; the writable %VFCi.R / %VFCi.S are enable bits, not outputs).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
-BLOCK_OUTPUTS = {kind: tuple(f for f, (t, _w) in fields.items() if t == BOOL)
+BLOCK_OUTPUTS = {kind: tuple(f for f, (t, w) in fields.items() if t == BOOL and not w)
                  for kind, fields in BLOCK_FIELDS.items() if fields}
 
 
@@ -220,6 +221,8 @@ class ValueCompiler:
         elif ref.field == "J":  # %SBRi.j, %SCi.j
             b = self.block_name(Ref(k, ref.index))
             self.emit(f"{b}.set_bit({ref.bit}, {value})")
+        elif ref.kind in BLOCK_OUTPUTS and ref.field is not None:  # %VFCi.R / .S enables
+            self.emit(f"{self.block_name(Ref(k, ref.index))}.{ref.field} = {value}")
         elif ref.bit is not None and k in WORD_BUFFERS:
             u = Names.UWORD[k]
             self.use(u)
@@ -491,7 +494,7 @@ class ValueCompiler:
                 self.emit(f"{view}[{ref.index >> 1}] = {code}")
         elif k in BLOCK_OUTPUTS or k in ("TM", "C", "R"):
             b = self.block_name(Ref(ref.kind, ref.index))
-            if ref.field == "P":
+            if ref.field == "P" and k not in ("FC", "VFC"):  # %FC/%VFC: any word (unsigned)
                 self.emit(f"{b}.P = min(max({code}, 0), {MAX_VALUE})")
             else:
                 self.emit(f"{b}.{ref.field} = {code}")

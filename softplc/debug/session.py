@@ -554,12 +554,15 @@ class Session(Controller):
 
     def cmd_counters(self, arg: str) -> str:
         """counters: every counter with its preset, value and outputs (D done, E/F
-        underflow/overflow)."""
+        underflow/overflow); the fast counters %FC / %VFC with their mode (_en: IN, lost:
+        pulses above the input's frequency)."""
         cs = self.plc.mem.blocks.get("C", {})
-        if not cs:
-            return "no counters"
-        return "\n".join(f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} "
-                         f"F={int(c.F)}" for i, c in sorted(cs.items()))
+        lines = [f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} F={int(c.F)}"
+                 for i, c in sorted(cs.items())]
+        for kind in ("FC", "VFC"):  # fast counters (runtime/fastcount.py)
+            lines += [f"{f'%{kind}{i}':<6} {c.mode:<10} {ladder.block_summary(c)}"
+                      for i, c in sorted(self.plc.mem.blocks.get(kind, {}).items())]
+        return "\n".join(lines) or "no counters"
 
     def cmd_pid(self, arg: str) -> str:
         """pid: every PID function with its mode, set point, measure, output, Kp/Ti/Td,

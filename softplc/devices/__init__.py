@@ -3,6 +3,7 @@
 from . import (  # noqa: F401  (each registers its device type)
     analog_source,
     axis,
+    encoder,
     oven,
     pen,
     scope,

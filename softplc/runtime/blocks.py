@@ -420,3 +420,9 @@ class Message(Block):
 BLOCK_CLASSES: dict[str, type[Block]] = {"TM": Timer, "C": Counter, "DR": Drum,
                                          "SBR": ShiftRegister, "SC": StepCounter, "R": Register,
                                          "MSG": Message}
+
+# Fast counters %FC / %VFC live in their own module, which imports Block (runtime/__init__
+# imports this module first, so the cycle always resolves in this order).
+from .fastcount import FastCounter, VeryFastCounter  # noqa: E402
+
+BLOCK_CLASSES.update(FC=FastCounter, VFC=VeryFastCounter)

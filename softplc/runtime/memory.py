@@ -82,6 +82,8 @@ class MemoryImage:
         self.iw = WordFamily(n_aio)
         self.qw = WordFamily(n_aio)
         self.analog: Any = None  # the AnalogIO converter, when analog channels are configured
+        # fast counters: the CountingInputs that pulse sources feed (runtime/fastcount.py)
+        self.counting: Any = None
         # Function blocks, filled in by the engine from the configuration.
         self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
 
@@ -148,7 +150,10 @@ class MemoryImage:
                 return
             if ref.field is None or ref.field == "J":
                 raise AddressError(f"{ref} cannot be written")
-            setattr(b, ref.field, int(value))
+            v = int(value)
+            if BLOCK_FIELDS[ref.kind][ref.field][0] == "int16":
+                v = wrap16(v)  # a word (%VFCi.S0 := 40000 from the API is 16#9C40)
+            setattr(b, ref.field, v)
             return
         if ref.length is not None:
             step = WIDTH.get(ref.kind, 1)

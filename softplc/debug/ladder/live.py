@@ -89,7 +89,8 @@ class Live:
 def block_summary(b: Any) -> str:
     """A function block's fields in one short string."""
     parts = []
-    for f in ("Q", "V", "P", "D", "E", "F", "S", "W"):
+    # a block class may name its own fields (%VFC: thresholds, capture...)
+    for f in getattr(b, "SUMMARY", ("Q", "V", "P", "D", "E", "F", "S", "W")):
         if hasattr(b, f) and not callable(getattr(b, f)):
             parts.append(f"{f}={int(getattr(b, f))}")
     return " ".join(parts)

@@ -22,7 +22,8 @@ through the slower `_special` path.
 from __future__ import annotations
 
 import math
-from collections import deque
+import struct
+from itertools import repeat
 from math import floor
 from pathlib import Path
 from typing import Any
@@ -31,12 +32,21 @@ from ...address import parse_address
 from ...errors import AddressError, ConfigError
 from ...runtime.memory import MemoryImage
 from ..base import AxisDevice, Device, register_device
+from . import loop
 from . import trajectory as tj
 from .law import Coefficients
 from .options import Ctl, Err, Mode, ServoAxisOptions, St, Word
 from .plant import ZOH, step
 
 TRACE_HEADER = "t,commanded,actual,fe,output"
+# The status words in word order, (offset, struct code): one `pack_into` writes them all.
+_STATUS_WORDS = ((Word.ACTUAL, "i"), (Word.COMMANDED, "i"), (Word.FE, "f"), (Word.FE_MAX, "f"),
+                 (Word.STATUS, "H"), (Word.ERROR, "H"), (Word.TICKS, "i"), (Word.OUTPUT, "f"),
+                 (Word.CURRENT, "f"), (Word.VELOCITY, "f"))
+_STATUS_PACK = struct.Struct("=" + "".join(c for _, c in _STATUS_WORDS)).pack_into
+assert [o for o, _ in _STATUS_WORDS] == [  # contiguous, from ACTUAL to the block's end
+    Word.ACTUAL + sum(struct.calcsize(c) // 2 for _, c in _STATUS_WORDS[:i])
+    for i in range(len(_STATUS_WORDS))] and Word.VELOCITY + 2 == Word.SIZE
 
 
 @register_device("servo_axis")
@@ -44,6 +54,13 @@ class ServoAxis(AxisDevice):
     """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts."""
 
     Options = ServoAxisOptions
+    # Everything a scan changes (Device.state); K, a and the loop constants follow from
+    # load_mass_ratio and are rebuilt by set_state. The trace is a record: see state().
+    STATE = ("x", "v", "k", "origin", "fault", "closed", "open_loop", "_ol_u", "_ol_end",
+             "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
+             "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped", "_traj", "_active",
+             "_k0", "_tail_v", "_ctl_prev", "_vel", "_x_prev_scan", "_ready", "_mass_f",
+             "load_mass_ratio", "_fixed")
 
     def __init__(self, name: str, options: ServoAxisOptions):
         super().__init__(name, options)
@@ -63,20 +80,26 @@ class ServoAxis(AxisDevice):
         self._lm = g.limit_minus if g.limit_minus is not None else -math.inf
         self._hp = g.hard_stop_plus if g.hard_stop_plus is not None else math.inf
         self._hm = g.hard_stop_minus if g.hard_stop_minus is not None else -math.inf
+        self._lo, self._hi = max(self._lm, self._hm), min(self._lp, self._hp)
         if not self._hm <= o.start <= self._hp:
             raise ConfigError(f"{self.where('start')}: {o.start} is beyond the hard stops")
         self._enc0 = math.floor(o.start)
+        self._start = o.start
         self._ideal = p.encoder == "ideal"
         self._ready = True  # the drive's READY, evaluated once per scan in update()
         self._mass_word: int | None = None
         self._mass_f = 0.0  # the load mass word's value last seen
-        self._build_consts()
-        self.trace: deque[tuple[int, float, float, float]] = deque(
-            maxlen=o.trace_max)
+        # The servo-rate trace: a list trimmed to the last `trace_max` rows once it holds
+        # twice that many (cheaper than a ring per row); `_trace_dropped` rows were cut.
+        self.trace: list[tuple[int, float, float, float]] = []
+        self._trace_dropped = 0
         self._rec = self.trace.append if o.trace else None
+        self._trim_at = 2 * o.trace_max
+        self._build_consts()
         self._mem: MemoryImage | None = None
         self._base = 0
         self._estop_idx: int | None = None
+        self._wired = False  # the drive's READY depends on an input or an output
         self._power_idx: int | None = None
         self._i: list[int] = []
         self._q: list[int] = []
@@ -91,17 +114,34 @@ class ServoAxis(AxisDevice):
         gn = self.gains
         c = self.coef
         inf = math.inf
-        ideal = self._ideal
-        # Everything the servo loop reads but never changes, unpacked in one statement.
-        self._consts = (
-            c.fe, c.cv, c.ca, c.ie, c.av, gn.int_mode == 0,
-            gn.int_limit / 16 if gn.int_limit else inf, gn.friction_ff, gn.offset,
-            gn.output_limit, gn.fatal_fe / 16 if gn.fatal_fe else inf,
-            gn.warn_fe / 16 if gn.warn_fe else inf, self._dac_q, self.K, p.coulomb,
-            p.amp_offset, self.u_peak, p.load, p.load_table, self.zoh.phi, self.zoh.g1,
-            self.zoh.g2, ideal, o.start if ideal else self._enc0, self._lp, self._lm,
-            self._hp, self._hm, *g.home_switch, g.index_period, g.index_offset, self.T)
-        self._warn_lim = self._consts[11]
+        table = p.load_table
+        # Everything the servo loop reads but never changes: literals of its generated code
+        # (loop.py), with the flags that drop the branches this configuration never takes.
+        fatal = gn.fatal_fe / 16 if gn.fatal_fe else inf
+        warn = gn.warn_fe / 16 if gn.warn_fe else inf
+        ilim = gn.int_limit / 16 if gn.int_limit else inf
+        z = self.zoh
+        self._loop_values = dict(
+            cfe=c.fe, ccv=c.cv, cca=c.ca, cie=c.ie, cav=c.av, ilim=ilim, nilim=-ilim,
+            ff=gn.friction_ff, off=gn.offset, lim=gn.output_limit, nlim=-gn.output_limit,
+            fatal=fatal, warn_lim=warn, check=min(warn, fatal), q=self._dac_q, K=self.K,
+            a=self.a, fc=p.coulomb, nfc=-p.coulomb, uoff=p.amp_offset, up=self.u_peak,
+            nup=-self.u_peak, load=p.load, phi=z.phi, g1=z.g1, g2=z.g2, T=self.T,
+            enc0=o.start if self._ideal else self._enc0, lo=self._lo, hi=self._hi,
+            hlo=g.home_switch[0], hhi=g.home_switch[1], iper=g.index_period,
+            ioff=g.index_offset)
+        if len(table) == 2:
+            (x0, y0), (x1, y1) = table
+            self._loop_values.update(t_x0=x0, t_y0=y0, t_x1=x1, t_y1=y1, t_dy=y1 - y0,
+                                     t_dx=x1 - x0)
+        self._loop_flags = dict(
+            ideal=self._ideal, int_always=gn.int_mode == 0, ilim=ilim != inf,
+            check=min(warn, fatal) != inf, warn_on=warn != inf, fatal_on=fatal != inf,
+            dac=bool(self._dac_q), trace=self._rec is not None, up=self.u_peak != inf,
+            load=p.load != 0, table2=len(table) == 2, table=len(table) not in (0, 2))
+        self._loops: dict[tuple[bool, ...], Any] = {}
+        self._warn_lim = warn
+        self._fixed = False
 
     def set_load_mass_ratio(self, ratio: float) -> None:
         """Change the moving mass at run time (a workpiece loaded or removed): `ratio` is
@@ -130,12 +170,8 @@ class ServoAxis(AxisDevice):
         self._base = b = ref.index
         self._w = mem.mw.uw
         self._ctl_i = b + Word.CONTROL
-        mw = mem.mw
-        self._views = [(mw.d[i & 1], i >> 1) for i in (b + Word.ACTUAL, b + Word.COMMANDED)] \
-            + [(mw.f[i & 1], i >> 1) for i in (b + Word.FE, b + Word.FE_MAX)] \
-            + [(mw.d[(b + Word.TICKS) & 1], (b + Word.TICKS) >> 1)] \
-            + [(mw.f[i & 1], i >> 1) for i in (b + Word.OUTPUT, b + Word.CURRENT,
-                                               b + Word.VELOCITY)]
+        self._buf = mem.mw.buf
+        self._status_at = 2 * (b + Word.ACTUAL)  # byte offset of the status words
         self._i, self._q = mem.i_field, mem.q_field
         if self.opt.load_mass_word is not None:
             self._mass_word = self._float_word(mem, self.opt.load_mass_word, "load_mass_word")
@@ -143,6 +179,7 @@ class ServoAxis(AxisDevice):
             self._estop_idx = self.io_index(mem, self.opt.estop_input, "I", "estop_input")
         if self.opt.power_output is not None:
             self._power_idx = self.io_index(mem, self.opt.power_output, "Q", "power_output")
+        self._wired = self._estop_idx is not None or self._power_idx is not None
         self._write_status()
 
     def _float_word(self, mem: MemoryImage, address: str, option: str) -> int:
@@ -188,14 +225,16 @@ class ServoAxis(AxisDevice):
         self._app = ap
         self._ie = 0.0
         self._clamped = False
-        self._traj: list[float] = []
+        self._traj: tuple[float, ...] = ()
         self._active = False  # a trajectory was started and has not been seen to end
         self._k0 = 1
         self._tail_v = 0.0  # counts per cycle after the trajectory's end
         self._ctl_prev = 0
         self._vel = 0.0
         self._x_prev_scan = self.x
+        self._fixed = False  # the loop's state is a fixed point: see _probe_fixed
         self.trace.clear()
+        self._trace_dropped = 0
 
     def set_fault(self, fault: str) -> None:
         """Inject a fault at run time: "jammed" (the carriage is frozen), "estop" (the
@@ -203,11 +242,12 @@ class ServoAxis(AxisDevice):
         if fault not in ("none", "jammed", "estop", "amp_fault"):
             raise ConfigError(f"device {self.name!r}: unknown fault {fault!r}")
         self.fault = fault
+        self._fixed = False
 
     # -- positions (the interface limit switches and tools use) ----------------------------
     def _raw(self) -> float:
         if self._ideal:
-            return self.x - self.opt.start
+            return self.x - self._start
         return floor(self.x) - self._enc0
 
     @property
@@ -238,23 +278,42 @@ class ServoAxis(AxisDevice):
                 self._mass_f = r
                 r += self.opt.plant.load_mass_ratio
                 self.set_load_mass_ratio(r if math.isfinite(r) and r >= 0 else 0.0)
-        self._ready = ready = self.amp_ready()
-        if self._w[self._ctl_i] != self._ctl_prev or not self.closed or \
-                self.fault != "none" or not ready:
+        fault = self.fault
+        # (amp_ready() inlined for the common case: no fault, drive not wired to inputs)
+        self._ready = ready = True if fault == "none" and not self._wired else self.amp_ready()
+        closed = self.closed
+        if self._w[self._ctl_i] != self._ctl_prev or not closed or fault != "none" or \
+                not ready:
             self._commands()
+            closed = self.closed
         due = floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9)
         n = due - self.k
         if n > 0:
-            if not self.closed and self._at_rest_open():
+            if self._fixed:
+                self._repeat(n)
+            elif not closed and self._at_rest_open():
                 self.k = due  # killed and stuck: nothing moves, nothing to record
             else:
+                # (a pre-filter: with FE != 0 and no clamp the integrator moves: no probe)
+                if self.v == 0.0 and (self.fe == 0.0 or self._clamped) and \
+                        self._fixed_candidate():
+                    n = self._probe_fixed(n)
+                    if self._fixed:
+                        self._repeat(n)
+                        n = 0
                 while n > 0:
                     n = self._cycles(n)
+            if self._rec is not None and len(self.trace) >= self._trim_at:
+                rec = self.trace  # keep the last trace_max rows
+                cut = len(rec) - self.opt.trace_max
+                del rec[:cut]
+                self._trace_dropped += cut
+        x = self.x
         if dt > 0:
-            self._vel = (self.x - self._x_prev_scan) / dt
-        self._x_prev_scan = self.x
-        if self._active:
-            self._after_ticks()
+            self._vel = (x - self._x_prev_scan) / dt
+        self._x_prev_scan = x
+        if self._active and not self._tail_v and self.k - self._k0 + 1 >= len(self._traj):
+            self._after_ticks()  # (it does nothing before the trajectory's end)
         if self._coast and self.v == 0.0:  # after an open-loop output: close the loop here
             self._coast = False
             if self.open_loop:
@@ -288,7 +347,7 @@ class ServoAxis(AxisDevice):
         self.open_loop = False
         self._coast = False
         self.u = 0.0
-        self._traj = []
+        self._traj = ()
         self._tail_v = 0.0
         self.homing = 0
         if latch:
@@ -298,6 +357,7 @@ class ServoAxis(AxisDevice):
 
     # -- commands ---------------------------------------------------------------------------
     def _commands(self) -> None:
+        self._fixed = False  # whatever the commands change, the fixed point is re-proved
         mw = self._mem.mw  # type: ignore[union-attr]
         b = self._base
         ctl = mw.uw[b + Word.CONTROL]
@@ -339,7 +399,7 @@ class ServoAxis(AxisDevice):
         self._cvp = 0.0
         self._app = ap
         self._ie = 0.0
-        self._traj, self._tail_v = [], 0.0
+        self._traj, self._tail_v = (), 0.0
 
     def _rule(self, acc_ms: int = 0, s_ms: int = 0, trapezoid: bool = False) -> tj.RampRule:
         g = self.gains
@@ -393,13 +453,14 @@ class ServoAxis(AxisDevice):
     def _follow(self, prof: tj.Profile, end: float | None = None, v_end: float = 0.0) -> None:
         """Start a trajectory at the next cycle; `end` is the exact final position, `v_end`
         the velocity (counts/s) that continues after the profile (a jog's)."""
-        self._traj = tj.sample(prof, self.T)
+        traj = tj.sample(prof, self.T)
         self._tail_v = v_end * self.T
         self._active = True
-        if self._traj and end is not None:
-            self._traj[-1] = end
-        elif not self._traj and not self._tail_v:
+        if traj and end is not None:
+            traj[-1] = end
+        elif not traj and not self._tail_v:
             self._cp = end if end is not None else self._cp
+        self._traj = tuple(traj)  # immutable: a state() shares it
         self._k0 = self.k + 1
 
     def _cmd_velocity(self) -> float:
@@ -444,7 +505,7 @@ class ServoAxis(AxisDevice):
     def _after_ticks(self) -> None:
         """Scan-level sequencing once the trajectory has ended."""
         if self._traj and self.k - self._k0 + 1 >= len(self._traj) and not self._tail_v:
-            self._traj = []  # a finished move holds its end exactly
+            self._traj = ()  # a finished move holds its end exactly
         if self._traj or self._tail_v:
             return
         self._active = False
@@ -459,139 +520,69 @@ class ServoAxis(AxisDevice):
         elif self.closed:
             self.done = True
 
+    # -- the fixed point ----------------------------------------------------------------------
+    # A servo cycle maps the loop state L = (x, v, CP, CP', CV', AP', IE, clamped) to the next
+    # one; with the loop closed, no trajectory left (CP constant), no tail velocity, the drive
+    # ready, no fault, no homing search and the carriage inside the limits, the map depends
+    # on nothing else (not on the cycle number). So if one cycle leaves L bit for bit as it
+    # was, every later cycle does too and computes the same u, w, FE: the cycles can be
+    # skipped, their trace rows written in one go, until a command, a fault, the drive's
+    # READY or the moving mass changes (_commands, set_fault, _build_consts clear the flag).
+    # The test is on the packed bytes (-0.0 and 0.0 differ), so it is exact, not approximate.
+    _PACK = struct.Struct("<8d").pack
+
+    def _loop_state(self) -> bytes:
+        return self._PACK(self.x, self.v, self._cp, self._cpp, self._cvp, self._app,
+                          self._ie, self._clamped)
+
+    def _fixed_candidate(self) -> bool:
+        """The conditions under which the cycle map is the same for every cycle."""
+        return (self.closed and not self.open_loop and not self._tail_v
+                and self.k + 1 - self._k0 >= len(self._traj) and self.homing != 1
+                and self._ready and self.fault == "none" and self._lo < self.x < self._hi)
+
+    def _probe_fixed(self, n: int) -> int:
+        """Run one of the n due cycles; note a fixed point. Returns the cycles left."""
+        before = self._loop_state()
+        left = self._cycles(1)
+        self._fixed = self._fixed_candidate() and self._loop_state() == before
+        return n - 1 + left
+
+    def _repeat(self, n: int) -> None:
+        """n cycles at the fixed point: only the cycle count and the trace move on."""
+        k = self.k
+        if self._rec is not None:
+            o = self.origin
+            self.trace.extend(zip(range(k + 1, k + n + 1), repeat(self._cp - o),
+                                  repeat(self._app - o), repeat(self.u)))
+        self.k = k + n
+
     # -- the servo loop ---------------------------------------------------------------------
     def _cycles(self, n: int) -> int:
         """Run up to n loop cycles; returns how many are left when an event interrupts."""
-        (cfe, ccv, cca, cie, cav, int_always, ilim, ff, off, lim, fatal, warn_lim, q, K, fc,
-         uoff, up, load, table, phi, g1, g2, ideal, enc0, lp, lm, hp, hm, hlo, hhi, iper,
-         ioff, T) = self._consts
-        floor = math.floor  # a local: looked up every cycle
-        ready = self._ready
-        special = not ready or self.fault != "none"
         closed, open_loop = self.closed, self.open_loop
-        traj, k0, tail_v = self._traj, self._k0, self._tail_v
-        ntraj = len(traj)
-        last = traj[-1] if traj else self._cp
-        searching = self.homing == 1
-        lo, hi = max(lm, hm), min(lp, hp)
-        x, v, k = self.x, self.v, self.k
-        cp, cpp, cvp, app, ie = self._cp, self._cpp, self._cvp, self._app, self._ie
-        clamped = self._clamped
-        u = self.u
-        w = self.w
-        T = self.T
-        rec = self._rec
-        origin = self.origin
-        fe = self.fe
-        fe_max = self.fe_max
-        warn = False
-        event = None
-        ol_end = self._ol_end
-        ilim_on = ilim != math.inf
-        check = min(warn_lim, fatal)
-        stop = k + n
-        for k in range(k + 1, stop + 1):  # noqa: B020  (k carries on after the loop)
-            ap = (x - enc0) if ideal else floor(x) - enc0
-            if closed:
-                if ntraj:
-                    j = k - k0
-                    cp = traj[j] if j < ntraj else last + tail_v * (j - ntraj + 1)
-                elif tail_v:
-                    cp += tail_v
-                fe = cp - ap
-                cv = cp - cpp
-                ca = cv - cvp
-                if (int_always or cv == 0) and not clamped:
-                    ie += fe
-                    if ilim_on:
-                        ie = ilim if ie > ilim else (-ilim if ie < -ilim else ie)
-                u = cfe * fe + ccv * cv + cca * ca + cie * ie - cav * (ap - app) + off
-                if cv > 0:
-                    u += ff
-                elif cv < 0:
-                    u -= ff
-                clamped = True
-                if u > lim:
-                    u = lim
-                elif u < -lim:
-                    u = -lim
-                else:
-                    clamped = False
-                cpp, cvp = cp, cv
-                afe = fe if fe >= 0 else -fe
-                if afe > fe_max:
-                    fe_max = afe
-                if afe > check:
-                    if afe > warn_lim:
-                        warn = True
-                    if afe > fatal:
-                        event = "fatal"
-                        u = 0.0
-            elif open_loop:
-                cp = ap
-                u = self._ol_u
-                if ol_end and k >= ol_end:
-                    event = "open loop end"
-            else:
-                u = 0.0
-                cp = ap
-            if q:
-                u = q * floor(u / q)
-            app = ap
-            if rec is not None:
-                rec((k, cp - origin, ap - origin, u))
-            # the drive: offset, current limit, load
-            w = u + uoff if ready else 0.0
-            if w > up:
-                w = up
-            elif w < -up:
-                w = -up
-            wl = w - load
-            if table:
-                wl -= _interp(table, x)
-            x0 = x
-            if special or not lo < x < hi:
-                x, v = self._special(x, v, wl)
-            else:
-                if v > 0:
-                    we = wl - fc
-                elif v < 0:
-                    we = wl + fc
-                elif -fc <= wl <= fc:
-                    we = None
-                else:
-                    we = wl - fc if wl > 0 else wl + fc
-                if we is not None:
-                    kw = K * we
-                    v1 = phi * v + kw * g1
-                    if v * v1 < 0:  # the velocity changes sign within the cycle
-                        x, v = step(x, v, wl, K, self.a, fc, T, self.zoh)
-                    else:
-                        x += v * g1 + kw * g2
-                        v = v1
-            if searching and hlo <= x0 < hhi and floor((x - ioff) / iper) > \
-                    floor((x0 - ioff) / iper):
-                # the first index pulse (crossed going +) while the home flag is made
-                xi = floor((x - ioff) / iper) * iper + ioff
-                event = ("home", (xi - self.opt.start) if ideal else floor(xi) - enc0)
-            if event is not None:
-                break
-        n = stop - k
-        self.x, self.v, self.k = x, v, k
-        self._cp, self._cpp, self._cvp, self._app, self._ie = cp, cpp, cvp, app, ie
-        self._clamped = clamped
-        self.u, self.w, self.fe, self.fe_max = u, w, fe, fe_max
-        self.warn = warn or (closed and abs(fe) > self._warn_lim)
+        ready = self._ready
+        key = (closed, open_loop, self.homing == 1, ready, self.fault != "none")
+        fn = self._loops.get(key)
+        if fn is None:
+            flags = dict(self._loop_flags, closed=closed, open_loop=open_loop,
+                         killed=not (closed or open_loop), search=key[2],
+                         special=not ready or key[4], ready=ready)
+            fn = self._loops[key] = loop.compile_cycles(
+                loop.render(self._loop_values, flags), _interp, step)
+        return fn(self, n)
+
+    def _on_event(self, event: Any) -> None:
+        """What interrupted the cycles (called by the loop with its state written back)."""
         if event == "fatal":
-            on_limit = x >= lp or x <= lm
-            self._kill(Err.LIMIT if on_limit else Err.FATAL_FE)
+            x = self.x
+            self._kill(Err.LIMIT if x >= self._lp or x <= self._lm else Err.FATAL_FE)
         elif event == "open loop end":  # output 0: the carriage coasts to a stop
             self._ol_u = 0.0
             self._ol_end = 0
             self._coast = True
-        elif event is not None:
+        else:
             self._home_trigger(event[1])
-        return n
 
     def _special(self, x: float, v: float, w: float) -> tuple[float, float]:
         """The drive's and the mechanics' exceptional states, one cycle."""
@@ -644,31 +635,46 @@ class ServoAxis(AxisDevice):
         return s
 
     def _write_status(self) -> None:
-        # Straight into the memoryview casts (the 'f' cast rounds to single precision).
-        (d_act, i_act), (d_cmd, i_cmd), (f_fe, i_fe), (f_max, i_max), (d_tk, i_tk), \
-            (f_out, i_out), (f_cur, i_cur), (f_vel, i_vel) = self._views
-        w, b = self._w, self._base
-        d_act[i_act] = round(self._raw() - self.origin)
-        d_cmd[i_cmd] = round(self._cp - self.origin)
-        f_fe[i_fe] = self.fe if self.closed else 0.0
-        f_max[i_max] = self.fe_max
-        w[b + Word.STATUS] = self.status_bits()
-        w[b + Word.ERROR] = self.error
-        d_tk[i_tk] = self.k & 0x7FFFFFFF
-        f_out[i_out] = self.u
-        f_cur[i_cur] = self.w * self._cur_scale
-        f_vel[i_vel] = self._vel
+        # The status words are one contiguous run: one pack_into (its 'f' rounds to single
+        # precision as the memory image's %MF casts do; native order as theirs).
+        origin = self.origin
+        x = self.x
+        _STATUS_PACK(self._buf, self._status_at,
+                     round((x - self._start if self._ideal else floor(x) - self._enc0)
+                           - origin),  # _raw() inlined
+                     round(self._cp - origin), self.fe if self.closed else 0.0, self.fe_max,
+                     self.status_bits(), self.error, self.k & 0x7FFFFFFF, self.u,
+                     self.w * self._cur_scale, self._vel)
 
     def status(self) -> dict[str, Any]:
         return {"pos": round(self.actual), "fe": round(self.fe, 2), "homed": self.homed,
                 "error": Err.TEXT[self.error]}
+
+    # -- snapshots --------------------------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        st = super().state()
+        st["trace"] = self._trace_dropped + len(self.trace)  # rows recorded so far
+        return st
+
+    def set_state(self, st: dict[str, Any]) -> None:
+        ratio = self.load_mass_ratio
+        fixed = st["_fixed"]
+        super().set_state(st)
+        if self.load_mass_ratio != ratio:
+            self._build_consts()
+            self._fixed = fixed
+        keep = st["trace"] - self._trace_dropped
+        del self.trace[max(keep, 0):]
+        if keep < 0:  # the rows back to there were trimmed: the trace restarts at the cut
+            self._trace_dropped = st["trace"]
 
     # -- trace ------------------------------------------------------------------------------
     def samples(self) -> list[tuple[float, float, float, float, float]]:
         """The servo-rate trace: (t s, commanded, actual, following error, output bits),
         positions in counts (user coordinates of the time)."""
         T = self.T
-        return [(k * T, cp, ap, cp - ap, u) for k, cp, ap, u in self.trace]
+        return [(k * T, cp, ap, cp - ap, u)
+                for k, cp, ap, u in self.trace[-self.opt.trace_max:]]
 
     def trace_to_csv(self, path: str | Path) -> None:
         with open(path, "w", encoding="utf-8") as f:
