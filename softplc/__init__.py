@@ -1,5 +1,9 @@
 """softplc: a soft-PLC that runs Telemecanique Twido Instruction List programs."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 from .errors import (
     AddressError,
     CompileError,
@@ -9,8 +13,20 @@ from .errors import (
     ProgramError,
     SoftPLCError,
 )
-from .plc import PLC
+
+if TYPE_CHECKING:
+    from .plc import PLC
 
 __all__ = ["PLC", "ProgramError", "ParseError", "CompileError", "ConfigError", "AddressError",
            "Diagnostic", "SoftPLCError"]
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str) -> Any:
+    """`softplc.PLC` imported on first use (PEP 562): it pulls in the compiler and pydantic,
+    which `softplc --help` and the light commands do not need."""
+    if name == "PLC":
+        from .plc import PLC
+
+        return PLC
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

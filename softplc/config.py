@@ -56,17 +56,6 @@ _UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0}
 MAX_DURATION_S = 86400.0  # a day: longer is a typo, and keeps every duration finite in code
 
 
-def check_keys(section: str, table: Any, allowed: tuple[str, ...]) -> dict[str, Any]:
-    """A config table with only known keys: a typo is an error, not a silent default."""
-    if not isinstance(table, dict):
-        raise ConfigError(f"{section} must be a table, not {table!r}")
-    unknown = sorted(set(table) - set(allowed))
-    if unknown:
-        raise ConfigError(f"{section}: unknown key(s) {', '.join(unknown)}; known: "
-                          f"{', '.join(allowed)}")
-    return table
-
-
 def _parse_duration(value: Any) -> float:
     """'10ms', '1.5s', '1min', '200us' -> seconds (ValueError with a hint otherwise)."""
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
@@ -267,6 +256,40 @@ def _known_keys(t: Any, loc: tuple[Any, ...]) -> list[str]:
     return []
 
 
+def _tag_positions(t: Any, loc: tuple[Any, ...], disc: str | None = None) -> set[int]:
+    """Indexes in `loc` that are the tags pydantic inserts for a discriminated union
+    (`Field(discriminator="kind")`): ('op', 0, 'line', 'to') -> {2}. Walks the schema."""
+    import types
+    import typing
+
+    while typing.get_origin(t) is typing.Annotated:
+        t, *meta = typing.get_args(t)
+        disc = next((m.discriminator for m in meta if getattr(m, "discriminator", None)), disc)
+    if not loc:
+        return set()
+    if typing.get_origin(t) in (typing.Union, types.UnionType):
+        if disc is None:
+            return set()
+        for member in typing.get_args(t):
+            f = getattr(member, "model_fields", {}).get(disc)
+            if f is not None and loc[0] in typing.get_args(f.annotation):
+                return {0} | {i + 1 for i in _tag_positions(member, loc[1:])}
+        return set()
+    inner: Any = None
+    if isinstance(t, type) and issubclass(t, BaseModel):
+        f = t.model_fields.get(loc[0]) if isinstance(loc[0], str) else None
+        if f is None:
+            return set()
+        inner, disc = f.annotation, f.discriminator if isinstance(f.discriminator, str) else None
+    elif typing.get_origin(t) is dict:
+        inner = typing.get_args(t)[1]
+    elif typing.get_origin(t) is list:
+        inner = typing.get_args(t)[0]
+    if inner is None:
+        return set()
+    return {i + 1 for i in _tag_positions(inner, loc[1:], disc)}
+
+
 def _short(value: Any) -> str:
     s = repr(value)
     return s if len(s) <= 60 else s[:57] + "..."
@@ -283,9 +306,19 @@ def error_lines(e: ValidationError, model: type[BaseModel],
                                            (p in ("int", "float", "str", "bool")
                                             or p.startswith(("function-", "list[", "dict[",
                                                              "constrained-")))))
+        tags = _tag_positions(model, loc)
+        loc = tuple(p for i, p in enumerate(loc) if i not in tags)
         path = key_path(prefix + loc)
         kind = err["type"]
         msg = err["msg"]
+        if kind == "union_tag_invalid":  # a discriminated union (a piece's op kind)
+            ctx = err["ctx"]
+            by_path[path] = (f"unknown {ctx['discriminator'].strip(chr(39))} {ctx['tag']!r}; "
+                             f"expected {ctx['expected_tags'].replace(chr(39), '')}")
+            continue
+        if kind == "union_tag_not_found":
+            by_path[path] = f"missing {err['ctx']['discriminator']}"
+            continue
         if kind == "extra_forbidden":
             known = _known_keys(model, loc[:-1])
             by_path[path] = "unknown key" + (f"; known: {', '.join(known)}" if known else "")

@@ -44,8 +44,4 @@ def bcd_encode(v: int) -> int | None:
     """0..9999 -> its BCD word (signed 16-bit); None out of range."""
     if not 0 <= v <= 9999:
         return None
-    u = 0
-    for shift in (0, 4, 8, 12):
-        u |= (v % 10) << shift
-        v //= 10
-    return wrap16(u)
+    return wrap16(int(str(int(v)), 16))  # the decimal digits read as hex digits: 1234 -> 16#1234

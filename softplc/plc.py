@@ -184,7 +184,7 @@ class PLC:
                     ref = parse_address(f"%{kind}{slot}.{c}", self.profile)
                     chans[ref] = AnalogChannel(ref, types[0], "normal",
                                                *normal_range(types[0], mod.full_scale),
-                                               mod.full_scale)
+                                               mod.full_scale, configured=False)
                     allowed[ref] = types
         for text, o in parse_analog(section).items():
             try:
@@ -198,7 +198,7 @@ class PLC:
             if o.type not in allowed[ref]:
                 raise ConfigError(f"analog.{text}: type {o.type!r} not available on this "
                                   f"channel; one of {', '.join(allowed[ref])}")
-            ch.signal, ch.range = o.type, o.range
+            ch.signal, ch.range, ch.configured = o.type, o.range, True
             ch.lo, ch.hi = (o.min, o.max) if o.range == "custom" else \
                 normal_range(o.type, ch.full_scale)
         return AnalogIO(self.mem, chans)

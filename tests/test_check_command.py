@@ -54,3 +54,27 @@ def test_missing_file(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["ok"] is False and out["errors"][0]["file"] == "no/such/program.il"
     assert "no such file" in out["errors"][0]["message"]
+
+
+def test_command_line_defaults_match_the_modules_they_stand_for():
+    """Constants the commands repeat so that `softplc --help` need not import them."""
+    from softplc.commands import _args
+    from softplc.modbus.regmap import DEFAULT_PORT
+
+    assert _args.DEFAULT_MODBUS_PORT == DEFAULT_PORT
+
+
+def test_help_does_not_import_the_plc_or_pydantic():
+    """`softplc --help` stays fast: softplc.PLC is imported on first use (PEP 562), the
+    commands import the compiler, Modbus and pydantic when they run."""
+    import subprocess
+    import sys
+
+    code = ("import sys, softplc.cli, softplc\n"
+            "softplc.cli.build_parser()\n"
+            "print(sorted(m for m in ('softplc.plc', 'softplc.modbus', 'softplc.compiler',"
+            " 'pydantic') if m in sys.modules))\n"
+            "assert softplc.PLC.__name__ == 'PLC'\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"

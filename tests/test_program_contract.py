@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import builtins
+import graphlib
 from pathlib import Path
 
 import pytest
@@ -169,6 +170,28 @@ def test_dependencies_point_one_way(package, forbidden):
     for f in files:
         bad = sorted(m for m in imports_of(f) if m == forbidden or m.startswith(forbidden + "."))
         assert not bad, f"{f.relative_to(ROOT)} imports {bad}"
+
+
+def test_the_package_graph_has_no_cycle():
+    """Every package and top-level module of softplc, with every import (those inside
+    functions too): the graph they form is acyclic."""
+    pkg = ROOT / "softplc"
+    graph: dict[str, set[str]] = {}
+    for f in sorted(pkg.rglob("*.py")):
+        if f == pkg / "__init__.py":  # the root re-exports the API
+            continue
+        unit = f.relative_to(pkg).with_suffix("").parts[0]
+        deps = graph.setdefault(unit, set())
+        for m in imports_of(f):
+            p = m.split(".")
+            if len(p) > 1 and p[0] == "softplc" and p[1] != unit and \
+                    ((pkg / p[1]).is_dir() or (pkg / f"{p[1]}.py").is_file()):
+                deps.add(p[1])
+    assert {"runtime", "compiler", "devices", "web", "commands"} <= set(graph)
+    try:
+        graphlib.TopologicalSorter(graph).prepare()
+    except graphlib.CycleError as e:
+        pytest.fail(f"import cycle: {' -> '.join(e.args[1])}")
 
 
 # ---- bugs the contract fixed -------------------------------------------------------------------

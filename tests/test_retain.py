@@ -74,22 +74,44 @@ def test_round_trip(tmp_path):
     assert (dst.blocks["C"][3].V, dst.blocks["C"][3].P) == (42, 99)
 
 
-def test_running_timer_keeps_its_elapsed_time(tmp_path):
-    """A timer's start time is saved relative to the clock, which restarts from 0."""
+def image_with_running_timer() -> MemoryImage:
+    """%TM0 200 ms into its 321 ms TON, on a clock well past 0."""
     mem = image_with_data()
     clock = mem.blocks["TM"][0].clock
     clock.now_us = 1_000_000
     mem.blocks["TM"][0].run(1)
-    clock.now_us = 1_200_000  # 200 ms into a 321 ms TON
+    clock.now_us = 1_200_000
     mem.blocks["TM"][0].run(1)
     assert mem.blocks["TM"][0].V == 200
-    retain.save(tmp_path / "s", retain.capture(mem))
+    return mem
+
+
+def assert_timer_goes_on_from_200ms(path) -> None:
+    """Restored under another clock (at 3 s), %TM0 counts on from its 200 ms."""
     new = image_with_data()
-    new.blocks["TM"][0].clock.now_us = 0
-    retain.apply(new, retain.load(tmp_path / "s"))
-    new.blocks["TM"][0].clock.now_us = 50_000
+    new.blocks["TM"][0].clock.now_us = 3_000_000
+    retain.apply(new, retain.load(path))
+    new.blocks["TM"][0].clock.now_us = 3_050_000
     new.blocks["TM"][0].run(1)
     assert new.blocks["TM"][0].V == 250 and new.blocks["TM"][0].Q == 0
+
+
+def test_running_timer_keeps_its_elapsed_time(tmp_path):
+    """A timer's start time is saved relative to the clock, which restarts from 0."""
+    retain.save(tmp_path / "s", retain.capture(image_with_running_timer()))
+    assert_timer_goes_on_from_200ms(tmp_path / "s")
+
+
+def test_file_of_the_old_timer_format_still_restores(tmp_path):
+    """Files saved before timers kept `_elapsed_us` hold `_t0` relative to the clock at
+    saving (minus the elapsed time): a running timer goes on from where it was."""
+    state = retain.capture(image_with_running_timer())
+    old = dict(state.blocks["TM"][0])
+    old["_t0"] = -old.pop("_elapsed_us")  # as the old writer stored it
+    state.blocks["TM"][0] = old
+    retain.save(tmp_path / "s", state)
+    assert b'"_t0":-200000' in (tmp_path / "s").read_bytes()
+    assert_timer_goes_on_from_200ms(tmp_path / "s")
 
 
 def test_missing_or_empty_file_is_a_cold_start(tmp_path):

@@ -554,11 +554,21 @@ def test_analog_channels_listed_with_span_and_device(thermo):
     chans = {ch["address"]: ch for ch in thermo.client().request("info")["analog"]}
     assert chans["%IW0.0"] == {"address": "%IW0.0", "input": True, "signal": "pot",
                                "range": "normal", "unit": "", "min": 0.0, "max": 1.0,
-                               "word_min": 0, "word_max": 1023, "driven_by": ""}
+                               "word_min": 0, "word_max": 1023, "driven_by": "",
+                               "configured": True}
     pt = chans["%IW2.0"]
     assert (pt["signal"], pt["unit"], pt["min"], pt["max"]) == ("PT100", "°C", -200, 600)
     assert (pt["word_min"], pt["word_max"], pt["driven_by"]) == (-2000, 6000, "oven")
     assert not chans["%QW2.0"]["input"] and chans["%QW2.0"]["unit"] == "V"
+    assert pt["configured"] and not chans["%IW2.1"]["configured"]  # not in [analog]
+
+
+def test_unconfigured_analog_channel_has_a_word_but_no_value(thermo):
+    """The module's second input is not in [analog]: its signal type is unknown, so word 0
+    is not shown as -200 °C (PT100's bottom, which reads like a sensor fault)."""
+    io = thermo.client().request("io")["analog"]
+    assert (io["%IW2.1"]["word"], io["%IW2.1"]["value"]) == (0, None)
+    assert io["%IW2.0"]["value"] is not None
 
 
 def test_analog_input_written_at_scan_boundary(thermo):

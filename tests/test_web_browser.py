@@ -210,6 +210,10 @@ def test_analog_slider_reaches_the_plc(browser, tmp_path):
         pt100 = page.locator('#analog .aio[data-addr="%IW2.0"]')
         assert pt100.locator("input[type=range]").is_disabled()  # the oven drives it
         assert "°C" in pt100.locator(".aval").inner_text()
+        spare = page.locator('#analog .aio[data-addr="%IW2.1"]')  # not in [analog]
+        sync_api.expect(spare.locator(".aval")).to_have_text("no signal")
+        sync_api.expect(spare.locator(".aword")).to_have_text("(%IW2.1 = 0)")
+        assert spare.locator("input[type=range]").is_disabled()
         heater = page.locator('#analog .aio.out[data-addr="%QW2.0"]')
         sync_api.expect(heater.locator(".aval")).to_have_text(re.compile(r"^(10|0) V$"))
         assert heater.locator("input").count() == 0

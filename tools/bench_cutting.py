@@ -18,15 +18,13 @@ import time
 import tomllib
 from pathlib import Path
 
+from peers.common import speed_line
+
+from softplc import PLC
+from softplc.cutting import load_piece
+from softplc.cutting.client import feed_plc
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tools"))
-
-from peers.common import speed_line  # noqa: E402
-
-from softplc import PLC  # noqa: E402
-from softplc.cutting import load_piece  # noqa: E402
-from softplc.cutting.client import feed_plc  # noqa: E402
 
 TOML = ROOT / "ladder_programs" / "cutting_table.toml"
 IL = ROOT / "ladder_programs" / "cutting_table.il"

@@ -13,7 +13,6 @@ counted: files left in the state file's directory besides the program and the st
 from __future__ import annotations
 
 import argparse
-import os
 import random
 import re
 import signal
@@ -25,21 +24,20 @@ import threading
 import time
 from pathlib import Path
 
+from softplc.modbus.rawclient import RawClient
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-from softplc.modbus.rawclient import RawClient  # noqa: E402
 
 PROGRAM = "LD 1\n[ %MW0 := %MW0 + 1 ]\nEND\n"
 BASE = 100  # writer i owns %MW(BASE + 2i) (high word) and %MW(BASE + 2i + 1) (low word)
 
 
 def start_daemon(program: Path, state: Path, save_interval: str) -> tuple[subprocess.Popen, int]:
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.Popen(
         [sys.executable, "-m", "softplc", "run", str(program), "--port", "0", "--state",
          str(state), "--save-interval", save_interval, "--stats-interval", "0",
          "--rt-priority", "0"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         cwd=program.parent)
     for line in proc.stdout:  # type: ignore[union-attr]
         m = re.search(r"listening on [\d.]+:(\d+)", line)

@@ -18,15 +18,13 @@ import tempfile
 import tomllib
 from pathlib import Path
 
+from bench_servo import _calib, _timed
+from peers.common import speed_line
+
+from softplc import PLC
+from softplc.massest import handshake, tuning
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tools"))
-
-from bench_servo import _calib, _timed  # noqa: E402
-from peers.common import speed_line  # noqa: E402
-
-from softplc import PLC  # noqa: E402
-from softplc.massest import handshake, tuning  # noqa: E402
 
 TOML = ROOT / "ladder_programs" / "mass_tuning.toml"
 IL = ROOT / "ladder_programs" / "mass_tuning.il"

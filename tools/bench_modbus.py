@@ -36,9 +36,9 @@ from array import array
 from pathlib import Path
 from struct import pack
 
+from softplc.daemon import percentiles
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-from softplc.daemon import percentiles  # noqa: E402
 
 # A small but not empty program: arithmetic, comparisons, a timer and a counter.
 DEFAULT_PROGRAM = """\
@@ -140,12 +140,10 @@ class DaemonProcess:
     STATS = re.compile(r"^stats (.*)$")
 
     def __init__(self, program: Path, period_ms: int, extra: tuple[str, ...] = ()):
-        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get(
-            "PYTHONPATH", ""))
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "softplc", "run", str(program), "--port", "0",
              "--period", f"{period_ms}ms", "--stats-interval", "1s", *extra],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         self.stats: list[tuple[float, dict[str, str]]] = []
         self.port = 0
         for line in self.proc.stdout:  # type: ignore[union-attr]

@@ -22,12 +22,11 @@ import time
 import tomllib
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from softplc import PLC
+from softplc.devices.axis import Ctl, St
+from softplc.devices.axis.rig import Rig
 
-from softplc import PLC  # noqa: E402
-from softplc.devices.axis import Ctl, St  # noqa: E402
-from softplc.devices.axis.rig import Rig  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 TOML = ROOT / "ladder_programs" / "servo_table.toml"
 IL = ROOT / "ladder_programs" / "servo_table.il"

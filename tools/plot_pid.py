@@ -14,12 +14,10 @@ import argparse
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+from softplc.plc import PLC
+from softplc.runtime.pid import D_AT_DONE
 
-from softplc.plc import PLC  # noqa: E402
-from softplc.runtime.pid import D_AT_DONE  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 PROGRAM = ROOT / "ladder_programs" / "pid_oven.il"
 CONFIG = ROOT / "ladder_programs" / "pid_oven.toml"

@@ -29,6 +29,32 @@ def size_arg(what: str, unit: str, example: str) -> Callable[[str], tuple[float,
     return parse
 
 
+# = softplc.modbus.regmap.DEFAULT_PORT, not imported from there: importing softplc.modbus
+# takes ~0.7 s, which every `softplc --help` would pay (tests/test_check_command.py checks it)
+DEFAULT_MODBUS_PORT = 5020
+
+
+def port(value: Any) -> int:
+    """An argparse type for TCP ports: 0..65535 (0 = any free port)."""
+    try:
+        v = int(value)
+    except (TypeError, ValueError):
+        v = -1
+    if not 0 <= v <= 65535:
+        raise argparse.ArgumentTypeError(f"bad port {value!r} (0..65535; 0 = any free port)")
+    return v
+
+
+def add_connection_arguments(p: argparse.ArgumentParser) -> Any:
+    """The "connection" group of a Modbus host command (draw, cut, servo): --host, --port.
+    Returns the group, for the command's own connection options."""
+    g = p.add_argument_group("connection")
+    g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
+    g.add_argument("--port", type=port, default=DEFAULT_MODBUS_PORT,
+                   help="Modbus TCP port (default %(default)s)")
+    return g
+
+
 PROGRAM_HELP = "Instruction List program (.il, or a TwidoSuite List export)"
 CONFIG_HELP = ("machine/PLC configuration (TOML): scan period, timers, counters, constants, "
                "simulated devices, [modbus], [daemon]")

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._args import size_arg
+from ._args import add_connection_arguments, size_arg
 
 _EXAMPLES = """\
 examples:
@@ -68,9 +68,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "path from the ideal shape")
     o.add_argument("--dry-run", action="store_true",
                    help="check, report and write outputs only; do not connect")
-    g = p.add_argument_group("connection")
-    g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
-    g.add_argument("--port", type=int, default=5020, help="Modbus TCP port (default %(default)s)")
+    g = add_connection_arguments(p)
     g.add_argument("--start-at", type=int, default=1, metavar="N",
                    help="resume from segment N (1-based)")
     g.add_argument("--trace", metavar="TRACE.csv",

@@ -6,10 +6,12 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ..gcode import DrawClient, GCodeConfig, max_deviation, parse_file, preview
-from ..gcode.deviation import last_sample, load_trace
-from ._args import size_arg
+from ._args import add_connection_arguments, size_arg
+
+if TYPE_CHECKING:
+    from ..gcode import GCodeConfig
 
 _EXAMPLES = """\
 examples:
@@ -27,6 +29,7 @@ def _plot_drawn(trace: str, since: float | None, steps: list, out: str,
     """The drawing recorded by the daemon (this run only) over the programmed path, in cm
     like the preview."""
     from ..devices.trace import plot_samples
+    from ..gcode.deviation import load_trace
 
     rows = load_trace(trace)
     if since is not None:
@@ -49,6 +52,8 @@ def _wait_for_trace(path: str, since: float | None, end: tuple[int, int] | None,
     may hold part of the drawing only. True if the end was seen."""
     deadline = time.monotonic() + timeout
     while True:
+        from ..gcode.deviation import last_sample
+
         last = last_sample(path)
         if last and (since is None or last[0] > since) and not last[3] and (
                 end is None or (last[1], last[2]) == tuple(end)):
@@ -67,9 +72,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "pen, %MW3 := 120 starts a segment, %MW10 = 100 while moving.",
         epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE.gcode", help="the G-code program")
-    g = p.add_argument_group("connection")
-    g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
-    g.add_argument("--port", type=int, default=5020, help="Modbus TCP port (default %(default)s)")
+    g = add_connection_arguments(p)
     g.add_argument("--device-id", type=int, default=1,
                    help="Modbus unit id (default %(default)s)")
     g.add_argument("--poll", type=float, default=0.05, metavar="SECONDS",
@@ -124,6 +127,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # imported here: the G-code package pulls in numpy and the Modbus client, which
+    # `softplc --help` does not need
+    from ..gcode import DrawClient, GCodeConfig, max_deviation, parse_file, preview
+    from ..gcode.deviation import last_sample
+
     cfg = GCodeConfig(plane=args.plane, pen=args.pen, units=args.units, dialect=args.dialect,
                       table_width=args.table[0], table_height=args.table[1],
                       chord_tolerance=args.chord_tolerance, steps_per_unit=args.steps_per_unit)

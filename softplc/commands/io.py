@@ -17,6 +17,7 @@ import urllib.request
 from typing import Any
 
 from ..errors import SoftPLCError
+from ._args import port
 
 DEFAULT_PORT = 8020  # softplc.web.DEFAULT_WEB_PORT, without importing aiohttp here
 TIMEOUT = 5.0
@@ -100,7 +101,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "Examples: `softplc io set %%I0.0 1`, `softplc io get %%MW0:4 %%TM0`, "
                     "`softplc io force %%I0.1 0`, `softplc io unforce`, `softplc io stop`.")
     p.add_argument("--host", default="127.0.0.1", help="daemon's web host (127.0.0.1)")
-    p.add_argument("--port", type=int, default=DEFAULT_PORT,
+    p.add_argument("--port", type=port, default=DEFAULT_PORT,
                    help=f"daemon's web port (--web of softplc run; default {DEFAULT_PORT})")
     p.add_argument("--token", default=os.environ.get("SOFTPLC_TOKEN"),
                    help="token for changes when the monitor is not on loopback "

@@ -20,14 +20,15 @@ import re
 from pathlib import Path
 from typing import Any
 
-from ..config import check_keys, duration
 from ..errors import ConfigError, SoftPLCError
-from ._args import add_program_arguments, load_plc
+from ._args import add_program_arguments, load_plc, port
 
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
 
 
 def _duration(text: str, bare_unit: str = "s") -> float:
+    from ..config import duration  # pydantic: imported when a duration is given, not for --help
+
     if _BARE_NUMBER.match(text):
         text += bare_unit
     try:
@@ -52,21 +53,11 @@ def _speed(text: str) -> float:
     return v
 
 
-def _port(value: Any) -> int:
-    try:
-        v = int(value)
-    except (TypeError, ValueError):
-        v = -1
-    if not 0 <= v <= 65535:
-        raise argparse.ArgumentTypeError(f"bad port {value!r} (0..65535; 0 = any free port)")
-    return v
-
-
 _WEB_OFF = -1
 
 
 def _web_port(text: str) -> int:
-    return _WEB_OFF if text.strip().lower() == "off" else _port(text)
+    return _WEB_OFF if text.strip().lower() == "off" else port(text)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -82,7 +73,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_program_arguments(p)
     p.add_argument("--host", help="address to listen on (default 127.0.0.1; 'localhost' = "
                                   "127.0.0.1 and ::1; 0.0.0.0 for all IPv4)")
-    p.add_argument("--port", type=_port,
+    p.add_argument("--port", type=port,
                    help="TCP port (default 5020; a real Twido uses 502; 0 = any free port)")
     p.add_argument("--period", type=_period,
                    help="scan period = %%SW0, whole ms (default: config scan_period, or 10ms)")
@@ -132,15 +123,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _pick(cli: Any, table: dict[str, Any], key: str, default: Any, conv=lambda v: v) -> Any:
-    if cli is not None:
-        return cli
-    if key in table:
-        try:
-            return conv(table[key])
-        except (argparse.ArgumentTypeError, ValueError, TypeError) as e:
-            raise ConfigError(f"config {key}: {e}") from None
-    return default
+def _pick(cli: Any, configured: Any) -> Any:
+    """The command-line value if given, else the configuration's (validated, defaulted)."""
+    return configured if cli is None else cli
 
 
 _LOCKED: list[int] = []  # descriptors held open (and locked) until the process ends
@@ -170,38 +155,31 @@ def run(args: argparse.Namespace) -> int:
             recorder.record_to(trace)
         outputs.append(open_trace)
     cfg = plc.config
-    mb = check_keys("[modbus]", cfg.get("modbus", {}) or {},
-                    ("host", "port", "read_only", "max_clients", "frame_timeout", "idle_timeout",
-                     "allow"))
-    dm = check_keys("[daemon]", cfg.get("daemon", {}) or {},
-                    ("state", "save_interval", "stats_interval", "rt_priority"))
-    dur = duration
-    period = args.period if args.period is not None else (
-        duration(cfg["scan_period"], "scan_period") if "scan_period" in cfg else 0.010)
-    state = _pick(args.state, dm, "state", None, Path)
+    mb, dm = plc.settings.modbus, plc.settings.daemon  # checked by the configuration schema
+    period = _pick(args.period, plc.settings.scan_period)
+    state = Path(dm.state) if args.state is None and dm.state is not None else args.state
     base = plc.config_dir
     if args.state is None and state is not None and base is not None and not state.is_absolute():
         state = base / state  # a path in the config is relative to the config file
     allow = None
     if args.allow:
         allow = parse_allow(a for arg in args.allow for a in arg.split(",") if a.strip())
-    elif "allow" in mb:
-        entries = mb["allow"]
-        allow = parse_allow([entries] if isinstance(entries, str) else entries)
+    elif mb.allow is not None:
+        allow = parse_allow([mb.allow] if isinstance(mb.allow, str) else mb.allow)
     opts = DaemonOptions(
-        host=_pick(args.host, mb, "host", "127.0.0.1", str),
-        port=_pick(args.port, mb, "port", 5020, _port),
+        host=_pick(args.host, mb.host),
+        port=_pick(args.port, mb.port),
         period=period,
         state=state,
         cold=args.cold,
         keep_state=args.keep_state,
-        save_interval=_pick(args.save_interval, dm, "save_interval", 5.0, dur),
+        save_interval=_pick(args.save_interval, dm.save_interval),
         speed=args.speed,
-        stats_interval=_pick(args.stats_interval, dm, "stats_interval", 5.0, dur),
-        max_clients=_pick(args.max_clients, mb, "max_clients", 32, int),
-        frame_timeout=_pick(None, mb, "frame_timeout", 2.0, dur),
-        idle_timeout=_pick(None, mb, "idle_timeout", 0.0, dur) or None,
-        rt_priority=_pick(args.rt_priority, dm, "rt_priority", 10, int),
+        stats_interval=_pick(args.stats_interval, dm.stats_interval),
+        max_clients=_pick(args.max_clients, mb.max_clients),
+        frame_timeout=mb.frame_timeout,
+        idle_timeout=mb.idle_timeout or None,
+        rt_priority=_pick(args.rt_priority, dm.rt_priority),
         read_only=args.read_only,
         allow=allow,
         open_outputs=outputs,

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..servo_client import ServoClient, plot_tuning
+from ._args import add_connection_arguments
 
 _EXAMPLES = """\
 examples (daemon: softplc run ladder_programs/servo_table.il --config
@@ -57,15 +57,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--counts-per-mm", type=float, default=409.6,
                    help="for micrometres (default %(default)s)")
     p.add_argument("--plot", metavar="OUT.png|OUT.svg", help="plot the last move")
-    g = p.add_argument_group("connection")
-    g.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
-    g.add_argument("--port", type=int, default=5020, help="Modbus TCP port (default %(default)s)")
+    g = add_connection_arguments(p)
     g.add_argument("--poll", type=float, default=0.002, metavar="SECONDS",
                    help="status polling interval (default %(default)s)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..servo_client import ServoClient, plot_tuning  # heavy: not for `softplc --help`
+
     distance = args.distance if args.distance is not None else DEFAULT_DISTANCE[args.test]
     move_ms = args.time or (50 if args.test == "openloop" else 330)
     with ServoClient(args.host, args.port, poll=args.poll, progress=sys.stderr) as sc:

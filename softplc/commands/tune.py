@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import UncertaintyError
+from ._args import port
 
 if TYPE_CHECKING:
     from ..massest.estimator import Estimate
@@ -64,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     m = p.add_argument_group(
         "online mode: answer the PLC's requests over Modbus TCP (%MW401 EST_REQ, result "
         "words %MW402-%MW463)")
-    m.add_argument("--port", type=int, help="the PLC's Modbus TCP port (enables online mode)")
+    m.add_argument("--port", type=port, help="the PLC's Modbus TCP port (enables online mode)")
     m.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
     m.add_argument("--device-id", type=int, default=1, help="Modbus unit id (default 1)")
     m.add_argument("--once", action="store_true", help="answer one request, then exit")

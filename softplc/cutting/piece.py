@@ -32,13 +32,13 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from ..config import error_lines
 from . import seed as thesis
 from .geometry import (
     DEFAULT_TOLERANCE,
@@ -153,39 +153,6 @@ class PieceModel(_Model):
     chord_tolerance: Speed = DEFAULT_TOLERANCE
     work_area: tuple[Speed, Speed] = WORK_AREA
     op: list[Op] = Field(min_length=1)
-
-
-def _key_path(loc: Iterable[int | str]) -> str:
-    """pydantic's location as a TOML key path: ('op', 2, 'line', 'to', 0) -> op[2].to[0]."""
-    out = ""
-    items = list(loc)
-    for i, part in enumerate(items):
-        if isinstance(part, int):
-            out += f"[{part}]"
-        elif i == 2 and items[0] == "op":
-            continue  # the discriminator tag pydantic inserts
-        else:
-            out += f".{part}" if out else part
-    return out or "(top level)"
-
-
-def _validation_message(e: ValidationError, file: str) -> str:
-    lines = []
-    for err in e.errors():
-        path = _key_path(err["loc"])
-        msg = err["msg"].removeprefix("Value error, ")
-        if err["type"] == "extra_forbidden":
-            msg = "unknown key"
-        elif err["type"] == "union_tag_invalid":
-            msg = ("unknown op kind " + repr(err.get("input", {}).get("kind"))
-                   + "; expected move, line, arc, circle, contour or newton")
-        elif err["type"] == "union_tag_not_found":
-            msg = "missing 'kind' (move, line, arc, circle, contour or newton)"
-        got = err.get("input")
-        shown = "" if err["type"] in ("missing", "union_tag_not_found") or isinstance(
-            got, dict) else f" (got {got!r})"
-        lines.append(f"{file}: {path}: {msg}{shown}")
-    return "\n".join(lines)
 
 
 # -- the piece -----------------------------------------------------------------------------
@@ -409,7 +376,8 @@ def piece_from_dict(data: dict, file: str = "<dict>") -> Piece:
     try:
         model = PieceModel.model_validate(data)
     except ValidationError as e:
-        raise PieceError(_validation_message(e, file)) from None
+        raise PieceError("\n".join(f"{file}: {line}"
+                                    for line in error_lines(e, PieceModel))) from None
     return _Builder(model, file).piece()
 
 

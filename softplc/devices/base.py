@@ -31,7 +31,8 @@ class Device:
 
     type_name = "device"
     # The simulated state, declared by each device: attributes holding immutable values
-    # (numbers, strings, tuples), and append-only lists kept as their length (records).
+    # (numbers, strings, tuples, paths), and records: lists only ever appended to, or
+    # replaced by a new list (a reset, a new recording), kept as (the list, its length).
     STATE: tuple[str, ...] = ()
     RECORDS: tuple[str, ...] = ()
 
@@ -54,15 +55,19 @@ class Device:
     def state(self) -> dict[str, Any]:
         """The simulated state (for the debugger's `back`, its history, retained state)."""
         st: dict[str, Any] = {k: getattr(self, k) for k in self.STATE}
-        st.update({k: len(getattr(self, k)) for k in self.RECORDS})
+        for k in self.RECORDS:
+            rec = getattr(self, k)
+            st[k] = (rec, len(rec))
         return st
 
     def set_state(self, st: dict[str, Any]) -> None:
-        """Back to a `state()`: records are cut back to the length they had."""
+        """Back to a `state()`: records are the list they were, cut back to its length."""
         for k in self.STATE:
             setattr(self, k, st[k])
         for k in self.RECORDS:
-            del getattr(self, k)[st[k]:]
+            rec, n = st[k]
+            del rec[n:]
+            setattr(self, k, rec)
 
     def status(self) -> dict[str, Any]:
         """A short state summary for the daemon's statistics line and the debugger."""

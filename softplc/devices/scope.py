@@ -75,11 +75,14 @@ class Scope(Device):
     """The oscilloscope: four channels of one servo axis (thesis IDs 2, 6, 19, 29)."""
 
     Options = ScopeOptions
+    STATE = ("recording", "stored", "truncated", "error", "_next_us", "_ctl_prev", "_v_prev",
+             "last_file")
+    RECORDS = ("rows",)  # START begins a new list: a restored state gets its own back
 
     def __init__(self, name: str, options: ScopeOptions):
         super().__init__(name, options)
-        self.opt = options
-        self.channels = tuple(c.__class__(c.id, c.name, c.dim, c.factor, self.opt.axis_label)
+        self.options: ScopeOptions = options
+        self.channels = tuple(c.__class__(c.id, c.name, c.dim, c.factor, self.options.axis_label)
                               for c in THESIS_CHANNELS)
         self.axis: ServoAxis | None = None
         self._w: Any = None
@@ -87,15 +90,15 @@ class Scope(Device):
         self.reset()
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
-        self.axis = self.peer(devices, self.opt.axis, ServoAxis, "axis")
+        self.axis = self.peer(devices, self.options.axis, ServoAxis, "axis")
         try:
-            ref = parse_address(self.opt.words, mem.profile)
+            ref = parse_address(self.options.words, mem.profile)
         except AddressError as e:
             raise ConfigError(f"device {self.name!r}: words: {e}") from None
         if ref.kind != "MW" or ref.bit is not None or ref.length or \
                 ref.index + SW.SIZE > mem.mw.n:
             raise ConfigError(f"device {self.name!r}: words must be a %MW address with "
-                              f"{SW.SIZE} words after it, not {self.opt.words!r}")
+                              f"{SW.SIZE} words after it, not {self.options.words!r}")
         self._w, self._base = mem.mw.w, ref.index
         self._v_prev = self.axis.v
         self._write_status()
@@ -127,13 +130,13 @@ class Scope(Device):
         if rise & SW.START:
             self.rows = []
             self.recording, self.stored, self.truncated, self.error = True, False, False, 0
-            self._next_us = t_us + self.opt.sampling_us
+            self._next_us = t_us + self.options.sampling_us
         elif self.recording and t_us >= self._next_us:
             state = (ax.actual, ax.v, acc, ax.w)
             while t_us >= self._next_us and self.recording:
                 self.rows.append(state)
-                self._next_us += self.opt.sampling_us
-                if len(self.rows) >= self.opt.max_count:
+                self._next_us += self.options.sampling_us
+                if len(self.rows) >= self.options.max_count:
                     self.recording, self.truncated = False, True
         if rise & SW.STOP:
             self.recording = False
@@ -159,13 +162,13 @@ class Scope(Device):
         n = len(data)
         # device units -> SI (m, m/s, m/s², Nm), noise in SI, then the channels' DIM
         si = (data[:, 0] / cpm / 1e3, data[:, 1] / cpm / 1e3, data[:, 2] / cpm / 1e3,
-              data[:, 3] * self.opt.torque_per_bit)
+              data[:, 3] * self.options.torque_per_bit)
         to_dim = (1e3, 6e4, 1.0, 1.0)  # mm, mm/min, m/(s*s), Nm
-        rng = np.random.default_rng([self.opt.seed, job])
+        rng = np.random.default_rng([self.options.seed, job])
         cols = [quantise((val + rng.normal(0.0, sd, n)) * k, ch.factor)
-                for val, sd, k, ch in zip(si, self.opt.noise, to_dim, self.channels,
+                for val, sd, k, ch in zip(si, self.options.noise, to_dim, self.channels,
                                           strict=True)]
-        return Recording(self.channels, self.opt.sampling_us,
+        return Recording(self.channels, self.options.sampling_us,
                          np.column_stack(cols) if n else np.zeros((0, 4), np.int64),
                          FILES.get(job, "?"))
 
@@ -177,7 +180,7 @@ class Scope(Device):
         if not self.rows:
             self.error = SW.EMPTY
             return None
-        path = Path(self.opt.directory) / FILES[job]
+        path = Path(self.options.directory) / FILES[job]
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             write_recording(self.to_recording(job), path)

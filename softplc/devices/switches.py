@@ -46,12 +46,9 @@ class LimitSwitch(Device):
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
-        self.axis_name = options.axis
-        self.input = options.input
-        self.at = options.at
+        self.input = options.input  # the web monitor finds the wiring by this attribute
         self.normally_closed = options.normally_closed
         self.fault = "none"
-        self._fault0 = options.fault
         self._axis: AxisDevice | None = None
         self._i: list[int] | None = None
         self._idx = 0
@@ -71,23 +68,23 @@ class LimitSwitch(Device):
             self._sign, self._thr = 1, math.inf
         elif fault == "stuck_closed":
             self._sign, self._thr = 1, -math.inf
-        elif self.at == "home":
+        elif self.options.at == "home":
             self._sign, self._thr = -1, 0
         else:
             assert self._axis is not None
             self._sign, self._thr = 1, self._axis.axis_end()
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
-        self._axis = self.peer(devices, self.axis_name, AxisDevice, "axis")
+        self._axis = self.peer(devices, self.options.axis, AxisDevice, "axis")
         self._pos = self._axis.axis_position
         self._idx = self.io_index(mem, self.input, "I", "input")
         self._i = mem.i_field
-        self.set_fault(self._fault0)
+        self.set_fault(self.options.fault)
         self.update(0.0, 0.0)
 
     def reset(self) -> None:
         if self._axis is not None:
-            self.set_fault(self._fault0)
+            self.set_fault(self.options.fault)
             self.update(0.0, 0.0)
 
     def update(self, t: float, dt: float) -> None:
@@ -120,7 +117,6 @@ class PushButton(Device):
         super().__init__(name, options)
         self.input = options.input
         self.normally_closed = options.normally_closed
-        self._pressed0 = options.pressed
         self.pressed = options.pressed
         self._i: list[int] | None = None
         self._idx = 0
@@ -131,7 +127,7 @@ class PushButton(Device):
         self.update(0.0, 0.0)
 
     def reset(self) -> None:
-        self.pressed = self._pressed0
+        self.pressed = self.options.pressed
         if self._i is not None:
             self.update(0.0, 0.0)
 

@@ -63,8 +63,6 @@ class Trace(Device):
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
-        self.axis_names = list(options.axes)
-        self.pen_name = options.pen
         self.csv_path = options.csv
         self.flush_every = options.flush_every
         self.max_samples = options.max_samples
@@ -78,10 +76,11 @@ class Trace(Device):
         self._next_flush = math.inf
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
-        self._x = self.peer(devices, self.axis_names[0], AxisDevice, "axes[0]")
-        self._z = self.peer(devices, self.axis_names[1], AxisDevice, "axes[1]")
-        if self.pen_name != "":
-            self._pen = self.peer(devices, self.pen_name, Pen, "pen")
+        x, z = self.options.axes
+        self._x = self.peer(devices, x, AxisDevice, "axes[0]")
+        self._z = self.peer(devices, z, AxisDevice, "axes[1]")
+        if self.options.pen != "":
+            self._pen = self.peer(devices, self.options.pen, Pen, "pen")
         self.reset()
 
     def reset(self) -> None:

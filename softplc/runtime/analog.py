@@ -56,6 +56,9 @@ class AnalogChannel:
     lo: int = 0  # the word for the bottom of the signal span
     hi: int = 4095  # the word for the top
     full_scale: int = 4095  # of the hardware: 4095 on 12 bits, 1023 on 10
+    # False for a module channel [analog] does not mention: its signal type is the module's
+    # first one by default, so its words stand for no known physical value
+    configured: bool = True
 
     def _scale(self, x: float) -> float:
         """Physical value -> word (not rounded, not clamped)."""

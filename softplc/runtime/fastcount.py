@@ -119,8 +119,10 @@ class VeryFastCounter(_PulseCounter):
     """%VFCi: see the module docstring. `outputs`: the reflex outputs as (image, field,
     index) or None each; `zones`: per reflex output its state in the three zones."""
 
+    # not `_zone`: the reflex outputs' cache, invalidated by set_state (a restored state
+    # round-trips to the same snapshot)
     FIELDS = ("V", "P", "U", "C", "S0", "S1", "F", "TH0", "TH1", "R", "S", "T", "_en",
-              "lost", "_credit", "_zone", "_acc", "_acc_t", "_pre", "_cat")
+              "lost", "_credit", "_acc", "_acc_t", "_pre", "_cat")
     SUMMARY = ("V", "P", "U", "C", "S0", "S1", "TH0", "TH1", "F", "R", "S", "_en", "lost")
 
     def __init__(self, mode: str = "up", preset: int = 0, s0: int = MAX_COUNT,

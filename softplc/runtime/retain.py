@@ -114,37 +114,20 @@ def application_id(program: bytes, config: dict[str, Any]) -> bytes:
     return h.digest()
 
 
-# Block state fields holding an absolute clock time (µs): retained relative to the clock,
-# since the next run's clock starts again from its own origin.
-_TIME_FIELDS = ("_t0",)
-
-
-def _now_us(block: Any) -> int | None:
-    return getattr(getattr(block, "clock", None), "now_us", None)
-
-
-def _block_state(block: Any) -> dict[str, Any]:
-    st = dict(block.state())
-    now = _now_us(block)
-    if now is not None:
-        for f in _TIME_FIELDS:
-            if f in st:
-                st[f] -= now
-    return st
+# Format 2 files written before timers saved their elapsed time hold `_t0`, the start time
+# relative to the clock at saving (= minus the elapsed time): still restored.
+_OLD_T0 = "_t0"
 
 
 def _set_block_state(block: Any, st: dict[str, Any]) -> None:
-    st = dict(st)
-    now = _now_us(block)
-    if now is not None:
-        for f in _TIME_FIELDS:
-            if f in st:
-                st[f] += now
+    if _OLD_T0 in st:
+        st = dict(st)
+        st["_elapsed_us"] = -st.pop(_OLD_T0)
     block.set_state(st)
 
 
 def capture_blocks(mem: MemoryImage) -> dict[str, dict[int, Any]]:
-    return {kind: {i: _block_state(b) for i, b in d.items()}
+    return {kind: {i: b.state() for i, b in d.items()}
             for kind, d in mem.blocks.items() if d}
 
 

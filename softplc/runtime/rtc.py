@@ -35,6 +35,7 @@ SW_SCHEDULE_ENABLE = 114
 SCHEDULE_BLOCKS = 16
 DAYS = ("mon", "tue", "wed", "thu", "fri", "sat", "sun")
 DEFAULT_START = datetime(2000, 1, 1)  # the virtual clock's calendar when none is given
+_BCD_SECONDS = tuple(bcd_encode(s) for s in range(60))  # %SW50 is rewritten every second
 
 
 @dataclass
@@ -74,38 +75,46 @@ class RTC:
         self.offset = 0  # seconds added by %S50 settings
         self.schedules = schedules
         self._sec: int | None = None
+        self._minute: int | None = None  # the minute the cached calendar below is of
+        self._words: tuple[int, int, int, int] = (0, 0, 0, 0)  # DOW, HHMM, MMDD, CCYY
+        self._active: list[bool] = []  # each schedule's window, for that minute
         self.cold_start()
 
     def cold_start(self) -> None:
         self.mem.sw.uw[SW_SCHEDULE_ENABLE] = 0xFFFF
         for sch in self.schedules:
             sch.state = -1
-        self._sec = None
+        self._sec = self._minute = None
 
     def now(self, now_us: int) -> datetime:
         return self.start + timedelta(seconds=now_us // 1_000_000 + self.offset)
 
     def tick(self, now_us: int) -> None:
-        """Start of a scan: refresh the words when the second changed."""
+        """Start of a scan: refresh the words when the second changed. The calendar (a
+        datetime, the BCD words but the seconds, the schedules' windows) only changes with
+        the minute: it is recomputed then, and the words rewritten from it every second."""
         sec = now_us // 1_000_000
         if sec == self._sec:
             return
         self._sec = sec
-        t = self.now(now_us)
+        minute, second = divmod(self.start.second + sec + self.offset, 60)
+        if minute != self._minute:
+            self._minute = minute
+            t = self.now(now_us)
+            self._words = (t.isoweekday(), bcd_encode(t.hour * 100 + t.minute),
+                           bcd_encode(t.month * 100 + t.day), bcd_encode(t.year))
+            self._active = [sch.active(t) for sch in self.schedules]
         s, sw = self.mem.s, self.mem.sw.w
         s[S_RTC_UNSET] = 0
         if not s[S_RTC_WRITE]:
-            sw[SW_DOW] = t.isoweekday()
-            sw[SW_SEC] = bcd_encode(t.second)
-            sw[SW_HHMM] = bcd_encode(t.hour * 100 + t.minute)
-            sw[SW_MMDD] = bcd_encode(t.month * 100 + t.day)
-            sw[SW_CCYY] = bcd_encode(t.year)
+            sw[SW_DOW], sw[SW_HHMM], sw[SW_MMDD], sw[SW_CCYY] = self._words
+            sw[SW_SEC] = _BCD_SECONDS[second]
         if self.schedules:
             enable = self.mem.sw.uw[SW_SCHEDULE_ENABLE]
-            for sch in self.schedules:
+            for sch, active in zip(self.schedules, self._active, strict=True):
                 if not enable >> sch.number & 1:
                     continue
-                on = 1 if sch.active(t) else 0
+                on = 1 if active else 0
                 if on != sch.state:
                     sch.state = on
                     self.mem.write(sch.output, on, field_inputs=False)
@@ -125,7 +134,7 @@ class RTC:
             return
         base = self.start + timedelta(seconds=now_us // 1_000_000)
         self.offset = int((wanted - base).total_seconds())
-        self._sec = None
+        self._sec = self._minute = None
         sw[SW_DOW] = wanted.isoweekday()
 
 

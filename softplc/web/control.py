@@ -313,12 +313,15 @@ class Controller:
             out.append({"address": str(ref), "input": ref.kind == "IW", "signal": ch.signal,
                         "range": ch.range, "unit": SIGNAL_UNIT[ch.signal], "min": a, "max": b,
                         "word_min": ch.to_word(a)[0], "word_max": ch.to_word(b)[0],
-                        "driven_by": self.device_io.get(str(ref), "")})
+                        "driven_by": self.device_io.get(str(ref), ""),
+                        "configured": ch.configured})
         return out
 
     def analog_values_fn(self) -> Callable[[], dict[str, dict[str, float]]]:
         """A function (for the scan thread) giving each analog channel's word and the
-        physical value it stands for: {address: {"word": w, "value": x}}."""
+        physical value it stands for: {address: {"word": w, "value": x}}; the value is
+        None for a channel [analog] does not configure (word 0 of a PT100 would read
+        -200 °C, like a sensor fault)."""
         analog = self.plc.mem.analog
         if analog is None:
             return dict
@@ -333,7 +336,8 @@ class Controller:
             out = {}
             for name, words, i, ch in chans:
                 w = int(forced.get(name, words[i]))
-                out[name] = {"word": w, "value": round(ch.to_physical(w), 4)}
+                out[name] = {"word": w, "value": round(ch.to_physical(w), 4)
+                             if ch.configured else None}
             return out
         return values
 

@@ -221,7 +221,8 @@ function buildAnalog() {
     const title = `${ch.signal}, range ${ch.range}: ${span(ch)} = words ${ch.word_min}..${ch.word_max}`;
     const value = h("span", { class: "aval" }, "?");
     const word = h("span", { class: "aword" }, "");
-    const row = h("div", { class: "aio " + (ch.input ? "in" : "out") + (dev ? " driven" : ""), "data-addr": a, title },
+    const row = h("div", { class: "aio " + (ch.input ? "in" : "out") + (dev ? " driven" : "") + (ch.configured ? "" : " unconfigured"), "data-addr": a,
+      title: ch.configured ? title : `${a}: not configured in [analog] (no signal type): its word is shown raw` },
       h("span", { class: "addr" }, a), h("span", { class: "sig" }, ch.signal));
     if (ch.input) {
       const step = (ch.max - ch.min) / 1000;
@@ -257,14 +258,16 @@ function showAnalog(values) {
     row.querySelector(".aword").textContent = `(${a} = ${v.word})`;
     const slider = row.querySelector("input[type=range]");
     if (slider) {
-      slider.disabled = state.info.read_only || (row.classList.contains("driven") && !forced);
-      slider.title = slider.disabled ? "driven by a simulated device: force it (F) to override" : span(ch);
+      slider.disabled = state.info.read_only || !ch.configured || (row.classList.contains("driven") && !forced);
+      slider.title = !ch.configured ? "not configured in [analog]: give it a signal type to drive it"
+        : slider.disabled ? "driven by a simulated device: force it (F) to override" : span(ch);
       if (row.dataset.moving) continue;  // the user is dragging: leave the slider alone
-      slider.value = v.value;
+      if (v.value !== null) slider.value = v.value;
     }
     const meter = row.querySelector("meter");
-    if (meter) meter.value = v.value;
-    row.querySelector(".aval").textContent = (num(v.value) + " " + ch.unit).trim();
+    if (meter && v.value !== null) meter.value = v.value;
+    // an unconfigured channel: its word means nothing physical (word 0 of a PT100 = -200 °C)
+    row.querySelector(".aval").textContent = v.value === null ? "no signal" : (num(v.value) + " " + ch.unit).trim();
   }
 }
 
