@@ -43,6 +43,7 @@ BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
             "S0": (INT16, True), "S1": (INT16, True), "F": (BOOL, False),
             "TH0": (BOOL, False), "TH1": (BOOL, False), "R": (BOOL, True), "S": (BOOL, True),
             "T": (INT16, True)},
+    "MSG": {"D": (BOOL, False), "E": (BOOL, False)},  # exchanges of port i (runtime/exch.py)
 }
 # Objects the program may never write.
 READ_ONLY_KINDS = {"I", "IW", "KW", "KD", "KF"}
@@ -53,7 +54,7 @@ WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF":
 WIDTH = {"MW": 1, "KW": 1, "SW": 1, "MD": 2, "MF": 2, "KD": 2, "KF": 2}
 
 _ADDR = re.compile(
-    r"""%(?P<kind>SBR|SC|TM|DR|PLS|PWM|VFC|FC|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
+    r"""%(?P<kind>MSG|SBR|SC|TM|DR|PLS|PWM|VFC|FC|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
         (?P<a>\d+)
         (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
         (?:\.(?P<field>TH|[A-Z])(?P<fbit>\d+)?)?   # %TM0.Q, %SBR0.J3, %VFC0.TH1
@@ -202,6 +203,8 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         raise AddressError(f"{text!r} is beyond the controller profile "
                            f"({profile.name} has %{base_kind}0..%{base_kind}{count - 1})")
 
+    if kind == "MSG" and a == 0:  # the ports are 1..3 [manual]
+        raise AddressError(f"{text!r}: the exchange blocks are %MSG1 .. %MSG{count - 1}")
     if kind in BLOCK_FIELDS:
         fields = BLOCK_FIELDS[kind]
         if field is not None:

@@ -15,6 +15,7 @@
     pls."%PLS0" = { base = "10ms", preset = 10, pulses = 200 }   # pulse outputs on %Q0.0/1
     pwm."%PWM1" = { base = "10ms", preset = 100, ratio = 0 }    # (config_models.py)
     [fast_counters."%FC0"]   # fast counters, [very_fast_counters."%VFC0"]: config_models.py
+    [exch.remote.1]          # EXCH3's remote devices: host, port, unit_id; [exch] timeout
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
     [daemon]                 # the daemon's state file, save and statistics intervals
@@ -210,6 +211,7 @@ class Config(Section):
     # fast counters (config_models.build_counters)
     fast_counters: dict[str, Any] = Field(default_factory=dict)
     very_fast_counters: dict[str, Any] = Field(default_factory=dict)
+    exch: dict[str, Any] = Field(default_factory=dict)  # EXCH3 remote devices (issue 11 B)
 
     @field_validator("profile")
     @classmethod

@@ -6,7 +6,8 @@ validation error into a `ConfigError` naming the key path:
   configuration screen sets it (signal type and range of each channel);
 - `[pid.n]` (`parse_pid`): the PID functions, as TwidoSuite's PID screen sets them;
 - `[rtc]` (`parse_rtc`): the calendar start of the clock; `[schedule.n]`
-  (`parse_schedules`): the schedule blocks.
+  (`parse_schedules`): the schedule blocks;
+- `[exch]` (`parse_exch`): EXCH3's timeout and remote devices `[exch.remote.<index>]`.
 
 For the schema in `softplc/config.py`: `analog: dict[str, AnalogChannelConfig]` and
 `pid: dict[str, PidConfig]` (keys "0".."13"), `rtc: RtcConfig`,
@@ -33,8 +34,10 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .address import Ref, parse_address
+from .config import PositiveDuration
 from .errors import AddressError, ConfigError
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
+from .runtime.exch import Remote
 from .runtime.fastcount import MAX_COUNT, N_ZONES, CountingInputs, FastCounter, VeryFastCounter
 from .runtime.pid import PidParams
 from .runtime.pulse import N_MAX, RATIO_MAX, TIME_BASES_US
@@ -374,3 +377,39 @@ def build_counters(fc: Any, vfc: Any, mem: Any) -> CountingInputs | None:
     for channel in owner:
         mem.use_io(parse_address(f"%I0.{channel}", profile))
     return hub
+
+
+# ---- communication (issue 11 B): [exch], the Ethernet port's remote devices ---------------
+class ExchRemoteConfig(BaseModel):
+    """One row of TwidoSuite's Ethernet remote-device table (`[exch.remote.<index>]`)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    host: str = Field(min_length=1)
+    port: int = Field(502, ge=1, le=65535)
+    unit_id: int = Field(255, ge=0, le=255)  # 255: a Twido server's default [manual]
+
+
+class ExchConfig(BaseModel):
+    """`[exch]`: EXCH3 as a Modbus TCP client. `timeout` in seconds (or "500ms")."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    timeout: PositiveDuration = 1.0
+    remote: dict[str, ExchRemoteConfig] = Field(default_factory=dict)
+
+
+def parse_exch(section: Any, max_remotes: int) -> tuple[float, dict[int, Remote]] | None:
+    """Validate `[exch]`: (timeout in s, remote index -> Remote), None when absent."""
+    if not section:
+        return None
+    cfg: ExchConfig = _validated("exch", "", ExchConfig, section)
+    remotes = {}
+    for key, r in cfg.remote.items():
+        if not key.isdigit() or not 1 <= int(key) <= max_remotes:
+            raise ConfigError(f"exch.remote.{key}: the remote device index is 1 .. "
+                              f"{max_remotes} (the first byte of the EXCH table)")
+        remotes[int(key)] = Remote(r.host, r.port, r.unit_id)
+    if not remotes:
+        raise ConfigError("exch.remote: no remote device (e.g. [exch.remote.1] host = ...)")
+    return cfg.timeout, remotes

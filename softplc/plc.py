@@ -17,6 +17,7 @@ from .config import Config, key_path, load_config
 from .config_models import (
     build_counters,
     parse_analog,
+    parse_exch,
     parse_pid,
     parse_pulse,
     parse_rtc,
@@ -37,9 +38,10 @@ from .il.parser import parse, parse_file
 from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
 from .program import CompiledProgram, ProgramState, bind
 from .runtime.analog import AnalogChannel, AnalogIO, normal_range
-from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Register, Timer, TimeSource
+from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Message, Register, Timer, TimeSource
 from .runtime.clock import Clock, VirtualClock, make_clock
-from .runtime.engine import DEFAULT_WATCHDOG_S, Engine
+from .runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
+from .runtime.exch import ETHERNET_PORT, ExchPort
 from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
 from .runtime.pid import Pid
@@ -75,12 +77,15 @@ class PLC:
         self._configure_pid(settings.pid)
         self.mem.counting = build_counters(settings.fast_counters, settings.very_fast_counters,
                                            self.mem)
+        self._exch = self._configure_exch(settings.exch)
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
         self._configure_pulses(settings)
         if self.mem.counting is not None and self.mem.counting.vfc:  # preset/catch inputs
             self.engine.before_scan.append(self.mem.counting.poll)
+        if self._exch is not None:  # only then: programs without EXCH pay nothing
+            self.engine.before_scan.append(self._exch_boundary)
         self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
         self.program: CompiledProgram = self._compile(program)
         self.engine.load(self.program)
@@ -253,6 +258,26 @@ class PLC:
         if kind == "R":
             return Register("FIFO", self.profile.count("FIFO_DEPTH"))
         return BLOCK_CLASSES[kind]()
+
+    # ---- communication (issue 11 B) ----
+    def _configure_exch(self, section: Any) -> ExchPort | None:
+        """[exch]: the Ethernet port's remote devices; %MSG3 drives the port."""
+        parsed = parse_exch(section, self.profile.count("EXCH_REMOTES"))
+        if parsed is None:
+            return None
+        timeout, remotes = parsed
+        port = ExchPort(self.mem, lambda: round(self._clock.seconds * 1e6), remotes,
+                        timeout, wait_at_boundary=isinstance(self._clock, VirtualClock))
+        port.msg = msg = self.mem.blocks["MSG"].setdefault(ETHERNET_PORT, Message())
+        msg.port = port
+        return port
+
+    def _exch_boundary(self) -> None:
+        """Scan boundary: a finished exchange lands; leaving RUN ends the one in progress."""
+        if self.engine.state == RUN:
+            self._exch.poll()
+        else:
+            self._exch.stop()
 
     def _configure_pid(self, section: Any) -> None:
         """The PID functions of [pid], addresses resolved and checked once."""
@@ -598,7 +623,9 @@ class PLC:
         self.engine.note_overrun()
 
     def close(self) -> None:
-        """Flush and close devices (trace files)."""
+        """Flush and close devices (trace files) and the EXCH port's connections."""
+        if self._exch is not None:
+            self._exch.close()
         for dev in self.devices.values():
             close = getattr(dev, "close", None)
             if close:

@@ -80,6 +80,10 @@ TWDLCAE40DRF = Profile(
         "PWM": 2,  # pulse width modulators %PWM0-1 [manual]
         "FC": 4,  # fast counters %FC0..%FC3 [manual, from memory]
         "VFC": 2,  # very fast counters %VFC0..%VFC1 [manual, from memory]
+        # communication (issue 11 B, runtime/exch.py): %MSG1..%MSG3 (index 0 unused), the
+        # Ethernet port's remote devices 1..16 [manual, from memory]
+        "MSG": 4,
+        "EXCH_REMOTES": 16,
     },
     # two analog potentiometers and one 0-10 V input, 10 bits [manual, from memory: the
     # hardware guide's figures were not found in the search corpora; check the counts]

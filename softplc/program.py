@@ -80,7 +80,7 @@ class Names:
                 cls.WATCHDOG, cls.WATCHDOG_EXC, cls.LOG, cls.MAIN}
         return frozenset(out | cls.HELPERS)
 
-    _BLOCK = re.compile(r"_(TM|C|DR|SBR|SC|R|PID|PLS|PWM|FC|VFC)\d+$")
+    _BLOCK = re.compile(r"_(TM|C|DR|SBR|SC|R|PID|PLS|PWM|FC|VFC|MSG)\d+$")
     _SR = re.compile(r"_sr\d+$")
 
     @classmethod

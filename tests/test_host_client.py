@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import asyncio
 import io
 import math
 import socket
-import threading
 from pathlib import Path
 
 import pytest
-from pymodbus.server import ModbusTcpServer
+from modbus_util import PymodbusThread
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from softplc.cli import main
@@ -19,7 +17,7 @@ from softplc.gcode import DrawClient, HostError, StepSegment, make_frame, parse_
 SAMPLES = Path(__file__).resolve().parent.parent / "ladder_programs" / "samples"
 
 
-class FakePLC:
+class FakePLC(PymodbusThread):
     """Holding registers %MW0-%MW49 that follow the drawing-table handshake.
 
     Every FC3 poll counts as one PLC scan: a pending segment (%MW3 > 100) is accepted
@@ -28,16 +26,13 @@ class FakePLC:
     """
 
     def __init__(self, busy_polls: int = 2, accept: bool = True):
+        super().__init__()
         self.busy_polls = busy_polls
         self.accept = accept
         self.frames: list[list[int]] = []  # every FC16 request: (address, values...)
         self.segments: list[tuple[int, int, int]] = []  # accepted (x, z, pen)
         self.reads = 0
         self._busy = 0
-        self.loop = asyncio.new_event_loop()
-        self.server: ModbusTcpServer | None = None
-        self.port = 0
-        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
 
     async def action(self, fc, start, address, count, regs, values):
         if fc == 16:
@@ -55,25 +50,10 @@ class FakePLC:
                     regs[10] = 0
         return None
 
-    async def _start(self):
-        device = SimDevice(id=1, simdata=[SimData(0, count=50, values=0,
-                                                  datatype=DataType.REGISTERS)],
-                           action=self.action)
-        self.server = ModbusTcpServer(device, address=("127.0.0.1", 0))
-        await self.server.serve_forever(background=True)
-        return self.server.transport.sockets[0].getsockname()[1]
-
-    def __enter__(self) -> FakePLC:
-        self.thread.start()
-        self.port = asyncio.run_coroutine_threadsafe(self._start(), self.loop).result(5)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.server is not None:
-            asyncio.run_coroutine_threadsafe(self.server.shutdown(), self.loop).result(5)
-        self.loop.call_soon_threadsafe(self.loop.stop)
-        self.thread.join(5)
-        self.loop.close()
+    def device(self) -> SimDevice:
+        return SimDevice(id=1, simdata=[SimData(0, count=50, values=0,
+                                                datatype=DataType.REGISTERS)],
+                         action=self.action)
 
 
 def client(plc: FakePLC, **kw) -> DrawClient:

@@ -62,6 +62,9 @@ def _refs(node: object) -> Iterator[tuple[Ref, A.Pos]]:
             stack.append(n.expr)
         elif isinstance(n, A.IncDec):
             yield n.target, pos
+        elif isinstance(n, A.ExchCall):  # the table and the port's %MSG block
+            yield n.table, pos
+            yield Ref("MSG", n.port), pos
 
 
 def _instruction_refs(instr: A.Instruction) -> Iterator[tuple[Ref, A.Pos]]:

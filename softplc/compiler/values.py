@@ -17,6 +17,7 @@ from ..errors import Code, Diagnostic
 from ..il import ast as A
 from ..program import Names
 from ..runtime.blocks import BLOCK_CLASSES, MAX_VALUE
+from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
 from ..semantics import FUNCTIONS
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
@@ -402,6 +403,9 @@ class ValueCompiler:
             self.use(name)
             self.emit(f"{name}.run()")
             return
+        if isinstance(st, A.ExchCall):
+            self.exch(st)
+            return
         if isinstance(st, A.IncDec):
             ref = st.target
             if not self.check_writable(ref, st.pos):
@@ -441,6 +445,29 @@ class ValueCompiler:
                 return
             code = f"{self.helper('narrow16')}({code})"
         self.store_value(ref, code, tt, st.pos)
+
+    def exch(self, st: A.ExchCall) -> None:
+        """`EXCHi %MWj:n` (communication, issue 11 B; runtime/exch.py): the port's %MSG
+        block starts the exchange; only the Ethernet port 3 is emulated."""
+        t, n = st.table, self.counts["MSG"]
+        text = f"EXCH{st.port} {t}"
+        if not 1 <= st.port < n:
+            self.err(f"EXCH{st.port}: no such port", st.pos, text,
+                     f"EXCH1 .. EXCH{n - 1}", code=Code.BLOCK)
+        elif t.kind != "MW" or t.length is None or t.offset is not None:
+            self.err(f"EXCH{st.port}: {t} is not a word table", st.pos, text,
+                     "a %MW table such as %MW0:10", code=Code.TYPE)
+        elif st.port in SERIAL_PORTS:
+            self.err(f"EXCH{st.port}: the serial port {st.port} is not emulated", st.pos,
+                     text, f"EXCH{ETHERNET_PORT} (the Ethernet port, configured in [exch])",
+                     code=Code.BLOCK)
+        elif getattr(self.env.get(Names.block("MSG", st.port)), "port", None) is None:
+            self.err(f"EXCH{st.port} is used but the port is not configured", st.pos, text,
+                     "an [exch] table in the configuration (the remote devices of the "
+                     "Ethernet port, e.g. [exch.remote.1] host = ...)",
+                     code=Code.BLOCK)
+        else:
+            self.emit(f"{self.block_name(Ref('MSG', st.port))}.exch({t.index}, {t.length})")
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind

@@ -128,7 +128,18 @@ class PidCall:
     pos: Pos = _pos()
 
 
-Statement = Assign | IncDec | PidCall
+@dataclass(frozen=True)
+class ExchCall:
+    """`EXCHi %MWj:n`: start an exchange on port i with the table %MWj:n [manual]; an
+    instruction of its own in the text, held as an operation-block statement (it runs
+    when the accumulator is 1, like one)."""
+
+    port: int
+    table: Ref
+    pos: Pos = _pos()
+
+
+Statement = Assign | IncDec | PidCall | ExchCall
 
 
 # ---- instructions -------------------------------------------------------------------------

@@ -233,6 +233,11 @@ class _ToAST(Transformer):
         return A.OpBlock(items[0], _pos(meta))
 
     @v_args(meta=True)
+    def exch(self, meta, items):
+        kw, table = items
+        return A.OpBlock(A.ExchCall(int(str(kw)[4:]), self._ref(table), _pos(meta)), _pos(meta))
+
+    @v_args(meta=True)
     def jump(self, meta, items):
         kw, label = items
         return A.Jump(str(kw).upper(), int(str(label)[2:]), _pos(meta))

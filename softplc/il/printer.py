@@ -47,6 +47,8 @@ def format_statement(st: A.Statement) -> str:
         return f"[ {st.op} {st.target} ]"
     if isinstance(st, A.PidCall):
         return f"[ PID {st.number} ]"
+    if isinstance(st, A.ExchCall):  # the ladder view's box text
+        return f"EXCH{st.port} {st.table}"
     return f"[ {st.target} := {format_expr(st.expr)} ]"
 
 
@@ -67,6 +69,8 @@ def format_instruction(i: A.Instruction) -> str:
         return "N"
     if isinstance(i, A.Stack):
         return i.op
+    if isinstance(i, A.OpBlock) and isinstance(i.stmt, A.ExchCall):
+        return pad(f"EXCH{i.stmt.port}", str(i.stmt.table))  # an instruction of its own
     if isinstance(i, A.OpBlock):
         return format_statement(i.stmt)
     if isinstance(i, A.Jump):

@@ -400,9 +400,35 @@ class Register(Block):
 
 
 
+# ---- communication (issue 11 B: EXCH / %MSG, runtime/exch.py) ----------------------------
+class Message(Block):
+    """%MSGi: the state of the exchanges of port i [manual]: D = 1 done (no exchange in
+    progress), E = 1 the last exchange failed (code in the port's status word). R resets:
+    the exchange in progress is dropped, D = 1, E = 0. `port` is the `runtime.exch.ExchPort`
+    the configuration gives (None: the port is not configured)."""
+
+    PINS = ("R",)
+    FIELDS = ("D", "E")
+
+    def __init__(self) -> None:
+        self.D, self.E = 1, 0
+        self.port: Any = None
+
+    def run(self, R: Any = 0) -> None:
+        if R:
+            if self.port is not None:
+                self.port.reset()
+            self.D, self.E = 1, 0
+
+    def exch(self, start: int, n: int) -> None:
+        """`EXCHi %MW<start>:<n>` (the compiler checked that the port is configured)."""
+        self.port.start(start, n)
+
+
 # Block classes by address kind: each declares its input pins (`PINS`) once.
 BLOCK_CLASSES: dict[str, type[Block]] = {"TM": Timer, "C": Counter, "DR": Drum,
-                                         "SBR": ShiftRegister, "SC": StepCounter, "R": Register}
+                                         "SBR": ShiftRegister, "SC": StepCounter, "R": Register,
+                                         "MSG": Message}
 
 # Fast counters %FC / %VFC live in their own module, which imports Block (runtime/__init__
 # imports this module first, so the cycle always resolves in this order).
