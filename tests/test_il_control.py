@@ -417,6 +417,43 @@ def test_endless_loop_with_the_default_watchdog(plc_from_source):
     assert plc.state == "HALT" and plc["%S11"]
 
 
+class _StalledWallClock:
+    """The engine's `time` with a wall clock that jumps 100 ms per reading, as when a
+    loaded host does not run the process; CPU time stays real."""
+
+    thread_time = staticmethod(time.thread_time)
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def perf_counter(self) -> float:
+        self.t += 0.1
+        return self.t
+
+
+def test_host_load_alone_does_not_trip_the_watchdog(plc_from_source, monkeypatch):
+    # The watchdog limits the controller's own execution time [manual: twido.md, %S11]:
+    # wall time the OS gave to other processes is not the program's (docs/NOTES.md)
+    from softplc.runtime import engine
+
+    plc = plc_from_source("LD %I0.0\nST %Q0.0\n", {"watchdog": "20ms"})
+    monkeypatch.setattr(engine, "time", _StalledWallClock())
+    for k in range(5):
+        plc["%I0.0"] = k % 2
+        plc.scan()
+        assert plc.state == "RUN" and plc["%Q0.0"] == k % 2
+    assert not plc["%S11"]
+
+
+def test_endless_loop_halts_under_host_load_too(plc_from_source, monkeypatch):
+    from softplc.runtime import engine
+
+    plc = plc_from_source("%L1:\nLD 1\nJMP %L1\n", {"watchdog": "20ms"})
+    monkeypatch.setattr(engine, "time", _StalledWallClock())
+    plc.scan()
+    assert plc.state == "HALT" and plc["%S11"] and "watchdog" in plc.fault
+
+
 def test_grafcet_step_with_a_rung_without_output(plc_from_source):
     """A step whose rung only loads compiles (it does nothing)."""
     plc = plc_from_source("=*= 0\nLD %M0\n-*- 1\nLD %M1\n# 0\n")
