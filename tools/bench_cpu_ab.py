@@ -1,7 +1,7 @@
 """A/B comparison of `plc.scan()` cost between two checkouts, in CPU time.
 
 On a loaded machine wall-clock figures swing by 2x from run to run; the CPU time of the
-process (`time.process_time`) does not count the time other processes hold the core, so
+main thread (`time.thread_time`) does not count the time other processes hold the core, so
 it compares two versions of the engine much more steadily.
 
     .venv/bin/python tools/bench_cpu_ab.py /path/to/checkout_a /path/to/checkout_b
@@ -29,7 +29,7 @@ from peers.programs import mixed_program
 res = {}
 def t(name, plc):
     plc.scan(100)
-    best = min(timeit.repeat(plc.scan, number=scans, repeat=5, timer=time.process_time))
+    best = min(timeit.repeat(plc.scan, number=scans, repeat=5, timer=time.thread_time))
     res[name] = best / scans * 1e6
 src, cfg = mixed_program()
 t("mixed program (40 rungs)", PLC.from_source(src, cfg))

@@ -125,7 +125,11 @@ def print_report(text: str, res: dict[str, Any], json_path: Path | None) -> None
 
 def speed_line(r: dict[str, Any], target: float, us_digits: int = 0, extra: str = "") -> str:
     """'  S simulated s in W wall s: Nx real time (wall), Mx (CPU), U us per scan', `extra`,
-    then the target verdict, judged on CPU time (the wall figure depends on the load)."""
+    then the target verdict, judged on CPU time (the wall figure depends on the load).
+
+    CPU time is the simulating thread's (`time.thread_time`), not the process's: numpy's
+    OpenBLAS worker threads spin on the other core for a while after numpy is imported, and
+    `time.process_time` counted that (a 3 s servo run read 50x CPU against 86x wall)."""
     return (f"  {r['simulated_s']:.1f} simulated s in {r['wall_s']:.2f} wall s: "
             f"{r['speedup']:.1f}x real time (wall), {r['speedup_cpu']:.1f}x (CPU), "
             f"{r['us_per_scan']:.{us_digits}f} us per scan{extra}  "
