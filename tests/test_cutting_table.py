@@ -249,3 +249,54 @@ def test_the_torch_stays_lit_from_cut_to_cut_and_goes_out_for_a_move():
     last = len(pen) - 1 - pen[::-1].index(1)
     assert all(pen[first:last + 1])  # never out between the cuts
     assert not any(pen[:first]) and samples[first][0] > 0.5  # off during the move
+
+
+@pytest.mark.parametrize("kind,lit", [(1, False), (3, True)])
+def test_the_hosts_look_ahead_keeps_the_torch_lit_when_the_next_frame_is_late(kind, lit):
+    """A cut ends before the host has written the next one (the PLC in READY, nothing
+    queued: the daemon's host_wait holds the clock there). Kind 1 gives no look-ahead, so
+    the torch goes out for that scan; kind 3 ("a cut follows": regmap.piece_words) keeps
+    it lit whatever the host's timing, as when the next cut was already queued. This was
+    the cause of test_e2_escudo_twice_byte_identical_traces failing on fast machines."""
+    plc = homed()
+    offer(plc, 2_000, 0, 10.0, kind=kind, number=1)
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 1, timeout=5)
+    assert plc[f"%MW{STATE}"] == READY and plc["%Q0.2"] == lit
+    offer(plc, 2_000, 2_000, 10.0, kind=1, number=2)  # the late frame
+    plc.scan()
+    assert plc[f"%MW{STATE}"] == MOVING and plc["%Q0.2"]
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 2, timeout=5)
+    assert not plc["%Q0.2"]
+
+
+def test_a_chained_cut_whose_next_frame_does_not_come_puts_the_torch_out():
+    """The look-ahead bridges one scan only: a host that then sends nothing (real time,
+    no host_wait) does not leave the torch burning in one spot."""
+    plc = homed()
+    offer(plc, 2_000, 0, 10.0, kind=3, number=1)
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 1, timeout=5)
+    assert plc["%Q0.2"]
+    plc.scan()
+    assert plc[f"%MW{STATE}"] == READY and not plc["%Q0.2"]
+
+
+@pytest.mark.parametrize("kind", [0, 4, 7])
+def test_a_segment_of_an_unknown_kind_is_fault_6(kind):
+    plc = homed()
+    offer(plc, 2_000, 0, 10.0, kind=kind)
+    plc.run(0.05)
+    assert plc[f"%MW{FAULT}"] == 6 and plc[f"%MW{STATE}"] == FAULT_STEP
+    assert not plc["%Q0.2"] and plc["%MD112"] == pytest.approx(0, abs=1)
+
+
+def test_piece_words_mark_a_cut_followed_by_a_cut_as_kind_3():
+    from softplc.cutting import load_piece, piece_words
+
+    piece = load_piece(ROOT / "ladder_programs" / "pieces" / "escudo.toml")
+    segs = piece.segments()
+    kinds = [w.kind for w in piece_words(segs)]
+    for i, (seg, k) in enumerate(zip(segs, kinds, strict=True)):
+        following = segs[i + 1].kind if i + 1 < len(segs) else None
+        want = 2 if seg.kind == "move" else 3 if following == "cut" else 1
+        assert k == want, (i, seg.kind, following)
+    assert kinds[0] == 2 and kinds[-1] == 1 and kinds.count(3) == len(segs) - 2

@@ -13,8 +13,8 @@ from ..cutting import (
     NewtonCurve,
     Piece,
     load_piece,
+    piece_words,
     preview,
-    segment_words,
     split_line,
 )
 from ..cutting.motion import simulate
@@ -36,8 +36,8 @@ def _write_frames(piece: Piece, out: str) -> None:
                         "x_um", "y_um", "kind_code", "seg_no",
                         *(f"MW{SEG_BASE + i}" for i in range(FRAME_LEN)),
                         "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2", "duration_s"])
-            for s in piece.segments():
-                sw = segment_words(s)
+            segs = piece.segments()
+            for s, sw in zip(segs, piece_words(segs), strict=True):
                 # what the PLC should compute for this segment (the corrected split)
                 split = split_line(s.start, s.end, s.speed, piece.accel)
                 w.writerow([s.number, s.kind, f"{s.end[0]:.6f}", f"{s.end[1]:.6f}",

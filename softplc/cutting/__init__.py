@@ -2,8 +2,9 @@
 
     from softplc.cutting import load_piece, preview, segment_words
     piece = load_piece("ladder_programs/pieces/achaflanado.toml")
-    for seg in piece.segments():          # numbered straight moves, cut or move
-        words = segment_words(seg).frame()  # %MW100..%MW108 as the host writes them
+    segs = piece.segments()               # numbered straight moves, cut or move
+    for words in piece_words(segs):       # each with the look-ahead of the next one
+        frame = words.frame()             # %MW100..%MW108 as the host writes them
     preview(piece, "e3.png", seed=True)
 
 Geometry in `geometry.py` (line, arc, fillet, Newton curve, chord tolerance), the axis split
@@ -27,7 +28,7 @@ from .geometry import (
 from .motion import LineSplit, Trapezoid, matlab_steps, split_line
 from .piece import Piece, PieceError, Segment, load_piece, piece_from_dict, piece_from_gcode
 from .preview import preview
-from .regmap import SegmentWords, segment_words
+from .regmap import SegmentWords, piece_words, segment_words
 
 __all__ = [
     "Arc",
@@ -51,6 +52,7 @@ __all__ = [
     "matlab_steps",
     "piece_from_dict",
     "piece_from_gcode",
+    "piece_words",
     "preview",
     "segment_words",
     "split_line",

@@ -5,7 +5,9 @@ ladder_programs/cutting_table.il): wait until the PLC is READY and idle, then fo
 segment wait until the mailbox is free (INICIO = 0: the PLC has queued the previous
 segment) and write the segment in one FC 16 frame (INICIO = 1 last). The PLC queues one
 segment while another runs, so the next segment is there when the current one ends (no
-segment waits for the host's next poll); SEG_DONE counts the completed ones. At the end,
+segment waits for the host's next poll); a cut followed by a cut is sent as kind 3
+(`regmap.piece_words`: the torch stays lit between them whatever the host's timing);
+SEG_DONE counts the completed ones. At the end,
 wait until SEG_DONE is the last number and EJECUTANDO = 0. A fault code stops the run
 with its meaning. Resume: `start_at` N first moves (torch off) to segment N's start if
 the carriage is elsewhere. Ctrl-C sets HOLD (%M101): the PLC stops both axes now, torch
@@ -44,8 +46,8 @@ from .regmap import (
     SEG_NO_MODULO,
     STATE,
     SegmentWords,
+    piece_words,
     seg_no,
-    segment_words,
     to_um,
     words_dint,
 )
@@ -200,8 +202,8 @@ class CutClient(ModbusHost):
                     self.send(SegmentWords(*want, first.speed, KIND_CODE[MOVE], number),
                               f"move to the start of segment {first.number}")
             bar.update(done)
-            for seg in todo:
-                count(self.offer(segment_words(seg),
+            for seg, words in zip(todo, piece_words(segs)[start_at - 1:], strict=True):
+                count(self.offer(words,
                                  f"segment {seg.number}/{total} ({seg.where})"))
                 offered = seg.number
             if todo:
@@ -287,9 +289,9 @@ def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = Fal
                             f"{w[FAULT]} ({FAULTS.get(w[FAULT], 'unknown fault')})")
 
     segs = piece.segments(seed=seed)
-    for seg in segs:
+    for seg, words in zip(segs, piece_words(segs), strict=True):
         wait(seg, lambda p: not w[INICIO], "the previous segment not taken")
-        for i, v in enumerate(segment_words(seg).frame()):
+        for i, v in enumerate(words.frame()):
             w[SEG_BASE + i] = v - 0x10000 if v > 0x7FFF else v
     if segs:
         last = seg_no(segs[-1].number)

@@ -7,7 +7,7 @@ Register map of `../shared/reference/cutting-table.md` §5.4 [choice]; holding r
 |---|---|---|---|
 | %MD100, %MD102 | SEG_X, SEG_Y | host | segment end, µm (work coordinates) |
 | %MF104 | SEG_V | host | path speed mm/s (0 = the program's default) |
-| %MW106 | SEG_KIND | host | 1 cut (torch on), 2 move (torch off) |
+| %MW106 | SEG_KIND | host | 1 cut (torch on), 2 move (torch off), 3 cut chained (see below) |
 | %MW107 | SEG_NO | host | sequence number, 1..32767 then 1 again |
 | %MW108 | INICIO | host / PLC | host writes 1; the PLC clears it when it accepts |
 | %MW109 | EJECUTANDO | PLC | 1 from acceptance until both axes are in position |
@@ -17,12 +17,20 @@ Register map of `../shared/reference/cutting-table.md` §5.4 [choice]; holding r
 
 One FC 16 frame of `FRAME_LEN` registers from SEG_BASE carries a whole segment (INICIO
 last), so the PLC, which applies one frame whole at a scan start, never sees half of one.
-The streaming client (device round) will use these words with the drawing host's handshake.
+The streaming client (`client.py`) and the in-process feeder use these words.
+
+Kind 3, "cut chained", is the host's look-ahead [choice]: a cut whose next segment is a
+cut too. Between two cuts the PLC keeps the torch lit through the one READY scan (one
+pierce per contour, not one per chord). With kind 1 it can do so only when the next cut
+is already in its queue, which depends on how fast the host answered; with kind 3 it
+knows, whatever the host's timing, so a run's torch trace does not depend on the host's
+speed. `piece_words` gives every segment of a piece its kind this way.
 """
 
 from __future__ import annotations
 
 import struct
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..gcode.parser import steps_of
@@ -34,12 +42,15 @@ EJECUTANDO, FAULT, STATE = 109, 110, 111
 POS_X, POS_Y, SEG_DONE = 112, 114, 128
 FRAME_LEN = INICIO - SEG_BASE + 1
 KIND_CODE = {"cut": 1, "move": 2}
+#: a cut followed by a cut (the host's look-ahead: the torch stays lit between them)
+KIND_CUT_CHAINED = 3
 START_VALUE = 1
 #: SEG_NO wraps within a positive 16-bit word and is never 0 (0 = none done yet).
 SEG_NO_MODULO = 32767
 UM_PER_MM = 1000.0
 FAULTS = {0: "none", 1: "limit switch", 2: "homing failed",
-          3: "target outside the work area", 4: "axis error", 5: "E-stop", 6: "bad segment"}
+          3: "target outside the work area", 4: "axis error", 5: "E-stop",
+          6: "bad segment (unknown kind or negative speed)"}
 DINT_MIN, DINT_MAX = -(1 << 31), (1 << 31) - 1
 
 
@@ -91,6 +102,19 @@ class SegmentWords:
                 self.kind, self.number, START_VALUE]
 
 
-def segment_words(seg: Segment) -> SegmentWords:
-    return SegmentWords(to_um(seg.end[0]), to_um(seg.end[1]), seg.speed,
-                        KIND_CODE["cut" if seg.kind == CUT else "move"], seg_no(seg.number))
+def segment_words(seg: Segment, next_seg: Segment | None = None) -> SegmentWords:
+    """The words of `seg`; a cut followed by the cut `next_seg` is kind 3 (chained)."""
+    if seg.kind != CUT:
+        kind = KIND_CODE["move"]
+    elif next_seg is not None and next_seg.kind == CUT:
+        kind = KIND_CUT_CHAINED
+    else:
+        kind = KIND_CODE["cut"]
+    return SegmentWords(to_um(seg.end[0]), to_um(seg.end[1]), seg.speed, kind,
+                        seg_no(seg.number))
+
+
+def piece_words(segs: Sequence[Segment]) -> list[SegmentWords]:
+    """The words of consecutive segments, each with the look-ahead of the next one."""
+    return [segment_words(s, segs[i + 1] if i + 1 < len(segs) else None)
+            for i, s in enumerate(segs)]
