@@ -193,6 +193,11 @@ def s32(lo: int, hi: int) -> int:
     return v - (1 << 32) if v >= 1 << 31 else v
 
 
+def max_fe_counts(out: str) -> float:
+    """The max |FE| in counts that `softplc servo` prints."""
+    return float(out.split("max |FE| ")[1].split(" counts")[0])
+
+
 def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp_path,
                                                                             capsys):
     from softplc.cli import main as softplc
@@ -239,7 +244,7 @@ def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp
                         "--from", "-128000", "--plot", str(plot), "--poll", "0.01",
                         "--settle", "0.3"]) == 0
         out = capsys.readouterr().out
-        fe = float(out.split("max |FE| ")[1].split(" counts")[0])
+        fe = max_fe_counts(out)
         # TABLA 4-3, Y: 11.8 counts. After the approach moves and a rest, the 12-bit DAC,
         # the friction and the integrator hunt at standstill and the stored integral adds
         # to the peak (docs/NOTES.md "Servo axis"). How long the axis rests depends on the
@@ -267,14 +272,14 @@ class _WordsClient:
     for running the host commands in-process on the virtual clock."""
 
     def __init__(self, plc: PLC):
-        self.w = plc.mem.mw.w
+        self.uw = plc.mem.mw.uw  # the words' unsigned view (what the Modbus server serves)
 
     def read_registers(self, addr: int, n: int) -> list[int]:
-        return [int(v) & 0xFFFF for v in self.w[addr:addr + n]]
+        return list(self.uw[addr:addr + n])
 
     def write_registers(self, addr: int, values: list[int]) -> None:
         for i, v in enumerate(values):
-            self.w[addr + i] = v - 0x10000 if v > 0x7FFF else v
+            self.uw[addr + i] = v
 
     def close(self) -> None:
         pass
@@ -306,5 +311,5 @@ def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, ca
     assert softplc(["servo", "scurve", "--axis", "Y", "--port", "1", "--start", "--from",
                     "-128000", "--poll", "0.01", "--settle", "0.3"]) == 0
     out = capsys.readouterr().out
-    fe = float(out.split("max |FE| ")[1].split(" counts")[0])
+    fe = max_fe_counts(out)
     assert low <= fe <= high

@@ -1,6 +1,6 @@
 """The cutting table's host side: path library, seed mode, pieces, preview, PLC words.
 
-    from softplc.cutting import load_piece, preview, segment_words
+    from softplc.cutting import load_piece, piece_words, preview
     piece = load_piece("ladder_programs/pieces/achaflanado.toml")
     segs = piece.segments()               # numbered straight moves, cut or move
     for words in piece_words(segs):       # each with the look-ahead of the next one

@@ -272,6 +272,7 @@ def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = Fal
     frame lands at a known scan): for tests and the benchmark. Returns the number of
     segments cut; HostError on a fault or a timeout. `seed`: the thesis's path."""
     w = plc.mem.mw.w  # type: ignore[attr-defined]  # the words, read without parsing
+    uw = plc.mem.mw.uw  # type: ignore[attr-defined]  # the same, unsigned as on the wire
 
     def stopped(p: object) -> bool:
         return bool(w[FAULT]) or p.state != "RUN"  # type: ignore[attr-defined]
@@ -292,7 +293,7 @@ def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = Fal
     for seg, words in zip(segs, piece_words(segs), strict=True):
         wait(seg, lambda p: not w[INICIO], "the previous segment not taken")
         for i, v in enumerate(words.frame()):
-            w[SEG_BASE + i] = v - 0x10000 if v > 0x7FFF else v
+            uw[SEG_BASE + i] = v
     if segs:
         last = seg_no(segs[-1].number)
         wait(segs[-1], lambda p: w[SEG_DONE] == last and not w[EJECUTANDO] and not w[INICIO],
