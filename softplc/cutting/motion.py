@@ -158,8 +158,12 @@ def split_line(start: Point, end: Point, speed: float = DEFAULT_SPEED,
     moves = []
     for i in (0, 1):
         u = abs(end[i] - start[i]) / L if L > 0 else 0.0
-        v_i, a_i = (speed * u, accel * u) if u > 0 else (speed, accel)
-        moves.append(axis_move(start[i], end[i], v_i, a_i))
+        if u > 0:
+            moves.append(axis_move(start[i], end[i], speed * u, accel * u))
+        else:
+            # No share of the line, or one that underflows to 0 (a 5e-324 mm offset): the
+            # axis does not move; a direction with a zero-speed profile would arrive at t=0.
+            moves.append(AxisMove(end[i], speed, accel, Trapezoid(0.0, speed, accel), 0))
     return LineSplit(start, end, moves[0], moves[1])
 
 
