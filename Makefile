@@ -30,9 +30,12 @@ run: $(STAMP)
 draw: $(STAMP)
 	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png
 
+# Unit and integration tiers on every core (pytest-xdist); the end-to-end tier alone after
+# them, as its daemons keep real time and would compete with the workers (tests/tiers.py).
 test: $(STAMP) sysdeps
 	$(BIN)/ruff check softplc tests tools
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto -m "not e2e"
+	$(BIN)/python -m pytest -q -m e2e
 
 # libmodbus-dev (Debian): the C library the benchmark's "C ceiling" row compiles against.
 bench: $(STAMP)
