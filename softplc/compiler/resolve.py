@@ -81,6 +81,47 @@ def _instruction_refs(instr: A.Instruction) -> Iterator[tuple[Ref, A.Pos]]:
         yield instr.block, pos
 
 
+READ, WRITE, READ_WRITE = "read", "write", "read/write"
+
+
+def _write_targets(instr: A.Instruction) -> tuple[set[int], set[int]]:
+    """ids of the Refs `instr` writes, and of those it both reads and writes."""
+    if isinstance(instr, A.Store):
+        return {id(instr.target)}, set()
+    if isinstance(instr, A.OpBlock):
+        stmt = instr.stmt
+        if isinstance(stmt, A.Assign):
+            return {id(stmt.target)}, set()
+        if isinstance(stmt, A.IncDec):
+            return set(), {id(stmt.target)}
+        if isinstance(stmt, A.ExchCall):  # sent from and answered into the same table
+            return set(), {id(stmt.table)}
+    return set(), set()
+
+
+def object_uses(program: A.Program) -> dict[Ref, tuple[str, A.Pos]]:
+    """Every object the program reads or writes (block fields and indexes included): how
+    (READ, WRITE or READ_WRITE) and where first, for listings such as the Modbus map."""
+    uses: dict[Ref, tuple[str, A.Pos]] = {}
+
+    def note(ref: Ref, role: str, pos: A.Pos) -> None:
+        old = uses.get(ref)
+        if old is None:
+            uses[ref] = (role, pos)
+        elif old[0] != role:
+            uses[ref] = (READ_WRITE, old[1])
+
+    for rung in program.rungs:
+        for instr in rung.instructions:
+            written, both = _write_targets(instr)
+            for ref, pos in _instruction_refs(instr):
+                role = WRITE if id(ref) in written else READ_WRITE if id(ref) in both else READ
+                note(ref, role, pos)
+                if ref.offset is not None:  # %MW2[%MW5]: the index word is read
+                    note(ref.offset, READ, pos)
+    return uses
+
+
 class _Resolver:
     def __init__(self, program: A.Program, counts: dict[str, int]):
         self.program = program

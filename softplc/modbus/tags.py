@@ -1,0 +1,224 @@
+"""The Modbus map of one program: an HMI/SCADA tag list.
+
+`regmap` says what the server exposes in general (%MWn = register n, %Mn = coil n). This
+module applies it to a program: every %M/%MW/%MD/%MF object the program uses becomes a tag
+with its Modbus table, address, function codes and access (read-only ranges of the
+configuration and the devices' status words refused to writes), and every object it uses
+that no host can reach (%I, %Q, timers, system words...) is listed apart, with the way to
+expose it. `softplc map` prints it and writes it as CSV; the web monitor shows it.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ..address import BLOCK_FIELDS, Ref
+from ..compiler.resolve import object_uses
+from ..il import ast as A
+from .regmap import COILS, FUNCTIONS, REGISTERS, ReadOnly, parse_read_only
+
+#: The function codes that read / write each table (from the one map, regmap.FUNCTIONS);
+#: 32-bit objects span two registers, so only the multi-register writes reach them whole.
+READ_FCS = {space: tuple(f.code for f in FUNCTIONS.values()
+                         if f.space == space and "read" in f.access)
+            for space in (COILS, REGISTERS)}
+WRITE_FCS = {space: tuple(f.code for f in FUNCTIONS.values()
+                          if f.space == space and "write" in f.access)
+             for space in (COILS, REGISTERS)}
+MULTI_REGISTER_WRITES = tuple(c for c in WRITE_FCS[REGISTERS] if FUNCTIONS[c].max_quantity > 1)
+#: Modicon-style references (what many HMI tag importers want): coil n is 00001 + n,
+#: holding register n is 40001 + n.
+REFERENCE_BASE = {COILS: 1, REGISTERS: 40001}
+TYPES = {"M": "BOOL", "MW": "INT16", "MD": "INT32", "MF": "REAL"}
+WIDTH = {"M": 1, "MW": 1, "MD": 2, "MF": 2}
+#: Why an object is not on the map, and how a program shows it to a host.
+HIDDEN_WHY = {
+    "I": "inputs have no Modbus address: copy to a %M bit (LD %I0.0 / ST %M100)",
+    "Q": "outputs have no Modbus address: copy to a %M bit (LD %Q0.0 / ST %M101)",
+    "IW": "analog inputs: copy to a %MW word ([ %MW100 := %IW1.0 ])",
+    "QW": "analog outputs: copy to a %MW word ([ %MW101 := %QW1.0 ])",
+    "S": "system bits: copy to a %M bit",
+    "SW": "system words: copy to a %MW word",
+    "KW": "constants have no Modbus address: copy to a %MW word",
+    "KD": "constants have no Modbus address: copy to two %MW words (%MD)",
+    "KF": "constants have no Modbus address: copy to two %MW words (%MF)",
+    "X": "Grafcet steps: copy to a %M bit",
+}
+BLOCK_WHY = "function block: copy its fields to %M/%MW ([ %MW102 := %TM0.V ])"
+
+
+@dataclass(frozen=True)
+class Tag:
+    """One object a host can reach."""
+
+    address: str  # %MW10, %MD20, %M5:8, %MW3:X2
+    type: str  # BOOL, INT16, INT32, REAL (tables: the element type)
+    space: str  # COILS or REGISTERS
+    start: int  # first coil or register (0-based, as on the wire)
+    count: int  # coils or registers spanned
+    access: str  # "read/write", or "read" (a read-only range)
+    program: str  # how the program uses it: read, write, read/write
+    line: int  # where the program first uses it
+    symbol: str = ""
+    comment: str = ""
+    note: str = ""
+
+    @property
+    def read_fcs(self) -> tuple[int, ...]:
+        return READ_FCS[self.space]
+
+    @property
+    def write_fcs(self) -> tuple[int, ...]:
+        if self.access == "read":
+            return ()
+        if self.space == REGISTERS and (self.count > 1 or self.type in ("INT32", "REAL")):
+            return MULTI_REGISTER_WRITES
+        return WRITE_FCS[self.space]
+
+    @property
+    def reference(self) -> int:
+        return REFERENCE_BASE[self.space] + self.start
+
+
+@dataclass(frozen=True)
+class Hidden:
+    """An object the program uses that no Modbus host can reach."""
+
+    address: str
+    program: str
+    line: int
+    why: str
+    symbol: str = ""
+    comment: str = ""
+
+
+@dataclass(frozen=True)
+class ProgramMap:
+    tags: list[Tag]
+    hidden: list[Hidden]
+
+
+def _span(ref: Ref) -> tuple[str, int, int] | None:
+    """(table, first item, item count) of a %M/%MW/%MD/%MF object, None if not exposed."""
+    if ref.kind == "M":
+        return COILS, ref.index, ref.length or 1
+    if ref.kind in ("MW", "MD", "MF"):
+        return REGISTERS, ref.index, (ref.length or 1) * WIDTH[ref.kind]
+    return None
+
+
+def _block_name(ref: Ref) -> str:
+    return f"%{ref.kind}{ref.index}"
+
+
+def build(program: A.Program, read_only: ReadOnly | None = None,
+          device_words: Mapping[str, Iterable[tuple[int, int]]] | None = None,
+          symbols: Mapping[str, tuple[str, str]] | None = None,
+          limits: Mapping[str, int] | None = None) -> ProgramMap:
+    """The map of `program`. `read_only`: the configured read-only ranges; `device_words`:
+    device name -> the %MW ranges [start, stop) it writes (read-only for hosts); `symbols`:
+    address text -> (symbol, comment); `limits`: the image size per table (objects beyond
+    it are listed as hidden)."""
+    read_only = read_only or ReadOnly()
+    symbols = symbols or {}
+    owners = [(a, b, name) for name, ranges in (device_words or {}).items() for a, b in ranges]
+    tags: list[Tag] = []
+    hidden: list[Hidden] = []
+    seen_blocks: set[str] = set()
+    for ref, (role, pos) in object_uses(program).items():
+        text = str(ref)
+        sym, comment = symbols.get(text, ("", ""))
+        span = _span(ref)
+        if span is None:
+            if ref.kind in BLOCK_FIELDS:  # one line per block, not per field
+                name = _block_name(ref)
+                if name in seen_blocks:
+                    continue
+                seen_blocks.add(name)
+                sym, comment = symbols.get(name, (sym, comment))
+                hidden.append(Hidden(name, "uses", pos.line, BLOCK_WHY, sym, comment))
+            elif ref.kind in HIDDEN_WHY:
+                hidden.append(Hidden(text, role, pos.line, HIDDEN_WHY[ref.kind], sym, comment))
+            continue
+        space, start, count = span
+        if limits is not None and start + count > limits.get(space, start + count):
+            hidden.append(Hidden(text, role, pos.line,
+                                 f"beyond the {space} of the image", sym, comment))
+            continue
+        access, note = "read/write", ""
+        if read_only.blocks(space, start, count):
+            access, note = "read", "read-only range ([modbus] read_only)"
+        if space == REGISTERS:
+            for a, b, name in owners:
+                if start < b and a < start + count:
+                    access, note = "read", f"status word of device {name}"
+        if ref.offset is not None:
+            note = (note + "; " if note else "") + f"indexed: register {start} + {ref.offset}"
+        if ref.bit is not None and access != "read":
+            note = (note + "; " if note else "") + (
+                f"bit {ref.bit} of register {start}: a host writes the whole word")
+        tags.append(Tag(text, "BOOL" if ref.bit is not None else TYPES[ref.kind], space,
+                        start, count, access, role, pos.line, sym, comment, note))
+    tags.sort(key=lambda t: (t.space, t.start, t.address))
+    hidden.sort(key=lambda h: (h.line, h.address))
+    return ProgramMap(tags, hidden)
+
+
+def host_read_only(plc: Any) -> tuple[ReadOnly, dict[str, list[tuple[int, int]]]]:
+    """What hosts may not write on `plc`'s map: the configured `[modbus] read_only` ranges,
+    and each device's status words (device name -> %MW ranges)."""
+    devices = {name: list(d.read_only_words()) for name, d in plc.devices.items()}
+    return parse_read_only(plc.config, plc.mem.profile), {n: r for n, r in devices.items() if r}
+
+
+def of_plc(plc: Any) -> ProgramMap:
+    """The map of a loaded PLC's program with its configuration and devices."""
+    ro, device_words = host_read_only(plc)
+    limits = {REGISTERS: plc.mem.profile.count("MW"), COILS: plc.mem.profile.count("M")}
+    return build(plc.ast, ro, device_words, limits=limits)
+
+
+CSV_COLUMNS = ("tag", "address", "type", "table", "modbus_address", "reference", "count",
+               "read_fc", "write_fc", "access", "program", "comment", "note")
+
+
+def to_csv(pmap: ProgramMap) -> str:
+    """The tags as CSV, one row per object, for an HMI or SCADA tag import: `tag` is the
+    symbol (or the address), `modbus_address` 0-based as on the wire, `reference` the
+    Modicon 00001/40001-based number."""
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for t in pmap.tags:
+        w.writerow([t.symbol or t.address, t.address, t.type,
+                    "coil" if t.space == COILS else "holding register", t.start, t.reference,
+                    t.count, " ".join(map(str, t.read_fcs)), " ".join(map(str, t.write_fcs)),
+                    t.access, t.program, t.comment, t.note])
+    return out.getvalue()
+
+
+def to_text(pmap: ProgramMap) -> str:
+    """The map as aligned text: the tags, then what the program uses that is not exposed."""
+    rows = [("address", "symbol", "type", "table", "modbus", "FC read", "FC write", "access",
+             "program", "note")]
+    for t in pmap.tags:
+        last = t.start + t.count - 1
+        where = f"{t.start}" if t.count == 1 else f"{t.start}..{last}"
+        rows.append((t.address, t.symbol, t.type, "coil" if t.space == COILS else "register",
+                     where, ",".join(map(str, t.read_fcs)),
+                     ",".join(map(str, t.write_fcs)) or "-", t.access, t.program,
+                     t.note or t.comment))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+             for r in rows]
+    if len(rows) == 1:
+        lines.append("(the program uses no %M, %MW, %MD or %MF object)")
+    if pmap.hidden:
+        lines += ["", "Used by the program but not on the Modbus map:"]
+        width = max(len(h.address) for h in pmap.hidden)
+        lines += [f"  {h.address.ljust(width)}  line {h.line}: {h.why}" for h in pmap.hidden]
+    return "\n".join(lines) + "\n"
