@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import re
+import time
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -72,7 +73,7 @@ class PLC:
         self._analog_modules: dict[int, AnalogModule] = {}
         self._modules = self._load_modules(settings.modules)
         self.mem.analog = self._configure_analog(settings.analog)
-        self._configure_blocks(settings)
+        self.configure_blocks(settings)
         self._configure_constants(settings.constants)
         self._configure_pid(settings.pid)
         self.mem.counting = build_counters(settings.fast_counters, settings.very_fast_counters,
@@ -93,6 +94,7 @@ class PLC:
         self._schedules = parse_schedules(cfg.get("schedule", {}), self.mem)
         self._attach_rtc(program, "rtc" in cfg)
         self.program_version = 0  # bumped when the running code is rebuilt
+        self.program_loaded_at = time.time()  # wall time of the last load (online change)
         self.devices: dict[str, Any] = {}
         if devices and settings.devices:
             from .devices import build_devices
@@ -215,7 +217,8 @@ class PLC:
             raise ConfigError(f"{key_path((section, text))}: {text!r} is not a %{kind} object")
         return ref
 
-    def _configure_blocks(self, cfg: Config) -> None:
+    def configure_blocks(self, cfg: Config) -> None:
+        """Create the blocks `cfg` configures (replacing those of the same address)."""
         blocks = self.mem.blocks
         for text, t in cfg.timers.items():
             ref = self._cfg_ref(text, "TM", "timers")
@@ -468,6 +471,7 @@ class PLC:
         self.engine.load(compiled)
         self._attach_rtc(program)
         self.program_version += 1
+        self.program_loaded_at = time.time()
 
     # -- running --------------------------------------------------------------------------------
     def scan(self, n: int = 1) -> None:

@@ -1,0 +1,171 @@
+"""Online program change: swap the program of a running PLC at a scan boundary, keeping
+memory, timers, counters and retained state wherever the objects still exist.
+
+A TwidoSuite user changes a program without stopping the controller. Here that is two
+steps:
+
+1. `plan(plc, program, config)` checks and compiles the new program (and configuration, if
+   one is given) in a trial PLC that shares nothing with the running one, and lists what
+   cannot carry over: a function block the new program no longer uses (its value is
+   dropped), a block whose configuration changed (it restarts from the new one), a
+   configuration section that can only change with a restart (refused outright). A program
+   that does not check or compile raises `ProgramError` with every diagnostic: nothing
+   changes.
+2. `apply(plc, plan)` makes the swap; call it between two scans (the daemon's scan thread
+   does, through the web controller's queue). `%M`, `%MW`, Grafcet steps, forced objects
+   and every block that carries over keep their values; `cold=True` also cold-starts.
+
+The running code's identity (`ProgramInfo`: file, hash, time loaded, version) is what the
+web monitor shows.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .address import parse_address
+from .errors import SoftPLCError
+from .il import ast as A
+
+#: Configuration sections an online change may alter: the blocks' (applied block by block)
+#: and the descriptive ones. Any other section (scan period, devices, Modbus, analog, PID,
+#: EXCH...) shapes the running machine and needs a restart.
+BLOCK_SECTIONS = {"timers": "TM", "counters": "C", "drums": "DR", "registers": "R"}
+FREE_SECTIONS = {"name", "description", "symbols"}
+
+
+class ChangeRefused(SoftPLCError):
+    """The change cannot be made online (a configuration section that needs a restart)."""
+
+
+@dataclass(frozen=True)
+class ProgramInfo:
+    """Which program runs: its file, a hash of its text, when it was loaded, the count of
+    online changes so far."""
+
+    file: str
+    sha256: str
+    loaded_at: float  # time.time() of the load
+    version: int = 0
+
+    @classmethod
+    def of(cls, plc: Any) -> ProgramInfo:
+        """What `plc` runs now."""
+        digest = hashlib.sha256(plc.ast.source.encode()).hexdigest()
+        return cls(plc.ast.file, digest, plc.program_loaded_at, plc.program_version)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"file": self.file, "sha256": self.sha256, "hash": self.sha256[:12],
+                "loaded_at": time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(self.loaded_at)),
+                "version": self.version}
+
+
+@dataclass
+class Plan:
+    """A checked change, ready to apply."""
+
+    program: A.Program
+    settings: Any  # the new `Config`
+    raw_config: dict[str, Any]
+    losses: list[str] = field(default_factory=list)  # what does not carry over, for humans
+    reset: set[tuple[str, int]] = field(default_factory=set)  # blocks (kind, index) rebuilt
+    removed: set[tuple[str, int]] = field(default_factory=set)  # blocks no longer used
+
+    @property
+    def needs_confirmation(self) -> bool:
+        return bool(self.losses)
+
+
+def _block_configs(settings: Any) -> dict[tuple[str, int], Any]:
+    """(kind, index) -> configured options of each block the configuration names."""
+    out: dict[tuple[str, int], Any] = {}
+    for section, kind in BLOCK_SECTIONS.items():
+        for text, options in getattr(settings, section).items():
+            try:
+                ref = parse_address(text)
+            except SoftPLCError:
+                continue  # the trial PLC reported it already
+            out[kind, ref.index] = options.model_dump()
+    return out
+
+
+def _restart_sections(old: Any, new: Any) -> list[str]:
+    before, after = old.model_dump(), new.model_dump()
+    return sorted(k for k in before.keys() | after.keys()
+                  if k not in BLOCK_SECTIONS and k not in FREE_SECTIONS
+                  and before.get(k) != after.get(k))
+
+
+def _describe(options: Any) -> str:
+    return ", ".join(f"{k} {v}" for k, v in options.items()) if options else "defaults"
+
+
+def plan(plc: Any, program: A.Program | str | Path,
+         config: str | Path | dict[str, Any] | None = None) -> Plan:
+    """Check and compile `program` (an AST, IL text or a file) against `config` (default:
+    the running configuration) without touching `plc`; what will not carry over."""
+    from .plc import PLC
+
+    if config is None:
+        config = plc.config
+    # raises ProgramError (every syntax and semantic error, with line:col) / ConfigError
+    if isinstance(program, Path):
+        trial = PLC.from_file(program, config, devices=False)
+    elif isinstance(program, str):
+        trial = PLC.from_source(program, config, file="<online change>", devices=False)
+    else:
+        trial = PLC(program, config, devices=False)
+    program = trial.ast
+    restart = _restart_sections(plc.settings, trial.settings)
+    if restart:
+        raise ChangeRefused(
+            "these configuration sections cannot change while the PLC runs (restart the "
+            "daemon with the new configuration): " + ", ".join(restart))
+    old_cfg, new_cfg = _block_configs(plc.settings), _block_configs(trial.settings)
+    result = Plan(program, trial.settings, trial.config)
+    running = {(k, i) for k, d in plc.mem.blocks.items() for i in d}
+    kept = {(k, i) for k, d in trial.mem.blocks.items() for i in d}
+    for kind, index in sorted(running - kept):
+        result.removed.add((kind, index))
+        result.losses.append(f"%{kind}{index} is no longer used: its value is dropped")
+    for key in sorted(running & kept):
+        if old_cfg.get(key) != new_cfg.get(key):
+            kind, index = key
+            result.reset.add(key)
+            result.losses.append(
+                f"%{kind}{index} configuration changed ({_describe(old_cfg.get(key))} -> "
+                f"{_describe(new_cfg.get(key))}): it restarts from the new configuration")
+    trial.close()
+    return result
+
+
+def apply(plc: Any, change: Plan, *, confirm: bool = False, cold: bool = False) -> None:
+    """Swap the program (between two scans). Refuses a plan with losses unless `confirm`
+    or `cold`; with `cold` the PLC also cold-starts after the swap."""
+    if change.needs_confirmation and not (confirm or cold):
+        raise ChangeRefused("the change loses state; confirm it or make it cold:\n  "
+                            + "\n  ".join(change.losses))
+    mem = plc.mem
+    carried = {(k, i): b.state() for k, d in mem.blocks.items() for i, b in d.items()
+               if (k, i) not in change.reset and (k, i) not in change.removed}
+    old_settings, old_raw = plc.settings, plc.config
+    try:
+        for kind, index in change.removed | change.reset:
+            mem.blocks[kind].pop(index, None)
+            plc.engine.cold_states.pop((kind, index), None)
+        plc.settings, plc.config = change.settings, change.raw_config
+        plc.configure_blocks(change.settings)  # fresh objects for the configured blocks...
+        for (kind, index), st in carried.items():  # ...given back the state they carry
+            block = mem.blocks.get(kind, {}).get(index)
+            if block is not None:
+                block.set_state(st)
+        plc.replace_program(change.program)
+    except SoftPLCError:  # cannot happen after a clean plan; leave the PLC as it was
+        plc.settings, plc.config = old_settings, old_raw
+        raise
+    if cold:
+        plc.cold_start()
