@@ -300,3 +300,29 @@ def test_piece_words_mark_a_cut_followed_by_a_cut_as_kind_3():
         want = 2 if seg.kind == "move" else 3 if following == "cut" else 1
         assert k == want, (i, seg.kind, following)
     assert kinds[0] == 2 and kinds[-1] == 1 and kinds.count(3) == len(segs) - 2
+
+
+def test_a_frame_written_during_a_fault_is_refused_and_never_cut_after_reset():
+    """Issue 23: a segment written while the machine is in FAULT stayed in the mailbox and
+    ran, torch lit, at once after RESET. It is refused (INICIO := -1, which the host sees)
+    and nothing moves after RESET until the host sends again."""
+    plc = homed()
+    plc.devices["estop"].press()
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == FAULT_STEP, timeout=0.1)
+    offer(plc, 100_000, 0, 10.0, kind=1, number=2)  # the host, unaware of the fault
+    plc.run(0.05)
+    assert plc[f"%MW{INICIO}"] == -1  # refused, visibly
+    plc.devices["estop"].release()
+    plc.scan()
+    plc["%M102"] = 1
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=0.1)
+    before = true_mm(plc)
+    lit = False
+    for _ in range(500):
+        plc.scan()
+        lit |= bool(plc["%Q0.2"]) or plc.devices["torch"].lit
+    assert not lit and plc[f"%MW{STATE}"] == READY and plc[f"%MW{SEG_DONE}"] == 0
+    assert true_mm(plc) == pytest.approx(before, abs=1e-4)
+    offer(plc, 2_000, 0, 10.0, kind=1, number=3)  # the host sends again: it cuts
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 3, timeout=5)
+    assert plc["%MD112"] == pytest.approx(2_000, abs=1)

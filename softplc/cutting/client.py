@@ -44,10 +44,12 @@ from .regmap import (
     SEG_BASE,
     SEG_DONE,
     SEG_NO_MODULO,
+    START_VALUE,
     STATE,
     SegmentWords,
     piece_words,
     seg_no,
+    signed_word,
     to_um,
     words_dint,
 )
@@ -78,7 +80,7 @@ class PlcState:
         def d(i: int) -> int:
             return words_dint(w(i), w(i + 1))
 
-        return cls(w(INICIO), w(EJECUTANDO), w(FAULT), w(STATE), (d(POS_X), d(POS_Y)),
+        return cls(signed_word(w(INICIO)), w(EJECUTANDO), w(FAULT), w(STATE), (d(POS_X), d(POS_Y)),
                    w(SEG_DONE), (d(ORIGIN_X), d(ORIGIN_X + 2)))
 
     def __str__(self) -> str:
@@ -145,7 +147,8 @@ class CutClient(ModbusHost):
     def offer(self, words: SegmentWords, label: str) -> PlcState:
         """Write one segment into the mailbox once it is free (the PLC has queued the
         previous one); returns the state read just before."""
-        state = self.wait_for(lambda s: s.step in (READY_STEP, MOVING_STEP) and not s.inicio,
+        state = self.wait_for(lambda s: s.step in (READY_STEP, MOVING_STEP)
+                              and s.inicio != START_VALUE,
                               self.move_timeout, f"{label}: waiting for the PLC to take "
                               "the previous segment")
         self.write_words(SEG_BASE, words.frame())
@@ -154,7 +157,7 @@ class CutClient(ModbusHost):
 
     def finish(self, number: int, label: str) -> PlcState:
         """Wait until segment `number` (the last one offered) is done and the PLC idle."""
-        return self.wait_for(lambda s: s.seg_done == number and not s.inicio
+        return self.wait_for(lambda s: s.seg_done == number and s.inicio != START_VALUE
                              and not s.ejecutando, self.move_timeout,
                              f"{label}: waiting for the segment to end")
 
@@ -291,11 +294,12 @@ def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = Fal
 
     segs = piece.segments(seed=seed)
     for seg, words in zip(segs, piece_words(segs), strict=True):
-        wait(seg, lambda p: not w[INICIO], "the previous segment not taken")
+        wait(seg, lambda p: w[INICIO] != START_VALUE, "the previous segment not taken")
         for i, v in enumerate(words.frame()):
             uw[SEG_BASE + i] = v
     if segs:
         last = seg_no(segs[-1].number)
-        wait(segs[-1], lambda p: w[SEG_DONE] == last and not w[EJECUTANDO] and not w[INICIO],
+        wait(segs[-1], lambda p: w[SEG_DONE] == last and not w[EJECUTANDO]
+             and w[INICIO] != START_VALUE,
              "not done")
     return len(segs)

@@ -209,8 +209,9 @@ class Piece:
     file: str = "<string>"
     warnings: list[str] = field(default_factory=list)
 
-    def segments(self, seed: bool = False) -> list[Segment]:
-        """Numbered straight segments; seed=True uses the thesis's arc and Newton code."""
+    def segments(self, seed: bool | str = False) -> list[Segment]:
+        """Numbered straight segments; seed=True (or "matlab", "cpu": the arc's variant)
+        uses the thesis's arc and Newton code."""
         out: list[Segment] = []
         pos = self.start
         for el in self.elements:
@@ -241,7 +242,7 @@ class Piece:
         segs = self.segments()
         return segs[-1].end if segs else self.start
 
-    def length(self, kind: str = CUT, seed: bool = False) -> float:
+    def length(self, kind: str = CUT, seed: bool | str = False) -> float:
         return sum(s.length for s in self.segments(seed) if s.kind == kind)
 
     def deviation(self, p: Point) -> float:
@@ -273,15 +274,17 @@ class Piece:
                    for s in self.segments())
 
 
-def _points(el: Element, tolerance: float, seed: bool) -> list[Point]:
+def _points(el: Element, tolerance: float, seed: bool | str) -> list[Point]:
     shape = el.shape
+    variant = thesis.seed_variant(seed)
     if isinstance(shape, Arc):
-        if seed:
+        if variant:
             return thesis.thesis_arc_points(shape.centre, shape.start, shape.sweep,
-                                            el.speed, MATLAB_CYCLE).points
+                                            el.speed, MATLAB_CYCLE,
+                                            cpu=variant == "cpu").points
         return shape.chords(tolerance)
     if isinstance(shape, NewtonCurve):
-        if seed:
+        if variant:
             return thesis.ThesisNewton(shape.xs, shape.ys).points()[1:]
         return shape.chords(samples=el.samples or NEWTON_SAMPLES)
     return shape.chords()

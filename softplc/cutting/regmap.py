@@ -9,7 +9,7 @@ Register map of `../shared/reference/cutting-table.md` §5.4 [choice]; holding r
 | %MF104 | SEG_V | host | path speed mm/s (0 = the program's default) |
 | %MW106 | SEG_KIND | host | 1 cut (torch on), 2 move (torch off), 3 cut chained (see below) |
 | %MW107 | SEG_NO | host | sequence number, 1..32767 then 1 again |
-| %MW108 | INICIO | host / PLC | host writes 1; the PLC clears it when it accepts |
+| %MW108 | INICIO | host / PLC | host writes 1; the PLC: 0 accepted, -1 refused (FAULT) |
 | %MW109 | EJECUTANDO | PLC | 1 from acceptance until both axes are in position |
 | %MW110 | FAULT | PLC | see FAULTS |
 | %MD112, %MD114 | pos_X, pos_Y | PLC | actual positions, µm |
@@ -45,6 +45,9 @@ KIND_CODE = {"cut": 1, "move": 2}
 #: a cut followed by a cut (the host's look-ahead: the torch stays lit between them)
 KIND_CUT_CHAINED = 3
 START_VALUE = 1
+#: INICIO's answer to a frame offered while the PLC is in FAULT: refused, never run (not
+#: even after RESET); the mailbox is free again for the host's next frame.
+REFUSED = -1
 #: SEG_NO wraps within a positive 16-bit word and is never 0 (0 = none done yet).
 SEG_NO_MODULO = 32767
 UM_PER_MM = 1000.0
@@ -71,6 +74,11 @@ def real_words(v: float) -> tuple[int, int]:
     """A %MF value (IEEE single) as two holding registers, low word first."""
     lo, hi = struct.unpack("<HH", struct.pack("<f", v))
     return lo, hi
+
+
+def signed_word(u: int) -> int:
+    """A holding register (unsigned on the wire) as the PLC's signed %MW."""
+    return u - 0x10000 if u & 0x8000 else u
 
 
 def words_dint(lo: int, hi: int) -> int:
