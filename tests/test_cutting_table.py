@@ -326,3 +326,60 @@ def test_a_frame_written_during_a_fault_is_refused_and_never_cut_after_reset():
     offer(plc, 2_000, 0, 10.0, kind=1, number=3)  # the host sends again: it cuts
     assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 3, timeout=5)
     assert plc["%MD112"] == pytest.approx(2_000, abs=1)
+
+
+def commanded_accels(plc: PLC, cruise: tuple[float, float], scans: int) -> list[float]:
+    """The commanded accelerations (mm/s²) of both axes' first ramps: a parabola fitted to
+    each axis's COMMANDED word (%MD +12, counts) against its servo tick count (%MD +20)
+    times its tick period (the scan does not sample the ticks evenly)."""
+    import numpy as np
+
+    rows: dict[str, list[tuple[float, int]]] = {"X": [], "Y": []}
+    for _ in range(scans):
+        plc.scan()
+        for axis, words in (("X", 200), ("Y", 230)):
+            rows[axis].append((plc[f"%MD{words + 20}"] * plc.devices[axis].T,
+                               plc[f"%MD{words + 12}"]))
+    out = []
+    for axis, v in zip(("X", "Y"), cruise, strict=True):
+        t, c = np.array(rows[axis], float).T
+        c /= COUNTS_PER_MM
+        vel = np.diff(c) / np.diff(t)
+        ramp = [i for i in range(1, len(vel)) if 0.05 * v < vel[i - 1] and vel[i] < 0.95 * v]
+        assert len(ramp) >= 10
+        out.append(2 * float(np.polyfit(t[ramp], c[ramp], 2)[0]))
+    return out
+
+
+@pytest.mark.parametrize("v", [2.0, 5.0])
+def test_the_ramps_accelerate_at_exactly_a_times_u(v):
+    """Issue 23: the ramp time was v/a + 1 ms, so the acceleration was 5 % low at 2 mm/s
+    (20/21) and 2 % low at 5 mm/s (50/51). Now a_i = a·|u_i| (a = 100 mm/s²)."""
+    plc = homed()
+    offer(plc, 30_000, 40_000, v)  # u = (0.6, 0.8)
+    ax, ay = commanded_accels(plc, (0.6 * v, 0.8 * v), int(1000 * v / 100) + 30)
+    assert (ax, ay) == (pytest.approx(60.0, rel=2e-3), pytest.approx(80.0, rel=2e-3))
+
+
+@pytest.mark.parametrize("piece_file,v", [("escudo.toml", 2.0), ("escudo.toml", 5.0),
+                                           (None, 2.0)])
+def test_the_planned_time_matches_the_plc_within_the_handshake(piece_file, v):
+    """Issue 23: with exact ramps the motion time the host plans (L/v + v/a per segment,
+    2·sqrt(L/a) for a line too short to reach v) is what the PLC takes, plus the
+    handshake: one READY scan and the servo tick alignment, 0.5-2 ms per segment (it was
+    about 1 ms more per segment with the v/a + 1 ms ramps, and 22 ms more for each
+    10 µm triangle below, which ramped for 21 ms instead of 10)."""
+    from softplc.cutting import load_piece, piece_from_dict
+    from softplc.cutting.client import feed_plc
+
+    if piece_file is None:  # ten 10 µm lines at 2 mm/s: triangles of 2 x sqrt(L/a) = 20 ms
+        piece = piece_from_dict({"speed": v, "op": [
+            {"kind": "line", "to": [0.01 * (i + 1), 0]} for i in range(10)]})
+    else:
+        piece = load_piece(ROOT / "ladder_programs" / "pieces" / piece_file, speed=v,
+                           move_speed=v)
+    plc = homed()
+    t0 = plc.time
+    n = feed_plc(plc, piece, timeout=60)
+    extra = (plc.time - t0 - piece.duration()) / n
+    assert 0.0005 <= extra <= 0.002
