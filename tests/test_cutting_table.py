@@ -383,3 +383,23 @@ def test_the_planned_time_matches_the_plc_within_the_handshake(piece_file, v):
     n = feed_plc(plc, piece, timeout=60)
     extra = (plc.time - t0 - piece.duration()) / n
     assert 0.0005 <= extra <= 0.002
+
+
+def test_home_from_ready_homes_again_and_is_ignored_while_cutting():
+    plc = homed()
+    offer(plc, 50_000, 20_000, 20.0, kind=2, number=1)
+    plc.scan()
+    plc["%M103"] = 1  # HOME while a segment runs: consumed, refused
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 1, timeout=10)
+    assert not plc["%M103"] and plc["%MD112"] == pytest.approx(50_000, abs=1)
+    plc.run(0.01)
+    assert plc[f"%MW{STATE}"] == READY
+    plc["%M103"] = 1
+    plc.scan()
+    plc.scan()
+    assert plc[f"%MW{STATE}"] in (0, 1) and not plc["%M110"]  # searching again
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=30)
+    assert plc["%M110"] and plc[f"%MW{FAULT}"] == 0
+    assert (plc["%MD112"], plc["%MD114"]) == (pytest.approx(0, abs=1), pytest.approx(0, abs=1))
+    for axis in true_mm(plc):
+        assert 29.47 <= axis <= 29.505

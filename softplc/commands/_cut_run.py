@@ -20,6 +20,7 @@ from ..cutting import (
 from ..cutting.motion import simulate
 from ..cutting.regmap import FRAME_LEN, SEG_BASE
 from ..cutting.seed import run_trigger_chain, thesis_split
+from .cut import ACTIONS
 
 
 def _load(args: argparse.Namespace) -> Piece:
@@ -102,16 +103,22 @@ def _stream(piece: Piece, args: argparse.Namespace) -> int:
     """Stream to the daemon (handshake of regmap.py), then the deviation from the trace."""
     import time
 
-    from ..cutting.client import CutClient, trace_deviation
+    from ..cutting.client import CutClient, fault_text, trace_deviation
 
     if args.seed:
         print("seed mode: streaming the thesis's path (its arc steps and Newton "
               "evaluation); the trace is measured against the ideal shape")
     with CutClient(args.host, args.port) as client:
         res = client.stream(piece, args.start_at, seed=args.seed)
-    state = "interrupted" if res.interrupted else "done"
+    state = "interrupted" if res.interrupted else "stopped by a fault" if res.fault else "done"
     print(f"{state}: {res.done} segments in {res.wall:.2f} s (last {res.last_number} of "
           f"{res.total}); the carriage is at ({res.pos_mm[0]:.3f}, {res.pos_mm[1]:.3f}) mm")
+    if res.fault:
+        print(f"{fault_text(res.fault)} during segment {res.next_number}/{res.total} "
+              f"({res.fault_where}): the axes stopped, torch off. Clear the cause (softplc "
+              f"cut jog AXIS± MM leaves a switch), softplc cut reset, then resume with "
+              f"--start-at {res.next_number}")
+        return FAULT_EXIT
     if res.interrupted:
         print(f"resume with --start-at {res.next_number}")
         return 130
@@ -127,7 +134,44 @@ def _stream(piece: Piece, args: argparse.Namespace) -> int:
     return 0
 
 
+#: `softplc cut` exit status when the PLC faulted during the piece.
+FAULT_EXIT = 3
+
+
+def _operate(args: argparse.Namespace) -> int:
+    """`softplc cut reset | home | jog AXIS± [MM]` on the daemon's PLC."""
+    from ..cutting.client import CutClient
+
+    action, extra = args.piece, list(args.action_args)
+    want = "AXIS± [MM]" if action == "jog" else ""
+    if (action == "jog" and not 1 <= len(extra) <= 2) or (action != "jog" and extra):
+        raise CuttingError(f"usage: softplc cut {action} {want}".rstrip())
+    with CutClient(args.host, args.port, progress=None) as client:
+        if action == "reset":
+            st = client.reset()
+            print(f"RESET accepted: READY, homed, at ({st.pos_um[0] / 1000:.3f}, "
+                  f"{st.pos_um[1] / 1000:.3f}) mm; last segment done {st.seg_done}")
+        elif action == "home":
+            st = client.home()
+            print(f"homed: READY at ({st.pos_um[0] / 1000:.3f}, {st.pos_um[1] / 1000:.3f}) mm")
+        else:
+            try:
+                mm = float(extra[1]) if len(extra) > 1 else 5.0
+            except ValueError:
+                raise CuttingError(f"jog distance {extra[1]!r}: a number of mm") from None
+            moved = client.jog(extra[0], mm)
+            st = client.read_state()
+            print(f"jog {extra[0].upper()}: moved {moved:.3f} mm, now at "
+                  f"({st.pos_um[0] / 1000:.3f}, {st.pos_um[1] / 1000:.3f}) mm")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.piece in ACTIONS and not Path(args.piece).exists():
+        return _operate(args)
+    if args.action_args:
+        raise CuttingError(f"unexpected arguments after the piece: {' '.join(args.action_args)}"
+                           " (only reset, home and jog take arguments)")
     piece = _load(args)
     for w in piece.warnings:
         print(f"warning: {w}", file=sys.stderr)

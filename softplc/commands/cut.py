@@ -1,4 +1,5 @@
-"""`softplc cut PIECE`: check a cutting-table piece, preview it, list the PLC words.
+"""`softplc cut PIECE`: check a cutting-table piece, preview it, list the PLC words;
+`softplc cut reset | home | jog AXIS± [MM]`: the operator's commands.
 
 The command validates (schema, geometry, work area), reports, previews, writes the segment
 words and, without --dry-run, streams the piece to the daemon running
@@ -15,14 +16,21 @@ import argparse
 from ._args import add_connection_arguments, size_arg
 
 _EXAMPLES = """\
-examples:
-  softplc cut ladder_programs/pieces/achaflanado.toml --dry-run --preview out/e3.png
-  softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed --preview out/e5.svg
-  softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run --frames out/e3.csv
-  softplc run ladder_programs/cutting_table.il --config ladder_programs/cutting_table.toml \\
+examples (after P=ladder_programs/pieces):
+  softplc cut $P/achaflanado.toml --dry-run --preview out/e3.png
+  softplc cut $P/polinomio.toml --dry-run --seed --preview out/e5.svg
+  softplc cut $P/rounded_rectangle.gcode --dry-run --frames out/e3.csv
+  softplc run ladder_programs/cutting_table.il \\
+      --config ladder_programs/cutting_table.toml \\
       --port 5020 --speed max --trace out/cut.csv &
-  softplc cut ladder_programs/pieces/achaflanado.toml --port 5020 --trace out/cut.csv
+  softplc cut $P/achaflanado.toml --port 5020 --trace out/cut.csv
+  softplc cut jog X- 5 --port 5020   (in FAULT: leave a made switch)
+  softplc cut reset --port 5020      (then --start-at N as printed)
+  softplc cut home --port 5020       (home again from READY)
 """
+
+#: The operator's commands, given instead of a piece file.
+ACTIONS = ("reset", "home", "jog")
 
 
 _area = size_arg("work area", "mm", "240x240")
@@ -36,11 +44,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "and list the segment words the host sends (%MD100/%MD102 end in um,\n"
                     "%MF104 speed, %MW106 kind, %MW107 number, %MW108 INICIO), then stream\n"
                     "it to the PLC (Modbus TCP) with progress and ETA; Ctrl-C stops the axes\n"
-                    "with the torch off (resume with --start-at).",
+                    "with the torch off, and so does a fault (both print the --start-at N\n"
+                    "that resumes). Operator: `reset` (RESET in FAULT), `home` (home again\n"
+                    "from READY), `jog X+|X-|Y+|Y- [MM]` (in FAULT, default 5 mm).",
         epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("piece", metavar="PIECE", help="the piece: FILE.toml or FILE.gcode")
-    r = p.add_argument_group("piece values (G-code: these or the defaults; TOML: override "
-                             "the file's keys when given)")
+    p.add_argument("piece", metavar="PIECE",
+                   help="the piece: FILE.toml, FILE.gcode or FILE.dxf; or reset, home, jog")
+    p.add_argument("action_args", nargs="*", metavar="ARG",
+                   help="jog: the axis and direction (X+, X-, Y+, Y-), then the distance "
+                        "in mm (default 5)")
+    r = p.add_argument_group("piece values", "G-code, DXF: these or the defaults; TOML: "
+                             "override its keys")
     r.add_argument("--speed", type=float, metavar="MM/S",
                    help="cutting speed (G-code: when the program has no F; default 2)")
     r.add_argument("--move-speed", type=float, metavar="MM/S",
