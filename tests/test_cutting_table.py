@@ -403,3 +403,76 @@ def test_home_from_ready_homes_again_and_is_ignored_while_cutting():
     assert (plc["%MD112"], plc["%MD114"]) == (pytest.approx(0, abs=1), pytest.approx(0, abs=1))
     for axis in true_mm(plc):
         assert 29.47 <= axis <= 29.505
+
+
+def test_g04_dwells_pierce_with_the_torch_lit_and_stand_still(tmp_path):
+    """Issue 23: G04 is honoured, no longer dropped. Before a cut it is the pierce delay:
+    the torch lights where the cut starts and the carriage stands still for P seconds;
+    inside a contour the torch stays lit through it; with no cut after it, the torch is
+    off. Each dwell is a segment (kind 4 lit, 5 off) timed by the PLC (%TM1)."""
+    from softplc.cutting import load_piece, piece_words
+    from softplc.cutting.client import feed_plc
+
+    g = tmp_path / "pierce.gcode"
+    g.write_text("G21 G90\nG00 X10 Y10\nG04 P0.5\nG01 X20 Y10 F600\nG04 P0.2\n"
+                 "G01 X20 Y20\nG00 X0 Y0\nG04 P0.3\n", encoding="utf-8")
+    piece = load_piece(g)
+    segs = piece.segments()
+    assert not piece.warnings
+    assert [s.kind for s in segs] == ["move", "dwell", "cut", "dwell", "cut", "move", "dwell"]
+    assert [w.kind for w in piece_words(segs)] == [2, 4, 3, 4, 1, 2, 5]
+    assert [s.dwell for s in segs if s.kind == "dwell"] == [0.5, 0.2, 0.3]
+    plc = homed()
+    t0 = plc.time
+    feed_plc(plc, piece, timeout=60)
+    # the planned time (motion + 1.0 s of dwells) plus the handshake, 0.5-2 ms a segment
+    assert 0.0005 <= (plc.time - t0 - piece.duration()) / len(segs) <= 0.002
+    rows = [(s[0], s[1] / COUNTS_PER_MM, s[2] / COUNTS_PER_MM, s[3])
+            for s in plc.devices["trace"].samples if s[0] >= t0]
+    lit = [r for r in rows if r[3]]
+    first, last = rows.index(lit[0]), rows.index(lit[-1])
+    assert all(r[3] for r in rows[first:last + 1])  # one ignition: pierce, cut, pause, cut
+    x0, y0 = lit[0][1], lit[0][2]
+
+    def standing(x: float, y: float) -> float:  # lit and within 5 um of (x, y), s
+        near = [r[0] for r in lit if abs(r[1] - x) < 0.005 and abs(r[2] - y) < 0.005]
+        return near[-1] - near[0]
+
+    # the pierce (+ the next ramp's first 5 um, 10 ms), then the pause at the corner (+ the
+    # last 5 um of the cut arriving there, 10 ms more)
+    assert 0.5 <= standing(x0, y0) <= 0.515
+    assert 0.2 <= standing(x0 + 10, y0) <= 0.225
+    assert not rows[-1][3]  # the last dwell (after a move) with the torch off
+
+
+@pytest.mark.parametrize("kind,lit", [(4, True), (5, False)])
+def test_a_dwell_lasts_its_seconds_torch_as_its_kind_says(kind, lit):
+    plc = homed()
+    offer(plc, 0, 0, 0.5, kind=kind, number=4)
+    plc.scan()
+    t0 = plc.time
+    assert plc[f"%MW{EJECUTANDO}"] == 1 and plc["%Q0.2"] == lit
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 4, timeout=2)
+    assert plc.time - t0 == pytest.approx(0.5, abs=0.003)
+    assert plc["%MD112"] == pytest.approx(0, abs=1) and plc["%MD114"] == pytest.approx(0, abs=1)
+
+
+@pytest.mark.parametrize("kind,seconds,fault", [(4, 10.5, 6), (5, -0.1, 6), (6, 0.1, 6)])
+def test_a_bad_dwell_is_fault_6(kind, seconds, fault):
+    plc = homed()
+    offer(plc, 0, 0, seconds, kind=kind)
+    plc.run(0.05)
+    assert plc[f"%MW{FAULT}"] == fault and not plc["%Q0.2"]
+
+
+def test_a_long_dwell_is_split_into_dwells_the_plc_can_time():
+    from softplc.cutting import piece_from_dict, piece_words
+
+    piece = piece_from_dict({"op": [{"kind": "move", "to": [5, 5]},
+                                    {"kind": "dwell", "seconds": 25},
+                                    {"kind": "line", "to": [10, 5]}]})
+    segs = piece.segments()
+    assert [s.dwell for s in segs] == [0.0, 9.999, 9.999, pytest.approx(5.002), 0.0]
+    assert [w.kind for w in piece_words(segs)] == [2, 4, 4, 4, 1]
+    assert piece.duration() == pytest.approx(25 + sum(
+        2 * 0.0 + s.length / 2.0 + 2.0 / 100 for s in segs if s.kind != "dwell"))

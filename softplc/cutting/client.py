@@ -198,7 +198,8 @@ class CutClient(ModbusHost):
         total = len(segs)
         if not 1 <= start_at <= max(total, 1):
             raise HostError(f"--start-at {start_at}: the piece has {total} segments")
-        planned = [split_line(s.start, s.end, s.speed, piece.accel).duration for s in segs]
+        planned = [split_line(s.start, s.end, s.speed, piece.accel).duration + s.dwell
+                   for s in segs]
         bar = Progress(planned, self.progress)
         bar.base = sum(planned[:start_at - 1])
         done = start_at - 1
