@@ -18,6 +18,7 @@ from ..cutting import (
     split_line,
 )
 from ..cutting.motion import simulate
+from ..cutting.piece import DWELL
 from ..cutting.regmap import FRAME_LEN, SEG_BASE
 from ..cutting.seed import run_trigger_chain, thesis_split
 from .cut import ACTIONS
@@ -36,7 +37,8 @@ def _write_frames(piece: Piece, out: str) -> None:
             w.writerow(["segment", "kind", "x_mm", "y_mm", "speed_mm_s", "where",
                         "x_um", "y_um", "kind_code", "seg_no",
                         *(f"MW{SEG_BASE + i}" for i in range(FRAME_LEN)),
-                        "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2", "duration_s"])
+                        "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2", "duration_s",
+                        "dwell_s"])
             segs = piece.segments()
             for s, sw in zip(segs, piece_words(segs), strict=True):
                 # what the PLC should compute for this segment (the corrected split)
@@ -46,7 +48,7 @@ def _write_frames(piece: Piece, out: str) -> None:
                             *sw.frame(),
                             *(f"{v:.9g}" for v in (split.x.speed, split.y.speed,
                                                    split.x.accel, split.y.accel,
-                                                   split.duration))])
+                                                   split.duration)), f"{s.dwell:g}"])
     except OSError as e:
         raise CuttingError(f"cannot write {out}: {e.strerror or e}") from None
 
@@ -177,7 +179,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {w}", file=sys.stderr)
     segs = piece.segments()
     cuts = sum(1 for s in segs if s.cut)
-    print(f"{args.piece}: {piece.name}: {len(segs)} segments ({cuts} cut), cut "
+    dwells = [s.dwell for s in segs if s.kind == DWELL]
+    dwelt = f", {len(dwells)} dwells of {sum(dwells):g} s" if dwells else ""
+    print(f"{args.piece}: {piece.name}: {len(segs)} segments ({cuts} cut{dwelt}), cut "
           f"{piece.length('cut'):.5f} mm, move {piece.length('move'):.5f} mm, ends at "
           f"({piece.end[0]:.6g}, {piece.end[1]:.6g}), motion about {piece.duration():.2f} s")
     if args.seed:

@@ -442,7 +442,8 @@ OPTION_KEYS = {"speed": "speed", "move_speed": "move_speed", "accel": "accel",
 
 
 def load_piece(path: str | Path, **options: float | Point | None) -> Piece:
-    """A piece from a `.toml` file, or from G-code (any other suffix).
+    """A piece from a `.toml` file, a `.dxf` drawing (`dxf.py`), or G-code (any other
+    suffix).
 
     `options` (speed, move_speed, accel, tolerance, work_area; None = not given) are the
     G-code reading values, and override the TOML file's keys."""
@@ -451,6 +452,10 @@ def load_piece(path: str | Path, **options: float | Point | None) -> Piece:
     unknown = set(given) - set(OPTION_KEYS)
     if unknown:
         raise TypeError(f"unknown piece options {sorted(unknown)}")
+    if p.suffix.lower() == ".dxf":
+        from .dxf import piece_from_dxf
+
+        return piece_from_dxf(p, **given)
     if p.suffix.lower() != ".toml":
         return piece_from_gcode(p, **given)
     try:
