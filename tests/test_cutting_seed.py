@@ -245,3 +245,18 @@ def test_seed_mode_cpu_variant_cuts_a_clockwise_arc_of_a_piece():
     assert max(piece.deviation(s.end) for s in cpu) < 2e-3
     with pytest.raises(ValueError, match="seed variant"):
         piece.segments(seed="simotion")
+
+
+def test_softplc_cut_seed_variants_on_a_clockwise_arc(tmp_path, capsys):
+    from softplc.cli import main
+
+    f = tmp_path / "cw.toml"
+    f.write_text('start = [50, 20]\n[[op]]\nkind = "arc"\ncentre = [40, 20]\nsweep = -90\n',
+                 encoding="utf-8")
+    assert main(["cut", str(f), "--dry-run", "--seed"]) == 0
+    out = capsys.readouterr().out
+    assert "clockwise arcs of op[0] are each one chord" in out  # B7, shown
+    assert "seed mode (matlab, thesis algorithms): 1 segments" in out
+    assert main(["cut", "--seed-variant", "cpu", str(f), "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "one chord" not in out and "seed mode (cpu, thesis algorithms): 53 segments" in out

@@ -71,10 +71,10 @@ def _report_chain(piece: Piece) -> None:
               "passes")
 
 
-def _report_simulation(piece: Piece, dt: float, seed: bool) -> None:
+def _report_simulation(piece: Piece, dt: float, seed: bool | str) -> None:
     runs = [("corrected", piece.segments(), split_line)]
     if seed:
-        runs.append(("thesis (seed mode, equal accelerations)", piece.segments(seed=True),
+        runs.append(("thesis (seed mode, equal accelerations)", piece.segments(seed=seed),
                      thesis_split))
     for name, segs, split in runs:
         samples = simulate(segs, piece.accel, dt, split)
@@ -84,6 +84,23 @@ def _report_simulation(piece: Piece, dt: float, seed: bool) -> None:
               f"{len(samples)} samples (dt {dt:g} s); the torch-on path is at most "
               f"{worst:.6f} mm from the ideal shape (at {at[0]:.4f}, {at[1]:.4f}; chord "
               f"tolerance {piece.tolerance:g})")
+
+
+def _report_seed(piece: Piece, variant: str) -> None:
+    if not any(isinstance(e.shape, Arc | NewtonCurve) for e in piece.elements):
+        print("note: seed mode changes arcs and Newton curves only; this piece has none",
+              file=sys.stderr)
+    cw = [e.where for e in piece.elements if isinstance(e.shape, Arc) and not e.shape.ccw]
+    if cw and variant == "matlab":  # the thesis's own defect, kept and shown
+        print(f"seed mode (matlab): TrazarArco2 runs no step for a negative sweep (B7): the "
+              f"clockwise arcs of {', '.join(dict.fromkeys(cw))} are each one chord "
+              "(--seed-variant cpu steps them, as the CPU's F_ClcCirculo does)")
+    seed = piece.segments(seed=variant)
+    _report_chain(piece)
+    print(f"seed mode ({variant}, thesis algorithms): {len(seed)} segments, cut "
+          f"{piece.length('cut', seed=variant):.5f} mm, ends at "
+          f"({seed[-1].end[0]:.6g}, {seed[-1].end[1]:.6g})" if seed else
+          "seed mode: no segments")
 
 
 def _machine_axes(path: str) -> tuple[tuple[float, float], float]:
@@ -108,7 +125,7 @@ def _stream(piece: Piece, args: argparse.Namespace) -> int:
     from ..cutting.client import CutClient, fault_text, trace_deviation
 
     if args.seed:
-        print("seed mode: streaming the thesis's path (its arc steps and Newton "
+        print(f"seed mode ({args.seed}): streaming the thesis's path (its arc steps and Newton "
               "evaluation); the trace is measured against the ideal shape")
     with CutClient(args.host, args.port) as client:
         res = client.stream(piece, args.start_at, seed=args.seed)
@@ -171,6 +188,7 @@ def _operate(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     if args.piece in ACTIONS and not Path(args.piece).exists():
         return _operate(args)
+    args.seed = args.seed_variant or ("matlab" if args.seed else False)
     if args.action_args:
         raise CuttingError(f"unexpected arguments after the piece: {' '.join(args.action_args)}"
                            " (only reset, home and jog take arguments)")
@@ -185,15 +203,7 @@ def run(args: argparse.Namespace) -> int:
           f"{piece.length('cut'):.5f} mm, move {piece.length('move'):.5f} mm, ends at "
           f"({piece.end[0]:.6g}, {piece.end[1]:.6g}), motion about {piece.duration():.2f} s")
     if args.seed:
-        if not any(isinstance(e.shape, Arc | NewtonCurve) for e in piece.elements):
-            print("note: seed mode changes arcs and Newton curves only; this piece has none",
-                  file=sys.stderr)
-        seed = piece.segments(seed=True)
-        _report_chain(piece)
-        print(f"seed mode (thesis algorithms): {len(seed)} segments, cut "
-              f"{piece.length('cut', seed=True):.5f} mm, ends at "
-              f"({seed[-1].end[0]:.6g}, {seed[-1].end[1]:.6g})" if seed else
-              "seed mode: no segments")
+        _report_seed(piece, args.seed)
     if not 1 <= args.start_at <= max(len(segs), 1):
         raise CuttingError(f"--start-at {args.start_at}: the piece has {len(segs)} segments")
     if args.simulate is not None:

@@ -73,6 +73,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "Newton without its last term) and overlay it on the preview; "
                         "when streaming, send that path instead (the trace report then "
                         "shows what the machine cuts against the ideal shape)")
+    o.add_argument("--seed-variant", choices=("matlab", "cpu"), default=None,
+                   help="the thesis's arc code in seed mode (implies --seed): matlab "
+                        "(default; TrazarArco2: a CW arc runs no step, one chord, B7) or "
+                        "cpu (F_ClcCirculo: 0.03 rad steps with the sign of θ, "
+                        "floor(|θ|/α), TRUNC to 0.001)")
     o.add_argument("--frames", metavar="OUT.csv",
                    help="write every segment's words (%%MW100-%%MW108) and the axis split "
                         "the PLC should compute (speeds, accelerations, time) to a CSV file")

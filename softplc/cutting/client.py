@@ -191,7 +191,7 @@ class CutClient(ModbusHost):
         self.offer(words, label)
         return self.finish(words.number, label)
 
-    def stream(self, piece: Piece, start_at: int = 1, seed: bool = False) -> CutResult:
+    def stream(self, piece: Piece, start_at: int = 1, seed: bool | str = False) -> CutResult:
         """Cut `piece` from segment `start_at`; `seed`: the thesis's path (seed mode: its
         arc steps and Newton evaluation), to see what the machine then cuts."""
         segs = piece.segments(seed=seed)
@@ -390,7 +390,8 @@ def trace_deviation(piece: Piece, trace_csv: str | Path, origin_true: tuple[floa
     return TraceReport(int(lit.sum()), float(d[i]), (float(x[lit][i]), float(y[lit][i])), end)
 
 
-def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = False) -> int:
+def feed_plc(plc: object, piece: Piece, timeout: float = 600.0,
+             seed: bool | str = False) -> int:
     """The same handshake in-process on a `softplc.PLC` (virtual clock, no Modbus): write
     each segment's frame into the words as soon as the mailbox is free (INICIO = 0), then
     run scans until SEG_DONE is the last number and EJECUTANDO = 0. Deterministic (each
