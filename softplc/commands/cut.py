@@ -39,8 +39,9 @@ _area = size_arg("work area", "mm", "240x240")
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "cut", help="check, preview and stream a piece to the cutting table",
-        description="Read a cutting-table piece (.toml, or G-code: XY plane, mm, G00 move,\n"
-                    "G01-G03 cut), check its geometry and the work area, report it, plot it\n"
+        description="Read a cutting-table piece (.toml; G-code: XY plane, mm, G00 move,\n"
+                    "G01-G03 cut, G04 dwell; .dxf: LINE, ARC, CIRCLE, LWPOLYLINE), check its\n"
+                    "geometry and the work area, report it, plot it\n"
                     "and list the segment words the host sends (%MD100/%MD102 end in um,\n"
                     "%MF104 speed, %MW106 kind, %MW107 number, %MW108 INICIO), then stream\n"
                     "it to the PLC (Modbus TCP) with progress and ETA; Ctrl-C stops the axes\n"
