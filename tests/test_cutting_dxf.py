@@ -164,3 +164,12 @@ def test_softplc_cut_previews_and_cuts_a_dxf(tmp_path, capsys):
     x = (rows[lit, 0] - origin[0]) / COUNTS_PER_MM
     y = (rows[lit, 1] - origin[1]) / COUNTS_PER_MM
     assert piece.deviations(x, y).max() <= piece.tolerance + 0.001
+
+
+def test_the_sample_plate_reads_as_the_readme_says():
+    piece = load_piece(PIECES / "plate.dxf")
+    assert not piece.warnings
+    kinds = [type(e.shape).__name__ for e in piece.elements if e.cut]
+    assert kinds.count("Arc") == 4 + 1 + 2 and kinds.count("Line") == 4 + 2
+    assert sum(e.shape.length for e in piece.elements if e.cut) == pytest.approx(
+        80 + 20 * math.pi + 12 * math.pi + 40 + 10 * math.pi)
