@@ -298,20 +298,21 @@ def test_a_fault_mid_piece_resumes_after_reset_from_the_faulted_segment(table):
     daemon, trace = table("estop", "--web", "0")
     web = int(re.search(r"web monitor on http://127\.0\.0\.1:(\d+)", "".join(daemon.out))[1])
     piece = load_piece(PIECES / "escudo.toml", speed=10.0, move_speed=10.0)
-    watcher = force_when(web, daemon.port, "%I0.16", 0,  # the E-stop pressed in segment 3
-                         lambda s: s.seg_done == 2 and s.step == 5)
+    watcher = force_when(web, daemon.port, "%I0.16", 0,  # the E-stop pressed from segment 3
+                         lambda s: s.seg_done >= 2 and s.step == 5)  # (a late poll: 4, 5...)
     with CutClient("127.0.0.1", daemon.port, progress=None) as client:
         res = client.stream(piece)
         watcher.join(5)
         assert res.fault == 5 and not res.interrupted
-        assert res.last_number == 2 and res.next_number == 3
-        assert res.fault_where == piece.segments()[2].where
+        n = res.next_number
+        assert 3 <= n <= 8 and res.last_number == n - 1
+        assert res.fault_where == piece.segments()[n - 1].where
         with pytest.raises(HostError, match="E-stop pressed"):
             client.reset()
         web_post(web, "/api/unforce", {"object": "%I0.16"})
         time.sleep(0.05)
         state = client.reset()
-        assert state.step == 4 and state.seg_done == 2 and not state.ejecutando
+        assert state.step == 4 and state.seg_done == n - 1 and not state.ejecutando
         res2 = client.stream(piece, start_at=res.next_number)
     assert not res2.fault and res2.last_number == len(piece.segments())
     assert daemon.stop() == 0
