@@ -274,7 +274,7 @@ def test_softplc_cut_reports_the_faulted_segment_then_jog_reset_home(table, tmp_
     err = capsys.readouterr().err
     assert "RESET refused" in err and "SensX_Max made (softplc cut jog X-)" in err
     assert main(["cut", "jog", "X+", "1", "--port", port]) == 1  # into the switch
-    assert "does not move" in capsys.readouterr().err
+    assert "SensX_Max is made; the PLC jogs only away from it" in capsys.readouterr().err
     assert main(["cut", "jog", "X-", "3", "--port", port]) == 0
     moved = float(re.search(r"moved (\S+) mm", capsys.readouterr().out)[1])
     assert moved >= 3.0

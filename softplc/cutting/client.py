@@ -65,8 +65,10 @@ JOG_COILS = {"X+": 104, "X-": 105, "Y+": 106, "Y-": 107}
 SWITCH_COILS = 114
 SWITCH_NAMES = ("SensX_Min", "SensX_Max", "SensY_Min", "SensY_Max")
 ESTOP_COIL = 119
-#: which jog leaves each switch (the PLC refuses a jog into a made switch)
+#: which jog leaves each switch, and which switch each jog runs into (the PLC refuses a
+#: jog into a made switch)
 LEAVE_SWITCH = {"SensX_Min": "X+", "SensX_Max": "X-", "SensY_Min": "Y+", "SensY_Max": "Y-"}
+JOG_INTO = {"X+": "SensX_Max", "X-": "SensX_Min", "Y+": "SensY_Max", "Y-": "SensY_Min"}
 #: %MD130 / %MD132: the work origin in the axes' raw counts (cutting_table.il, internal)
 ORIGIN_X = 130
 STATE_LEN = ORIGIN_X + 4 - SEG_BASE
@@ -278,17 +280,19 @@ class CutClient(ModbusHost):
                         lambda c, **kw: c.read_coils(index, count=count, **kw))
         return list(rr.bits[:count])  # type: ignore[attr-defined]
 
+    def made_switches(self) -> list[str]:
+        bits = self.read_bits(SWITCH_COILS, len(SWITCH_NAMES))
+        return [n for n, b in zip(SWITCH_NAMES, bits, strict=True) if b]
+
     def why_faulted(self) -> list[str]:
         """What keeps RESET refused: made switches (and the jog that leaves each), the
         E-stop; empty if nothing the PLC checks is wrong (an axis still moving)."""
-        bits = self.read_bits(SWITCH_COILS, len(SWITCH_NAMES))
-        out = [f"{n} made (softplc cut jog {LEAVE_SWITCH[n]})"
-               for n, b in zip(SWITCH_NAMES, bits, strict=True) if b]
+        out = [f"{n} made (softplc cut jog {LEAVE_SWITCH[n]})" for n in self.made_switches()]
         if self.read_bits(ESTOP_COIL, 1)[0]:
             out.append("the E-stop pressed (%I0.16 open)")
         return out
 
-    def reset(self, settle: float = 1.0) -> PlcState:
+    def reset(self, settle: float = 0.3) -> PlcState:
         """RESET (%M102) in FAULT; waits for READY (after homing if the PLC was not homed).
         HostError saying why if the PLC refuses it."""
         state = self.read_state()
@@ -335,6 +339,10 @@ class CutClient(ModbusHost):
         if state.step != FAULT_STEP:
             raise HostError(f"jog works in FAULT only (the PLC's jog rungs; STATE="
                             f"{state.step}): cut a move segment to go somewhere")
+        ahead = JOG_INTO[direction.upper()]
+        if ahead in self.made_switches():  # the PLC's jog rungs refuse: say so at once
+            raise HostError(f"jog {direction}: {ahead} is made; the PLC jogs only away "
+                            "from it")
         p0 = state.pos_um[axis]
         last = [p0, time.monotonic()]
 
