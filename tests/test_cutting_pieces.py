@@ -190,7 +190,8 @@ def test_gcode_moves_cuts_feed_and_cw_arc(tmp_path):
     assert all(abs(distance(s.end, (30, 0)) - 10) < 1e-9 for s in arc)
     assert all(s.end[0] >= 30 - 1e-9 for s in arc)  # clockwise: the right-hand quarter
     assert len(arc) == Arc((30, 0), (30, 10), -math.pi / 2).chord_count(0.01)
-    assert any("G04" in w for w in p.warnings)
+    assert not p.warnings  # G04 is a dwell now (issue 23), no longer dropped
+    assert segs[-1].kind == "dwell" and segs[-1].dwell == 1.0 and segs[-1].end == (40, 0)
 
 
 def test_gcode_arcs_are_rebuilt_as_arcs(tmp_path):

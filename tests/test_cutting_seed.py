@@ -210,3 +210,53 @@ def test_b3_on_a_whole_piece_simulated_with_ideal_axes():
                       for s in segs if s.cut)
     assert 0.3 < worst <= per_segment + 1e-9
     assert worst == pytest.approx(per_segment, rel=1e-3)
+
+
+def test_cpu_variant_steps_a_clockwise_arc_clockwise():
+    """Issue 23: the CPU's step carries the sign of θ and n = floor(|θ|/α) (reference
+    §2.2); k used to come from the signed θ, clamped to 0: one straight chord."""
+    seed = thesis_arc_points((40, 20), (50, 20), -math.pi / 2, cpu=True)
+    assert seed.alpha == -0.03 and seed.steps == math.floor((math.pi / 2) / 0.03) == 52
+    assert seed.overshoot < 0  # floor: the last step stops short, the closing chord ends it
+    pts = seed.points
+    assert pts[-1] == pytest.approx((40, 10), abs=1e-3)
+    assert all(abs(distance((40, 20), p) - 10) < 2e-3 for p in pts)  # on the circle (TRUNC)
+    assert all(p[0] >= 40 - 1e-9 and p[1] <= 20 + 1e-9 for p in pts)  # the lower right
+    angles = [math.atan2(p[1] - 20, p[0] - 40) for p in pts]
+    assert all(b < a for a, b in zip(angles, angles[1:], strict=False))  # clockwise
+    assert thesis_arc_step(10.0, cpu=True, sweep=-1.0) == -0.03
+    # the Matlab variant keeps its own defect (B7): no step, one chord
+    assert thesis_arc_points((40, 20), (50, 20), -math.pi / 2).steps == 0
+
+
+def test_seed_mode_cpu_variant_cuts_a_clockwise_arc_of_a_piece():
+    from softplc.cutting import piece_from_dict
+
+    piece = piece_from_dict({"start": [50, 20], "op": [
+        {"kind": "arc", "centre": [40, 20], "sweep": -90},
+        {"kind": "circle", "centre": [100, 100], "radius": 10, "direction": "cw"}]})
+    matlab = [s for s in piece.segments(seed=True) if s.cut]
+    cpu = [s for s in piece.segments(seed="cpu") if s.cut]
+    # the Matlab (B7, shown): the quarter is one chord, the full circle nothing at all
+    assert len(matlab) == 1 and matlab[0].end == pytest.approx((40, 10))
+    assert len(cpu) == 53 + math.floor(2 * math.pi / 0.03) + 1
+    assert cpu[52].end == pytest.approx((40, 10), abs=1e-3)
+    assert cpu[-1].end == pytest.approx((110, 100), abs=1e-3)
+    assert max(piece.deviation(s.end) for s in cpu) < 2e-3
+    with pytest.raises(ValueError, match="seed variant"):
+        piece.segments(seed="simotion")
+
+
+def test_softplc_cut_seed_variants_on_a_clockwise_arc(tmp_path, capsys):
+    from softplc.cli import main
+
+    f = tmp_path / "cw.toml"
+    f.write_text('start = [50, 20]\n[[op]]\nkind = "arc"\ncentre = [40, 20]\nsweep = -90\n',
+                 encoding="utf-8")
+    assert main(["cut", str(f), "--dry-run", "--seed"]) == 0
+    out = capsys.readouterr().out
+    assert "clockwise arcs of op[0] are each one chord" in out  # B7, shown
+    assert "seed mode (matlab, thesis algorithms): 1 segments" in out
+    assert main(["cut", "--seed-variant", "cpu", str(f), "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "one chord" not in out and "seed mode (cpu, thesis algorithms): 53 segments" in out

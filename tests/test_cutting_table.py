@@ -300,3 +300,179 @@ def test_piece_words_mark_a_cut_followed_by_a_cut_as_kind_3():
         want = 2 if seg.kind == "move" else 3 if following == "cut" else 1
         assert k == want, (i, seg.kind, following)
     assert kinds[0] == 2 and kinds[-1] == 1 and kinds.count(3) == len(segs) - 2
+
+
+def test_a_frame_written_during_a_fault_is_refused_and_never_cut_after_reset():
+    """Issue 23: a segment written while the machine is in FAULT stayed in the mailbox and
+    ran, torch lit, at once after RESET. It is refused (INICIO := -1, which the host sees)
+    and nothing moves after RESET until the host sends again."""
+    plc = homed()
+    plc.devices["estop"].press()
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == FAULT_STEP, timeout=0.1)
+    offer(plc, 100_000, 0, 10.0, kind=1, number=2)  # the host, unaware of the fault
+    plc.run(0.05)
+    assert plc[f"%MW{INICIO}"] == -1  # refused, visibly
+    plc.devices["estop"].release()
+    plc.scan()
+    plc["%M102"] = 1
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=0.1)
+    before = true_mm(plc)
+    lit = False
+    for _ in range(500):
+        plc.scan()
+        lit |= bool(plc["%Q0.2"]) or plc.devices["torch"].lit
+    assert not lit and plc[f"%MW{STATE}"] == READY and plc[f"%MW{SEG_DONE}"] == 0
+    assert true_mm(plc) == pytest.approx(before, abs=1e-4)
+    offer(plc, 2_000, 0, 10.0, kind=1, number=3)  # the host sends again: it cuts
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 3, timeout=5)
+    assert plc["%MD112"] == pytest.approx(2_000, abs=1)
+
+
+def commanded_accels(plc: PLC, cruise: tuple[float, float], scans: int) -> list[float]:
+    """The commanded accelerations (mm/s²) of both axes' first ramps: a parabola fitted to
+    each axis's COMMANDED word (%MD +12, counts) against its servo tick count (%MD +20)
+    times its tick period (the scan does not sample the ticks evenly)."""
+    import numpy as np
+
+    rows: dict[str, list[tuple[float, int]]] = {"X": [], "Y": []}
+    for _ in range(scans):
+        plc.scan()
+        for axis, words in (("X", 200), ("Y", 230)):
+            rows[axis].append((plc[f"%MD{words + 20}"] * plc.devices[axis].T,
+                               plc[f"%MD{words + 12}"]))
+    out = []
+    for axis, v in zip(("X", "Y"), cruise, strict=True):
+        t, c = np.array(rows[axis], float).T
+        c /= COUNTS_PER_MM
+        vel = np.diff(c) / np.diff(t)
+        ramp = [i for i in range(1, len(vel)) if 0.05 * v < vel[i - 1] and vel[i] < 0.95 * v]
+        assert len(ramp) >= 10
+        out.append(2 * float(np.polyfit(t[ramp], c[ramp], 2)[0]))
+    return out
+
+
+@pytest.mark.parametrize("v", [2.0, 5.0])
+def test_the_ramps_accelerate_at_exactly_a_times_u(v):
+    """Issue 23: the ramp time was v/a + 1 ms, so the acceleration was 5 % low at 2 mm/s
+    (20/21) and 2 % low at 5 mm/s (50/51). Now a_i = a·|u_i| (a = 100 mm/s²)."""
+    plc = homed()
+    offer(plc, 30_000, 40_000, v)  # u = (0.6, 0.8)
+    ax, ay = commanded_accels(plc, (0.6 * v, 0.8 * v), int(1000 * v / 100) + 30)
+    assert (ax, ay) == (pytest.approx(60.0, rel=2e-3), pytest.approx(80.0, rel=2e-3))
+
+
+@pytest.mark.parametrize("piece_file,v", [("escudo.toml", 2.0), ("escudo.toml", 5.0),
+                                           (None, 2.0)])
+def test_the_planned_time_matches_the_plc_within_the_handshake(piece_file, v):
+    """Issue 23: with exact ramps the motion time the host plans (L/v + v/a per segment,
+    2·sqrt(L/a) for a line too short to reach v) is what the PLC takes, plus the
+    handshake: one READY scan and the servo tick alignment, 0.5-2 ms per segment (it was
+    about 1 ms more per segment with the v/a + 1 ms ramps, and 22 ms more for each
+    10 µm triangle below, which ramped for 21 ms instead of 10)."""
+    from softplc.cutting import load_piece, piece_from_dict
+    from softplc.cutting.client import feed_plc
+
+    if piece_file is None:  # ten 10 µm lines at 2 mm/s: triangles of 2 x sqrt(L/a) = 20 ms
+        piece = piece_from_dict({"speed": v, "op": [
+            {"kind": "line", "to": [0.01 * (i + 1), 0]} for i in range(10)]})
+    else:
+        piece = load_piece(ROOT / "ladder_programs" / "pieces" / piece_file, speed=v,
+                           move_speed=v)
+    plc = homed()
+    t0 = plc.time
+    n = feed_plc(plc, piece, timeout=60)
+    extra = (plc.time - t0 - piece.duration()) / n
+    assert 0.0005 <= extra <= 0.002
+
+
+def test_home_from_ready_homes_again_and_is_ignored_while_cutting():
+    plc = homed()
+    offer(plc, 50_000, 20_000, 20.0, kind=2, number=1)
+    plc.scan()
+    plc["%M103"] = 1  # HOME while a segment runs: consumed, refused
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 1, timeout=10)
+    assert not plc["%M103"] and plc["%MD112"] == pytest.approx(50_000, abs=1)
+    plc.run(0.01)
+    assert plc[f"%MW{STATE}"] == READY
+    plc["%M103"] = 1
+    plc.scan()
+    plc.scan()
+    assert plc[f"%MW{STATE}"] in (0, 1) and not plc["%M110"]  # searching again
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=30)
+    assert plc["%M110"] and plc[f"%MW{FAULT}"] == 0
+    assert (plc["%MD112"], plc["%MD114"]) == (pytest.approx(0, abs=1), pytest.approx(0, abs=1))
+    for axis in true_mm(plc):
+        assert 29.47 <= axis <= 29.505
+
+
+def test_g04_dwells_pierce_with_the_torch_lit_and_stand_still(tmp_path):
+    """Issue 23: G04 is honoured, no longer dropped. Before a cut it is the pierce delay:
+    the torch lights where the cut starts and the carriage stands still for P seconds;
+    inside a contour the torch stays lit through it; with no cut after it, the torch is
+    off. Each dwell is a segment (kind 4 lit, 5 off) timed by the PLC (%TM1)."""
+    from softplc.cutting import load_piece, piece_words
+    from softplc.cutting.client import feed_plc
+
+    g = tmp_path / "pierce.gcode"
+    g.write_text("G21 G90\nG00 X10 Y10\nG04 P0.5\nG01 X20 Y10 F600\nG04 P0.2\n"
+                 "G01 X20 Y20\nG00 X0 Y0\nG04 P0.3\n", encoding="utf-8")
+    piece = load_piece(g)
+    segs = piece.segments()
+    assert not piece.warnings
+    assert [s.kind for s in segs] == ["move", "dwell", "cut", "dwell", "cut", "move", "dwell"]
+    assert [w.kind for w in piece_words(segs)] == [2, 4, 3, 4, 1, 2, 5]
+    assert [s.dwell for s in segs if s.kind == "dwell"] == [0.5, 0.2, 0.3]
+    plc = homed()
+    t0 = plc.time
+    feed_plc(plc, piece, timeout=60)
+    # the planned time (motion + 1.0 s of dwells) plus the handshake, 0.5-2 ms a segment
+    assert 0.0005 <= (plc.time - t0 - piece.duration()) / len(segs) <= 0.002
+    rows = [(s[0], s[1] / COUNTS_PER_MM, s[2] / COUNTS_PER_MM, s[3])
+            for s in plc.devices["trace"].samples if s[0] >= t0]
+    lit = [r for r in rows if r[3]]
+    first, last = rows.index(lit[0]), rows.index(lit[-1])
+    assert all(r[3] for r in rows[first:last + 1])  # one ignition: pierce, cut, pause, cut
+    x0, y0 = lit[0][1], lit[0][2]
+
+    def standing(x: float, y: float) -> float:  # lit and within 5 um of (x, y), s
+        near = [r[0] for r in lit if abs(r[1] - x) < 0.005 and abs(r[2] - y) < 0.005]
+        return near[-1] - near[0]
+
+    # the pierce (+ the next ramp's first 5 um, 10 ms), then the pause at the corner (+ the
+    # last 5 um of the cut arriving there, 10 ms more)
+    assert 0.5 <= standing(x0, y0) <= 0.515
+    assert 0.2 <= standing(x0 + 10, y0) <= 0.225
+    assert not rows[-1][3]  # the last dwell (after a move) with the torch off
+
+
+@pytest.mark.parametrize("kind,lit", [(4, True), (5, False)])
+def test_a_dwell_lasts_its_seconds_torch_as_its_kind_says(kind, lit):
+    plc = homed()
+    offer(plc, 0, 0, 0.5, kind=kind, number=4)
+    plc.scan()
+    t0 = plc.time
+    assert plc[f"%MW{EJECUTANDO}"] == 1 and plc["%Q0.2"] == lit
+    assert plc.run_until(lambda p: p[f"%MW{SEG_DONE}"] == 4, timeout=2)
+    assert plc.time - t0 == pytest.approx(0.5, abs=0.003)
+    assert plc["%MD112"] == pytest.approx(0, abs=1) and plc["%MD114"] == pytest.approx(0, abs=1)
+
+
+@pytest.mark.parametrize("kind,seconds,fault", [(4, 10.5, 6), (5, -0.1, 6), (6, 0.1, 6)])
+def test_a_bad_dwell_is_fault_6(kind, seconds, fault):
+    plc = homed()
+    offer(plc, 0, 0, seconds, kind=kind)
+    plc.run(0.05)
+    assert plc[f"%MW{FAULT}"] == fault and not plc["%Q0.2"]
+
+
+def test_a_long_dwell_is_split_into_dwells_the_plc_can_time():
+    from softplc.cutting import piece_from_dict, piece_words
+
+    piece = piece_from_dict({"op": [{"kind": "move", "to": [5, 5]},
+                                    {"kind": "dwell", "seconds": 25},
+                                    {"kind": "line", "to": [10, 5]}]})
+    segs = piece.segments()
+    assert [s.dwell for s in segs] == [0.0, 9.999, 9.999, pytest.approx(5.002), 0.0]
+    assert [w.kind for w in piece_words(segs)] == [2, 4, 4, 4, 1]
+    assert piece.duration() == pytest.approx(25 + sum(
+        2 * 0.0 + s.length / 2.0 + 2.0 / 100 for s in segs if s.kind != "dwell"))

@@ -11,6 +11,7 @@ import csv
 import json
 import math
 import re
+import threading
 import time
 import tomllib
 import urllib.request
@@ -22,6 +23,7 @@ from daemon_util import ROOT, Daemon
 from softplc.cutting import load_piece
 from softplc.cutting.client import CutClient, trace_deviation
 from softplc.cutting.regmap import SegmentWords
+from softplc.errors import HostError
 
 IL = ROOT / "ladder_programs" / "cutting_table.il"
 PIECES = ROOT / "ladder_programs" / "pieces"
@@ -229,4 +231,93 @@ def test_ctrl_c_stops_with_the_torch_off_and_the_piece_resumes(table):
     origin = (start + res2.origin_counts[0], start + res2.origin_counts[1])
     rep = trace_deviation(piece, trace, origin, COUNTS_PER_MM)
     assert rep.worst <= piece.tolerance + UM  # the torch was off back to segment 3's start
+    assert math.dist(rep.end, piece.end) <= UM
+
+
+def force_when(web: int, port: int, obj: str, value: int, ready) -> threading.Thread:
+    """Force `obj` through the web monitor once `ready(state)` (a second Modbus host
+    polling the PLC, as an operator watching the table would)."""
+    def watch() -> None:
+        with CutClient("127.0.0.1", port, progress=None, poll_interval=0.002) as c:
+            c.poll(c.read_state, ready, 30.0, "the moment to force")
+            web_post(web, "/api/force", {"object": obj, "value": value})
+
+    t = threading.Thread(target=watch, daemon=True)
+    t.start()
+    return t
+
+
+def test_softplc_cut_reports_the_faulted_segment_then_jog_reset_home(table, tmp_path,
+                                                                      capsys):
+    """Issue 23: `softplc cut` says which segment faulted and the --start-at that resumes
+    it; `softplc cut reset` says why it is refused (the switch, and the jog that leaves
+    it); `softplc cut jog` moves away from the made switch, not into it; once the switch
+    is released, reset, then home, are accepted."""
+    from softplc.cli import main
+
+    piece = tmp_path / "long.toml"
+    piece.write_text('speed = 10.0\n[[op]]\nkind = "move"\nto = [10, 10]\n'
+                     '[[op]]\nkind = "line"\nto = [90, 10]\n[[op]]\nkind = "line"\n'
+                     'to = [90, 20]\n', encoding="utf-8")
+    daemon, _ = table("jog", "--web", "0")
+    web = int(re.search(r"web monitor on http://127\.0\.0\.1:(\d+)", "".join(daemon.out))[1])
+    port = str(daemon.port)
+    watcher = force_when(web, daemon.port, "%I0.9", 1,
+                         lambda s: s.step == 5 and s.pos_um[0] > 20_000)
+    assert main(["cut", str(piece), "--port", port]) == 3
+    watcher.join(5)
+    out = capsys.readouterr().out
+    assert "stopped by a fault: 1 segments" in out
+    assert "fault 1 (limit switch) during segment 2/3 (op[1])" in out
+    assert "resume with --start-at 2" in out
+    assert main(["cut", "reset", "--port", port]) == 1
+    err = capsys.readouterr().err
+    assert "RESET refused" in err and "SensX_Max made (softplc cut jog X-)" in err
+    assert main(["cut", "jog", "X+", "1", "--port", port]) == 1  # into the switch
+    assert "SensX_Max is made; the PLC jogs only away from it" in capsys.readouterr().err
+    assert main(["cut", "jog", "X-", "3", "--port", port]) == 0
+    moved = float(re.search(r"moved (\S+) mm", capsys.readouterr().out)[1])
+    assert moved >= 3.0
+    web_post(web, "/api/unforce", {"object": "%I0.9"})
+    time.sleep(0.05)
+    assert main(["cut", "reset", "--port", port]) == 0
+    assert "RESET accepted: READY" in capsys.readouterr().out
+    assert main(["cut", "home", "--port", port]) == 0
+    assert "homed: READY at (0.000, 0.000) mm" in capsys.readouterr().out
+    assert main(["cut", "jog", "X-", "--port", port]) == 1  # READY: no jog
+    assert "jog works in FAULT only" in capsys.readouterr().err
+    assert main(["cut", "reset", "--port", port]) == 1
+    assert "nothing to reset" in capsys.readouterr().err
+    assert daemon.stop() == 0
+
+
+def test_a_fault_mid_piece_resumes_after_reset_from_the_faulted_segment(table):
+    """The fault's CutResult names the segment that was running; after RESET the frame
+    the host had queued is not cut (refused, issue 23); resuming from it cuts the rest,
+    with the torch off back to that segment's start."""
+    daemon, trace = table("estop", "--web", "0")
+    web = int(re.search(r"web monitor on http://127\.0\.0\.1:(\d+)", "".join(daemon.out))[1])
+    piece = load_piece(PIECES / "escudo.toml", speed=10.0, move_speed=10.0)
+    watcher = force_when(web, daemon.port, "%I0.16", 0,  # the E-stop pressed from segment 3
+                         lambda s: s.seg_done >= 2 and s.step == 5)  # (a late poll: 4, 5...)
+    with CutClient("127.0.0.1", daemon.port, progress=None) as client:
+        res = client.stream(piece)
+        watcher.join(5)
+        assert res.fault == 5 and not res.interrupted
+        n = res.next_number
+        assert 3 <= n <= 8 and res.last_number == n - 1
+        assert res.fault_where == piece.segments()[n - 1].where
+        with pytest.raises(HostError, match="E-stop pressed"):
+            client.reset()
+        web_post(web, "/api/unforce", {"object": "%I0.16"})
+        time.sleep(0.05)
+        state = client.reset()
+        assert state.step == 4 and state.seg_done == n - 1 and not state.ejecutando
+        res2 = client.stream(piece, start_at=res.next_number)
+    assert not res2.fault and res2.last_number == len(piece.segments())
+    assert daemon.stop() == 0
+    start = START_MM * COUNTS_PER_MM
+    origin = (start + res2.origin_counts[0], start + res2.origin_counts[1])
+    rep = trace_deviation(piece, trace, origin, COUNTS_PER_MM)
+    assert rep.worst <= piece.tolerance + UM
     assert math.dist(rep.end, piece.end) <= UM

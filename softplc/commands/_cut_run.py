@@ -18,8 +18,10 @@ from ..cutting import (
     split_line,
 )
 from ..cutting.motion import simulate
+from ..cutting.piece import DWELL
 from ..cutting.regmap import FRAME_LEN, SEG_BASE
 from ..cutting.seed import run_trigger_chain, thesis_split
+from .cut import ACTIONS
 
 
 def _load(args: argparse.Namespace) -> Piece:
@@ -35,7 +37,8 @@ def _write_frames(piece: Piece, out: str) -> None:
             w.writerow(["segment", "kind", "x_mm", "y_mm", "speed_mm_s", "where",
                         "x_um", "y_um", "kind_code", "seg_no",
                         *(f"MW{SEG_BASE + i}" for i in range(FRAME_LEN)),
-                        "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2", "duration_s"])
+                        "vx_mm_s", "vy_mm_s", "ax_mm_s2", "ay_mm_s2", "duration_s",
+                        "dwell_s"])
             segs = piece.segments()
             for s, sw in zip(segs, piece_words(segs), strict=True):
                 # what the PLC should compute for this segment (the corrected split)
@@ -45,7 +48,7 @@ def _write_frames(piece: Piece, out: str) -> None:
                             *sw.frame(),
                             *(f"{v:.9g}" for v in (split.x.speed, split.y.speed,
                                                    split.x.accel, split.y.accel,
-                                                   split.duration))])
+                                                   split.duration)), f"{s.dwell:g}"])
     except OSError as e:
         raise CuttingError(f"cannot write {out}: {e.strerror or e}") from None
 
@@ -68,10 +71,10 @@ def _report_chain(piece: Piece) -> None:
               "passes")
 
 
-def _report_simulation(piece: Piece, dt: float, seed: bool) -> None:
+def _report_simulation(piece: Piece, dt: float, seed: bool | str) -> None:
     runs = [("corrected", piece.segments(), split_line)]
     if seed:
-        runs.append(("thesis (seed mode, equal accelerations)", piece.segments(seed=True),
+        runs.append(("thesis (seed mode, equal accelerations)", piece.segments(seed=seed),
                      thesis_split))
     for name, segs, split in runs:
         samples = simulate(segs, piece.accel, dt, split)
@@ -81,6 +84,23 @@ def _report_simulation(piece: Piece, dt: float, seed: bool) -> None:
               f"{len(samples)} samples (dt {dt:g} s); the torch-on path is at most "
               f"{worst:.6f} mm from the ideal shape (at {at[0]:.4f}, {at[1]:.4f}; chord "
               f"tolerance {piece.tolerance:g})")
+
+
+def _report_seed(piece: Piece, variant: str) -> None:
+    if not any(isinstance(e.shape, Arc | NewtonCurve) for e in piece.elements):
+        print("note: seed mode changes arcs and Newton curves only; this piece has none",
+              file=sys.stderr)
+    cw = [e.where for e in piece.elements if isinstance(e.shape, Arc) and not e.shape.ccw]
+    if cw and variant == "matlab":  # the thesis's own defect, kept and shown
+        print(f"seed mode (matlab): TrazarArco2 runs no step for a negative sweep (B7): the "
+              f"clockwise arcs of {', '.join(dict.fromkeys(cw))} are each one chord "
+              "(--seed-variant cpu steps them, as the CPU's F_ClcCirculo does)")
+    seed = piece.segments(seed=variant)
+    _report_chain(piece)
+    print(f"seed mode ({variant}, thesis algorithms): {len(seed)} segments, cut "
+          f"{piece.length('cut', seed=variant):.5f} mm, ends at "
+          f"({seed[-1].end[0]:.6g}, {seed[-1].end[1]:.6g})" if seed else
+          "seed mode: no segments")
 
 
 def _machine_axes(path: str) -> tuple[tuple[float, float], float]:
@@ -102,16 +122,22 @@ def _stream(piece: Piece, args: argparse.Namespace) -> int:
     """Stream to the daemon (handshake of regmap.py), then the deviation from the trace."""
     import time
 
-    from ..cutting.client import CutClient, trace_deviation
+    from ..cutting.client import CutClient, fault_text, trace_deviation
 
     if args.seed:
-        print("seed mode: streaming the thesis's path (its arc steps and Newton "
+        print(f"seed mode ({args.seed}): streaming the thesis's path (its arc steps and Newton "
               "evaluation); the trace is measured against the ideal shape")
     with CutClient(args.host, args.port) as client:
         res = client.stream(piece, args.start_at, seed=args.seed)
-    state = "interrupted" if res.interrupted else "done"
+    state = "interrupted" if res.interrupted else "stopped by a fault" if res.fault else "done"
     print(f"{state}: {res.done} segments in {res.wall:.2f} s (last {res.last_number} of "
           f"{res.total}); the carriage is at ({res.pos_mm[0]:.3f}, {res.pos_mm[1]:.3f}) mm")
+    if res.fault:
+        print(f"{fault_text(res.fault)} during segment {res.next_number}/{res.total} "
+              f"({res.fault_where}): the axes stopped, torch off. Clear the cause (softplc "
+              f"cut jog AXIS± MM leaves a switch), softplc cut reset, then resume with "
+              f"--start-at {res.next_number}")
+        return FAULT_EXIT
     if res.interrupted:
         print(f"resume with --start-at {res.next_number}")
         return 130
@@ -127,25 +153,57 @@ def _stream(piece: Piece, args: argparse.Namespace) -> int:
     return 0
 
 
+#: `softplc cut` exit status when the PLC faulted during the piece.
+FAULT_EXIT = 3
+
+
+def _operate(args: argparse.Namespace) -> int:
+    """`softplc cut reset | home | jog AXIS± [MM]` on the daemon's PLC."""
+    from ..cutting.client import CutClient
+
+    action, extra = args.piece, list(args.action_args)
+    want = "AXIS± [MM]" if action == "jog" else ""
+    if (action == "jog" and not 1 <= len(extra) <= 2) or (action != "jog" and extra):
+        raise CuttingError(f"usage: softplc cut {action} {want}".rstrip())
+    with CutClient(args.host, args.port, progress=None) as client:
+        if action == "reset":
+            st = client.reset()
+            print(f"RESET accepted: READY, homed, at ({st.pos_um[0] / 1000:.3f}, "
+                  f"{st.pos_um[1] / 1000:.3f}) mm; last segment done {st.seg_done}")
+        elif action == "home":
+            st = client.home()
+            print(f"homed: READY at ({st.pos_um[0] / 1000:.3f}, {st.pos_um[1] / 1000:.3f}) mm")
+        else:
+            try:
+                mm = float(extra[1]) if len(extra) > 1 else 5.0
+            except ValueError:
+                raise CuttingError(f"jog distance {extra[1]!r}: a number of mm") from None
+            moved = client.jog(extra[0], mm)
+            st = client.read_state()
+            print(f"jog {extra[0].upper()}: moved {moved:.3f} mm, now at "
+                  f"({st.pos_um[0] / 1000:.3f}, {st.pos_um[1] / 1000:.3f}) mm")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.piece in ACTIONS and not Path(args.piece).exists():
+        return _operate(args)
+    args.seed = args.seed_variant or ("matlab" if args.seed else False)
+    if args.action_args:
+        raise CuttingError(f"unexpected arguments after the piece: {' '.join(args.action_args)}"
+                           " (only reset, home and jog take arguments)")
     piece = _load(args)
     for w in piece.warnings:
         print(f"warning: {w}", file=sys.stderr)
     segs = piece.segments()
     cuts = sum(1 for s in segs if s.cut)
-    print(f"{args.piece}: {piece.name}: {len(segs)} segments ({cuts} cut), cut "
+    dwells = [s.dwell for s in segs if s.kind == DWELL]
+    dwelt = f", {len(dwells)} dwells of {sum(dwells):g} s" if dwells else ""
+    print(f"{args.piece}: {piece.name}: {len(segs)} segments ({cuts} cut{dwelt}), cut "
           f"{piece.length('cut'):.5f} mm, move {piece.length('move'):.5f} mm, ends at "
           f"({piece.end[0]:.6g}, {piece.end[1]:.6g}), motion about {piece.duration():.2f} s")
     if args.seed:
-        if not any(isinstance(e.shape, Arc | NewtonCurve) for e in piece.elements):
-            print("note: seed mode changes arcs and Newton curves only; this piece has none",
-                  file=sys.stderr)
-        seed = piece.segments(seed=True)
-        _report_chain(piece)
-        print(f"seed mode (thesis algorithms): {len(seed)} segments, cut "
-              f"{piece.length('cut', seed=True):.5f} mm, ends at "
-              f"({seed[-1].end[0]:.6g}, {seed[-1].end[1]:.6g})" if seed else
-              "seed mode: no segments")
+        _report_seed(piece, args.seed)
     if not 1 <= args.start_at <= max(len(segs), 1):
         raise CuttingError(f"--start-at {args.start_at}: the piece has {len(segs)} segments")
     if args.simulate is not None:

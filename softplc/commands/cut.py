@@ -1,4 +1,5 @@
-"""`softplc cut PIECE`: check a cutting-table piece, preview it, list the PLC words.
+"""`softplc cut PIECE`: check a cutting-table piece, preview it, list the PLC words;
+`softplc cut reset | home | jog AXIS± [MM]`: the operator's commands.
 
 The command validates (schema, geometry, work area), reports, previews, writes the segment
 words and, without --dry-run, streams the piece to the daemon running
@@ -15,14 +16,21 @@ import argparse
 from ._args import add_connection_arguments, size_arg
 
 _EXAMPLES = """\
-examples:
-  softplc cut ladder_programs/pieces/achaflanado.toml --dry-run --preview out/e3.png
-  softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed --preview out/e5.svg
-  softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run --frames out/e3.csv
-  softplc run ladder_programs/cutting_table.il --config ladder_programs/cutting_table.toml \\
+examples (after P=ladder_programs/pieces):
+  softplc cut $P/achaflanado.toml --dry-run --preview out/e3.png
+  softplc cut $P/polinomio.toml --dry-run --seed --preview out/e5.svg
+  softplc cut $P/rounded_rectangle.gcode --dry-run --frames out/e3.csv
+  softplc run ladder_programs/cutting_table.il \\
+      --config ladder_programs/cutting_table.toml \\
       --port 5020 --speed max --trace out/cut.csv &
-  softplc cut ladder_programs/pieces/achaflanado.toml --port 5020 --trace out/cut.csv
+  softplc cut $P/achaflanado.toml --port 5020 --trace out/cut.csv
+  softplc cut jog X- 5 --port 5020   (in FAULT: leave a made switch)
+  softplc cut reset --port 5020      (then --start-at N as printed)
+  softplc cut home --port 5020       (home again from READY)
 """
+
+#: The operator's commands, given instead of a piece file.
+ACTIONS = ("reset", "home", "jog")
 
 
 _area = size_arg("work area", "mm", "240x240")
@@ -31,16 +39,23 @@ _area = size_arg("work area", "mm", "240x240")
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "cut", help="check, preview and stream a piece to the cutting table",
-        description="Read a cutting-table piece (.toml, or G-code: XY plane, mm, G00 move,\n"
-                    "G01-G03 cut), check its geometry and the work area, report it, plot it\n"
+        description="Read a cutting-table piece (.toml; G-code: XY plane, mm, G00 move,\n"
+                    "G01-G03 cut, G04 dwell; .dxf: LINE, ARC, CIRCLE, LWPOLYLINE), check its\n"
+                    "geometry and the work area, report it, plot it\n"
                     "and list the segment words the host sends (%MD100/%MD102 end in um,\n"
                     "%MF104 speed, %MW106 kind, %MW107 number, %MW108 INICIO), then stream\n"
                     "it to the PLC (Modbus TCP) with progress and ETA; Ctrl-C stops the axes\n"
-                    "with the torch off (resume with --start-at).",
+                    "with the torch off, and so does a fault (both print the --start-at N\n"
+                    "that resumes). Operator: `reset` (RESET in FAULT), `home` (home again\n"
+                    "from READY), `jog X+|X-|Y+|Y- [MM]` (in FAULT, default 5 mm).",
         epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("piece", metavar="PIECE", help="the piece: FILE.toml or FILE.gcode")
-    r = p.add_argument_group("piece values (G-code: these or the defaults; TOML: override "
-                             "the file's keys when given)")
+    p.add_argument("piece", metavar="PIECE",
+                   help="the piece: FILE.toml, FILE.gcode or FILE.dxf; or reset, home, jog")
+    p.add_argument("action_args", nargs="*", metavar="ARG",
+                   help="jog: the axis and direction (X+, X-, Y+, Y-), then the distance "
+                        "in mm (default 5)")
+    r = p.add_argument_group("piece values", "G-code, DXF: these or the defaults; TOML: "
+                             "override its keys")
     r.add_argument("--speed", type=float, metavar="MM/S",
                    help="cutting speed (G-code: when the program has no F; default 2)")
     r.add_argument("--move-speed", type=float, metavar="MM/S",
@@ -59,6 +74,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "Newton without its last term) and overlay it on the preview; "
                         "when streaming, send that path instead (the trace report then "
                         "shows what the machine cuts against the ideal shape)")
+    o.add_argument("--seed-variant", choices=("matlab", "cpu"), default=None,
+                   help="the thesis's arc code in seed mode (implies --seed): matlab "
+                        "(default; TrazarArco2: a CW arc runs no step, one chord, B7) or "
+                        "cpu (F_ClcCirculo: 0.03 rad steps with the sign of θ, "
+                        "floor(|θ|/α), TRUNC to 0.001)")
     o.add_argument("--frames", metavar="OUT.csv",
                    help="write every segment's words (%%MW100-%%MW108) and the axis split "
                         "the PLC should compute (speeds, accelerations, time) to a CSV file")

@@ -44,17 +44,31 @@ from .regmap import (
     SEG_BASE,
     SEG_DONE,
     SEG_NO_MODULO,
+    START_VALUE,
     STATE,
     SegmentWords,
     piece_words,
     seg_no,
+    signed_word,
     to_um,
     words_dint,
 )
 
 READY_STEP = 4
 MOVING_STEP = 5
+FAULT_STEP = 9
 HOLD_COIL = 101
+#: operator coils of cutting_table.il: RESET, HOME, jog X+ X- Y+ Y- (in FAULT)
+RESET_COIL, HOME_COIL = 102, 103
+JOG_COILS = {"X+": 104, "X-": 105, "Y+": 106, "Y-": 107}
+#: status coils: the four switches (%M114-%M117), then the E-stop pressed (%M119)
+SWITCH_COILS = 114
+SWITCH_NAMES = ("SensX_Min", "SensX_Max", "SensY_Min", "SensY_Max")
+ESTOP_COIL = 119
+#: which jog leaves each switch, and which switch each jog runs into (the PLC refuses a
+#: jog into a made switch)
+LEAVE_SWITCH = {"SensX_Min": "X+", "SensX_Max": "X-", "SensY_Min": "Y+", "SensY_Max": "Y-"}
+JOG_INTO = {"X+": "SensX_Max", "X-": "SensX_Min", "Y+": "SensY_Max", "Y-": "SensY_Min"}
 #: %MD130 / %MD132: the work origin in the axes' raw counts (cutting_table.il, internal)
 ORIGIN_X = 130
 STATE_LEN = ORIGIN_X + 4 - SEG_BASE
@@ -78,7 +92,7 @@ class PlcState:
         def d(i: int) -> int:
             return words_dint(w(i), w(i + 1))
 
-        return cls(w(INICIO), w(EJECUTANDO), w(FAULT), w(STATE), (d(POS_X), d(POS_Y)),
+        return cls(signed_word(w(INICIO)), w(EJECUTANDO), w(FAULT), w(STATE), (d(POS_X), d(POS_Y)),
                    w(SEG_DONE), (d(ORIGIN_X), d(ORIGIN_X + 2)))
 
     def __str__(self) -> str:
@@ -86,9 +100,22 @@ class PlcState:
                 f"SEG_DONE={self.seg_done}")
 
 
+class PlcFault(HostError):
+    """The PLC reports a fault (%MW110): the axes stopped, torch off."""
+
+    def __init__(self, message: str, state: PlcState):
+        super().__init__(message)
+        self.state = state
+
+
+def fault_text(code: int) -> str:
+    return f"fault {code} ({FAULTS.get(code, 'unknown fault')})"
+
+
 @dataclass
 class CutResult:
-    """What `CutClient.stream` did; `next_number` is where `--start-at` resumes."""
+    """What `CutClient.stream` did; `next_number` is where `--start-at` resumes (after
+    Ctrl-C, or after a fault: the segment that was running or refused)."""
 
     done: int  # segments completed in this run
     last_number: int  # last completed segment (0: none)
@@ -98,6 +125,8 @@ class CutResult:
     pos_mm: tuple[float, float]
     origin_counts: tuple[int, int]
     wall: float
+    fault: int = 0  # the PLC's fault code (0: none)
+    fault_where: str = ""  # the faulted segment's origin (op[3], line 12)
 
 
 class Progress(ProgressLine):
@@ -137,15 +166,16 @@ class CutClient(ModbusHost):
     def wait_for(self, ready: object, timeout: float, what: str) -> PlcState:
         def check(s: PlcState) -> None:
             if s.fault:
-                raise HostError(f"{what}: the PLC reports fault {s.fault} in %MW{FAULT} "
-                                f"({FAULTS.get(s.fault, 'unknown fault')})")
+                raise PlcFault(f"{what}: the PLC reports {fault_text(s.fault)} in "
+                               f"%MW{FAULT}; clear the cause, then `softplc cut reset`", s)
 
         return self.poll(self.read_state, ready, timeout, what, check)  # type: ignore[arg-type]
 
     def offer(self, words: SegmentWords, label: str) -> PlcState:
         """Write one segment into the mailbox once it is free (the PLC has queued the
         previous one); returns the state read just before."""
-        state = self.wait_for(lambda s: s.step in (READY_STEP, MOVING_STEP) and not s.inicio,
+        state = self.wait_for(lambda s: s.step in (READY_STEP, MOVING_STEP)
+                              and s.inicio != START_VALUE,
                               self.move_timeout, f"{label}: waiting for the PLC to take "
                               "the previous segment")
         self.write_words(SEG_BASE, words.frame())
@@ -154,7 +184,7 @@ class CutClient(ModbusHost):
 
     def finish(self, number: int, label: str) -> PlcState:
         """Wait until segment `number` (the last one offered) is done and the PLC idle."""
-        return self.wait_for(lambda s: s.seg_done == number and not s.inicio
+        return self.wait_for(lambda s: s.seg_done == number and s.inicio != START_VALUE
                              and not s.ejecutando, self.move_timeout,
                              f"{label}: waiting for the segment to end")
 
@@ -163,14 +193,15 @@ class CutClient(ModbusHost):
         self.offer(words, label)
         return self.finish(words.number, label)
 
-    def stream(self, piece: Piece, start_at: int = 1, seed: bool = False) -> CutResult:
+    def stream(self, piece: Piece, start_at: int = 1, seed: bool | str = False) -> CutResult:
         """Cut `piece` from segment `start_at`; `seed`: the thesis's path (seed mode: its
         arc steps and Newton evaluation), to see what the machine then cuts."""
         segs = piece.segments(seed=seed)
         total = len(segs)
         if not 1 <= start_at <= max(total, 1):
             raise HostError(f"--start-at {start_at}: the piece has {total} segments")
-        planned = [split_line(s.start, s.end, s.speed, piece.accel).duration for s in segs]
+        planned = [split_line(s.start, s.end, s.speed, piece.accel).duration + s.dwell
+                   for s in segs]
         bar = Progress(planned, self.progress)
         bar.base = sum(planned[:start_at - 1])
         done = start_at - 1
@@ -189,6 +220,7 @@ class CutClient(ModbusHost):
                 if show:
                     bar.update(done, segs[done - 1])
 
+        fault = 0
         try:
             state = self.wait_for(lambda s: s.step == READY_STEP and not s.ejecutando,
                                   self.idle_timeout, "waiting for the PLC to be READY "
@@ -210,6 +242,11 @@ class CutClient(ModbusHost):
                 last = todo[-1]
                 count(self.finish(seg_no(last.number), f"segment {last.number}/{total} "
                                   f"({last.where})"))
+        except PlcFault as e:
+            if offered < start_at:  # before this run sent anything: nothing to resume
+                raise
+            fault = e.state.fault
+            count(e.state, show=False)
         except KeyboardInterrupt:
             interrupted = True
             bar.close()
@@ -220,8 +257,9 @@ class CutClient(ModbusHost):
         if interrupted:  # what the PLC completed before HOLD
             count(state, show=False)
         pos = (state.pos_um[0] / 1000.0, state.pos_um[1] / 1000.0)
+        where = segs[done].where if fault and done < total else ""
         return CutResult(done - start_at + 1, done, done + 1, total, interrupted, pos,
-                         state.origin_counts, time.monotonic() - t0)
+                         state.origin_counts, time.monotonic() - t0, fault, where)
 
     def _hold(self) -> None:
         """After Ctrl-C: HOLD stops the axes now with the torch off; then release HOLD."""
@@ -234,6 +272,101 @@ class CutClient(ModbusHost):
             self.write_bit(HOLD_COIL, False)
         except KeyboardInterrupt:
             raise HostError("interrupted twice: HOLD may still be set (%M101)") from None
+
+    # -- operator commands (softplc cut reset | home | jog) -----------------------------
+    def read_bits(self, index: int, count: int) -> list[bool]:
+        """%M<index>.. (coils, FC 1)."""
+        rr = self._call(f"reading %M{index}:{count}",
+                        lambda c, **kw: c.read_coils(index, count=count, **kw))
+        return list(rr.bits[:count])  # type: ignore[attr-defined]
+
+    def made_switches(self) -> list[str]:
+        bits = self.read_bits(SWITCH_COILS, len(SWITCH_NAMES))
+        return [n for n, b in zip(SWITCH_NAMES, bits, strict=True) if b]
+
+    def why_faulted(self) -> list[str]:
+        """What keeps RESET refused: made switches (and the jog that leaves each), the
+        E-stop; empty if nothing the PLC checks is wrong (an axis still moving)."""
+        out = [f"{n} made (softplc cut jog {LEAVE_SWITCH[n]})" for n in self.made_switches()]
+        if self.read_bits(ESTOP_COIL, 1)[0]:
+            out.append("the E-stop pressed (%I0.16 open)")
+        return out
+
+    def reset(self, settle: float = 0.3) -> PlcState:
+        """RESET (%M102) in FAULT; waits for READY (after homing if the PLC was not homed).
+        HostError saying why if the PLC refuses it."""
+        state = self.read_state()
+        if state.step != FAULT_STEP:
+            raise HostError(f"nothing to reset: the PLC is not in FAULT ({state})")
+        self.write_bit(RESET_COIL, True)
+        try:
+            self.poll(self.read_state, lambda s: s.step != FAULT_STEP, settle, "RESET")
+        except HostError:
+            why = self.why_faulted() or ["an axis still moving"]
+            raise HostError(f"RESET refused, {fault_text(state.fault)} stays: "
+                            f"{'; '.join(why)}") from None
+        return self.wait_for(lambda s: s.step == READY_STEP, self.move_timeout,
+                             "homing after RESET")
+
+    def home(self) -> PlcState:
+        """HOME (%M103): from READY with nothing queued, the PLC homes again (search, zero,
+        30 mm retract); waits until it is READY again."""
+        state = self.read_state()
+        if state.step == FAULT_STEP:
+            raise HostError(f"the PLC is in FAULT ({fault_text(state.fault)}): clear the "
+                            "cause and `softplc cut reset` first")
+        if state.step == READY_STEP:
+            if state.ejecutando or state.inicio == START_VALUE:
+                raise HostError(f"the PLC is busy with a segment ({state}): HOME waits for "
+                                "an idle table")
+            self.write_bit(HOME_COIL, True)
+            self.wait_for(lambda s: s.step != READY_STEP, self.idle_timeout, "HOME")
+        elif state.step == MOVING_STEP:
+            raise HostError(f"the table is cutting ({state}): HOME waits for an idle table")
+        return self.wait_for(lambda s: s.step == READY_STEP, self.move_timeout, "homing")
+
+    def jog(self, direction: str, mm: float, stall: float = 1.0) -> float:
+        """Jog one axis (X+, X-, Y+, Y-) by about `mm` in FAULT (to leave a made switch):
+        the jog coil is held until the position has moved `mm`, then released; returns
+        the distance moved once the axis stood still (the jog's stop ramp adds to it)."""
+        coil = JOG_COILS.get(direction.upper())
+        if coil is None:
+            raise HostError(f"jog {direction!r}: one of {', '.join(JOG_COILS)}")
+        if not (math.isfinite(mm) and mm > 0):
+            raise HostError(f"jog distance {mm:g} mm must be a positive number")
+        axis = 0 if direction.upper()[0] == "X" else 1
+        state = self.read_state()
+        if state.step != FAULT_STEP:
+            raise HostError(f"jog works in FAULT only (the PLC's jog rungs; STATE="
+                            f"{state.step}): cut a move segment to go somewhere")
+        ahead = JOG_INTO[direction.upper()]
+        if ahead in self.made_switches():  # the PLC's jog rungs refuse: say so at once
+            raise HostError(f"jog {direction}: {ahead} is made; the PLC jogs only away "
+                            "from it")
+        p0 = state.pos_um[axis]
+        last = [p0, time.monotonic()]
+
+        def far(s: PlcState) -> bool:
+            p = s.pos_um[axis]
+            if abs(p - last[0]) > 1:
+                last[:] = [p, time.monotonic()]
+            elif time.monotonic() - last[1] > stall:
+                raise HostError(f"jog {direction}: the axis does not move (into a made "
+                                "switch? the PLC refuses that)")
+            return abs(p - p0) >= mm * 1000.0
+
+        self.write_bit(coil, True)
+        try:
+            self.poll(self.read_state, far, self.move_timeout, f"jog {direction}")
+        finally:
+            self.write_bit(coil, False)
+        s = self.poll(self.read_state, lambda s: self._still(s, axis), self.idle_timeout,
+                      f"jog {direction}: stopping")
+        return abs(s.pos_um[axis] - p0) / 1000.0
+
+    def _still(self, s: PlcState, axis: int) -> bool:
+        time.sleep(0.05)
+        return self.read_state().pos_um[axis] == s.pos_um[axis]
 
 
 @dataclass(frozen=True)
@@ -265,7 +398,8 @@ def trace_deviation(piece: Piece, trace_csv: str | Path, origin_true: tuple[floa
     return TraceReport(int(lit.sum()), float(d[i]), (float(x[lit][i]), float(y[lit][i])), end)
 
 
-def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = False) -> int:
+def feed_plc(plc: object, piece: Piece, timeout: float = 600.0,
+             seed: bool | str = False) -> int:
     """The same handshake in-process on a `softplc.PLC` (virtual clock, no Modbus): write
     each segment's frame into the words as soon as the mailbox is free (INICIO = 0), then
     run scans until SEG_DONE is the last number and EJECUTANDO = 0. Deterministic (each
@@ -291,11 +425,12 @@ def feed_plc(plc: object, piece: Piece, timeout: float = 600.0, seed: bool = Fal
 
     segs = piece.segments(seed=seed)
     for seg, words in zip(segs, piece_words(segs), strict=True):
-        wait(seg, lambda p: not w[INICIO], "the previous segment not taken")
+        wait(seg, lambda p: w[INICIO] != START_VALUE, "the previous segment not taken")
         for i, v in enumerate(words.frame()):
             uw[SEG_BASE + i] = v
     if segs:
         last = seg_no(segs[-1].number)
-        wait(segs[-1], lambda p: w[SEG_DONE] == last and not w[EJECUTANDO] and not w[INICIO],
+        wait(segs[-1], lambda p: w[SEG_DONE] == last and not w[EJECUTANDO]
+             and w[INICIO] != START_VALUE,
              "not done")
     return len(segs)

@@ -226,5 +226,5 @@ def simulate(segments: Iterable[SegmentLike], accel: float = DEFAULT_ACCEL,
             out.append(Sample(t0 + k * dt, x, y, seg.cut))
         if n * dt < s.duration:
             out.append(Sample(t0 + s.duration, *s.position(s.duration), seg.cut))
-        t0 += s.duration
+        t0 += s.duration + getattr(seg, "dwell", 0.0)  # a dwell stands still
     return out

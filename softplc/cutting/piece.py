@@ -15,7 +15,7 @@ TOML (every key optional except the ops; unknown keys are errors)::
     chord_tolerance = 0.01    # mm, arcs (Newton curves: 60 chords or their own tolerance)
     work_area = [240, 240]    # mm
 
-    [[op]]                    # kinds: move, line, arc, circle, contour, newton
+    [[op]]                    # kinds: move, line, arc, circle, contour, newton, dwell
     kind = "move"
     to = [20, 10]
     [[op]]
@@ -25,7 +25,8 @@ TOML (every key optional except the ops; unknown keys are errors)::
 
 `circle` (centre, radius, start_angle deg, direction), `contour` (points, closed, radius =
 fillet at every corner) and `newton` (x, y, samples or tolerance) start at their own first
-point: a move (torch off) is inserted when the torch is elsewhere. Every op takes `speed`.
+point: a move (torch off) is inserted when the torch is elsewhere. Every op but `dwell`
+(seconds: stand still, the torch lit if a cut follows: a pierce delay) takes `speed`.
 """
 
 from __future__ import annotations
@@ -62,7 +63,10 @@ from .motion import DEFAULT_ACCEL, DEFAULT_SPEED, MATLAB_CYCLE, split_line
 
 #: Work area after homing, mm (reference D1: [0, 240] x [0, 240]).
 WORK_AREA = (240.0, 240.0)
-CUT, MOVE = "cut", "move"
+CUT, MOVE, DWELL = "cut", "move", "dwell"
+#: The longest dwell one segment carries: the PLC times it with %TM1 (1 ms base, preset
+#: 0-9999 [manual]); a longer G04 becomes several dwell segments in a row.
+MAX_DWELL = 9.999
 
 
 class PieceError(CuttingError):
@@ -128,6 +132,11 @@ class ContourOp(_Op):
     radius: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.0
 
 
+class DwellOp(_Model):
+    kind: Literal["dwell"]
+    seconds: Annotated[float, Field(ge=0, le=3600, allow_inf_nan=False)]
+
+
 class NewtonOp(_Op):
     kind: Literal["newton"]
     x: list[Annotated[float, Field(allow_inf_nan=False)]]
@@ -142,7 +151,7 @@ class NewtonOp(_Op):
         return self
 
 
-Op = Annotated[MoveOp | LineOp | ArcOp | CircleOp | ContourOp | NewtonOp,
+Op = Annotated[MoveOp | LineOp | ArcOp | CircleOp | ContourOp | NewtonOp | DwellOp,
                Field(discriminator="kind")]
 
 
@@ -159,7 +168,25 @@ class PieceModel(_Model):
 
 # -- the piece -----------------------------------------------------------------------------
 
-Shape = Line | Arc | NewtonCurve
+@dataclass(frozen=True)
+class Dwell:
+    """G04 (or a TOML `dwell` op): stand still at `at` for `seconds`. The torch is lit if
+    the next motion is a cut (a pierce delay, or a pause inside a contour), off otherwise,
+    as a plasma cutter's (`regmap.piece_words` tells the PLC which)."""
+
+    at: Point
+    seconds: float
+
+    @property
+    def start(self) -> Point:
+        return self.at
+
+    @property
+    def end(self) -> Point:
+        return self.at
+
+
+Shape = Line | Arc | NewtonCurve | Dwell
 
 
 @dataclass(frozen=True)
@@ -178,11 +205,12 @@ class Segment:
     """One straight move the host sends: end point (mm), kind, path speed."""
 
     number: int  # 1-based
-    kind: str  # "cut" (torch on) or "move" (torch off)
+    kind: str  # "cut" (torch on), "move" (torch off) or "dwell" (no motion, `dwell` s)
     start: Point
     end: Point
     speed: float
     where: str
+    dwell: float = 0.0
 
     @property
     def length(self) -> float:
@@ -209,11 +237,22 @@ class Piece:
     file: str = "<string>"
     warnings: list[str] = field(default_factory=list)
 
-    def segments(self, seed: bool = False) -> list[Segment]:
-        """Numbered straight segments; seed=True uses the thesis's arc and Newton code."""
+    def segments(self, seed: bool | str = False) -> list[Segment]:
+        """Numbered straight segments; seed=True (or "matlab", "cpu": the arc's variant)
+        uses the thesis's arc and Newton code."""
         out: list[Segment] = []
         pos = self.start
         for el in self.elements:
+            if isinstance(el.shape, Dwell):
+                left = el.shape.seconds
+                while True:  # at least one segment (G04 P0 is kept: the host asked)
+                    chunk = min(left, MAX_DWELL)
+                    out.append(Segment(len(out) + 1, DWELL, pos, pos, el.speed, el.where,
+                                       chunk))
+                    left -= chunk
+                    if left <= 1e-9:
+                        break
+                continue
             try:
                 points = _points(el, self.tolerance, seed)
             except GeometryError as e:
@@ -241,7 +280,7 @@ class Piece:
         segs = self.segments()
         return segs[-1].end if segs else self.start
 
-    def length(self, kind: str = CUT, seed: bool = False) -> float:
+    def length(self, kind: str = CUT, seed: bool | str = False) -> float:
         return sum(s.length for s in self.segments(seed) if s.kind == kind)
 
     def deviation(self, p: Point) -> float:
@@ -268,20 +307,23 @@ class Piece:
         return sum(green_term(c) for c in cuts) / 2.0
 
     def duration(self) -> float:
-        """Motion time of all segments with the corrected split (no handshake time)."""
-        return sum(split_line(s.start, s.end, s.speed, self.accel).duration
+        """Motion and dwell time of all segments with the corrected split (no handshake
+        time)."""
+        return sum(split_line(s.start, s.end, s.speed, self.accel).duration + s.dwell
                    for s in self.segments())
 
 
-def _points(el: Element, tolerance: float, seed: bool) -> list[Point]:
+def _points(el: Element, tolerance: float, seed: bool | str) -> list[Point]:
     shape = el.shape
+    variant = thesis.seed_variant(seed)
     if isinstance(shape, Arc):
-        if seed:
+        if variant:
             return thesis.thesis_arc_points(shape.centre, shape.start, shape.sweep,
-                                            el.speed, MATLAB_CYCLE).points
+                                            el.speed, MATLAB_CYCLE,
+                                            cpu=variant == "cpu").points
         return shape.chords(tolerance)
     if isinstance(shape, NewtonCurve):
-        if seed:
+        if variant:
             return thesis.ThesisNewton(shape.xs, shape.ys).points()[1:]
         return shape.chords(samples=el.samples or NEWTON_SAMPLES)
     return shape.chords()
@@ -310,9 +352,12 @@ class _Builder:
             self.add(Line(self.pos, p, cut=False), False, None, where)
 
     def op(self, i: int, op: MoveOp | LineOp | ArcOp | CircleOp | ContourOp | NewtonOp
-           ) -> None:
+           | DwellOp) -> None:
         where = f"op[{i}]"
-        if isinstance(op, MoveOp | LineOp):
+        if isinstance(op, DwellOp):
+            self.elements.append(Element(Dwell(self.pos, op.seconds), False, self.m.speed,
+                                         where))
+        elif isinstance(op, MoveOp | LineOp):
             cut = isinstance(op, LineOp)
             self.add(Line(self.pos, op.to, cut), cut, op.speed, where)
         elif isinstance(op, ArcOp):
@@ -397,7 +442,8 @@ OPTION_KEYS = {"speed": "speed", "move_speed": "move_speed", "accel": "accel",
 
 
 def load_piece(path: str | Path, **options: float | Point | None) -> Piece:
-    """A piece from a `.toml` file, or from G-code (any other suffix).
+    """A piece from a `.toml` file, a `.dxf` drawing (`dxf.py`), or G-code (any other
+    suffix).
 
     `options` (speed, move_speed, accel, tolerance, work_area; None = not given) are the
     G-code reading values, and override the TOML file's keys."""
@@ -406,6 +452,10 @@ def load_piece(path: str | Path, **options: float | Point | None) -> Piece:
     unknown = set(given) - set(OPTION_KEYS)
     if unknown:
         raise TypeError(f"unknown piece options {sorted(unknown)}")
+    if p.suffix.lower() == ".dxf":
+        from .dxf import piece_from_dxf
+
+        return piece_from_dxf(p, **given)
     if p.suffix.lower() != ".toml":
         return piece_from_gcode(p, **given)
     try:
@@ -427,7 +477,7 @@ def piece_from_gcode(path: str | Path, speed: float = DEFAULT_SPEED,
     linearises arcs within `tolerance`; each G02/G03 is rebuilt into an `Arc` from its
     chords (so seed mode and the ideal-shape deviation see arcs), or kept as chords. A Z
     word (the drawing table's pen) is an error: the torch follows the motion codes. G04
-    dwells are dropped with a warning."""
+    is a dwell (`Dwell`: the torch lit if a cut follows, the pierce delay)."""
     from ..gcode import GCodeConfig, parse_file
     from ..gcode.parser import UNIT_CM
 
@@ -454,16 +504,15 @@ def piece_from_gcode(path: str | Path, speed: float = DEFAULT_SPEED,
     def mm(p: Point) -> Point:
         return (p[0] * mm_per_cm, p[1] * mm_per_cm)
 
-    segs = []
-    for s in prog.segments:
-        if s.kind == "dwell":
-            warnings.append(f"{file}:{s.line}: G04 dwell is not supported by the cutting "
-                            "table; dropped")
-        else:
-            segs.append(s)
+    segs = prog.segments
     i = 0
     while i < len(segs):
         s = segs[i]
+        if s.kind == "dwell":
+            elements.append(Element(Dwell(mm(s.start), s.dwell), False, speed,
+                                    f"line {s.line}"))
+            i += 1
+            continue
         cut = s.kind != "rapid"
         v = (s.feed * mm_per_cm / 60.0 if cut and s.feed else
              speed if cut else move_speed or speed)

@@ -1,4 +1,5 @@
-"""Plot a piece: cuts solid, positioning moves dashed, optionally the thesis's (seed) path."""
+"""Plot a piece: cuts solid, positioning moves dashed, dwells circled with their seconds,
+optionally the thesis's (seed) path."""
 
 from __future__ import annotations
 
@@ -7,11 +8,12 @@ from pathlib import Path
 from ..errors import SoftPLCError
 from ..gcode.preview import _FORMATS as FORMATS
 from ..gcode.preview import _runs  # polylines of consecutive segments with one pen state
-from .piece import Piece
+from .piece import DWELL, Piece
+from .seed import seed_variant
 
 
-def preview(piece: Piece, out: str | Path, seed: bool = False, title: str | None = None
-            ) -> Path:
+def preview(piece: Piece, out: str | Path, seed: bool | str = False,
+            title: str | None = None) -> Path:
     """Draw `piece` into `out` (.png, .svg, .pdf) in mm; seed=True overlays the path the
     thesis's algorithms would cut (arcs by round(θ/α), Newton without its last term)."""
     out = Path(out)
@@ -44,11 +46,17 @@ def preview(piece: Piece, out: str | Path, seed: bool = False, title: str | None
         ax.annotate("", xy=sg.end if sg.length < 1e-3 else mid, xytext=sg.start,
                     arrowprops=dict(arrowstyle="-|>", color=styles[sg.cut]["color"],
                                     lw=0, mutation_scale=12))
+    dwells = [sg for sg in segs if sg.kind == DWELL]
+    for i, sg in enumerate(dwells):  # G04: where the carriage stands, and how long
+        ax.plot(*sg.end, "o", markerfacecolor="none", color="tab:orange", markersize=9,
+                label="dwell (G04), s" if i == 0 else None)
+        ax.annotate(f"{sg.dwell:g}", sg.end, textcoords="offset points", xytext=(6, 6),
+                    color="tab:orange", fontsize="small")
     if seed:
-        for i, run in enumerate(_runs(piece.segments(seed=True), True)):
+        for i, run in enumerate(_runs(piece.segments(seed=seed), True)):
             xs, ys = zip(*run, strict=True)
             ax.plot(xs, ys, color="tab:red", linewidth=0.9, linestyle=":",
-                    label="thesis (seed mode)" if i == 0 else None)
+                    label=f"thesis (seed mode, {seed_variant(seed)})" if i == 0 else None)
     ax.plot(*piece.start, "o", color="tab:green", label="start")
     ax.plot(*piece.end, "s", color="black", markersize=4, label="end")
     w, h = piece.work_area

@@ -6,10 +6,10 @@ Register map of `../shared/reference/cutting-table.md` §5.4 [choice]; holding r
 | word | name | by | meaning |
 |---|---|---|---|
 | %MD100, %MD102 | SEG_X, SEG_Y | host | segment end, µm (work coordinates) |
-| %MF104 | SEG_V | host | path speed mm/s (0 = the program's default) |
-| %MW106 | SEG_KIND | host | 1 cut (torch on), 2 move (torch off), 3 cut chained (see below) |
+| %MF104 | SEG_V | host | path speed mm/s (0 = the program's default); dwell: seconds |
+| %MW106 | SEG_KIND | host | 1 cut, 2 move (torch off), 3 cut chained, 4/5 dwell (below) |
 | %MW107 | SEG_NO | host | sequence number, 1..32767 then 1 again |
-| %MW108 | INICIO | host / PLC | host writes 1; the PLC clears it when it accepts |
+| %MW108 | INICIO | host / PLC | host writes 1; the PLC: 0 accepted, -1 refused (FAULT) |
 | %MW109 | EJECUTANDO | PLC | 1 from acceptance until both axes are in position |
 | %MW110 | FAULT | PLC | see FAULTS |
 | %MD112, %MD114 | pos_X, pos_Y | PLC | actual positions, µm |
@@ -34,7 +34,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..gcode.parser import steps_of
-from .piece import CUT, Segment
+from .piece import CUT, DWELL, Segment
 
 SEG_BASE = 100
 SEG_X, SEG_Y, SEG_V, SEG_KIND, SEG_NO, INICIO = 100, 102, 104, 106, 107, 108
@@ -44,13 +44,18 @@ FRAME_LEN = INICIO - SEG_BASE + 1
 KIND_CODE = {"cut": 1, "move": 2}
 #: a cut followed by a cut (the host's look-ahead: the torch stays lit between them)
 KIND_CUT_CHAINED = 3
+#: a dwell with the torch lit (a cut follows) or off
+KIND_DWELL_LIT, KIND_DWELL_OFF = 4, 5
 START_VALUE = 1
+#: INICIO's answer to a frame offered while the PLC is in FAULT: refused, never run (not
+#: even after RESET); the mailbox is free again for the host's next frame.
+REFUSED = -1
 #: SEG_NO wraps within a positive 16-bit word and is never 0 (0 = none done yet).
 SEG_NO_MODULO = 32767
 UM_PER_MM = 1000.0
 FAULTS = {0: "none", 1: "limit switch", 2: "homing failed",
           3: "target outside the work area", 4: "axis error", 5: "E-stop",
-          6: "bad segment (unknown kind or negative speed)"}
+          6: "bad segment (unknown kind, negative speed, dwell over 9.999 s)"}
 DINT_MIN, DINT_MAX = -(1 << 31), (1 << 31) - 1
 
 
@@ -71,6 +76,11 @@ def real_words(v: float) -> tuple[int, int]:
     """A %MF value (IEEE single) as two holding registers, low word first."""
     lo, hi = struct.unpack("<HH", struct.pack("<f", v))
     return lo, hi
+
+
+def signed_word(u: int) -> int:
+    """A holding register (unsigned on the wire) as the PLC's signed %MW."""
+    return u - 0x10000 if u & 0x8000 else u
 
 
 def words_dint(lo: int, hi: int) -> int:
@@ -102,19 +112,25 @@ class SegmentWords:
                 self.kind, self.number, START_VALUE]
 
 
-def segment_words(seg: Segment, next_seg: Segment | None = None) -> SegmentWords:
-    """The words of `seg`; a cut followed by the cut `next_seg` is kind 3 (chained)."""
+def segment_words(seg: Segment, lit_next: bool = False) -> SegmentWords:
+    """The words of `seg`; `lit_next`: the torch burns in the next segment (a cut, or a
+    dwell before a cut), so a cut is chained (kind 3) and a dwell lit (kind 4)."""
+    if seg.kind == DWELL:
+        kind = KIND_DWELL_LIT if lit_next else KIND_DWELL_OFF
+        return SegmentWords(to_um(seg.end[0]), to_um(seg.end[1]), seg.dwell, kind,
+                            seg_no(seg.number))
     if seg.kind != CUT:
         kind = KIND_CODE["move"]
-    elif next_seg is not None and next_seg.kind == CUT:
-        kind = KIND_CUT_CHAINED
     else:
-        kind = KIND_CODE["cut"]
+        kind = KIND_CUT_CHAINED if lit_next else KIND_CODE["cut"]
     return SegmentWords(to_um(seg.end[0]), to_um(seg.end[1]), seg.speed, kind,
                         seg_no(seg.number))
 
 
 def piece_words(segs: Sequence[Segment]) -> list[SegmentWords]:
-    """The words of consecutive segments, each with the look-ahead of the next one."""
-    return [segment_words(s, segs[i + 1] if i + 1 < len(segs) else None)
-            for i, s in enumerate(segs)]
+    """The words of consecutive segments, each with the look-ahead of what follows: the
+    torch burns in a segment that is a cut, or a dwell whose next motion is a cut."""
+    lit = [False] * (len(segs) + 1)
+    for i in range(len(segs) - 1, -1, -1):
+        lit[i] = segs[i].kind == CUT or (segs[i].kind == DWELL and lit[i + 1])
+    return [segment_words(s, lit[i + 1]) for i, s in enumerate(segs)]

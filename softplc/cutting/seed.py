@@ -8,7 +8,8 @@ difference. Nothing here is used to cut a piece unless the user asks for seed mo
   (n = round, the last step can be negative).
 - `thesis_split`: FB_TrazarLinea, B3 (equal accelerations bend the line).
 - `thesis_arc_points`: TrazarArco2 / FB_TrazarCirculo, B6 (3·v·T or 0.03 rad step), B7
-  (round overshoots the arc end, CW impossible), B9 (TRUNC to 0.001 on the CPU).
+  (round overshoots the arc end; CW impossible in the Matlab, while the CPU's step carries
+  the sign of θ), B9 (TRUNC to 0.001 on the CPU).
 - `thesis_beta`: the start angle from atan(|y/x|) plus quadrant offsets, B5 (Matlab wrong in
   the 2nd quadrant; the CPU right only on the +x ray and, by chance, at 135°).
 - `thesis_cpu_arc`: the CPU's circle loop, B8 (next point when within 0.005, the arc ends
@@ -88,10 +89,12 @@ def thesis_split(start: Point, end: Point, speed: float = DEFAULT_SPEED,
 
 
 def thesis_arc_step(radius: float, speed: float = DEFAULT_SPEED,
-                    cycle: float = MATLAB_CYCLE, cpu: bool = False) -> float:
-    """The step angle: Matlab 2·asin(3·v·T/(2R)) (B6), the CPU a fixed 0.03 rad."""
+                    cycle: float = MATLAB_CYCLE, cpu: bool = False, sweep: float = 1.0) -> float:
+    """The step angle: Matlab 2·asin(3·v·T/(2R)) (B6, always > 0: its loop runs no step
+    for a negative sweep, B7); the CPU a fixed 0.03 rad with the sign of `sweep`
+    (reference §2.2: F_ClcCirculo steps clockwise arcs clockwise)."""
     if cpu:
-        return CPU_ARC_STEP
+        return math.copysign(CPU_ARC_STEP, sweep)
     s = ARC_STEP_FACTOR * speed * cycle / (2.0 * radius)
     if s > 1.0:
         raise GeometryError(f"thesis arc step: asin({s:g}) is undefined (3·v·T = "
@@ -102,26 +105,45 @@ def thesis_arc_step(radius: float, speed: float = DEFAULT_SPEED,
 @dataclass(frozen=True)
 class ThesisArc:
     points: list[Point]  # P_1..P_k, then the closing line's end Pf
-    alpha: float
+    alpha: float  # signed step (the Matlab's is always > 0)
     steps: int  # k
     overshoot: float  # angle by which P_k passes Pf (rad, > 0: beyond the arc end, B7)
 
 
+#: Seed-mode variants of the arc: the Matlab TrazarArco2 or the CPU's F_ClcCirculo step.
+SEED_VARIANTS = ("matlab", "cpu")
+
+
+def seed_variant(seed: bool | str) -> str | None:
+    """None (the corrected path), "matlab" (seed=True) or "cpu"."""
+    if seed is False or seed is None:
+        return None
+    if seed is True:
+        return SEED_VARIANTS[0]
+    if seed not in SEED_VARIANTS:
+        raise ValueError(f"seed variant {seed!r}: one of {', '.join(SEED_VARIANTS)}")
+    return seed
+
+
 def thesis_arc_points(centre: Point, start: Point, sweep: float, speed: float = DEFAULT_SPEED,
-                      cycle: float = MATLAB_CYCLE, count: str = "round",
+                      cycle: float = MATLAB_CYCLE, count: str | None = None,
                       cpu: bool = False) -> ThesisArc:
     """TrazarArco2: P_i = O + R·(cos(β + iα), sin(β + iα)), i = 1..k, then a line to Pf.
 
-    count "round" is the thesis (B7: overshoots by up to α/2 and cuts back; a negative sweep
-    runs no step, so a CW arc becomes one chord); "floor" stops short of Pf instead. cpu=True
-    uses the CPU's 0.03 rad and TRUNC to 0.001 (B9). β comes from atan2 here: the thesis's
-    own quadrant code (B5) is right only on the +x ray from the centre.
+    Matlab (cpu=False, count "round" by default) is the thesis: k = round(θ/α) overshoots by
+    up to α/2 and cuts back (B7), and a negative sweep runs no step, so a CW arc becomes one
+    chord (B7, kept: it is the thesis's own defect). The CPU (cpu=True) steps 0.03 rad with
+    the sign of θ, k = floor(|θ|/0.03) by default (reference §2.2), and truncates each point
+    to 0.001 (B9). "floor" stops short of Pf instead of passing it. β comes from atan2 here:
+    the thesis's own quadrant code (B5) is right only on the +x ray from the centre.
     """
+    count = count or ("floor" if cpu else "round")
     if count not in ("round", "floor"):
         raise ValueError(f"count must be 'round' or 'floor', not {count!r}")
     R = distance(centre, start)
-    alpha = thesis_arc_step(R, speed, cycle, cpu)
-    ratio = sweep / alpha
+    alpha = thesis_arc_step(R, speed, cycle, cpu, sweep)
+    # the CPU counts |θ|/|α| (its step carries the sign); the Matlab θ/α is < 0 for CW
+    ratio = abs(sweep / alpha) if cpu else sweep / alpha
     k = _matlab_round(ratio) if count == "round" else math.floor(ratio)
     k = max(k, 0)  # Matlab's 1:k is empty for k <= 0
     beta = math.atan2(start[1] - centre[1], start[0] - centre[0])
@@ -135,7 +157,7 @@ def thesis_arc_points(centre: Point, start: Point, sweep: float, speed: float = 
 
     pts = [at(beta + i * alpha) for i in range(1, k + 1)]
     pts.append(at(beta + sweep))
-    return ThesisArc(pts, alpha, k, k * alpha - sweep if k else 0.0)
+    return ThesisArc(pts, alpha, k, k * abs(alpha) - abs(sweep) if k else 0.0)
 
 
 def thesis_beta(vector: Point, cpu: bool = False) -> float:
