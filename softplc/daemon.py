@@ -43,7 +43,7 @@ from typing import Any, TextIO
 from .errors import SoftPLCError
 from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
-from .modbus.server import bind_listeners
+from .modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
 from .runtime import retain
 
 log = logging.getLogger("softplc.daemon")
@@ -65,7 +65,7 @@ class DaemonOptions:
     stats_interval: float = 5.0  # seconds; 0 = no statistics lines
     max_clients: int = 32
     frame_timeout: float = 2.0
-    idle_timeout: float | None = None
+    idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT  # None: never
     rt_priority: int = 10  # SCHED_FIFO priority of the scan thread; 0 = normal scheduling
     # %M index of the program's "waiting for the host" bit: with a virtual clock (speed
     # set) no scan runs, so no PLC time passes, while it is 1 and no write is pending
