@@ -322,6 +322,7 @@ class Daemon:
         last_requests, last_stats_t = 0, now
         image = self.image
         wait_bit = opt.host_wait if opt.speed is not None else None
+        virtual = opt.speed is not None
         mem_m = plc.mem.m
         held = False
         while not self._stop:
@@ -339,6 +340,9 @@ class Daemon:
                 next_start = clock()
                 continue
             held = False
+            if virtual and not plc.settle_exchange(0.1):
+                next_start = clock()  # the virtual clock waits for the EXCH remote
+                continue
             delay = next_start - clock()
             if delay > 0.1:  # long periods: stay responsive to signals
                 sleep(0.1)

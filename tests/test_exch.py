@@ -9,8 +9,10 @@ clock: the reply lands at the first scan boundary after the request (determinist
 
 from __future__ import annotations
 
+import signal
 import socket
 import threading
+import time
 import tomllib
 from pathlib import Path
 
@@ -361,3 +363,115 @@ def test_softplc_check(tmp_path, capsys):
     assert "bad.il:2:1: EXCH3 is used but the port is not configured" in text
     assert "bad.il:3:1: EXCH2: the serial port 2 is not emulated" in text
     assert "%MSG has fields .D, .E" in text
+
+
+# -- issue 21: one deadline per exchange, never blocking the scan or a signal ---------------
+class Dripper:
+    """A remote that reads a request, then answers one byte every `interval` s, for ever
+    (an MBAP header announcing 254 bytes, then zeros): each recv() sees a byte in time."""
+
+    def __init__(self, interval: float = 0.05):
+        self.interval = interval
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen()
+        self.port = self.sock.getsockname()[1]
+        self.stop = threading.Event()
+        self.requests = threading.Event()  # set when a request has come in
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self) -> None:
+        self.sock.settimeout(0.1)
+        while not self.stop.is_set():
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                continue
+            threading.Thread(target=self._drip, args=(conn,), daemon=True).start()
+
+    def _drip(self, conn: socket.socket) -> None:
+        with conn:
+            try:
+                request = conn.recv(300)
+                self.requests.set()
+                reply = request[:4] + b"\x00\xfe" + request[6:7] + bytes(10_000)
+                for b in reply:
+                    if self.stop.wait(self.interval):
+                        return
+                    conn.sendall(bytes([b]))
+            except OSError:
+                return
+
+    def close(self) -> None:
+        self.stop.set()
+        self.sock.close()
+
+
+@pytest.fixture
+def dripper():
+    d = Dripper()
+    yield d
+    d.close()
+
+
+def test_dripping_remote_fails_at_the_deadline_in_virtual_time(dripper):
+    # a byte every 50 ms stays under any per-recv timeout: the exchange's one deadline
+    # (300 ms after the request) ends it, delivered at that PLC time, and scans go on
+    plc = PLC.from_source(ONE_SHOT.format(n=10) + "LD 1\n[%MW30 := %MW30 + 1]\n",
+                          config(dripper.port, timeout="300ms"))
+    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+    t0 = plc.time
+    while not plc["%MSG3.D"]:
+        plc.scan()
+    assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TIMEOUT
+    assert plc.time - t0 == pytest.approx(0.300, abs=0.011)
+    before = plc["%MW30"]
+    plc.scan(50)
+    assert plc["%MW30"] == before + 50
+    plc.close()
+
+
+def test_dripping_remote_does_not_hold_the_next_exchange(dripper):
+    # real clock: the scans run while the drip goes on; the exchange fails at its
+    # deadline; the next one, to a healthy remote, is not queued behind the dripping one
+    with PymodbusServer() as srv:
+        cfg = config(dripper.port, timeout="300ms")
+        cfg["exch"]["remote"]["2"] = {"host": "127.0.0.1", "port": srv.port, "unit_id": 1}
+        plc = PLC.from_source(ONE_SHOT.format(n=10), cfg, clock="real")
+        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+        first = plc.scan_count
+        while not plc["%MSG3.D"]:
+            plc.scan()
+        assert plc["%SW65"] == exch.ERR_TIMEOUT and plc.scan_count - first > 3
+        run_table(plc, [0x0106, 0x0300, 0x0203, 4, 1], 10, scans=0)
+        while not plc["%MSG3.D"]:
+            plc.scan()
+        assert not plc["%MSG3.E"] and u(plc, 7) == 104
+        plc.close()
+
+
+POLLING = """
+LD     %MSG3.D
+EXCH3  %MW0:10
+LD     1
+[%MW30 := %MW30 + 1]
+"""
+
+
+@pytest.mark.parametrize("speed", [None, "max"])
+def test_daemon_stops_within_a_second_during_a_drip(tmp_path, daemons, dripper, speed):
+    cfg = tmp_path / "m.toml"
+    cfg.write_text(f'[exch]\ntimeout = "60s"\n[exch.remote.1]\nhost = "127.0.0.1"\n'
+                   f'port = {dripper.port}\nunit_id = 1\n')
+    prog = POLLING + "".join(f"LD 1\n[%MW{k} := {v}]\n" for k, v in
+                             enumerate([0x0106, 0x0300, 0x0103, 0, 1]))
+    args = ["--config", str(cfg), "--rt-priority", "0"]
+    d = started(daemons, tmp_path, *args, *(["--speed", speed] if speed else []),
+                program=prog)
+    assert dripper.requests.wait(10)  # the exchange is out, the remote drips
+    time.sleep(0.5)
+    t0 = time.monotonic()
+    d.proc.send_signal(signal.SIGTERM)
+    assert d.proc.wait(10) == 0
+    assert time.monotonic() - t0 < 1.0  # was > 30 s: the exit waited for the worker
+    assert "outputs 0" in d.wait_for("stopped after")
