@@ -224,6 +224,10 @@ def test_check_rejects_misuse(src, cfg, message):
     ({"remote": {"17": {"host": "h"}}}, "exch.remote.17"),
     ({"remote": {"1": {"host": "h", "port": 0}}}, "exch.remote.1.port"),
     ({"timeout": "0s", "remote": {"1": {"host": "h"}}}, "exch.timeout"),
+    ({"timeout": "2min", "remote": {"1": {"host": "h"}}},
+     "exch.timeout: must be from 0.01 s to 60 s (got '2min')"),
+    ({"remote": {"1": {"host": "h" * 254}}}, "exch.remote.1.host"),
+    ({"remote": {"1": {"host": "h", "unit_id": 256}}}, "exch.remote.1.unit_id"),
     ({"remote": {}}, "no remote device"),
     ({"remote": {"1": {"host": "h", "unit": 1}}}, "exch.remote.1.unit"),
 ])

@@ -166,3 +166,37 @@ def test_accepted_sockets_have_keepalive(server):
         assert sock.getsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE) == 1
         if hasattr(socket, "TCP_KEEPIDLE"):
             assert sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPIDLE) == 30
+
+
+@pytest.mark.parametrize("section, message", [
+    ({"max_clients": 2**63}, "modbus.max_clients: expected less than or equal to 1000"),
+    ({"max_clients": 0}, "modbus.max_clients"),
+    ({"frame_timeout": "0s"}, "modbus.frame_timeout: must be from 0.1 s to 60 s"),
+    ({"frame_timeout": "2min"}, "modbus.frame_timeout"),
+    ({"idle_timeout": "10ms"}, "modbus.idle_timeout: must be from 1 s to 86400 s (0: never)"),
+])
+def test_modbus_numbers_are_bounded(section, message):
+    from softplc.errors import ConfigError
+    from softplc.plc import PLC
+
+    with pytest.raises(ConfigError) as e:
+        PLC.from_source("LD 1\nST %Q0.0\n", {"modbus": section})
+    assert message in str(e.value)
+    PLC.from_source("LD 1\nST %Q0.0\n", {"modbus": {"idle_timeout": "0s"}})  # 0 = never
+
+
+@pytest.mark.parametrize("flag, value, message", [
+    ("--max-clients", str(2**63), "a whole number from 1 to 1000"),
+    ("--idle-timeout", "0.01", "must be from 1 s to 86400 s"),
+    ("--frame-timeout", "0", "must be from 0.1 s to 60 s"),
+])
+def test_daemon_flags_are_bounded(tmp_path, capsys, flag, value, message):
+    from softplc.cli import main
+
+    prog = tmp_path / "p.il"
+    prog.write_text("LD 1\nST %Q0.0\n")
+    with pytest.raises(SystemExit) as e:
+        main(["run", str(prog), flag, value])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
