@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import signal
 import socket
+import sys
 import threading
 import time
 import tomllib
@@ -28,6 +29,10 @@ from softplc.plc import PLC
 from softplc.runtime import exch
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "ladder_programs"
+sys.path.insert(0, str(EXAMPLES.parent / "tools"))
+
+import bench_exch  # noqa: E402
+from bench_exch import Dripper  # noqa: E402
 
 
 def free_port() -> int:
@@ -370,52 +375,12 @@ def test_softplc_check(tmp_path, capsys):
 
 
 # -- issue 21: one deadline per exchange, never blocking the scan or a signal ---------------
-class Dripper:
-    """A remote that reads a request, then answers one byte every `interval` s, for ever
-    (an MBAP header announcing 254 bytes, then zeros): each recv() sees a byte in time."""
-
-    def __init__(self, interval: float = 0.05):
-        self.interval = interval
-        self.sock = socket.socket()
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.listen()
-        self.port = self.sock.getsockname()[1]
-        self.stop = threading.Event()
-        self.requests = threading.Event()  # set when a request has come in
-        threading.Thread(target=self._serve, daemon=True).start()
-
-    def _serve(self) -> None:
-        self.sock.settimeout(0.1)
-        while not self.stop.is_set():
-            try:
-                conn, _ = self.sock.accept()
-            except OSError:
-                continue
-            threading.Thread(target=self._drip, args=(conn,), daemon=True).start()
-
-    def _drip(self, conn: socket.socket) -> None:
-        with conn:
-            try:
-                request = conn.recv(300)
-                self.requests.set()
-                reply = request[:4] + b"\x00\xfe" + request[6:7] + bytes(10_000)
-                for b in reply:
-                    if self.stop.wait(self.interval):
-                        return
-                    conn.sendall(bytes([b]))
-            except OSError:
-                return
-
-    def close(self) -> None:
-        self.stop.set()
-        self.sock.close()
-
-
 @pytest.fixture
 def dripper():
-    d = Dripper()
-    yield d
-    d.close()
+    """A remote that reads a request, then answers one byte every 50 ms, for ever (an
+    MBAP header announcing 254 bytes, then zeros): each recv() sees a byte in time."""
+    with Dripper(0.05) as d:
+        yield d
 
 
 def test_dripping_remote_fails_at_the_deadline_in_virtual_time(dripper):
@@ -454,24 +419,13 @@ def test_dripping_remote_does_not_hold_the_next_exchange(dripper):
         plc.close()
 
 
-POLLING = """
-LD     %MSG3.D
-EXCH3  %MW0:10
-LD     1
-[%MW30 := %MW30 + 1]
-"""
-
-
 @pytest.mark.parametrize("speed", [None, "max"])
 def test_daemon_stops_within_a_second_during_a_drip(tmp_path, daemons, dripper, speed):
     cfg = tmp_path / "m.toml"
-    cfg.write_text(f'[exch]\ntimeout = "60s"\n[exch.remote.1]\nhost = "127.0.0.1"\n'
-                   f'port = {dripper.port}\nunit_id = 1\n')
-    prog = POLLING + "".join(f"LD 1\n[%MW{k} := {v}]\n" for k, v in
-                             enumerate([0x0106, 0x0300, 0x0103, 0, 1]))
+    cfg.write_text(dripper.config("60s"))
     args = ["--config", str(cfg), "--rt-priority", "0"]
     d = started(daemons, tmp_path, *args, *(["--speed", speed] if speed else []),
-                program=prog)
+                program=bench_exch.PROGRAM)
     assert dripper.requests.wait(10)  # the exchange is out, the remote drips
     time.sleep(0.5)
     t0 = time.monotonic()

@@ -74,15 +74,17 @@ def test_eviction_order(monkeypatch):
     within EVICT_GRACE, then the longest idle past EVICT_IDLE; else the newcomer is
     refused (a storm cannot push out clients that poll)."""
     monkeypatch.setattr(srv, "EVICT_IDLE", 0.4)
+    monkeypatch.setattr(srv, "EVICT_GRACE", 0.8)
     th = ServerThread(ModbusImage(MemoryImage()), "127.0.0.1", 0, max_clients=2).start()
     try:
         with RawClient("127.0.0.1", th.port) as b:
             a = socket.create_connection(("127.0.0.1", th.port))  # connected, silent
             assert b.read_registers(0, 1) == [0]
-            with RawClient("127.0.0.1", th.port) as c:  # a is young: c is refused
-                with pytest.raises(OSError):
+            with pytest.raises(OSError):  # a is young: c is refused (reset)
+                with RawClient("127.0.0.1", th.port) as c:
                     c.read_registers(0, 1)
-            time.sleep(srv.EVICT_GRACE)
+            time.sleep(srv.EVICT_GRACE + 0.1)
+            assert b.read_registers(0, 1) == [0]  # b talks: not idle
             with RawClient("127.0.0.1", th.port) as c:  # a had its chance: c takes it
                 assert c.read_registers(0, 1) == [0]
                 assert closed_or_reply(a) == b""

@@ -164,12 +164,17 @@ def poll(port: int, seconds: float, interval: float = 0.5) -> tuple[int, int]:
     return ok, failed
 
 
-def start_daemon(tmp: Path) -> tuple[subprocess.Popen, int]:
+COUNTER = "LD 1\n[ %MW1 := %MW1 + 1 ]\nEND\n"
+
+
+def start_daemon(tmp: Path, *args: str, program: str = COUNTER) -> tuple[subprocess.Popen, int]:
+    """`softplc run` on a free port with `args` (normal priority, no statistics, no web
+    monitor): the process and its Modbus port."""
     prog = tmp / "p.il"
-    prog.write_text("LD 1\n[ %MW1 := %MW1 + 1 ]\nEND\n")
+    prog.write_text(program)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "softplc", "run", str(prog), "--port", "0", "--max-clients",
-         "8", "--stats-interval", "0", "--rt-priority", "0", "--web", "off"],
+        [sys.executable, "-m", "softplc", "run", str(prog), "--port", "0", *args,
+         "--stats-interval", "0", "--rt-priority", "0", "--web", "off"],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, cwd=tmp)
     for line in proc.stdout:  # type: ignore[union-attr]
         m = re.search(r"listening on [\d.]+:(\d+)", line)
@@ -191,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'attack (8 connections)':24} {'first answer':>12} {'polls answered':>15} "
           f"{'attacker connects':>17}")
     with tempfile.TemporaryDirectory() as d:
-        proc, port = start_daemon(Path(d))
+        proc, port = start_daemon(Path(d), "--max-clients", "8")
         try:
             for kind in args.attack or KINDS:
                 with Attack(kind, port) as atk:
