@@ -273,14 +273,10 @@ class PLC:
         return port
 
     def settle_exchange(self, timeout: float) -> bool:
-        """On the virtual clock, wait up to `timeout` s for the outcome of the EXCH exchange
-        in progress (the next scan would wait for it, up to its deadline: the daemon calls
-        this in short slices instead, to stay responsive); True when the next scan will
-        not wait."""
+        """Virtual clock: wait up to `timeout` s for the EXCH exchange in progress (the next
+        scan would, up to its deadline); True when the next scan will not wait."""
         port = self._exch
-        if port is None or not port.wait or self.engine.state != RUN:
-            return True
-        return port.settle(timeout)
+        return port is None or not port.wait or self.engine.state != RUN or port.settle(timeout)
 
     def _exch_boundary(self) -> None:
         """Scan boundary: a finished exchange lands; leaving RUN ends the one in progress."""

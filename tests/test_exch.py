@@ -430,6 +430,9 @@ def test_daemon_stops_within_a_second_during_a_drip(tmp_path, daemons, dripper, 
     time.sleep(0.5)
     t0 = time.monotonic()
     d.proc.send_signal(signal.SIGTERM)
-    assert d.proc.wait(10) == 0
-    assert time.monotonic() - t0 < 1.0  # was > 30 s: the exit waited for the worker
     assert "outputs 0" in d.wait_for("stopped after")
+    # stopped within 1 s (was: up to 5 s in the --speed max scan's wait for the worker)
+    assert time.monotonic() - t0 < 1.0
+    # and the process is gone (was: never, while the remote dripped: the exit waited for
+    # the worker thread); 5 s leaves room for a loaded machine, 0.1-0.3 s is usual
+    assert d.proc.wait(5) == 0
