@@ -270,12 +270,12 @@ class _Connection(asyncio.Protocol):
         tr = self.transport
         if tr is None:
             return
-        if reset or tr.get_write_buffer_size() == 0:
-            tr.abort() if reset else tr.close()
-        else:
-            tr.close()  # flushes responses already written
-            if srv._loop is not None:
-                srv._loop.call_later(CLOSE_GRACE, tr.abort)
+        if reset:
+            tr.abort()
+            return
+        tr.close()  # flushes the replies already written
+        if tr.get_write_buffer_size() and srv._loop is not None:
+            srv._loop.call_later(CLOSE_GRACE, tr.abort)
 
     def unread(self) -> int:
         """Bytes of replies the client has not taken: the kernel's send queue (sent but
