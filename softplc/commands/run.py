@@ -119,8 +119,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--stats-interval", type=_duration,
                    help="statistics line every ... (default 5s; 0 = none)")
     p.add_argument("--max-clients", type=_max_clients,
-                   help="simultaneous Modbus connections (32); when all are taken a new "
-                        "client takes the slot of the longest idle one")
+                   help="simultaneous Modbus connections (32, up to 1000); when all "
+                        "are taken a new client takes the slot of an unused one")
     p.add_argument("--idle-timeout", type=_checked("idle_timeout_ok"), metavar="DURATION",
                    help="close a Modbus client that completes no request for this long "
                         "(default 60s; 0 = never)")
