@@ -23,7 +23,9 @@ With a virtual clock and `host_wait` (config `[daemon] host_wait = "%Mi"`, a bit
 program sets while it waits for its host), the daemon holds the clock while that bit is 1
 and no host write is pending: it runs no scan until a host writes. A write reaches the
 PLC at the same PLC time however long the host took, so runs are repeatable (identical
-traces); real time (no `speed`) ignores the bit.
+traces); real time (no `speed`) ignores the bit. An EXCH exchange in progress holds the
+virtual clock the same way, in 0.1 s slices, until its outcome or its deadline
+(`runtime/exch.py`).
 """
 
 from __future__ import annotations
