@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -96,6 +96,23 @@ def _positive(v: float) -> float:
     return v
 
 
+def between(lo: float, hi: float, never: bool = False) -> Callable[[float], float]:
+    """A check that a duration in seconds is within lo..hi (or 0, meaning never)."""
+    def check(v: float) -> float:
+        if not (lo <= v <= hi or (never and v == 0)):
+            raise ValueError(f"must be from {lo:g} s to {hi:g} s" + (" (0: never)" if never
+                                                                    else ""))
+        return v
+    return check
+
+
+# ---- bounds of the Modbus server's and EXCH's numbers (issue 21) ---------------------------------
+MAX_CLIENTS = 1000  # each client holds a file descriptor; a process gets 1024 by default
+# a frame is at most 260 bytes: 60 s is ample; without a deadline a client may drip forever
+frame_timeout_ok = between(0.1, 60.0)
+idle_timeout_ok = between(1.0, MAX_DURATION_S, never=True)
+exch_timeout_ok = between(0.01, 60.0)  # [our choice]: a LAN reply takes ms
+
 # ---- field types shared by the schema and the devices' Options ---------------------------------
 Duration = Annotated[float, BeforeValidator(_parse_duration)]
 """Seconds, written with a unit ("10ms"); bare numbers refused."""
@@ -148,9 +165,10 @@ class ModbusConfig(Section):
     port: int = Field(5020, ge=0, le=65535)
     read_only: list[Address] | Address = Field(default_factory=list)
     allow: list[str] | str | None = None  # client addresses/networks (the daemon's --allow)
-    max_clients: int = Field(32, ge=1)
-    frame_timeout: Duration = 2.0
-    idle_timeout: Duration = 0.0
+    max_clients: int = Field(32, ge=1, le=MAX_CLIENTS)
+    frame_timeout: Annotated[Duration, AfterValidator(frame_timeout_ok)] = 2.0
+    # seconds without a complete request; 0 = never (softplc.modbus.server)
+    idle_timeout: Annotated[Duration, AfterValidator(idle_timeout_ok)] = 60.0
 
 
 class DaemonConfig(Section):

@@ -29,12 +29,20 @@ a validation error into a `ConfigError` naming the key path.
 from __future__ import annotations
 
 from datetime import date, datetime
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from .address import Ref, parse_address
-from .config import PositiveDuration
+from .config import Duration, exch_timeout_ok
 from .errors import AddressError, ConfigError
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.exch import Remote
@@ -125,7 +133,8 @@ def _validated(section: str, key: str, model: type[BaseModel], table: Any) -> An
         err = e.errors()[0]
         where = ".".join(str(p) for p in err["loc"] if not str(p).startswith(("str", "int")))
         path = ".".join(p for p in (section, key, where) if p)
-        raise ConfigError(f"{path}: {err['msg']} (got {err.get('input')!r})") from None
+        msg = err["msg"].removeprefix("Value error, ")
+        raise ConfigError(f"{path}: {msg} (got {err.get('input')!r})") from None
 
 
 def parse_pid(section: Any) -> dict[int, PidConfig]:
@@ -385,7 +394,7 @@ class ExchRemoteConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    host: str = Field(min_length=1)
+    host: str = Field(min_length=1, max_length=253)  # a DNS name has at most 253 characters
     port: int = Field(502, ge=1, le=65535)
     unit_id: int = Field(255, ge=0, le=255)  # 255: a Twido server's default [manual]
 
@@ -395,7 +404,7 @@ class ExchConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    timeout: PositiveDuration = 1.0
+    timeout: Annotated[Duration, AfterValidator(exch_timeout_ok)] = 1.0
     remote: dict[str, ExchRemoteConfig] = Field(default_factory=dict)
 
 

@@ -23,7 +23,9 @@ With a virtual clock and `host_wait` (config `[daemon] host_wait = "%Mi"`, a bit
 program sets while it waits for its host), the daemon holds the clock while that bit is 1
 and no host write is pending: it runs no scan until a host writes. A write reaches the
 PLC at the same PLC time however long the host took, so runs are repeatable (identical
-traces); real time (no `speed`) ignores the bit.
+traces); real time (no `speed`) ignores the bit. An EXCH exchange in progress holds the
+virtual clock the same way, in 0.1 s slices, until its outcome or its deadline
+(`runtime/exch.py`).
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from typing import Any, TextIO
 from .errors import SoftPLCError
 from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
-from .modbus.server import bind_listeners
+from .modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
 from .runtime import retain
 
 log = logging.getLogger("softplc.daemon")
@@ -65,7 +67,7 @@ class DaemonOptions:
     stats_interval: float = 5.0  # seconds; 0 = no statistics lines
     max_clients: int = 32
     frame_timeout: float = 2.0
-    idle_timeout: float | None = None
+    idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT  # None: never
     rt_priority: int = 10  # SCHED_FIFO priority of the scan thread; 0 = normal scheduling
     # %M index of the program's "waiting for the host" bit: with a virtual clock (speed
     # set) no scan runs, so no PLC time passes, while it is 1 and no write is pending
@@ -322,6 +324,7 @@ class Daemon:
         last_requests, last_stats_t = 0, now
         image = self.image
         wait_bit = opt.host_wait if opt.speed is not None else None
+        virtual = opt.speed is not None
         mem_m = plc.mem.m
         held = False
         while not self._stop:
@@ -339,6 +342,9 @@ class Daemon:
                 next_start = clock()
                 continue
             held = False
+            if virtual and not plc.settle_exchange(0.1):
+                next_start = clock()  # the virtual clock waits for the EXCH remote
+                continue
             delay = next_start - clock()
             if delay > 0.1:  # long periods: stay responsive to signals
                 sleep(0.1)

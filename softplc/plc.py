@@ -275,6 +275,12 @@ class PLC:
         msg.port = port
         return port
 
+    def settle_exchange(self, timeout: float) -> bool:
+        """Virtual clock: wait up to `timeout` s for the EXCH exchange in progress (the next
+        scan would, up to its deadline); True when the next scan will not wait."""
+        port = self._exch
+        return port is None or not port.wait or self.engine.state != RUN or port.settle(timeout)
+
     def _exch_boundary(self) -> None:
         """Scan boundary: a finished exchange lands; leaving RUN ends the one in progress."""
         if self.engine.state == RUN:

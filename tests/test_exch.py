@@ -9,8 +9,11 @@ clock: the reply lands at the first scan boundary after the request (determinist
 
 from __future__ import annotations
 
+import signal
 import socket
+import sys
 import threading
+import time
 import tomllib
 from pathlib import Path
 
@@ -26,6 +29,10 @@ from softplc.plc import PLC
 from softplc.runtime import exch
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "ladder_programs"
+sys.path.insert(0, str(EXAMPLES.parent / "tools"))
+
+import bench_exch  # noqa: E402
+from bench_exch import Dripper  # noqa: E402
 
 
 def free_port() -> int:
@@ -222,6 +229,10 @@ def test_check_rejects_misuse(src, cfg, message):
     ({"remote": {"17": {"host": "h"}}}, "exch.remote.17"),
     ({"remote": {"1": {"host": "h", "port": 0}}}, "exch.remote.1.port"),
     ({"timeout": "0s", "remote": {"1": {"host": "h"}}}, "exch.timeout"),
+    ({"timeout": "2min", "remote": {"1": {"host": "h"}}},
+     "exch.timeout: must be from 0.01 s to 60 s (got '2min')"),
+    ({"remote": {"1": {"host": "h" * 254}}}, "exch.remote.1.host"),
+    ({"remote": {"1": {"host": "h", "unit_id": 256}}}, "exch.remote.1.unit_id"),
     ({"remote": {}}, "no remote device"),
     ({"remote": {"1": {"host": "h", "unit": 1}}}, "exch.remote.1.unit"),
 ])
@@ -361,3 +372,67 @@ def test_softplc_check(tmp_path, capsys):
     assert "bad.il:2:1: EXCH3 is used but the port is not configured" in text
     assert "bad.il:3:1: EXCH2: the serial port 2 is not emulated" in text
     assert "%MSG has fields .D, .E" in text
+
+
+# -- issue 21: one deadline per exchange, never blocking the scan or a signal ---------------
+@pytest.fixture
+def dripper():
+    """A remote that reads a request, then answers one byte every 50 ms, for ever (an
+    MBAP header announcing 254 bytes, then zeros): each recv() sees a byte in time."""
+    with Dripper(0.05) as d:
+        yield d
+
+
+def test_dripping_remote_fails_at_the_deadline_in_virtual_time(dripper):
+    # a byte every 50 ms stays under any per-recv timeout: the exchange's one deadline
+    # (300 ms after the request) ends it, delivered at that PLC time, and scans go on
+    plc = PLC.from_source(ONE_SHOT.format(n=10) + "LD 1\n[%MW30 := %MW30 + 1]\n",
+                          config(dripper.port, timeout="300ms"))
+    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+    t0 = plc.time
+    while not plc["%MSG3.D"]:
+        plc.scan()
+    assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TIMEOUT
+    assert plc.time - t0 == pytest.approx(0.300, abs=0.011)
+    before = plc["%MW30"]
+    plc.scan(50)
+    assert plc["%MW30"] == before + 50
+    plc.close()
+
+
+def test_dripping_remote_does_not_hold_the_next_exchange(dripper):
+    # real clock: the scans run while the drip goes on; the exchange fails at its
+    # deadline; the next one, to a healthy remote, is not queued behind the dripping one
+    with PymodbusServer() as srv:
+        cfg = config(dripper.port, timeout="300ms")
+        cfg["exch"]["remote"]["2"] = {"host": "127.0.0.1", "port": srv.port, "unit_id": 1}
+        plc = PLC.from_source(ONE_SHOT.format(n=10), cfg, clock="real")
+        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+        first = plc.scan_count
+        while not plc["%MSG3.D"]:
+            plc.scan()
+        assert plc["%SW65"] == exch.ERR_TIMEOUT and plc.scan_count - first > 3
+        run_table(plc, [0x0106, 0x0300, 0x0203, 4, 1], 10, scans=0)
+        while not plc["%MSG3.D"]:
+            plc.scan()
+        assert not plc["%MSG3.E"] and u(plc, 7) == 104
+        plc.close()
+
+
+@pytest.mark.parametrize("speed", [None, "max"])
+def test_daemon_stops_within_a_second_during_a_drip(tmp_path, daemons, dripper, speed):
+    cfg = tmp_path / "m.toml"
+    cfg.write_text(dripper.config("60s"))
+    args = ["--config", str(cfg), "--rt-priority", "0"]
+    d = started(daemons, tmp_path, *args, *(["--speed", speed] if speed else []),
+                program=bench_exch.PROGRAM)
+    assert dripper.requests.wait(10)  # the exchange is out, the remote drips
+    time.sleep(0.5)
+    t0 = time.monotonic()
+    d.proc.send_signal(signal.SIGTERM)
+    assert "outputs 0" in d.wait_for("stopped after")
+    # stopped within 1 s (was: up to 5 s in the --speed max scan's wait for the worker)
+    assert time.monotonic() - t0 < 1.0
+    # and the process is gone (was: never, while the remote dripped: the exit waited for
+    # the worker thread); 5 s leaves room for a loaded machine, 0.1-0.3 s is usual
+    assert d.proc.wait(5) == 0

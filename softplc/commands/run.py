@@ -3,8 +3,9 @@
 Settings come from the command line, else from the machine config, else defaults:
 
     scan_period = "10ms"                 # --period
-    [modbus]  host = "127.0.0.1"  port = 5020  max_clients = 32
-              frame_timeout = "2s"  idle_timeout = "0s"      # 0 = never
+    [modbus]  host = "127.0.0.1"  port = 5020  max_clients = 32   # 1..1000
+              frame_timeout = "2s"   # 0.1..60 s from a frame's first byte to its last
+              idle_timeout = "60s"   # 1 s..1 day without a complete request; "0s" = never
               read_only = ["%MW100:20", "%M0:8"]             # writes there get exception 02
               allow = ["127.0.0.1", "192.168.1.0/24"]        # --allow; default: anyone
     [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "5s"
@@ -35,6 +36,28 @@ def _duration(text: str, bare_unit: str = "s") -> float:
         return duration(text)
     except ConfigError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _checked(check_name: str) -> Any:
+    """An argparse type: a duration (bare number = seconds) passed through the config's
+    bound check `check_name` (softplc.config), so the flag and the key take the same values."""
+    def parse(text: str) -> float:
+        from .. import config
+
+        v = _duration(text)
+        try:
+            return getattr(config, check_name)(v)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(f"{text!r}: {e}") from None
+    return parse
+
+
+def _max_clients(text: str) -> int:
+    from ..config import MAX_CLIENTS
+
+    if not text.strip().isdigit() or not 1 <= int(text) <= MAX_CLIENTS:
+        raise argparse.ArgumentTypeError(f"{text!r}: a whole number from 1 to {MAX_CLIENTS}")
+    return int(text)
 
 
 def _period(text: str) -> float:
@@ -95,7 +118,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "its host (ignore the config's [daemon] host_wait bit)")
     p.add_argument("--stats-interval", type=_duration,
                    help="statistics line every ... (default 5s; 0 = none)")
-    p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
+    p.add_argument("--max-clients", type=_max_clients,
+                   help="simultaneous Modbus connections (32, up to 1000); when all "
+                        "are taken a new client takes the slot of an unused one")
+    p.add_argument("--idle-timeout", type=_checked("idle_timeout_ok"), metavar="DURATION",
+                   help="close a Modbus client that completes no request for this long "
+                        "(default 60s; 0 = never)")
+    p.add_argument("--frame-timeout", type=_checked("frame_timeout_ok"), metavar="DURATION",
+                   help="close a Modbus client whose frame is not complete this long after "
+                        "its first byte (default 2s)")
     p.add_argument("--read-only", action="store_true",
                    help="refuse every Modbus write (exception 01, illegal function)")
     p.add_argument("--allow", action="append", metavar="ADDR[/NET],...",
@@ -195,8 +226,8 @@ def run(args: argparse.Namespace) -> int:
         speed=args.speed,
         stats_interval=_pick(args.stats_interval, dm.stats_interval),
         max_clients=_pick(args.max_clients, mb.max_clients),
-        frame_timeout=mb.frame_timeout,
-        idle_timeout=mb.idle_timeout or None,
+        frame_timeout=_pick(args.frame_timeout, mb.frame_timeout),
+        idle_timeout=_pick(args.idle_timeout, mb.idle_timeout) or None,
         rt_priority=_pick(args.rt_priority, dm.rt_priority),
         host_wait=None if args.no_host_wait or dm.host_wait is None else _memory_bit(
             dm.host_wait, plc.profile),
@@ -206,8 +237,6 @@ def run(args: argparse.Namespace) -> int:
         on_host_wait=waits,
         web=_web_options(args),
     )
-    if opts.max_clients < 1:
-        raise SoftPLCError("max_clients must be at least 1")
     if not 0 <= opts.rt_priority <= 99:
         raise SoftPLCError("rt_priority must be 0..99")
     app = application_id(args.program.read_bytes(), cfg)

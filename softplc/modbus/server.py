@@ -9,8 +9,22 @@ exception codes, queued writes and snapshot reads; MBAP framing is 7 bytes, so t
 frames and decodes itself. pymodbus stays the reference client in the tests.
 
 Framing errors (protocol id not 0, length field outside 2..254) close the connection:
-the stream cannot be resynchronised. A frame left incomplete for `frame_timeout`
-seconds, or a client silent for `idle_timeout` seconds, is closed too.
+the stream cannot be resynchronised. Slots are kept for clients that use them (issue 21):
+
+- a frame has `frame_timeout` seconds from its first byte to its last (later bytes do
+  not restart the timer: a client dripping one byte a second is closed);
+- a client that completes no request for `idle_timeout` seconds (60 by default; 0 =
+  never) is closed: bytes of an unfinished frame are not activity;
+- a client whose replies pile up unread (the transport's write buffer past
+  `WRITE_BUFFER_LIMIT`, i.e. the kernel's socket buffers are full too) is reset at once;
+- accepted sockets have TCP keepalive (a peer that vanished is found within ~1 min);
+- when every slot is taken, a new client takes the slot of a connection that is not
+  being used (the Modbus messaging implementation guide's "close the oldest unused
+  connection"): first one that leaves over `UNREAD_EVICT` bytes of replies unread,
+  then one that has completed no request `EVICT_GRACE` s after connecting (oldest
+  first), then one idle for `EVICT_IDLE` s (longest idle first); see
+  `ModbusTcpServer._evictee`. With none of those the newcomer is reset as before, so a
+  connection storm cannot push out clients that poll.
 
 Connections are accepted by the server itself: one from an address outside the allow
 list, or past the client limit, is reset right after `accept()`, before a byte is read
@@ -22,10 +36,12 @@ from __future__ import annotations
 
 import asyncio
 import errno
+import fcntl
 import ipaddress
 import logging
 import os
 import socket
+import termios
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -48,7 +64,21 @@ ACCEPT_PAUSE = 0.1  # seconds without accepting after accept() fails (e.g. out o
 # (and of GIL time the scan thread might wait for), however many clients storm.
 REFUSE_PAUSE = 0.010
 LOG_INTERVAL = 10.0  # seconds: at most one warning of a kind per interval, then a summary
+DEFAULT_IDLE_TIMEOUT = 60.0  # seconds without a complete request (HMIs poll far faster)
+# Unread replies the server buffers for one client before resetting it. The kernel's
+# socket buffers (hundreds of kB on each side) fill first, so a client that reads its
+# replies, even pipelining, never gets near it.
+WRITE_BUFFER_LIMIT = 64 * 1024
+CLOSE_GRACE = 1.0  # seconds a closed connection may take to flush before it is reset
+# Eviction (table full). A client that reads its replies has at most a few unacknowledged
+# on the wire; 8 kB is 30 full-size replies.
+UNREAD_EVICT = 8 * 1024
+EVICT_GRACE = 0.5  # seconds a new connection has to complete its first request
+EVICT_IDLE = 5.0  # seconds without a request before a client's slot may be given away
+# TCP keepalive: first probe after 30 s of silence, then every 10 s, 3 unanswered = dead
+KEEPALIVE = (("TCP_KEEPIDLE", 30), ("TCP_KEEPINTVL", 10), ("TCP_KEEPCNT", 3))
 _LINGER_RESET = pack("ii", 1, 0)  # SO_LINGER on, 0 s: close() sends an RST
+_OUTQ = getattr(termios, "TIOCOUTQ", None)  # = SIOCOUTQ on Linux: unacknowledged bytes
 
 
 class ServerStats:
@@ -60,7 +90,8 @@ class ServerStats:
         self.connections = 0  # accepted since start
         self.rejected = 0  # refused: too many clients
         self.denied = 0  # refused: address not in the allow list
-        self.dropped = 0  # closed for a framing error or a timeout
+        self.dropped = 0  # closed for a framing error, a timeout or unread replies
+        self.evicted = 0  # reset to make room for a new client (table full)
         self.clients = 0  # connected now
 
 
@@ -179,13 +210,16 @@ class _Connection(asyncio.Protocol):
         self.buf = bytearray()
         self.transport: asyncio.Transport | None = None
         self.peer: Any = None
-        self.last_rx = time.monotonic()
-        self.partial_since: float | None = None
+        # monotonic time of the last complete request (the connection's start before one)
+        self.last_request = time.monotonic()
+        self.served = False  # at least one request completed
+        self.partial_since: float | None = None  # first byte of the unfinished frame
         self.paused = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
         self.transport = transport
+        transport.set_write_buffer_limits(high=WRITE_BUFFER_LIMIT)
         self.peer = transport.get_extra_info("peername")
         srv = self.server
         srv.connections.add(self)
@@ -198,6 +232,7 @@ class _Connection(asyncio.Protocol):
 
     def connection_lost(self, exc: Exception | None) -> None:
         srv = self.server
+        srv.closing.discard(self)
         if self in srv.connections:
             srv.connections.discard(self)
             self.stats.clients = len(srv.connections)
@@ -206,29 +241,61 @@ class _Connection(asyncio.Protocol):
             else:
                 log.info("client %s disconnected", self.peer)
 
-    # A client that pipelines requests without reading the replies: once its replies pass
-    # the transport's high-water mark, stop decoding and reading until they drain, so
-    # memory stays bounded (high-water mark + one read chunk).
+    # A client that pipelines requests without reading the replies: once the kernel's
+    # buffers and then ours pass the high-water mark, it is reset (its slot freed, memory
+    # bounded by the mark plus one read chunk); its replies cannot be delivered anyway.
     def pause_writing(self) -> None:
         self.paused = True
-        if self.transport is not None:
-            self.transport.pause_reading()
+        self.drop("unread", "clients reset for unread replies",
+                  f"{WRITE_BUFFER_LIMIT // 1024} kB of replies not read", reset=True)
 
-    def resume_writing(self) -> None:
+    def resume_writing(self) -> None:  # not reached: pause_writing resets the connection
         self.paused = False
-        if self.transport is not None and not self.transport.is_closing():
-            self.transport.resume_reading()
-            self._process(time.monotonic())
 
-    def drop(self, kind: str, label: str, reason: str) -> None:
+    def drop(self, kind: str, label: str, reason: str, reset: bool = False) -> None:
+        """Close the connection and free its slot at once. `reset`: an RST, discarding
+        unsent replies; else the replies already written are flushed first (for at most
+        CLOSE_GRACE s: a client that does not read them is reset then)."""
         self.server.warn.warning(kind, label, "closing client %s: %s", self.peer, reason)
         self.stats.dropped += 1
+        self.release(reset)
+
+    def release(self, reset: bool) -> None:
+        srv = self.server
         self.buf.clear()
-        if self.transport is not None:
-            self.transport.close()  # flushes responses already written
+        if self in srv.connections:
+            srv.connections.discard(self)
+            srv.closing.add(self)
+            self.stats.clients = len(srv.connections)
+        tr = self.transport
+        if tr is None:
+            return
+        if reset:
+            tr.abort()
+            return
+        tr.close()  # flushes the replies already written
+        if tr.get_write_buffer_size() and srv._loop is not None:
+            srv._loop.call_later(CLOSE_GRACE, tr.abort)
+
+    def unread(self) -> int:
+        """Bytes of replies the client has not taken: the kernel's send queue (sent but
+        not acknowledged: the client's receive buffer is full) plus ours."""
+        tr = self.transport
+        if tr is None:
+            return 0
+        queued = tr.get_write_buffer_size()
+        sock = tr.get_extra_info("socket")
+        if _OUTQ is not None and sock is not None:
+            try:
+                queued += unpack_from("i", fcntl.ioctl(sock.fileno(), _OUTQ, b"\0\0\0\0"))[0]
+            except OSError:
+                pass
+        return queued
 
     def data_received(self, data: bytes) -> None:
-        self.last_rx = now = time.monotonic()
+        now = time.monotonic()
+        if not self.buf:
+            self.partial_since = now  # a frame starts: its deadline runs from now
         self.buf += data
         self._process(now)
 
@@ -237,6 +304,7 @@ class _Connection(asyncio.Protocol):
         img = self.image
         stats = self.stats
         write = self.transport.write  # type: ignore[union-attr]
+        done = False
         while len(buf) >= 7 and not self.paused:
             tid, pid, length, unit = unpack_from(">HHHB", buf)
             if pid != 0 or not 2 <= length <= MAX_PDU_LENGTH + 1:
@@ -248,6 +316,7 @@ class _Connection(asyncio.Protocol):
                 break
             pdu = bytes(buf[7:end])
             del buf[:end]
+            done = True
             try:
                 resp = process_pdu(img, pdu)
             except Exception:  # a bug here must not kill the connection or the server
@@ -257,7 +326,13 @@ class _Connection(asyncio.Protocol):
                 stats.exceptions += 1
             stats.requests += 1
             write(pack_mbap(tid, unit, resp))
-        self.partial_since = now if buf else None
+        if done:
+            self.last_request = now
+            self.served = True
+            # what follows the last complete frame arrived now: a new frame's first bytes
+            self.partial_since = now if buf else None
+        elif not buf:
+            self.partial_since = None
 
 
 class ModbusTcpServer:
@@ -271,7 +346,7 @@ class ModbusTcpServer:
 
     def __init__(self, image: ModbusImage, host: str = "127.0.0.1", port: int = 5020, *,
                  max_clients: int = 32, frame_timeout: float = 2.0,
-                 idle_timeout: float | None = None,
+                 idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT,
                  sockets: list[socket.socket] | None = None,
                  allow: tuple[IPNetwork, ...] | None = None,
                  log_interval: float = LOG_INTERVAL):
@@ -285,7 +360,8 @@ class ModbusTcpServer:
         self.sockets = sockets or []
         self.stats = ServerStats()
         self.warn = RateLimitedLog(log, log_interval)
-        self.connections: set[_Connection] = set()
+        self.connections: set[_Connection] = set()  # the slots taken
+        self.closing: set[_Connection] = set()  # dropped, flushing their last replies
         self._adopting: set[int] = set()  # fds accepted, transport being built
         self._loop: asyncio.AbstractEventLoop | None = None
         self._sweeper: asyncio.Task | None = None
@@ -346,7 +422,8 @@ class ModbusTcpServer:
                                   "refusing %s: address not in the allow list", peer[0])
                 _reset(conn)
                 refused = True
-            elif len(self.connections) + len(self._adopting) >= self.max_clients:
+            elif (len(self.connections) + len(self._adopting) >= self.max_clients
+                  and not self._evict(peer[0])):
                 self.stats.rejected += 1
                 self.warn.warning("limit", "connections refused (client limit)",
                                   "refusing %s: %d clients already connected", peer[0],
@@ -359,10 +436,40 @@ class ModbusTcpServer:
         if refused:
             self._pause_accepting(lsock, REFUSE_PAUSE)
 
+    def _evictee(self) -> tuple[_Connection, str] | None:
+        """The connection whose slot a new client takes when the table is full, and why;
+        None when every connection is in use (see the module docstring)."""
+        now = time.monotonic()
+        unread = max(((c.unread(), c) for c in self.connections), key=lambda u: u[0],
+                     default=(0, None))
+        if unread[1] is not None and unread[0] > UNREAD_EVICT:
+            return unread[1], f"{unread[0]} bytes of replies unread"
+        idle = [c for c in self.connections
+                if now - c.last_request >= (EVICT_IDLE if c.served else EVICT_GRACE)]
+        if not idle:
+            return None
+        c = min(idle, key=lambda c: (c.served, c.last_request))
+        what = "idle" if c.served else "no request completed"
+        return c, f"{what} for {now - c.last_request:.1f} s"
+
+    def _evict(self, newcomer: str) -> bool:
+        """Table full: free a slot for `newcomer` (False: every connection is in use)."""
+        found = self._evictee()
+        if found is None:
+            return False
+        victim, why = found
+        self.stats.evicted += 1
+        self.warn.warning("evict", "clients reset to make room (client limit)",
+                          "table full (%d clients): resetting %s (%s) for %s",
+                          self.max_clients, victim.peer, why, newcomer)
+        victim.release(reset=True)
+        return True
+
     async def _adopt(self, conn: socket.socket) -> None:
         fd = conn.fileno()
         try:
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            _keepalive(conn)
             await self._loop.connect_accepted_socket(  # type: ignore[union-attr]
                 lambda: _Connection(self), conn)
         except OSError:
@@ -381,10 +488,10 @@ class ModbusTcpServer:
                 if c.partial_since is not None and self.frame_timeout \
                         and now - c.partial_since > self.frame_timeout:
                     c.drop("timeout", "clients closed for a timeout",
-                           f"incomplete frame for {self.frame_timeout:g} s")
-                elif self.idle_timeout and now - c.last_rx > self.idle_timeout:
+                           f"frame incomplete {self.frame_timeout:g} s after its first byte")
+                elif self.idle_timeout and now - c.last_request > self.idle_timeout:
                     c.drop("timeout", "clients closed for a timeout",
-                           f"silent for {self.idle_timeout:g} s")
+                           f"no request for {self.idle_timeout:g} s")
             self.warn.flush()
 
     async def close(self) -> None:
@@ -398,8 +505,19 @@ class ModbusTcpServer:
         for c in list(self.connections):
             if c.transport is not None:
                 c.transport.close()
+        for c in list(self.closing):
+            if c.transport is not None:
+                c.transport.abort()
         await asyncio.sleep(0)  # let connection_lost callbacks run
         self.warn.flush(force=True)
+
+
+def _keepalive(conn: socket.socket) -> None:
+    """TCP keepalive on an accepted socket (the timings where the platform has them)."""
+    conn.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+    for name, value in KEEPALIVE:
+        if hasattr(socket, name):
+            conn.setsockopt(socket.IPPROTO_TCP, getattr(socket, name), value)
 
 
 def _reset(conn: socket.socket) -> None:

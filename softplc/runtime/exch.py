@@ -20,23 +20,36 @@ For "read N words" (FC03): `16#0106`, `16#0300`, `16#<idx>03`, address, N; the r
 any PDU goes (FC01/02/03/04/05/06/15/16 alike), which is why this is raw bytes over our own
 MBAP framing rather than a Modbus library's typed calls.
 
-Never blocking the scan: a worker thread does the socket work. The result is handed over at
-a scan boundary (the engine's `before_scan` hook, `ExchPort.poll`). On the real clock the
-scan only looks whether the reply arrived; the timeout is the real time since the request.
-On the virtual clock (tests, `--speed max`) the first scan boundary after the request waits
-for the worker, so the reply lands at the next scan whatever the machine's load; a timeout
-(no reply within `timeout` wall seconds) is delivered at the first scan whose virtual time
-is `timeout` after the request. Both make the outcome a function of the peer's behaviour
-only, not of thread timing.
+Never blocking the scan: a worker thread does the socket work, on non-blocking sockets,
+against one deadline per exchange (`timeout` after the request, for connecting, sending
+and reading the whole reply: a remote dripping a byte every 0.4 s fails at the deadline
+like a silent one; issue 21). The result is handed over at a scan boundary (the engine's
+`before_scan` hook, `ExchPort.poll`). On the real clock the scan only looks whether the
+reply arrived, and gives the exchange up (error 5) at the deadline whatever the worker is
+doing. On the virtual clock (tests, `--speed max`) the outcome must land at the first scan
+boundary after the request whatever the machine's load, so the virtual clock waits for it,
+up to the deadline in wall time: the daemon waits in 0.1 s slices before the scan
+(`PLC.settle_exchange`: signals stay prompt), `PLC.scan` at the boundary; a timeout is
+delivered at the first scan whose virtual time is `timeout` after the request. Both make
+the outcome a function of the peer's behaviour only, not of thread timing. The worker is a
+daemon thread woken by a socket pair when the scan gives an exchange up, so neither
+SIGTERM nor the process' exit ever waits for a remote.
 """
 
 from __future__ import annotations
 
+import errno
+import math
+import os
+import select
 import socket
 import struct
+import threading
+import time
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, InvalidStateError
 from dataclasses import dataclass
+from queue import SimpleQueue
 from typing import Any
 
 # Error codes of the EXCH status word [manual, %SW63/%SW64 list, from memory; check]
@@ -144,11 +157,115 @@ def store_reply(mw: Any, req: _Request, index: int, pdu: bytes) -> None:
         mw[base + k] = v - 0x10000 if v & 0x8000 else v
 
 
+class _Cancelled(Exception):
+    """The scan gave up the exchange (deadline, %MSG reset, STOP, close)."""
+
+
+class _Job:
+    """One exchange handed to the worker: the request, its deadline (monotonic seconds)
+    and its outcome, a Future set once (by the worker, or by the scan at the deadline)."""
+
+    def __init__(self, conn: _Connection, pdu: bytes, expect_reply: bool, deadline: float):
+        self.conn, self.pdu, self.expect_reply, self.deadline = conn, pdu, expect_reply, deadline
+        self.future: Future[bytes] = Future()
+        self.cancelled = False
+
+    def settle(self, result: bytes = b"", error: BaseException | None = None) -> None:
+        """Set the outcome unless it is set already (the first one wins)."""
+        try:
+            if error is None:
+                self.future.set_result(result)
+            else:
+                self.future.set_exception(error)
+        except InvalidStateError:
+            pass
+
+
+class _Worker:
+    """The port's I/O thread: runs the exchanges one after the other, every wait bounded
+    by the exchange's deadline and woken at once by `cancel` (a socket pair). A daemon
+    thread: a remote that hangs never delays the process' exit."""
+
+    def __init__(self) -> None:
+        self._queue: SimpleQueue[_Job | None] = SimpleQueue()
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._wake_w.setblocking(False)
+        self._current: _Job | None = None
+        self._conns: list[_Connection] = []  # closed by the thread when it stops
+        threading.Thread(target=self._run, name="exch", daemon=True).start()
+
+    def submit(self, job: _Job) -> None:
+        self._queue.put(job)
+
+    def cancel(self, job: _Job) -> None:
+        job.cancelled = True
+        self._wake()
+
+    def stop(self, conns: list[_Connection]) -> None:
+        """End the thread once the exchange in progress is cancelled; it closes `conns`."""
+        self._conns = conns
+        if self._current is not None:
+            self.cancel(self._current)
+        self._queue.put(None)
+        self._wake()
+
+    def _wake(self) -> None:
+        try:
+            self._wake_w.send(b"x")
+        except OSError:  # buffer full (a wake-up is pending anyway) or already closed
+            pass
+
+    def _drain(self) -> None:
+        try:
+            while self._wake_r.recv(256):
+                pass
+        except OSError:
+            pass
+
+    def wait(self, sock: socket.socket, write: bool, timeout: float) -> bool:
+        """Wait up to `timeout` s for `sock` to be writable (`write`) or readable; False on
+        timeout or a stale wake-up; raises _Cancelled if the exchange was given up."""
+        p = select.poll()
+        p.register(sock, select.POLLOUT if write else select.POLLIN)
+        p.register(self._wake_r, select.POLLIN)
+        events = p.poll(max(0, math.ceil(timeout * 1000)))
+        if any(fd == self._wake_r.fileno() for fd, _ in events):
+            self._drain()
+        if self._current is not None and self._current.cancelled:
+            raise _Cancelled
+        return any(fd == sock.fileno() for fd, _ in events)
+
+    def _run(self) -> None:
+        while (job := self._queue.get()) is not None:
+            self._current = job
+            self._drain()
+            try:
+                if job.cancelled:
+                    raise _Cancelled
+                job.settle(job.conn.exchange(job.pdu, job.expect_reply, job.deadline, self))
+            except _Cancelled:
+                job.conn.close()
+                job.settle(error=ExchError(ERR_STOPPED, "exchange given up"))
+            except ExchError as e:
+                job.settle(error=e)
+            except Exception as e:  # a bug must not leave the scan waiting for an outcome
+                job.conn.close()
+                job.settle(error=ExchError(ERR_RX, repr(e)))
+            self._current = None
+        for c in self._conns:
+            c.close()
+        self._wake_r.close()
+        self._wake_w.close()
+
+
 class _Connection:
-    """One TCP connection to a remote device, reopened after an error."""
+    """One TCP connection to a remote device, reopened after an error. Used by the worker
+    thread only: non-blocking socket, every wait through `_Worker.wait` until `deadline`."""
 
     def __init__(self, remote: Remote, timeout_s: float):
         self.remote, self.timeout_s = remote, timeout_s
+        self.where = f"{remote.host}:{remote.port}"
         self.sock: socket.socket | None = None
         self.tid = 0
 
@@ -157,50 +274,88 @@ class _Connection:
             self.sock.close()
             self.sock = None
 
-    def _recv(self, n: int) -> bytes:
+    def _wait(self, worker: _Worker, write: bool, deadline: float, what: str) -> None:
         assert self.sock is not None
-        buf = b""
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise ExchError(ERR_TIMEOUT, f"{self.where}: {what} in {self.timeout_s:g} s")
+            if worker.wait(self.sock, write, left):
+                return
+
+    def _connect(self, deadline: float, worker: _Worker) -> None:
+        # a host name is resolved here, blocking this thread only: the scan side gives
+        # the exchange up at its deadline whatever this thread is doing
+        infos = socket.getaddrinfo(self.remote.host, self.remote.port, type=socket.SOCK_STREAM)
+        error: OSError = OSError(errno.EADDRNOTAVAIL, "no address")
+        for family, kind, proto, _name, addr in infos:
+            self.sock = s = socket.socket(family, kind, proto)
+            s.setblocking(False)
+            rc = s.connect_ex(addr)
+            if rc in (errno.EINPROGRESS, errno.EWOULDBLOCK, errno.EAGAIN):
+                self._wait(worker, True, deadline, "no connection")
+                rc = s.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
+            if rc == 0:
+                s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                return
+            error = OSError(rc, os.strerror(rc))
+            self.close()
+        raise error
+
+    def _send(self, data: bytes, deadline: float, worker: _Worker) -> None:
+        assert self.sock is not None
+        view = memoryview(data)
+        while view:
+            try:
+                view = view[self.sock.send(view):]
+            except BlockingIOError:
+                self._wait(worker, True, deadline, "no reply")
+
+    def _recv(self, n: int, deadline: float, worker: _Worker) -> bytes:
+        assert self.sock is not None
+        buf = bytearray()
         while len(buf) < n:
-            chunk = self.sock.recv(n - len(buf))
+            try:
+                chunk = self.sock.recv(n - len(buf))
+            except BlockingIOError:
+                self._wait(worker, False, deadline, "no reply")
+                continue
             if not chunk:
                 raise ExchError(ERR_RX, "connection closed by the remote device")
             buf += chunk
-        return buf
+        return bytes(buf)
 
-    def exchange(self, pdu: bytes, expect_reply: bool) -> bytes:
+    def exchange(self, pdu: bytes, expect_reply: bool, deadline: float,
+                 worker: _Worker) -> bytes:
+        """Send the request and read the reply, all before `deadline` (one deadline for
+        the whole exchange: a remote dripping bytes cannot stretch it)."""
         try:
-            if self.sock is None:
-                self.sock = socket.create_connection((self.remote.host, self.remote.port),
-                                                     timeout=self.timeout_s)
-            self.tid = (self.tid + 1) & 0xFFFF
-            self.sock.sendall(MBAP.pack(self.tid, 0, len(pdu) + 1, self.remote.unit_id) + pdu)
-        except TimeoutError:
-            self.close()
-            raise ExchError(ERR_TIMEOUT, f"{self.remote.host}:{self.remote.port}: "
-                            f"no connection in {self.timeout_s} s") from None
-        except OSError as e:
-            self.close()
-            raise ExchError(ERR_TX, f"{self.remote.host}:{self.remote.port}: {e}") from None
-        try:
-            # the reply of a send-only request is read too, to keep the stream in step
-            tid, proto, length, _unit = MBAP.unpack(self._recv(MBAP.size))
-            if proto != 0 or length < 2 or tid != self.tid:
-                raise ExchError(ERR_RX, f"bad MBAP header (transaction {tid}, protocol "
-                                f"{proto}, length {length})")
-            return self._recv(length - 1) if expect_reply else b""
-        except TimeoutError:
-            self.close()
-            raise ExchError(ERR_TIMEOUT, f"no reply in {self.timeout_s} s") from None
-        except ExchError:
+            try:
+                if self.sock is None:
+                    self._connect(deadline, worker)
+                self.tid = (self.tid + 1) & 0xFFFF
+                self._send(MBAP.pack(self.tid, 0, len(pdu) + 1, self.remote.unit_id) + pdu,
+                           deadline, worker)
+            except OSError as e:
+                raise ExchError(ERR_TX, f"{self.where}: {e}") from None
+            try:
+                # the reply of a send-only request is read too, to keep the stream in step
+                tid, proto, length, _unit = MBAP.unpack(self._recv(MBAP.size, deadline, worker))
+                if proto != 0 or length < 2 or tid != self.tid:
+                    raise ExchError(ERR_RX, f"bad MBAP header (transaction {tid}, protocol "
+                                    f"{proto}, length {length})")
+                body = self._recv(length - 1, deadline, worker)
+            except OSError as e:
+                raise ExchError(ERR_RX, str(e)) from None
+        except BaseException:
             self.close()
             raise
-        except OSError as e:
-            self.close()
-            raise ExchError(ERR_RX, str(e)) from None
+        return body if expect_reply else b""
 
 
 class ExchPort:
-    """The EXCH3 port: one exchange at a time, run by a worker thread."""
+    """The EXCH3 port: one exchange at a time, run by a worker thread; the scan only
+    looks at its outcome (`poll`), or on the virtual clock waits for it (`settle`)."""
 
     def __init__(self, mem: Any, now_us: Callable[[], int], remotes: dict[int, Remote],
                  timeout_s: float, wait_at_boundary: bool, port: int = ETHERNET_PORT):
@@ -210,9 +365,9 @@ class ExchPort:
         self.wait = wait_at_boundary  # virtual clock: take the result at the next boundary
         self.status_word = STATUS_WORD[port]
         self.msg: Any = None  # the %MSG block (runtime.blocks.Message) this port drives
-        self._pool: ThreadPoolExecutor | None = None
+        self._worker: _Worker | None = None
         self._conns: dict[int, _Connection] = {}
-        self._job: Future[bytes] | None = None
+        self._job: _Job | None = None
         self._req: _Request | None = None
         self._t0 = 0
 
@@ -231,31 +386,51 @@ class ExchPort:
             self._finish(e.code)
             return
         msg.D, msg.E = 0, 0
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(1, thread_name_prefix="exch")
+        if self._worker is None:
+            self._worker = _Worker()
         conn = self._conns.get(req.index)
         if conn is None:
             conn = self._conns[req.index] = _Connection(remote, self.timeout_s)
         self._req, self._t0 = req, self.now_us()
-        self._job = self._pool.submit(conn.exchange, req.pdu, req.expect_reply)
+        self._job = _Job(conn, req.pdu, req.expect_reply, time.monotonic() + self.timeout_s)
+        self._worker.submit(self._job)
+
+    def settle(self, timeout: float) -> bool:
+        """Wait up to `timeout` s, never past the exchange's deadline, for the outcome of
+        the exchange in progress; True once it is known (or there is none). At the
+        deadline the exchange fails with ERR_TIMEOUT whatever the worker is doing."""
+        job = self._job
+        if job is None or job.future.done():
+            return True
+        left = job.deadline - time.monotonic()
+        if left > 0:
+            try:
+                job.future.exception(timeout=min(timeout, left))
+                return True
+            except TimeoutError:
+                if timeout < left:
+                    return False
+        self._expire(job)
+        return True
+
+    def _expire(self, job: _Job) -> None:
+        job.settle(error=ExchError(ERR_TIMEOUT, f"no reply in {self.timeout_s:g} s"))
+        assert self._worker is not None
+        self._worker.cancel(job)
 
     def poll(self) -> None:
         """Scan boundary: hand a finished exchange's result to the table and the block."""
         job = self._job
         if job is None:
             return
+        if self.wait:  # virtual clock: the outcome lands at this boundary; this waits only
+            self.settle(math.inf)  # if the caller did not `settle` first (the daemon does)
         late = self.now_us() - self._t0 >= self.timeout_us
-        if not job.done():
-            if not self.wait:
-                if late:  # real clock: the worker's own timeout ends the socket later
-                    self._drop(ERR_TIMEOUT)
+        if not job.future.done():
+            if not late:
                 return
-            try:  # virtual clock: the worker ends by its socket timeout at the latest
-                job.exception(timeout=self.timeout_s * 4 + 1.0)
-            except TimeoutError:
-                self._drop(ERR_TIMEOUT)
-                return
-        err = job.exception()
+            self._expire(job)  # real clock: the deadline has passed
+        err = job.future.exception()
         if isinstance(err, ExchError) and err.code == ERR_TIMEOUT and not late:
             return  # on the virtual clock the timeout shows once its time has passed
         req = self._req
@@ -266,7 +441,7 @@ class ExchPort:
             return
         try:
             if req.expect_reply:
-                store_reply(self.mem.mw.w, req, req.index, job.result())
+                store_reply(self.mem.mw.w, req, req.index, job.future.result())
         except ExchError as e:
             self._finish(e.code)
             return
@@ -274,10 +449,8 @@ class ExchPort:
 
     def _drop(self, code: int) -> None:
         """Abandon the exchange in progress (its connection is reopened next time)."""
-        if self._req is not None:
-            conn = self._conns.pop(self._req.index, None)
-            if conn is not None and self._job is not None:
-                self._job.add_done_callback(lambda _f: conn.close())
+        if self._job is not None and self._worker is not None:
+            self._worker.cancel(self._job)
         self._job = self._req = None
         if code:
             self._finish(code)
@@ -297,10 +470,10 @@ class ExchPort:
             self._drop(ERR_STOPPED)
 
     def close(self) -> None:
+        """Give up the exchange in progress and end the worker (it closes the
+        connections); returns at once."""
         self._drop(OK)
-        for c in self._conns.values():
-            c.close()
+        if self._worker is not None:
+            self._worker.stop(list(self._conns.values()))
+            self._worker = None
         self._conns.clear()
-        if self._pool is not None:
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            self._pool = None
