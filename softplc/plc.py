@@ -36,6 +36,7 @@ from .errors import (
 )
 from .il import ast as A
 from .il.parser import parse, parse_file
+from .il.rungtree import syntax_follow_ups
 from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
 from .program import CompiledProgram, ProgramState, bind
 from .runtime.analog import AnalogChannel, AnalogIO, normal_range
@@ -127,7 +128,7 @@ class PLC:
                 try:
                     cls(partial, config, **{**kw, "devices": False})
                 except ProgramError as more:
-                    follow_ups = _follow_ups(partial, e.diagnostics, more.diagnostics)
+                    follow_ups = syntax_follow_ups(partial, e.diagnostics, more.diagnostics)
                     diags = sorted(e.diagnostics + [d for d in more.diagnostics
                                                     if d not in follow_ups],
                                    key=lambda d: (d.line, d.column))
@@ -646,46 +647,6 @@ class PLC:
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
-
-
-# Rung-structure problems that a skipped (syntax error) line can cause further down: those
-# looking back for an opening instruction, and those looking forward for a closing one.
-_NEEDS_EARLIER = frozenset({Code.NEEDS_LOAD, Code.UNMATCHED_CLOSE, Code.NO_MPS,
-                            Code.OUTSIDE_BLK, Code.AFTER_OUT_BLK})
-_NEEDS_LATER = frozenset({Code.NOT_CLOSED})
-
-
-def _follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
-    """Semantic diagnostics that only restate a syntax error: those on a bad line (it holds
-    placeholders), an opening missing since the last load because a bad line stood there,
-    and a closing missing because the bad line after it in the rung was the closing."""
-    bad = {d.line for d in syntax}
-    lines = partial.source.splitlines()
-
-    def is_load(n: int) -> bool:
-        words = lines[n - 1].split() if 0 < n <= len(lines) else []
-        return n not in bad and bool(words) and words[0].upper().startswith(("LD", "BLK"))
-
-    ends = {}
-    for r in partial.rungs:
-        for n in range(r.first_line, r.last_line + 1):
-            ends[n] = r.last_line
-    out = set()
-    for d in semantic:
-        if d.line in bad:
-            out.add(d)
-        elif d.code in _NEEDS_EARLIER:
-            n = d.line - 1
-            while n > 0 and not is_load(n):
-                if n in bad:
-                    out.add(d)
-                    break
-                n -= 1
-        elif d.code in _NEEDS_LATER:
-            end = ends.get(d.line, d.line)
-            if any(d.line < b <= end + 1 for b in bad):
-                out.add(d)
-    return out
 
 
 def _conditional_execution(program: A.Program) -> bool:

@@ -186,3 +186,43 @@ def build(rung: A.Rung, max_parens: int = NO_LIMIT, max_stack: int = NO_LIMIT) -
         s.problem(f"BLK {blk} not closed", ins[0].pos if ins else None, "", "END_BLK",
                   Code.NOT_CLOSED)
     return s
+
+
+# Rung-structure problems that a skipped (syntax error) line can cause further down: those
+# looking back for an opening instruction, and those looking forward for a closing one.
+_NEEDS_EARLIER = frozenset({Code.NEEDS_LOAD, Code.UNMATCHED_CLOSE, Code.NO_MPS,
+                            Code.OUTSIDE_BLK, Code.AFTER_OUT_BLK})
+_NEEDS_LATER = frozenset({Code.NOT_CLOSED})
+
+
+def syntax_follow_ups(partial: A.Program, syntax: list, semantic: list) -> set:
+    """Semantic diagnostics that only restate a syntax error: those on a bad line (it holds
+    placeholders), an opening missing since the last load because a bad line stood there,
+    and a closing missing because the bad line after it in the rung was the closing."""
+    bad = {d.line for d in syntax}
+    lines = partial.source.splitlines()
+
+    def is_load(n: int) -> bool:
+        words = lines[n - 1].split() if 0 < n <= len(lines) else []
+        return n not in bad and bool(words) and words[0].upper().startswith(("LD", "BLK"))
+
+    ends = {}
+    for r in partial.rungs:
+        for n in range(r.first_line, r.last_line + 1):
+            ends[n] = r.last_line
+    out = set()
+    for d in semantic:
+        if d.line in bad:
+            out.add(d)
+        elif d.code in _NEEDS_EARLIER:
+            n = d.line - 1
+            while n > 0 and not is_load(n):
+                if n in bad:
+                    out.add(d)
+                    break
+                n -= 1
+        elif d.code in _NEEDS_LATER:
+            end = ends.get(d.line, d.line)
+            if any(d.line < b <= end + 1 for b in bad):
+                out.add(d)
+    return out
