@@ -16,12 +16,17 @@ from ._args import add_connection_arguments, size_arg
 
 _EXAMPLES = """\
 examples:
-  softplc cut ladder_programs/pieces/achaflanado.toml --dry-run --preview out/e3.png
-  softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed --preview out/e5.svg
-  softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run --frames out/e3.csv
-  softplc run ladder_programs/cutting_table.il --config ladder_programs/cutting_table.toml \\
+  softplc cut ladder_programs/pieces/achaflanado.toml --dry-run \\
+      --preview out/e3.png
+  softplc cut ladder_programs/pieces/polinomio.toml --dry-run --seed \\
+      --preview out/e5.svg
+  softplc cut ladder_programs/pieces/rounded_rectangle.gcode --dry-run \\
+      --frames out/e3.csv
+  softplc run ladder_programs/cutting_table.il \\
+      --config ladder_programs/cutting_table.toml \\
       --port 5020 --speed max --trace out/cut.csv &
-  softplc cut ladder_programs/pieces/achaflanado.toml --port 5020 --trace out/cut.csv
+  softplc cut ladder_programs/pieces/achaflanado.toml --port 5020 \\
+      --trace out/cut.csv
 """
 
 
@@ -39,8 +44,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "with the torch off (resume with --start-at).",
         epilog=_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("piece", metavar="PIECE", help="the piece: FILE.toml or FILE.gcode")
-    r = p.add_argument_group("piece values (G-code: these or the defaults; TOML: override "
-                             "the file's keys when given)")
+    r = p.add_argument_group("piece values", "G-code: these or the defaults; TOML: "
+                                             "override the file's keys when given")
     r.add_argument("--speed", type=float, metavar="MM/S",
                    help="cutting speed (G-code: when the program has no F; default 2)")
     r.add_argument("--move-speed", type=float, metavar="MM/S",

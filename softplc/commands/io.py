@@ -98,8 +98,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "io", help="read, write, force and RUN/STOP a running daemon (web API)",
         description="Operate a running `softplc run` through its web API. Changes are "
                     "applied at the next scan boundary; reads return the values of one scan. "
-                    "Examples: `softplc io set %%I0.0 1`, `softplc io get %%MW0:4 %%TM0`, "
-                    "`softplc io force %%I0.1 0`, `softplc io unforce`, `softplc io stop`.")
+                    "Examples: `softplc io set %I0.0 1`, `softplc io get %MW0:4 %TM0`, "
+                    "`softplc io force %I0.1 0`, `softplc io unforce`, `softplc io stop`.")
     p.add_argument("--host", default="127.0.0.1", help="daemon's web host (127.0.0.1)")
     p.add_argument("--port", type=port, default=DEFAULT_PORT,
                    help=f"daemon's web port (--web of softplc run; default {DEFAULT_PORT})")

@@ -23,11 +23,11 @@ if TYPE_CHECKING:
 
 _EXAMPLES = """\
 examples:
-  softplc tune --example demo                      # write sample inputs (22699 kg axis)
-  softplc tune --dir demo --plot demo/fit.png      # estimate, write demo/MPSet.H, plot
-  softplc tune --dir demo --port 5020 --once      # answer the PLC's request (%MW401)
-  softplc tune --settings s.txt --calibration IMCal_.dta --measurement IMMea_.dta \\
-               --template MPSetTemp.H --output MPSet.H
+  softplc tune --example demo                  # sample inputs (22699 kg axis)
+  softplc tune --dir demo --plot demo/fit.png  # estimate, write demo/MPSet.H
+  softplc tune --dir demo --port 5020 --once   # answer one request (%MW401)
+  softplc tune --settings s.txt --calibration IMCal_.dta \\
+               --measurement IMMea_.dta --template MPSetTemp.H --output MPSet.H
 """
 
 
@@ -63,8 +63,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="figures of the intervals, fitted lines and current jumps")
     o.add_argument("--json", action="store_true", help="print the result as JSON")
     m = p.add_argument_group(
-        "online mode: answer the PLC's requests over Modbus TCP (%MW401 EST_REQ, result "
-        "words %MW402-%MW463)")
+        "online mode", "answer the PLC's requests over Modbus TCP (%MW401 EST_REQ,\n"
+                       "result words %MW402-%MW463)")
     m.add_argument("--port", type=port, help="the PLC's Modbus TCP port (enables online mode)")
     m.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
     m.add_argument("--device-id", type=int, default=1, help="Modbus unit id (default 1)")
