@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import difflib
 import itertools
 import os
 import re
@@ -49,9 +50,19 @@ TERMINAL_NAMES = {
     "LABEL_DEF": "%Ln:",
     "SECTION_KW": "SECTION",
 }
-INSTRUCTIONS = ("LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR XORF ST STN S R "
-                "N AND( OR( XOR( ) MPS MRD MPP [ ] JMP JMPC JMPCN SRn RET END ENDC ENDCN NOP "
-                "BLK OUT_BLK END_BLK IN CU CD U")
+# Every mnemonic the grammar takes (its *_KW terminals), for "expected" and "did you mean"
+INSTRUCTIONS = ("LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR XORF "
+                "AND( OR( XOR( ) ST STN S R N MPS MRD MPP [ ] JMP JMPC JMPCN SRn RET RETC "
+                "RETCN END ENDC ENDCN NOP BLK OUT_BLK END_BLK IN CU CD U I O EXCHn "
+                "=*= -*- # #D POST").split()
+
+
+def _did_you_mean(word: str) -> str:
+    """' (did you mean CU?)' for 'CUU', or '' when no mnemonic is close."""
+    close = difflib.get_close_matches(word.upper(), INSTRUCTIONS, n=3, cutoff=0.6)
+    if not close:
+        return ""
+    return f" (did you mean {', '.join(close[:-1]) + ' or ' if close[1:] else ''}{close[-1]}?)"
 
 
 def _grammar_cache() -> str | bool:
@@ -322,8 +333,9 @@ def _syntax_diag(e: UnexpectedInput, file: str, lines: list[str]) -> Diagnostic:
     stripped = src.lstrip()
     if src and col == len(src) - len(stripped) + 1 and text and not text.startswith(("%", "(")):
         word = stripped.split()[0]
-        return Diagnostic(f"unknown instruction {word!r}", file, line, col, src.strip(),
-                          f"an instruction ({INSTRUCTIONS})", Code.UNKNOWN_INSTRUCTION)
+        return Diagnostic(f"unknown instruction {word!r}{_did_you_mean(word)}", file, line,
+                          col, src.strip(), f"an instruction: {' '.join(INSTRUCTIONS)}",
+                          Code.UNKNOWN_INSTRUCTION)
     return Diagnostic(f"syntax error: {what}", file, line, col, src.strip(), exp, Code.SYNTAX)
 
 
