@@ -122,6 +122,18 @@ def _pairs(args: list[str], what: str) -> list[tuple[str, int | float]]:
     return [(args[k], parse_value(args[k + 1])) for k in range(0, len(args), 2)]
 
 
+def _show(name: str, value: Any) -> str:
+    """A value of the API's answer as `softplc repl` prints it (softplc.display)."""
+    from ..address import parse_address
+    from ..display import format_value
+
+    try:
+        ref = parse_address(name)
+    except SoftPLCError:
+        ref = None
+    return format_value(value, ref)
+
+
 def run(args: argparse.Namespace) -> int:
     c = Client(args.host, args.port, args.token)
     a, rest = args.action, args.args
@@ -129,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
         if not rest:
             raise IoError("get: name at least one object, e.g. `softplc io get %MW0:4`")
         out: Any = c.get(*rest)
-        lines = [f"{k} = {v}" for k, v in out.items()]
+        lines = [f"{k} = {_show(k, v)}" for k, v in out.items()]
     elif a in ("set", "force"):
         if a == "set":
             out = c.request("write", {"writes": [{"object": o, "value": v}

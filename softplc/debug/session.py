@@ -30,6 +30,7 @@ from typing import Any
 
 from ..address import IO_KINDS, Ref, expand
 from ..config import duration
+from ..display import format_value
 from ..errors import ConfigError, SoftPLCError
 from ..il import ast as A
 from ..il.parser import parse_file
@@ -206,18 +207,13 @@ class Session:
 
     def fmt(self, ref: Ref, v: Any, f: str = "") -> str:
         """One value in a format: d (default), u, x, b, f."""
-        if ref.is_block:
-            kind = f"{v.type} base {v.base} " if ref.kind == "TM" else ""
-            return kind + ladder.block_summary(v)
-        if isinstance(v, bool) or ref.type == "bool":
-            return "1" if v else "0"
+        if ref.is_block or ref.type == "bool" or f in ("", "d"):
+            return format_value(v, ref)  # as `softplc io` and the ladder show it
         bits = 32 if ref.kind in DWORDS + FLOATS else 16
         if isinstance(v, float):
             raw = int.from_bytes(struct.pack("<f", v), "little")
         else:
             raw = int(v) & ((1 << bits) - 1)
-        if f in ("", "d"):
-            return f"{v:.7g}" if isinstance(v, float) else str(v)
         if f == "u":
             return str(raw)
         if f == "x":
@@ -454,7 +450,7 @@ class Session:
             lines.append(f"{key}: {len(hist)} change(s)")
             for c in hist:
                 lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {c.where:<18} "
-                             f"{c.old} -> {c.new}")
+                             f"{format_value(c.old)} -> {format_value(c.new)}")
         return "\n".join(lines)
 
     # ---- commands: data -----------------------------------------------------------------------

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
+from ..display import block_fields
 from ..errors import AddressError, SoftPLCError
 from ..il.printer import format_instruction
 from ..modbus.image import ModbusImage, words_to_wire
@@ -539,16 +540,6 @@ class Controller:
                "web_changes_applied": self.applied}
         out.update(self.status_extra())
         return out
-
-
-def block_fields(kind: str, b: Any) -> dict[str, Any]:
-    """A function block's fields (those the program can name, plus a timer's type and time
-    base) as a dict."""
-    out: dict[str, Any] = {f: int(getattr(b, f)) for f in BLOCK_FIELDS[kind] if hasattr(b, f)}
-    for extra in ("type", "base"):
-        if hasattr(b, extra):
-            out[extra] = str(getattr(b, extra))
-    return out
 
 
 __all__ = ["ACTIONS", "ApiError", "Controller"]
