@@ -158,7 +158,7 @@ class DaemonConfig(Section):
 
     state: str | None = Field(None, min_length=1)
     save_interval: Duration = 5.0
-    stats_interval: Duration = 5.0
+    stats_interval: Duration = 60.0  # = softplc.daemon.DaemonOptions; SIGUSR1: one now
     rt_priority: int = Field(10, ge=0, le=99)
     # a %M bit the program sets while it waits for its host: with --speed the daemon holds
     # the virtual clock meanwhile (deterministic runs; softplc.daemon)

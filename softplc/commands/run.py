@@ -7,7 +7,7 @@ Settings come from the command line, else from the machine config, else defaults
               frame_timeout = "2s"  idle_timeout = "0s"      # 0 = never
               read_only = ["%MW100:20", "%M0:8"]             # writes there get exception 02
               allow = ["127.0.0.1", "192.168.1.0/24"]        # --allow; default: anyone
-    [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "5s"
+    [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "60s"
               rt_priority = 10                               # 0 = normal scheduling
 """
 
@@ -94,7 +94,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="with --speed, run the virtual clock on while the program waits for "
                         "its host (ignore the config's [daemon] host_wait bit)")
     p.add_argument("--stats-interval", type=_duration,
-                   help="statistics line every ... (default 5s; 0 = none)")
+                   help="statistics line every ... (default 60s; 0 = none); "
+                        "`kill -USR1 PID` prints one at once")
     p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
     p.add_argument("--read-only", action="store_true",
                    help="refuse every Modbus write (exception 01, illegal function)")

@@ -68,6 +68,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     m.add_argument("--port", type=port, help="the PLC's Modbus TCP port (enables online mode)")
     m.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
     m.add_argument("--device-id", type=int, default=1, help="Modbus unit id (default 1)")
+    m.add_argument("--connect-timeout", type=float, default=30.0, metavar="SECONDS",
+                   help="wait this long for the daemon to listen (default %(default)s)")
     m.add_argument("--once", action="store_true", help="answer one request, then exit")
     m.add_argument("--wait", type=float, default=None, metavar="SECONDS",
                    help="give up after this long without a request (default: wait forever)")
@@ -149,9 +151,12 @@ def _online(args: argparse.Namespace, once) -> int:
     from ..massest.handshake import W_REQ, serve
     from ..modbus.host import ModbusHost
 
-    with ModbusHost(args.host, args.port, device_id=args.device_id,
-                    poll_interval=args.poll) as host:
+    host = ModbusHost(args.host, args.port, device_id=args.device_id, poll_interval=args.poll)
+    host.connect_within(args.connect_timeout, lambda msg: print(msg, file=sys.stderr))
+    try:
         print(f"waiting for estimation requests (%MW{W_REQ}) from {host.where}",
               file=sys.stderr)
         served = serve(host, once, once=args.once, timeout=args.wait)
+    finally:
+        host.close()
     return 0 if served and all(s.status == 0 for s in served) else 1
