@@ -11,6 +11,7 @@ from .live import Live
 from .text import box_inner_width, program_sections
 
 CH, ROW_H, PAD = 7.2, 48, 20  # pixels per character, per row, margin
+INFO_DY = 17  # a box row's info baseline below its wire (pin names sit on the wire, +4)
 
 
 def render_program_svg(program: A.Program, blocks: BlockReader | None = None) -> str:
@@ -144,7 +145,8 @@ def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y:
     b = cell.box
     assert b is not None and cell.elem is not None
     y1 = y - 26 if b.first else y - ROW_H + 14
-    y2 = y + 14  # meets the next row's y1
+    # meets the next row's y1; the last row's bottom leaves room for a line of info
+    y2 = y + (INFO_DY + 3 if b.last and b.info else 14)
     body += [_line(left, y1, left, y2), _line(right, y1, right, y2)]
     if b.first:
         body += [_line(left, y1, right, y1),
@@ -157,8 +159,8 @@ def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y:
     if b.right:
         body.append(_text(right - 4, y + 4, b.right, size=11, anchor="end"))
     if b.info:  # live values, or the configuration (ladder --config)
-        body.append(_text((left + right) / 2, y + 12, b.info, size=10, anchor="middle",
-                          fill="#0b4f8a"))  # under the pins, above the box's bottom line
+        body.append(_text((left + right) / 2, y + INFO_DY, b.info, size=10, anchor="middle",
+                          fill="#0b4f8a"))  # a line below the pins' names, clear of them
     if b.left_wired:
         body.append(_line(xa, y, left, y, pw and cell.p_in))
     if b.right_wired:
