@@ -49,9 +49,11 @@ from pydantic import (
     field_validator,
 )
 
-from .errors import ConfigError
+from .errors import ConfigError, SoftPLCError
 from .profile import DEFAULT_PROFILE, PROFILES
 from .runtime.blocks import MAX_VALUE, TIME_BASES_US
+from .symbols import SymbolTable
+from .symbols import from_config as symbols_from_config
 
 _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(us|ms|s|min)?\s*$", re.I)
 _UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0}
@@ -212,6 +214,9 @@ class Config(Section):
     fast_counters: dict[str, Any] = Field(default_factory=dict)
     very_fast_counters: dict[str, Any] = Field(default_factory=dict)
     exch: dict[str, Any] = Field(default_factory=dict)  # EXCH3 remote devices (issue 11 B)
+    # names for addresses: checked by softplc.symbols (the parser needs them first)
+    symbols: dict[str, Any] = Field(default_factory=dict)
+    symbols_file: str | None = None
 
     @field_validator("profile")
     @classmethod
@@ -423,3 +428,15 @@ def load_config(config: str | Path | dict[str, Any] | None,
             raise ConfigError(f"{config}:\n  " + str(e).replace("\n", "\n  ")) from None
         raise
     return raw, base, cfg
+
+
+def symbol_table(config: str | Path | dict[str, Any] | None) -> SymbolTable | None:
+    """The configuration's symbols, for the parser (which runs before the PLC is built);
+    None if the configuration cannot be read or is wrong: the PLC reports that after the
+    program's own errors."""
+    try:
+        raw, base = read_config(config)
+        profile = PROFILES.get(str(raw.get("profile", DEFAULT_PROFILE.name)), DEFAULT_PROFILE)
+        return symbols_from_config(raw, base, profile)
+    except SoftPLCError:
+        return None
