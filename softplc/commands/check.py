@@ -84,6 +84,7 @@ def _report(e: ProgramError) -> int:
 
 def _format(args: argparse.Namespace) -> int:
     """The formatter: the program on stdout (or rewritten), every message on stderr."""
+    from ..config import symbol_table
     from ..il.formatter import format_source
 
     if args.rungs or args.python or args.json:
@@ -93,7 +94,8 @@ def _format(args: argparse.Namespace) -> int:
     raw = args.program.read_bytes()
     text = raw.decode("utf-8-sig", errors="replace")
     try:
-        formatted = format_source(text, str(args.program))
+        formatted = format_source(text, str(args.program), symbol_table(args.config)
+                                  if args.config is not None else None)
         if args.config is not None:  # the full check too, blocks configured
             load_plc(args, devices=False)
     except ProgramError as e:

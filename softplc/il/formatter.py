@@ -11,27 +11,51 @@ from __future__ import annotations
 
 import bisect
 import itertools
+import re
 from collections import defaultdict
 
+from ..address import Ref
 from ..errors import ParseError
+from ..symbols import SymbolTable
 from . import ast as A
 from .parser import _COMMENT, _Section, _SRDef, parse_lines
 from .printer import format_instruction
 
+_WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
-def _item_text(it: object) -> str:
+
+class _AnyName(SymbolTable):
+    """Without the configuration, any name stands for an object: the formatter only lays
+    the text out and writes each name back as it was written."""
+
+    def ref(self, text: str) -> Ref:
+        if text.startswith("%") or self.get(text.partition(".")[0]) is not None:
+            return super().ref(text)
+        return Ref("M", 0).with_symbol(text)
+
+
+def _item_text(it: object, line: str) -> str:
     if isinstance(it, _Section):
         return f"SECTION     {it.number}"
     if isinstance(it, _SRDef):
         return f"SR{it.number}:"
     if isinstance(it, A.Label):
         return f"%L{it.number}:"
-    return format_instruction(it)  # type: ignore[arg-type]
+    written = {w.upper() for w in _WORD.findall(line)}
+
+    def name(ref: Ref) -> str:  # a symbol where the line has one, else the address
+        sym = ref.symbol
+        return sym if sym and sym.partition(".")[0].upper() in written else str(ref)
+
+    return format_instruction(it, name)  # type: ignore[arg-type]
 
 
-def format_source(text: str, file: str = "<string>") -> str:
-    """`text` formatted; a ParseError (every syntax problem) if it does not parse."""
-    items, _comments, diags = parse_lines(text, file)
+def format_source(text: str, file: str = "<string>", symbols: SymbolTable | None = None
+                  ) -> str:
+    """`text` formatted; a ParseError (every syntax problem) if it does not parse.
+    `symbols`: the configuration's (names then take their declared spelling)."""
+    table = _AnyName(symbols, symbols.profile) if symbols is not None else _AnyName()
+    items, _comments, diags = parse_lines(text, file, table)
     if diags:
         raise ParseError(diags)
     lines = text.splitlines()
@@ -55,7 +79,7 @@ def format_source(text: str, file: str = "<string>") -> str:
     out: list[str] = []
     for n, line in enumerate(lines, 1):
         if n in by_line and n not in inside:
-            code = " ".join(_item_text(it) for it in by_line[n])
+            code = " ".join(_item_text(it, _COMMENT.sub("", line)) for it in by_line[n])
             if n in trailing:
                 code = code.ljust(max(len(code) + 2, column[n])) + "  ".join(trailing[n])
             out.append(code)
