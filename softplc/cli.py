@@ -20,6 +20,7 @@ COMMAND_MODULES = [
     "softplc.commands.ladder",
     "softplc.commands.draw",
     "softplc.commands.io",
+    "softplc.commands.symbols",
     "softplc.commands.cut",
     "softplc.commands.servo",
     "softplc.commands.tune",

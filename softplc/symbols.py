@@ -111,9 +111,11 @@ class SymbolTable:
         name, dot, field = text.partition(".")
         s = self.get(name)
         if s is None:
-            raise AddressError(f"unknown symbol {name!r}{self.suggest(name)}" if self else
-                               f"{text!r} is neither an address (%MW3, %I0.0...) nor a "
-                               f"symbol (none is declared: [symbols] in the configuration)")
+            hint = "; addresses start with %" if re.match(r"[A-Za-z]+\d", name) else ""
+            raise AddressError(f"unknown symbol {name!r}{self.suggest(name)}{hint}" if self else
+                               f"{text!r} is neither an address (addresses start with %: "
+                               f"%MW3, %I0.0...) nor a symbol (none is declared: [symbols] "
+                               f"in the configuration)")
         return s.address + dot + field
 
     def ref(self, text: str) -> Ref:

@@ -184,6 +184,7 @@ class Session:
 
         for r in self.plc.ast.rungs:
             walk(r.instructions)
+        found.update(s.name for s in self.plc.symbols)
         for kind, blocks in self.plc.mem.blocks.items():
             for i in blocks:
                 if kind != "PID":  # PID n is no address
@@ -196,11 +197,14 @@ class Session:
 
     # ---- objects -------------------------------------------------------------------------
     def parse_obj(self, text: str) -> list[Ref]:
-        """An address or a range: `%MW0:15` (15 words), `%Q1.0:8` (8 bits from %Q1.0)."""
-        text = text.strip()
-        if not text.startswith("%"):
-            raise DebugError(f"{text!r} is not an address (addresses start with %, e.g. %MW3)")
-        return expand(text, self.plc.profile)
+        """An address, a range (`%MW0:15`: 15 words, `%Q1.0:8`: 8 bits from %Q1.0) or a
+        symbol (`START_PB`, `TIMER1.Q`), each object with its symbol attached."""
+        table = self.plc.symbols
+        return [table.attach(r) for r in expand(table.address_of(text), self.plc.profile)]
+
+    def title(self, ref: Ref) -> str:
+        """`%I0.0 START_PB`: an object and its symbol, if it has one."""
+        return f"{ref} {ref.symbol}" if ref.symbol else str(ref)
 
     def read(self, ref: Ref) -> Any:
         return self.plc.mem.read(ref)
@@ -389,8 +393,9 @@ class Session:
         if len(refs) != 1:
             raise DebugError("watch one object, e.g. watch %MW32")
         ref = refs[0]
-        b = self.ctl.add_breakpoint(kind="watch", text=str(ref), test=lambda: self.read(ref))
-        return f"watch #{b.id} {ref} (now {self.fmt(ref, b.last)})"
+        b = self.ctl.add_breakpoint(kind="watch", text=self.title(ref),
+                                    test=lambda: self.read(ref))
+        return f"watch #{b.id} {self.title(ref)} (now {self.fmt(ref, b.last)})"
 
     @command("breakpoints", "breaks", "tb")
     def cmd_breakpoints(self, arg: str) -> str:
@@ -468,7 +473,7 @@ class Session:
         for a in arg.split():
             refs = self.parse_obj(a)
             if len(refs) == 1:
-                lines.append(f"{refs[0]} = {self.show(refs[0], fmt)}")
+                lines.append(f"{self.title(refs[0])} = {self.show(refs[0], fmt)}")
                 continue
             per = 8 if fmt in ("", "d", "u", "f") else 4
             for i in range(0, len(refs), per):

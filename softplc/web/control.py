@@ -137,16 +137,15 @@ class Controller:
 
     # -- objects ------------------------------------------------------------------------------
     def resolve(self, text: Any) -> list[Ref]:
-        """An address or range -> single objects, with a clear error for anything else."""
+        """An address, range or symbol -> single objects, with a clear error for anything
+        else."""
         if not isinstance(text, str) or not text.strip():
             raise ApiError(f"object {text!r}: expected an address like %MW3, %MW0:10, %I0.0")
         key = text.strip().upper()
         refs = self._refs.get(key)
         if refs is None:
-            if not key.startswith("%"):
-                raise ApiError(f"object {text!r}: addresses start with %, e.g. %MW3")
-            try:
-                refs = expand(key, self.profile)
+            try:  # an address, or a symbol of the program (softplc.symbols)
+                refs = expand(self.plc.symbols.address_of(key), self.profile)
             except AddressError as e:
                 raise ApiError(f"unknown object {text!r}: {e}") from None
             for r in refs:
