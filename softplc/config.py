@@ -432,11 +432,16 @@ def load_config(config: str | Path | dict[str, Any] | None,
 
 def symbol_table(config: str | Path | dict[str, Any] | None) -> SymbolTable | None:
     """The configuration's symbols, for the parser (which runs before the PLC is built);
-    None if the configuration cannot be read or is wrong: the PLC reports that after the
-    program's own errors."""
+    None if the configuration cannot be read (the PLC reports that after the program's own
+    errors). A wrong symbol declaration is a ConfigError naming the file: reported first,
+    since every name of the program would be an error without it."""
     try:
         raw, base = read_config(config)
-        profile = PROFILES.get(str(raw.get("profile", DEFAULT_PROFILE.name)), DEFAULT_PROFILE)
-        return symbols_from_config(raw, base, profile)
     except SoftPLCError:
         return None
+    profile = PROFILES.get(str(raw.get("profile", DEFAULT_PROFILE.name)), DEFAULT_PROFILE)
+    try:
+        return symbols_from_config(raw, base, profile)
+    except ConfigError as e:
+        raise ConfigError(f"{config}: {e}" if isinstance(config, (str, Path)) else str(e)
+                          ) from None

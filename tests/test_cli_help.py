@@ -9,10 +9,17 @@ import pytest
 from softplc.cli import build_parser
 
 
-def _subparsers() -> dict[str, argparse.ArgumentParser]:
-    parser = build_parser()
-    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    return dict(action.choices)
+def _subparsers(parser: argparse.ArgumentParser | None = None, prefix: str = ""
+                ) -> dict[str, argparse.ArgumentParser]:
+    """Every subcommand's parser, nested ones too (`symbols export`)."""
+    parser = parser or build_parser()
+    out = {}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                out[prefix + name] = sub
+                out.update(_subparsers(sub, f"{prefix}{name} "))
+    return out
 
 
 @pytest.mark.parametrize("name", sorted(_subparsers()))
