@@ -430,6 +430,14 @@ def test_softplc_io_command(star, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert [ln.split(" = ")[1] in ("0", "1") for ln in lines[:3]] == [True] * 3
     assert re.fullmatch(r"%TM0 = TON base 100ms Q=[01] V=\d+ P=50", lines[3]), lines[3]
+    # symbols (star_delta.toml's symbols_file) name objects for the API too
+    assert cli(base + ["set", "FAULT_RESET", "1"]) == 0
+    s.scans()
+    assert cli(base + ["get", "fault_reset", "STAR_TIME.P"]) == 0
+    assert capsys.readouterr().out.splitlines()[-2:] == ["%I0.3 = 1", "%TM0.P = 50"]
+    assert cli(base + ["set", "FAULT_RESET", "0"]) == 0
+    assert cli(base + ["get", "STRATS"]) == 1
+    assert "unknown symbol 'STRATS' (did you mean STARTS?)" in capsys.readouterr().err
     assert cli(base + ["force", "%I0.1", "0"]) == 0
     s.scans()
     assert s.plc.forced == {"%I0.1": 0}
