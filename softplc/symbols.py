@@ -8,8 +8,9 @@ Declared in the configuration, inline or in a CSV file beside it:
     MOTOR_K1 = { address = "%Q0.0", comment = "main contactor" }
 
 The CSV has one symbol a line: address, symbol, comment (TwidoSuite's symbol export
-columns [unsure: the layout is from memory, no export was at hand]); the separator is `,`,
-`;` or a tab, whichever the file uses, and a header line is skipped. A name is a letter or
+columns [unsure: the layout is from memory, no export was at hand], so symbol, address,
+comment is read too); the separator is `,`, `;` or a tab, whichever the file uses, and a
+header line is skipped. A name is a letter or
 `_` then letters, digits and `_` (at most 32 characters), is not an IL keyword, and is
 matched whatever its case. One name per address and one address per name.
 
@@ -191,8 +192,10 @@ def read_csv(text: str, source: str = "<csv>") -> list[Symbol]:
     out = []
     for n, row in enumerate(csv.reader(lines, delimiter=delimiter), 1):
         cells = [c.strip() for c in row]
-        if n == 1 and cells and not cells[0].startswith("%"):
+        if n == 1 and not any(c.startswith("%") for c in cells[:2]):
             continue  # the header line
+        if len(cells) >= 2 and cells[1].startswith("%") and not cells[0].startswith("%"):
+            cells[0], cells[1] = cells[1], cells[0]  # symbol first: take it as well
         if len(cells) < 2 or not cells[0] or not cells[1]:
             raise ConfigError(f"{source}:{n}: expected ADDRESS{delimiter}SYMBOL"
                               f"[{delimiter}COMMENT], got {lines[n - 1]!r}")

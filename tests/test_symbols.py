@@ -99,6 +99,8 @@ def test_csv_layouts_and_errors():
     assert [(s.address, s.name, s.comment) for s in rows] == \
         [("%I0.0", "START_PB", "start"), ("%Q0.0", "X", "")]
     assert [s.name for s in read_csv("Address\tSymbol\n%M0\tBUSY\n")] == ["BUSY"]
+    assert [(s.address, s.name) for s in read_csv("Symbol;Address\nBUSY;%M0\n")] == \
+        [("%M0", "BUSY")]  # symbol first: read as well
     with pytest.raises(ConfigError, match=r"x.csv:2: expected ADDRESS,SYMBOL"):
         read_csv("%I0.0,A\n%I0.1\n", "x.csv")
     table = SymbolTable(read_csv('%Q0.0,K1,"main, 400 V"\n%I0.0,S1,\n'))
