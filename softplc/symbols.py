@@ -112,9 +112,16 @@ class SymbolTable:
         name, dot, field = text.partition(".")
         s = self.get(name)
         if s is None:
-            hint = "; addresses start with %" if re.match(r"[A-Za-z]+\d", name) else ""
-            raise AddressError(f"unknown symbol {name!r}{self.suggest(name)}{hint}" if self else
-                               f"{text!r} is neither an address (addresses start with %: "
+            try:  # `I0.0`, `MW3`: an address without its %
+                parse_address("%" + text, self.profile)
+            except AddressError:
+                pass
+            else:
+                raise AddressError(f"{text!r} is no address (they start with %) and no "
+                                   f"declared symbol: did you mean %{text}?")
+            if self:
+                raise AddressError(f"unknown symbol {text!r}{self.suggest(name)}")
+            raise AddressError(f"{text!r} is neither an address (addresses start with %: "
                                f"%MW3, %I0.0...) nor a symbol (none is declared: [symbols] "
                                f"in the configuration)")
         return s.address + dot + field

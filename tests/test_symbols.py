@@ -188,3 +188,11 @@ def test_start(plc):
     assert plc["MOTOR_K1"]
 """)
     pytester.runpytest("-p", "no:cacheprovider").assert_outcomes(passed=1)
+
+
+def test_an_address_without_its_percent_sign_gets_the_address_as_a_guess():
+    with pytest.raises(ParseError) as e:
+        PLC.from_source("LD I0.0\nST Q0.1\n", CONFIG)
+    d1, d2 = e.value.diagnostics
+    assert (d1.line, d1.column, d1.text) == (1, 4, "I0.0")
+    assert d1.message.endswith("did you mean %I0.0?") and "%Q0.1?" in d2.message
