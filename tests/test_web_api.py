@@ -434,7 +434,8 @@ def test_softplc_io_command(star, capsys):
     assert cli(base + ["set", "FAULT_RESET", "1"]) == 0
     s.scans()
     assert cli(base + ["get", "fault_reset", "STAR_TIME.P"]) == 0
-    assert capsys.readouterr().out.splitlines()[-2:] == ["%I0.3 = 1", "%TM0.P = 50"]
+    assert capsys.readouterr().out.splitlines()[-2:] == ["%I0.3 FAULT_RESET = 1",
+                                                          "%TM0.P STAR_TIME.P = 50"]
     assert cli(base + ["set", "FAULT_RESET", "0"]) == 0
     assert cli(base + ["get", "STRATS"]) == 1
     assert "unknown symbol 'STRATS' (did you mean STARTS?)" in capsys.readouterr().err

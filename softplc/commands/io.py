@@ -141,7 +141,10 @@ def run(args: argparse.Namespace) -> int:
         if not rest:
             raise IoError("get: name at least one object, e.g. `softplc io get %MW0:4`")
         out: Any = c.get(*rest)
-        lines = [f"{k} = {_show(k, v)}" for k, v in out.items()]
+        # one object per name asked (no range): the symbols asked for beside the addresses
+        asked = rest if len(rest) == len(out) else [""] * len(out)
+        lines = [f"{k}{'' if a.startswith('%') or not a else ' ' + a.upper()} = "
+                 f"{_show(k, v)}" for a, (k, v) in zip(asked, out.items(), strict=True)]
     elif a in ("set", "force"):
         if a == "set":
             out = c.request("write", {"writes": [{"object": o, "value": v}
