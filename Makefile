@@ -7,6 +7,7 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 PORT    ?= 5020
 WEB_PORT ?= 8020
+STATS   ?= 60s
 
 .PHONY: run test bench lint draw clean sysdeps fuzz
 
@@ -25,7 +26,8 @@ sysdeps:
 
 run: $(STAMP)
 	@echo "web monitor: http://127.0.0.1:$(WEB_PORT)/ (the banner gives the address in use; softplc io --port $(WEB_PORT) operates it)"
-	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT) --web $(WEB_PORT) --trace out/trace.csv
+	@echo "statistics every $(STATS) (make run STATS=5s); one now: kill -USR1 <the softplc pid>"
+	$(BIN)/softplc run ladder_programs/drawing_table.il --config ladder_programs/drawing_table.toml --host 127.0.0.1 --port $(PORT) --web $(WEB_PORT) --stats-interval $(STATS) --trace out/trace.csv
 
 draw: $(STAMP)
 	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png

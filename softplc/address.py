@@ -7,7 +7,8 @@ The grammar, the PLC API, the Modbus tools and the debugger all turn address tex
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from dataclasses import field as dc_field  # Ref has a `field` of its own
 
 from .errors import AddressError
 from .profile import DEFAULT_PROFILE, Profile
@@ -78,6 +79,11 @@ class Ref:
     bit: int | None = None  # %MWi:Xk or %SBRi.Jk
     length: int | None = None  # %MWi:L tables, %Mi:L bit strings
     offset: Ref | None = None  # %MWi[%MWj]
+    # the object's symbol (softplc.symbols), for the views; not part of its identity
+    symbol: str | None = dc_field(default=None, compare=False, repr=False)
+
+    def with_symbol(self, name: str | None) -> Ref:
+        return replace(self, symbol=name)
 
     @property
     def type(self) -> str:

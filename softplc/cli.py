@@ -21,6 +21,7 @@ COMMAND_MODULES = [
     "softplc.commands.draw",
     "softplc.commands.io",
     "softplc.commands.map",
+    "softplc.commands.symbols",
     "softplc.commands.cut",
     "softplc.commands.servo",
     "softplc.commands.tune",

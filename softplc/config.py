@@ -49,9 +49,11 @@ from pydantic import (
     field_validator,
 )
 
-from .errors import ConfigError
+from .errors import ConfigError, SoftPLCError
 from .profile import DEFAULT_PROFILE, PROFILES
 from .runtime.blocks import MAX_VALUE, TIME_BASES_US
+from .symbols import SymbolTable
+from .symbols import from_config as symbols_from_config
 
 _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(us|ms|s|min)?\s*$", re.I)
 _UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0}
@@ -176,7 +178,7 @@ class DaemonConfig(Section):
 
     state: str | None = Field(None, min_length=1)
     save_interval: Duration = 5.0
-    stats_interval: Duration = 5.0
+    stats_interval: Duration = 60.0  # = softplc.daemon.DaemonOptions; SIGUSR1: one now
     rt_priority: int = Field(10, ge=0, le=99)
     # a %M bit the program sets while it waits for its host: with --speed the daemon holds
     # the virtual clock meanwhile (deterministic runs; softplc.daemon)
@@ -230,6 +232,9 @@ class Config(Section):
     fast_counters: dict[str, Any] = Field(default_factory=dict)
     very_fast_counters: dict[str, Any] = Field(default_factory=dict)
     exch: dict[str, Any] = Field(default_factory=dict)  # EXCH3 remote devices (issue 11 B)
+    # names for addresses: checked by softplc.symbols (the parser needs them first)
+    symbols: dict[str, Any] = Field(default_factory=dict)
+    symbols_file: str | None = None
 
     @field_validator("profile")
     @classmethod
@@ -441,3 +446,20 @@ def load_config(config: str | Path | dict[str, Any] | None,
             raise ConfigError(f"{config}:\n  " + str(e).replace("\n", "\n  ")) from None
         raise
     return raw, base, cfg
+
+
+def symbol_table(config: str | Path | dict[str, Any] | None) -> SymbolTable | None:
+    """The configuration's symbols, for the parser (which runs before the PLC is built);
+    None if the configuration cannot be read (the PLC reports that after the program's own
+    errors). A wrong symbol declaration is a ConfigError naming the file: reported first,
+    since every name of the program would be an error without it."""
+    try:
+        raw, base = read_config(config)
+    except SoftPLCError:
+        return None
+    profile = PROFILES.get(str(raw.get("profile", DEFAULT_PROFILE.name)), DEFAULT_PROFILE)
+    try:
+        return symbols_from_config(raw, base, profile)
+    except ConfigError as e:
+        raise ConfigError(f"{config}: {e}" if isinstance(config, (str, Path)) else str(e)
+                          ) from None

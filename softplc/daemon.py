@@ -64,7 +64,9 @@ class DaemonOptions:
     keep_state: bool = False  # warm restart even if the program or configuration changed
     save_interval: float = 5.0  # seconds between flushes to disk; 0 = only at shutdown
     speed: float | None = None  # None: real time; N: N x real time; math.inf: max
-    stats_interval: float = 5.0  # seconds; 0 = no statistics lines
+    # seconds; 0 = none (SIGUSR1 still prints one). A line every minute, not every few
+    # seconds: the banner (the monitor's URL) stays on a terminal's screen
+    stats_interval: float = 60.0
     max_clients: int = 32
     frame_timeout: float = 2.0
     idle_timeout: float | None = DEFAULT_IDLE_TIMEOUT  # None: never
@@ -113,6 +115,7 @@ class Daemon:
         self._scanning = False
         self.interrupted = False  # a scan was cut short by a stop request
         self.signals = 0
+        self.stats_wanted = False  # SIGUSR1: a statistics line at the next scan
         self.image: ModbusImage | None = None
         self._server: ServerThread | None = None
         self.overruns = 0
@@ -146,6 +149,9 @@ class Daemon:
     def _on_signal(self, *_: Any) -> None:
         self.signals += 1
         self.request_stop()
+
+    def _on_stats(self, *_: Any) -> None:
+        self.stats_wanted = True
 
     def say(self, text: str) -> None:
         print(text, file=self.out, flush=True)
@@ -272,6 +278,8 @@ class Daemon:
         # the shutdown half-way or change the exit status.
         old_handlers = {s: signal.signal(s, self._on_signal)
                         for s in (signal.SIGINT, signal.SIGTERM)}
+        if hasattr(signal, "SIGUSR1"):  # `kill -USR1 PID`: statistics on request
+            old_handlers[signal.SIGUSR1] = signal.signal(signal.SIGUSR1, self._on_stats)
         # The scan thread and the Modbus thread share the GIL. A thread that wants it waits
         # up to the switch interval (5 ms by default) for a busy holder to let go: that
         # would be scan-start jitter under Modbus load (and Modbus latency during
@@ -385,11 +393,12 @@ class Daemon:
                     self._set_period(sw0)
                 else:
                     plc.mem.sw.w[0] = self.period_ms
-            if end >= next_stats:
+            if end >= next_stats or self.stats_wanted:
+                self.stats_wanted = False
                 req = server.stats.requests
                 rate = (req - last_requests) / (end - last_stats_t)
                 last_requests, last_stats_t = req, end
-                next_stats = end + opt.stats_interval
+                next_stats = end + opt.stats_interval if opt.stats_interval else math.inf
                 self.say(self._stats_line(server, rate))
 
     def _stats_line(self, server: ServerThread, rate: float) -> str:
@@ -401,7 +410,8 @@ class Daemon:
                 f"overruns={self.overruns} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
                 f"jitter_max={_ms(jmax)} clients={server.stats.clients} req/s={rate:.0f} "
                 f"exceptions={server.stats.exceptions} "
-                f"refused={server.stats.rejected + server.stats.denied} state={self.plc.state}")
+                f"refused={server.stats.rejected + server.stats.denied} state={self.plc.state}"
+                + (f" web={self.web.server.url}" if self.web is not None else ""))
 
     def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
                   persister: retain.Persister | None) -> None:

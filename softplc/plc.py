@@ -12,9 +12,10 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from . import symbols
 from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
 from .compiler import Resolved, compile_program, resolve
-from .config import Config, key_path, load_config
+from .config import Config, key_path, load_config, symbol_table
 from .config_models import (
     build_counters,
     parse_analog,
@@ -64,6 +65,7 @@ class PLC:
         self.config = cfg  # as written; `settings` is the same, checked and typed
         self.settings: Config = settings
         self.profile: Profile = PROFILES[settings.profile]
+        self.symbols = symbols.from_config(cfg, self.config_dir, self.profile)
         self.ast = program
         self._refs: dict[str, Ref] = {}
         self.mem = MemoryImage(self.profile)
@@ -109,12 +111,14 @@ class PLC:
     @classmethod
     def from_file(cls, path: str | Path, config: str | Path | dict[str, Any] | None = None,
                   **kw: Any) -> PLC:
-        return cls._checked(lambda: parse_file(path), config, kw)
+        table = symbol_table(config)
+        return cls._checked(lambda: parse_file(path, table), config, kw)
 
     @classmethod
     def from_source(cls, text: str, config: str | Path | dict[str, Any] | None = None,
                     *, file: str = "<string>", **kw: Any) -> PLC:
-        return cls._checked(lambda: parse(text, file), config, kw)
+        table = symbol_table(config)
+        return cls._checked(lambda: parse(text, file, table), config, kw)
 
     @classmethod
     def _checked(cls, parser: Any, config: Any, kw: dict[str, Any]) -> PLC:
@@ -520,7 +524,9 @@ class PLC:
             return address
         ref = self._refs.get(address)
         if ref is None:  # parsed once per address string: hosts poll the same words
-            ref = self._refs[address] = parse_address(address, self.profile)
+            ref = self._refs[address] = (parse_address(address, self.profile)
+                                         if address.startswith("%")
+                                         else self.symbols.ref(address))  # plc["START_PB"]
         return ref
 
     def force(self, address: str, value: Any) -> None:

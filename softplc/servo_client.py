@@ -221,13 +221,15 @@ def plot_tuning(result: TuningResult, out: str, counts_per_mm: float = 409.6) ->
     t = [(r[0] - t0) * 1000 for r in s]
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(9, 6),
                                    gridspec_kw={"height_ratios": [3, 2]})
-    ax1.plot(t, [r[1] / counts_per_mm for r in s], label="commanded", color="tab:blue")
+    open_loop = result.test == "openloop"
+    if not open_loop:  # in open loop nothing is commanded: the position word follows
+        ax1.plot(t, [r[1] / counts_per_mm for r in s], label="commanded", color="tab:blue")
     ax1.plot(t, [r[2] / counts_per_mm for r in s], label="actual", color="tab:orange",
              linestyle="--")
     ax1.set_ylabel("position (mm)")
     ax1.grid(True, alpha=0.3)
     ax1.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
-    if result.test == "openloop":  # no loop, no following error: show the output instead
+    if open_loop:  # no loop, no following error: show the output instead
         ax2.plot(t, [r[4] for r in s], label="DAC output", color="tab:green")
         ax2.set_ylabel("DAC output (bits, 16-bit scale)")
     else:
@@ -239,10 +241,17 @@ def plot_tuning(result: TuningResult, out: str, counts_per_mm: float = 409.6) ->
     ax2.axhline(0, color="black", linewidth=0.5)
     ax2.set_xlabel("time (ms)")
     ax2.grid(True, alpha=0.3)
-    ax2.legend(loc="upper left", bbox_to_anchor=(1.12, 1.0), borderaxespad=0)
-    um = result.fe_max / counts_per_mm * 1000
-    fig.suptitle(f"{result.test} move, axis {result.axis}: {result.moved} counts, "
-                 f"max |FE| {result.fe_max:.1f} counts ({um:.1f} µm)")
+    # right of the secondary axis's labels, when there is one
+    ax2.legend(loc="upper left", bbox_to_anchor=(1.01 if open_loop else 1.12, 1.0),
+               borderaxespad=0)
+    moved = f"moved {result.moved:+d} counts ({result.moved / counts_per_mm:+.2f} mm)"
+    if open_loop:  # the following error means nothing without a loop
+        peak = max((r[4] for r in s), key=abs, default=0.0)
+        what = f"output {peak:.0f} bits, {moved}"
+    else:
+        um = result.fe_max / counts_per_mm * 1000
+        what = f"{moved}, max |FE| {result.fe_max:.1f} counts ({um:.1f} µm)"
+    fig.suptitle(f"{result.test} move, axis {result.axis}: {what}")
     fig.tight_layout()
     fig.savefig(out, dpi=110, bbox_inches="tight")
     plt.close(fig)

@@ -54,16 +54,28 @@ def plc(request: pytest.FixtureRequest) -> PLC:
     marker = request.node.get_closest_marker("plc_program")
     if marker is None:
         pytest.fail("the `plc` fixture needs @pytest.mark.plc_program(path, config=...)")
-    path = Path(marker.args[0])
-    config = marker.kwargs.get("config", marker.args[1] if len(marker.args) > 1 else None)
+    here = Path(str(request.node.path)).parent
     root = Path(str(request.config.rootpath))
-    if not path.is_absolute() and not path.exists():
-        path = root / path
-    if isinstance(config, str) and not Path(config).is_absolute() and not Path(config).exists():
-        config = root / config
+    path = _locate(marker.args[0], here, root)
+    config = marker.kwargs.get("config", marker.args[1] if len(marker.args) > 1 else None)
+    if isinstance(config, (str, Path)):
+        config = _locate(config, here, root)
     p = PLC.from_file(path, config)
     yield p
     p.close()
+
+
+def _locate(name: str | Path, here: Path, root: Path) -> Path:
+    """A marker's file: relative to the test file's folder, as a user writes it next to
+    the test (`pytest /elsewhere/test_motor.py` then works from any directory); else to
+    the rootdir or the current directory, where earlier projects put their paths."""
+    path = Path(name)
+    if path.is_absolute():
+        return path
+    for base in (here, root, Path.cwd()):
+        if (base / path).exists():
+            return base / path
+    return here / path  # missing: the error names the test file's folder
 
 
 def pulse(plc: PLC, address: str, scans: int = 1) -> None:

@@ -39,12 +39,73 @@ def test_summary_rungs_json_format_and_python(capsys):
     rungs = json.loads(capsys.readouterr().out)["rungs"]
     assert len(rungs) == 29 and rungs[0]["title"].startswith("PULSOS")
     assert softplc([*args, "--format"]) == 0
-    text = capsys.readouterr().out.split("\n", 1)[1]  # after the summary line
+    text = capsys.readouterr().out  # the program only: `> new.il` gives a program
     original = parse(open("ladder_programs/drawing_table.il").read())
     again = parse(text)
     assert [r.instructions for r in again.rungs] == [r.instructions for r in original.rungs]
     assert softplc([*args, "--python"]) == 0
     assert "def _main(" in capsys.readouterr().out
+
+
+MESSY = """\
+(* Motor latch, first line of the header *)
+(*   %I0.0 start, %I0.1 stop *)
+
+
+SECTION 0
+(*RUNG: latch*)
+ld %i0.0   (* start button *)
+or %Q0.0
+andn %I0.1
+st %Q0.0
+(* a comment over
+   two lines *)
+ld 1
+[%MW0:=%MW1+1]
+LD %M0
+IN %TM0
+"""
+
+
+def test_format_is_a_formatter(tmp_path, capsys):
+    """Formatted program alone on stdout, comments kept, no --config needed (%TM0 is not
+    configured), the same rungs; --in-place rewrites the file once, CRLF kept."""
+    prog = tmp_path / "messy.il"
+    prog.write_text(MESSY)
+    assert softplc(["check", "--format", str(prog)]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert out.startswith("(* Motor latch, first line of the header *)\n"
+                          "(*   %I0.0 start, %I0.1 stop *)\n\nSECTION     0\n")
+    assert "LD    %I0.0  (* start button *)\n" in out
+    assert "(* a comment over\n   two lines *)\n" in out
+    assert "[ %MW0 := %MW1 + 1 ]\n" in out
+    before, after = parse(MESSY), parse(out)
+    assert [(r.title, r.instructions) for r in after.rungs] == \
+        [(r.title, r.instructions) for r in before.rungs]
+    crlf = tmp_path / "crlf.il"
+    crlf.write_bytes(MESSY.replace("\n", "\r\n").encode())
+    assert softplc(["check", "--format", "--in-place", str(crlf)]) == 0
+    assert capsys.readouterr() == ("", f"{crlf}: formatted\n")
+    assert crlf.read_bytes() == out.replace("\n", "\r\n").encode()
+    assert softplc(["check", "--in-place", str(crlf)]) == 0
+    assert capsys.readouterr() == ("", f"{crlf}: already formatted\n")
+
+
+def test_format_refuses_a_bad_program_and_changes_nothing(tmp_path, capsys):
+    prog = tmp_path / "bad.il"
+    prog.write_text("LD %I0.0\nSTX %Q0.0\n")
+    assert softplc(["check", "--format", "--in-place", str(prog)]) == 1
+    out, err = capsys.readouterr()
+    assert out == "" and f"{prog}:2:1: unknown instruction 'STX'" in err
+    assert prog.read_text() == "LD %I0.0\nSTX %Q0.0\n"
+    # with --config, the full check runs too
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("")
+    prog.write_text("LD %M0\nIN %TM0\n")
+    assert softplc(["check", "--format", str(prog), "--config", str(cfg)]) == 1
+    out, err = capsys.readouterr()
+    assert out == "" and "timer %TM0 is used but not configured" in err
 
 
 def test_missing_file(capsys):

@@ -60,6 +60,8 @@ def _paths(node: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
 @cache
 def _seed(path: Path) -> tuple[dict[str, Any], Any, list[tuple[Any, ...]]]:
     cfg = tomllib.loads(path.read_text(encoding="utf-8"))
+    if "symbols_file" in cfg:  # a dict config has no folder: the file's path made whole
+        cfg["symbols_file"] = str(path.parent / cfg["symbols_file"])
     # the daemon's sections too, so that their values get mutated as well
     cfg.setdefault("modbus", {"port": 5020, "read_only": ["%MW100:4"], "frame_timeout": "2s"})
     cfg.setdefault("daemon", {"save_interval": "5s", "rt_priority": 10})

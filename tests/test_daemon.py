@@ -77,6 +77,20 @@ def test_banner_sigint_and_period(daemons, tmp_path):
     assert re.search(r"stopped after \d+ scans, 0 overruns, .*outputs 0", d.wait_for("stopped"))
 
 
+def test_stats_on_request_name_the_monitor(daemons, tmp_path):
+    """No periodic line (--stats-interval 0) to scroll the banner away; SIGUSR1 prints one,
+    ending with the web monitor's address."""
+    d = start(daemons, tmp_path, "--stats-interval", "0", "--web", "0")
+    url = re.search(r"web monitor on (\S+)", "".join(d.out))[1]
+    with d.client() as c:
+        wait_scans(c, 2)
+    assert not any(line.startswith("stats ") for line in d.out)
+    d.proc.send_signal(signal.SIGUSR1)
+    stats = d.wait_for(r"^stats ")
+    assert re.search(r"scans=\d+ .* state=RUN web=" + re.escape(url) + "$", stats.strip())
+    assert d.stop() == 0
+
+
 def test_host_write_seen_at_next_scan_not_earlier(daemons, tmp_path):
     d = start(daemons, tmp_path, "--period", "100ms")
     with d.client() as c:

@@ -163,7 +163,7 @@ def test_drawn_plot_is_in_cm_with_both_paths_and_the_legend_outside(tmp_path):
         mp.undo()
     fig = saved["fig"]
     ax = fig.axes[0]
-    assert ax.get_xlabel() == "x (cm)" and ax.get_ylabel() == "z (cm)"
+    assert ax.get_xlabel() == "X (cm)" and ax.get_ylabel() == "Z (cm)"  # as the preview
     assert ax.get_xlim()[1] < 20  # 10 cm drawn, not 1111 steps
     prog_lines, _, drawn = ax.collections  # programmed first, drawn last: on top
     assert drawn.get_zorder() > prog_lines.get_zorder()

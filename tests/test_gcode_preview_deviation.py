@@ -130,3 +130,52 @@ def test_cli_help(capsys):
     for opt in ("--host", "--port", "--preview", "--dry-run", "--start-at", "--trace",
                 "--plane", "--steps-per-unit"):
         assert opt in text
+
+
+def _star_trace() -> tuple[list, list, float]:
+    """The star drawn exactly as programmed (it starts and ends at (0, 0)), in steps."""
+    prog = parse_gcode((SAMPLES / "star.gcode").read_text())
+    spu = prog.config.steps_per_unit
+    samples, t = [], 0.0
+    for s in prog.segments:
+        for x, z in (s.start, s.end):
+            samples.append((t, x * spu, z * spu, int(s.pen_down), 0))
+            t += 0.1
+    segs = [((s.start[0] * spu, s.start[1] * spu), (s.end[0] * spu, s.end[1] * spu))
+            for s in prog.segments if s.pen_down]
+    return samples, segs, spu
+
+
+def _draw_star(out: Path) -> None:
+    from softplc.devices.trace import plot_samples
+
+    samples, segs, spu = _star_trace()
+    plot_samples(samples, out, segs, units="units", unit_name="cm", steps_per_unit=(spu, spu),
+                 travel_steps=(25 * spu, 25 * spu), title="trace.csv", full_area=True)
+
+
+def test_plots_keep_the_legend_off_the_top_edge_and_name_axes_alike(tmp_path):
+    import matplotlib.image
+
+    preview(SAMPLES / "star.gcode", tmp_path / "preview.png")
+    _draw_star(tmp_path / "drawn.png")
+    for name in ("preview.png", "drawn.png"):
+        top = matplotlib.image.imread(tmp_path / name)[:4, :, :3]
+        assert top.min() == 1.0, f"{name}: something touches the image's top edge"
+    preview(SAMPLES / "star.gcode", tmp_path / "preview.svg")
+    _draw_star(tmp_path / "drawn.svg")
+    for name in ("preview.svg", "drawn.svg"):  # matplotlib keeps each text as a comment
+        text = (tmp_path / name).read_text()
+        assert "<!-- X (cm) -->" in text and "<!-- Z (cm) -->" in text, name
+
+
+def test_drawn_plot_start_marker_visible_under_the_end_at_the_same_point(tmp_path):
+    import matplotlib.image
+
+    _draw_star(tmp_path / "drawn.png")
+    rgb = matplotlib.image.imread(tmp_path / "drawn.png")[:, :, :3]
+    green = np.array([0x2C, 0xA0, 0x2C]) / 255  # tab:green: only the start marker uses it
+    blue = np.array([0x1F, 0x77, 0xB4]) / 255  # tab:blue: the end marker
+    near = lambda c: (np.abs(rgb - c).max(axis=2) < 0.05).sum()  # noqa: E731
+    # both in the plot and in the legend: the plot's start ring shows around the end square
+    assert near(green) > 100 and near(blue) > 40

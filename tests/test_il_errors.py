@@ -250,3 +250,24 @@ def test_configured_module_outputs_are_accepted():
 ])
 def test_a_skipped_line_causes_no_follow_up_errors(src, lines):
     assert [d.line for d in errors_of(src).diagnostics] == lines
+
+
+@pytest.mark.parametrize("source, suggestion", [
+    ("CUU %C0\n", "(did you mean CU?)"),
+    ("LDD %I0.0\nST %Q0.0\n", "(did you mean LD, "),
+    ("ld %I0.0\nstt %Q0.0\n", "(did you mean ST or STN?)"),
+])
+def test_unknown_mnemonic_gets_a_did_you_mean(source: str, suggestion: str):
+    with pytest.raises(ParseError) as e:
+        PLC.from_source(source)
+    (d,) = e.value.diagnostics
+    assert suggestion in d.message
+    # the list of what is expected is whole: it names the last mnemonics of the grammar
+    assert d.expected.startswith("an instruction: LD LDN") and d.expected.endswith("#D POST")
+    assert "EXCHn" in d.expected and "RETCN" in d.expected and not d.expected.endswith(")")
+
+
+def test_unknown_word_far_from_every_mnemonic_gets_no_guess():
+    with pytest.raises(ParseError) as e:
+        PLC.from_source("WHATEVER %M0\n")
+    assert "did you mean" not in e.value.diagnostics[0].message

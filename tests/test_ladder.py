@@ -293,3 +293,25 @@ def test_cli_ladder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert "rung 3  stack" in txt and "rung 2" not in txt
     assert main(["ladder", str(SAMPLE), "--rung", "99"]) == 1
     assert "no rung '99'" in capsys.readouterr().err
+
+
+def test_svg_box_configuration_clear_of_the_pin_names(tmp_path):
+    """`ladder --config`: the block's "TOF 100ms" line sits below the IN pin's name (it
+    used to overlap it) and inside the box."""
+    prog = tmp_path / "tof.il"
+    prog.write_text("BLK   %TM1\nLD    %I0.1\nIN\nOUT_BLK\nLD    Q\nST    %Q0.1\nEND_BLK\n")
+    cfg = tmp_path / "tof.toml"
+    cfg.write_text('timers."%TM1" = { type = "TOF", base = "100ms", preset = 20 }\n')
+    out = tmp_path / "tof.svg"
+    assert main(["ladder", str(prog), "--config", str(cfg), "--svg", str(out)]) == 0
+    ns = {"s": "http://www.w3.org/2000/svg"}
+    root = ET.parse(out).getroot()
+    texts = {t.text: t for t in root.iterfind(".//s:text", ns)}
+    pin, info = texts["IN"], texts["TOF 100ms"]
+    pin_base = float(pin.get("y"))
+    info_top = float(info.get("y")) - 0.75 * float(info.get("font-size"))  # cap height
+    assert info_top >= pin_base + 2, (pin_base, info_top)
+    box_bottom = max(float(ln.get("y2")) for ln in root.iterfind(".//s:line", ns)
+                     if ln.get("y1") == ln.get("y2")
+                     and float(ln.get("x1")) < float(info.get("x")) < float(ln.get("x2")))
+    assert float(info.get("y")) < box_bottom

@@ -125,3 +125,26 @@ def test_bad(plc):
 def test_plugin_registers_the_marker(pytester):
     result = pytester.runpytest("--markers")
     result.stdout.fnmatch_lines(["*plc_program(path, config=None)*"])
+
+
+def test_marker_paths_are_relative_to_the_test_file(pytester):
+    """`pytest sub/test_motor.py` from another folder (rootdir elsewhere too) finds the
+    program next to the test file; a missing program is named with that folder."""
+    pytester.makeini("[pytest]\n")  # rootdir = pytester.path, not the test's folder
+    sub = pytester.mkdir("sub")
+    (sub / "motor.il").write_text(MOTOR)
+    (sub / "motor.toml").write_text(MOTOR_TOML)
+    (sub / "test_motor.py").write_text("""
+import pytest
+
+@pytest.mark.plc_program("motor.il", config="motor.toml")
+def test_found(plc):
+    assert plc.scan_period == 0.01
+
+@pytest.mark.plc_program("absent.il")
+def test_missing(plc):
+    pass
+""")
+    result = pytester.runpytest("-p", "no:cacheprovider", "sub/test_motor.py")
+    result.assert_outcomes(passed=1, errors=1)
+    result.stdout.fnmatch_lines([f"*{sub / 'absent.il'}*"])

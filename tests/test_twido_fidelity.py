@@ -205,7 +205,8 @@ def test_nothing_tracked_when_every_block_runs_every_scan(plc_from_source):
 
 
 # ---- 3. drums write their outputs only when the step changes ------------------------------
-# Source: recorded M221 simulator runs (issue 11) [m221].
+# Source: recorded M221 simulator runs (issue 11) [m221]; while R is held the drum rewrites
+# step 0's bits at every scan (issue 24, a user's observation; no manual found saying so).
 
 def test_drum_outputs_written_on_step_change_only(plc_from_source):
     src = """
@@ -229,14 +230,21 @@ R     %Q0.0
     assert not plc["%Q0.0"], "the reset by another rung stands: no rewrite every scan"
     pulse_in(plc, "%M0")
     assert plc["%Q0.0"] and plc["%Q0.1"], "a step change writes the outputs"
-    plc["%M9"] = 1                     # R held: back to step 0, written once
+    plc["%M9"] = 1                     # R held: back to step 0
     plc.scan()
     assert plc["%Q0.0"] and not plc["%Q0.1"]
     plc["%M5"] = 1
     plc.scan()
+    assert not plc["%Q0.0"], "the rung after the drum resets the output in this scan"
+    plc["%M5"] = 0
+    plc.scan()
+    assert plc["%Q0.0"], "R held: the next scan writes step 0's bits again"
+    plc["%M9"] = 0                     # R released: written once more, then left alone
+    plc["%M5"] = 1
+    plc.scan()
     plc["%M5"] = 0
     plc.scan(2)
-    assert not plc["%Q0.0"], "R held at step 0 does not rewrite either"
+    assert not plc["%Q0.0"], "R released at step 0: no rewrite"
     plc.cold_start()
     plc["%M9"] = 0
     plc.scan()

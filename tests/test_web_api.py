@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
 import threading
 import time
 from pathlib import Path
@@ -424,6 +425,20 @@ def test_softplc_io_command(star, capsys):
     s.scans()
     assert cli(base + ["get", "%MW3:2"]) == 0
     assert capsys.readouterr().out.splitlines()[-2:] == ["%MW3 = 16", "%MW4 = -2"]
+    # bits as 1/0 and a timer as `softplc repl` prints them (softplc.display), not a dict
+    assert cli(base + ["get", "%Q0.0:3", "%TM0"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [ln.split(" = ")[1] in ("0", "1") for ln in lines[:3]] == [True] * 3
+    assert re.fullmatch(r"%TM0 = TON base 100ms Q=[01] V=\d+ P=50", lines[3]), lines[3]
+    # symbols (star_delta.toml's symbols_file) name objects for the API too
+    assert cli(base + ["set", "FAULT_RESET", "1"]) == 0
+    s.scans()
+    assert cli(base + ["get", "fault_reset", "STAR_TIME.P"]) == 0
+    assert capsys.readouterr().out.splitlines()[-2:] == ["%I0.3 FAULT_RESET = 1",
+                                                          "%TM0.P STAR_TIME.P = 50"]
+    assert cli(base + ["set", "FAULT_RESET", "0"]) == 0
+    assert cli(base + ["get", "STRATS"]) == 1
+    assert "unknown symbol 'STRATS' (did you mean STARTS?)" in capsys.readouterr().err
     assert cli(base + ["force", "%I0.1", "0"]) == 0
     s.scans()
     assert s.plc.forced == {"%I0.1": 0}

@@ -9,7 +9,7 @@ from collections import Counter
 from dataclasses import asdict
 
 from ..errors import ConfigError, Diagnostic, ProgramError, SoftPLCError
-from ._args import add_program_arguments, load_plc
+from ._args import add_program_arguments, check_files, load_plc
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,7 +22,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--python", action="store_true",
                    help="print the Python code the rungs compile to")
     p.add_argument("--format", action="store_true",
-                   help="print the program re-formatted in TwidoSuite export layout")
+                   help="print the program formatted in TwidoSuite export layout, comments "
+                        "kept (stdout; messages go to stderr); only the syntax is checked "
+                        "unless --config is given")
+    p.add_argument("--in-place", action="store_true",
+                   help="with --format: rewrite PROGRAM.il instead of printing it")
     p.add_argument("--json", action="store_true",
                    help="print the result as JSON (errors with file, line, column, text, "
                         "expected; or the rung list) for editors and CI")
@@ -30,6 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.format or args.in_place:
+        return _format(args)
     try:
         plc = load_plc(args, devices=False)
     except ProgramError as e:
@@ -37,10 +43,7 @@ def run(args: argparse.Namespace) -> int:
             print(json.dumps({"ok": False, "errors": [asdict(d) for d in e.diagnostics]},
                              indent=2))
             return 1
-        for d in e.diagnostics:
-            print(d, file=sys.stderr)
-        print(_count(len(e.diagnostics), "error"), file=sys.stderr)
-        return 1
+        return _report(e)
     except SoftPLCError as e:  # a missing file, a configuration error
         if not args.json:
             raise
@@ -67,12 +70,46 @@ def run(args: argparse.Namespace) -> int:
             label = f" %L{r.label}:" if r.label is not None else ""
             print(f"  rung {r.index:3d}  lines {r.first_line:4d}-{r.last_line:<4d} {where:5s}"
                   f"{label} {r.title}")
-    if args.format:
-        from ..il.printer import format_program
-
-        print(format_program(prog), end="")
     if args.python:
         print(plc.program.source)
+    return 0
+
+
+def _report(e: ProgramError) -> int:
+    for d in e.diagnostics:
+        print(d, file=sys.stderr)
+    print(_count(len(e.diagnostics), "error"), file=sys.stderr)
+    return 1
+
+
+def _format(args: argparse.Namespace) -> int:
+    """The formatter: the program on stdout (or rewritten), every message on stderr."""
+    from ..config import symbol_table
+    from ..il.formatter import format_source
+
+    if args.rungs or args.python or args.json:
+        raise SoftPLCError("--format prints the program only: leave out --rungs, --python "
+                           "and --json")
+    check_files(args)
+    raw = args.program.read_bytes()
+    text = raw.decode("utf-8-sig", errors="replace")
+    try:
+        formatted = format_source(text, str(args.program), symbol_table(args.config)
+                                  if args.config is not None else None)
+        if args.config is not None:  # the full check too, blocks configured
+            load_plc(args, devices=False)
+    except ProgramError as e:
+        return _report(e)
+    if not args.in_place:
+        sys.stdout.write(formatted)
+        return 0
+    if b"\r\n" in raw:  # a TwidoSuite export from Windows stays CRLF
+        formatted = formatted.replace("\n", "\r\n")
+    if formatted.encode() == raw:
+        print(f"{args.program}: already formatted", file=sys.stderr)
+    else:
+        args.program.write_bytes(formatted.encode())
+        print(f"{args.program}: formatted", file=sys.stderr)
     return 0
 
 

@@ -98,8 +98,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "io", help="read, write, force and RUN/STOP a running daemon (web API)",
         description="Operate a running `softplc run` through its web API. Changes are "
                     "applied at the next scan boundary; reads return the values of one scan. "
-                    "Examples: `softplc io set %%I0.0 1`, `softplc io get %%MW0:4 %%TM0`, "
-                    "`softplc io force %%I0.1 0`, `softplc io unforce`, `softplc io stop`.")
+                    "Examples: `softplc io set %I0.0 1`, `softplc io get %MW0:4 %TM0`, "
+                    "`softplc io force %I0.1 0`, `softplc io unforce`, `softplc io stop`.")
     p.add_argument("--host", default="127.0.0.1", help="daemon's web host (127.0.0.1)")
     p.add_argument("--port", type=port, default=DEFAULT_PORT,
                    help=f"daemon's web port (--web of softplc run; default {DEFAULT_PORT})")
@@ -122,6 +122,18 @@ def _pairs(args: list[str], what: str) -> list[tuple[str, int | float]]:
     return [(args[k], parse_value(args[k + 1])) for k in range(0, len(args), 2)]
 
 
+def _show(name: str, value: Any) -> str:
+    """A value of the API's answer as `softplc repl` prints it (softplc.display)."""
+    from ..address import parse_address
+    from ..display import format_value
+
+    try:
+        ref = parse_address(name)
+    except SoftPLCError:
+        ref = None
+    return format_value(value, ref)
+
+
 def run(args: argparse.Namespace) -> int:
     c = Client(args.host, args.port, args.token)
     a, rest = args.action, args.args
@@ -129,7 +141,10 @@ def run(args: argparse.Namespace) -> int:
         if not rest:
             raise IoError("get: name at least one object, e.g. `softplc io get %MW0:4`")
         out: Any = c.get(*rest)
-        lines = [f"{k} = {v}" for k, v in out.items()]
+        # one object per name asked (no range): the symbols asked for beside the addresses
+        asked = rest if len(rest) == len(out) else [""] * len(out)
+        lines = [f"{k}{'' if a.startswith('%') or not a else ' ' + a.upper()} = "
+                 f"{_show(k, v)}" for a, (k, v) in zip(asked, out.items(), strict=True)]
     elif a in ("set", "force"):
         if a == "set":
             out = c.request("write", {"writes": [{"object": o, "value": v}

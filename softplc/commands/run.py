@@ -8,7 +8,7 @@ Settings come from the command line, else from the machine config, else defaults
               idle_timeout = "60s"   # 1 s..1 day without a complete request; "0s" = never
               read_only = ["%MW100:20", "%M0:8"]             # writes there get exception 02
               allow = ["127.0.0.1", "192.168.1.0/24"]        # --allow; default: anyone
-    [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "5s"
+    [daemon]  state = "plc.state"  save_interval = "5s"  stats_interval = "60s"
               rt_priority = 10                               # 0 = normal scheduling
 """
 
@@ -117,7 +117,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="with --speed, run the virtual clock on while the program waits for "
                         "its host (ignore the config's [daemon] host_wait bit)")
     p.add_argument("--stats-interval", type=_duration,
-                   help="statistics line every ... (default 5s; 0 = none)")
+                   help="statistics line every ... (default 60s; 0 = none); "
+                        "`kill -USR1 PID` prints one at once")
     p.add_argument("--max-clients", type=_max_clients,
                    help="simultaneous Modbus connections (32, up to 1000); when all "
                         "are taken a new client takes the slot of an unused one")

@@ -23,11 +23,11 @@ if TYPE_CHECKING:
 
 _EXAMPLES = """\
 examples:
-  softplc tune --example demo                      # write sample inputs (22699 kg axis)
-  softplc tune --dir demo --plot demo/fit.png      # estimate, write demo/MPSet.H, plot
-  softplc tune --dir demo --port 5020 --once      # answer the PLC's request (%MW401)
-  softplc tune --settings s.txt --calibration IMCal_.dta --measurement IMMea_.dta \\
-               --template MPSetTemp.H --output MPSet.H
+  softplc tune --example demo                  # sample inputs (22699 kg axis)
+  softplc tune --dir demo --plot demo/fit.png  # estimate, write demo/MPSet.H
+  softplc tune --dir demo --port 5020 --once   # answer one request (%MW401)
+  softplc tune --settings s.txt --calibration IMCal_.dta \\
+               --measurement IMMea_.dta --template MPSetTemp.H --output MPSet.H
 """
 
 
@@ -63,11 +63,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="figures of the intervals, fitted lines and current jumps")
     o.add_argument("--json", action="store_true", help="print the result as JSON")
     m = p.add_argument_group(
-        "online mode: answer the PLC's requests over Modbus TCP (%MW401 EST_REQ, result "
-        "words %MW402-%MW463)")
+        "online mode", "answer the PLC's requests over Modbus TCP (%MW401 EST_REQ,\n"
+                       "result words %MW402-%MW463)")
     m.add_argument("--port", type=port, help="the PLC's Modbus TCP port (enables online mode)")
     m.add_argument("--host", default="127.0.0.1", help="PLC address (default %(default)s)")
     m.add_argument("--device-id", type=int, default=1, help="Modbus unit id (default 1)")
+    m.add_argument("--connect-timeout", type=float, default=30.0, metavar="SECONDS",
+                   help="wait this long for the daemon to listen (default %(default)s)")
     m.add_argument("--once", action="store_true", help="answer one request, then exit")
     m.add_argument("--wait", type=float, default=None, metavar="SECONDS",
                    help="give up after this long without a request (default: wait forever)")
@@ -149,9 +151,12 @@ def _online(args: argparse.Namespace, once) -> int:
     from ..massest.handshake import W_REQ, serve
     from ..modbus.host import ModbusHost
 
-    with ModbusHost(args.host, args.port, device_id=args.device_id,
-                    poll_interval=args.poll) as host:
+    host = ModbusHost(args.host, args.port, device_id=args.device_id, poll_interval=args.poll)
+    host.connect_within(args.connect_timeout, lambda msg: print(msg, file=sys.stderr))
+    try:
         print(f"waiting for estimation requests (%MW{W_REQ}) from {host.where}",
               file=sys.stderr)
         served = serve(host, once, once=args.once, timeout=args.wait)
+    finally:
+        host.close()
     return 0 if served and all(s.status == 0 for s in served) else 1

@@ -16,6 +16,7 @@ from enum import Enum
 from typing import Any
 
 from ..address import Ref
+from ..display import format_value
 from ..errors import SoftPLCError
 from ..il import ast as A
 from ..il.printer import format_instruction
@@ -176,8 +177,9 @@ class Controller:
                         Change(self.plc.scan_count, self.plc.time, self.ran, old, v))
                     if b.enabled:
                         b.hits += 1
-                        hits.append(Stop(StopKind.WATCH, f"watch #{b.id} {b.text}: {old} -> "
-                                         f"{v} (in {self.ran})"))
+                        hits.append(Stop(StopKind.WATCH, f"watch #{b.id} {b.text}: "
+                                         f"{format_value(old)} -> {format_value(v)} "
+                                         f"(in {self.ran})"))
             elif b.enabled:
                 hit = (b.mode in ("", "rises") and v and not old) or \
                     (b.mode == "falls" and old and not v) or (b.mode == "changes" and v != old)

@@ -30,6 +30,7 @@ from typing import Any
 
 from ..address import IO_KINDS, Ref, expand
 from ..config import duration
+from ..display import format_value
 from ..errors import ConfigError, SoftPLCError
 from ..il import ast as A
 from ..il.parser import parse_file
@@ -183,6 +184,7 @@ class Session:
 
         for r in self.plc.ast.rungs:
             walk(r.instructions)
+        found.update(s.name for s in self.plc.symbols)
         for kind, blocks in self.plc.mem.blocks.items():
             for i in blocks:
                 if kind != "PID":  # PID n is no address
@@ -195,29 +197,27 @@ class Session:
 
     # ---- objects -------------------------------------------------------------------------
     def parse_obj(self, text: str) -> list[Ref]:
-        """An address or a range: `%MW0:15` (15 words), `%Q1.0:8` (8 bits from %Q1.0)."""
-        text = text.strip()
-        if not text.startswith("%"):
-            raise DebugError(f"{text!r} is not an address (addresses start with %, e.g. %MW3)")
-        return expand(text, self.plc.profile)
+        """An address, a range (`%MW0:15`: 15 words, `%Q1.0:8`: 8 bits from %Q1.0) or a
+        symbol (`START_PB`, `TIMER1.Q`), each object with its symbol attached."""
+        table = self.plc.symbols
+        return [table.attach(r) for r in expand(table.address_of(text), self.plc.profile)]
+
+    def title(self, ref: Ref) -> str:
+        """`%I0.0 START_PB`: an object and its symbol, if it has one."""
+        return f"{ref} {ref.symbol}" if ref.symbol else str(ref)
 
     def read(self, ref: Ref) -> Any:
         return self.plc.mem.read(ref)
 
     def fmt(self, ref: Ref, v: Any, f: str = "") -> str:
         """One value in a format: d (default), u, x, b, f."""
-        if ref.is_block:
-            kind = f"{v.type} base {v.base} " if ref.kind == "TM" else ""
-            return kind + ladder.block_summary(v)
-        if isinstance(v, bool) or ref.type == "bool":
-            return "1" if v else "0"
+        if ref.is_block or ref.type == "bool" or f in ("", "d"):
+            return format_value(v, ref)  # as `softplc io` and the ladder show it
         bits = 32 if ref.kind in DWORDS + FLOATS else 16
         if isinstance(v, float):
             raw = int.from_bytes(struct.pack("<f", v), "little")
         else:
             raw = int(v) & ((1 << bits) - 1)
-        if f in ("", "d"):
-            return f"{v:.7g}" if isinstance(v, float) else str(v)
         if f == "u":
             return str(raw)
         if f == "x":
@@ -393,8 +393,9 @@ class Session:
         if len(refs) != 1:
             raise DebugError("watch one object, e.g. watch %MW32")
         ref = refs[0]
-        b = self.ctl.add_breakpoint(kind="watch", text=str(ref), test=lambda: self.read(ref))
-        return f"watch #{b.id} {ref} (now {self.fmt(ref, b.last)})"
+        b = self.ctl.add_breakpoint(kind="watch", text=self.title(ref),
+                                    test=lambda: self.read(ref))
+        return f"watch #{b.id} {self.title(ref)} (now {self.fmt(ref, b.last)})"
 
     @command("breakpoints", "breaks", "tb")
     def cmd_breakpoints(self, arg: str) -> str:
@@ -454,7 +455,7 @@ class Session:
             lines.append(f"{key}: {len(hist)} change(s)")
             for c in hist:
                 lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {c.where:<18} "
-                             f"{c.old} -> {c.new}")
+                             f"{format_value(c.old)} -> {format_value(c.new)}")
         return "\n".join(lines)
 
     # ---- commands: data -----------------------------------------------------------------------
@@ -472,7 +473,7 @@ class Session:
         for a in arg.split():
             refs = self.parse_obj(a)
             if len(refs) == 1:
-                lines.append(f"{refs[0]} = {self.show(refs[0], fmt)}")
+                lines.append(f"{self.title(refs[0])} = {self.show(refs[0], fmt)}")
                 continue
             per = 8 if fmt in ("", "d", "u", "f") else 4
             for i in range(0, len(refs), per):

@@ -222,23 +222,28 @@ def plot_samples(samples: Any, path: str | os.PathLike[str],
                                          linewidths=0.6, linestyles="--", zorder=3))
         ax.add_collection(LineCollection(segs[moved & down], colors="black",
                                          linewidths=1.0, zorder=4))
-        ax.plot(*pts[0], "o", color="tab:green", ms=5, zorder=5)
-        ax.plot(*pts[-1], "s", color="tab:blue", ms=5, zorder=5)
+        # a drawing often ends where it started (0, 0): the start is a wide ring, the end a
+        # small square drawn on top of it, so both stay visible
+        start = dict(color="tab:green", marker="o", ms=12, mfc="none", mew=2)
+        end = dict(color="tab:blue", marker="s", ms=5)
+        ax.plot(*pts[0], zorder=5, **start)
+        ax.plot(*pts[-1], zorder=6, **end)
         handles += [Line2D([], [], color="black", lw=1.0, label="drawn (pen down)"),
                     Line2D([], [], color="0.55", lw=0.6, ls="--", label="pen-up travel"),
-                    Line2D([], [], color="tab:green", marker="o", ls="", label="start"),
-                    Line2D([], [], color="tab:blue", marker="s", ls="", label="end")]
+                    Line2D([], [], ls="", label="start", **start),
+                    Line2D([], [], ls="", label="end", **end)]
     handles.append(Line2D([], [], color=table.get_edgecolor(), lw=table.get_linewidth(),
                           ls=":", label="table area"))
     if full_area:
         ax.update_datalim([(0, 0), (w, h)])
     ax.autoscale_view()
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel(f"x ({label})")
-    ax.set_ylabel(f"z ({label})")
+    ax.set_xlabel(f"X ({label})")  # the machine's axis names, as the G-code preview
+    ax.set_ylabel(f"Z ({label})")
     missed = samples[-1][4] if samples else 0
     ax.set_title(f"{title or name}: {len(samples)} samples, {int(missed)} missed steps")
     fig.legend(handles=handles, loc="outside right upper", fontsize="small")
+    fig.get_layout_engine().set(w_pad=0.12, h_pad=0.12)  # the legend off the image's edge
     ax.grid(True, lw=0.3)
     fig.savefig(path)
 

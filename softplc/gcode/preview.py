@@ -66,6 +66,7 @@ def preview(program: Program | str | Path, out: str | Path,
     ax.set_ylim(-margin, h + margin)
     ax.set_title(title or Path(program.file).name)
     fig.legend(loc="outside right upper", fontsize="small")  # never over the drawing
+    fig.get_layout_engine().set(w_pad=0.12, h_pad=0.12)  # the legend off the image's edge
     try:
         fig.savefig(out)
     except OSError as e:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import difflib
 import itertools
 import os
 import re
@@ -25,6 +26,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from ..address import Ref, parse_address
 from ..errors import AddressError, Code, Diagnostic, ParseError
 from ..profile import DEFAULT_PROFILE
+from ..symbols import SymbolTable
 from . import ast as A
 
 GRAMMAR = Path(__file__).with_name("twido_il.lark")
@@ -34,7 +36,8 @@ FUNC_ALIASES = {"INTO_TO_REAL": "INT_TO_REAL"}
 
 # Human names for grammar terminals, for "expected ..." in error messages.
 TERMINAL_NAMES = {
-    "ADDRESS": "an address (%M0, %MW3, %I0.1...)", "INT": "a number", "FLOAT": "a number",
+    "ADDRESS": "an address (%M0, %MW3, %I0.1...) or a symbol", "INT": "a number",
+    "FLOAT": "a number",
     "HEX": "a number", "LABEL": "a label (%Ln)", "CMP_OP": "a comparison (> >= < <= = <>)",
     "ASSIGN": "':='", "RSQB": "']'", "LSQB": "'['", "RPAR": "')'", "LPAR": "'('",
     "_NL": "end of line", "$END": "end of file", "LOAD_KW": "LD/LDN/LDR/LDF",
@@ -49,9 +52,19 @@ TERMINAL_NAMES = {
     "LABEL_DEF": "%Ln:",
     "SECTION_KW": "SECTION",
 }
-INSTRUCTIONS = ("LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR XORF ST STN S R "
-                "N AND( OR( XOR( ) MPS MRD MPP [ ] JMP JMPC JMPCN SRn RET END ENDC ENDCN NOP "
-                "BLK OUT_BLK END_BLK IN CU CD U")
+# Every mnemonic the grammar takes (its *_KW terminals), for "expected" and "did you mean"
+INSTRUCTIONS = ("LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR XORF "
+                "AND( OR( XOR( ) ST STN S R N MPS MRD MPP [ ] JMP JMPC JMPCN SRn RET RETC "
+                "RETCN END ENDC ENDCN NOP BLK OUT_BLK END_BLK IN CU CD U I O EXCHn "
+                "=*= -*- # #D POST").split()
+
+
+def _did_you_mean(word: str) -> str:
+    """' (did you mean CU?)' for 'CUU', or '' when no mnemonic is close."""
+    close = difflib.get_close_matches(word.upper(), INSTRUCTIONS, n=3, cutoff=0.6)
+    if not close:
+        return ""
+    return f" (did you mean {', '.join(close[:-1]) + ' or ' if close[1:] else ''}{close[-1]}?)"
 
 
 def _grammar_cache() -> str | bool:
@@ -96,19 +109,29 @@ class _SRDef:
 class _ToAST(Transformer):
     """Parse tree -> AST nodes. Address errors are collected, not raised."""
 
-    def __init__(self, file: str, lines: list[str]):
+    def __init__(self, file: str, lines: list[str], symbols: SymbolTable | None = None):
         super().__init__()
         self.file = file
         self.lines = lines
         self.diags: list[Diagnostic] = []
+        self.symbols = symbols
 
     def _ref(self, tok: Token) -> Ref:
+        text = str(tok)
         try:
-            return parse_address(str(tok))
+            if self.symbols is not None:  # a name, or an address: its symbol attached
+                return self.symbols.ref(text)
+            if not text.startswith("%"):
+                raise AddressError(f"unknown symbol {text!r} (no symbol table: declare "
+                                   f"[symbols] in the configuration)")
+            return parse_address(text)
         except AddressError as e:
-            self.diags.append(Diagnostic(str(e), self.file, tok.line, tok.column, str(tok),
-                                         f"an address within the {DEFAULT_PROFILE.name} profile",
-                                         Code.ADDRESS))
+            symbol = not text.startswith("%")
+            self.diags.append(Diagnostic(
+                str(e), self.file, tok.line, tok.column, text,
+                "a declared symbol or an address" if symbol else
+                f"an address within the {DEFAULT_PROFILE.name} profile",
+                Code.SYMBOL if symbol else Code.ADDRESS))
             return Ref("M", 0)  # placeholder; the program is rejected anyway
 
     # -- operands --
@@ -322,8 +345,9 @@ def _syntax_diag(e: UnexpectedInput, file: str, lines: list[str]) -> Diagnostic:
     stripped = src.lstrip()
     if src and col == len(src) - len(stripped) + 1 and text and not text.startswith(("%", "(")):
         word = stripped.split()[0]
-        return Diagnostic(f"unknown instruction {word!r}", file, line, col, src.strip(),
-                          f"an instruction ({INSTRUCTIONS})", Code.UNKNOWN_INSTRUCTION)
+        return Diagnostic(f"unknown instruction {word!r}{_did_you_mean(word)}", file, line,
+                          col, src.strip(), f"an instruction: {' '.join(INSTRUCTIONS)}",
+                          Code.UNKNOWN_INSTRUCTION)
     return Diagnostic(f"syntax error: {what}", file, line, col, src.strip(), exp, Code.SYNTAX)
 
 
@@ -374,8 +398,9 @@ class _LineParser:
     it are parsed once more on their own and parsing resumes after L, so a file with many
     bad lines costs about two parses, not one per bad line."""
 
-    def __init__(self, text: str, file: str):
+    def __init__(self, text: str, file: str, symbols: SymbolTable | None = None):
         self.file = file
+        self.symbols = symbols
         self.lines = text.splitlines()
         self.diags: list[Diagnostic] = []
         self.bad: set[int] = set()  # 1-based numbers of the lines left out
@@ -409,7 +434,7 @@ class _LineParser:
         return items
 
     def transform(self, tree: Tree) -> list:
-        tx = _ToAST(self.file, self.lines)
+        tx = _ToAST(self.file, self.lines, self.symbols)
         items = []
         for child in tree.children:  # one line item each (start's children)
             if not isinstance(child, Tree):
@@ -452,11 +477,12 @@ def _chunks(text: str, lines: list[str]) -> Iterator[tuple[int, int]]:
         pos = end
 
 
-def parse_lines(text: str, file: str = "<string>") -> tuple[list, list, list[Diagnostic]]:
+def parse_lines(text: str, file: str = "<string>", symbols: SymbolTable | None = None
+                ) -> tuple[list, list, list[Diagnostic]]:
     """Parse to a flat list of line items (instructions, sections, SR defs, labels).
 
     Returns (items, comments, diagnostics); comments are (line, column, text)."""
-    lp = _LineParser(text, file)
+    lp = _LineParser(text, file, symbols)
     items = []
     for start, end in _chunks(text, lp.lines):
         items += lp.parse_range(start, end)
@@ -566,10 +592,12 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
     return A.Program(file, source, rungs, section_titles)
 
 
-def parse(text: str, file: str = "<string>") -> A.Program:
+def parse(text: str, file: str = "<string>", symbols: SymbolTable | None = None
+          ) -> A.Program:
     """Parse a whole program. Raises ParseError listing every syntax problem; the error's
-    `program` holds what parsed (bad lines left out) so later checks can still run."""
-    items, comments, diags = parse_lines(text, file)
+    `program` holds what parsed (bad lines left out) so later checks can still run.
+    `symbols`: the names the program may use for addresses (softplc.symbols)."""
+    items, comments, diags = parse_lines(text, file, symbols)
     if diags:
         err = ParseError(diags)
         err.program = segment(items, comments, file, text) if items else None
@@ -577,11 +605,11 @@ def parse(text: str, file: str = "<string>") -> A.Program:
     return segment(items, comments, file, text)
 
 
-def parse_file(path: str | Path) -> A.Program:
+def parse_file(path: str | Path, symbols: SymbolTable | None = None) -> A.Program:
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8-sig", errors="replace")
     except OSError as e:
         raise ParseError(Diagnostic(f"cannot read program: {e.strerror}", str(p),
                                     code=Code.CANNOT_READ)) from None
-    return parse(text, str(p))
+    return parse(text, str(p), symbols)

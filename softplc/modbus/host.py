@@ -80,6 +80,23 @@ class ModbusHost:
                             "daemon running and serving Modbus TCP on that port?")
         return self
 
+    def connect_within(self, timeout: float, notice: Callable[[str], None] | None = None,
+                       ) -> Self:
+        """`connect()`, retried every poll interval for up to `timeout` s: a host started
+        before the daemon listens waits for it. `notice` gets one message on the first
+        refusal; the last refusal's HostError is raised when the time is up."""
+        end = time.monotonic() + timeout
+        while True:
+            try:
+                return self.connect()
+            except HostError:
+                if time.monotonic() >= end:
+                    raise
+                if notice is not None:
+                    notice(f"waiting up to {timeout:g} s for the PLC at {self.where} ...")
+                    notice = None
+                time.sleep(max(self.poll_interval, 0.1))
+
     def close(self) -> None:
         if self._client is not None:
             self._client.close()

@@ -235,8 +235,12 @@ class Drum(Block):
 
     The step's bits are written to the configured bit objects only when the step changes
     [m221: recorded simulator runs, issue 11], so a rung that resets a drum output holds
-    until the next step change. The first execution after a cold start writes step 0's
-    bits (our choice: the M221 runs start with the drum's outputs in step 0's state)."""
+    until the next step change; except while R is held: the drum is reset at every
+    execution and writes step 0's bits each time, so a rung after the drum that changes
+    one of its outputs is overwritten at the next scan [issue 24: a user's observation,
+    not found in a manual]. The first execution after a cold start writes step 0's bits
+    (our choice: the M221 runs start with the drum's outputs in step 0's state).
+    The short-form pins (`R %DR0`, `U %DR0`) are the generated adapters of `Block`."""
 
     PINS = ("R", "U")
     FIELDS = ("S", "F", "_u")
@@ -264,22 +268,11 @@ class Drum(Block):
                 buf[idx] = (bits >> k) & 1
         self.F = 1 if self.S == len(self.steps) - 1 else 0
 
-    def r(self, v: Any) -> None:
-        if v:
-            self.S = 0
-        self._apply()
-
-    def u(self, v: Any) -> None:
-        v = 1 if v else 0
-        if v and not self._u:
-            self.S = (self.S + 1) % len(self.steps)
-        self._u = v
-        self._apply()
-
     def run(self, R: Any = 0, U: Any = 0) -> None:
         u = 1 if U else 0
         if R:
             self.S = 0
+            self._written = -1  # a reset writes step 0's bits, at every scan it is held
         elif u and not self._u:
             self.S = (self.S + 1) % len(self.steps)
         self._u = u

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
+from ..display import block_fields
 from ..errors import AddressError, SoftPLCError
 from ..il.printer import format_instruction
 from ..modbus.image import ModbusImage, words_to_wire
@@ -136,16 +137,15 @@ class Controller:
 
     # -- objects ------------------------------------------------------------------------------
     def resolve(self, text: Any) -> list[Ref]:
-        """An address or range -> single objects, with a clear error for anything else."""
+        """An address, range or symbol -> single objects, with a clear error for anything
+        else."""
         if not isinstance(text, str) or not text.strip():
             raise ApiError(f"object {text!r}: expected an address like %MW3, %MW0:10, %I0.0")
         key = text.strip().upper()
         refs = self._refs.get(key)
         if refs is None:
-            if not key.startswith("%"):
-                raise ApiError(f"object {text!r}: addresses start with %, e.g. %MW3")
-            try:
-                refs = expand(key, self.profile)
+            try:  # an address, or a symbol of the program (softplc.symbols)
+                refs = expand(self.plc.symbols.address_of(key), self.profile)
             except AddressError as e:
                 raise ApiError(f"unknown object {text!r}: {e}") from None
             for r in refs:
@@ -539,16 +539,6 @@ class Controller:
                "web_changes_applied": self.applied}
         out.update(self.status_extra())
         return out
-
-
-def block_fields(kind: str, b: Any) -> dict[str, Any]:
-    """A function block's fields (those the program can name, plus a timer's type and time
-    base) as a dict."""
-    out: dict[str, Any] = {f: int(getattr(b, f)) for f in BLOCK_FIELDS[kind] if hasattr(b, f)}
-    for extra in ("type", "base"):
-        if hasattr(b, extra):
-            out[extra] = str(getattr(b, extra))
-    return out
 
 
 __all__ = ["ACTIONS", "ApiError", "Controller"]

@@ -6,6 +6,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ...address import Ref
+from ...display import format_value
 from ...il import ast as A
 from ...il.printer import format_expr
 from ...semantics import COMPARE
@@ -33,11 +34,7 @@ class Live:
             v = self.read(ref)
         except Exception:  # an unconfigured block and the like: show nothing
             return "?"
-        if ref.is_block:
-            return block_summary(v)
-        s = str(int(v)) if isinstance(v, bool) else (f"{v:g}" if isinstance(v, float)
-                                                      else str(v))
-        return s + ("F" if str(ref) in self.forced else "")
+        return format_value(v, ref) + ("F" if str(ref) in self.forced else "")
 
     def expr_text(self, e: A.Expr) -> str:
         """An expression with its objects replaced by their values."""

@@ -11,6 +11,8 @@ from .live import Live
 from .text import box_inner_width, program_sections
 
 CH, ROW_H, PAD = 7.2, 48, 20  # pixels per character, per row, margin
+SYMBOL_H = 13  # the symbols' line above the addresses
+INFO_DY = 17  # a box row's info baseline below its wire (pin names sit on the wire, +4)
 
 
 def render_program_svg(program: A.Program, blocks: BlockReader | None = None) -> str:
@@ -80,14 +82,18 @@ def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str],
         if cell.box is not None:
             widths[c] = max(widths[c], box_inner_width(cell) + 2)
         elif cell.elem is not None:
-            widths[c] = max(widths[c], len(cell.elem.symbol), len(cell.elem.label))
+            widths[c] = max(widths[c], len(cell.elem.symbol), len(cell.elem.label),
+                            len(cell.elem.name))
     xs = [x0 + 10]
     for w in widths:
         xs.append(xs[-1] + (w + 4) * CH)
-    height = g.rows * ROW_H
+    # a line more per row for the symbols above the addresses, when the rung shows any
+    extra = SYMBOL_H if any(c.elem is not None and c.elem.name for c in g.cells.values()) else 0
+    row_h = ROW_H + extra
+    height = g.rows * row_h
 
     def wy(r: int) -> float:
-        return top + r * ROW_H + 28
+        return top + r * row_h + 28 + extra
 
     body.append(_line(x0 + 10, top, x0 + 10, top + height, pw))
     body.append(_line(xs[-1], top, xs[-1], top + height))
@@ -100,7 +106,7 @@ def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str],
             continue
         xm = (xa + xb) / 2
         if cell.box is not None:
-            _svg_box_row(cell, xa + 2 * CH, xb - 2 * CH, xa, xb, y, body, pw)
+            _svg_box_row(cell, xa + 2 * CH, xb - 2 * CH, xa, xb, y, body, pw, row_h)
             continue
         if cell.value:
             body.append(_text(xm, y + 24, cell.value, size=11, anchor="middle",
@@ -132,19 +138,22 @@ def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str],
                      _text(xm, y + 4, el.symbol, anchor="middle")]
         if el.label:
             body.append(_text(xm, y - 14, el.label, size=11, anchor="middle"))
+        if el.name:
+            body.append(_text(xm, y - 27, el.name, size=11, anchor="middle", weight="bold"))
     for col, r1, r2, on in g.vlinks:
         body.append(_line(xs[col], wy(r1), xs[col], wy(r2), pw and on))
     return height + 24, xs[-1]
 
 
 def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y: float,
-                 body: list[str], pw: bool = False) -> None:
+                 body: list[str], pw: bool = False, row_h: float = ROW_H) -> None:
     """One row of a function block: its sides (top and title on the first row, bottom on
     the last), its pins and their wires."""
     b = cell.box
     assert b is not None and cell.elem is not None
-    y1 = y - 26 if b.first else y - ROW_H + 14
-    y2 = y + 14  # meets the next row's y1
+    y1 = y - 26 if b.first else y - row_h + 14
+    # meets the next row's y1; the last row's bottom leaves room for a line of info
+    y2 = y + (INFO_DY + 3 if b.last and b.info else 14)
     body += [_line(left, y1, left, y2), _line(right, y1, right, y2)]
     if b.first:
         body += [_line(left, y1, right, y1),
@@ -157,8 +166,8 @@ def _svg_box_row(cell: Cell, left: float, right: float, xa: float, xb: float, y:
     if b.right:
         body.append(_text(right - 4, y + 4, b.right, size=11, anchor="end"))
     if b.info:  # live values, or the configuration (ladder --config)
-        body.append(_text((left + right) / 2, y + 12, b.info, size=10, anchor="middle",
-                          fill="#0b4f8a"))  # under the pins, above the box's bottom line
+        body.append(_text((left + right) / 2, y + INFO_DY, b.info, size=10, anchor="middle",
+                          fill="#0b4f8a"))  # a line below the pins' names, clear of them
     if b.left_wired:
         body.append(_line(xa, y, left, y, pw and cell.p_in))
     if b.right_wired:

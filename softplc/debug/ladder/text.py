@@ -83,7 +83,8 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
             width[c] = max(width[c], box_inner_width(cell) + 2)
         elif el is not None:
             width[c] = max(width[c], len(el.symbol), len(el.label) + (1 if marker is not None
-                                                                       else 0), len(cell.value))
+                                                                       else 0), len(cell.value),
+                           len(el.name))
     width = [w + 2 for w in width]
     vert: dict[tuple[int, int], tuple[bool, bool, bool]] = {}  # (row, col) -> up, down, on
     for col, r1, r2, on in g.vlinks:
@@ -92,10 +93,12 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
             vert[(r, col)] = (up or r > r1, down or r < r2, o or on)
     pw = live is not None  # power is drawn only in the live view
     for r in range(g.rows):
-        # label, wire, value (live view), the bottom of a box that ends on this row
-        rows: list[list[str]] = [[], [], [], []]
+        # label, wire, value (live view), the bottom of a box that ends on this row, and
+        # the symbols above the labels (rows[4], drawn first, when the row has one)
+        rows: list[list[str]] = [[], [], [], [], []]
         rail_right = _joins(g.cells.get((r, 0)), "left")
         rows[0].append("│")
+        rows[4].append("│")
         rows[1].append("├" if rail_right else "│")
         rows[2].append("│")
         rows[3].append("│")
@@ -107,6 +110,7 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
                 right = c < ncols and _joins(g.cells.get((r, c)), "left")
                 if c == ncols:  # the right rail
                     rows[0].append("│")
+                    rows[4].append("│")
                     rows[1].append("┤" if left else "│")
                     rows[2].append("│")
                     rows[3].append("│")
@@ -118,20 +122,23 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
                 elif left and not (up or down):
                     ch = _wire(g.cells[(r, c - 1)].p_out and pw)
                 rows[0].append("│" if up else " ")
+                rows[4].append(rows[0][-1])
                 rows[1].append(ch)
                 rows[2].append(("║" if on else "│") if down else " ")
                 rows[3].append(rows[2][-1])
             w = width[c]
             cell = g.cells.get((r, c))
             if cell is None:
-                for i in range(4):
+                for i in range(5):
                     rows[i].append(" " * w)
                 continue
             if cell.box is not None:
                 for i, s in enumerate(_box_lines(cell, w, pw)):
                     rows[i].append(s)
+                rows[4].append(" │" + " " * (w - 4) + "│ " if not cell.box.first else " " * w)
                 continue
             el = cell.elem
+            rows[4].append(_center(el.name if el is not None else "", w))
             if el is None:
                 rows[0].append(" " * w)
                 rows[1].append(_wire(cell.p_out and pw) * w)
@@ -154,8 +161,10 @@ def render_text(rung: A.Rung, live: Live | None = None, *, ascii: bool = False,
                        for (rr, _), cell in g.cells.items() if rr == r)
         box_info = any(cell.box is not None and cell.box.info
                        for (rr, _), cell in g.cells.items() if rr == r)
-        for i in (0, 1, 2, 3):
-            if (i == 2 and not (pw or box_info)) or (i == 3 and not box_ends):
+        for i in (4, 0, 1, 2, 3):
+            if (i == 2 and not (pw or box_info)) or (i == 3 and not box_ends) or \
+                    (i == 4 and not any(cell.elem is not None and cell.elem.name
+                                        for (rr, _), cell in g.cells.items() if rr == r)):
                 continue
             if i in (0, 2) and r > 0 and not "".join(rows[i]).strip(" │║"):
                 continue

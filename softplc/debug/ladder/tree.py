@@ -28,6 +28,13 @@ class Elem:
     ref: Ref | None = None  # the object whose value is shown
     op: str = ""  # LD AND OR XOR (contacts), for exact states from the log
 
+    @property
+    def name(self) -> str:
+        """The symbol drawn above a contact's or coil's address (softplc.symbols)."""
+        if self.ref is None or self.kind not in ("contact", "coil"):
+            return ""
+        return self.ref.symbol or ""
+
 
 @dataclass
 class Leaf:
@@ -126,7 +133,8 @@ def _operand_elem(op: A.BoolOperand | None, mod: str, k: int, instr: A.Instructi
     if isinstance(op, A.Operand):
         return Elem("contact", CONTACT.get(mod, "┤ ├"), str(op.ref), k, instr, op.ref, kind_op)
     if isinstance(op, A.BlockOutput):
-        ref = Ref(blk.kind, blk.index, field=op.name) if blk is not None else None
+        ref = Ref(blk.kind, blk.index, field=op.name).with_symbol(
+            f"{blk.symbol}.{op.name}" if blk.symbol else None) if blk is not None else None
         return Elem("contact", CONTACT.get(mod, "┤ ├"), str(ref) if ref else op.name, k, instr,
                     ref, kind_op)
     value = op.value if isinstance(op, A.Const) else 0
