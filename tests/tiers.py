@@ -15,19 +15,21 @@ E2E = {
     "test_bench_smoke", "test_check_command", "test_cutting_pieces", "test_daemon",
     "test_daemon_hardening", "test_daemon_host_wait", "test_debug_repl", "test_e2e_cutting",
     "test_e2e_drawing", "test_exch", "test_first_hour", "test_host_client",
-    "test_mass_tuning_daemon", "test_mass_tuning_e2e", "test_modbus", "test_program_contract",
+    "test_mass_tuning_daemon", "test_mass_tuning_e2e", "test_modbus", "test_modbus_slots",
+    "test_program_contract",
     "test_web_api", "test_web_browser",
 }
 
 INTEGRATION = {
-    "test_cutting_examples", "test_cutting_table", "test_debug_session", "test_devices",
+    "test_cutting_dxf", "test_cutting_examples", "test_cutting_table", "test_debug_session", "test_devices",
     "test_device_snapshots", "test_drawing_table_program", "test_examples",
     "test_mass_tuning", "test_mass_tuning_program", "test_pytest_plugin", "test_readme",
     "test_servo_snapshots", "test_servo_table", "test_snapshots", "test_twidosuite_export",
 }
 
 #: Single tests above their module's tier ("module::function").
-E2E_TESTS = {"test_massest_tune::test_online_request_over_modbus"}
+E2E_TESTS = {"test_massest_tune::test_online_request_over_modbus",
+             "test_massest_tune::test_online_waits_for_a_daemon_not_listening_yet"}
 
 TIERS = ("unit", "integration", "e2e")
 
