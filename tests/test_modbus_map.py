@@ -147,3 +147,13 @@ def test_servo_status_words_are_read_only_on_the_servo_table_map(capsys):
 def test_missing_files_are_clear_errors(args, capsys):
     assert main(args) != 0
     assert "no such file" in capsys.readouterr().err
+
+
+def test_the_configuration_s_symbols_name_the_tags(capsys):
+    assert main(["map", str(PROGRAMS / "star_delta.il"), "--config",
+                 str(PROGRAMS / "star_delta.toml"), "--csv", "-"]) == 0
+    rows = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
+    plc = PLC.from_file(PROGRAMS / "star_delta.il", PROGRAMS / "star_delta.toml")
+    named = {s.address: s.name for s in plc.symbols}
+    tagged = [r for r in rows if r["address"] in named]
+    assert tagged and all(r["tag"] == named[r["address"]] for r in tagged)

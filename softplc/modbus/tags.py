@@ -179,7 +179,8 @@ def of_plc(plc: Any) -> ProgramMap:
     """The map of a loaded PLC's program with its configuration and devices."""
     ro, device_words = host_read_only(plc)
     limits = {REGISTERS: plc.mem.profile.count("MW"), COILS: plc.mem.profile.count("M")}
-    return build(plc.ast, ro, device_words, limits=limits)
+    names = {s.address: (s.name, s.comment) for s in plc.symbols}
+    return build(plc.ast, ro, device_words, names, limits)
 
 
 CSV_COLUMNS = ("tag", "address", "type", "table", "modbus_address", "reference", "count",
@@ -220,5 +221,8 @@ def to_text(pmap: ProgramMap) -> str:
     if pmap.hidden:
         lines += ["", "Used by the program but not on the Modbus map:"]
         width = max(len(h.address) for h in pmap.hidden)
-        lines += [f"  {h.address.ljust(width)}  line {h.line}: {h.why}" for h in pmap.hidden]
+        names = max(len(h.symbol) for h in pmap.hidden)
+        for h in pmap.hidden:
+            name = f"{h.symbol.ljust(names)}  " if names else ""
+            lines.append(f"  {h.address.ljust(width)}  {name}line {h.line}: {h.why}")
     return "\n".join(lines) + "\n"
