@@ -21,8 +21,8 @@ E2E = {
 }
 
 INTEGRATION = {
-    "test_cutting_dxf", "test_cutting_examples", "test_cutting_table", "test_debug_session", "test_devices",
-    "test_device_snapshots", "test_drawing_table_program", "test_examples",
+    "test_cutting_dxf", "test_cutting_examples", "test_cutting_table", "test_debug_session",
+    "test_devices", "test_device_snapshots", "test_drawing_table_program", "test_examples",
     "test_mass_tuning", "test_mass_tuning_program", "test_pytest_plugin", "test_readme",
     "test_servo_snapshots", "test_servo_table", "test_snapshots", "test_twidosuite_export",
 }
