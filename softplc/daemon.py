@@ -16,6 +16,10 @@ kept: the state is the last scan boundary's); further signals are ignored.
 Periodic mode [manual]: a scan starts every %SW0 ms; a scan longer than the period sets
 %S19 (through `plc.note_overrun()`) and the next scan starts at once. A program that
 writes another value to %SW0 changes the period (2..150 ms on a Twido; 1..10000 here).
+On a shared host a scan may also start late (the OS ran something else): a cycle that
+ends past its period because its start was late is an overrun too, as the program sees
+it (%S19), and the scheduled starts that passed meanwhile are skipped, never made up by
+back-to-back scans: the schedule restarts from the end of the late cycle (`_next_start`).
 
 `speed` runs the virtual clock: each scan advances PLC time by the period but starts
 every period/speed seconds of real time (`math.inf`: back to back), for simulations.
@@ -113,7 +117,11 @@ class Daemon:
         self.signals = 0
         self.image: ModbusImage | None = None
         self._server: ServerThread | None = None
-        self.overruns = 0
+        self.overruns = 0  # cycles that missed their period (each one sets %S19)
+        self.late_starts = 0  # of which the scan itself was short: its start was late
+        self.skipped_starts = 0  # scheduled starts that passed during those cycles
+        self.clock: Callable[[], float] = time.perf_counter  # the loop's time (tests: a fake)
+        self.sleep: Callable[[float], None] = time.sleep
         self.jitter: list[float] = []  # scan start lateness, current stats window
         self.jitter_max = 0.0
         self.start_mode = ""
@@ -313,8 +321,8 @@ class Daemon:
 
     def _loop(self, server: ServerThread) -> None:
         plc, opt = self.plc, self.opt
-        clock = time.perf_counter
-        sleep = time.sleep
+        clock = self.clock
+        sleep = self.sleep
         state = plc.state
         now = clock()
         next_start = now
@@ -366,12 +374,7 @@ class Daemon:
                     log.error("controller halted: %s", plc.fault)
                     self.say(f"controller in HALT: {plc.fault}")
             end = clock()
-            next_start += self.interval
-            if end > next_start:
-                if self.interval and opt.speed is None and end - start > self.interval:
-                    self.overruns += 1
-                    plc.note_overrun()  # %S19
-                next_start = end  # start at once; re-anchor the schedule
+            next_start = self._next_start(next_start, start, end)
             sw0 = plc.mem.sw.w[0]
             if sw0 != self.period_ms:  # the program changed the period
                 if MIN_PERIOD_MS <= sw0 <= MAX_PERIOD_MS:
@@ -386,13 +389,32 @@ class Daemon:
                 next_stats = end + opt.stats_interval
                 self.say(self._stats_line(server, rate))
 
+    def _next_start(self, scheduled: float, start: float, end: float) -> float:
+        """When the next scan starts, after a scan scheduled at `scheduled` ran from `start`
+        to `end`; counts the overrun if the cycle missed its period. The catch-up rule:
+        a late cycle is followed by a scan at once, and the schedule restarts from there
+        (the starts that passed are skipped, not run back to back)."""
+        interval = self.interval
+        due = scheduled + interval
+        if end <= due:
+            return due
+        if interval and self.opt.speed is None:  # a virtual clock's time never runs late
+            passed = int((end - scheduled) / interval)  # scheduled starts passed, >= 1
+            late = end - start <= interval  # the scan alone fitted: its start was late
+            self.overruns += 1
+            self.late_starts += late
+            self.skipped_starts += passed - 1
+            self.plc.note_overrun(late=late, skipped=passed - 1)  # %S19, %SW33, %SW34
+        return end
+
     def _stats_line(self, server: ServerThread, rate: float) -> str:
         st = self.plc.stats
         p50, p99 = percentiles(self.jitter, 50, 99)
         jmax = max(self.jitter, default=0.0)
         self.jitter = []
         return (f"stats scans={st.scans} scan_last={_ms(st.last)} scan_max={_ms(st.max)} "
-                f"overruns={self.overruns} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
+                f"overruns={self.overruns} late={self.late_starts} "
+                f"skipped={self.skipped_starts} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
                 f"jitter_max={_ms(jmax)} clients={server.stats.clients} req/s={rate:.0f} "
                 f"exceptions={server.stats.exceptions} "
                 f"refused={server.stats.rejected + server.stats.denied} state={self.plc.state}")
@@ -417,5 +439,6 @@ class Daemon:
             saved = f", state saved to {self.opt.state}"
         plc.close()  # devices flush their files (the trace CSV)
         cut = ", last scan interrupted (state as of the scan before)" if self.interrupted else ""
-        self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns, "
+        self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns "
+                 f"({self.late_starts} late starts, {self.skipped_starts} starts skipped), "
                  f"jitter max {_ms(self.jitter_max)}, outputs 0{saved}{cut}")

@@ -41,7 +41,7 @@ class Stack:
         self.plc.after_scan.append(self._count)
         self.modbus = ServerThread(self.image, "127.0.0.1", 0).start()
         daemon = SimpleNamespace(plc=self.plc, program_name=program.name, overruns=0,
-                                 jitter_max=0.0)
+                                 late_starts=0, skipped_starts=0, jitter_max=0.0)
         self.web = attach(daemon, self.modbus, self.image, WebOptions(port=0, **web))
         self.port = self.web.server.port
         self._stop = False
@@ -480,7 +480,8 @@ def test_port_taken_default_falls_back_explicit_fails():
     plc = PLC.from_file(STAR, config=STAR.with_suffix(".toml"))
     image = ModbusImage(plc.mem)
     modbus = ServerThread(image, "127.0.0.1", 0).start()
-    daemon = SimpleNamespace(plc=plc, program_name="x", overruns=0, jitter_max=0.0)
+    daemon = SimpleNamespace(plc=plc, program_name="x", overruns=0, late_starts=0,
+                             skipped_starts=0, jitter_max=0.0)
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()

@@ -12,6 +12,11 @@ pen in the config, so that it sees their state of the same scan:
 - `flush_every` (duration > 0 of simulated time, default "1s"): CSV write period.
 - `max_samples` (int > 0, default 1000000): stop recording (and warn) after this many.
 
+A CSV file that cannot be written while the machine runs (a full disk, an I/O error) stops
+the file, with one error message; the simulation and the samples in memory go on (a
+trace must never stop the PLC). The first write (`record_to`) raises `TraceError` instead:
+a file that cannot be written at start is the user's to fix.
+
 A sample `(t, x, z, pen, missed)` is recorded at bind (t = 0) and after every scan that
 changed something: t in seconds, x and z the axis positions in motor steps (a float on a
 half step; a servo axis's true position in counts), pen 1 if down (torch lit), missed the
@@ -29,7 +34,7 @@ from typing import Any
 from pydantic import Field
 
 from ..config import PositiveDuration, Section
-from ..errors import ConfigError
+from ..errors import ConfigError, SoftPLCError
 from ..runtime.memory import MemoryImage
 from .base import AxisDevice, Device, register_device
 from .pen import Pen
@@ -43,6 +48,10 @@ Segment = tuple[tuple[float, float], tuple[float, float]]
 
 class _NoPen:
     down = False
+
+
+class TraceError(SoftPLCError):
+    """The trace CSV file cannot be written."""
 
 
 def _row(s: Sample) -> str:
@@ -74,6 +83,7 @@ class Trace(Device):
         self._key: tuple[Any, ...] = ()
         self._written = 0  # samples already in the CSV file
         self._next_flush = math.inf
+        self.file_error = ""  # why the CSV file stopped being written ("" = it is not)
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         x, z = self.options.axes
@@ -124,7 +134,12 @@ class Trace(Device):
         self.csv_path = os.fspath(path)
         self._written = 0
         self._next_flush = 0.0
-        self.flush()
+        self.file_error = ""
+        try:
+            self._append()
+        except OSError as e:
+            self.csv_path = None
+            raise TraceError(f"trace file {path}: cannot write: {e.strerror or e}") from None
 
     def to_csv(self, path: str | os.PathLike[str]) -> None:
         """Write every sample, with the header `t,x,z,pen,missed`."""
@@ -133,9 +148,21 @@ class Trace(Device):
             f.writelines(_row(s) for s in self.samples)
 
     def flush(self) -> None:
-        """Append the samples not yet written to the `csv` file (if configured)."""
+        """Append the samples not yet written to the `csv` file (if configured). A file
+        that cannot be written is given up with one error (the samples stay in memory)."""
         if not self.csv_path:
             return
+        try:
+            self._append()
+        except OSError as e:
+            self.file_error = f"{self.csv_path}: {e.strerror or e}"
+            log.error("%s: trace file %s; the trace file stops here (%d samples written), "
+                      "the PLC goes on", self.name, self.file_error, self._written)
+            self.csv_path = None
+            self._next_flush = math.inf
+
+    def _append(self) -> None:
+        assert self.csv_path
         first = self._written == 0
         with open(self.csv_path, "w" if first else "a", encoding="ascii") as f:
             if first:

@@ -1,0 +1,158 @@
+"""Issue 21, runtime side: the state file, the trace and scan timing under attack.
+
+Each test fails on the code before the fix: a replaced or deleted state file lost every
+acknowledged write, a full disk under `--trace` killed the daemon, late scan starts were
+invisible to the program."""
+
+from __future__ import annotations
+
+import io
+import logging
+import time
+from pathlib import Path
+
+import pytest
+from daemon_util import started
+
+from softplc.daemon import Daemon as InProcessDaemon
+from softplc.daemon import DaemonOptions
+from softplc.devices.trace import TraceError
+from softplc.plc import PLC
+
+ROOT = Path(__file__).resolve().parents[1]
+TABLE = ROOT / "ladder_programs"
+COUNTER = "LD 1\n[ %MW12 := %MW12 + 1 ]\nEND\n"  # %MW12 counts scans
+
+
+def wait_until(cond, timeout: float = 10.0) -> None:
+    end = time.monotonic() + timeout
+    while not cond():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.02)
+
+
+# -- the trace on a full disk -----------------------------------------------------------------
+def drawing_table() -> PLC:
+    return PLC.from_file(TABLE / "drawing_table.il", config=TABLE / "drawing_table.toml")
+
+
+def trace_of(plc: PLC):
+    return next(d for d in plc.devices.values() if d.type_name == "trace")
+
+
+def test_trace_on_a_full_disk_stops_the_file_not_the_plc(tmp_path, caplog):
+    plc = drawing_table()
+    tr = trace_of(plc)
+    csv = tmp_path / "t.csv"
+    tr.record_to(csv)
+    plc.run(1.5)  # simulated seconds: flushed at 1 s
+    written = csv.read_text()
+    csv.unlink()
+    csv.symlink_to("/dev/full")  # every later write: ENOSPC, as on a full disk
+    with caplog.at_level(logging.ERROR):
+        plc.run(3.0)  # three more flushes due
+    assert plc.state == "RUN" and plc.stats.scans == 4500
+    errors = [r for r in caplog.records if r.levelno >= logging.ERROR]
+    assert len(errors) == 1 and "No space left on device" in errors[0].getMessage()
+    assert "trace file stops here" in errors[0].getMessage()
+    assert tr.file_error.endswith("No space left on device")
+    tr.close()  # at shutdown: nothing more tried, no exception
+    assert written.startswith("t,x,z,pen,missed\n")
+
+
+def test_trace_to_dev_full_is_an_error_at_start():
+    tr = trace_of(drawing_table())
+    with pytest.raises(TraceError, match=r"trace file /dev/full: cannot write: No space left"):
+        tr.record_to("/dev/full")
+
+
+def test_daemon_trace_dev_full_is_a_clear_error(daemons, tmp_path):
+    d = started(daemons, tmp_path, "--config", str(TABLE / "drawing_table.toml"), "--trace",
+                "/dev/full", program=TABLE / "drawing_table.il", wait=False)
+    assert d.proc.wait(20) == 1
+    err = d.proc.stderr.read()
+    assert "Traceback" not in err
+    assert "trace file /dev/full: cannot write: No space left on device" in err
+
+
+def test_daemon_keeps_running_when_the_trace_disk_fills(daemons, tmp_path):
+    csv = tmp_path / "t.csv"
+    d = started(daemons, tmp_path, "--config", str(TABLE / "drawing_table.toml"), "--trace",
+                str(csv), program=TABLE / "drawing_table.il")
+    wait_until(lambda: csv.exists() and csv.stat().st_size > 0)
+    csv.unlink()
+    csv.symlink_to("/dev/full")  # the next flush (every simulated second) hits ENOSPC
+    time.sleep(2.5)
+    assert d.proc.poll() is None  # still running
+    with d.client() as c:  # and serving
+        n = c.read_registers(0, 1)
+        assert len(n) == 1
+    assert d.stop() == 0
+    err = d.proc.stderr.read()
+    assert "Traceback" not in err
+    assert err.count("trace file stops here") == 1 and "No space left on device" in err
+
+
+# -- scan timing the program sees -------------------------------------------------------------
+SEES_OVERRUNS = """\
+LD %S19
+[ %MW1 := %MW1 + 1 ]
+R %S19
+LD 1
+[ %MW2 := %SW33 ]
+[ %MW3 := %SW34 ]
+END
+"""
+
+
+class FakeTime:
+    """The daemon loop's clock: sleeps return on time except where `late[scan]` (seconds)
+    is added, before the scan after `scan` scans."""
+
+    def __init__(self, plc: PLC, late: dict[int, float]):
+        self.t = 1000.0
+        self.plc = plc
+        self.late = late
+
+    def clock(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        self.t += seconds + self.late.pop(self.plc.stats.scans, 0.0)
+
+
+def test_late_and_skipped_starts_are_overruns_the_program_sees():
+    plc = PLC.from_source(SEES_OVERRUNS, clock="real")
+    out = io.StringIO()
+    opts = DaemonOptions(port=0, period=0.010, stats_interval=0.05, rt_priority=0)
+    daemon = InProcessDaemon(plc, opts, out=out)
+    fake = FakeTime(plc, {5: 0.035})  # the 6th scan starts 35 ms late: 2 starts skipped
+    daemon.clock, daemon.sleep = fake.clock, fake.sleep
+
+    def hooks() -> None:
+        if plc.stats.scans == 9:  # the 10th scan runs 25 ms (period 10): 1 start skipped
+            fake.t += 0.025
+        if plc.stats.scans >= 20:
+            daemon.request_stop()
+
+    plc.before_scan.append(hooks)
+    assert daemon.run() == 0
+    w = plc.mem.mw.w
+    assert w[1] == 2  # the program saw %S19 after each of the two overruns
+    assert (w[2], w[3]) == (1, 3)  # %SW33 late starts, %SW34 skipped starts
+    assert (daemon.overruns, daemon.late_starts, daemon.skipped_starts) == (2, 1, 3)
+    assert (plc.stats.overruns, plc.stats.late_starts, plc.stats.skipped_starts) == (2, 1, 3)
+    text = out.getvalue()
+    assert "overruns=2 late=1 skipped=3" in text or "overruns=1 late=1 skipped=2" in text
+    assert "2 overruns (1 late starts, 3 starts skipped)" in text
+
+
+def test_on_time_scans_are_no_overrun():
+    plc = PLC.from_source(SEES_OVERRUNS, clock="real")
+    daemon = InProcessDaemon(plc, DaemonOptions(port=0, stats_interval=0, rt_priority=0),
+                             out=io.StringIO())
+    fake = FakeTime(plc, {3: 0.009})  # late, but the cycle still ends within its period
+    daemon.clock, daemon.sleep = fake.clock, fake.sleep
+    plc.before_scan.append(lambda: plc.stats.scans >= 10 and daemon.request_stop())
+    assert daemon.run() == 0
+    assert (daemon.overruns, plc.mem.mw.w[1], plc.mem.s[19]) == (0, 0, 0)
