@@ -49,6 +49,7 @@ from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
 from .modbus.server import bind_listeners
 from .runtime import retain
+from .runtime.keeper import StateKeeper
 
 log = logging.getLogger("softplc.daemon")
 
@@ -62,6 +63,7 @@ class DaemonOptions:
     port: int = 5020
     period: float = 0.010  # seconds, a whole number of ms
     state: Path | None = None
+    state_symlink: bool = False  # a --state that is a symbolic link is used (else refused)
     cold: bool = False
     keep_state: bool = False  # warm restart even if the program or configuration changed
     save_interval: float = 5.0  # seconds between flushes to disk; 0 = only at shutdown
@@ -206,7 +208,7 @@ class Daemon:
             plc.cold_start()
             self.start_mode, self.start_why = "cold", "no --state file"
             return None
-        store = retain.StateStore.open(opt.state)
+        store = retain.StateStore.open(opt.state, follow_symlinks=opt.state_symlink)
         try:
             state = None
             try:
@@ -273,7 +275,9 @@ class Daemon:
             if store is not None:
                 store.close()
             raise
-        persister = retain.Persister(store, opt.save_interval) if store is not None else None
+        keeper = None
+        if store is not None:
+            keeper = StateKeeper(store, opt.save_interval, self._state_kept, self.say)
         # Until the very end a signal only sets flags: a second Ctrl-C cannot interrupt
         # the shutdown half-way or change the exit status.
         old_handlers = {s: signal.signal(s, self._on_signal)
@@ -291,7 +295,7 @@ class Daemon:
                 self._loop(server)
             finally:
                 sys.setswitchinterval(old_switch)
-                self._shutdown(server, store, persister)
+                self._shutdown(server, store, keeper)
         finally:
             # Stopped by a signal: the process is on its way out and more signals (Ctrl-C
             # held down) must not change its exit status: ignore them from now on.
@@ -407,6 +411,15 @@ class Daemon:
             self.plc.note_overrun(late=late, skipped=passed - 1)  # %S19, %SW33, %SW34
         return end
 
+    def _state_kept(self, lost: str) -> None:
+        """The state file cannot be kept (`lost` says why): refuse host writes, which could
+        not be kept either, until it can ("")."""
+        image = self.image
+        if image is None:
+            return
+        image.refused_why = f"writes refused: {lost}" if lost else ""
+        image.writes_allowed = not lost and not self.opt.read_only
+
     def _stats_line(self, server: ServerThread, rate: float) -> str:
         st = self.plc.stats
         p50, p99 = percentiles(self.jitter, 50, 99)
@@ -420,7 +433,7 @@ class Daemon:
                 f"refused={server.stats.rejected + server.stats.denied} state={self.plc.state}")
 
     def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
-                  persister: retain.Persister | None) -> None:
+                  keeper: StateKeeper | None) -> None:
         plc = self.plc
         plc.stop_outputs()
         if self.web is not None:  # web monitor hook
@@ -429,14 +442,18 @@ class Daemon:
         # The store already holds the last scan boundary and every write acknowledged since
         # (journal): flush it to disk.
         saved = ""
-        if persister is not None:
-            persister.stop()
-        if store is not None:
+        if keeper is not None and store is not None:
+            keeper.stop()
             try:
-                store.persist()
+                if keeper.check():  # the file at the path is the store's (re-created if not)
+                    store.persist()
+                    saved = f", state saved to {self.opt.state}"
+                else:
+                    saved = f", state NOT saved: {keeper.lost}"
+            except OSError as e:
+                saved = f", state NOT saved: cannot flush {self.opt.state}: {e.strerror or e}"
             finally:
                 store.close()
-            saved = f", state saved to {self.opt.state}"
         plc.close()  # devices flush their files (the trace CSV)
         cut = ", last scan interrupted (state as of the scan before)" if self.interrupted else ""
         self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns "

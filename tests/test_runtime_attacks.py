@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import io
 import logging
+import os
+import shutil
+import struct
 import time
 from pathlib import Path
 
@@ -17,7 +20,13 @@ from daemon_util import started
 from softplc.daemon import Daemon as InProcessDaemon
 from softplc.daemon import DaemonOptions
 from softplc.devices.trace import TraceError
+from softplc.modbus.image import ModbusImage
+from softplc.modbus.rawclient import ModbusExceptionReply
 from softplc.plc import PLC
+from softplc.runtime import retain
+from softplc.runtime.keeper import StateKeeper
+from softplc.runtime.memory import MemoryImage
+from softplc.runtime.retain import StateFileError, StateStore
 
 ROOT = Path(__file__).resolve().parents[1]
 TABLE = ROOT / "ladder_programs"
@@ -156,3 +165,142 @@ def test_on_time_scans_are_no_overrun():
     plc.before_scan.append(lambda: plc.stats.scans >= 10 and daemon.request_stop())
     assert daemon.run() == 0
     assert (daemon.overruns, plc.mem.mw.w[1], plc.mem.s[19]) == (0, 0, 0)
+
+
+# -- the state file deleted, replaced or symlinked --------------------------------------------
+def kept_image(path: Path) -> tuple[StateStore, ModbusImage, StateKeeper, list[str]]:
+    """A store on `path`, an image writing through it, a keeper (its thread does nothing
+    but check, every 0.1 s) and what the keeper told (`on_change`)."""
+    mem = MemoryImage()
+    store = StateStore.open(path)
+    store.start(retain.capture(mem))
+    changes: list[str] = []
+    keeper = StateKeeper(store, 0, changes.append)
+    return store, ModbusImage(mem, store=store, blocks=lambda: b"{}"), keeper, changes
+
+
+def words(state: retain.RetainedState, n: int) -> tuple[int, ...]:
+    return struct.unpack_from(f"<{n}h", state.mw)
+
+
+@pytest.mark.parametrize("how", ["deleted", "replaced"])
+def test_state_file_gone_is_recreated_with_every_acknowledged_write(tmp_path, how):
+    path = tmp_path / "plc.state"
+    store, img, keeper, changes = kept_image(path)
+    try:
+        for k in range(100):
+            img.write_words(k, [k + 1])
+        if how == "deleted":
+            path.unlink()
+        else:  # another file renamed over it (a restored backup, an editor's save...)
+            other = tmp_path / "other"
+            other.write_bytes(b"foreign")
+            os.replace(other, path)
+        for k in range(100, 200):  # acknowledged before the keeper notices
+            img.write_words(k, [k + 1])
+        wait_until(lambda: keeper.recreated == 1, 5)
+        assert not changes  # nothing refused: nothing was lost
+        assert store.check() == ""
+        with pytest.raises(StateFileError, match="in use by another softplc"):
+            StateStore.open(path)  # locked again: a second daemon cannot start on it
+        img.write_words(200, [201])
+    finally:
+        keeper.stop()
+        store.close()
+    assert words(retain.load(path), 201) == tuple(range(1, 202))
+
+
+def test_state_file_that_cannot_be_recreated_stops_acknowledging(tmp_path):
+    folder = tmp_path / "run"
+    folder.mkdir()
+    path = folder / "plc.state"
+    store, img, keeper, changes = kept_image(path)
+    try:
+        shutil.rmtree(folder)  # nowhere to re-create it
+        wait_until(lambda: bool(changes), 5)
+        assert "was deleted" in changes[0] and "cannot be re-created" in changes[0]
+        assert not keeper.check()
+        folder.mkdir()  # back: re-created at the next check, writes kept again
+        wait_until(lambda: len(changes) == 2, 5)
+        assert changes[1] == "" and keeper.recreated == 1
+    finally:
+        keeper.stop()
+        store.close()
+
+
+def test_path_taken_by_another_controller_is_not_overwritten(tmp_path):
+    path = tmp_path / "plc.state"
+    store, img, keeper, changes = kept_image(path)
+    keeper.stop()  # checks by hand
+    try:
+        img.write_words(0, [7])
+        path.unlink()
+        other = StateStore.open(path)  # a second daemon started in the meantime
+        assert not keeper.check()
+        assert "in use by another softplc" in keeper.lost
+        other.close()
+    finally:
+        store.close()
+
+
+def test_symlinked_state_file_is_refused_unless_asked(tmp_path):
+    foreign = tmp_path / "precious.dat"
+    foreign.write_bytes(b"not a state file")
+    link = tmp_path / "plc.state"
+    link.symlink_to(foreign)
+    with pytest.raises(StateFileError, match="is a symbolic link .*--state-symlink"):
+        StateStore.open(link)
+    StateStore.open(link, follow_symlinks=True).close()
+    assert foreign.read_bytes() == b"not a state file"  # opening changes nothing
+
+
+def test_daemon_state_file_deleted_while_running_loses_nothing(daemons, tmp_path):
+    state = tmp_path / "plc.state"
+    d = started(daemons, tmp_path, "--state", str(state), program=COUNTER)
+    with d.client() as c:
+        for k in range(100):
+            c.write_registers(100 + k, [k + 1])
+        state.unlink()
+        for k in range(100, 200):
+            c.write_registers(100 + k, [k + 1])
+        d.wait_for(r"was deleted .* re-created from memory", 5)
+        second = started(daemons, tmp_path, "--state", str(state), program=COUNTER,
+                         wait=False)
+        assert second.proc.wait(20) == 1
+        assert "in use by another softplc" in second.proc.stderr.read()
+    assert d.stop() == 0
+    assert f"state saved to {state}" in d.wait_for("stopped after")
+    d = started(daemons, tmp_path, "--state", str(state), program=COUNTER)
+    assert "warm start" in "".join(d.out)
+    with d.client() as c:
+        assert c.read_registers(100, 100) + c.read_registers(200, 100) == list(range(1, 201))
+    assert d.stop() == 0
+
+
+def test_daemon_state_lost_refuses_writes_and_says_not_saved(daemons, tmp_path):
+    folder = tmp_path / "run"
+    folder.mkdir()
+    state = folder / "plc.state"
+    d = started(daemons, tmp_path, "--state", str(state), program=COUNTER)
+    with d.client() as c:
+        c.write_registers(5, [55])
+        shutil.rmtree(folder)
+        d.wait_for(r"ERROR: state file .* cannot be re-created", 5)
+        with pytest.raises(ModbusExceptionReply):
+            c.write_registers(6, [66])
+        assert c.read_registers(5, 2) == [55, 0]  # reads still served
+    assert d.stop() == 0
+    line = d.wait_for("stopped after")
+    assert "state NOT saved" in line and "state saved" not in line
+
+
+def test_daemon_refuses_a_symlinked_state_file(daemons, tmp_path):
+    foreign = tmp_path / "precious.dat"
+    foreign.write_bytes(b"someone's data")
+    (tmp_path / "plc.state").symlink_to(foreign)
+    d = started(daemons, tmp_path, "--state", "plc.state", "--cold", program=COUNTER,
+                wait=False)
+    assert d.proc.wait(20) == 1
+    err = d.proc.stderr.read()
+    assert "symbolic link" in err and "--state-symlink" in err and "Traceback" not in err
+    assert foreign.read_bytes() == b"someone's data"

@@ -80,6 +80,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--state", type=Path,
                    help="retained-state file: warm restart from it, saved periodically and "
                         "at shutdown")
+    p.add_argument("--state-symlink", action="store_true",
+                   help="allow a --state that is a symbolic link (refused by default: a "
+                        "cold start would overwrite the file it points to)")
     p.add_argument("--cold", action="store_true",
                    help="cold start even if the state file holds data (or is damaged)")
     p.add_argument("--keep-state", action="store_true",
@@ -189,6 +192,7 @@ def run(args: argparse.Namespace) -> int:
         port=_pick(args.port, mb.port),
         period=period,
         state=state,
+        state_symlink=args.state_symlink,
         cold=args.cold,
         keep_state=args.keep_state,
         save_interval=_pick(args.save_interval, dm.save_interval),
