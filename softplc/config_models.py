@@ -29,7 +29,7 @@ a validation error into a `ConfigError` naming the key path.
 from __future__ import annotations
 
 from datetime import date, datetime
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -80,7 +80,7 @@ def parse_analog(section: Any) -> dict[str, AnalogChannelConfig]:
 
 
 Word = str  # an address, checked when the PLC resolves it
-WordOrConst = str | int
+WordOrConst = str | Annotated[int, Field(ge=-32768, le=32767)]  # a constant: a word's value
 
 
 class PidConfig(BaseModel):
@@ -108,8 +108,8 @@ class PidConfig(BaseModel):
     pwm_period: int = Field(100, ge=1, le=32767)
     diagnostic: Word | None = None
     at_output: int = Field(10000, ge=1, le=10000)
-    at_timeout: float = Field(14400.0, gt=0)  # seconds
-    measure_span: int = Field(10000, ge=1)
+    at_timeout: float = Field(14400.0, gt=0, le=86400)  # seconds
+    measure_span: int = Field(10000, ge=1, le=32767)
 
     @model_validator(mode="after")
     def _limits(self) -> PidConfig:
@@ -122,8 +122,10 @@ def _validated(section: str, key: str, model: type[BaseModel], table: Any) -> An
     try:
         return model.model_validate(table)
     except ValidationError as e:
-        err = e.errors()[0]
-        where = ".".join(str(p) for p in err["loc"] if not str(p).startswith(("str", "int")))
+        # a `str | int` field reports one error per member: the range one says more
+        err = min(e.errors(), key=lambda x: x["type"].endswith("_type"))
+        where = ".".join(str(p) for p in err["loc"]
+                         if not str(p).startswith(("str", "int", "constrained-")))
         path = ".".join(p for p in (section, key, where) if p)
         raise ConfigError(f"{path}: {err['msg']} (got {err.get('input')!r})") from None
 

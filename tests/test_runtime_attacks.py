@@ -304,3 +304,39 @@ def test_daemon_refuses_a_symlinked_state_file(daemons, tmp_path):
     err = d.proc.stderr.read()
     assert "symbolic link" in err and "--state-symlink" in err and "Traceback" not in err
     assert foreign.read_bytes() == b"someone's data"
+
+
+# -- every numeric setting bounded ------------------------------------------------------------
+@pytest.mark.parametrize("raw, message", [
+    ({"scan_period": "0.1us"}, "scan_period: a scan period is at least 1 us"),
+    ({"scan_period": "2d"}, "scan_period: not a duration"),
+    ({"scan_period": "1441min"}, "scan_period: longer than 24 h"),
+    ({"watchdog": "0ms"}, "watchdog: the watchdog is at least 1 ms"),
+    ({"daemon": {"stats_interval": "1us"}}, "daemon.stats_interval: 0 (off) or at least 10 ms"),
+    ({"daemon": {"save_interval": "2ms"}}, "daemon.save_interval: 0 (off) or at least 10 ms"),
+    ({"daemon": {"rt_priority": 2**63}}, "daemon.rt_priority: expected less than or equal to 99"),
+    ({"drums": {"%DR0": {"steps": [1] * 9}}}, "should have at most 8 items"),
+    ({"drums": {"%DR0": {"steps": [70000]}}}, "steps[0]: expected less than or equal to 65535"),
+    ({"timers": {"%TM0": {"preset": 2**63}}}, "preset: expected less than or equal to 9999"),
+    ({"devices": {"t": {"type": "trace", "max_samples": 2**63}}},
+     "max_samples: expected less than or equal to 10000000"),
+    ({"pid": {"0": {"measure": "%MW0", "setpoint": 99999}}},
+     "pid.0.setpoint: Input should be less than or equal to 32767"),
+    ({"pid": {"0": {"measure": "%MW0", "setpoint": 0, "at_timeout": 1e9}}},
+     "pid.0.at_timeout: Input should be less than or equal to 86400"),
+    ({"pid": {"0": {"measure": "%MW0", "setpoint": 0, "measure_span": 2**40}}},
+     "pid.0.measure_span: Input should be less than or equal to 32767"),
+])
+def test_numeric_settings_are_bounded(raw, message):
+    from softplc.errors import ConfigError
+
+    with pytest.raises(ConfigError) as e:
+        PLC.from_source("LD 1\nST %M0\n", config=raw)
+    assert message in str(e.value)
+
+
+@pytest.mark.parametrize("flag", ["--stats-interval", "--save-interval"])
+def test_interval_flags_are_bounded(daemons, tmp_path, flag):
+    d = started(daemons, tmp_path, flag, "1us", program=COUNTER, wait=False)
+    assert d.proc.wait(20) == 2
+    assert "0 (off) or at least 10 ms" in d.proc.stderr.read()

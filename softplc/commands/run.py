@@ -37,6 +37,16 @@ def _duration(text: str, bare_unit: str = "s") -> float:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _interval(text: str) -> float:
+    """--save-interval, --stats-interval: a duration, 0 (off) or at least 10 ms."""
+    from ..config import check_interval
+
+    try:
+        return check_interval(_duration(text))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"{text!r}: {e}") from None
+
+
 def _period(text: str) -> float:
     return _duration(text, "ms")
 
@@ -88,7 +98,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--keep-state", action="store_true",
                    help="warm restart even if the program or configuration changed since the "
                         "state was saved (default: a new application cold-starts)")
-    p.add_argument("--save-interval", type=_duration,
+    p.add_argument("--save-interval", type=_interval,
                    help="how often to flush the state file to disk, for power loss (default "
                         "5s; 0 = only at shutdown); a killed process loses nothing anyway")
     p.add_argument("--speed", type=_speed, default=None,
@@ -96,7 +106,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-host-wait", action="store_true",
                    help="with --speed, run the virtual clock on while the program waits for "
                         "its host (ignore the config's [daemon] host_wait bit)")
-    p.add_argument("--stats-interval", type=_duration,
+    p.add_argument("--stats-interval", type=_interval,
                    help="statistics line every ... (default 5s; 0 = none)")
     p.add_argument("--max-clients", type=int, help="simultaneous Modbus connections (32)")
     p.add_argument("--read-only", action="store_true",

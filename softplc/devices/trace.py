@@ -10,7 +10,8 @@ pen in the config, so that it sees their state of the same scan:
 - `csv` (path, default none): also write the samples to this CSV file, relative to the
   current directory, every `flush_every` seconds of simulated time and at `close()`.
 - `flush_every` (duration > 0 of simulated time, default "1s"): CSV write period.
-- `max_samples` (int > 0, default 1000000): stop recording (and warn) after this many.
+- `max_samples` (int 1..10000000, default 1000000): stop recording (and warn) after this
+  many (a sample takes about 100 bytes of memory).
 
 A CSV file that cannot be written while the machine runs (a full disk, an I/O error) stops
 the file, with one error message; the simulation and the samples in memory go on (a
@@ -42,6 +43,7 @@ from .pen import Pen
 log = logging.getLogger(__name__)
 
 CSV_HEADER = "t,x,z,pen,missed"
+MAX_SAMPLES = 10_000_000
 Sample = tuple[float, int | float, int | float, int, int]
 Segment = tuple[tuple[float, float], tuple[float, float]]
 
@@ -68,7 +70,7 @@ class Trace(Device):
         pen: str = "pen"
         csv: str | None = Field(None, min_length=1)
         flush_every: PositiveDuration = 1.0
-        max_samples: int = Field(1_000_000, ge=1)
+        max_samples: int = Field(1_000_000, ge=1, le=MAX_SAMPLES)
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
