@@ -33,6 +33,7 @@ traces); real time (no `speed`) ignores the bit.
 from __future__ import annotations
 
 import errno
+import gc
 import logging
 import math
 import os
@@ -89,6 +90,7 @@ class DaemonOptions:
     on_serving: list[Callable[[ServerThread, ModbusImage], None]] = field(
         default_factory=list)
     web: Any = None  # softplc.web.WebOptions; None = no web monitor
+    gc_freeze: bool = True  # freeze what start-up made (see Daemon.run); False: comparisons
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -292,9 +294,18 @@ class Daemon:
             try:
                 self.priority = self._realtime()  # after the other threads started
                 self._banner(server, image)
+                if opt.gc_freeze:
+                    # The program, its compiled code, the image and the servers live as long
+                    # as the daemon: moved out of the collector's generations, a full
+                    # collection (triggered by any thread's allocations, holding the GIL)
+                    # no longer walks them, so it stops delaying scan starts.
+                    gc.collect()
+                    gc.freeze()
                 self._loop(server)
             finally:
                 sys.setswitchinterval(old_switch)
+                if opt.gc_freeze:
+                    gc.unfreeze()  # collectable again (a daemon run inside a longer process)
                 self._shutdown(server, store, keeper)
         finally:
             # Stopped by a signal: the process is on its way out and more signals (Ctrl-C

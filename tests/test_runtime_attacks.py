@@ -340,3 +340,25 @@ def test_interval_flags_are_bounded(daemons, tmp_path, flag):
     d = started(daemons, tmp_path, flag, "1us", program=COUNTER, wait=False)
     assert d.proc.wait(20) == 2
     assert "0 (off) or at least 10 ms" in d.proc.stderr.read()
+
+
+# -- the garbage collector ---------------------------------------------------------------------
+@pytest.mark.parametrize("freeze", [True, False])
+def test_start_up_objects_are_frozen_out_of_the_collector(freeze):
+    import gc
+
+    plc = PLC.from_source(COUNTER, clock="real")
+    daemon = InProcessDaemon(plc, DaemonOptions(port=0, stats_interval=0, rt_priority=0,
+                                                gc_freeze=freeze), out=io.StringIO())
+    frozen: list[int] = []
+
+    def look() -> None:
+        frozen.append(gc.get_freeze_count())
+        daemon.request_stop()
+
+    plc.after_scan.append(look)
+    assert daemon.run() == 0
+    # the program, its image and the servers are frozen while it runs (a full collection
+    # then walks none of them); collectable again after
+    assert (frozen[0] > 10_000) is freeze
+    assert gc.get_freeze_count() == 0

@@ -119,6 +119,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="SCHED_FIFO priority of the scan thread, 1..99, the Modbus thread "
                         "one below (default 10; 0 = normal scheduling); needs root or "
                         "CAP_SYS_NICE, else ignored")
+    p.add_argument("--no-gc-freeze", action="store_true",
+                   help="do not freeze the objects made at start-up out of the garbage "
+                        "collector's reach (comparisons: tools/bench_gc.py)")
     p.add_argument("--trace", type=Path, metavar="FILE.csv",
                    help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
                         "this CSV file (flushed every simulated second and at shutdown)")
@@ -219,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
         open_outputs=outputs,
         on_host_wait=waits,
         web=_web_options(args),
+        gc_freeze=not args.no_gc_freeze,
     )
     if opts.max_clients < 1:
         raise SoftPLCError("max_clients must be at least 1")
