@@ -297,17 +297,20 @@ class StateStore:
                 view = memoryview(data)
                 while view:
                     view = view[os.pwrite(fd, view, len(data) - len(view)):]
-                os.fsync(fd)
                 new = mmap.mmap(fd, len(data), mmap.MAP_SHARED,
                                 mmap.PROT_READ | mmap.PROT_WRITE)
                 old_fd, self._mm, self._fd = self._fd, new, fd
-            mm.close()
-            os.close(old_fd)
         except OSError as e:
-            if self._fd != fd:
-                os.close(fd)
+            os.close(fd)
             raise StateFileError(f"cannot re-create state file {self.path}: "
                                  f"{e.strerror or e}") from None
+        mm.close()
+        os.close(old_fd)
+        try:  # outside the lock: scans and writes go on meanwhile
+            os.fsync(fd)
+        except OSError as e:  # in the page cache all the same: kept through a process kill
+            log.error("%s: re-created, but cannot flush it to disk: %s", self._where(),
+                      e.strerror or e)
         _fsync_dir(self.path.parent)
 
     def _where(self) -> str:
