@@ -104,8 +104,8 @@ def test_info_and_status(star):
     assert info["token_required"] is False and info["read_only"] is False
     st = c.status()
     assert st["state"] == "RUN" and st["scans"] > 0 and st["period_ms"] == 10
-    assert {"scan_last_ms", "scan_min_ms", "scan_max_ms", "overruns",
-            "modbus_clients"} <= set(st)
+    assert {"scan_last_ms", "scan_min_ms", "scan_max_ms", "overruns", "late_starts",
+            "skipped_starts", "modbus_clients"} <= set(st)
 
 
 def test_read_ranges_blocks_and_bits(star):
