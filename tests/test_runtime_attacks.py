@@ -320,6 +320,10 @@ def test_daemon_refuses_a_symlinked_state_file(daemons, tmp_path):
     ({"timers": {"%TM0": {"preset": 2**63}}}, "preset: expected less than or equal to 9999"),
     ({"devices": {"t": {"type": "trace", "max_samples": 2**63}}},
      "max_samples: expected less than or equal to 10000000"),
+    # found by tools/fuzz_mutations.py: round(1e308 / scan period) crashed the first scan
+    ({"devices": {"o": {"type": "oven", "sensor": "%IW0.0", "heater_bit": "%Q0.0",
+                        "dead_time": 1e308}}},
+     "devices.o.dead_time: expected less than or equal to 600"),
     ({"pid": {"0": {"measure": "%MW0", "setpoint": 99999}}},
      "pid.0.setpoint: Input should be less than or equal to 32767"),
     ({"pid": {"0": {"measure": "%MW0", "setpoint": 0, "at_timeout": 1e9}}},
