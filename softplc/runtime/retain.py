@@ -215,10 +215,10 @@ def open_locked(path: str | os.PathLike[str], what: str,
     try:
         fd = os.open(path, flags, 0o644)
     except OSError as e:
-        if e.errno == errno.ELOOP and not follow_symlinks:
-            raise error(f"{what} {path} is a symbolic link (to {os.readlink(path)}): refused, "
-                        f"since a cold start would overwrite what it points to{symlink_hint}"
-                        ) from None
+        if e.errno == errno.ELOOP and not follow_symlinks and os.path.islink(path):
+            raise error(f"{what} {path} is a symbolic link (to {_link_target(path)}): "
+                        f"refused, since a cold start would overwrite what it points to"
+                        f"{symlink_hint}") from None
         raise error(f"cannot open {what} {path}: {e.strerror or e}") from None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -533,6 +533,13 @@ class StateStore:
         if self._fd >= 0:
             os.close(self._fd)  # releases the flock
             self._fd = -1
+
+
+def _link_target(path: str | os.PathLike[str]) -> str:
+    try:
+        return os.readlink(path)
+    except OSError:
+        return "?"
 
 
 def _open_state(path: str | os.PathLike[str], follow_symlinks: bool) -> int:
