@@ -91,15 +91,32 @@ def test_daemon_keeps_running_when_the_trace_disk_fills(daemons, tmp_path):
     wait_until(lambda: csv.exists() and csv.stat().st_size > 0)
     csv.unlink()
     csv.symlink_to("/dev/full")  # the next flush (every simulated second) hits ENOSPC
-    time.sleep(2.5)
+    err = stderr_until(d, "trace file stops here", 15)
+    time.sleep(1.2)  # past the next flush time: not tried again
     assert d.proc.poll() is None  # still running
     with d.client() as c:  # and serving
         n = c.read_registers(0, 1)
         assert len(n) == 1
     assert d.stop() == 0
-    err = d.proc.stderr.read()
+    err += d.proc.stderr.read()
     assert "Traceback" not in err
     assert err.count("trace file stops here") == 1 and "No space left on device" in err
+
+
+def stderr_until(d, text: str, timeout: float) -> str:
+    """The daemon's stderr up to a line containing `text` (read while it runs)."""
+    fd = d.proc.stderr.fileno()
+    os.set_blocking(fd, False)
+    out = b""
+    end = time.monotonic() + timeout
+    while text.encode() not in out:
+        assert time.monotonic() < end, f"no {text!r} in stderr: {out.decode()}"
+        try:
+            out += os.read(fd, 65536) or b""
+        except BlockingIOError:
+            time.sleep(0.05)
+    os.set_blocking(fd, True)
+    return out.decode()
 
 
 # -- scan timing the program sees -------------------------------------------------------------
