@@ -341,6 +341,13 @@ def test_daemon_refuses_a_symlinked_state_file(daemons, tmp_path):
     ({"devices": {"o": {"type": "oven", "sensor": "%IW0.0", "heater_bit": "%Q0.0",
                         "dead_time": 1e308}}},
      "devices.o.dead_time: expected less than or equal to 600"),
+    ({"devices": {"X": {"type": "servo_axis", "servo_clock_hz": 1e308, "plant": {"K": 1.0}}}},
+     "devices.X.servo_clock_hz: expected less than or equal to 50000"),  # crashed a scan
+    ({"devices": {"s": {"type": "scope", "axis": "X", "torque_per_bit": 0.01, "seed": -1}}},
+     "devices.s.seed: expected greater than or equal to 0"),  # crashed at STORE
+    ({"devices": {"s": {"type": "scope", "axis": "X", "torque_per_bit": 0.01,
+                        "noise": [0, 0, -1, 0]}}},
+     "devices.s.noise[2]: expected greater than or equal to 0"),
     ({"pid": {"0": {"measure": "%MW0", "setpoint": 99999}}},
      "pid.0.setpoint: Input should be less than or equal to 32767"),
     ({"pid": {"0": {"measure": "%MW0", "setpoint": 0, "at_timeout": 1e9}}},
