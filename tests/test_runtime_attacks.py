@@ -390,3 +390,17 @@ def test_start_up_objects_are_frozen_out_of_the_collector(freeze):
     # then walks none of them); collectable again after
     assert (frozen[0] > 10_000) is freeze
     assert gc.get_freeze_count() == 0
+
+
+def test_servo_trajectory_of_centuries_is_refused_not_allocated():
+    """Found by tools/fuzz_mutations.py: a jog ramp of 1.99e16 ms (Ixx20) asked numpy for
+    319 PiB in the first scans; now the axis refuses the command (bad command) and holds."""
+    import tomllib
+
+    from softplc.devices.axis.options import Err
+
+    cfg = tomllib.loads((TABLE / "cutting_table.toml").read_text())
+    cfg["devices"]["X"]["ivars"]["Ixx20"] = 1.9891118211402064e16
+    plc = PLC.from_file(TABLE / "cutting_table.il", config=cfg)
+    plc.scan(5)
+    assert plc.state == "RUN" and plc.devices["X"].error == Err.BAD_COMMAND
