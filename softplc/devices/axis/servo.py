@@ -39,8 +39,6 @@ from .options import Ctl, Err, Mode, ServoAxisOptions, St, Word
 from .plant import ZOH, step
 
 TRACE_HEADER = "t,commanded,actual,fe,output"
-# positions of one planned trajectory, at most (about 15 min at 2.26 kHz, 70 MB)
-MAX_TRAJECTORY_SAMPLES = 1 << 21
 # The status words in word order, (offset, struct code): one `pack_into` writes them all.
 _STATUS_WORDS = ((Word.ACTUAL, "i"), (Word.COMMANDED, "i"), (Word.FE, "f"), (Word.FE_MAX, "f"),
                  (Word.STATUS, "H"), (Word.ERROR, "H"), (Word.TICKS, "i"), (Word.OUTPUT, "f"),
@@ -454,10 +452,8 @@ class ServoAxis(AxisDevice):
 
     def _follow(self, prof: tj.Profile, end: float | None = None, v_end: float = 0.0) -> None:
         """Start a trajectory at the next cycle; `end` is the exact final position, `v_end`
-        the velocity (counts/s) that continues after the profile (a jog's). A trajectory
-        longer than MAX_TRAJECTORY_SAMPLES (hours: a crawl speed, absurd ramps) is refused,
-        the axis holding where it is commanded, rather than sampled into gigabytes."""
-        if not prof.duration <= MAX_TRAJECTORY_SAMPLES * self.T:  # (nan too)
+        the velocity (counts/s) that continues after the profile (a jog's)."""
+        if not prof.duration <= tj.MAX_SAMPLES * self.T:  # refused, held (nan too)
             self.error = Err.BAD_COMMAND
             prof, end, v_end = tj.Profile(self._cp, 0.0), self._cp, 0.0
         traj = tj.sample(prof, self.T)
