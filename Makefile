@@ -58,6 +58,8 @@ clean:
 	rm -rf $(VENV) *.egg-info .pytest_cache .ruff_cache results out
 
 # The fuzzers and slow property tests with their full example counts (the suite runs a
-# quarter: tests/fuzz_budget.py).
+# quarter: tests/fuzz_budget.py), then the mutation fuzzers at full size with a progress
+# line: 4,000 mutated programs and 1,559 mutated configs, 0 tracebacks and 0 crashes expected.
 fuzz: $(STAMP)
 	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/test_fuzz.py tests/test_properties.py tests/test_config_fuzz.py tests/test_il_recovery.py tests/test_examples.py
+	$(BIN)/python tools/fuzz_mutations.py --programs 4000 --configs 1559

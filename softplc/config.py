@@ -115,12 +115,39 @@ frame_timeout_ok = between(0.1, 60.0)
 idle_timeout_ok = between(1.0, MAX_DURATION_S, never=True)
 exch_timeout_ok = between(0.01, 60.0)  # [our choice]: a LAN reply takes ms
 
+
+# Bounds of the numeric settings that have no Twido range: what makes sense, so that a typo
+# (a period of 1 ns, a statistics line every microsecond) is an error, not a hang or a flood.
+MIN_SCAN_PERIOD_S = 1e-6  # the engine counts PLC time in whole microseconds
+MIN_WATCHDOG_S = 0.001
+MIN_INTERVAL_S = 0.010  # save and statistics intervals (0 = off)
+DRUM_STEPS = 8  # [m221] a drum has 1 to 8 steps of 16 control bits
+
+
+def _at_least(low: float, what: str) -> Any:
+    def check(v: float) -> float:
+        if not v >= low:
+            raise ValueError(f"{what} is at least " + (f"{low * 1e6:g} us" if low < 1e-3
+                                                         else f"{low * 1000:g} ms"))
+        return v
+    return AfterValidator(check)
+
+
+def check_interval(v: float) -> float:
+    """A save or statistics interval: 0 (off) or from MIN_INTERVAL_S on."""
+    if v != 0 and not v >= MIN_INTERVAL_S:
+        raise ValueError(f"0 (off) or at least {MIN_INTERVAL_S * 1000:g} ms")
+    return v
+
+
 # ---- field types shared by the schema and the devices' Options ---------------------------------
 Duration = Annotated[float, BeforeValidator(_parse_duration)]
 """Seconds, written with a unit ("10ms"); bare numbers refused."""
 PositiveDuration = Annotated[Duration, AfterValidator(_positive)]
 TimeBase = Annotated[str, BeforeValidator(_parse_time_base)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Interval = Annotated[Duration, AfterValidator(check_interval)]
+"""Seconds between two periodic actions: 0 (never) or at least 10 ms."""
 Address = Annotated[str, Field(min_length=1)]
 
 
@@ -152,7 +179,8 @@ class CounterConfig(Section):
 
 
 class DrumConfig(Section):
-    steps: list[int] = Field(default_factory=lambda: [0], min_length=1)
+    steps: list[Annotated[int, Field(ge=0, le=0xFFFF)]] = Field(
+        default_factory=lambda: [0], min_length=1, max_length=DRUM_STEPS)
     outputs: list[Address] = Field(default_factory=list)
 
 
@@ -177,8 +205,8 @@ class DaemonConfig(Section):
     """`[daemon]`: state file and intervals (softplc run)."""
 
     state: str | None = Field(None, min_length=1)
-    save_interval: Duration = 5.0
-    stats_interval: Duration = 60.0  # = softplc.daemon.DaemonOptions; SIGUSR1: one now
+    save_interval: Interval = 5.0
+    stats_interval: Interval = 60.0  # = softplc.daemon.DaemonOptions; SIGUSR1: one now
     rt_priority: int = Field(10, ge=0, le=99)
     # a %M bit the program sets while it waits for its host: with --speed the daemon holds
     # the virtual clock meanwhile (deterministic runs; softplc.daemon)
@@ -208,8 +236,9 @@ class Config(Section):
 
     name: str = ""
     description: str = ""
-    scan_period: PositiveDuration = 0.010
-    watchdog: Duration | None = None  # None: the controller's default (engine)
+    scan_period: Annotated[Duration, _at_least(MIN_SCAN_PERIOD_S, "a scan period")] = 0.010
+    # None: the controller's default (engine)
+    watchdog: Annotated[Duration, _at_least(MIN_WATCHDOG_S, "the watchdog")] | None = None
     profile: str = DEFAULT_PROFILE.name
     timers: dict[str, TimerConfig] = Field(default_factory=dict)
     counters: dict[str, CounterConfig] = Field(default_factory=dict)

@@ -88,7 +88,7 @@ def parse_analog(section: Any) -> dict[str, AnalogChannelConfig]:
 
 
 Word = str  # an address, checked when the PLC resolves it
-WordOrConst = str | int
+WordOrConst = str | Annotated[int, Field(ge=-32768, le=32767)]  # a constant: a word's value
 
 
 class PidConfig(BaseModel):
@@ -116,8 +116,8 @@ class PidConfig(BaseModel):
     pwm_period: int = Field(100, ge=1, le=32767)
     diagnostic: Word | None = None
     at_output: int = Field(10000, ge=1, le=10000)
-    at_timeout: float = Field(14400.0, gt=0)  # seconds
-    measure_span: int = Field(10000, ge=1)
+    at_timeout: float = Field(14400.0, gt=0, le=86400)  # seconds
+    measure_span: int = Field(10000, ge=1, le=32767)
 
     @model_validator(mode="after")
     def _limits(self) -> PidConfig:
@@ -130,8 +130,10 @@ def _validated(section: str, key: str, model: type[BaseModel], table: Any) -> An
     try:
         return model.model_validate(table)
     except ValidationError as e:
-        err = e.errors()[0]
-        where = ".".join(str(p) for p in err["loc"] if not str(p).startswith(("str", "int")))
+        # a `str | int` field reports one error per member: the range one says more
+        err = min(e.errors(), key=lambda x: x["type"].endswith("_type"))
+        where = ".".join(str(p) for p in err["loc"]
+                         if not str(p).startswith(("str", "int", "constrained-")))
         path = ".".join(p for p in (section, key, where) if p)
         msg = err["msg"].removeprefix("Value error, ")
         raise ConfigError(f"{path}: {msg} (got {err.get('input')!r})") from None

@@ -16,6 +16,10 @@ kept: the state is the last scan boundary's); further signals are ignored.
 Periodic mode [manual]: a scan starts every %SW0 ms; a scan longer than the period sets
 %S19 (through `plc.note_overrun()`) and the next scan starts at once. A program that
 writes another value to %SW0 changes the period (2..150 ms on a Twido; 1..10000 here).
+On a shared host a scan may also start late (the OS ran something else): a cycle that
+ends past its period because its start was late is an overrun too, as the program sees
+it (%S19), and the scheduled starts that passed meanwhile are skipped, never made up by
+back-to-back scans: the schedule restarts from the end of the late cycle (`_next_start`).
 
 `speed` runs the virtual clock: each scan advances PLC time by the period but starts
 every period/speed seconds of real time (`math.inf`: back to back), for simulations.
@@ -31,6 +35,7 @@ virtual clock the same way, in 0.1 s slices, until its outcome or its deadline
 from __future__ import annotations
 
 import errno
+import gc
 import logging
 import math
 import os
@@ -47,6 +52,7 @@ from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
 from .modbus.regmap import describe
 from .modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
 from .runtime import retain
+from .runtime.keeper import StateKeeper
 
 log = logging.getLogger("softplc.daemon")
 
@@ -60,6 +66,7 @@ class DaemonOptions:
     port: int = 5020
     period: float = 0.010  # seconds, a whole number of ms
     state: Path | None = None
+    state_symlink: bool = False  # a --state that is a symbolic link is used (else refused)
     cold: bool = False
     keep_state: bool = False  # warm restart even if the program or configuration changed
     save_interval: float = 5.0  # seconds between flushes to disk; 0 = only at shutdown
@@ -87,6 +94,7 @@ class DaemonOptions:
     on_serving: list[Callable[[ServerThread, ModbusImage], None]] = field(
         default_factory=list)
     web: Any = None  # softplc.web.WebOptions; None = no web monitor
+    gc_freeze: bool = True  # freeze what start-up made (see Daemon.run); False: comparisons
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -118,7 +126,11 @@ class Daemon:
         self.stats_wanted = False  # SIGUSR1: a statistics line at the next scan
         self.image: ModbusImage | None = None
         self._server: ServerThread | None = None
-        self.overruns = 0
+        self.overruns = 0  # cycles that missed their period (each one sets %S19)
+        self.late_starts = 0  # of which the scan itself was short: its start was late
+        self.skipped_starts = 0  # scheduled starts that passed during those cycles
+        self.clock: Callable[[], float] = time.perf_counter  # the loop's time (tests: a fake)
+        self.sleep: Callable[[float], None] = time.sleep
         self.jitter: list[float] = []  # scan start lateness, current stats window
         self.jitter_max = 0.0
         self.start_mode = ""
@@ -206,7 +218,7 @@ class Daemon:
             plc.cold_start()
             self.start_mode, self.start_why = "cold", "no --state file"
             return None
-        store = retain.StateStore.open(opt.state)
+        store = retain.StateStore.open(opt.state, follow_symlinks=opt.state_symlink)
         try:
             state = None
             try:
@@ -273,7 +285,9 @@ class Daemon:
             if store is not None:
                 store.close()
             raise
-        persister = retain.Persister(store, opt.save_interval) if store is not None else None
+        keeper = None
+        if store is not None:
+            keeper = StateKeeper(store, opt.save_interval, self._state_kept, self.say)
         # Until the very end a signal only sets flags: a second Ctrl-C cannot interrupt
         # the shutdown half-way or change the exit status.
         old_handlers = {s: signal.signal(s, self._on_signal)
@@ -290,10 +304,19 @@ class Daemon:
             try:
                 self.priority = self._realtime()  # after the other threads started
                 self._banner(server, image)
+                if opt.gc_freeze:
+                    # The program, its compiled code, the image and the servers live as long
+                    # as the daemon: moved out of the collector's generations, a full
+                    # collection (triggered by any thread's allocations, holding the GIL)
+                    # no longer walks them, so it stops delaying scan starts.
+                    gc.collect()
+                    gc.freeze()
                 self._loop(server)
             finally:
                 sys.setswitchinterval(old_switch)
-                self._shutdown(server, store, persister)
+                if opt.gc_freeze:
+                    gc.unfreeze()  # collectable again (a daemon run inside a longer process)
+                self._shutdown(server, store, keeper)
         finally:
             # Stopped by a signal: the process is on its way out and more signals (Ctrl-C
             # held down) must not change its exit status: ignore them from now on.
@@ -323,8 +346,8 @@ class Daemon:
 
     def _loop(self, server: ServerThread) -> None:
         plc, opt = self.plc, self.opt
-        clock = time.perf_counter
-        sleep = time.sleep
+        clock = self.clock
+        sleep = self.sleep
         state = plc.state
         now = clock()
         next_start = now
@@ -380,12 +403,7 @@ class Daemon:
                     log.error("controller halted: %s", plc.fault)
                     self.say(f"controller in HALT: {plc.fault}")
             end = clock()
-            next_start += self.interval
-            if end > next_start:
-                if self.interval and opt.speed is None and end - start > self.interval:
-                    self.overruns += 1
-                    plc.note_overrun()  # %S19
-                next_start = end  # start at once; re-anchor the schedule
+            next_start = self._next_start(next_start, start, end)
             sw0 = plc.mem.sw.w[0]
             if sw0 != self.period_ms:  # the program changed the period
                 if MIN_PERIOD_MS <= sw0 <= MAX_PERIOD_MS:
@@ -401,20 +419,48 @@ class Daemon:
                 next_stats = end + opt.stats_interval if opt.stats_interval else math.inf
                 self.say(self._stats_line(server, rate))
 
+    def _next_start(self, scheduled: float, start: float, end: float) -> float:
+        """When the next scan starts, after a scan scheduled at `scheduled` ran from `start`
+        to `end`; counts the overrun if the cycle missed its period. The catch-up rule:
+        a late cycle is followed by a scan at once, and the schedule restarts from there
+        (the starts that passed are skipped, not run back to back)."""
+        interval = self.interval
+        due = scheduled + interval
+        if end <= due:
+            return due
+        if interval and self.opt.speed is None:  # a virtual clock's time never runs late
+            passed = int((end - scheduled) / interval)  # scheduled starts passed, >= 1
+            late = end - start <= interval  # the scan alone fitted: its start was late
+            self.overruns += 1
+            self.late_starts += late
+            self.skipped_starts += passed - 1
+            self.plc.note_overrun(late=late, skipped=passed - 1)  # %S19, %SW33, %SW34
+        return end
+
+    def _state_kept(self, lost: str) -> None:
+        """The state file cannot be kept (`lost` says why): refuse host writes, which could
+        not be kept either, until it can ("")."""
+        image = self.image
+        if image is None:
+            return
+        image.refused_why = f"writes refused: {lost}" if lost else ""
+        image.writes_allowed = not lost and not self.opt.read_only
+
     def _stats_line(self, server: ServerThread, rate: float) -> str:
         st = self.plc.stats
         p50, p99 = percentiles(self.jitter, 50, 99)
         jmax = max(self.jitter, default=0.0)
         self.jitter = []
         return (f"stats scans={st.scans} scan_last={_ms(st.last)} scan_max={_ms(st.max)} "
-                f"overruns={self.overruns} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
+                f"overruns={self.overruns} late={self.late_starts} "
+                f"skipped={self.skipped_starts} jitter_p50={_ms(p50)} jitter_p99={_ms(p99)} "
                 f"jitter_max={_ms(jmax)} clients={server.stats.clients} req/s={rate:.0f} "
                 f"exceptions={server.stats.exceptions} "
                 f"refused={server.stats.rejected + server.stats.denied} state={self.plc.state}"
                 + (f" web={self.web.server.url}" if self.web is not None else ""))
 
     def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
-                  persister: retain.Persister | None) -> None:
+                  keeper: StateKeeper | None) -> None:
         plc = self.plc
         plc.stop_outputs()
         if self.web is not None:  # web monitor hook
@@ -423,15 +469,20 @@ class Daemon:
         # The store already holds the last scan boundary and every write acknowledged since
         # (journal): flush it to disk.
         saved = ""
-        if persister is not None:
-            persister.stop()
-        if store is not None:
+        if keeper is not None and store is not None:
+            keeper.stop()
             try:
-                store.persist()
+                if keeper.check():  # the file at the path is the store's (re-created if not)
+                    store.persist()
+                    saved = f", state saved to {self.opt.state}"
+                else:
+                    saved = f", state NOT saved: {keeper.lost}"
+            except OSError as e:
+                saved = f", state NOT saved: cannot flush {self.opt.state}: {e.strerror or e}"
             finally:
                 store.close()
-            saved = f", state saved to {self.opt.state}"
         plc.close()  # devices flush their files (the trace CSV)
         cut = ", last scan interrupted (state as of the scan before)" if self.interrupted else ""
-        self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns, "
+        self.say(f"stopped after {plc.stats.scans} scans, {self.overruns} overruns "
+                 f"({self.late_starts} late starts, {self.skipped_starts} starts skipped), "
                  f"jitter max {_ms(self.jitter_max)}, outputs 0{saved}{cut}")

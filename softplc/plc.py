@@ -636,8 +636,8 @@ class PLC:
         self.engine.period_us = max(1, round(seconds * 1e6))
         self.mem.sw.w[0] = min(32767, round(seconds * 1000))
 
-    def note_overrun(self) -> None:
-        self.engine.note_overrun()
+    def note_overrun(self, late: bool = False, skipped: int = 0) -> None:
+        self.engine.note_overrun(late, skipped)
 
     def close(self) -> None:
         """Flush and close devices (trace files) and the EXCH port's connections."""

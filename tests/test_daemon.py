@@ -74,7 +74,8 @@ def test_banner_sigint_and_period(daemons, tmp_path):
         with pytest.raises((ConnectionError, OSError)):  # clients are closed
             c.read_registers(0, 1)
     assert rc == 0
-    assert re.search(r"stopped after \d+ scans, 0 overruns, .*outputs 0", d.wait_for("stopped"))
+    assert re.search(r"stopped after \d+ scans, \d+ overruns \(\d+ late starts, \d+ starts "
+                     r"skipped\), .*outputs 0", d.wait_for("stopped"))
 
 
 def test_stats_on_request_name_the_monitor(daemons, tmp_path):

@@ -42,7 +42,7 @@ class Stack:
         self.plc.after_scan.append(self._count)
         self.modbus = ServerThread(self.image, "127.0.0.1", 0).start()
         daemon = SimpleNamespace(plc=self.plc, program_name=program.name, overruns=0,
-                                 jitter_max=0.0)
+                                 late_starts=0, skipped_starts=0, jitter_max=0.0)
         self.web = attach(daemon, self.modbus, self.image, WebOptions(port=0, **web))
         self.port = self.web.server.port
         self._stop = False
@@ -105,8 +105,8 @@ def test_info_and_status(star):
     assert info["token_required"] is False and info["read_only"] is False
     st = c.status()
     assert st["state"] == "RUN" and st["scans"] > 0 and st["period_ms"] == 10
-    assert {"scan_last_ms", "scan_min_ms", "scan_max_ms", "overruns",
-            "modbus_clients"} <= set(st)
+    assert {"scan_last_ms", "scan_min_ms", "scan_max_ms", "overruns", "late_starts",
+            "skipped_starts", "modbus_clients"} <= set(st)
 
 
 def test_read_ranges_blocks_and_bits(star):
@@ -495,7 +495,8 @@ def test_port_taken_default_falls_back_explicit_fails():
     plc = PLC.from_file(STAR, config=STAR.with_suffix(".toml"))
     image = ModbusImage(plc.mem)
     modbus = ServerThread(image, "127.0.0.1", 0).start()
-    daemon = SimpleNamespace(plc=plc, program_name="x", overruns=0, jitter_max=0.0)
+    daemon = SimpleNamespace(plc=plc, program_name="x", overruns=0, late_starts=0,
+                             skipped_starts=0, jitter_max=0.0)
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()

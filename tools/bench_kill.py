@@ -7,12 +7,17 @@ in flight, restart it on the same file and read the registers back. A register h
 less than its last acknowledged value lost acknowledged writes (the difference). Also
 counted: files left in the state file's directory besides the program and the state.
 
-    .venv/bin/python tools/bench_kill.py [--kills 100] [--writers 4]
+`--attack delete` (or `replace`) also deletes the state file (or renames another file over
+it) while the writes go on, 0.2-0.6 s before the kill; the daemon must re-create it with
+every acknowledged write (issue 21). `--signal term` stops the daemon with SIGTERM instead.
+
+    .venv/bin/python tools/bench_kill.py [--kills 100] [--writers 4] [--attack delete]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import random
 import re
 import signal
@@ -65,8 +70,18 @@ def _read_counters(port: int, writers: int) -> list[int]:
     return [(regs[2 * i] << 16) | regs[2 * i + 1] for i in range(writers)]
 
 
+def _attack(state: Path, attack: str) -> None:
+    if attack == "delete":
+        state.unlink()
+    elif attack == "replace":  # e.g. a backup restored, an editor's save
+        other = state.with_name("other.tmp")
+        other.write_bytes(b"not the daemon's state")
+        os.replace(other, state)
+
+
 def run(kills: int = 100, writers: int = 4, save_interval: str = "0.5s",
-        seed: int = 1, progress: bool = False) -> dict[str, object]:
+        seed: int = 1, progress: bool = False, attack: str = "none",
+        sig: signal.Signals = signal.SIGKILL) -> dict[str, object]:
     rng = random.Random(seed)
     lost: list[int] = []
     acked_total = 0
@@ -85,8 +100,11 @@ def run(kills: int = 100, writers: int = 4, save_interval: str = "0.5s",
                                                                   stop)) for i in range(writers)]
                 for t in threads:
                     t.start()
+                if attack != "none":
+                    time.sleep(rng.uniform(0.1, 0.3))
+                    _attack(state, attack)
                 time.sleep(rng.uniform(0.2, 0.6))
-                proc.send_signal(signal.SIGKILL)  # writes in flight
+                proc.send_signal(sig)  # writes in flight
                 proc.wait(10)
                 stop.set()
                 for t in threads:
@@ -108,7 +126,7 @@ def run(kills: int = 100, writers: int = 4, save_interval: str = "0.5s",
                 print(file=sys.stderr)
         leftovers = sorted(p.name for p in Path(tmp).iterdir()
                            if p.name not in (program.name, state.name))
-    return {"kills": kills, "acknowledged_writes": acked_total,
+    return {"kills": kills, "attack": attack, "acknowledged_writes": acked_total,
             "lost_total": sum(lost), "lost_mean": statistics.mean(lost) if lost else 0.0,
             "lost_max": max(lost, default=0), "kills_with_loss": sum(1 for x in lost if x),
             "leftover_files": leftovers}
@@ -119,10 +137,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--kills", type=int, default=100)
     ap.add_argument("--writers", type=int, default=4)
     ap.add_argument("--save-interval", default="0.5s", help="the daemon's --save-interval")
+    ap.add_argument("--attack", choices=["none", "delete", "replace"], default="none",
+                    help="delete or replace the state file 0.2-0.6 s before each kill")
+    ap.add_argument("--signal", choices=["kill", "term"], default="kill",
+                    help="SIGKILL (default) or SIGTERM")
     a = ap.parse_args(argv)
-    r = run(a.kills, a.writers, a.save_interval, progress=True)
-    print(f"{r['kills']} kill -9 with {a.writers} writers in flight, save interval "
-          f"{a.save_interval}")
+    sig = signal.SIGKILL if a.signal == "kill" else signal.SIGTERM
+    r = run(a.kills, a.writers, a.save_interval, progress=True, attack=a.attack, sig=sig)
+    print(f"{r['kills']} {'kill -9' if a.signal == 'kill' else 'SIGTERM'} with {a.writers} "
+          f"writers in flight, save interval {a.save_interval}, attack {a.attack}")
     for k, v in r.items():
         print(f"  {k:22} {v}")
     return 0

@@ -60,6 +60,16 @@ def _max_clients(text: str) -> int:
     return int(text)
 
 
+def _interval(text: str) -> float:
+    """--save-interval, --stats-interval: a duration, 0 (off) or at least 10 ms."""
+    from ..config import check_interval
+
+    try:
+        return check_interval(_duration(text))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"{text!r}: {e}") from None
+
+
 def _period(text: str) -> float:
     return _duration(text, "ms")
 
@@ -103,12 +113,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--state", type=Path,
                    help="retained-state file: warm restart from it, saved periodically and "
                         "at shutdown")
+    p.add_argument("--state-symlink", action="store_true",
+                   help="allow a --state that is a symbolic link (refused by default: a "
+                        "cold start would overwrite the file it points to)")
     p.add_argument("--cold", action="store_true",
                    help="cold start even if the state file holds data (or is damaged)")
     p.add_argument("--keep-state", action="store_true",
                    help="warm restart even if the program or configuration changed since the "
                         "state was saved (default: a new application cold-starts)")
-    p.add_argument("--save-interval", type=_duration,
+    p.add_argument("--save-interval", type=_interval,
                    help="how often to flush the state file to disk, for power loss (default "
                         "5s; 0 = only at shutdown); a killed process loses nothing anyway")
     p.add_argument("--speed", type=_speed, default=None,
@@ -116,7 +129,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-host-wait", action="store_true",
                    help="with --speed, run the virtual clock on while the program waits for "
                         "its host (ignore the config's [daemon] host_wait bit)")
-    p.add_argument("--stats-interval", type=_duration,
+    p.add_argument("--stats-interval", type=_interval,
                    help="statistics line every ... (default 60s; 0 = none); "
                         "`kill -USR1 PID` prints one at once")
     p.add_argument("--max-clients", type=_max_clients,
@@ -138,6 +151,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="SCHED_FIFO priority of the scan thread, 1..99, the Modbus thread "
                         "one below (default 10; 0 = normal scheduling); needs root or "
                         "CAP_SYS_NICE, else ignored")
+    p.add_argument("--no-gc-freeze", action="store_true",
+                   help="do not freeze the objects made at start-up out of the garbage "
+                        "collector's reach (comparisons: tools/bench_gc.py)")
     p.add_argument("--trace", type=Path, metavar="FILE.csv",
                    help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
                         "this CSV file (flushed every simulated second and at shutdown)")
@@ -221,6 +237,7 @@ def run(args: argparse.Namespace) -> int:
         port=_pick(args.port, mb.port),
         period=period,
         state=state,
+        state_symlink=args.state_symlink,
         cold=args.cold,
         keep_state=args.keep_state,
         save_interval=_pick(args.save_interval, dm.save_interval),
@@ -237,6 +254,7 @@ def run(args: argparse.Namespace) -> int:
         open_outputs=outputs,
         on_host_wait=waits,
         web=_web_options(args),
+        gc_freeze=not args.no_gc_freeze,
     )
     if not 0 <= opts.rt_priority <= 99:
         raise SoftPLCError("rt_priority must be 0..99")

@@ -12,9 +12,10 @@ TOML options, table `[devices.NAME]` with `type = "oven"`:
   span, 0-10 V -> 0..1) or `heater_bit` (a `%Q` output: power 1 while on; on an output
   driven by a `%PWM`/`%PLS` the power is its duty cycle, read through the runtime's pulse
   interface, `softplc/runtime/pulse.py`); one of them.
-- `gain` (degrees C at full power above ambient, default 200.0), `tau` (time constant,
-  seconds, default 60.0), `dead_time` (seconds, default 5.0), `ambient` (degrees C,
-  default 20.0), `start` (initial temperature, default ambient).
+- `gain` (degrees C at full power above ambient, -1e6..1e6, default 200.0), `tau` (time
+  constant, seconds, up to 1e6, default 60.0), `dead_time` (seconds, 0..600, default
+  5.0), `ambient` (degrees C, -273..1e4, default 20.0), `start` (initial temperature,
+  default ambient).
 
 Attributes: `temperature` (degrees C), `power` (the heater power now, 0..1).
 """
@@ -34,6 +35,8 @@ from ..runtime.analog import SIGNAL_SPAN
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
 
+MAX_DEAD_TIME_S = 600.0  # ten minutes: 600,000 values at a 1 ms scan
+
 
 @register_device("oven")
 class Oven(Device):
@@ -45,11 +48,12 @@ class Oven(Device):
         sensor: Address
         heater: Address | None = None
         heater_bit: Address | None = None
-        gain: FiniteFloat = Field(200.0, ge=-1e6)
-        tau: FiniteFloat = Field(60.0, ge=1e-6)
-        dead_time: FiniteFloat = Field(5.0, ge=0.0)
-        ambient: FiniteFloat = Field(20.0, ge=-273.0)
-        start: FiniteFloat | None = Field(None, ge=-273.0)
+        gain: FiniteFloat = Field(200.0, ge=-1e6, le=1e6)
+        tau: FiniteFloat = Field(60.0, ge=1e-6, le=1e6)
+        # the heater's history is kept for the dead time, one value a scan: bounded
+        dead_time: FiniteFloat = Field(5.0, ge=0.0, le=MAX_DEAD_TIME_S)
+        ambient: FiniteFloat = Field(20.0, ge=-273.0, le=1e4)
+        start: FiniteFloat | None = Field(None, ge=-273.0, le=1e4)
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)

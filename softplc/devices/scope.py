@@ -8,11 +8,12 @@ START, up to `max_count` samples, and on STORE writes `IMCal_.dta` (JOB 1) or `I
     axis = "X"                  # a servo_axis device of this machine
     words = "%MW320"            # command and status words (below)
     directory = "."             # where STORE writes (relative to the daemon's directory)
-    sampling_us = 3000          # the thesis's SAMPLING (3 ms)
-    max_count = 8192            # the thesis's COUNT; TRUNCATED when the buffer is full
+    sampling_us = 3000          # the thesis's SAMPLING (3 ms); up to 1 s
+    max_count = 8192            # the thesis's COUNT; TRUNCATED when the buffer is full;
+                                # up to 1,000,000
     torque_per_bit = 0.01       # motor torque, Nm per drive-command bit (the axis's w)
-    noise = [1e-6, 2e-4, 0.02, 0.5]   # sd of x m, v m/s, a m/s², torque Nm (seeded)
-    seed = 0
+    noise = [1e-6, 2e-4, 0.02, 0.5]   # sd of x m, v m/s, a m/s², torque Nm (seeded), >= 0
+    seed = 0                    # 0 .. 2**32 - 1
 
 Sample i (i = 1..COUNT) is the axis state at the end of the scan whose time reaches
 t_START + i x SAMPLING: exact when the scan period divides SAMPLING (1 ms scans, 3 ms
@@ -31,7 +32,7 @@ RECORDING, X1 STORED, X2 TRUNCATED, X3 ERROR; +3 COUNT; +4 ERROR: 0 none, 1 bad 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -46,6 +47,7 @@ from .axis.servo import ServoAxis
 from .base import Device, register_device
 
 FILES = {CAL_JOB: CAL_FILE, MEAS_JOB: MEAS_FILE}
+NonNegative = Annotated[float, Field(ge=0)]
 
 
 class ScopeOptions(BaseModel):
@@ -53,11 +55,12 @@ class ScopeOptions(BaseModel):
     axis: str
     words: str = "%MW320"
     directory: str = "."
-    sampling_us: int = Field(3000, gt=0)
-    max_count: int = Field(8192, gt=0)
+    sampling_us: int = Field(3000, gt=0, le=1_000_000)
+    max_count: int = Field(8192, gt=0, le=1_000_000)
     torque_per_bit: float = Field(gt=0)
-    noise: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    seed: int = 0
+    # standard deviations (numpy refuses negative ones, and seeds, at STORE)
+    noise: tuple[NonNegative, NonNegative, NonNegative, NonNegative] = (0.0, 0.0, 0.0, 0.0)
+    seed: int = Field(0, ge=0, le=2**32 - 1)
     axis_label: str = "A"  # AXISn in the files (the thesis's files say "A")
 
 

@@ -10,7 +10,13 @@ pen in the config, so that it sees their state of the same scan:
 - `csv` (path, default none): also write the samples to this CSV file, relative to the
   current directory, every `flush_every` seconds of simulated time and at `close()`.
 - `flush_every` (duration > 0 of simulated time, default "1s"): CSV write period.
-- `max_samples` (int > 0, default 1000000): stop recording (and warn) after this many.
+- `max_samples` (int 1..10000000, default 1000000): stop recording (and warn) after this
+  many (a sample takes about 100 bytes of memory).
+
+A CSV file that cannot be written while the machine runs (a full disk, an I/O error) stops
+the file, with one error message; the simulation and the samples in memory go on (a
+trace must never stop the PLC). The first write (`record_to`) raises `TraceError` instead:
+a file that cannot be written at start is the user's to fix.
 
 A sample `(t, x, z, pen, missed)` is recorded at bind (t = 0) and after every scan that
 changed something: t in seconds, x and z the axis positions in motor steps (a float on a
@@ -29,7 +35,7 @@ from typing import Any
 from pydantic import Field
 
 from ..config import PositiveDuration, Section
-from ..errors import ConfigError
+from ..errors import ConfigError, SoftPLCError
 from ..runtime.memory import MemoryImage
 from .base import AxisDevice, Device, register_device
 from .pen import Pen
@@ -37,12 +43,17 @@ from .pen import Pen
 log = logging.getLogger(__name__)
 
 CSV_HEADER = "t,x,z,pen,missed"
+MAX_SAMPLES = 10_000_000
 Sample = tuple[float, int | float, int | float, int, int]
 Segment = tuple[tuple[float, float], tuple[float, float]]
 
 
 class _NoPen:
     down = False
+
+
+class TraceError(SoftPLCError):
+    """The trace CSV file cannot be written."""
 
 
 def _row(s: Sample) -> str:
@@ -59,7 +70,7 @@ class Trace(Device):
         pen: str = "pen"
         csv: str | None = Field(None, min_length=1)
         flush_every: PositiveDuration = 1.0
-        max_samples: int = Field(1_000_000, ge=1)
+        max_samples: int = Field(1_000_000, ge=1, le=MAX_SAMPLES)
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
@@ -74,6 +85,7 @@ class Trace(Device):
         self._key: tuple[Any, ...] = ()
         self._written = 0  # samples already in the CSV file
         self._next_flush = math.inf
+        self.file_error = ""  # why the CSV file stopped being written ("" = it is not)
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         x, z = self.options.axes
@@ -124,7 +136,12 @@ class Trace(Device):
         self.csv_path = os.fspath(path)
         self._written = 0
         self._next_flush = 0.0
-        self.flush()
+        self.file_error = ""
+        try:
+            self._append()
+        except OSError as e:
+            self.csv_path = None
+            raise TraceError(f"trace file {path}: cannot write: {e.strerror or e}") from None
 
     def to_csv(self, path: str | os.PathLike[str]) -> None:
         """Write every sample, with the header `t,x,z,pen,missed`."""
@@ -133,9 +150,21 @@ class Trace(Device):
             f.writelines(_row(s) for s in self.samples)
 
     def flush(self) -> None:
-        """Append the samples not yet written to the `csv` file (if configured)."""
+        """Append the samples not yet written to the `csv` file (if configured). A file
+        that cannot be written is given up with one error (the samples stay in memory)."""
         if not self.csv_path:
             return
+        try:
+            self._append()
+        except OSError as e:
+            self.file_error = f"{self.csv_path}: {e.strerror or e}"
+            log.error("%s: trace file %s; the trace file stops here (%d samples written), "
+                      "the PLC goes on", self.name, self.file_error, self._written)
+            self.csv_path = None
+            self._next_flush = math.inf
+
+    def _append(self) -> None:
+        assert self.csv_path
         first = self._written == 0
         with open(self.csv_path, "w" if first else "a", encoding="ascii") as f:
             if first:

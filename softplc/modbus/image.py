@@ -64,6 +64,7 @@ class ModbusImage:
         self.mem = mem
         self.read_only = read_only or ReadOnly()
         self.writes_allowed = writes_allowed  # False: `--read-only`, every write refused
+        self.refused_why = ""  # why writes are refused when not `--read-only`
         self.n_registers = n = mem.mw.n
         self.n_coils = c = len(mem.m)
         self._regs_native = np.frombuffer(mem.mw.buf, np.uint16)
@@ -193,7 +194,7 @@ class ModbusImage:
     def check_write(self, space: str, addr: int, count: int) -> None:
         """Raise WriteRefused if a write of `count` items at `addr` is not allowed."""
         if not self.writes_allowed:
-            raise WriteRefused("writes are disabled (--read-only)",
+            raise WriteRefused(self.refused_why or "writes are disabled (--read-only)",
                                ExceptionCode.ILLEGAL_FUNCTION)
         size = self.n_registers if space == REGISTERS else self.n_coils
         if addr < 0 or count < 1 or addr + count > size:

@@ -33,6 +33,9 @@ S_GRAFCET_INIT = 21  # set by the system on a cold start [manual]; see runtime/g
 S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}  # period in us [manual]
 S_WATCHDOG, S_OVERRUN = 11, 19
 SW_PERIOD, SW_WATCHDOG, SW_LAST, SW_MAX, SW_MIN = 0, 11, 30, 31, 32
+# [softplc, not a Twido word] periodic mode's late and skipped scan starts (daemon), counted
+# since start-up, held at 32767; the program may reset them
+SW_LATE, SW_SKIPPED = 33, 34
 DEFAULT_WATCHDOG_S = 0.150  # [manual]
 
 
@@ -44,6 +47,8 @@ class ScanStats:
     min: float = 0.0
     total: float = 0.0
     overruns: int = 0
+    late_starts: int = 0  # overruns of a scan that started late (see daemon)
+    skipped_starts: int = 0  # scheduled starts that passed during overruns
 
 
 class Engine:
@@ -336,8 +341,15 @@ class Engine:
         self.mem.s[S_WATCHDOG] = 1
         self.halt(f"watchdog: scan took {dt * 1000:.1f} ms > {self.watchdog_s * 1000:.0f} ms")
 
-    def note_overrun(self) -> None:
-        """Periodic mode: the scan did not finish within the period (%S19) [manual]."""
-        self.stats.overruns += 1
+    def note_overrun(self, late: bool = False, skipped: int = 0) -> None:
+        """Periodic mode: the cycle did not finish within its period (%S19) [manual]; `late`:
+        because the scan started late; `skipped`: scheduled starts that passed meanwhile."""
+        st = self.stats
+        st.overruns += 1
+        st.late_starts += late
+        st.skipped_starts += skipped
         self.mem.s[S_OVERRUN] = 1
+        sw = self.mem.sw.w
+        sw[SW_LATE] = min(32767, sw[SW_LATE] + late)
+        sw[SW_SKIPPED] = min(32767, sw[SW_SKIPPED] + skipped)
 

@@ -29,7 +29,12 @@ first that does not verify (a write cut off before it was acknowledged).
 Starting with a state file that does not exist (or is empty: a creation that never
 finished) is a cold start. A file that is present but unreadable, truncated, corrupt or
 for another controller is an error unless the user asks for a cold start: the data is
-never reset silently. The file is locked (`flock`) while a daemon uses it.
+never reset silently. The file is locked (`flock`) while a daemon uses it. A symbolic link
+is refused unless the caller asks (`follow_symlinks`): `--cold` would overwrite whatever it
+points to. While the store is open, `check` tells whether the file at the path is still
+the locked one (deleted, renamed or replaced by another: it is not) and `recreate` writes
+the whole mapped file, every acknowledged write included, to the path again, locked
+(`softplc.runtime.keeper` does both, ten times a second).
 
 The format is fed by plain bytes (`StateStore.commit`) and `capture`/`apply` turn a
 `MemoryImage` into a `RetainedState` and back, so another way of collecting the state
@@ -199,13 +204,21 @@ class _Layout:
 
 def open_locked(path: str | os.PathLike[str], what: str,
                 error: type[SoftPLCError] = SoftPLCError,
-                holder: Callable[[int], str] = lambda fd: "; choose another file") -> int:
+                holder: Callable[[int], str] = lambda fd: "; choose another file",
+                follow_symlinks: bool = True, symlink_hint: str = "") -> int:
     """Open `path` read-write (created if absent, never truncated) and `flock` it for as
     long as the descriptor stays open; `error` if another process holds it (`holder(fd)`
-    adds who and what to do)."""
+    adds who and what to do), or if it is a symbolic link and not `follow_symlinks`."""
+    flags = os.O_RDWR | os.O_CREAT | os.O_CLOEXEC
+    if not follow_symlinks:
+        flags |= os.O_NOFOLLOW
     try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        fd = os.open(path, flags, 0o644)
     except OSError as e:
+        if e.errno == errno.ELOOP and not follow_symlinks and os.path.islink(path):
+            raise error(f"{what} {path} is a symbolic link (to {_link_target(path)}): "
+                        f"refused, since a cold start would overwrite what it points to"
+                        f"{symlink_hint}") from None
         raise error(f"cannot open {what} {path}: {e.strerror or e}") from None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -229,9 +242,10 @@ class StateStore:
     `commit`, `journal` and `persist` may be called from different threads.
     """
 
-    def __init__(self, path: str | os.PathLike[str], fd: int):
+    def __init__(self, path: str | os.PathLike[str], fd: int, follow_symlinks: bool = False):
         self.path = Path(path)
         self._fd = fd
+        self.follow_symlinks = follow_symlinks
         self._mm: mmap.mmap | None = None
         self._layout: _Layout | None = None
         self._lock = threading.Lock()
@@ -247,17 +261,57 @@ class StateStore:
 
     # -- opening -------------------------------------------------------------------------
     @classmethod
-    def open(cls, path: str | os.PathLike[str]) -> StateStore:
-        """Open (create if absent) and lock. Nothing in the file is changed here."""
+    def open(cls, path: str | os.PathLike[str], follow_symlinks: bool = False) -> StateStore:
+        """Open (create if absent) and lock. Nothing in the file is changed here. A symbolic
+        link is refused unless `follow_symlinks`."""
+        return cls(path, _open_state(path, follow_symlinks), follow_symlinks)
 
-        def holder(fd: int) -> str:
-            pid = _PID.unpack(os.pread(fd, _PID.size, _PID_OFFSET).ljust(_PID.size, b"\0"))[0]
-            return (f" (pid {pid})" if pid else "") + (
-                ": two controllers on one state file would overwrite each other's data; stop "
-                "it or use another --state file")
+    def check(self) -> str:
+        """"" while the file at the path is the one this store holds locked; else what
+        became of it (someone deleted, moved or replaced it: it will not be read at the
+        next start)."""
+        try:
+            st = os.stat(self.path, follow_symlinks=self.follow_symlinks)
+        except FileNotFoundError:
+            return "was deleted (or moved away)"
+        except OSError as e:
+            return f"cannot be checked ({e.strerror or e})"
+        me = os.fstat(self._fd)
+        if (st.st_dev, st.st_ino) != (me.st_dev, me.st_ino):
+            return "was replaced by another file"
+        return ""
 
-        fd = open_locked(path, "state file", StateFileError, holder)
-        return cls(path, fd)
+    def recreate(self) -> None:
+        """Write the whole mapped file (every slot and the journal: all that was
+        acknowledged) to the path again, locked, and go on in it; the old one is let go.
+        StateFileError if it cannot be done (e.g. another softplc took the path, or the
+        folder is gone): then nothing is kept at the path."""
+        fd = _open_state(self.path, self.follow_symlinks)
+        try:
+            with self._lock:  # no commit or journal entry meanwhile
+                mm = self._mm
+                assert mm is not None
+                data = mm[:]
+                os.ftruncate(fd, 0)
+                os.posix_fallocate(fd, 0, len(data))
+                view = memoryview(data)
+                while view:
+                    view = view[os.pwrite(fd, view, len(data) - len(view)):]
+                new = mmap.mmap(fd, len(data), mmap.MAP_SHARED,
+                                mmap.PROT_READ | mmap.PROT_WRITE)
+                old_fd, self._mm, self._fd = self._fd, new, fd
+        except OSError as e:
+            os.close(fd)
+            raise StateFileError(f"cannot re-create state file {self.path}: "
+                                 f"{e.strerror or e}") from None
+        mm.close()
+        os.close(old_fd)
+        try:  # outside the lock: scans and writes go on meanwhile
+            os.fsync(fd)
+        except OSError as e:  # in the page cache all the same: kept through a process kill
+            log.error("%s: re-created, but cannot flush it to disk: %s", self._where(),
+                      e.strerror or e)
+        _fsync_dir(self.path.parent)
 
     def _where(self) -> str:
         return f"state file {self.path}"
@@ -397,9 +451,10 @@ class StateStore:
     def commit(self, regs_be: bytes, coils: bytes, blocks: bytes | None = None) -> None:
         """Write a new volatile slot: %MW (big-endian), %M (one byte each) and the blocks'
         JSON (None: the last one). Empties the journal, whose writes it includes."""
-        lay, mm = self._layout, self._mm
-        assert lay is not None and mm is not None
+        lay = self._layout
         with self._lock:
+            mm = self._mm  # under the lock: `recreate` replaces it
+            assert lay is not None and mm is not None
             if blocks is None:
                 blocks = self._blocks
             elif len(blocks) > lay.blocks_cap:
@@ -425,9 +480,10 @@ class StateStore:
     def journal(self, space: int, addr: int, data: bytes) -> bool:
         """Append an acknowledged write (registers big-endian; coils one byte each).
         False when the journal is full: commit a slot that includes the write instead."""
-        lay, mm = self._layout, self._mm
-        assert lay is not None and mm is not None
+        lay = self._layout
         with self._lock:
+            mm = self._mm  # under the lock: `recreate` replaces it
+            assert lay is not None and mm is not None
             pos = lay.journal_offset + self._jpos
             size = _ENTRY.size + len(data)
             if self._jpos + size > lay.journal_cap:
@@ -452,8 +508,8 @@ class StateStore:
 
     def persist(self) -> None:
         """Copy the newest slot over the older durable one and msync it (power-loss
-        safety): the newer durable copy stays intact meanwhile. One thread at a time; the
-        disk write happens outside the commit lock."""
+        safety): the newer durable copy stays intact meanwhile. One thread at a time, the
+        one that may `recreate`; the disk write happens outside the commit lock."""
         lay, mm = self._layout, self._mm
         assert lay is not None and mm is not None
         k = 0 if self._durable_seq[0] <= self._durable_seq[1] else 1
@@ -477,6 +533,24 @@ class StateStore:
         if self._fd >= 0:
             os.close(self._fd)  # releases the flock
             self._fd = -1
+
+
+def _link_target(path: str | os.PathLike[str]) -> str:
+    try:
+        return os.readlink(path)
+    except OSError:
+        return "?"
+
+
+def _open_state(path: str | os.PathLike[str], follow_symlinks: bool) -> int:
+    def holder(fd: int) -> str:
+        pid = _PID.unpack(os.pread(fd, _PID.size, _PID_OFFSET).ljust(_PID.size, b"\0"))[0]
+        return (f" (pid {pid})" if pid else "") + (
+            ": two controllers on one state file would overwrite each other's data; stop "
+            "it or use another --state file")
+
+    return open_locked(path, "state file", StateFileError, holder, follow_symlinks,
+                       "; --state-symlink allows it")
 
 
 def _fsync_dir(path: Path) -> None:
@@ -552,31 +626,3 @@ def load(path: str | os.PathLike[str]) -> RetainedState | None:
         return store.load()
     finally:
         store.close()
-
-
-class Persister:
-    """`store.persist()` every `interval` seconds on its own thread, so an msync never
-    delays a scan. `stop` ends it (the caller persists a last time)."""
-
-    def __init__(self, store: StateStore, interval: float):
-        self.store = store
-        self.interval = interval
-        self.error: OSError | None = None
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="persist", daemon=True)
-        if interval > 0:
-            self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.wait(self.interval):
-            try:
-                self.store.persist()
-                self.error = None
-            except OSError as e:
-                self.error = e
-                log.error("cannot flush state file %s: %s", self.store.path, e.strerror or e)
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join()

@@ -85,6 +85,8 @@ def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebH
                      status_extra=lambda: {"modbus_clients": modbus.stats.clients,
                                            "modbus_requests": modbus.stats.requests,
                                            "overruns": daemon.overruns,
+                                           "late_starts": daemon.late_starts,
+                                           "skipped_starts": daemon.skipped_starts,
                                            "jitter_max_ms": daemon.jitter_max * 1000})
     note = ""
     for port in (opt.port, 0):

@@ -3,15 +3,16 @@
 `[devices.NAME]` with `type = "servo_axis"`; every key is optional except `plant.K`:
 
     words = "%MW200"            # first word of the axis's block (the word map below)
-    servo_clock_hz = 2258.65    # servo interrupt rate (Turbo PMAC2 default: 9034.6 Hz / 4)
-    counts_per_mm = 409.6       # encoder counts per mm (display and the host command)
+    servo_clock_hz = 2258.65    # servo interrupt rate (Turbo PMAC2 default: 9034.6 Hz / 4),
+                                # up to 50 kHz
+    counts_per_mm = 409.6       # encoder counts per mm (display and the host command), <= 1e6
     start = -20000.0            # true carriage position at power-up, counts from home
     require_home = true         # a move or jog before homing is a fatal error
     estop_input = "%I0.0"       # E-stop push button (1 = pressed), also read by the program
     power_output = "%Q0.3"      # contactor feeding the drive's ENA-PWR (unset: always on)
     fault = "none"              # "jammed" | "estop" | "amp_fault" | "none" (also set_fault)
     trace = true                # servo-rate trace (t, CP, AP, FE, u) in memory
-    trace_max = 200000          # rows kept (a ring)
+    trace_max = 200000          # rows kept (a ring), up to 10,000,000
     trace_csv = "servo_X.csv"   # also written at close()
     load_mass_word = "%MF290"   # optional: a %MF the device reads every scan: a change of
                                 # plant.load_mass_ratio at run time (0 after a cold start:
@@ -86,15 +87,16 @@ class GeometryOptions(_Strict):
 
 class ServoAxisOptions(_Strict):
     words: str = "%MW200"
-    servo_clock_hz: float = Field(DEFAULT_SERVO_CLOCK_HZ, gt=0)
-    counts_per_mm: float = Field(409.6, gt=0)
+    # bounded: each scan runs clock x period servo ticks (1e308 crashed, 1e7 took 0.2 s)
+    servo_clock_hz: float = Field(DEFAULT_SERVO_CLOCK_HZ, gt=0, le=50_000)
+    counts_per_mm: float = Field(409.6, gt=0, le=1e6)
     start: float = 0.0
     require_home: bool = True
     estop_input: str | None = None
     power_output: str | None = None
     fault: Literal["none", "jammed", "estop", "amp_fault"] = "none"
     trace: bool = True
-    trace_max: int = Field(200_000, gt=0)
+    trace_max: int = Field(200_000, gt=0, le=10_000_000)
     trace_csv: str | None = None
     load_mass_word: str | None = None
     geometry: GeometryOptions = GeometryOptions()

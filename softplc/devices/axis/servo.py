@@ -453,6 +453,9 @@ class ServoAxis(AxisDevice):
     def _follow(self, prof: tj.Profile, end: float | None = None, v_end: float = 0.0) -> None:
         """Start a trajectory at the next cycle; `end` is the exact final position, `v_end`
         the velocity (counts/s) that continues after the profile (a jog's)."""
+        if not prof.duration <= tj.MAX_SAMPLES * self.T:  # refused, held (nan too)
+            self.error = Err.BAD_COMMAND
+            prof, end, v_end = tj.Profile(self._cp, 0.0), self._cp, 0.0
         traj = tj.sample(prof, self.T)
         self._tail_v = v_end * self.T
         self._active = True

@@ -127,6 +127,11 @@ def parabolic(p0: float, target: float, duration: float) -> Profile:
     return Profile(p0, 0.0, [(duration, -2 * a0 / duration, a0)])
 
 
+# The longest trajectory an axis plans (its positions are sampled in advance): about
+# 15 minutes at 2.26 kHz, 70 MB; a longer one (a crawl speed, an absurd ramp) is refused.
+MAX_SAMPLES = 1 << 21
+
+
 def sample(prof: Profile, T: float, n: int | None = None) -> list[float]:
     """Commanded positions at T, 2T, ... after the profile's start, until its end (or n)."""
     segs = prof.segments

@@ -103,7 +103,8 @@ function showStatus(st) {
   const s = $("#state"); s.textContent = st.state; s.className = "state " + st.state;
   $("#scan").textContent = ms(st.scan_last_ms);
   $("#scanminmax").textContent = `${st.scan_min_ms.toFixed(3)} / ${st.scan_max_ms.toFixed(3)} ms`;
-  $("#overruns").textContent = st.overruns;
+  $("#overruns").textContent = st.overruns + (st.late_starts === undefined ? "" :
+    ` (${st.late_starts} late, ${st.skipped_starts} skipped)`);
   $("#scans").textContent = st.scans;
   $("#plctime").textContent = st.time.toFixed(1) + " s";
   $("#clients").textContent = st.modbus_clients ?? "–";

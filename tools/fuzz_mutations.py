@@ -1,0 +1,167 @@
+"""The mutation fuzzers at full size, with a progress line (`make fuzz` runs it).
+
+    .venv/bin/python tools/fuzz_mutations.py [--programs 4000] [--configs 1559]
+
+Programs: the ladder_programs/*.il texts mutated by `tests/test_il_recovery.mutate` (tokens
+replaced, inserted, deleted, repeated); each either loads with its machine configuration
+and devices and then runs 5 scans, or is refused with a SoftPLCError. Configs: the
+ladder_programs/*.toml mutated by `tests/test_config_fuzz.mutated` (types, out-of-range
+values, inf/nan, deleted and unknown keys); each loads, builds its devices and runs 5 scans,
+or is a ConfigError / ProgramError. Any other exception while loading is a *traceback*, any
+exception out of a scan a *run-time crash* (a program fault is a HALT, not a crash). The
+first few of each are printed with the input that caused them; the exit status is 1 if
+there was any. The cases are new at every run (hypothesis, not derandomised).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import traceback
+from collections import Counter
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+SHOWN = 3  # failures printed in full, per fuzzer
+
+
+class Tally:
+    """Outcomes of one fuzzer, and a progress line on stderr."""
+
+    def __init__(self, name: str, total: int):
+        self.name, self.total = name, total
+        self.counts: Counter[str] = Counter()
+        self.failures: list[str] = []
+        self.t0 = time.monotonic()
+        self._shown_at = 0.0
+
+    @property
+    def done(self) -> int:
+        return sum(self.counts.values())
+
+    def add(self, outcome: str, detail: str = "") -> None:
+        self.counts[outcome] += 1
+        if detail and len(self.failures) < SHOWN:
+            self.failures.append(detail)
+        now = time.monotonic()
+        if now - self._shown_at > 0.5 or self.done == self.total:
+            self._shown_at = now
+            print(f"\r{self.line()}", end="", file=sys.stderr, flush=True)
+
+    def line(self) -> str:
+        parts = ", ".join(f"{n} {k}" for k, n in sorted(self.counts.items()))
+        return (f"{self.name} {self.done}/{self.total} ({time.monotonic() - self.t0:.0f} s): "
+                f"{parts}")
+
+    @property
+    def bad(self) -> int:
+        return self.counts["tracebacks"] + self.counts["run-time crashes"]
+
+
+def _refused(tally: Tally, e: Exception, what: str) -> None:
+    if str(e).strip():
+        tally.add("refused")
+    else:
+        tally.add("tracebacks", f"{what}\nrefused without a message: {type(e).__name__}")
+
+
+def _scan(plc: Any, tally: Tally, what: str) -> None:
+    try:
+        plc.scan(5)
+    except Exception:
+        tally.add("run-time crashes", f"{what}\n{traceback.format_exc()}")
+        return
+    finally:
+        plc.close()
+    tally.add("ran")
+
+
+def fuzz_programs(n: int) -> Tally:
+    from hypothesis import strategies as st
+    from test_il_recovery import CONFIGS, PROGRAMS, mutate
+
+    from softplc import PLC
+    from softplc.errors import SoftPLCError
+
+    tally = Tally("mutated programs", n)
+
+    def case(name: str, data: Any) -> None:
+        text = mutate(PROGRAMS[name], data)
+        config = ROOT / "ladder_programs" / CONFIGS[name]
+        what = f"program {name} mutated:\n{text}"
+        try:
+            plc = PLC.from_source(text, config, file=name)
+        except SoftPLCError as e:
+            _refused(tally, e, what)
+            return
+        except Exception:
+            tally.add("tracebacks", f"{what}\n{traceback.format_exc()}")
+            return
+        _scan(plc, tally, what)
+
+    _run(case, n, st.sampled_from(sorted(PROGRAMS)), st.data())
+    return tally
+
+
+def fuzz_configs(n: int) -> Tally:
+    from test_config_fuzz import mutated
+
+    from softplc import PLC
+    from softplc.errors import ConfigError, ProgramError
+
+    tally = Tally("mutated configs", n)
+
+    def case(c: Any) -> None:
+        path, cfg, program = c
+        what = f"config {path.name} mutated: {cfg!r}"
+        try:
+            plc = PLC(program, cfg)
+        except (ConfigError, ProgramError) as e:
+            _refused(tally, e, what)
+            return
+        except Exception:
+            tally.add("tracebacks", f"{what}\n{traceback.format_exc()}")
+            return
+        _scan(plc, tally, what)
+
+    _run(case, n, mutated())
+    return tally
+
+
+def _run(case: Callable[..., None], n: int, *strategies: Any) -> None:
+    """`case` on `n` generated examples: outcomes are tallied, never raised, so nothing is
+    shrunk and the run is not cut short by the first failure."""
+    from hypothesis import HealthCheck, Phase, given, settings
+
+    run = settings(max_examples=n, deadline=None, database=None, phases=[Phase.generate],
+                   suppress_health_check=list(HealthCheck))(given(*strategies)(case))
+    run()
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description="Run the program and config mutation fuzzers "
+                                 "with a progress line; exit 1 on any traceback or crash.")
+    ap.add_argument("--programs", type=int, default=4000, help="mutated programs (4000)")
+    ap.add_argument("--configs", type=int, default=1559, help="mutated configs (1559)")
+    args = ap.parse_args()
+    tallies = []
+    for fuzz, n in ((fuzz_programs, args.programs), (fuzz_configs, args.configs)):
+        if n > 0:
+            tallies.append(fuzz(n))
+            print(file=sys.stderr)
+    for t in tallies:
+        print(t.line())
+        for f in t.failures:
+            print(f"--- {t.name}: {f}")
+    bad = sum(t.bad for t in tallies)
+    print(f"{bad} tracebacks or run-time crashes")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
