@@ -329,7 +329,10 @@ def test_loopback_detection_and_token_policy():
     assert web_token(WebOptions(host="127.0.0.1")) is None
     t1, t2 = web_token(WebOptions(host="0.0.0.0")), web_token(WebOptions(host="0.0.0.0"))
     assert t1 and t2 and t1 != t2 and len(t1) >= 16  # random, printed at start
-    assert web_token(WebOptions(host="0.0.0.0", read_only=True)) is None
+    # beyond loopback reads need a token too: a read-only monitor gets one as well, unless
+    # it has its read-only token
+    assert web_token(WebOptions(host="0.0.0.0", read_only=True))
+    assert web_token(WebOptions(host="0.0.0.0", read_only=True, read_token="r")) is None
     assert web_token(WebOptions(host="0.0.0.0", token="mine")) == "mine"
 
 

@@ -6,11 +6,9 @@ Modbus thread). They meet only at scan boundaries:
 
 - every change (write, force, unforce, RUN/STOP/restart) is checked here, then queued and
   applied by a `before_scan` hook, after the Modbus writes queued before it. %MW/%MD/%MF
-  and %M writes go into the Modbus queue itself (`ModbusImage.queue_*`), so a Modbus host
-  reads back what the page wrote exactly as it reads its own writes; the rest (inputs,
-  other objects, forcing, state changes) go into this module's queue. An input is changed
-  at most once per scan: a press and its release queued in the same scan period are applied
-  in two scans, so every push of a button is seen by the program;
+  and %M writes go into the Modbus queue itself (`ModbusImage.queue_*`, which coalesces
+  them), so a Modbus host reads back what the page wrote exactly as it reads its own
+  writes; the rest go into `changes.ChangeQueue` (bounded; control commands first);
 - reads are sampled by an `after_scan` hook (`sample`): the values of one scan, never a
   half-finished one.
 """
@@ -33,22 +31,18 @@ from ..numeric import F32_MAX, wrap16
 from ..profile import MODULES
 from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
 from ..runtime.memory import WordFamily
+from .changes import ChangeQueue
+from .errors import ApiError
 
 # Value ranges the API accepts, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
 INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-MAX_OBJECTS = 2000  # objects one read may name (after expanding ranges)
+MAX_OBJECTS = 2000  # objects one read or page may name (counted before expanding ranges)
+MAX_PAGES = 32  # websocket pages open at once (--web-max-pages)
+REF_CACHE = 20000  # single objects kept by the address cache (over all its keys)
 SAMPLE_WAIT = 0.25  # s: longer than that without a scan (long period, stopped loop): read now
 ACTIONS = ("run", "stop", "cold", "warm")
 CONSTANT_KINDS = ("KW", "KD", "KF")
-
-
-class ApiError(SoftPLCError):
-    """A request the API refuses; `status` is the HTTP status that goes with it."""
-
-    def __init__(self, message: str, status: int = 400):
-        super().__init__(message)
-        self.status = status
 
 
 class _Sample:
@@ -114,7 +108,8 @@ class Controller:
         self.program_name = program_name
         self.status_extra = status_extra or (lambda: {})
         self.profile = plc.profile
-        self._queue: deque[tuple[str, Any, Any]] = deque()
+        self.changes = ChangeQueue(plc)
+        self._cached_refs = 0  # single objects in self._refs
         self._samples: deque[_Sample] = deque()
         self._refs: dict[str, list[Ref]] = {}
         self._readers: dict[Any, Callable[[], list[Any]]] = {}
@@ -122,13 +117,12 @@ class Controller:
         self.device_io = _device_io(plc.devices, self.profile)
         # I/O the program, configuration and devices name (before any API write adds more)
         self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
-        self.applied = 0  # changes applied since start
-        plc.before_scan.append(self._apply)
+        plc.before_scan.append(self.changes.apply)
         plc.after_scan.append(self._serve_samples)
 
     def close(self) -> None:
         """Unhook from the PLC; pending reads are answered directly."""
-        for hooks, fn in ((self.plc.before_scan, self._apply),
+        for hooks, fn in ((self.plc.before_scan, self.changes.apply),
                           (self.plc.after_scan, self._serve_samples)):
             if fn in hooks:
                 hooks.remove(fn)
@@ -152,15 +146,44 @@ class Controller:
                 if r.kind in BLOCK_FIELDS and r.index not in self.plc.mem.blocks[r.kind]:
                     raise ApiError(f"unknown object {text!r}: %{r.kind}{r.index} is not "
                                    f"configured or used by the program")
-            if len(self._refs) < 10000:
+            if self._cached_refs + len(refs) <= REF_CACHE:
                 self._refs[key] = refs
+                self._cached_refs += len(refs)
         return refs
+
+    def check_count(self, texts: list[Any]) -> None:
+        """Refuse a list naming more than MAX_OBJECTS objects, counted before any range is
+        expanded (a 64 KiB list of ranges would otherwise expand to millions)."""
+        n = len(texts)
+        if n <= MAX_OBJECTS:
+            n = 0
+            for text in texts:
+                n += self._count(text)
+                if n > MAX_OBJECTS:
+                    break
+        if n > MAX_OBJECTS:
+            raise ApiError(f"more than {MAX_OBJECTS} objects in one request or page: "
+                           f"at most {MAX_OBJECTS}")
+
+    def _count(self, text: Any) -> int:
+        """How many objects `text` names (1 for anything `resolve` will refuse)."""
+        if not isinstance(text, str):
+            return 1
+        key = text.strip().upper()
+        refs = self._refs.get(key)
+        if refs is not None:
+            return len(refs)
+        try:
+            return parse_address(key, self.profile).length or 1
+        except AddressError:
+            return 1
 
     def resolve_many(self, texts: Any) -> list[tuple[str, Ref]]:
         if isinstance(texts, str):
             texts = [texts]
         if not isinstance(texts, list) or not texts:
             raise ApiError("objects: expected a list of addresses")
+        self.check_count(texts)
         out = [(str(r), r) for t in texts for r in self.resolve(t)]
         if len(out) > MAX_OBJECTS:
             raise ApiError(f"{len(out)} objects in one read: at most {MAX_OBJECTS}")
@@ -239,27 +262,33 @@ class Controller:
                 if why:
                     raise ApiError(why, 403)
                 checked.append((ref, self.check_value(ref, v)))
+        self.changes.put([("write", ref, v) for ref, v in checked
+                          if not self._to_image(ref)])
         for ref, v in checked:
-            self._queue_write(ref, v)
+            if self._to_image(ref):
+                self._queue_write(ref, v)
         return [str(r) for r, _ in checked]
 
+    def _to_image(self, ref: Ref) -> bool:
+        """A write that goes into the Modbus write queue (`_queue_write`)."""
+        return self.image is not None and ref.offset is None and ref.bit is None \
+            and ref.kind in ("MW", "MD", "MF", "M")
+
     def _queue_write(self, ref: Ref, value: int | float) -> None:
+        """A write into the Modbus write queue (one that `_to_image` sends there)."""
         img = self.image
-        if img is not None and ref.offset is None and ref.bit is None:
-            if ref.kind in ("MW", "MD", "MF"):
-                fam = WordFamily(WIDTH[ref.kind])  # encoded by the memory's own conversions
-                if ref.kind == "MW":
-                    fam.w[0] = wrap16(int(value))
-                elif ref.kind == "MD":
-                    fam.set_d(0, int(value))
-                else:
-                    fam.set_f(0, float(value))
-                img.queue_registers(ref.index, words_to_wire(fam.buf))
-                return
-            if ref.kind == "M":
-                img.queue_coils(ref.index, bytes([1 if value else 0]))
-                return
-        self._queue.append(("write", ref, value))
+        assert img is not None
+        if ref.kind == "M":
+            img.queue_coils(ref.index, bytes([1 if value else 0]))
+            return
+        fam = WordFamily(WIDTH[ref.kind])  # encoded by the memory's own conversions
+        if ref.kind == "MW":
+            fam.w[0] = wrap16(int(value))
+        elif ref.kind == "MD":
+            fam.set_d(0, int(value))
+        else:
+            fam.set_f(0, float(value))
+        img.queue_registers(ref.index, words_to_wire(fam.buf))
 
     def write_analog(self, obj: Any, value: Any, force: bool = False) -> dict[str, Any]:
         """Queue a new physical value (V, mA, degrees C, pot position) for an analog input:
@@ -286,10 +315,7 @@ class Controller:
             raise ApiError(f"{name}: {value:g} is out of range {a:g}..{b:g} {unit} "
                            f"({ch.signal})".replace("  ", " "))
         word = ch.to_word(float(value))[0]
-        if force:
-            self._queue.append(("force", ref, word))
-        else:
-            self._queue.append(("analog", ref, float(value)))
+        self.changes.put([("force", ref, word) if force else ("analog", ref, float(value))])
         return {"queued": name, "value": float(value), "word": word, "forced": force}
 
     def _analog_channel(self, obj: Any) -> tuple[Ref, Any]:
@@ -354,67 +380,30 @@ class Controller:
             if why:
                 raise ApiError(why, 403)
             checked.append((ref, self.check_value(ref, value)))
-        for ref, v in checked:
-            self._queue.append(("force", ref, v))
+        self.changes.put([("force", ref, v) for ref, v in checked])
         return [str(r) for r, _ in checked]
 
     def unforce(self, obj: Any = None) -> list[str]:
+        """Queue the release of `obj` (None, "" or "all": of everything) in the urgent lane;
+        a forcing of those objects still queued is dropped (the unforce came after it)."""
         if self.read_only:
             raise ApiError("the web monitor is read-only (--web-read-only)", 403)
-        if obj in (None, "", "all"):
-            self._queue.append(("unforce", None, None))
-            return list(self.plc.forced)
-        refs = self.resolve(obj)
-        for ref in refs:
-            self._queue.append(("unforce", ref, None))
-        return [str(r) for r in refs]
+        every = isinstance(obj, str | None) and obj in (None, "", "all")
+        refs = None if every else self.resolve(obj)
+        self.changes.put([("unforce", refs, None)])
+        return list(self.plc.forced) if refs is None else [str(r) for r in refs]
 
     def control(self, action: Any) -> str:
         if self.read_only:
             raise ApiError("the web monitor is read-only (--web-read-only)", 403)
-        if action not in ACTIONS:
-            raise ApiError(f"action {action!r}: one of {', '.join(ACTIONS)}")
-        self._queue.append(("control", action, None))
+        if not isinstance(action, str) or action not in ACTIONS:
+            raise ApiError(f"action {str(action)[:40]!r}: one of {', '.join(ACTIONS)}")
+        self.changes.put([("control", action, None)])
         return action
 
     @property
     def pending(self) -> int:
-        return len(self._queue)
-
-    def _apply(self) -> None:
-        """before_scan hook (scan thread): apply the queued changes in order."""
-        q = self._queue
-        if not q:
-            return
-        plc = self.plc
-        inputs: set[int] = set()
-        while q:
-            op, ref, value = q[0]
-            if op == "write" and ref.kind == "I":
-                if ref.index in inputs:
-                    break  # the second change of this input waits for the next scan
-                inputs.add(ref.index)
-            q.popleft()
-            try:
-                if op == "write":
-                    plc.mem.write(ref, value)
-                elif op == "analog":
-                    plc.mem.analog.set_input(ref, value)
-                elif op == "force":
-                    plc.force(str(ref), value)
-                elif op == "unforce":
-                    plc.unforce(None if ref is None else str(ref))
-                elif ref == "run":
-                    plc.start()
-                elif ref == "stop":
-                    plc.stop()
-                elif ref == "cold":
-                    plc.cold_start()
-                elif ref == "warm":
-                    plc.warm_start()
-            except SoftPLCError:  # checked when queued; a block removed since and the like
-                pass
-            self.applied += 1
+        return len(self.changes)
 
     # -- reads (sampled at a scan boundary) ----------------------------------------------------
     def _serve_samples(self) -> None:
@@ -536,7 +525,7 @@ class Controller:
                "forced": {k: (int(v) if isinstance(v, bool) else v)
                           for k, v in plc.forced.items()},
                "pending": self.pending + (self.image.pending if self.image else 0),
-               "web_changes_applied": self.applied}
+               "web_changes_applied": self.changes.applied}
         out.update(self.status_extra())
         return out
 
