@@ -115,11 +115,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "off = no web monitor)")
     p.add_argument("--web-host", default="127.0.0.1",
                    help="address of the web monitor (default 127.0.0.1); on any other "
-                        "address changes need the token printed at start")
+                        "address every request needs the token printed at start")
     p.add_argument("--web-read-only", action="store_true",
                    help="the web monitor and its API only show: no writes, forcing, RUN/STOP")
-    p.add_argument("--web-token", help="token for changes through the web API (default: "
-                   "a random one when --web-host is not a loopback address)")
+    p.add_argument("--web-token", help="token for changes through the web API; beyond "
+                   "loopback for every request (default: a random one there)")
+    p.add_argument("--web-read-token", metavar="TOKEN",
+                   help="beyond loopback, a second token that only reads (page, API, "
+                        "websocket)")
+    p.add_argument("--web-allow-host", action="append", default=[], metavar="NAME,...",
+                   help="a Host name the monitor answers to besides localhost, this "
+                        "machine's name and IP addresses (repeatable; * = any)")
+    p.add_argument("--web-max-pages", type=int, default=None, metavar="N",
+                   help="websocket pages open at once, 1..1000 (default 32)")
     p.add_argument("--log-level", default="warning",
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
@@ -216,10 +224,16 @@ def run(args: argparse.Namespace) -> int:
 
 def _web_options(args: argparse.Namespace) -> Any:
     """The web monitor's options (softplc.web), from --web, --web-host, --web-read-only."""
-    from ..web import DEFAULT_WEB_PORT, WebOptions
+    from ..web import DEFAULT_WEB_PORT, MAX_PAGES, WebOptions
 
     if args.web == _WEB_OFF:
         return None
+    pages = MAX_PAGES if args.web_max_pages is None else args.web_max_pages
+    if not 1 <= pages <= 1000:
+        raise SoftPLCError(f"--web-max-pages {pages}: 1..1000")
     return WebOptions(port=DEFAULT_WEB_PORT if args.web is None else args.web,
                       host=args.web_host, read_only=args.web_read_only,
-                      token=args.web_token, port_given=args.web is not None)
+                      token=args.web_token, port_given=args.web is not None,
+                      read_token=args.web_read_token, max_pages=pages,
+                      allowed_hosts=tuple(h.strip() for arg in args.web_allow_host
+                                          for h in arg.split(",") if h.strip()))

@@ -40,6 +40,8 @@ class ChangeQueue:
     def room(self, n: int, urgent: bool = False) -> None:
         """Refuse (503) `n` more changes the queue has no room for: nothing is queued."""
         q, cap = (self._urgent, MAX_URGENT) if urgent else (self._data, MAX_PENDING)
+        if n > cap:
+            raise ApiError(f"{n} changes in one request: at most {cap}")
         if len(q) + n > cap:
             what = "control commands" if urgent else "changes"
             raise ApiError(f"{len(q)} {what} are waiting for the next scans already (at most "
