@@ -152,7 +152,7 @@ def test_subscription_of_huge_ranges_is_refused_before_expanding(star, monkeypat
                     pass
                 # one message over the cap: closed with "message too big"
                 await ws.send_str("x" * (pages.MAX_WS_MESSAGE + 1))
-                while (msg := await ws.receive(timeout=5)).type not in (
+                while (await ws.receive(timeout=5)).type not in (
                         aiohttp.WSMsgType.CLOSE, aiohttp.WSMsgType.CLOSED):
                     pass
                 return m, ok, ws.close_code

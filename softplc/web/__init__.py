@@ -99,5 +99,5 @@ def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebH
     return WebHandle(server, ctl, modbus.loop, note)
 
 
-__all__ = ["DEFAULT_WEB_PORT", "MAX_PAGES", "ApiError", "Controller", "WebHandle", "WebOptions", "attach",
-           "is_loopback", "web_token"]
+__all__ = ["DEFAULT_WEB_PORT", "MAX_PAGES", "ApiError", "Controller", "WebHandle", "WebOptions",
+           "attach", "is_loopback", "web_token"]
