@@ -315,3 +315,17 @@ def test_wrong_types_in_every_field_never_give_a_500(star):
         return bad
 
     assert asyncio.run(fuzz()) == []
+
+
+def test_bits_read_as_0_and_1_everywhere(star):
+    """Issue 22: one JSON type per object type; a bit is 0 or 1, never true/false."""
+    star.plc["%M1"] = 1
+    star.plc["%MW5"] = 3
+    star.scans()
+    bits = ["%Q0.0:4", "%I0.0:2", "%M0:3", "%S6", "%S13", "%X1", "%TM0.Q", "%C0.D", "%C0.E",
+            "%C0.F", "%MW5:X0", "%MW5:X2", "%SW0:X0"]
+    status, text = http(star.port, "GET", "/api/read?" + "&".join(f"obj={b}" for b in bits))
+    assert status == 200 and "true" not in text and "false" not in text
+    values = json.loads(text)["values"]
+    assert len(values) == 18 and all(type(v) is int and v in (0, 1) for v in values.values())
+    assert values["%M1"] == 1 and values["%MW5:X0"] == 1 and values["%MW5:X2"] == 0
