@@ -324,8 +324,9 @@ def test_bits_read_as_0_and_1_everywhere(star):
     star.scans()
     bits = ["%Q0.0:4", "%I0.0:2", "%M0:3", "%S6", "%S13", "%X1", "%TM0.Q", "%C0.D", "%C0.E",
             "%C0.F", "%MW5:X0", "%MW5:X2", "%SW0:X0"]
-    status, text = http(star.port, "GET", "/api/read?" + "&".join(f"obj={b}" for b in bits))
-    assert status == 200 and "true" not in text and "false" not in text
+    status, text = http(star.port, "POST", "/api/read", json.dumps({"objects": bits}).encode())
+    assert status == 200, text
+    assert "true" not in text and "false" not in text
     values = json.loads(text)["values"]
-    assert len(values) == 18 and all(type(v) is int and v in (0, 1) for v in values.values())
+    assert len(values) == 19 and all(type(v) is int and v in (0, 1) for v in values.values())
     assert values["%M1"] == 1 and values["%MW5:X0"] == 1 and values["%MW5:X2"] == 0
