@@ -534,12 +534,12 @@ def test_fast_reader_agrees_with_memory_read():
     plc.mem.i_field[20] = 1  # %I0.20: never latched, read from the field
     objs = ["%MW0:12", "%MD8", "%MF20", "%M0:5", "%S4:4", "%SW40", "%Q0.14", "%Q1.0:8",
             "%I0.0:24", "%TM0", "%TM1.P", "%MW5:X0", "%MW0[%MW5]", "%X0", "%KW0"]
-    refs = ctl.resolve_many(objs)
-    assert ctl.values_fn(refs)() == {n: ctl.read_one(r) for n, r in refs}
-    assert ctl.values_fn(refs)()["%I0.20"] == 1
+    refs = ctl.objects.resolve_many(objs)
+    assert ctl.reading.values_fn(refs)() == {n: ctl.reading.read_one(r) for n, r in refs}
+    assert ctl.reading.values_fn(refs)()["%I0.20"] == 1
     plc.force("%I0.20", 0)  # now latched and forced: the reader is rebuilt
     plc.scan()
-    assert ctl.values_fn(refs)()["%I0.20"] == 0 == plc["%I0.20"]
+    assert ctl.reading.values_fn(refs)()["%I0.20"] == 0 == plc["%I0.20"]
 
 
 # ---- analog channels --------------------------------------------------------------------------

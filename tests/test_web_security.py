@@ -15,7 +15,7 @@ import time
 import pytest
 from test_web_api import STAR, Stack
 
-from softplc.web import changes, control, pages
+from softplc.web import changes, objects, pages
 
 aiohttp = pytest.importorskip("aiohttp")
 
@@ -135,9 +135,9 @@ def test_beyond_loopback_every_route_and_the_websocket_need_a_token():
 # ---- 3. sizes checked before ranges are expanded --------------------------------------------
 def test_subscription_of_huge_ranges_is_refused_before_expanding(star, monkeypatch):
     expanded = []
-    real = control.expand
-    monkeypatch.setattr(control, "expand", lambda *a: expanded.append(a) or real(*a))
-    star.web.controller._refs.clear()
+    real = objects.expand
+    monkeypatch.setattr(objects, "expand", lambda *a: expanded.append(a) or real(*a))
+    star.web.controller.objects._refs.clear()
     many = [f"%MW{i}:2000" for i in range(4000)]  # 8 million objects in 56 KB
 
     async def talk() -> tuple[dict, dict, int | None]:

@@ -9,21 +9,18 @@ Modbus thread). They meet only at scan boundaries:
   and %M writes go into the Modbus queue itself (`ModbusImage.queue_*`, which coalesces
   them), so a Modbus host reads back what the page wrote exactly as it reads its own
   writes; the rest go into `changes.ChangeQueue` (bounded; control commands first);
-- reads are sampled by an `after_scan` hook (`sample`): the values of one scan, never a
-  half-finished one.
+- reads are sampled by an `after_scan` hook (`reading.Reading.sample`): the values of one
+  scan, never a half-finished one. Addresses are checked in `objects.Objects`.
 """
 
 from __future__ import annotations
 
-import asyncio
 import math
-import threading
-from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
-from ..errors import AddressError, SoftPLCError
+from ..address import BLOCK_FIELDS, WIDTH, Ref, parse_address
+from ..errors import AddressError
 from ..il.printer import format_instruction
 from ..modbus.image import ModbusImage, words_to_wire
 from ..modbus.regmap import COILS, REGISTERS
@@ -33,51 +30,15 @@ from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
 from ..runtime.memory import WordFamily
 from .changes import ChangeQueue
 from .errors import ApiError
+from .objects import Objects
+from .reading import Reading
 
 # Value ranges the API accepts, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
 INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-MAX_OBJECTS = 2000  # objects one read or page may name (counted before expanding ranges)
 MAX_PAGES = 32  # websocket pages open at once (--web-max-pages)
-REF_CACHE = 20000  # single objects kept by the address cache (over all its keys)
-SAMPLE_WAIT = 0.25  # s: longer than that without a scan (long period, stopped loop): read now
 ACTIONS = ("run", "stop", "cold", "warm")
 CONSTANT_KINDS = ("KW", "KD", "KF")
-
-
-class _Sample:
-    """A function to run in the scan thread at the end of a scan, and its result handed to
-    the event loop waiting for it. Runs once, whichever thread gets to it first."""
-
-    def __init__(self, fn: Callable[[], Any], loop: asyncio.AbstractEventLoop,
-                 future: asyncio.Future):
-        self.fn = fn
-        self.loop = loop
-        self.future = future
-        self.lock = threading.Lock()
-        self.taken = False
-
-    def run(self) -> None:
-        with self.lock:
-            if self.taken:
-                return
-            self.taken = True
-        try:
-            result, error = self.fn(), None
-        except BaseException as e:  # handed to the waiting request
-            result, error = None, e
-        try:
-            self.loop.call_soon_threadsafe(self._deliver, result, error)
-        except RuntimeError:  # the loop is closed: nobody waits any more
-            pass
-
-    def _deliver(self, result: Any, error: BaseException | None) -> None:
-        if self.future.done():
-            return
-        if error is not None:
-            self.future.set_exception(error)
-        else:
-            self.future.set_result(result)
 
 
 def _device_io(devices: dict[str, Any], profile: Any) -> dict[str, str]:
@@ -109,86 +70,24 @@ class Controller:
         self.status_extra = status_extra or (lambda: {})
         self.profile = plc.profile
         self.changes = ChangeQueue(plc)
-        self._cached_refs = 0  # single objects in self._refs
-        self._samples: deque[_Sample] = deque()
-        self._refs: dict[str, list[Ref]] = {}
-        self._readers: dict[Any, Callable[[], list[Any]]] = {}
+        self.objects = Objects(plc)  # addresses -> objects
+        self.reading = Reading(plc)  # reads at a scan boundary
         self._io_refs: list[tuple[str, Ref]] | None = None
         self.device_io = _device_io(plc.devices, self.profile)
         # I/O the program, configuration and devices name (before any API write adds more)
         self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
         plc.before_scan.append(self.changes.apply)
-        plc.after_scan.append(self._serve_samples)
+        plc.after_scan.append(self.reading.serve)
 
     def close(self) -> None:
         """Unhook from the PLC; pending reads are answered directly."""
         for hooks, fn in ((self.plc.before_scan, self.changes.apply),
-                          (self.plc.after_scan, self._serve_samples)):
+                          (self.plc.after_scan, self.reading.serve)):
             if fn in hooks:
                 hooks.remove(fn)
-        self._serve_samples()
+        self.reading.serve()
 
     # -- objects ------------------------------------------------------------------------------
-    def resolve(self, text: Any) -> list[Ref]:
-        """An address or range -> single objects, with a clear error for anything else."""
-        if not isinstance(text, str) or not text.strip():
-            raise ApiError(f"object {text!r}: expected an address like %MW3, %MW0:10, %I0.0")
-        key = text.strip().upper()
-        refs = self._refs.get(key)
-        if refs is None:
-            if not key.startswith("%"):
-                raise ApiError(f"object {text!r}: addresses start with %, e.g. %MW3")
-            try:
-                refs = expand(key, self.profile)
-            except AddressError as e:
-                raise ApiError(f"unknown object {text!r}: {e}") from None
-            for r in refs:
-                if r.kind in BLOCK_FIELDS and r.index not in self.plc.mem.blocks[r.kind]:
-                    raise ApiError(f"unknown object {text!r}: %{r.kind}{r.index} is not "
-                                   f"configured or used by the program")
-            if self._cached_refs + len(refs) <= REF_CACHE:
-                self._refs[key] = refs
-                self._cached_refs += len(refs)
-        return refs
-
-    def check_count(self, texts: list[Any]) -> None:
-        """Refuse a list naming more than MAX_OBJECTS objects, counted before any range is
-        expanded (a 64 KiB list of ranges would otherwise expand to millions)."""
-        n = len(texts)
-        if n <= MAX_OBJECTS:
-            n = 0
-            for text in texts:
-                n += self._count(text)
-                if n > MAX_OBJECTS:
-                    break
-        if n > MAX_OBJECTS:
-            raise ApiError(f"more than {MAX_OBJECTS} objects in one request or page: "
-                           f"at most {MAX_OBJECTS}")
-
-    def _count(self, text: Any) -> int:
-        """How many objects `text` names (1 for anything `resolve` will refuse)."""
-        if not isinstance(text, str):
-            return 1
-        key = text.strip().upper()
-        refs = self._refs.get(key)
-        if refs is not None:
-            return len(refs)
-        try:
-            return parse_address(key, self.profile).length or 1
-        except AddressError:
-            return 1
-
-    def resolve_many(self, texts: Any) -> list[tuple[str, Ref]]:
-        if isinstance(texts, str):
-            texts = [texts]
-        if not isinstance(texts, list) or not texts:
-            raise ApiError("objects: expected a list of addresses")
-        self.check_count(texts)
-        out = [(str(r), r) for t in texts for r in self.resolve(t)]
-        if len(out) > MAX_OBJECTS:
-            raise ApiError(f"{len(out)} objects in one read: at most {MAX_OBJECTS}")
-        return out
-
     @staticmethod
     def forceable(ref: Ref) -> bool:
         """Bits (%I %Q %M %S %X) and %MW/%MD/%MF words can be forced (`PLC.force`)."""
@@ -253,7 +152,7 @@ class Controller:
         """Check every write, then queue them all: a bad one and nothing is applied."""
         checked = []
         for obj, value in writes:
-            refs = self.resolve(obj)
+            refs = self.objects.resolve(obj)
             values = value if isinstance(value, list) else [value] * len(refs)
             if len(values) != len(refs):
                 raise ApiError(f"{obj}: {len(refs)} objects but {len(values)} values")
@@ -320,7 +219,7 @@ class Controller:
 
     def _analog_channel(self, obj: Any) -> tuple[Ref, Any]:
         analog = self.plc.mem.analog
-        refs = self.resolve(obj)
+        refs = self.objects.resolve(obj)
         if len(refs) != 1 or analog is None or refs[0] not in analog.channels:
             raise ApiError(f"{obj!r} is not a configured analog channel (see [analog] and "
                            f"[modules] in the configuration)")
@@ -368,7 +267,7 @@ class Controller:
         return values
 
     def force(self, obj: Any, value: Any) -> list[str]:
-        refs = self.resolve(obj)
+        refs = self.objects.resolve(obj)
         checked = []
         for ref in refs:
             if self.read_only:
@@ -389,7 +288,7 @@ class Controller:
         if self.read_only:
             raise ApiError("the web monitor is read-only (--web-read-only)", 403)
         every = isinstance(obj, str | None) and obj in (None, "", "all")
-        refs = None if every else self.resolve(obj)
+        refs = None if every else self.objects.resolve(obj)
         self.changes.put([("unforce", refs, None)])
         return list(self.plc.forced) if refs is None else [str(r) for r in refs]
 
@@ -406,76 +305,9 @@ class Controller:
         return len(self.changes)
 
     # -- reads (sampled at a scan boundary) ----------------------------------------------------
-    def _serve_samples(self) -> None:
-        """after_scan hook (scan thread)."""
-        q = self._samples
-        while q:
-            q.popleft().run()
-
-    async def sample(self, fn: Callable[[], Any]) -> Any:
-        """Run `fn` in the scan thread right after the next scan (or here, if no scan comes
-        within SAMPLE_WAIT) and return its result."""
-        loop = asyncio.get_running_loop()
-        s = _Sample(fn, loop, loop.create_future())
-        self._samples.append(s)
-        try:
-            return await asyncio.wait_for(asyncio.shield(s.future), SAMPLE_WAIT)
-        except TimeoutError:
-            s.run()  # nothing if the scan thread took it meanwhile
-            return await s.future
-
-    def values_fn(self, refs: list[tuple[str, Ref]]) -> Callable[[], dict[str, Any]]:
-        """A function giving {name: value} of `refs`: prepare it here (in the web thread),
-        call it in the scan thread (`sample`), where it costs little."""
-        reader = self.reader([r for _, r in refs])
-        names = [n for n, _ in refs]
-        return lambda: dict(zip(names, reader(), strict=True))
-
-    def read_one(self, ref: Ref) -> Any:
-        """One value through `MemoryImage.read`, as the API gives it: bits as 0/1, a block
-        as a dict of its fields, None for an object that cannot be read."""
-        try:
-            v = self.plc.mem.read(ref)
-        except SoftPLCError:
-            return None
-        if isinstance(v, bool):
-            return int(v)
-        return block_fields(ref.kind, v) if ref.is_block else v
-
-    def reader(self, refs: list[Ref]) -> Callable[[], list[Any]]:
-        """A function that reads `refs` into a list. It runs in the scan thread after a scan,
-        ten times a second per page, so plain words and bits are read straight from the
-        memory image's arrays (about 50 ns each, where `MemoryImage.read` takes a few us);
-        the rest goes through `read_one`. An input not yet latched by any scan reads from
-        the field, as `MemoryImage.read` does: the reader is rebuilt when that set grows."""
-        mem = self.plc.mem
-        latched = mem.io_used("I")
-        key = (tuple(refs), len(latched))
-        fn = self._readers.get(key)
-        if fn is not None:
-            return fn
-        env: dict[str, Any] = {"MW": mem.mw.w, "KW": mem.kw.w, "SW": mem.sw.w, "M": mem.m,
-                               "S": mem.s, "X": mem.x, "Q": mem.q, "I": mem.i,
-                               "F": mem.i_field, "read": self.read_one, "R": refs}
-        items = []
-        for k, ref in enumerate(refs):
-            plain = ref.offset is None and ref.bit is None and ref.length is None \
-                and ref.field is None
-            if plain and ref.kind in ("MW", "KW", "SW", "M", "S", "X", "Q"):
-                items.append(f"{ref.kind}[{ref.index}]")
-            elif plain and ref.kind == "I":
-                items.append(f"{'I' if ref.index in latched else 'F'}[{ref.index}]")
-            else:
-                items.append(f"read(R[{k}])")
-        exec(f"def reader():\n    return [{', '.join(items)}]\n", env)
-        if len(self._readers) > 256:
-            self._readers.clear()
-        fn = self._readers[key] = env["reader"]
-        return fn
-
     async def read(self, objs: Any) -> dict[str, Any]:
-        refs = self.resolve_many(objs)
-        return await self.sample(self.values_fn(refs))
+        refs = self.objects.resolve_many(objs)
+        return await self.reading.sample(self.reading.values_fn(refs))
 
     # -- the controller as a whole ------------------------------------------------------------
     def io_layout(self) -> list[dict[str, Any]]:
@@ -528,16 +360,6 @@ class Controller:
                "web_changes_applied": self.changes.applied}
         out.update(self.status_extra())
         return out
-
-
-def block_fields(kind: str, b: Any) -> dict[str, Any]:
-    """A function block's fields (those the program can name, plus a timer's type and time
-    base) as a dict."""
-    out: dict[str, Any] = {f: int(getattr(b, f)) for f in BLOCK_FIELDS[kind] if hasattr(b, f)}
-    for extra in ("type", "base"):
-        if hasattr(b, extra):
-            out[extra] = str(getattr(b, extra))
-    return out
 
 
 __all__ = ["ACTIONS", "ApiError", "Controller"]

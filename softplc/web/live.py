@@ -50,8 +50,8 @@ class LiveViews:
 
     async def ladders(self, wanted: set[int]) -> dict[int, str]:
         refs = {n: self.refs_of(n) for n in wanted}
-        readers = {n: self.ctl.reader(r) for n, r in refs.items()}
-        raw = await self.ctl.sample(lambda: {n: read() for n, read in readers.items()})
+        readers = {n: self.ctl.reading.reader(r) for n, r in refs.items()}
+        raw = await self.ctl.reading.sample(lambda: {n: read() for n, read in readers.items()})
         return {n: self.svg(n, ladderview.capture(refs[n], raw[n])) for n in wanted}
 
     def svg(self, n: int, values: dict[Ref, Any]) -> str:

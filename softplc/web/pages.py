@@ -123,11 +123,11 @@ class Pages:
             objs = sub["objects"] or []
             if not isinstance(objs, list):
                 raise ApiError("objects: a list of addresses")
-            self.ctl.check_count(objs)  # before expanding any range
+            self.ctl.objects.check_count(objs)  # before expanding any range
             good, bad = [], []
             for o in objs:
                 try:
-                    good += [(str(r), r) for r in self.ctl.resolve(o)]
+                    good += [(str(r), r) for r in self.ctl.objects.resolve(o)]
                 except ApiError as e:
                     bad.append(str(e))
             page.objects = good
@@ -195,9 +195,10 @@ class Pages:
         rung_refs = {n: views.refs_of(n) for n in rungs if n < len(ctl.plc.rungs)}
         machine = any(c.machine for c in clients)
         # prepared here, run in the scan thread: there, only the reads themselves
-        read_values, read_io = ctl.values_fn(list(objs.items())), ctl.values_fn(io)
+        reading = ctl.reading
+        read_values, read_io = reading.values_fn(list(objs.items())), reading.values_fn(io)
         read_analog = ctl.analog_values_fn() if io else dict
-        read_rungs = {n: ctl.reader(r) for n, r in rung_refs.items()}
+        read_rungs = {n: reading.reader(r) for n, r in rung_refs.items()}
 
         def take() -> dict[str, Any]:
             return {"values": read_values(), "io": read_io(), "analog": read_analog(),
@@ -205,7 +206,7 @@ class Pages:
                     "devices": views.devices_now() if machine else {},
                     "status": ctl.status()}
 
-        snap = await ctl.sample(take)
+        snap = await reading.sample(take)
         ladder = {n: ladderview.capture(rung_refs[n], v) for n, v in snap["ladder"].items()}
         # what pages share is encoded once; a page's update is put together from the pieces
         head = '{"type": "update", "status": ' + dumps(

@@ -180,8 +180,8 @@ class WebServer:
 
     async def _io(self, request: web.Request) -> web.Response:
         refs = self.ctl.io_refs()
-        read_io, read_analog = self.ctl.values_fn(refs), self.ctl.analog_values_fn()
-        values, analog = await self.ctl.sample(lambda: (read_io(), read_analog()))
+        read_io, read_analog = self.ctl.reading.values_fn(refs), self.ctl.analog_values_fn()
+        values, analog = await self.ctl.reading.sample(lambda: (read_io(), read_analog()))
         forced = self.ctl.plc.forced
         return _json({"modules": self.ctl.io_layout(),
                       "io": {name: {"value": v, "forced": name in forced,
@@ -205,7 +205,7 @@ class WebServer:
             since = int(request.query.get("since", "0"))
         except ValueError:
             raise ApiError("since: a sample number") from None
-        status = await self.ctl.sample(self.views.devices_now)
+        status = await self.ctl.reading.sample(self.views.devices_now)
         return _json(self.views.machine_view(status, max(0, since)))
 
     async def _write(self, request: web.Request) -> web.Response:
