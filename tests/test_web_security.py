@@ -248,6 +248,7 @@ def test_change_queue_is_bounded_and_stop_does_not_wait(star):
         assert http(s.port, "POST", "/api/force", b'{"object": "%I0.7", "value": 1}')[0] \
             == 503
         assert http(s.port, "POST", "/api/control", b'{"action": "stop"}')[0] == 200
+        assert http(s.port, "POST", "/api/unforce", b"{}")[0] == 200  # its own lane too
     s.scans(3)
     assert s.plc.state == "STOP"
     assert s.web.controller.pending > limit - 10  # the presses: one per scan
