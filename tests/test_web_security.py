@@ -13,7 +13,7 @@ import logging
 import time
 
 import pytest
-from test_web_api import STAR, Stack
+from test_web_api import ROOT, STAR, Stack
 
 from softplc.web import changes, objects, pages
 
@@ -296,6 +296,9 @@ def test_deeply_nested_and_huge_bodies_get_4xx_and_one_log_line(star, caplog):
     assert err["error"] and still_open
 
 
+FIELDS = {"write": ("object", "value", "writes"), "force": ("object", "value"),
+          "unforce": ("object",), "analog": ("object", "value", "force"),
+          "control": ("action",), "read": ("objects",)}
 BAD_VALUES = [None, True, -1, 2 ** 70, 1e308, "", "x", "9" * 5000, "%MW0:2000", [], [1, 2],
               {}, {"a": 1}, [[[[]]]]]
 
@@ -304,8 +307,8 @@ def test_wrong_types_in_every_field_never_give_a_500(star):
     async def fuzz() -> list[tuple[str, str, object, int]]:
         bad = []
         async with aiohttp.ClientSession() as session:
-            for path in ("write", "force", "unforce", "analog", "control", "read"):
-                for key in ("object", "value", "writes", "action", "objects", "force"):
+            for path, keys in FIELDS.items():
+                for key in keys:
                     for v in BAD_VALUES:
                         body = {"object": "%MW3", "value": 1} | {key: v}
                         async with session.post(f"http://127.0.0.1:{star.port}/api/{path}",
@@ -331,3 +334,70 @@ def test_bits_read_as_0_and_1_everywhere(star):
     values = json.loads(text)["values"]
     assert len(values) == 19 and all(type(v) is int and v in (0, 1) for v in values.values())
     assert values["%M1"] == 1 and values["%MW5:X0"] == 1 and values["%MW5:X2"] == 0
+
+
+def test_run_takes_allowed_hosts_and_page_limit_from_the_config(tmp_path):
+    import re
+    import sys
+
+    from softplc.errors import ConfigError
+    from softplc.plc import PLC
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    from daemon_util import Daemon
+
+    cfg = tmp_path / "star.toml"
+    cfg.write_text(STAR.with_suffix(".toml").read_text()
+                   + '\n[web]\nallowed_hosts = ["plc.lan"]\nmax_pages = 1\n')
+    d = Daemon(tmp_path, "--config", str(cfg), "--web", "0", "--stats-interval", "0",
+               program=STAR)
+    try:
+        line = next(x for x in d.out if "web monitor on" in x)
+        port = int(re.search(r":(\d+)/", line)[1])
+        assert http(port, "GET", "/api/status", None, {"Host": "plc.lan:80"})[0] == 200
+        assert http(port, "GET", "/api/status", None, {"Host": "plc.lan.evil:80"})[0] == 403
+
+        async def two_pages() -> int | None:
+            async with aiohttp.ClientSession() as session:
+                url = f"http://127.0.0.1:{port}/api/ws"
+                async with session.ws_connect(url) as first:
+                    await first.receive(timeout=5)
+                    async with session.ws_connect(url) as second:
+                        await second.receive(timeout=5)
+                        return second.close_code
+
+        assert asyncio.run(two_pages()) == 1013
+    finally:
+        assert d.stop() == 0
+    with pytest.raises(ConfigError, match="web.max_pages"):
+        PLC.from_file(STAR, config={"web": {"max_pages": 0}})
+
+
+def test_forcing_bursts_recompile_at_most_twice_per_scan(star, monkeypatch):
+    """Forcing a new object and unforcing recompile the program (2-14 ms each in the scan
+    thread): a burst of them is spread over scans, and an unforce of nothing is free."""
+    s, per_scan = star, [0]
+    real = s.plc.replace_program
+
+    def counted(*a: object, **k: object) -> None:
+        per_scan[-1] += 1
+        real(*a, **k)
+
+    monkeypatch.setattr(s.plc, "replace_program", counted)
+    s.plc.before_scan.insert(0, lambda: per_scan.append(0))
+    with s.lock:
+        for _ in range(20):  # nothing is forced: no recompiling at all
+            assert http(s.port, "POST", "/api/unforce", b"{}")[0] == 200
+    s.scans(3)
+    assert sum(per_scan) == 0
+    with s.lock:
+        assert http(s.port, "POST", "/api/force",
+                    b'{"object": "%M10:40", "value": 1}')[0] == 200
+        assert http(s.port, "POST", "/api/unforce", b'{"object": "%M10"}')[0] == 200
+    deadline = time.monotonic() + 10
+    while s.web.controller.pending and time.monotonic() < deadline:
+        s.scans(1)
+    s.scans(2)
+    # 39 forcings: the unforce dropped %M10's queued forcing, and had nothing to release
+    assert max(per_scan) <= 2 and sum(per_scan) == 39
+    assert len(s.plc.forced) == 39 and "%M10" not in s.plc.forced

@@ -36,7 +36,7 @@ from .reading import Reading
 # Value ranges the API accepts, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
 INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-MAX_PAGES = 32  # websocket pages open at once (--web-max-pages)
+MAX_PAGES = 32  # websocket pages open at once (--web-max-pages; [web] max_pages default)
 ACTIONS = ("run", "stop", "cold", "warm")
 CONSTANT_KINDS = ("KW", "KD", "KF")
 
