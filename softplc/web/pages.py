@@ -34,6 +34,7 @@ UPDATE_HZ = 10.0  # websocket updates per second (the issue asks for >= 10)
 MAX_WS_MESSAGE = 64 * 1024  # bytes of one message from a page
 MAX_LIVE_RUNGS = 8  # rungs one page may watch live at a time
 STALL_TIMEOUT = 10.0  # s: a page that takes no update for that long is disconnected
+CLOSE_WAIT = 1.0  # s: at shutdown, pages that have not answered the close by then are cut
 CLOSE_TOO_MANY = 1013  # websocket close code "try again later" (IANA registry)
 MAX_ERRORS_SHOWN = 5  # unknown objects listed in one error frame
 
@@ -75,13 +76,17 @@ class Pages:
         self._ticker = asyncio.create_task(self._tick_loop())
 
     async def close(self) -> None:
+        """Close every page at once; one that does not answer within CLOSE_WAIT (it does
+        not read) is cut."""
         if self._ticker is not None:
             self._ticker.cancel()
-        for c in list(self.clients):
-            if c.busy():  # a page that does not read would hold close() for its timeout
+        pages = list(self.clients)
+        if pages:
+            await asyncio.wait([asyncio.create_task(c.ws.close()) for c in pages],
+                               timeout=CLOSE_WAIT)
+        for c in pages:
+            if not c.ws.closed and c.transport is not None:
                 c.transport.abort()
-            else:
-                await c.ws.close()
 
     async def handle(self, request: web.Request) -> web.WebSocketResponse:
         ws = web.WebSocketResponse(heartbeat=30, max_msg_size=MAX_WS_MESSAGE)
@@ -179,7 +184,8 @@ class Pages:
                                       "web page dropped: no update taken for %g s",
                                       STALL_TIMEOUT)
                     self.clients.discard(c)
-                    c.transport.abort()
+                    if c.transport is not None:
+                        c.transport.abort()
                 continue
             ready.append(c)
         return ready
