@@ -256,3 +256,34 @@ def test_animation_table_of_output_bits_survives_any_value_and_resets(browser, s
     page.wait_for_selector("#link.up")
     assert page.locator("#table-select option").all_inner_texts() == ["Table 1"]
     page.close()
+
+
+def test_page_beyond_loopback_with_the_read_only_token(browser):
+    """The monitor as if bound to a LAN address (the guard's loopback flag off; the page
+    still talks to 127.0.0.1): without a token the page is refused; opened with the
+    read-only token's URL it runs (its files, API reads and websocket carry the cookie)
+    and a write is refused with a message."""
+    from test_web_api import STAR, Stack
+
+    s = Stack(STAR, STAR.with_suffix(".toml"), token="full", read_token="look")
+    try:
+        s.web.server.guard.loopback = False
+        page = browser.new_page()
+        page.on("dialog", lambda d: d.accept())
+        assert page.goto(f"http://127.0.0.1:{s.port}/").status == 401
+        assert page.goto(f"http://127.0.0.1:{s.port}/?token=look").status == 200
+        page.wait_for_selector("#link.up")
+        page.click("#tabs button[data-tab=tables]")
+        page.fill("#table-add", "%MW3")
+        page.click("#table-add-btn")
+        row = page.locator('#anim tr[data-obj="%MW3"]')
+        sync_api.expect(row.locator(".val")).to_have_text("0")
+        row.locator("input.w").fill("7")
+        row.locator("button.write").click()
+        sync_api.expect(page.locator("#message")).to_have_text(
+            "the read-only token cannot change anything")
+        s.scans()
+        assert s.plc["%MW3"] == 0
+        page.close()
+    finally:
+        s.close()
