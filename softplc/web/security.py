@@ -74,8 +74,7 @@ class Guard:
     def host_allowed(self, name: str | None) -> bool:
         if name is None:
             return False
-        return self.any_host or name in self.names or _is_ip(name) \
-            or name.endswith(".localhost")  # always loopback (RFC 6761)
+        return self.any_host or name in self.names or _is_ip(name)
 
     def check(self, request: Any, change: bool) -> str | None:
         """Raise ApiError (403 for a foreign Host or Origin, 401 for a missing or wrong
