@@ -40,8 +40,9 @@ def is_loopback(host: str) -> bool:
 def _hostname(hostport: str) -> str | None:
     """The name in a Host header or an origin's netloc, lower case; None: malformed."""
     try:
-        name = urlsplit("//" + hostport).hostname
-        urlsplit("//" + hostport).port  # noqa: B018 (raises on a bad port)
+        parts = urlsplit("//" + hostport)
+        name = parts.hostname
+        parts.port  # noqa: B018 (raises ValueError on a bad port)
     except ValueError:
         return None
     return name.rstrip(".") if name else None
