@@ -19,6 +19,7 @@
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
     [daemon]                 # the daemon's state file, save and statistics intervals
+    [web]                    # the web monitor: allowed_hosts, max_pages (softplc run)
 
 The schema is the pydantic model `Config` below (device options: each device class's
 `Options` model, looked up by `type`). Every problem found is reported at once, as
@@ -213,6 +214,13 @@ class DaemonConfig(Section):
     host_wait: Address | None = None
 
 
+class WebConfig(Section):
+    """`[web]`: the web monitor (softplc run; the command line's --web-* options win)."""
+
+    allowed_hosts: list[str] = Field(default_factory=list)  # Host names besides loopback's
+    max_pages: int = Field(32, ge=1, le=1000)  # websocket pages open at once
+
+
 class DeviceSection(BaseModel):
     """`[devices.NAME]`: `type` picks the device class, whose `Options` model checks the rest
     (see `validate_config`); `options` is that validated model."""
@@ -249,6 +257,7 @@ class Config(Section):
     devices: dict[str, DeviceSection] = Field(default_factory=dict)
     modbus: ModbusConfig = Field(default_factory=ModbusConfig)
     daemon: DaemonConfig = Field(default_factory=DaemonConfig)
+    web: WebConfig = Field(default_factory=WebConfig)
     # controller functions: checked by their own models in softplc/config_models.py when the
     # PLC builds them (they need the profile and the memory image to resolve addresses)
     analog: dict[str, Any] = Field(default_factory=dict)

@@ -330,7 +330,10 @@ def test_loopback_detection_and_token_policy():
     assert web_token(WebOptions(host="127.0.0.1")) is None
     t1, t2 = web_token(WebOptions(host="0.0.0.0")), web_token(WebOptions(host="0.0.0.0"))
     assert t1 and t2 and t1 != t2 and len(t1) >= 16  # random, printed at start
-    assert web_token(WebOptions(host="0.0.0.0", read_only=True)) is None
+    # beyond loopback reads need a token too: a read-only monitor gets one as well, unless
+    # it has its read-only token
+    assert web_token(WebOptions(host="0.0.0.0", read_only=True))
+    assert web_token(WebOptions(host="0.0.0.0", read_only=True, read_token="r")) is None
     assert web_token(WebOptions(host="0.0.0.0", token="mine")) == "mine"
 
 
@@ -547,12 +550,12 @@ def test_fast_reader_agrees_with_memory_read():
     plc.mem.i_field[20] = 1  # %I0.20: never latched, read from the field
     objs = ["%MW0:12", "%MD8", "%MF20", "%M0:5", "%S4:4", "%SW40", "%Q0.14", "%Q1.0:8",
             "%I0.0:24", "%TM0", "%TM1.P", "%MW5:X0", "%MW0[%MW5]", "%X0", "%KW0"]
-    refs = ctl.resolve_many(objs)
-    assert ctl.values_fn(refs)() == {n: ctl.read_one(r) for n, r in refs}
-    assert ctl.values_fn(refs)()["%I0.20"] == 1
+    refs = ctl.objects.resolve_many(objs)
+    assert ctl.reading.values_fn(refs)() == {n: ctl.reading.read_one(r) for n, r in refs}
+    assert ctl.reading.values_fn(refs)()["%I0.20"] == 1
     plc.force("%I0.20", 0)  # now latched and forced: the reader is rebuilt
     plc.scan()
-    assert ctl.values_fn(refs)()["%I0.20"] == 0 == plc["%I0.20"]
+    assert ctl.reading.values_fn(refs)()["%I0.20"] == 0 == plc["%I0.20"]
 
 
 # ---- analog channels --------------------------------------------------------------------------

@@ -221,3 +221,69 @@ def test_analog_slider_reaches_the_plc(browser, tmp_path):
         page.close()
     finally:
         d.kill()
+
+
+def test_animation_table_of_output_bits_survives_any_value_and_resets(browser, star_daemon):
+    """An output range in an animation table (issue 22): bits read 0/1, a value of any
+    type (true, a string, NaN) shows as text instead of stopping the page's updates, a
+    malformed saved table is dropped, and "Reset tables" clears what the browser kept."""
+    page = open_page(browser, web_url(star_daemon))
+    page.click("#tabs button[data-tab=tables]")
+    page.fill("#table-add", "%Q0.0:4, %M1")
+    page.click("#table-add-btn")
+    for obj in ("%Q0.0", "%Q0.3", "%M1"):
+        sync_api.expect(page.locator(f'#anim tr[data-obj="{obj}"] .val')).to_have_text(
+            re.compile(r"^[01]$"))
+    shown = page.evaluate("""() => {
+        const odd = {"%Q0.0": true, "%Q0.1": "x", "%Q0.2": NaN, "%M1": [1]};
+        Object.assign(state.values, odd); showTable();
+        return Object.keys(odd).map((o) => $(`#anim tr[data-obj="${o}"] .val`).textContent);
+    }""")
+    assert shown == ["1", "x", "NaN", "0=1"]
+    scans = int(page.locator("#scans").inner_text())
+    page.wait_for_function(f"() => +document.querySelector('#scans').textContent > {scans}")
+    page.reload()  # the table is kept in the browser: the page still works with it
+    page.wait_for_selector("#link.up")
+    page.click("#tabs button[data-tab=tables]")
+    sync_api.expect(page.locator('#anim tr[data-obj="%Q0.1"] .val')).to_have_text(
+        re.compile(r"^[01]$"))
+    page.click("#table-reset")  # confirm() accepted
+    sync_api.expect(page.locator("#anim tbody tr")).to_have_count(0)
+    assert page.evaluate("() => localStorage.getItem('softplc.tables')") is None
+    # a malformed saved table (an older page's, or edited by hand) is dropped on load
+    page.evaluate("() => localStorage.setItem('softplc.tables', '[{\"name\": 1, \"rows\": 5}]')")
+    page.reload()
+    page.wait_for_selector("#link.up")
+    assert page.locator("#table-select option").all_inner_texts() == ["Table 1"]
+    page.close()
+
+
+def test_page_beyond_loopback_with_the_read_only_token(browser):
+    """The monitor as if bound to a LAN address (the guard's loopback flag off; the page
+    still talks to 127.0.0.1): without a token the page is refused; opened with the
+    read-only token's URL it runs (its files, API reads and websocket carry the cookie)
+    and a write is refused with a message."""
+    from test_web_api import STAR, Stack
+
+    s = Stack(STAR, STAR.with_suffix(".toml"), token="full", read_token="look")
+    try:
+        s.web.server.guard.loopback = False
+        page = browser.new_page()
+        page.on("dialog", lambda d: d.accept())
+        assert page.goto(f"http://127.0.0.1:{s.port}/").status == 401
+        assert page.goto(f"http://127.0.0.1:{s.port}/?token=look").status == 200
+        page.wait_for_selector("#link.up")
+        page.click("#tabs button[data-tab=tables]")
+        page.fill("#table-add", "%MW3")
+        page.click("#table-add-btn")
+        row = page.locator('#anim tr[data-obj="%MW3"]')
+        sync_api.expect(row.locator(".val")).to_have_text("0")
+        row.locator("input.w").fill("7")
+        row.locator("button.write").click()
+        sync_api.expect(page.locator("#message")).to_have_text(
+            "the read-only token cannot change anything")
+        s.scans()
+        assert s.plc["%MW3"] == 0
+        page.close()
+    finally:
+        s.close()

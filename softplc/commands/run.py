@@ -163,11 +163,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "off = no web monitor)")
     p.add_argument("--web-host", default="127.0.0.1",
                    help="address of the web monitor (default 127.0.0.1); on any other "
-                        "address changes need the token printed at start")
+                        "address every request needs the token printed at start")
     p.add_argument("--web-read-only", action="store_true",
                    help="the web monitor and its API only show: no writes, forcing, RUN/STOP")
-    p.add_argument("--web-token", help="token for changes through the web API (default: "
-                   "a random one when --web-host is not a loopback address)")
+    p.add_argument("--web-token", help="token for changes through the web API; beyond "
+                   "loopback for every request (default: a random one there)")
+    p.add_argument("--web-read-token", metavar="TOKEN",
+                   help="beyond loopback, a second token that only reads (page, API, "
+                        "websocket)")
+    p.add_argument("--web-allow-host", action="append", default=[], metavar="NAME,...",
+                   help="a Host name the monitor answers to besides localhost, this "
+                        "machine's name and IP addresses (repeatable; * = any; or [web] "
+                        "allowed_hosts)")
+    p.add_argument("--web-max-pages", type=int, default=None, metavar="N",
+                   help="websocket pages open at once, 1..1000 (default 32, or [web] "
+                        "max_pages)")
     p.add_argument("--log-level", default="warning",
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
@@ -253,7 +263,7 @@ def run(args: argparse.Namespace) -> int:
         allow=allow,
         open_outputs=outputs,
         on_host_wait=waits,
-        web=_web_options(args),
+        web=_web_options(args, plc.settings.web),
         gc_freeze=not args.no_gc_freeze,
     )
     if not 0 <= opts.rt_priority <= 99:
@@ -262,12 +272,20 @@ def run(args: argparse.Namespace) -> int:
     return Daemon(plc, opts, program_name=str(args.program), app=app).run()
 
 
-def _web_options(args: argparse.Namespace) -> Any:
-    """The web monitor's options (softplc.web), from --web, --web-host, --web-read-only."""
+def _web_options(args: argparse.Namespace, configured: Any) -> Any:
+    """The web monitor's options (softplc.web), from the --web-* options, else the
+    configuration's [web] (`configured`, validated)."""
     from ..web import DEFAULT_WEB_PORT, WebOptions
 
     if args.web == _WEB_OFF:
         return None
+    pages = _pick(args.web_max_pages, configured.max_pages)
+    if not 1 <= pages <= 1000:
+        raise SoftPLCError(f"--web-max-pages {pages}: 1..1000")
+    hosts = [h for arg in args.web_allow_host for h in arg.split(",")] \
+        or configured.allowed_hosts
     return WebOptions(port=DEFAULT_WEB_PORT if args.web is None else args.web,
                       host=args.web_host, read_only=args.web_read_only,
-                      token=args.web_token, port_given=args.web is not None)
+                      token=args.web_token, port_given=args.web is not None,
+                      read_token=args.web_read_token, max_pages=pages,
+                      allowed_hosts=tuple(h.strip() for h in hosts if h.strip()))

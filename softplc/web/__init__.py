@@ -8,13 +8,13 @@ loop; `attach` is the daemon's hook. See README "Web monitor and `softplc io`".
 from __future__ import annotations
 
 import asyncio
-import ipaddress
 import secrets
 from dataclasses import dataclass
 from typing import Any
 
 from ..errors import SoftPLCError
-from .control import ApiError, Controller
+from .control import MAX_PAGES, ApiError, Controller
+from .security import is_loopback
 
 DEFAULT_WEB_PORT = 8020  # beside Modbus' 5020; 0 = any free port
 
@@ -24,17 +24,11 @@ class WebOptions:
     port: int | None = DEFAULT_WEB_PORT  # None: no web monitor
     host: str = "127.0.0.1"
     read_only: bool = False
-    token: str | None = None  # required for changes when host is not loopback
+    token: str | None = None  # for changes; beyond loopback, for every request
     port_given: bool = True  # False: the default port, another free one if it is taken
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
+    read_token: str | None = None  # beyond loopback: for reads only (no changes)
+    allowed_hosts: tuple[str, ...] = ()  # Host names besides loopback's and addresses
+    max_pages: int = MAX_PAGES  # websocket pages open at once
 
 
 class WebHandle:
@@ -51,8 +45,9 @@ class WebHandle:
         s = self.server
         lines = [f"web monitor on {s.url}" + self.note +
                  (" (read-only)" if self.controller.read_only else "")]
+        need = "every request" if not is_loopback(s.host) else "writes and forcing"
         if s.token is not None:
-            lines.append(f"web token (needed for writes and forcing): {s.token}  "
+            lines.append(f"web token (needed for {need}): {s.token}  "
                          f"-> {s.url}?token={s.token}")
         return lines
 
@@ -66,9 +61,11 @@ class WebHandle:
 
 
 def web_token(opt: WebOptions) -> str | None:
-    """The token changes need: the given one, else a random one when the monitor listens
-    beyond loopback and may change things; None: no token needed."""
-    if opt.token is None and not opt.read_only and not is_loopback(opt.host):
+    """The full token: the given one, else a random one when the monitor listens beyond
+    loopback (where every request needs a token), unless it is read-only with a read-only
+    token; None: no token needed."""
+    if opt.token is None and not is_loopback(opt.host) \
+            and not (opt.read_only and opt.read_token):
         return secrets.token_urlsafe(16)
     return opt.token
 
@@ -90,7 +87,8 @@ def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebH
                                            "jitter_max_ms": daemon.jitter_max * 1000})
     note = ""
     for port in (opt.port, 0):
-        server = WebServer(ctl, opt.host, port, token=token)
+        server = WebServer(ctl, opt.host, port, token=token, read_token=opt.read_token,
+                           allowed_hosts=opt.allowed_hosts, max_pages=opt.max_pages)
         try:
             asyncio.run_coroutine_threadsafe(server.start(), modbus.loop).result(10)
             break
@@ -103,5 +101,5 @@ def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebH
     return WebHandle(server, ctl, modbus.loop, note)
 
 
-__all__ = ["DEFAULT_WEB_PORT", "ApiError", "Controller", "WebHandle", "WebOptions", "attach",
-           "is_loopback", "web_token"]
+__all__ = ["DEFAULT_WEB_PORT", "MAX_PAGES", "ApiError", "Controller", "WebHandle", "WebOptions",
+           "attach", "is_loopback", "web_token"]

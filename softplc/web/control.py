@@ -6,27 +6,21 @@ Modbus thread). They meet only at scan boundaries:
 
 - every change (write, force, unforce, RUN/STOP/restart) is checked here, then queued and
   applied by a `before_scan` hook, after the Modbus writes queued before it. %MW/%MD/%MF
-  and %M writes go into the Modbus queue itself (`ModbusImage.queue_*`), so a Modbus host
-  reads back what the page wrote exactly as it reads its own writes; the rest (inputs,
-  other objects, forcing, state changes) go into this module's queue. An input is changed
-  at most once per scan: a press and its release queued in the same scan period are applied
-  in two scans, so every push of a button is seen by the program;
-- reads are sampled by an `after_scan` hook (`sample`): the values of one scan, never a
-  half-finished one.
+  and %M writes go into the Modbus queue itself (`ModbusImage.queue_*`, which coalesces
+  them), so a Modbus host reads back what the page wrote exactly as it reads its own
+  writes; the rest go into `changes.ChangeQueue` (bounded; control commands first);
+- reads are sampled by an `after_scan` hook (`reading.Reading.sample`): the values of one
+  scan, never a half-finished one. Addresses are checked in `objects.Objects`.
 """
 
 from __future__ import annotations
 
-import asyncio
 import math
-import threading
-from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-from ..address import BLOCK_FIELDS, WIDTH, Ref, expand, parse_address
-from ..display import block_fields
-from ..errors import AddressError, SoftPLCError
+from ..address import BLOCK_FIELDS, WIDTH, Ref, parse_address
+from ..errors import AddressError
 from ..il.printer import format_instruction
 from ..modbus.image import ModbusImage, words_to_wire
 from ..modbus.regmap import COILS, REGISTERS
@@ -34,57 +28,17 @@ from ..numeric import F32_MAX, wrap16
 from ..profile import MODULES
 from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
 from ..runtime.memory import WordFamily
+from .changes import ChangeQueue
+from .errors import ApiError
+from .objects import Objects
+from .reading import Reading
 
 # Value ranges the API accepts, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
 INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-MAX_OBJECTS = 2000  # objects one read may name (after expanding ranges)
-SAMPLE_WAIT = 0.25  # s: longer than that without a scan (long period, stopped loop): read now
+MAX_PAGES = 32  # websocket pages open at once (--web-max-pages; [web] max_pages default)
 ACTIONS = ("run", "stop", "cold", "warm")
 CONSTANT_KINDS = ("KW", "KD", "KF")
-
-
-class ApiError(SoftPLCError):
-    """A request the API refuses; `status` is the HTTP status that goes with it."""
-
-    def __init__(self, message: str, status: int = 400):
-        super().__init__(message)
-        self.status = status
-
-
-class _Sample:
-    """A function to run in the scan thread at the end of a scan, and its result handed to
-    the event loop waiting for it. Runs once, whichever thread gets to it first."""
-
-    def __init__(self, fn: Callable[[], Any], loop: asyncio.AbstractEventLoop,
-                 future: asyncio.Future):
-        self.fn = fn
-        self.loop = loop
-        self.future = future
-        self.lock = threading.Lock()
-        self.taken = False
-
-    def run(self) -> None:
-        with self.lock:
-            if self.taken:
-                return
-            self.taken = True
-        try:
-            result, error = self.fn(), None
-        except BaseException as e:  # handed to the waiting request
-            result, error = None, e
-        try:
-            self.loop.call_soon_threadsafe(self._deliver, result, error)
-        except RuntimeError:  # the loop is closed: nobody waits any more
-            pass
-
-    def _deliver(self, result: Any, error: BaseException | None) -> None:
-        if self.future.done():
-            return
-        if error is not None:
-            self.future.set_exception(error)
-        else:
-            self.future.set_result(result)
 
 
 def _device_io(devices: dict[str, Any], profile: Any) -> dict[str, str]:
@@ -115,57 +69,25 @@ class Controller:
         self.program_name = program_name
         self.status_extra = status_extra or (lambda: {})
         self.profile = plc.profile
-        self._queue: deque[tuple[str, Any, Any]] = deque()
-        self._samples: deque[_Sample] = deque()
-        self._refs: dict[str, list[Ref]] = {}
-        self._readers: dict[Any, Callable[[], list[Any]]] = {}
+        self.changes = ChangeQueue(plc)
+        self.objects = Objects(plc)  # addresses -> objects
+        self.reading = Reading(plc)  # reads at a scan boundary
         self._io_refs: list[tuple[str, Ref]] | None = None
         self.device_io = _device_io(plc.devices, self.profile)
         # I/O the program, configuration and devices name (before any API write adds more)
         self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
-        self.applied = 0  # changes applied since start
-        plc.before_scan.append(self._apply)
-        plc.after_scan.append(self._serve_samples)
+        plc.before_scan.append(self.changes.apply)
+        plc.after_scan.append(self.reading.serve)
 
     def close(self) -> None:
         """Unhook from the PLC; pending reads are answered directly."""
-        for hooks, fn in ((self.plc.before_scan, self._apply),
-                          (self.plc.after_scan, self._serve_samples)):
+        for hooks, fn in ((self.plc.before_scan, self.changes.apply),
+                          (self.plc.after_scan, self.reading.serve)):
             if fn in hooks:
                 hooks.remove(fn)
-        self._serve_samples()
+        self.reading.serve()
 
     # -- objects ------------------------------------------------------------------------------
-    def resolve(self, text: Any) -> list[Ref]:
-        """An address, range or symbol -> single objects, with a clear error for anything
-        else."""
-        if not isinstance(text, str) or not text.strip():
-            raise ApiError(f"object {text!r}: expected an address like %MW3, %MW0:10, %I0.0")
-        key = text.strip().upper()
-        refs = self._refs.get(key)
-        if refs is None:
-            try:  # an address, or a symbol of the program (softplc.symbols)
-                refs = expand(self.plc.symbols.address_of(key), self.profile)
-            except AddressError as e:
-                raise ApiError(f"unknown object {text!r}: {e}") from None
-            for r in refs:
-                if r.kind in BLOCK_FIELDS and r.index not in self.plc.mem.blocks[r.kind]:
-                    raise ApiError(f"unknown object {text!r}: %{r.kind}{r.index} is not "
-                                   f"configured or used by the program")
-            if len(self._refs) < 10000:
-                self._refs[key] = refs
-        return refs
-
-    def resolve_many(self, texts: Any) -> list[tuple[str, Ref]]:
-        if isinstance(texts, str):
-            texts = [texts]
-        if not isinstance(texts, list) or not texts:
-            raise ApiError("objects: expected a list of addresses")
-        out = [(str(r), r) for t in texts for r in self.resolve(t)]
-        if len(out) > MAX_OBJECTS:
-            raise ApiError(f"{len(out)} objects in one read: at most {MAX_OBJECTS}")
-        return out
-
     @staticmethod
     def forceable(ref: Ref) -> bool:
         """Bits (%I %Q %M %S %X) and %MW/%MD/%MF words can be forced (`PLC.force`)."""
@@ -230,7 +152,7 @@ class Controller:
         """Check every write, then queue them all: a bad one and nothing is applied."""
         checked = []
         for obj, value in writes:
-            refs = self.resolve(obj)
+            refs = self.objects.resolve(obj)
             values = value if isinstance(value, list) else [value] * len(refs)
             if len(values) != len(refs):
                 raise ApiError(f"{obj}: {len(refs)} objects but {len(values)} values")
@@ -239,27 +161,33 @@ class Controller:
                 if why:
                     raise ApiError(why, 403)
                 checked.append((ref, self.check_value(ref, v)))
+        self.changes.put([("write", ref, v) for ref, v in checked
+                          if not self._to_image(ref)])
         for ref, v in checked:
-            self._queue_write(ref, v)
+            if self._to_image(ref):
+                self._queue_write(ref, v)
         return [str(r) for r, _ in checked]
 
+    def _to_image(self, ref: Ref) -> bool:
+        """A write that goes into the Modbus write queue (`_queue_write`)."""
+        return self.image is not None and ref.offset is None and ref.bit is None \
+            and ref.kind in ("MW", "MD", "MF", "M")
+
     def _queue_write(self, ref: Ref, value: int | float) -> None:
+        """A write into the Modbus write queue (one that `_to_image` sends there)."""
         img = self.image
-        if img is not None and ref.offset is None and ref.bit is None:
-            if ref.kind in ("MW", "MD", "MF"):
-                fam = WordFamily(WIDTH[ref.kind])  # encoded by the memory's own conversions
-                if ref.kind == "MW":
-                    fam.w[0] = wrap16(int(value))
-                elif ref.kind == "MD":
-                    fam.set_d(0, int(value))
-                else:
-                    fam.set_f(0, float(value))
-                img.queue_registers(ref.index, words_to_wire(fam.buf))
-                return
-            if ref.kind == "M":
-                img.queue_coils(ref.index, bytes([1 if value else 0]))
-                return
-        self._queue.append(("write", ref, value))
+        assert img is not None
+        if ref.kind == "M":
+            img.queue_coils(ref.index, bytes([1 if value else 0]))
+            return
+        fam = WordFamily(WIDTH[ref.kind])  # encoded by the memory's own conversions
+        if ref.kind == "MW":
+            fam.w[0] = wrap16(int(value))
+        elif ref.kind == "MD":
+            fam.set_d(0, int(value))
+        else:
+            fam.set_f(0, float(value))
+        img.queue_registers(ref.index, words_to_wire(fam.buf))
 
     def write_analog(self, obj: Any, value: Any, force: bool = False) -> dict[str, Any]:
         """Queue a new physical value (V, mA, degrees C, pot position) for an analog input:
@@ -286,15 +214,12 @@ class Controller:
             raise ApiError(f"{name}: {value:g} is out of range {a:g}..{b:g} {unit} "
                            f"({ch.signal})".replace("  ", " "))
         word = ch.to_word(float(value))[0]
-        if force:
-            self._queue.append(("force", ref, word))
-        else:
-            self._queue.append(("analog", ref, float(value)))
+        self.changes.put([("force", ref, word) if force else ("analog", ref, float(value))])
         return {"queued": name, "value": float(value), "word": word, "forced": force}
 
     def _analog_channel(self, obj: Any) -> tuple[Ref, Any]:
         analog = self.plc.mem.analog
-        refs = self.resolve(obj)
+        refs = self.objects.resolve(obj)
         if len(refs) != 1 or analog is None or refs[0] not in analog.channels:
             raise ApiError(f"{obj!r} is not a configured analog channel (see [analog] and "
                            f"[modules] in the configuration)")
@@ -342,7 +267,7 @@ class Controller:
         return values
 
     def force(self, obj: Any, value: Any) -> list[str]:
-        refs = self.resolve(obj)
+        refs = self.objects.resolve(obj)
         checked = []
         for ref in refs:
             if self.read_only:
@@ -354,139 +279,35 @@ class Controller:
             if why:
                 raise ApiError(why, 403)
             checked.append((ref, self.check_value(ref, value)))
-        for ref, v in checked:
-            self._queue.append(("force", ref, v))
+        self.changes.put([("force", ref, v) for ref, v in checked])
         return [str(r) for r, _ in checked]
 
     def unforce(self, obj: Any = None) -> list[str]:
+        """Queue the release of `obj` (None, "" or "all": of everything) in the urgent lane;
+        a forcing of those objects still queued is dropped (the unforce came after it)."""
         if self.read_only:
             raise ApiError("the web monitor is read-only (--web-read-only)", 403)
-        if obj in (None, "", "all"):
-            self._queue.append(("unforce", None, None))
-            return list(self.plc.forced)
-        refs = self.resolve(obj)
-        for ref in refs:
-            self._queue.append(("unforce", ref, None))
-        return [str(r) for r in refs]
+        every = isinstance(obj, str | None) and obj in (None, "", "all")
+        refs = None if every else self.objects.resolve(obj)
+        self.changes.put([("unforce", refs, None)])
+        return list(self.plc.forced) if refs is None else [str(r) for r in refs]
 
     def control(self, action: Any) -> str:
         if self.read_only:
             raise ApiError("the web monitor is read-only (--web-read-only)", 403)
-        if action not in ACTIONS:
-            raise ApiError(f"action {action!r}: one of {', '.join(ACTIONS)}")
-        self._queue.append(("control", action, None))
+        if not isinstance(action, str) or action not in ACTIONS:
+            raise ApiError(f"action {str(action)[:40]!r}: one of {', '.join(ACTIONS)}")
+        self.changes.put([("control", action, None)])
         return action
 
     @property
     def pending(self) -> int:
-        return len(self._queue)
-
-    def _apply(self) -> None:
-        """before_scan hook (scan thread): apply the queued changes in order."""
-        q = self._queue
-        if not q:
-            return
-        plc = self.plc
-        inputs: set[int] = set()
-        while q:
-            op, ref, value = q[0]
-            if op == "write" and ref.kind == "I":
-                if ref.index in inputs:
-                    break  # the second change of this input waits for the next scan
-                inputs.add(ref.index)
-            q.popleft()
-            try:
-                if op == "write":
-                    plc.mem.write(ref, value)
-                elif op == "analog":
-                    plc.mem.analog.set_input(ref, value)
-                elif op == "force":
-                    plc.force(str(ref), value)
-                elif op == "unforce":
-                    plc.unforce(None if ref is None else str(ref))
-                elif ref == "run":
-                    plc.start()
-                elif ref == "stop":
-                    plc.stop()
-                elif ref == "cold":
-                    plc.cold_start()
-                elif ref == "warm":
-                    plc.warm_start()
-            except SoftPLCError:  # checked when queued; a block removed since and the like
-                pass
-            self.applied += 1
+        return len(self.changes)
 
     # -- reads (sampled at a scan boundary) ----------------------------------------------------
-    def _serve_samples(self) -> None:
-        """after_scan hook (scan thread)."""
-        q = self._samples
-        while q:
-            q.popleft().run()
-
-    async def sample(self, fn: Callable[[], Any]) -> Any:
-        """Run `fn` in the scan thread right after the next scan (or here, if no scan comes
-        within SAMPLE_WAIT) and return its result."""
-        loop = asyncio.get_running_loop()
-        s = _Sample(fn, loop, loop.create_future())
-        self._samples.append(s)
-        try:
-            return await asyncio.wait_for(asyncio.shield(s.future), SAMPLE_WAIT)
-        except TimeoutError:
-            s.run()  # nothing if the scan thread took it meanwhile
-            return await s.future
-
-    def values_fn(self, refs: list[tuple[str, Ref]]) -> Callable[[], dict[str, Any]]:
-        """A function giving {name: value} of `refs`: prepare it here (in the web thread),
-        call it in the scan thread (`sample`), where it costs little."""
-        reader = self.reader([r for _, r in refs])
-        names = [n for n, _ in refs]
-        return lambda: dict(zip(names, reader(), strict=True))
-
-    def read_one(self, ref: Ref) -> Any:
-        """One value through `MemoryImage.read`, as the API gives it: bits as 0/1, a block
-        as a dict of its fields, None for an object that cannot be read."""
-        try:
-            v = self.plc.mem.read(ref)
-        except SoftPLCError:
-            return None
-        if isinstance(v, bool):
-            return int(v)
-        return block_fields(ref.kind, v) if ref.is_block else v
-
-    def reader(self, refs: list[Ref]) -> Callable[[], list[Any]]:
-        """A function that reads `refs` into a list. It runs in the scan thread after a scan,
-        ten times a second per page, so plain words and bits are read straight from the
-        memory image's arrays (about 50 ns each, where `MemoryImage.read` takes a few us);
-        the rest goes through `read_one`. An input not yet latched by any scan reads from
-        the field, as `MemoryImage.read` does: the reader is rebuilt when that set grows."""
-        mem = self.plc.mem
-        latched = mem.io_used("I")
-        key = (tuple(refs), len(latched))
-        fn = self._readers.get(key)
-        if fn is not None:
-            return fn
-        env: dict[str, Any] = {"MW": mem.mw.w, "KW": mem.kw.w, "SW": mem.sw.w, "M": mem.m,
-                               "S": mem.s, "X": mem.x, "Q": mem.q, "I": mem.i,
-                               "F": mem.i_field, "read": self.read_one, "R": refs}
-        items = []
-        for k, ref in enumerate(refs):
-            plain = ref.offset is None and ref.bit is None and ref.length is None \
-                and ref.field is None
-            if plain and ref.kind in ("MW", "KW", "SW", "M", "S", "X", "Q"):
-                items.append(f"{ref.kind}[{ref.index}]")
-            elif plain and ref.kind == "I":
-                items.append(f"{'I' if ref.index in latched else 'F'}[{ref.index}]")
-            else:
-                items.append(f"read(R[{k}])")
-        exec(f"def reader():\n    return [{', '.join(items)}]\n", env)
-        if len(self._readers) > 256:
-            self._readers.clear()
-        fn = self._readers[key] = env["reader"]
-        return fn
-
     async def read(self, objs: Any) -> dict[str, Any]:
-        refs = self.resolve_many(objs)
-        return await self.sample(self.values_fn(refs))
+        refs = self.objects.resolve_many(objs)
+        return await self.reading.sample(self.reading.values_fn(refs))
 
     # -- the controller as a whole ------------------------------------------------------------
     def io_layout(self) -> list[dict[str, Any]]:
@@ -536,7 +357,7 @@ class Controller:
                "forced": {k: (int(v) if isinstance(v, bool) else v)
                           for k, v in plc.forced.items()},
                "pending": self.pending + (self.image.pending if self.image else 0),
-               "web_changes_applied": self.applied}
+               "web_changes_applied": self.changes.applied}
         out.update(self.status_extra())
         return out
 

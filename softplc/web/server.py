@@ -14,34 +14,29 @@
     GET  /api/ws              websocket: send {"subscribe": {...}}, receive updates
 
 Errors are JSON `{"error": "..."}` with status 400 (bad request), 401 (token missing or
-wrong), 403 (not writable, read-only monitor, another site's page), 404 or 415 (a POST
-body that is not JSON). When a token is set, every POST
-needs `Authorization: Bearer TOKEN` (or `?token=TOKEN`).
+wrong), 403 (not writable, read-only monitor, another site's page, a Host name not
+allowed), 404, 413 (a body over 64 KiB), 415 (a POST body that is not JSON) or 503 (the
+change queue is full). Who may ask what (Host allow-list, Origin, tokens): `security.py`;
+the websocket pages and their limits: `pages.py`.
 """
 
 from __future__ import annotations
 
-import asyncio
-import hmac
-import json
 import logging
-import math
 from importlib import resources
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
 
-from aiohttp import WSMsgType, web
+from aiohttp import web
 
-from ..address import Ref
-from . import ladderview
-from .control import MAX_OBJECTS, ApiError, Controller
+from ..modbus.server import RateLimitedLog
+from .control import ApiError, Controller
+from .live import LiveViews, dumps
+from .pages import MAX_PAGES, UPDATE_HZ, Pages
+from .security import COOKIE, Guard
 
 log = logging.getLogger("softplc.web")
 
-UPDATE_HZ = 10.0  # websocket updates per second (the issue asks for >= 10)
-MAX_LIVE_RUNGS = 8  # rungs one page may watch live at a time
-TRACE_CHUNK = 5000  # trace samples per update at most: a new page catches up over a few
 MAX_BODY = 64 * 1024
 
 
@@ -50,49 +45,28 @@ def static_dir() -> Path:
 
 
 def _json(data: Any, status: int = 200) -> web.Response:
-    return web.Response(text=json.dumps(_clean(data), allow_nan=False, default=str),
-                        status=status, content_type="application/json")
-
-
-def _clean(v: Any) -> Any:
-    """NaN and infinities (a float word can hold them) as strings: JSON has no such numbers."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return str(v)
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, list):
-        return [_clean(x) for x in v]
-    return v
-
-
-class _Client:
-    """One websocket page and what it asked for."""
-
-    def __init__(self, ws: web.WebSocketResponse):
-        self.ws = ws
-        self.objects: list[tuple[str, Ref]] = []
-        self.io = False
-        self.rungs: list[int] = []
-        self.svg_sent: dict[int, str] = {}
-        self.machine = False
-        self.trace_sent = 0
+    return web.Response(text=dumps(data), status=status, content_type="application/json")
 
 
 class WebServer:
     def __init__(self, controller: Controller, host: str = "127.0.0.1", port: int = 8020, *,
-                 token: str | None = None, update_hz: float = UPDATE_HZ):
+                 token: str | None = None, read_token: str | None = None,
+                 allowed_hosts: tuple[str, ...] = (), max_pages: int = MAX_PAGES,
+                 update_hz: float = UPDATE_HZ):
         self.ctl = controller
         self.host = host
         self.port = port
         self.token = token
-        self.update_hz = update_hz
-        self.clients: set[_Client] = set()
-        self.updates_sent = 0
+        self.guard = Guard(host, token, read_token, allowed_hosts)
+        self.views = LiveViews(controller)
+        self.pages = Pages(controller, self.views, max_pages=max_pages, update_hz=update_hz)
+        self.warn = RateLimitedLog(log)
         self._runner: web.AppRunner | None = None
-        self._ticker: asyncio.Task | None = None
-        self._rung_refs: dict[tuple[int, int], list[Ref]] = {}
-        self._svg_cache: dict[Any, str] = {}
         self.app = self._make_app()
+
+    @property
+    def clients(self) -> set[Any]:
+        return self.pages.clients
 
     # -- set-up ------------------------------------------------------------------------------
     def _make_app(self) -> web.Application:
@@ -111,7 +85,7 @@ class WebServer:
         r.add_post("/api/analog", self._analog)
         r.add_post("/api/unforce", self._unforce)
         r.add_post("/api/control", self._control)
-        r.add_get("/api/ws", self._ws)
+        r.add_get("/api/ws", self.pages.handle)
         r.add_static("/static/", static_dir())
         return app
 
@@ -122,13 +96,10 @@ class WebServer:
         await site.start()
         sock = site._server.sockets[0]  # type: ignore[union-attr]
         self.port = sock.getsockname()[1]  # the real one if port was 0
-        self._ticker = asyncio.create_task(self._tick_loop())
+        self.pages.start()
 
     async def close(self) -> None:
-        if self._ticker is not None:
-            self._ticker.cancel()
-        for c in list(self.clients):
-            await c.ws.close()
+        await self.pages.close()
         if self._runner is not None:
             await self._runner.cleanup()
 
@@ -140,49 +111,41 @@ class WebServer:
     # -- plumbing ----------------------------------------------------------------------------
     @web.middleware
     async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:
+        """Every request: the guard's checks, then the route; a refusal is a 4xx with a
+        JSON error and one (rate-limited) log line, never a traceback."""
+        api = request.path.startswith("/api/")
         try:
-            if request.path.startswith("/api/"):
-                self._check_origin(request)
-            if request.method == "POST":
-                if request.content_type != "application/json":
-                    raise ApiError("POST bodies are JSON: send Content-Type: application/json",
-                                   415)
-                if request.path != "/api/read":
-                    self._check_token(request)
-            return await handler(request)
+            change = request.method == "POST" and request.path != "/api/read"
+            query_token = self.guard.check(request, change)
+            if request.method == "POST" and request.content_type != "application/json":
+                raise ApiError("POST bodies are JSON: send Content-Type: application/json",
+                               415)
+            response = await handler(request)
+            if query_token is not None and isinstance(response, web.Response | web.FileResponse):
+                # the page opened with ?token=: its own requests and websocket carry it
+                response.set_cookie(COOKIE, query_token, httponly=True, samesite="Strict")
+            return response
         except ApiError as e:
-            return _json({"error": str(e)}, e.status)
+            return self._refuse(request, e.status, str(e), api)
         except web.HTTPException as e:
-            if e.status >= 400 and request.path.startswith("/api/"):
-                return _json({"error": e.reason}, e.status)
+            if e.status >= 400:
+                return self._refuse(request, e.status, e.reason, api)
             raise
 
-    @staticmethod
-    def _check_origin(request: web.Request) -> None:
-        """Another web site's page in the user's browser must not drive the PLC (or read it
-        over the websocket): a browser names the page's origin, which must be this server.
-        JSON-only POST bodies make its cross-site requests preflighted, which fail too."""
-        origin = request.headers.get("Origin")
-        if origin is not None and urlsplit(origin).netloc != request.host:
-            raise ApiError(f"requests from the page of {origin} are refused", 403)
-
-    def _check_token(self, request: web.Request) -> None:
-        if self.token is None:
-            return
-        given = request.headers.get("Authorization", "").removeprefix("Bearer ").strip() \
-            or request.query.get("token", "")
-        if not given:
-            raise ApiError("this monitor needs a token for changes: send "
-                           "'Authorization: Bearer TOKEN' (printed when the daemon started)",
-                           401)
-        if not hmac.compare_digest(given, self.token):
-            raise ApiError("wrong token", 401)
+    def _refuse(self, request: web.Request, status: int, why: str, api: bool) -> web.Response:
+        if status in (401, 403, 413, 415) or status == 400 and request.method == "POST":
+            self.warn.warning(f"{status}", f"requests refused with {status}",
+                              "web %s %s from %s refused (%d): %s", request.method,
+                              request.path[:100], request.remote, status, why[:200])
+        if api:
+            return _json({"error": why}, status)
+        return web.Response(text=why + "\n", status=status)
 
     @staticmethod
     async def _body(request: web.Request) -> dict[str, Any]:
         try:
             data = await request.json()
-        except (json.JSONDecodeError, UnicodeDecodeError, ValueError):
+        except (ValueError, UnicodeDecodeError, RecursionError):  # deep nesting too
             raise ApiError("the request body must be a JSON object") from None
         if not isinstance(data, dict):
             raise ApiError("the request body must be a JSON object")
@@ -201,7 +164,7 @@ class WebServer:
     async def _info(self, request: web.Request) -> web.Response:
         info = self.ctl.info()
         info["token_required"] = self.token is not None
-        info["update_hz"] = self.update_hz
+        info["update_hz"] = self.pages.update_hz
         return _json(info)
 
     async def _status(self, request: web.Request) -> web.Response:
@@ -217,8 +180,8 @@ class WebServer:
 
     async def _io(self, request: web.Request) -> web.Response:
         refs = self.ctl.io_refs()
-        read_io, read_analog = self.ctl.values_fn(refs), self.ctl.analog_values_fn()
-        values, analog = await self.ctl.sample(lambda: (read_io(), read_analog()))
+        read_io, read_analog = self.ctl.reading.values_fn(refs), self.ctl.analog_values_fn()
+        values, analog = await self.ctl.reading.sample(lambda: (read_io(), read_analog()))
         forced = self.ctl.plc.forced
         return _json({"modules": self.ctl.io_layout(),
                       "io": {name: {"value": v, "forced": name in forced,
@@ -232,8 +195,9 @@ class WebServer:
         try:
             n = int(request.match_info["rung"])
         except ValueError:
-            raise ApiError(f"rung {request.match_info['rung']!r}: a rung number") from None
-        svg = (await self._ladders({n}))[n]
+            raise ApiError(f"rung {request.match_info['rung'][:20]!r}: a rung number") \
+                from None
+        svg = (await self.views.ladders({n}))[n]
         return web.Response(text=svg, content_type="image/svg+xml")
 
     async def _machine(self, request: web.Request) -> web.Response:
@@ -241,8 +205,8 @@ class WebServer:
             since = int(request.query.get("since", "0"))
         except ValueError:
             raise ApiError("since: a sample number") from None
-        status = await self.ctl.sample(self._devices_now)
-        return _json(self._machine_view(status, max(0, since)))
+        status = await self.ctl.reading.sample(self.views.devices_now)
+        return _json(self.views.machine_view(status, max(0, since)))
 
     async def _write(self, request: web.Request) -> web.Response:
         data = await self._body(request)
@@ -271,55 +235,6 @@ class WebServer:
         data = await self._body(request)
         return _json({"action": self.ctl.control(data.get("action"))})
 
-    # -- live views --------------------------------------------------------------------------
-    def _refs_of(self, n: int) -> list[Ref]:
-        plc = self.ctl.plc
-        rungs = plc.rungs
-        if not 0 <= n < len(rungs):
-            raise ApiError(f"rung {n}: the program has rungs 0..{len(rungs) - 1}", 404)
-        key = (plc.program_version, n)
-        refs = self._rung_refs.get(key)
-        if refs is None:
-            refs = self._rung_refs[key] = ladderview.refs(rungs[n])
-        return refs
-
-    async def _ladders(self, wanted: set[int]) -> dict[int, str]:
-        refs = {n: self._refs_of(n) for n in wanted}
-        readers = {n: self.ctl.reader(r) for n, r in refs.items()}
-        raw = await self.ctl.sample(lambda: {n: read() for n, read in readers.items()})
-        return {n: self._svg(n, ladderview.capture(refs[n], raw[n])) for n in wanted}
-
-    def _svg(self, n: int, values: dict[Ref, Any]) -> str:
-        plc = self.ctl.plc
-        forced = set(plc.forced)
-        key = (plc.program_version, n, repr(sorted(values.items(), key=lambda kv: str(kv[0]))),
-               tuple(sorted(forced)))
-        svg = self._svg_cache.get(key)
-        if svg is None:
-            if len(self._svg_cache) > 256:
-                self._svg_cache.clear()
-            svg = self._svg_cache[key] = ladderview.render(plc.rungs[n], values, forced)
-        return svg
-
-    def _devices_now(self) -> dict[str, Any]:
-        out = {}
-        for name, dev in self.ctl.plc.devices.items():
-            st = dict(dev.status())
-            st["type"] = getattr(dev, "type_name", "device")
-            for attr in ("travel", "steps_per_unit"):
-                if hasattr(dev, attr):
-                    st[attr] = getattr(dev, attr)
-            out[name] = st
-        return out
-
-    def _machine_view(self, devices: dict[str, Any], since: int) -> dict[str, Any]:
-        trace = self.ctl.plc.trace
-        n = len(trace)
-        chunk = [list(s) for s in trace[since:min(n, since + TRACE_CHUNK)]]
-        return {"devices": devices, "trace_from": since, "trace": chunk,
-                "trace_total": n}
-
-    # -- websocket ---------------------------------------------------------------------------
     async def _analog(self, request: web.Request) -> web.Response:
         data = await self._body(request)
         if "value" not in data:
@@ -328,122 +243,3 @@ class WebServer:
         if not isinstance(force, bool):
             raise ApiError(f'"force": true or false, not {force!r}')
         return _json(self.ctl.write_analog(self._obj(data), data["value"], force))
-
-    async def _ws(self, request: web.Request) -> web.WebSocketResponse:
-        ws = web.WebSocketResponse(heartbeat=30)
-        await ws.prepare(request)
-        client = _Client(ws)
-        self.clients.add(client)
-        try:
-            async for msg in ws:
-                if msg.type != WSMsgType.TEXT:
-                    continue
-                try:
-                    self._subscribe(client, json.loads(msg.data))
-                except (ApiError, ValueError) as e:
-                    await ws.send_str(json.dumps({"type": "error", "error": str(e)}))
-        finally:
-            self.clients.discard(client)
-        return ws
-
-    def _subscribe(self, client: _Client, msg: Any) -> None:
-        sub = msg.get("subscribe") if isinstance(msg, dict) else None
-        if not isinstance(sub, dict):
-            raise ApiError('expected {"subscribe": {"objects": [...], "io": true, '
-                           '"rungs": [N, ...], "machine": true}}')
-        if "objects" in sub:
-            objs = sub["objects"] or []
-            if not isinstance(objs, list):
-                raise ApiError("objects: a list of addresses")
-            good, bad = [], []
-            for o in objs:
-                try:
-                    good += [(str(r), r) for r in self.ctl.resolve(o)]
-                except ApiError as e:
-                    bad.append(str(e))
-            if len(good) > MAX_OBJECTS:
-                raise ApiError(f"{len(good)} objects: at most {MAX_OBJECTS} per page")
-            client.objects = good
-            if bad:
-                raise ApiError("; ".join(bad))
-        if "io" in sub:
-            client.io = bool(sub["io"])
-        if "rungs" in sub:
-            rungs = sub["rungs"] or []
-            if not isinstance(rungs, list) or len(rungs) > MAX_LIVE_RUNGS or not all(
-                    isinstance(n, int) and not isinstance(n, bool) for n in rungs):
-                raise ApiError(f"rungs: a list of at most {MAX_LIVE_RUNGS} rung numbers")
-            for n in rungs:
-                self._refs_of(n)
-            client.rungs = rungs
-            client.svg_sent = {}
-        if "machine" in sub:
-            client.machine = bool(sub["machine"])
-            client.trace_sent = 0
-
-    async def _tick_loop(self) -> None:
-        period = 1.0 / self.update_hz
-        loop = asyncio.get_running_loop()
-        next_t = loop.time()
-        while True:
-            next_t += period
-            try:
-                if self.clients:
-                    await self._tick()
-            except Exception:  # a bug here must not end the updates of every page
-                log.exception("web update failed")
-            await asyncio.sleep(max(0.0, next_t - loop.time()))
-            if loop.time() - next_t > period:  # fell behind: do not burst to catch up
-                next_t = loop.time()
-
-    async def _tick(self) -> None:
-        ctl = self.ctl
-        clients = list(self.clients)
-        objs = {name: ref for c in clients for name, ref in c.objects}
-        io = ctl.io_refs() if any(c.io for c in clients) else []
-        rungs = {n for c in clients for n in c.rungs}
-        rung_refs = {n: self._refs_of(n) for n in rungs if n < len(ctl.plc.rungs)}
-        machine = any(c.machine for c in clients)
-        # prepared here, run in the scan thread: there, only the reads themselves
-        read_values, read_io = ctl.values_fn(list(objs.items())), ctl.values_fn(io)
-        read_analog = ctl.analog_values_fn() if io else dict
-        read_rungs = {n: ctl.reader(r) for n, r in rung_refs.items()}
-
-        def take() -> dict[str, Any]:
-            return {"values": read_values(), "io": read_io(), "analog": read_analog(),
-                    "ladder": {n: read() for n, read in read_rungs.items()},
-                    "devices": self._devices_now() if machine else {},
-                    "status": ctl.status()}
-
-        snap = await ctl.sample(take)
-        snap["ladder"] = {n: ladderview.capture(rung_refs[n], v)
-                          for n, v in snap["ladder"].items()}
-        status = _clean(snap["status"] | {"web_clients": len(clients)})
-        values = _clean(snap["values"])
-        for c in clients:
-            msg: dict[str, Any] = {"type": "update", "status": status}
-            if c.objects:
-                msg["values"] = {name: values.get(name) for name, _ in c.objects}
-            if c.io:
-                msg["io"] = snap["io"]
-                msg["analog"] = snap["analog"]
-                msg["device_io"] = ctl.device_io
-            changed = {}
-            for n in c.rungs:
-                if n in snap["ladder"]:
-                    svg = self._svg(n, snap["ladder"][n])
-                    if c.svg_sent.get(n) is not svg:
-                        changed[n] = c.svg_sent[n] = svg
-            if changed:
-                msg["ladder"] = changed
-            if c.machine:
-                view = self._machine_view(snap["devices"], c.trace_sent)
-                c.trace_sent = view["trace_from"] + len(view["trace"])
-                msg["machine"] = _clean(view)
-            if c.ws.closed:
-                continue
-            try:
-                await c.ws.send_str(json.dumps(msg))
-                self.updates_sent += 1
-            except (ConnectionError, RuntimeError):
-                self.clients.discard(c)

@@ -18,11 +18,22 @@ const h = (tag, attrs = {}, ...kids) => {
 
 const params = new URLSearchParams(location.search);
 if (params.get("token")) localStorage.setItem("softplc.token", params.get("token"));
+// what the browser kept: anything malformed (an older page's, edited by hand) is dropped
+function saved(key, fallback, ok) {
+  try {
+    const v = JSON.parse(localStorage.getItem(key) || "null");
+    if (v !== null && ok(v)) return v;
+  } catch (e) { /* unreadable: the default */ }
+  return fallback();
+}
+const isTables = (t) => Array.isArray(t) && t.length > 0 && t.every((x) => x && typeof x.name === "string"
+  && Array.isArray(x.rows) && x.rows.every((r) => typeof r === "string"));
+const newTables = () => [{ name: "Table 1", rows: [] }];
 const state = {
   info: null, status: null, forced: {}, tab: "sim", rung: 0, ws: null,
-  tables: JSON.parse(localStorage.getItem("softplc.tables") || "null") ||
-          [{ name: "Table 1", rows: [] }],
-  table: 0, values: {}, formats: JSON.parse(localStorage.getItem("softplc.formats") || "{}"),
+  tables: saved("softplc.tables", newTables, isTables),
+  table: 0, values: {},
+  formats: saved("softplc.formats", () => ({}), (f) => typeof f === "object" && !Array.isArray(f)),
   trend: { objects: JSON.parse(localStorage.getItem("softplc.trends") || "[]"), data: [],
            paused: false, window: 30 },
   machine: { trace: [], devices: {} },
@@ -75,24 +86,38 @@ function subscribe() {
   if (state.tab === "machine") state.machine.trace = [];
 }
 
+// one view that fails on an unexpected value must not stop the others (nor the next updates)
+function guarded(what, fn) {
+  try { fn(); } catch (e) { console.error(what, e); }
+}
+
 function connect() {
-  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/api/ws");
+  const token = localStorage.getItem("softplc.token");
+  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/api/ws"
+    + (token ? "?token=" + encodeURIComponent(token) : ""));
   state.ws = ws;
   ws.onopen = () => { $("#link").classList.add("up"); subscribe(); };
-  ws.onclose = () => { $("#link").classList.remove("up"); setTimeout(connect, 1000); };
+  ws.onclose = (ev) => {
+    $("#link").classList.remove("up");
+    if (ev.code === 1013) say(ev.reason || "too many pages open");  // the daemon's page limit
+    setTimeout(connect, ev.code === 1013 ? 5000 : 1000);
+  };
   ws.onmessage = (ev) => {
     const msg = JSON.parse(ev.data);
     if (msg.type === "error") { say(msg.error); return; }
     if (msg.type !== "update") return;
-    showStatus(msg.status);
-    if (msg.io) showIO(msg.io);
-    if (msg.analog) showAnalog(msg.analog);
-    if (msg.values) { Object.assign(state.values, msg.values); showTable(); trendSample(msg); }
+    guarded("status", () => showStatus(msg.status));
+    if (msg.io) guarded("io", () => showIO(msg.io));
+    if (msg.analog) guarded("analog", () => showAnalog(msg.analog));
+    if (msg.values) {
+      Object.assign(state.values, msg.values);
+      guarded("table", showTable); guarded("trends", () => trendSample(msg));
+    }
     if (msg.ladder) for (const [n, svg] of Object.entries(msg.ladder)) {
       const box = $(`#ladder div[data-rung="${n}"]`);
       if (box) box.innerHTML = svg;
     }
-    if (msg.machine) showMachine(msg.machine);
+    if (msg.machine) guarded("machine", () => showMachine(msg.machine));
   };
 }
 
@@ -292,8 +317,9 @@ function expand(obj) {
 
 function fmt(obj, v, f) {
   if (v === null || v === undefined) return "?";
+  if (typeof v === "boolean") return v ? "1" : "0";  // bits are 0/1, whatever sends them
   if (typeof v === "object") return Object.entries(v).map(([k, x]) => `${k}=${x}`).join(" ");
-  if (typeof v === "string") return v;
+  if (typeof v !== "number" || !Number.isFinite(v)) return String(v);
   const wide = /^%(MD|KD|MF|KF)/.test(obj), bits = wide ? 32 : 16;
   if (/^%(MF|KF)/.test(obj) || !Number.isInteger(v)) {
     if (f === "hex" || f === "bin") {
@@ -387,8 +413,10 @@ function tableRow(obj, entry) {
 
 function showTable() {
   for (const tr of $$("#anim tbody tr[data-obj]")) {
-    const obj = tr.dataset.obj;
-    tr.querySelector(".val").textContent = fmt(obj, state.values[obj], state.formats[obj] || "dec");
+    const obj = tr.dataset.obj, v = state.values[obj];
+    let text;
+    try { text = fmt(obj, v, state.formats[obj] || "dec"); } catch (e) { text = String(v); }
+    tr.querySelector(".val").textContent = text;
     tr.classList.toggle("forced", obj in state.forced);
   }
 }
@@ -414,6 +442,12 @@ $("#table-delete").addEventListener("click", () => {
   if (!state.tables.length) state.tables.push({ name: "Table 1", rows: [] });
   state.table = 0; saveTables(); buildTables(); subscribe();
 });
+$("#table-reset").addEventListener("click", () => {
+  if (!confirm("Reset the animation tables? Every table and display format kept in this browser is removed.")) return;
+  localStorage.removeItem("softplc.tables"); localStorage.removeItem("softplc.formats");
+  state.tables = newTables(); state.formats = {}; state.table = 0;
+  buildTables(); subscribe(); say("animation tables reset", true);
+});
 function download(name, text, type) {
   const a = h("a", { href: URL.createObjectURL(new Blob([text], { type })), download: name });
   document.body.append(a); a.click(); a.remove();
@@ -429,7 +463,7 @@ $("#table-export-csv").addEventListener("click", () => {
 $("#table-import").addEventListener("change", async (e) => {
   try {
     const t = JSON.parse(await e.target.files[0].text());
-    if (!Array.isArray(t) || !t.every((x) => x && typeof x.name === "string" && Array.isArray(x.rows))) throw new Error("not a list of {name, rows}");
+    if (!isTables(t)) throw new Error("not a list of {name, rows: [addresses]}");
     state.tables.push(...t); saveTables(); buildTables(); subscribe(); say(`${t.length} table(s) imported`, true);
   } catch (err) { say("import: " + err.message); }
 });
