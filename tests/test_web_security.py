@@ -347,6 +347,8 @@ def test_run_takes_allowed_hosts_and_page_limit_from_the_config(tmp_path):
     from daemon_util import Daemon
 
     cfg = tmp_path / "star.toml"
+    symbols = STAR.parent / "star_delta_symbols.csv"  # the config's symbols_file, beside it
+    (tmp_path / symbols.name).write_bytes(symbols.read_bytes())
     cfg.write_text(STAR.with_suffix(".toml").read_text()
                    + '\n[web]\nallowed_hosts = ["plc.lan"]\nmax_pages = 1\n')
     d = Daemon(tmp_path, "--config", str(cfg), "--web", "0", "--stats-interval", "0",

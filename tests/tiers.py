@@ -16,7 +16,7 @@ E2E = {
     "test_daemon_hardening", "test_daemon_host_wait", "test_debug_repl", "test_e2e_cutting",
     "test_e2e_drawing", "test_exch", "test_first_hour", "test_host_client",
     "test_mass_tuning_daemon", "test_mass_tuning_e2e", "test_modbus", "test_modbus_slots",
-    "test_program_contract", "test_runtime_attacks",
+    "test_program_contract", "test_runtime_attacks", "test_web_security",
     "test_web_api", "test_web_browser",
 }
 
