@@ -8,7 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from softplc.debug.session import Session, diff_programs, parse_value
+from softplc.debug.cmd_views import diff_programs
+from softplc.debug.registry import parse_value
+from softplc.debug.session import Session
 from softplc.il.parser import parse
 from softplc.plc import PLC
 
@@ -313,7 +315,7 @@ def test_step_count_is_not_cut_by_rung_titles_that_read_like_stops() -> None:
 
 @pytest.mark.parametrize("width", [60, 100])
 def test_help_lists_whole_first_sentences_wrapped(s: Session, width: int) -> None:
-    from softplc.debug.session import first_sentence
+    from softplc.debug.registry import first_sentence
 
     s.width = width
     out = s.execute("help")
@@ -346,7 +348,7 @@ def test_the_controller_runs_without_the_command_layer() -> None:
 def test_one_command_table() -> None:
     """Every command comes from the table: a help text, aliases that name no other command
     and are not given twice, and only print takes a /FORMAT."""
-    from softplc.debug.session import COMMANDS
+    from softplc.debug.registry import COMMANDS
 
     aliases = [a for c in COMMANDS.values() for a in c.aliases]
     assert len(aliases) == len(set(aliases)) and not set(aliases) & set(COMMANDS)

@@ -106,6 +106,16 @@ class Pid:
         self._at, self._samples, self._last = "check", [], None
         self.diag &= ~(D_AT_DONE | D_AT_FAILED | D_NOT_STEADY)
 
+    # -- what views show (the debugger's `pid`) ---------------------------------------------------
+    def value(self, v: Ref | int) -> int:
+        """A parameter's value now: the constant, or the word it names."""
+        return self._get(v)
+
+    @property
+    def autotune_state(self) -> str:
+        """The auto-tuning's state: "" (none), check, step, done or failed."""
+        return self._at
+
     # -- the instruction ------------------------------------------------------------------------
     def _get(self, v: Ref | int) -> int:
         return v if isinstance(v, int) else int(self.mem.read(v))

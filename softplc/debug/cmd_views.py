@@ -1,0 +1,216 @@
+"""Debugger commands: views of the PLC and the program (timers, counters, pid, pulses,
+analog, status, where, rung, rungs, reload, help, quit)."""
+
+from __future__ import annotations
+
+import difflib
+import textwrap
+from typing import TYPE_CHECKING, Any
+
+from ..il import ast as A
+from ..il.parser import parse_file
+from . import ladder
+from .controller import DebugError
+from .registry import command, first_sentence
+
+if TYPE_CHECKING:
+    from .session import Session
+
+
+@command("timers")
+def cmd_timers(s: Session, arg: str) -> str:
+    """timers: every timer with its type, base, preset, value and output."""
+    tms = s.plc.mem.blocks.get("TM", {})
+    if not tms:
+        return "no timers"
+    lines = []
+    for i, t in sorted(tms.items()):
+        lines.append(f"%TM{i:<3} {t.type:<3} base {t.base:<5} P={t.P:<5} V={t.V:<5} "
+                     f"Q={int(t.Q)} IN={int(t.last_in)}")
+    return "\n".join(lines)
+
+
+@command("counters")
+def cmd_counters(s: Session, arg: str) -> str:
+    """counters: every counter with its preset, value and outputs (D done, E/F
+    underflow/overflow); the fast counters %FC / %VFC with their mode (_en: IN, lost:
+    pulses above the input's frequency)."""
+    cs = s.plc.mem.blocks.get("C", {})
+    lines = [f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} F={int(c.F)}"
+             for i, c in sorted(cs.items())]
+    for kind in ("FC", "VFC"):  # fast counters (runtime/fastcount.py)
+        lines += [f"{f'%{kind}{i}':<6} {c.mode:<10} {ladder.block_summary(c)}"
+                  for i, c in sorted(s.plc.mem.blocks.get(kind, {}).items())]
+    return "\n".join(lines) or "no counters"
+
+
+@command("pid")
+def cmd_pid(s: Session, arg: str) -> str:
+    """pid: every PID function with its mode, set point, measure, output, Kp/Ti/Td,
+    diagnostic word and auto-tuning state."""
+    pids = s.plc.mem.blocks.get("PID", {})
+    if not pids:
+        return "no PID functions"
+    lines = []
+    for i, pid in sorted(pids.items()):
+        p, get = pid.p, pid.value
+        at = pid.autotune_state or "-"
+        lines.append(f"PID {i:<2} {p.mode:<6} {p.action:<7} SP={get(p.setpoint):<6} "
+                     f"PV={get(p.measure):<6} OUT={round(pid.u):<5} Kp={get(p.kp)}/100 "
+                     f"Ti={get(p.ti)}/10s Td={get(p.td)}/10s diag={pid.diag:#06x} AT={at}")
+    return "\n".join(lines)
+
+
+@command("pulses")
+def cmd_pulses(s: Session, arg: str) -> str:
+    """pulses: every pulse output (%PLS, %PWM) with its period, frequency, fields, the
+    pulses sent so far and the duty cycle."""
+    pulses = s.plc.mem.pulses
+    if pulses is None:
+        return "no pulse outputs"
+    now = s.plc.engine.clock.now_us
+    return "\n".join(f"{pulses.names[i]:<16} {g.summary(now)}"
+                     for i, g in sorted(pulses.by_output.items()))
+
+
+@command("analog")
+def cmd_analog(s: Session, arg: str) -> str:
+    """analog: every analog channel with its signal, range, word and physical value."""
+    analog = s.plc.mem.analog
+    if analog is None or not analog.channels:
+        return "no analog channels"
+    lines = []
+    for ref, ch in sorted(analog.channels.items(), key=lambda kv: (kv[0].kind, kv[0].index)):
+        word = s.plc.mem.read(ref)
+        rng = f"{ch.range} {ch.lo}..{ch.hi}" if ch.range in ("normal", "custom") else ch.range
+        extra = f"  = {analog.output(ref):.3f}" if ref.kind == "QW" else ""
+        lines.append(f"{str(ref):<8} {ch.signal:<6} {rng:<18} {word}{extra}")
+    return "\n".join(lines)
+
+
+@command("status", "info")
+def cmd_status(s: Session, arg: str) -> str:
+    """status: PLC state, scan count, virtual time, scan times, position, forced."""
+    st = s.plc.stats
+    n = max(1, st.scans)
+    lines = [f"state    {s.plc.state}" + (f" ({s.plc.fault})" if s.plc.fault
+                                              else ""),
+             f"scans    {st.scans}   time {s.plc.time:.3f} s   period "
+             f"{s.plc.scan_period * 1000:g} ms",
+             f"scan     last {st.last * 1e6:.0f} us  min {st.min * 1e6:.0f} us  max "
+             f"{st.max * 1e6:.0f} us  mean {st.total / n * 1e6:.0f} us (execution, wall)",
+             f"position {s.ctl.position()}",
+             f"history  {len(s.ctl.ring)} scans (back)",
+             f"forced   {', '.join(f'{k}={v}' for k, v in s.plc.forced.items()) or '-'}"]
+    if s.ctl.pending:
+        lines.append("pending  " + ", ".join(f"{r} := {v}" for r, v in s.ctl.pending))
+    if s.ctl.breaks:
+        lines.append(f"breaks   {len(s.ctl.breaks)}")
+    if s.trace_writer is not None:
+        lines.append(f"trace    {', '.join(map(str, s.trace_refs))} -> "
+                     f"{s.trace_file.name}")
+    for name, dev in s.plc.devices.items():
+        info = dev.status()
+        if info:
+            lines.append(f"device   {name}: " + " ".join(f"{k}={v}" for k, v in info.items()))
+    return "\n".join(lines)
+
+
+@command("where", "bt")
+def cmd_where(s: Session, arg: str) -> str:
+    """where: the current position (the next instruction to run)."""
+    return s.ctl.position()
+
+
+@command("rung")
+def cmd_rung(s: Session, arg: str) -> str:
+    """rung [N | TITLE]: the rung as a ladder with live power flow (double lines) and
+    values (F = forced); > marks the next instruction. Default: the current rung."""
+    r = s.ctl.resolve_rung(arg) if arg else s.plc.ast.rungs[s.ctl.last_rung]
+    live = ladder.Live(s.read, s.ctl.dbg.log[r.index] if r.index < len(s.ctl.dbg.log)
+                       else None, set(s.plc.forced))
+    marker = s.ctl.pos[1] if s.ctl.pos and s.ctl.pos[0] == r.index else None
+    text = ladder.render_text(r, live, marker=marker)
+    if s.ctl.pos is not None and (r.index > s.ctl.pos[0] or marker is not None):
+        text += "(power flow of the previous scan where this scan has not run yet)\n"
+    return text.rstrip("\n")
+
+
+@command("rungs", "l")
+def cmd_rungs(s: Session, arg: str) -> str:
+    """rungs: list the rungs (* breakpoint, > current)."""
+    bp = {b.rung for b in s.ctl.breaks if b.kind == "rung" and b.enabled}
+    lines = []
+    for r in s.plc.ast.rungs:
+        mark = (">" if s.ctl.pos and s.ctl.pos[0] == r.index else " ") + \
+            ("*" if r.index in bp else " ")
+        where = f"SR{r.subroutine} " if r.subroutine is not None else ""
+        lbl = f"%L{r.label}: " if r.label is not None else ""
+        lines.append(f"{mark}{r.index:>4}  {where}{lbl}{r.title or '(no title)'}")
+    return "\n".join(lines)
+
+
+@command("reload")
+def cmd_reload(s: Session, arg: str) -> str:
+    """reload: re-read the program file, keep memory, report the rungs added, removed,
+    modified. A scan in progress is finished first."""
+    if s.path is None:
+        raise DebugError("the program was not loaded from a file")
+    new = parse_file(s.path)
+    old = s.plc.ast
+    finished, lost = s.ctl.reload(new)
+    pre = "finished the scan in progress\n" if finished else ""
+    report = diff_programs(old, new) + lost
+    return pre + (f"reloaded {s.path}: " + ("; ".join(report) if report else
+                                               "no change"))
+
+
+@command("help")
+def cmd_help(s: Session, arg: str) -> str:
+    """help [COMMAND]: list the commands, or explain one."""
+    if arg:
+        name = s.aliases.get(arg, arg)
+        if name not in s.commands:
+            raise DebugError(f"no command {arg!r}")
+        return s.commands[name].doc
+    lines = ["commands (help NAME for details):"]
+    for name, doc in sorted((c.name, c.doc) for c in s.commands.values()):
+        lines += textwrap.wrap(first_sentence(doc) if doc else name,
+                               max(40, s.width - 1), initial_indent="  ",
+                               subsequent_indent="      ",
+                               break_on_hyphens=False)  # "auto-tuning" stays whole
+    lines += textwrap.wrap("aliases: " + ", ".join(f"{a}={n}" for a, n in
+                                                   sorted(s.aliases.items())),
+                           max(40, s.width - 1), subsequent_indent="  ")
+    return "\n".join(lines)
+
+
+@command("quit", "q", "exit")
+def cmd_quit(s: Session, arg: str) -> str:
+    """quit: leave the debugger."""
+    s.close()
+    s.done = True
+    return "bye"
+
+
+def diff_programs(old: A.Program, new: A.Program) -> list[str]:
+    """What changed between two versions of a program, rung by rung."""
+    def sig(r: A.Rung) -> tuple[Any, ...]:
+        return (r.title, r.label, r.subroutine, tuple(r.instructions))
+
+    a, b = [sig(r) for r in old.rungs], [sig(r) for r in new.rungs]
+    added, removed, modified = [], [], []
+    sm = difflib.SequenceMatcher(None, a, b, autojunk=False)
+    for op, i1, i2, j1, j2 in sm.get_opcodes():
+        if op == "equal":
+            continue
+        olds, news = old.rungs[i1:i2], new.rungs[j1:j2]
+        paired = min(len(olds), len(news)) if op == "replace" else 0
+        modified += [n.name for n in news[:paired]]
+        removed += [o.name for o in olds[paired:]]
+        added += [n.name for n in news[paired:]]
+    out = []
+    for what, names in (("added", added), ("removed", removed), ("modified", modified)):
+        if names:
+            out.append(f"{what}: " + ", ".join(names))
+    return out
