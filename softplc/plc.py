@@ -41,7 +41,8 @@ from .il.rungtree import syntax_follow_ups
 from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
 from .program import CompiledProgram, ProgramState, bind
 from .runtime.analog import AnalogChannel, AnalogIO, normal_range
-from .runtime.blocks import BLOCK_CLASSES, Counter, Drum, Message, Register, Timer, TimeSource
+from .runtime.blocks import Counter, Drum, Message, Register, Timer, TimeSource
+from .runtime.catalog import BLOCK_CLASSES
 from .runtime.clock import Clock, VirtualClock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
 from .runtime.exch import ETHERNET_PORT, ExchPort

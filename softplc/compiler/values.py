@@ -16,7 +16,8 @@ from ..address import BLOCK_FIELDS, BOOL, INT16, INT32, REAL, Ref
 from ..errors import Code, Diagnostic
 from ..il import ast as A
 from ..program import Names
-from ..runtime.blocks import BLOCK_CLASSES, MAX_VALUE
+from ..runtime.blocks import MAX_VALUE
+from ..runtime.catalog import BLOCK_CLASSES
 from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
 from ..semantics import FUNCTIONS
 

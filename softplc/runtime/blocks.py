@@ -416,19 +416,3 @@ class Message(Block):
     def exch(self, start: int, n: int) -> None:
         """`EXCHi %MW<start>:<n>` (the compiler checked that the port is configured)."""
         self.port.start(start, n)
-
-
-# Block classes by address kind: each declares its input pins (`PINS`) once.
-BLOCK_CLASSES: dict[str, type[Block]] = {"TM": Timer, "C": Counter, "DR": Drum,
-                                         "SBR": ShiftRegister, "SC": StepCounter, "R": Register,
-                                         "MSG": Message}
-
-# Fast counters %FC / %VFC live in their own module, which imports Block (runtime/__init__
-# imports this module first, so the cycle always resolves in this order).
-from .fastcount import FastCounter, VeryFastCounter  # noqa: E402
-
-BLOCK_CLASSES.update(FC=FastCounter, VFC=VeryFastCounter)
-# pulse outputs (issue 11 B): runtime/pulse.py
-from .pulse import PulseGenerator, PwmOutput  # noqa: E402
-
-BLOCK_CLASSES.update(PLS=PulseGenerator, PWM=PwmOutput)
