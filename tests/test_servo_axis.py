@@ -402,3 +402,57 @@ def test_servo_benchmark_runs_and_reports():
         assert r[part]["faults"] == 0  # the axes moved all along, no fault stopped them
     assert r["device"]["servo_cycles"] >= 2 * math.floor(0.5 * 9034.6 / 4)
     assert "x real time" in bench_servo.report(r)
+
+
+# -- one tick: commanded, actual and FE of the same servo tick (issue 23) --------------------
+CUT_TOML = ROOT / "ladder_programs" / "cutting_table.toml"
+
+
+def test_jog_words_and_stop_ramp_refer_to_the_same_tick():
+    """The cutting table's axis (ideal encoder, 10 nm counts) jogging at Ixx22 = 10 mm/s:
+    ACTUAL - COMMANDED = -FE (the old code read -443 counts = v T with FE 0); STOP then
+    brakes over v^2 / 2a = 0.5 mm (Ixx20 = 100 ms trapezoid: a = 100 mm/s^2)."""
+    rig = Rig.from_toml(CUT_TOML, "X", start=12_340_000.0, trace=True)
+    ax = rig.axes["X"]
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+    rig.run(0.5)
+    act, cmd = rig.word("X", Word.ACTUAL, "d"), rig.word("X", Word.COMMANDED, "d")
+    fe = rig.word("X", Word.FE, "f")
+    assert abs(fe) < 1 and abs(act - cmd + fe) <= 1
+    k, cp, ap, _ = ax.trace[-1]  # the last row is the tick the words show
+    assert k == rig.word("X", Word.TICKS, "d") and round(ap) == act and round(cp) == cmd
+    rig.command("X", Ctl.ENABLE)
+    rig.run(0.5)
+    assert not rig.word("X", Word.STATUS) & St.BUSY
+    braked = (act - rig.word("X", Word.ACTUAL, "d")) / 100_000  # mm
+    assert braked == pytest.approx(0.5, abs=2e-5)
+
+
+def test_moving_status_words_agree_with_the_last_trace_row():
+    rig = homed("X", start=-50000.0)
+    dev = rig.axes["X"]
+    rig.pulse("X", Ctl.EXECUTE, target=-30000, speed=SPEED)
+    for _ in range(150):  # every scan of the move: the words are the last row's tick
+        rig.step()
+        k, cp, ap, _ = dev.trace[-1]
+        assert k == rig.word("X", Word.TICKS, "d") and ap == dev.actual
+        assert rig.word("X", Word.ACTUAL, "d") == ap and round(cp) == rig.word(
+            "X", Word.COMMANDED, "d")
+        assert rig.word("X", Word.FE, "f") == pytest.approx(cp - ap, abs=1e-3)
+    assert dev.v > 60000  # it was moving
+
+
+def test_homed_rises_at_the_tick_the_encoder_reads_the_index():
+    """The trigger tick's encoder count is the first past the index mark (the old code
+    raised HOMED at the tick before, its count still short of the mark)."""
+    rig = enabled("X", start=-6000.0)
+    dev = rig.axes["X"]
+    rig.pulse("X", Ctl.HOME)
+    assert rig.run_until(lambda: dev.homed, 10.0)
+    rig.step()
+    rows = dev.trace
+    # rows up to the trigger tick are in the coordinates before homing (origin 0)
+    cut = next(i for i in range(len(rows) - 1, 0, -1) if rows[i][2] < rows[i - 1][2] - 1000)
+    before, trigger = rows[cut - 2][2], rows[cut - 1][2]
+    assert before < dev.origin <= trigger
+    assert trigger - dev.origin <= 2  # homing speed x T = 1.5 counts per tick

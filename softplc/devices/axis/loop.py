@@ -43,6 +43,46 @@ def cycles(dev, n):
     event = None
     stop = k + n
     for k in range(k + 1, stop + 1):
+?ready        w = u + $uoff
+!ready        w = 0.0
+?up        if w > $up:
+?up            w = $up
+?up        elif w < $nup:
+?up            w = $nup
+?load        wl = w - $load
+!load        wl = w
+?table2        if x <= $t_x0:
+?table2            wl -= $t_y0
+?table2        elif x <= $t_x1:
+?table2            wl -= $t_y0 + $t_dy * (x - $t_x0) / $t_dx
+?table2        else:
+?table2            wl -= $t_y1
+?table        wl -= _interp(table, x)
+?search        x0 = x
+?special        x, v = special(x, v, wl)
+!special        if not $lo < x < $hi:
+!special            x, v = dev._special(x, v, wl)
+!special        else:
+!special            if v > 0:
+!special                we = wl - $fc
+!special            elif v < 0:
+!special                we = wl + $fc
+!special            elif $nfc <= wl <= $fc:
+!special                we = None
+!special            else:
+!special                we = wl - $fc if wl > 0 else wl + $fc
+!special            if we is not None:
+!special                kw = $K * we
+!special                v1 = $phi * v + kw * $g1
+!special                if v * v1 < 0:
+!special                    x, v = step(x, v, wl, $K, $a, $fc, $T, zoh)
+!special                else:
+!special                    x += v * $g1 + kw * $g2
+!special                    v = v1
+?search        if $hlo <= x0 < $hhi and floor((x - $ioff) / $iper) > floor((x0 - $ioff) / $iper):
+?search            xi = floor((x - $ioff) / $iper) * $iper + $ioff
+?search&ideal            event = ("home", xi - $enc0)
+?search&!ideal            event = ("home", floor(xi) - $enc0)
 ?ideal        ap = x - $enc0
 !ideal        ap = floor(x) - $enc0
 ?closed        if ntraj:
@@ -88,46 +128,6 @@ def cycles(dev, n):
 ?dac        u = $q * floor(u / $q)
         app = ap
 ?trace        rec((k, cp - origin, ap - origin, u))
-?ready        w = u + $uoff
-!ready        w = 0.0
-?up        if w > $up:
-?up            w = $up
-?up        elif w < $nup:
-?up            w = $nup
-?load        wl = w - $load
-!load        wl = w
-?table2        if x <= $t_x0:
-?table2            wl -= $t_y0
-?table2        elif x <= $t_x1:
-?table2            wl -= $t_y0 + $t_dy * (x - $t_x0) / $t_dx
-?table2        else:
-?table2            wl -= $t_y1
-?table        wl -= _interp(table, x)
-?search        x0 = x
-?special        x, v = special(x, v, wl)
-!special        if not $lo < x < $hi:
-!special            x, v = dev._special(x, v, wl)
-!special        else:
-!special            if v > 0:
-!special                we = wl - $fc
-!special            elif v < 0:
-!special                we = wl + $fc
-!special            elif $nfc <= wl <= $fc:
-!special                we = None
-!special            else:
-!special                we = wl - $fc if wl > 0 else wl + $fc
-!special            if we is not None:
-!special                kw = $K * we
-!special                v1 = $phi * v + kw * $g1
-!special                if v * v1 < 0:
-!special                    x, v = step(x, v, wl, $K, $a, $fc, $T, zoh)
-!special                else:
-!special                    x += v * $g1 + kw * $g2
-!special                    v = v1
-?search        if $hlo <= x0 < $hhi and floor((x - $ioff) / $iper) > floor((x0 - $ioff) / $iper):
-?search            xi = floor((x - $ioff) / $iper) * $iper + $ioff
-?search&ideal            event = ("home", xi - $enc0)
-?search&!ideal            event = ("home", floor(xi) - $enc0)
         if event is not None:
             break
     dev.x, dev.v, dev.k = x, v, k

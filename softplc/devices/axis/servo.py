@@ -12,9 +12,14 @@ trajectories: `trajectory.py`. Per scan, `update(t, dt)`:
    sequence of cycles every time;
 3. writes the status words (never the command words).
 
-Timing inside a cycle: the encoder is read, the law computes u, the DAC holds u for the
-next T_loop (zero-order hold, no extra delay [choice]), the plant integrates exactly over
-it. The common case of the loop is inlined for speed (about 1 us per cycle); the drive's
+Timing inside cycle k (time k T_loop): first the plant is integrated exactly over the last
+period, ((k-1) T, k T], with the DAC holding the output computed at tick k-1 (zero-order
+hold, no extra delay [choice]); then, at the tick, the encoder is read, the trajectory gives
+the commanded position and the law computes the output held until tick k+1. So after the
+cycles of a scan the carriage, the encoder count, the commanded position and the following
+error all belong to the last tick k <= t (none is a tick ahead of another).
+
+The common case of the loop is inlined for speed (about 1 us per cycle); the drive's
 special states (E-stop braking, a limit switch, a hard stop, a jammed carriage) go
 through the slower `_special` path.
 """
@@ -521,7 +526,7 @@ class ServoAxis(AxisDevice):
             self.done = True
 
     # -- the fixed point ----------------------------------------------------------------------
-    # A servo cycle maps the loop state L = (x, v, CP, CP', CV', AP', IE, clamped) to the next
+    # A servo cycle maps the loop state L = (x, v, CP, CP', CV', AP', IE, clamped, u) to the next
     # one; with the loop closed, no trajectory left (CP constant), no tail velocity, the drive
     # ready, no fault, no homing search and the carriage inside the limits, the map depends
     # on nothing else (not on the cycle number). So if one cycle leaves L bit for bit as it
@@ -529,11 +534,11 @@ class ServoAxis(AxisDevice):
     # skipped, their trace rows written in one go, until a command, a fault, the drive's
     # READY or the moving mass changes (_commands, set_fault, _build_consts clear the flag).
     # The test is on the packed bytes (-0.0 and 0.0 differ), so it is exact, not approximate.
-    _PACK = struct.Struct("<8d").pack
+    _PACK = struct.Struct("<9d").pack
 
     def _loop_state(self) -> bytes:
         return self._PACK(self.x, self.v, self._cp, self._cpp, self._cvp, self._app,
-                          self._ie, self._clamped)
+                          self._ie, self._clamped, self.u)
 
     def _fixed_candidate(self) -> bool:
         """The conditions under which the cycle map is the same for every cycle."""
