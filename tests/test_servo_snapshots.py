@@ -11,7 +11,7 @@ from daemon_util import ROOT
 from softplc import PLC
 from softplc.devices.axis import Ctl
 from softplc.devices.axis.rig import Rig
-from softplc.devices.axis.servo import ServoAxis
+from softplc.devices.axis.runner import LoopRunner
 
 TOML = ROOT / "ladder_programs" / "servo_table.toml"
 IL = ROOT / "ladder_programs" / "servo_table.il"
@@ -96,10 +96,10 @@ def test_fixed_point_fast_path_is_exact(monkeypatch, overrides):
         return observed(rig)
 
     used = []
-    repeat = ServoAxis._repeat
-    monkeypatch.setattr(ServoAxis, "_repeat", lambda self, n: used.append(n) or repeat(self, n))
+    repeat = LoopRunner._repeat
+    monkeypatch.setattr(LoopRunner, "_repeat", lambda self, n: used.append(n) or repeat(self, n))
     fast = run()
     assert sum(used) > 400  # cycles skipped
-    monkeypatch.setattr(ServoAxis, "_fixed_candidate", lambda self: False)
+    monkeypatch.setattr(LoopRunner, "_fixed_candidate", lambda self: False)
     slow = run()
     assert fast == slow

@@ -3,7 +3,10 @@
 `compile_cycles(render(values, flags), ...)` gives `cycles(dev, n) -> cycles left`: up to
 n servo cycles of the device `dev` (a ServoAxis), its state read into locals once and
 written back once; an event (fatal following error, end of an open-loop output, the homing
-index pulse) stops the cycles and goes to `dev._on_event`.
+index pulse) stops the cycles and goes to `dev.runner.on_event`. A cycle first integrates
+the plant over the period that ends at its tick (the output computed at the previous tick
+held), then reads the encoder and computes the new output: state, count, commanded
+position and following error are then all the tick's.
 
 The source below is the one description of a cycle. Lines tagged `?flag` are kept only
 when the flag holds, `!flag` only when it does not (`?a&!b`, `?a|b` combine flags);
@@ -34,9 +37,10 @@ def cycles(dev, n):
 ?closed    ntraj = len(traj)
 ?closed    last = traj[-1] if traj else cp
 ?trace    rec = dev._rec
-?trace    origin = dev.origin
+?gather    gat = dev.gather.append
+?trace|gather    origin = dev.origin
 ?open_loop    ol_u, ol_end = dev._ol_u, dev._ol_end
-?special    special = dev._special
+?special    special = dev.runner.special
     step, zoh = _step, dev.zoh
 ?table    table = dev.opt.plant.load_table
     warn = False
@@ -61,7 +65,7 @@ def cycles(dev, n):
 ?search        x0 = x
 ?special        x, v = special(x, v, wl)
 !special        if not $lo < x < $hi:
-!special            x, v = dev._special(x, v, wl)
+!special            x, v = dev.runner.special(x, v, wl)
 !special        else:
 !special            if v > 0:
 !special                we = wl - $fc
@@ -97,7 +101,8 @@ def cycles(dev, n):
 ?closed&!int_always        if cv == 0 and not clamped:
 ?closed            ie += fe
 ?closed&ilim            ie = $ilim if ie > $ilim else ($nilim if ie < $nilim else ie)
-?closed        u = $cfe * fe + $ccv * cv + $cca * ca + $cie * ie - $cav * (ap - app) + $off
+?closed        av = ap - app
+?closed        u = $cfe * fe + $ccv * cv + $cca * ca + $cie * ie - $cav * av + $off
 ?closed        if cv > 0:
 ?closed            u += $ff
 ?closed        elif cv < 0:
@@ -128,16 +133,18 @@ def cycles(dev, n):
 ?dac        u = $q * floor(u / $q)
         app = ap
 ?trace        rec((k, cp - origin, ap - origin, u))
+?gather        gat((k, cp - origin, ap - origin, u, $cie * ie))
         if event is not None:
             break
     dev.x, dev.v, dev.k = x, v, k
     dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie = cp, cpp, cvp, app, ie
     dev._clamped = clamped
+?closed    dev._ca, dev._av = ca, av
     dev.u, dev.w, dev.fe, dev.fe_max = u, w, fe, fe_max
 ?closed&warn_on    dev.warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
 !closed|!warn_on    dev.warn = False
     if event is not None:
-        dev._on_event(event)
+        dev.runner.on_event(event)
     return stop - k
 """
 _CACHE: dict[str, Callable[..., Any]] = {}
