@@ -456,3 +456,71 @@ def test_homed_rises_at_the_tick_the_encoder_reads_the_index():
     before, trigger = rows[cut - 2][2], rows[cut - 1][2]
     assert before < dev.origin <= trigger
     assert trigger - dev.origin <= 2  # homing speed x T = 1.5 counts per tick
+
+
+# -- I-variables while running (issue 23) ----------------------------------------------------
+def test_ivars_read_and_write_while_running_with_clear_errors():
+    from softplc.devices.axis.ivars import IVarError
+
+    rig = homed("X", start=-50000.0)
+    iv = rig.axes["X"].ivars
+    assert iv.get("I30") == iv.get("Ixx30") == iv.get("kp") == 7990
+    iv.set("Ixx30", 8000)
+    assert iv.get("kp") == 7990  # applied at the next tick boundary, not before
+    rig.step()
+    assert iv.get("kp") == 8000 and rig.axes["X"].coef.fe == pytest.approx(8000 * 96 / 2**19)
+    for name, value, why in [("Ixx30", -1, "greater than or equal to 0"),
+                             ("Ixx34", 2, "less than or equal to 1"),
+                             ("Ixx60", 1, "configuration only"), ("Ixx99", 1, "unknown"),
+                             ("Ixx08", 0, "greater than 0"), ("kp", math.nan, "finite")]:
+        with pytest.raises(IVarError, match=why):
+            iv.set(name, value)
+    rig.step()
+    assert iv.get("kp") == 8000  # nothing refused was applied
+
+
+def test_a_gain_change_is_bumpless():
+    """Holding a 100-bit load, the integrator carries it; doubling Ki and raising Kp by half
+    at a tick would move the output by about 200 bits (the integral term scales with both);
+    the change leaves it where it was (the integrator takes the difference)."""
+    from softplc.devices.axis.law import Coefficients, law_output
+
+    rig = homed("X", start=-50000.0, **LINEAR, **{"plant.load": 100.0})
+    dev = rig.axes["X"]
+    rig.run(2.0)
+    u0 = dev.u
+    assert u0 == pytest.approx(100, abs=1)  # the integrator holds the load
+    new = dev.gains.model_copy(update={"ki": 2 * dev.gains.ki, "kp": dev.gains.kp * 1.5})
+    naive = law_output(Coefficients.of(new), new, dev.fe, dev._cvp, dev._ca, dev._ie,
+                       dev._av)
+    assert abs(naive - u0) > 150  # what a plain change of coefficients would do
+    dev.ivars.set("ki", new.ki)
+    dev.ivars.set("kp", new.kp)
+    n = len(dev.trace)
+    rig.step()
+    assert dev.gains.ki == new.ki
+    outputs = [r[3] for r in dev.trace[n - 3:]]
+    assert max(abs(u - u0) for u in outputs) < 1.0
+    rig.run(1.0)
+    assert abs(dev.actual + 50000) <= 1 and dev.u == pytest.approx(100, abs=1)
+
+
+def test_load_disturbance_is_taken_up_by_the_integrator():
+    """A 150-bit step of load torque while holding: the following error jumps, the
+    integrator's term grows to the load and brings the error back to about zero; without
+    an integrator (Ixx33 = 0) the error stays at load / Kp'."""
+    def run(ki: float) -> tuple[float, float, list]:
+        rig = homed("X", start=-50000.0, **LINEAR, **{"ivars.Ixx33": ki})
+        dev = rig.axes["X"]
+        rig.run(0.5)
+        gather = dev.start_gather()
+        dev.set_disturbance(150.0)
+        rig.run(1.5)
+        return max(abs(r[1] - r[2]) for r in gather), gather[-1][1] - gather[-1][2], gather
+
+    peak, end, gather = run(ki=10193)  # the tuned X axis's Ixx33 (servo_table.toml)
+    assert peak > 5 and abs(end) < 0.05 * peak
+    assert gather[-1][4] == pytest.approx(150, rel=0.02)  # the integrator's term, bits
+    _, end_p, _ = run(ki=0)
+    kp = 7990 * 96 / 2**19  # Kp' in bits per count
+    assert end_p == pytest.approx(150 / kp, rel=0.02)

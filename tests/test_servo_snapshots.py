@@ -103,3 +103,16 @@ def test_fixed_point_fast_path_is_exact(monkeypatch, overrides):
     monkeypatch.setattr(LoopRunner, "_fixed_candidate", lambda self: False)
     slow = run()
     assert fast == slow
+
+
+def test_state_restores_gains_and_disturbance():
+    rig = moving_rig()
+    ax = rig.axes["X"]
+    st = ax.state()
+    kp, coef = ax.gains.kp, ax.coef
+    ax.ivars.set("Ixx30", 2 * kp)
+    ax.set_disturbance(50.0)
+    rig.step()
+    assert ax.gains.kp == 2 * kp and ax.coef != coef
+    ax.set_state(st)
+    assert ax.gains.kp == kp and ax.coef == coef and ax.disturbance == 0.0

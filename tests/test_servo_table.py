@@ -313,3 +313,25 @@ def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, ca
     out = capsys.readouterr().out
     fe = max_fe_counts(out)
     assert low <= fe <= high
+
+
+def test_ivar_words_read_and_write_while_running(cell):
+    """servo_table.toml maps X's I-variables at %MW300 (Y %MW350): Ixx30 is the %MF at +28
+    (the 13th row of IVARS); a write applies at the next scan, a refused one reverts and
+    names the I-variable in +0."""
+    from softplc.devices.axis import ivars as iv
+    from softplc.devices.axis.law import IVARS
+
+    row = [i for i, *_ in IVARS].index("Ixx30")
+    kp = f"%MF{300 + iv.FIRST + 2 * row}"
+    started(cell)
+    assert cell[kp] == 7990 and cell["%MW300"] == 0
+    cell[kp] = 8000.0
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW301"] == 1
+    cell[kp] = -5.0  # out of range: refused, the value in force written back
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW300"] == 30
+    cell["%MF352"] = 120.0  # Y's load disturbance, DAC bits
+    cell.scan()
+    assert cell.devices["Y"].disturbance == 120.0

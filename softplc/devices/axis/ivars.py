@@ -17,7 +17,8 @@ Word table (option `ivar_words`, a %MW address; the README's register map):
     +4  %MF  the first I-variable of `IVARS` (Ixx08), then one %MF per row in its order
 
 A host writes a %MF; the device reads the table every scan, applies what changed, and
-writes back the value in force (the old one when refused).
+writes back the value in force (the old one when refused). A table found all zero (the
+image cleared by a cold start) is written again, not applied.
 """
 
 from __future__ import annotations
@@ -120,6 +121,9 @@ class IVarTable:
         buf = self.a._buf
         now = bytes(buf[2 * (at + DISTURBANCE): 2 * (at + SIZE)])
         if now == self._seen:
+            return
+        if not any(now):  # the image was cleared (a cold start), no host wrote: refill
+            self.write_words()
             return
         vals = _FLOATS.unpack(now)
         old = _FLOATS.unpack(self._seen)
