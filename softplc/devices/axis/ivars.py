@@ -128,6 +128,7 @@ class IVarTable:
         vals = _FLOATS.unpack(now)
         old = _FLOATS.unpack(self._seen)
         mw = self.a._mem.mw  # type: ignore[union-attr]
+        mw.uw[at + REFUSED] = 0  # this scan's writes decide it
         if vals[0] != old[0]:
             try:
                 self.a.set_disturbance(vals[0])
