@@ -335,3 +335,58 @@ def test_ivar_words_read_and_write_while_running(cell):
     cell["%MF352"] = 120.0  # Y's load disturbance, DAC bits
     cell.scan()
     assert cell.devices["Y"].disturbance == 120.0
+
+
+def in_process(tmp_path, monkeypatch, poll_ms: float = 0) -> PLC:
+    """The servo host commands on a PLC in this process, on its virtual clock."""
+    import time
+    from types import SimpleNamespace
+
+    import softplc.servo_client as servo_client
+
+    plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
+    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    monkeypatch.setattr(servo_client, "time", SimpleNamespace(
+        sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
+        monotonic=time.monotonic))
+    return plc
+
+
+def test_servo_set_and_get_ivars_while_running(tmp_path, monkeypatch, capsys):
+    from softplc.cli import main as softplc
+
+    plc = in_process(tmp_path, monkeypatch)
+    plc.scan()
+    assert softplc(["servo", "get", "I130", "I233", "--port", "1"]) == 0
+    assert capsys.readouterr().out.split("\n")[:2] == ["I130 = 7990", "I233 = 13454"]
+    assert softplc(["servo", "set", "I130=8000", "I233=12000", "--port", "1"]) == 0
+    assert plc.devices["X"].gains.kp == 8000 and plc.devices["Y"].gains.ki == 12000
+    for bad, why in [("I130=-1", "greater than or equal to 0"), ("I160=1", "configuration"),
+                     ("I330=1", "I1xx (motor 1, X) or I2xx"), ("I134=0.5", "integer")]:
+        assert softplc(["servo", "set", bad, "--port", "1"]) == 1
+        assert why in capsys.readouterr().err
+    assert plc.devices["X"].gains.kp == 8000
+
+
+def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
+    """The README's `softplc servo` lines (its daemon replaced by the in-process PLC)."""
+    import re
+    import shlex
+
+    from softplc.cli import main as softplc
+
+    in_process(tmp_path, monkeypatch)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme.split("## The servo XY table")[1].split("\n## ")[0]
+    lines = [ln.split("#")[0].strip() for ln in re.findall(r"^softplc servo .*$", section,
+                                                           re.M)]
+    assert len(lines) >= 3
+    for line in lines:
+        argv = shlex.split(line)[1:]
+        argv = [a.replace(".png", "").replace(".svg", "") for a in argv]
+        if "--plot" in argv:
+            argv[argv.index("--plot") + 1] = str(tmp_path / "p.png")
+        sim = "--sim" in argv or argv[1] == "compare"
+        assert softplc(argv + ([] if sim else ["--port", "1"])) == 0, line
+    out = capsys.readouterr()
+    assert "refused" not in out.err and "max |FE|" in out.out
