@@ -3,10 +3,11 @@
 or from `softplc servo set/get`.
 
 A change is checked at once (the same bounds as the TOML table's; `Ixx60`, the servo rate,
-is configuration only) and applied at the next servo tick boundary, at the start of the
-device's next scan. It is bumpless: the integrator takes the difference between the old
-law's output and the new law's on that tick's terms (FE, CV, CA, IE, AV), so the output
-the DAC holds does not jump. With Ixx33 = 0 there is no integrator to take it, and the
+is configuration only) and applied at a servo tick in the device's next scan: with the
+loop closed its first tick still runs the old gains, and the new ones act from the second.
+It is bumpless: the integrator takes the difference between the old law's output and the
+new law's on that first tick's terms (FE, CV, CA, IE, AV), so the output the DAC holds
+does not jump. With Ixx33 = 0 there is no integrator to take it, and the
 output follows the new law from the next tick [choice: PMAC itself is not bumpless].
 
 Word table (option `ivar_words`, a %MW address; the README's register map):
@@ -81,7 +82,8 @@ class IVarTable:
         self.a = axis
         self._pending: Any = None  # gains waiting for the next tick boundary
         self._at: int | None = None  # word index of the table
-        self._seen = b""
+        self.lo = self.hi = 0
+        self.seen = b""  # the values' bytes as last written: a difference is a host's write
         self.applied = 0  # changes applied (the table's APPLIED word)
 
     def get(self, name: str) -> float:
@@ -90,16 +92,32 @@ class IVarTable:
     def set(self, name: str, value: float) -> None:
         """Check now, apply at the next tick boundary (the start of the next scan)."""
         self._pending = check(self._pending or self.a.gains, name, value)
+        self.a._watch = True
 
-    def apply(self) -> None:
-        """The pending gains, bumplessly, between two servo ticks."""
+    def poll(self, due: int) -> None:
+        """Once per scan while watched, before its cycles (`due`: the cycle count due by
+        the scan's end): a host's writes, then the changes waiting."""
+        if not self.a._buf.startswith(self.seen, self.lo):
+            self.scan()
+        if self._pending is not None:
+            self.apply(due)
+
+    def apply(self, due: int) -> None:
+        """The pending gains, bumplessly: with the loop closed, the first cycle due runs
+        with the old gains keeping its terms, and the new gains act from the next."""
         a, new = self.a, self._pending
+        if a.closed and due <= a.k:
+            return  # no tick due in this scan (scans faster than the servo): the next
         self._pending = None
+        a._watch = self._at is not None
         if new is None or new == a.gains:
             return
+        captured = a.closed
+        if captured:
+            a.runner.cycles(1, capture=True)
         old_c, old_g = a.coef, a.gains
         c = Coefficients.of(new)
-        if a.closed and c.ie:
+        if captured and a.closed and c.ie:
             terms = (a.fe, a._cvp, a._ca, a._ie, a._av)
             ie = a._ie + (law_output(old_c, old_g, *terms) - law_output(c, new, *terms)) / c.ie
             lim = new.int_limit / 16 if new.int_limit else math.inf
@@ -107,26 +125,28 @@ class IVarTable:
         a.gains, a.coef = new, c
         a.runner.build()
         self.applied += 1
+        self.write_words()
 
     # -- the Modbus word table ------------------------------------------------------------------
     def bind(self, index: int) -> None:
         self._at = index
+        self.a._watch = True
+        self.lo, self.hi = 2 * (index + DISTURBANCE), 2 * (index + SIZE)  # bytes of the values
         self.write_words()
 
     def scan(self) -> None:
-        """Once per scan: what a host wrote into the table."""
+        """What a host wrote into the table (the device calls it when `seen` differs)."""
         at = self._at
         if at is None:
             return
-        buf = self.a._buf
-        now = bytes(buf[2 * (at + DISTURBANCE): 2 * (at + SIZE)])
-        if now == self._seen:
+        now = bytes(self.a._buf[self.lo:self.hi])
+        if now == self.seen:
             return
         if not any(now):  # the image was cleared (a cold start), no host wrote: refill
             self.write_words()
             return
         vals = _FLOATS.unpack(now)
-        old = _FLOATS.unpack(self._seen)
+        old = _FLOATS.unpack(self.seen)
         mw = self.a._mem.mw  # type: ignore[union-attr]
         mw.uw[at + REFUSED] = 0  # this scan's writes decide it
         if vals[0] != old[0]:
@@ -140,17 +160,17 @@ class IVarTable:
                     self.set(ivar, v)
                 except IVarError:
                     mw.uw[at + REFUSED] = int(ivar[3:])
-        self.apply()
         self.write_words()
 
     def write_words(self) -> None:
-        """The values in force into the table (float32, as every %MF)."""
+        """The values in force (or accepted and waiting for a tick) into the table
+        (float32, as every %MF)."""
         at = self._at
         if at is None:
             return
         a = self.a
-        g = a.gains
+        g = self._pending or a.gains
         vals = [a.disturbance, *(float(getattr(g, n)) for _, n, _, _ in IVARS)]
         _FLOATS.pack_into(a._buf, 2 * (at + DISTURBANCE), *vals)
         a._mem.mw.uw[at + APPLIED] = self.applied & 0xFFFF  # type: ignore[union-attr]
-        self._seen = bytes(a._buf[2 * (at + DISTURBANCE): 2 * (at + SIZE)])
+        self.seen = bytes(a._buf[self.lo:self.hi])

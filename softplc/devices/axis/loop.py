@@ -14,7 +14,7 @@ when the flag holds, `!flag` only when it does not (`?a&!b`, `?a|b` combine flag
 round-trips exactly). Only code that cannot change a result is dropped: a branch whose
 test is false for the configuration (no DAC quantisation, no current limit, no load
 table, no trace) or the drive state of the scan (loop closed, open loop, killed, homing
-search, faulted), or `- 0.0` (an exact identity). What remains is the same operations in
+search, faulted), or `- 0.0` and `1.0 *` (exact identities). What remains is the same operations in
 the same order, so the results are bit for bit those of one generic loop (checked against
 the previous generic implementation: identical traces and words). A function is compiled
 once per distinct source and cached.
@@ -77,7 +77,8 @@ def cycles(dev, n):
 !special                we = wl - $fc if wl > 0 else wl + $fc
 !special            if we is not None:
 !special                kw = $K * we
-!special                v1 = $phi * v + kw * $g1
+!special&!phi1                v1 = $phi * v + kw * $g1
+!special&phi1                v1 = v + kw * $g1
 !special                if v * v1 < 0:
 !special                    x, v = step(x, v, wl, $K, $a, $fc, $T, zoh)
 !special                else:
@@ -139,7 +140,7 @@ def cycles(dev, n):
     dev.x, dev.v, dev.k = x, v, k
     dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie = cp, cpp, cvp, app, ie
     dev._clamped = clamped
-?closed    dev._ca, dev._av = ca, av
+?closed&capture    dev._ca, dev._av = ca, av
     dev.u, dev.w, dev.fe, dev.fe_max = u, w, fe, fe_max
 ?closed&warn_on    dev.warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
 !closed|!warn_on    dev.warn = False

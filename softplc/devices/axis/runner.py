@@ -57,7 +57,7 @@ class LoopRunner:
             ideal=a._ideal, int_always=gn.int_mode == 0, ilim=ilim != inf,
             check=min(warn, fatal) != inf, warn_on=warn != inf, fatal_on=fatal != inf,
             dac=bool(a._dac_q), trace=a._rec is not None, gather=a.gather is not None,
-            up=a.u_peak != inf, load=load != 0, table2=len(table) == 2,
+            up=a.u_peak != inf, load=load != 0, phi1=z.phi == 1.0, table2=len(table) == 2,
             table=len(table) not in (0, 2))
         self._loops: dict[tuple[bool, ...], Any] = {}
         a._warn_lim = warn
@@ -65,7 +65,8 @@ class LoopRunner:
         a._fixed = False
 
     def run(self, due: int) -> None:
-        """The servo cycles due by the scan's time (the cycle count `due`)."""
+        """The servo cycles due by the scan's time (the cycle count `due`). (The device's
+        update runs the common case itself, a closed loop moving: no fixed point.)"""
         a = self.a
         n = due - a.k
         if n <= 0:
@@ -84,10 +85,15 @@ class LoopRunner:
             while n > 0:
                 n = self.cycles(n)
         if a._rec is not None and len(a.trace) >= a._trim_at:
-            rec = a.trace  # keep the last trace_max rows
-            cut = len(rec) - a.opt.trace_max
-            del rec[:cut]
-            a._trace_dropped += cut
+            self.trim()
+
+    def trim(self) -> None:
+        """Keep the trace's last trace_max rows (called once it holds twice that)."""
+        a = self.a
+        rec = a.trace
+        cut = len(rec) - a.opt.trace_max
+        del rec[:cut]
+        a._trace_dropped += cut
 
     def _at_rest_open(self) -> bool:
         """Loop open, carriage still and held by friction against the drive's offset and
@@ -143,17 +149,18 @@ class LoopRunner:
                                 repeat(self._values["cie"] * a._ie), strict=False))
         a.k = k + n
 
-    def cycles(self, n: int) -> int:
-        """Run up to n loop cycles; returns how many are left when an event interrupts."""
+    def cycles(self, n: int, capture: bool = False) -> int:
+        """Run up to n loop cycles; returns how many are left when an event interrupts.
+        `capture`: also keep the last cycle's CA and AV (`_ca`, `_av`; IVarTable.apply)."""
         a = self.a
         closed, open_loop = a.closed, a.open_loop
         ready = a._ready
-        key = (closed, open_loop, a.homing == 1, ready, a.fault != "none")
+        key = (closed, open_loop, a.homing == 1, ready, a.fault != "none", capture)
         fn = self._loops.get(key)
         if fn is None:
             flags = dict(self._flags, closed=closed, open_loop=open_loop,
                          killed=not (closed or open_loop), search=key[2],
-                         special=not ready or key[4], ready=ready)
+                         special=not ready or key[4], ready=ready, capture=capture)
             fn = self._loops[key] = loop.compile_cycles(
                 loop.render(self._values, flags), _interp, step)
         return fn(a, n)

@@ -58,7 +58,7 @@ class ServoAxis(AxisDevice):
     # record: see state().
     STATE = ("x", "v", "k", "origin", "fault", "closed", "open_loop", "_ol_u", "_ol_end",
              "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
-             "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_ca", "_av", "_clamped",
+             "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped",
              "_traj", "_active", "_k0", "_tail_v", "_ctl_prev", "_vel", "_x_prev_scan",
              "_ready", "_mass_f", "load_mass_ratio", "gains", "disturbance", "_fixed")
 
@@ -69,6 +69,7 @@ class ServoAxis(AxisDevice):
         g = o.geometry
         self.loop_hz = o.servo_clock_hz / (self.gains.servo_ext + 1)
         self.T = 1.0 / self.loop_hz
+        self._hz_us = self.loop_hz / 1e6  # cycles per microsecond
         p = o.plant
         self.load_mass_ratio = p.load_mass_ratio
         self.disturbance = 0.0  # a step of load torque applied at run time, DAC bits
@@ -101,6 +102,10 @@ class ServoAxis(AxisDevice):
         self.runner = LoopRunner(self)
         self.ivars = iv.IVarTable(self)
         self.words = StatusWords(self)
+        # (bound once: used every scan)
+        self._run, self._cycles, self._write = self.runner.run, self.runner.cycles, \
+            self.words.write
+        self._watch = False  # IVarTable.poll needed each scan
         self.runner.build()
         self._mem: MemoryImage | None = None
         self._base = 0
@@ -191,7 +196,7 @@ class ServoAxis(AxisDevice):
         self._cp = float(ap)  # commanded position (raw counts)
         self._cpp = self._cvp = 0.0
         self._app = ap
-        self._ie = self._ca = self._av = 0.0
+        self._ie = 0.0
         self._clamped = False
         self._traj: tuple[float, ...] = ()
         self._active = False  # a trajectory was started and has not been seen to end
@@ -246,18 +251,27 @@ class ServoAxis(AxisDevice):
                 self._mass_f = r
                 r += self.opt.plant.load_mass_ratio
                 self.set_load_mass_ratio(r if math.isfinite(r) and r >= 0 else 0.0)
-        ivars = self.ivars
-        if ivars._at is not None:
-            ivars.scan()
-        if ivars._pending is not None:
-            ivars.apply()
         fault = self.fault
         # (amp_ready() inlined for the common case: no fault, drive not wired to inputs)
         self._ready = ready = True if fault == "none" and not self._wired else self.amp_ready()
         if self._w[self._ctl_i] != self._ctl_prev or not self.closed or fault != "none" or \
                 not ready:
             self.motion.commands()
-        self.runner.run(floor(round(t * 1e6) * self.loop_hz / 1e6 + 1e-9))
+        due = floor(round(t * 1e6) * self._hz_us + 1e-9)
+        if self._watch:  # an I-variable table bound, or changes waiting
+            ivars = self.ivars
+            if ivars._pending is not None or not self._buf.startswith(ivars.seen, ivars.lo):
+                ivars.poll(due)
+        n = due - self.k
+        if n > 0:
+            if self._fixed or self.v == 0.0 or not self.closed:
+                self._run(due)  # at rest, at a fixed point or open: the runner decides
+            else:  # (the common case inline: moving, loop closed, no fixed point)
+                cycles = self._cycles
+                while n > 0:
+                    n = cycles(n)
+                if self._rec is not None and len(self.trace) >= self._trim_at:
+                    self.runner.trim()
         x = self.x
         if dt > 0:
             self._vel = (x - self._x_prev_scan) / dt
@@ -269,7 +283,7 @@ class ServoAxis(AxisDevice):
             if self.open_loop:
                 self.motion.close_loop()
                 self.done = True
-        self.words.write()
+        self._write()
 
     # -- drive state ------------------------------------------------------------------------
     def amp_ready(self) -> bool:

@@ -21,21 +21,29 @@ assert [o for o, _ in _STATUS_WORDS] == [  # contiguous, from ACTUAL to the bloc
     Word.ACTUAL + sum(struct.calcsize(c) // 2 for _, c in _STATUS_WORDS[:i])
     for i in range(len(_STATUS_WORDS))] and Word.VELOCITY + 2 == Word.SIZE
 
+# The bits as module constants: read every scan, a global is cheaper than St.X.
+_ENABLED, _BUSY, _IN_POSITION, _DONE, _HOMED, _FE_WARNING, _HOMING, _OPEN_LOOP = (
+    St.ENABLED, St.BUSY, St.IN_POSITION, St.DONE, St.HOMED, St.FE_WARNING, St.HOMING,
+    St.OPEN_LOOP)
+_LIMIT_PLUS, _LIMIT_MINUS = St.LIMIT_PLUS, St.LIMIT_MINUS
+
 
 class StatusWords:
     def __init__(self, axis: ServoAxis):
         self.a = axis
 
-    def bits(self) -> int:
+    def write(self) -> None:
+        """The status bits (class St), then every status word in one `pack_into` (its 'f'
+        rounds to single precision as the memory image's %MF casts do; native order)."""
         a = self.a
         busy = a.homing != 0 or bool(a._traj) or a._tail_v != 0.0 or a._coast or a.open_loop
         closed = a.closed
-        s = (St.ENABLED if closed else 0) | (St.BUSY if busy else 0) \
-            | (St.DONE if a.done else 0) | (St.HOMED if a.homed else 0) \
-            | (St.FE_WARNING if a.warn else 0) | (St.HOMING if a.homing else 0) \
-            | (St.OPEN_LOOP if a.open_loop else 0)
+        s = (_ENABLED if closed else 0) | (_BUSY if busy else 0) \
+            | (_DONE if a.done else 0) | (_HOMED if a.homed else 0) \
+            | (_FE_WARNING if a.warn else 0) | (_HOMING if a.homing else 0) \
+            | (_OPEN_LOOP if a.open_loop else 0)
         if closed and not busy and abs(a.fe) <= a._in_pos:
-            s |= St.IN_POSITION
+            s |= _IN_POSITION
         err = a.error
         if err:
             s |= St.ERROR
@@ -47,19 +55,12 @@ class StatusWords:
                 s |= St.ESTOP
         x = a.x
         if x >= a._lp:
-            s |= St.LIMIT_PLUS
+            s |= _LIMIT_PLUS
         elif x <= a._lm:
-            s |= St.LIMIT_MINUS
-        return s
-
-    def write(self) -> None:
-        # The status words are one contiguous run: one pack_into (its 'f' rounds to single
-        # precision as the memory image's %MF casts do; native order as theirs).
-        a = self.a
+            s |= _LIMIT_MINUS
         origin = a.origin
-        x = a.x
         _STATUS_PACK(a._buf, a._status_at,
                      round((x - a._start if a._ideal else floor(x) - a._enc0)
                            - origin),  # _raw() inlined
-                     round(a._cp - origin), a.fe if a.closed else 0.0, a.fe_max,
-                     self.bits(), a.error, a.k & 0x7FFFFFFF, a.u, a.w * a._cur_scale, a._vel)
+                     round(a._cp - origin), a.fe if closed else 0.0, a.fe_max, s, err,
+                     a.k & 0x7FFFFFFF, a.u, a.w * a._cur_scale, a._vel)
