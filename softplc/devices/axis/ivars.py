@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import struct
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
@@ -93,6 +94,7 @@ class IVarTable:
         """Check now, apply at the next tick boundary (the start of the next scan)."""
         self._pending = check(self._pending or self.a.gains, name, value)
         self.a._watch = True
+        self.a._ivars_clean = _false  # the next scan applies it
 
     def poll(self, due: int) -> None:
         """Once per scan while watched, before its cycles (`due`: the cycle count due by
@@ -110,6 +112,7 @@ class IVarTable:
             return  # no tick due in this scan (scans faster than the servo): the next
         self._pending = None
         a._watch = self._at is not None
+        self._watch_table()
         if new is None or new == a.gains:
             return
         captured = a.closed
@@ -174,3 +177,13 @@ class IVarTable:
         _FLOATS.pack_into(a._buf, 2 * (at + DISTURBANCE), *vals)
         a._mem.mw.uw[at + APPLIED] = self.applied & 0xFFFF  # type: ignore[union-attr]
         self.seen = bytes(a._buf[self.lo:self.hi])
+        self._watch_table()
+
+    def _watch_table(self) -> None:
+        """The device's per-scan test: the table as last written (no host wrote)."""
+        if self._pending is None:
+            self.a._ivars_clean = partial(self.a._buf.startswith, self.seen, self.lo)
+
+
+def _false() -> bool:
+    return False

@@ -105,7 +105,8 @@ class ServoAxis(AxisDevice):
         # (bound once: used every scan)
         self._run, self._cycles, self._write = self.runner.run, self.runner.cycles, \
             self.words.write
-        self._watch = False  # IVarTable.poll needed each scan
+        self._watch = False  # an I-variable table bound, or changes waiting
+        self._ivars_clean: Any = bool  # (IVarTable keeps it: False once there is work)
         self.runner.build()
         self._mem: MemoryImage | None = None
         self._base = 0
@@ -258,10 +259,8 @@ class ServoAxis(AxisDevice):
                 not ready:
             self.motion.commands()
         due = floor(round(t * 1e6) * self._hz_us + 1e-9)
-        if self._watch:  # an I-variable table bound, or changes waiting
-            ivars = self.ivars
-            if ivars._pending is not None or not self._buf.startswith(ivars.seen, ivars.lo):
-                ivars.poll(due)
+        if self._watch and not self._ivars_clean():  # a host wrote the table, or a change
+            self.ivars.poll(due)
         n = due - self.k
         if n > 0:
             if self._fixed or self.v == 0.0 or not self.closed:
