@@ -136,34 +136,16 @@ def run(args: argparse.Namespace) -> int:
 
 def _ivars(args: argparse.Namespace) -> int:
     """get/set I-variables (and disturb's load word) of the running table over Modbus."""
-    from ..servo_client import AXIS_IVARS, ServoClient, get_ivar, set_ivar
+    from ..servo_client import ServoClient, get_ivar, parse_ivars, set_disturbance, set_ivar
 
+    items = [] if args.test == "disturb" else parse_ivars(args.ivars, args.test == "set")
     with ServoClient(args.host, args.port, poll=args.poll) as sc:
         if args.test == "disturb":
-            import struct
-
-            from ..devices.axis.ivars import DISTURBANCE
-            lo, hi = struct.unpack("<HH", struct.pack("<f", args.load))
-            sc.c.write_registers(AXIS_IVARS[args.axis] + DISTURBANCE, [lo, hi])
+            set_disturbance(sc, args.axis, args.load)
             print(f"load disturbance on {args.axis}: {args.load:g} bits")
-            return 0
-        if not args.ivars:
-            print(f"{args.test}: name I-variables (I130 or I130=8000)", file=sys.stderr)
-            return 2
-        for item in args.ivars:
-            name, sep, value = item.partition("=")
-            if args.test == "set":
-                if not sep:
-                    print(f"set: {item!r}: expected I130=8000", file=sys.stderr)
-                    return 2
-                try:
-                    v = float(value)
-                except ValueError:
-                    print(f"set: {item!r}: {value!r} is not a number", file=sys.stderr)
-                    return 2
-                print(f"{name} = {set_ivar(sc, name, v):g}")
-            else:
-                print(f"{name} = {get_ivar(sc, name):g}")
+        for name, value in items:
+            now = set_ivar(sc, name, value) if args.test == "set" else get_ivar(sc, name)
+            print(f"{name} = {now:g}")
     return 0
 
 
