@@ -11,14 +11,19 @@ one or two gain sets on the same move (overlay), their figures written on it.
 
 from __future__ import annotations
 
+import math
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from .devices.axis import Ctl, Mode
+from .devices.axis import Ctl, Err, Mode
 from .devices.axis.ivars import IVarError, resolve
 from .devices.axis.rig import Rig
 from .errors import SoftPLCError
 
+# The machine the commands simulate unless told (found from any working directory).
+DEFAULT_CONFIG = Path(__file__).resolve().parent.parent / "ladder_programs" / "servo_table.toml"
 MOVES = ("step", "step-return", "parabolic", "trapezoid", "scurve")
 MODES = {"step": Mode.STEP, "step-return": Mode.STEP, "parabolic": Mode.PARABOLIC,
          "trapezoid": Mode.TRAPEZOID, "scurve": Mode.SCURVE}
@@ -66,15 +71,7 @@ def run_move(move: str, axis: str = "X", distance: int = 100, *, config: str | P
     """One tuning move on a fresh simulated axis (homed, loop closed at `start` 0.5 s)."""
     if move not in MOVES:
         raise SoftPLCError(f"unknown move {move!r} (one of {', '.join(MOVES)})")
-    try:
-        rig = Rig.from_toml(config, axis, start=start, require_home=False)
-    except KeyError:
-        raise SoftPLCError(f"{config}: no servo axis named {axis!r}") from None
-    dev = rig.axes[axis]
-    for name, value in (gains or {}).items():
-        dev.ivars.set(name, value)
-    rig.command(axis, Ctl.ENABLE)
-    rig.run(0.5)
+    rig, dev = _holding(config, axis, start, gains)
     cap = Capture(move, label, distance, band=dev.gains.in_position / 16)
     rows = dev.start_gather()
     k0 = dev.k
@@ -85,11 +82,38 @@ def run_move(move: str, axis: str = "X", distance: int = 100, *, config: str | P
     if move == "step-return":
         rig.run(dwell_ms / 1000)
         rig.pulse(axis, Ctl.EXECUTE, target=x0, mode=mode)
-    if not rig.run_until(lambda: dev.done and not dev.motion.busy(), 30.0):
+    if not rig.run_until(lambda: dev.error or dev.done and not dev.motion.busy(), 30.0):
         raise SoftPLCError(f"the {move} move did not end within 30 s")
     rig.run(settle)
+    if dev.error:  # an unstable gain set trips the fatal following error (Ixx11)
+        raise SoftPLCError(f"{label or 'the configured gains'}: the {move} move ended in "
+                           f"a fault: {Err.TEXT[dev.error]}")
+    return _fill(cap, rows, k0, x0, dev.T)
+
+
+def _holding(config: str | Path, axis: str, start: float, gains: dict[str, float] | None
+             ) -> tuple[Rig, Any]:
+    """A simulated axis of `config` (homed), its gains set, loop closed at `start` 0.5 s."""
+    try:
+        rig = Rig.from_toml(config, axis, start=start, require_home=False)
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        raise SoftPLCError(f"{config}: {getattr(e, 'strerror', None) or e}") from None
+    except KeyError:
+        raise SoftPLCError(f"{config}: no servo axis named {axis!r}") from None
+    if axis not in rig.axes:
+        raise SoftPLCError(f"{config}: device {axis!r} is not a servo_axis")
+    dev = rig.axes[axis]
+    for name, value in (gains or {}).items():
+        dev.ivars.set(name, value)
+    rig.command(axis, Ctl.ENABLE)
+    rig.run(0.5)
+    return rig, dev
+
+
+def _fill(cap: Capture, rows: list, k0: int, x0: float, T: float) -> Capture:
+    """The gathered rows into the capture: ms from the command, counts from x0."""
     for k, cp, ap, u, ie in rows:
-        cap.t.append((k - k0) * dev.T * 1000)
+        cap.t.append((k - k0) * T * 1000)
         cap.cp.append(cp - x0)
         cap.ap.append(ap - x0)
         cap.fe.append(cp - ap)
@@ -100,7 +124,8 @@ def run_move(move: str, axis: str = "X", distance: int = 100, *, config: str | P
 
 def metrics(c: Capture) -> dict[str, float]:
     """Rise time (10-90 % of the first move, ms), overshoot (% of it), settling time (ms
-    after the command's end until |FE| stays within Ixx28) and max |FE| (counts)."""
+    after the command's end until |FE| stays within Ixx28) and max |FE| (counts); a time
+    the response never reaches within the gather is NaN."""
     d = c.distance
     last = max((i for i in range(1, len(c.cp)) if c.cp[i] != c.cp[i - 1]), default=0)
     t_end = c.t[last]  # the command's last change: the move's end
@@ -121,15 +146,23 @@ def metrics(c: Capture) -> dict[str, float]:
             if d else 0.0, "settling_ms": settle, "max_fe": max(abs(f) for f in c.fe)}
 
 
+def _ms(value: float, width: int = 0, digits: int = 1, unit: str = "") -> str:
+    """A time figure; "never" where the response never got there (NaN)."""
+    if not math.isfinite(value):
+        return f"{'never':>{width}}"
+    return f"{value:{width}.{digits}f}{unit}"
+
+
 def table(caps: list[Capture]) -> str:
     """The figures of each capture, one line each (what the plot shows)."""
     rows = [f"{'gains':<28} {'rise ms':>8} {'overshoot %':>12} {'settling ms':>12} "
             f"{'max |FE| counts':>16}"]
     for c in caps:
         m = metrics(c)
-        rise = f"{m['rise_ms']:8.2f}" if c.distance else f"{'-':>8}"
+        rise = _ms(m["rise_ms"], 8, 2) if c.distance else f"{'-':>8}"
         rows.append(f"{c.label or 'configured':<28} {rise} "
-                    f"{m['overshoot_pct']:12.1f} {m['settling_ms']:12.1f} {m['max_fe']:16.2f}")
+                    f"{m['overshoot_pct']:12.1f} {_ms(m['settling_ms'], 12, 1)} "
+                    f"{m['max_fe']:16.2f}")
     return "\n".join(rows)
 
 
@@ -147,9 +180,9 @@ def plot(caps: list[Capture], out: str | Path, title: str = "") -> None:
     for c, col in zip(caps, colours, strict=False):
         m = metrics(c)
         name = c.label or "configured gains"
-        figures = (f"rise {m['rise_ms']:.1f} ms, overshoot {m['overshoot_pct']:.1f} %\n"
+        figures = (f"rise {_ms(m['rise_ms'], unit=' ms')}, overshoot {m['overshoot_pct']:.1f} %\n"
                    if c.distance else "") + (
-            f"settling {m['settling_ms']:.1f} ms, max |FE| {m['max_fe']:.1f} counts")
+            f"settling {_ms(m['settling_ms'], unit=' ms')}, max |FE| {m['max_fe']:.1f} counts")
         if c is caps[0]:
             ax1.plot(c.t, c.cp, color="black", linewidth=1, label="commanded (CP)")
         ax1.plot(c.t, c.ap, color=col, linestyle="--", label=f"actual (AP), {name}\n{figures}")
@@ -183,23 +216,11 @@ def disturbance(axis: str = "X", bits: float = 150.0, *, config: str | Path,
                 start: float = -50000.0, gains: dict[str, float] | None = None,
                 seconds: float = 1.5, label: str = "") -> Capture:
     """Hold position, then a step of load torque (`bits`) at t = 0: the gathered response."""
-    rig = Rig.from_toml(config, axis, start=start, require_home=False)
-    dev = rig.axes[axis]
-    for name, value in (gains or {}).items():
-        dev.ivars.set(name, value)
-    rig.command(axis, Ctl.ENABLE)
-    rig.run(0.5)
+    rig, dev = _holding(config, axis, start, gains)
     cap = Capture("disturbance", label, 0, band=dev.gains.in_position / 16)
     rows = dev.start_gather()
     k0 = dev.k
     x0 = round(dev.actual)
     dev.set_disturbance(bits)
     rig.run(seconds)
-    for k, cp, ap, u, ie in rows:
-        cap.t.append((k - k0) * dev.T * 1000)
-        cap.cp.append(cp - x0)
-        cap.ap.append(ap - x0)
-        cap.fe.append(cp - ap)
-        cap.out.append(u)
-        cap.integ.append(ie)
-    return cap
+    return _fill(cap, rows, k0, x0, dev.T)

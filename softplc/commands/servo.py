@@ -74,8 +74,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     s = p.add_argument_group("simulated here (servo-rate gather)")
     s.add_argument("--sim", action="store_true",
                    help="run the move on a simulated axis in this process (compare does)")
-    s.add_argument("--config", default="ladder_programs/servo_table.toml",
-                   help="machine TOML of the simulated axis (default %(default)s)")
+    s.add_argument("--config", metavar="TOML",
+                   help="machine TOML of the simulated axis (default: the project's "
+                        "ladder_programs/servo_table.toml)")
     s.add_argument("--set", dest="gains", action="append", default=[],
                    metavar="I130=8000", help="gains of the (first) simulated set")
     s.add_argument("--move", choices=TESTS[:5], default="step",
@@ -155,14 +156,15 @@ def _simulated(args: argparse.Namespace) -> int:
 
     gains = st.parse_gains(args.gains)
     label = " ".join(args.gains)
+    config = args.config or st.DEFAULT_CONFIG
     if args.test == "disturb":
-        caps = [st.disturbance(args.axis, args.load, config=args.config, gains=gains,
+        caps = [st.disturbance(args.axis, args.load, config=config, gains=gains,
                                label=label)]
         title = f"load step of {args.load:g} bits on {args.axis} (servo-rate gather)"
     else:
         move = args.move if args.test == "compare" else args.test
         d = args.distance if args.distance is not None else DEFAULT_DISTANCE[move]
-        kw = dict(config=args.config, speed=args.speed, time_ms=args.time or 330,
+        kw = dict(config=config, speed=args.speed, time_ms=args.time or 330,
                   dwell_ms=args.dwell)
         caps = [st.run_move(move, args.axis, d, gains=gains, label=label, **kw)]
         if args.test == "compare":
