@@ -1,10 +1,11 @@
 """A position-controlled servo axis: PMAC-style controller, drive and mechanics in one device.
 
 Options and word map: `options.py`; the law: `law.py`; the plant: `plant.py`; the
-trajectories: `trajectory.py`. Per scan, `update(t, dt)`:
+trajectories: `trajectory.py`; the device's jobs: `motion.py`, `runner.py` (with the
+generated loop, `loop.py`), `ivars.py`, `status.py`. Per scan, `update(t, dt)`:
 
 1. reads the command words once and acts on their edges (a command seen at update(t)
-   acts from the next servo tick);
+   acts from the next servo tick), then the I-variables changed since (`ivars.py`);
 2. runs every servo loop cycle k with k T_loop in (t - dt, t]: the number of cycles due
    by time t is floor(t * f_loop) computed from the scan's time in whole microseconds, so
    a scan period that is not a multiple of the servo period gets 2 or 3 cycles and the
