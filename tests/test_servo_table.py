@@ -395,4 +395,6 @@ def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
         assert softplc(argv + ([] if sim else ["--port", "1"])) == 0, line
         out = capsys.readouterr()
         assert "refused" not in out.err, line
+        if argv[1] == "scurve" and "--start" in argv:  # the README's figure
+            assert 14 <= max_fe_counts(out.out) <= 22
     assert plc.devices["X"].gains.kp == 8000  # the README's `set` reached the axis
