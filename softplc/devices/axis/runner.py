@@ -72,18 +72,20 @@ class LoopRunner:
         if n <= 0:
             return
         if a._fixed:
-            self._repeat(n)
+            n = self._repeat(n)  # (a creep may end within the scan: the rest computed)
         elif not a.closed and self._at_rest_open():
-            a.k = due  # killed and stuck: nothing moves, nothing to record
-        else:
-            # (a pre-filter: with FE != 0 and no clamp the integrator moves: no probe)
-            if a.v == 0.0 and (a.fe == 0.0 or a._clamped) and self._fixed_candidate():
+            n, a.k = 0, due  # killed and stuck: nothing moves, nothing to record
+        elif a.v == 0.0 and self._fixed_candidate():
+            # (with FE != 0 and no clamp the integrator moves: a creep, not a fixed point)
+            if a.fe == 0.0 or a._clamped:
                 n = self._probe_fixed(n)
-                if a._fixed:
-                    self._repeat(n)
-                    n = 0
-            while n > 0:
-                n = self.cycles(n)
+            else:
+                a._creep = self._creep_ticks()
+                a._fixed = a._creep > 0
+            if a._fixed:
+                n = self._repeat(n)
+        while n > 0:
+            n = self.cycles(n)
         if a._rec is not None and len(a.trace) >= a._trim_at:
             self.trim()
 
@@ -114,7 +116,8 @@ class LoopRunner:
     # be skipped, their trace rows written in one go, until a command, a fault, the drive's
     # READY, the moving mass, the load or an I-variable changes (Motion.commands, set_fault,
     # build clear the flag). The test is on the packed bytes (-0.0 and 0.0 differ), so it is
-    # exact, not approximate.
+    # exact, not approximate. `_fixed` with `_creep` > 0: a creep (below) for that many
+    # cycles.
     _PACK = struct.Struct("<9d").pack
 
     def _loop_state(self) -> bytes:
@@ -132,14 +135,28 @@ class LoopRunner:
         """Run one of the n due cycles; note a fixed point. Returns the cycles left."""
         before = self._loop_state()
         left = self.cycles(1)
-        self.a._fixed = self._fixed_candidate() and self._loop_state() == before
+        a = self.a
+        a._fixed, a._creep = self._fixed_candidate() and self._loop_state() == before, 0
         return n - 1 + left
 
-    def _repeat(self, n: int) -> None:
-        """n cycles at the fixed point: only the cycle count and the records move on."""
+    def _repeat(self, n: int) -> int:
+        """n cycles at the fixed point (only the cycle count and the records move on), or
+        up to n of a creep's (the integrator moves too). Returns the cycles left."""
         a = self.a
         k = a.k
         o = a.origin
+        if a._creep:
+            n, left = min(n, a._creep), n - min(n, a._creep)
+            ie, fe = a._ie, a.fe
+            for _ in range(n):  # the loop's own additions, in its order: bit for bit
+                ie += fe
+            a._ie = ie
+            a._creep -= n
+            a._fixed = a._creep > 0
+            c = self._values  # the drive's command over the last period: the held output's
+            a.w = max(c["nup"], min(c["up"], a.u + c["uoff"]))
+        else:
+            left = 0
         if a._rec is not None:
             a.trace.extend(zip(range(k + 1, k + n + 1), repeat(a._cp - o),
                                repeat(a._app - o), repeat(a.u), strict=False))
@@ -148,7 +165,40 @@ class LoopRunner:
                                 repeat(a._app - o), repeat(a.u),
                                 repeat(self._values["cie"] * a._ie), strict=False))
         a.k = k + n
+        return left
 
+    # A creep: at rest with FE != 0 (the carriage stuck by friction a few counts off), each
+    # cycle adds FE to the integrator and changes nothing else while the output stays in
+    # its 12-bit DAC step: hundreds of cycles at a time at the servo table's Ki. Then the
+    # cycles can be skipped but for that addition, until the step's edge comes near.
+    def _creep_ticks(self) -> int:
+        """Cycles that are certainly a creep from now (0: none). Called at rest (v = 0)
+        under `_fixed_candidate`."""
+        a = self.a
+        fe, q = a.fe, a._dac_q
+        if (a._clamped or not q or a.gather is not None or a._cp != a._cpp
+                or a._cvp != 0.0 or a.opt.plant.load_table):
+            return 0
+        c = self._values
+        if abs(fe) > c["check"]:
+            return 0
+        w = a.u + c["uoff"]  # the drive's command the output gives, then stiction?
+        w = max(-c["up"], min(c["up"], w)) - c["load"]
+        if not -c["fc"] <= w <= c["fc"]:
+            return 0
+        # the law's output as the loop computes it (CV = CA = AV = 0), in the DAC step of u
+        u = c["cfe"] * fe + c["ccv"] * 0.0 + c["cca"] * 0.0 + c["cie"] * a._ie \
+            - c["cav"] * 0 + c["off"]
+        lo = q * math.floor(u / q)
+        if lo != a.u or not -c["lim"] <= lo < lo + q <= c["lim"]:
+            return 0
+        d = c["cie"] * fe  # the output's change per cycle
+        if d == 0.0:
+            return 0
+        m = math.floor((lo + q - u) / d if d > 0 else (u - lo) / -d) - 2  # (2: a margin)
+        if c["ilim"] != math.inf:
+            m = min(m, math.floor((c["ilim"] - abs(a._ie)) / abs(fe)) - 2)
+        return max(m, 0)
     def cycles(self, n: int, capture: bool = False) -> int:
         """Run up to n loop cycles; returns how many are left when an event interrupts.
         `capture`: also keep the last cycle's CA and AV (`_ca`, `_av`; IVarTable.apply)."""

@@ -61,7 +61,8 @@ class ServoAxis(AxisDevice):
              "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
              "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped",
              "_traj", "_active", "_k0", "_tail_v", "_ctl_prev", "_vel", "_x_prev_scan",
-             "_ready", "_mass_f", "load_mass_ratio", "gains", "disturbance", "_fixed")
+             "_ready", "_mass_f", "load_mass_ratio", "gains", "disturbance", "_fixed",
+             "_creep")
 
     def __init__(self, name: str, options: ServoAxisOptions):
         super().__init__(name, options)
@@ -207,7 +208,8 @@ class ServoAxis(AxisDevice):
         self._ctl_prev = 0
         self._vel = 0.0
         self._x_prev_scan = self.x
-        self._fixed = False  # the loop's state is a fixed point: see _probe_fixed
+        self._fixed = False  # the loop's state is a fixed point: see LoopRunner
+        self._creep = 0  # ... or a creep for that many cycles
         self.trace.clear()
         self._trace_dropped = 0
 
