@@ -81,7 +81,7 @@ def check(gains: Any, name: str, value: float) -> Any:
 class IVarTable:
     def __init__(self, axis: ServoAxis):
         self.a = axis
-        self._pending: Any = None  # gains waiting for the next tick boundary
+        self._pending: Any = None  # gains checked, waiting for the next scan's tick
         self._at: int | None = None  # word index of the table
         self.lo = self.hi = 0
         self.seen = b""  # the values' bytes as last written: a difference is a host's write
@@ -91,7 +91,7 @@ class IVarTable:
         return getattr(self.a.gains, resolve(name)[1])
 
     def set(self, name: str, value: float) -> None:
-        """Check now, apply at the next tick boundary (the start of the next scan)."""
+        """Check now (IVarError), apply at a servo tick of the device's next scan."""
         self._pending = check(self._pending or self.a.gains, name, value)
         self.a._watch = True
         self.a._ivars_clean = _false  # the next scan applies it
