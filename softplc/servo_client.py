@@ -255,3 +255,97 @@ def plot_tuning(result: TuningResult, out: str, counts_per_mm: float = 409.6) ->
     fig.tight_layout()
     fig.savefig(out, dpi=110, bbox_inches="tight")
     plt.close(fig)
+
+
+# -- I-variables over Modbus (the axes' ivar word tables, servo_table.toml) -------------------
+AXIS_IVARS = {"X": 300, "Y": 350}
+MOTORS = {"1": "X", "2": "Y"}
+
+
+def ivar_address(name: str) -> tuple[str, str, int]:
+    """"I130" -> ("X", "Ixx30", register of its %MF)."""
+    from .devices.axis import ivars as iv
+    from .devices.axis.law import IVARS
+
+    key = name.strip()
+    if not (key[:1] in "Ii" and key[1:].isdigit() and len(key) == 4 and key[1] in MOTORS):
+        raise ServoClientError(f"{name!r}: expected I1xx (motor 1, X) or I2xx (motor 2, Y), "
+                               "e.g. I130")
+    ivar = iv.resolve("I" + key[2:])[0]
+    row = [i for i, *_ in IVARS].index(ivar)
+    axis = MOTORS[key[1]]
+    return axis, ivar, AXIS_IVARS[axis] + iv.FIRST + 2 * row
+
+
+def parse_ivars(items: list[str], values: bool) -> list[tuple[str, float]]:
+    """["I130=8000", ...] (values) or ["I130", ...], checked against the device's
+    bounds before anything is sent: [(name, value or 0.0)]."""
+    from .devices.axis import ivars as iv
+    from .devices.axis.law import Gains
+
+    if not items:
+        raise ServoClientError("name I-variables (I130, or I130=8000 to set)")
+    out = []
+    for item in items:
+        name, sep, text = item.partition("=")
+        if sep != ("=" if values else ""):
+            raise ServoClientError(f"{item!r}: expected " + ("I130=8000" if values else "I130"))
+        ivar = ivar_address(name)[1]
+        value = 0.0
+        if values:
+            try:
+                value = float(text)
+                iv.check(Gains(), ivar, value)  # the device's bounds, said here in words
+            except ValueError:
+                raise ServoClientError(f"{item!r}: {text!r} is not a number") from None
+            except iv.IVarError as e:
+                raise ServoClientError(f"{name}: {e}") from None
+        out.append((name.strip(), value))
+    return out
+
+
+def set_disturbance(sc: ServoClient, axis: str, bits: float) -> None:
+    """The load disturbance word of `axis` (a step of load torque, DAC bits)."""
+    from .devices.axis.ivars import DISTURBANCE
+
+    if not abs(bits) <= 32768:
+        raise ServoClientError(f"load {bits:g}: expected DAC bits within +-32768")
+    lo, hi = struct.unpack("<HH", struct.pack("<f", bits))
+    try:
+        sc.c.write_registers(AXIS_IVARS[axis] + DISTURBANCE, [lo, hi])
+    except (OSError, ConnectionError, ModbusExceptionReply) as e:
+        raise ServoClientError(f"writing the load disturbance: {e}") from None
+
+
+def get_ivar(sc: ServoClient, name: str) -> float:
+    _, _, reg = ivar_address(name)
+    return _f(sc._read(reg, 2), 0)
+
+
+def set_ivar(sc: ServoClient, name: str, value: float, timeout: float = 2.0) -> float:
+    """Write one I-variable; wait for the device to apply it (APPLIED moves) or refuse
+    it (REFUSED names it). Returns the value in force."""
+    from .devices.axis import ivars as iv
+
+    parse_ivars([f"{name}={value!r}"], values=True)
+    axis, ivar, reg = ivar_address(name)
+    base = AXIS_IVARS[axis]
+    applied = sc._read(base + iv.APPLIED, 1)[0]
+    old = get_ivar(sc, name)
+    lo, hi = struct.unpack("<HH", struct.pack("<f", value))
+    if [lo, hi] == sc._read(reg, 2):
+        return old  # already in force
+    try:
+        sc.c.write_registers(reg, [lo, hi])
+    except (OSError, ConnectionError, ModbusExceptionReply) as e:
+        raise ServoClientError(f"writing {name}: {e}") from None
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        refused, now = sc._read(base + iv.REFUSED, 2)
+        if refused == int(ivar[3:]) and get_ivar(sc, name) == old:  # written back
+            raise ServoClientError(f"{name} = {value:g} refused by the axis")
+        if now != applied:
+            return get_ivar(sc, name)
+        time.sleep(sc.poll)
+    raise ServoClientError(f"{name}: not applied within {timeout:g} s (is the daemon "
+                           "running servo_table.toml?)")

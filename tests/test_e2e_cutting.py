@@ -90,7 +90,7 @@ def check_run(piece, res, frames, rep) -> None:
     assert math.dist(rep.end, piece.end) <= UM
     for origin in res.origin_counts:  # homing through the daemon: zero at the switch stop,
         # 30 mm retract: the work origin's true distance from the min trip point (E8)
-        assert 29.47 <= (START_MM * COUNTS_PER_MM + origin) / COUNTS_PER_MM <= 29.505
+        assert 29.47 <= (START_MM * COUNTS_PER_MM + origin) / COUNTS_PER_MM <= 29.50
 
 
 def test_e3_rounded_rectangle_follows_the_ideal_shape(table):
@@ -150,8 +150,8 @@ def web_post(port: int, path: str, body: dict) -> dict:
 def test_e8_homing_and_e9_limit_stop_through_the_daemon(table):
     """E8 from the machine's start (X 123.4, Y 57.0 mm from the min trip points): both
     axes search at once, stop, zero, retract 30 mm; Y is home at about 8.95 s, X and
-    HOMED at 15.59 s (+-0.05 s); the host reads (0, 0) +-1 um; each axis rests 29.47-29.505
-    mm from its trip point (the stop ramp is 0.497 mm, NOTES).
+    HOMED at 15.59 s (+-0.05 s); the host reads (0, 0) +-1 um; each axis rests 29.47-29.50
+    mm from its trip point (the stop ramp is v^2/2a = 0.5 mm).
     E9: then cutting along X at 20 mm/s, the X max switch input is forced made (through
     the web monitor, as TwidoSuite forces an input): fault 1 in that scan, torch off, X
     stops within v^2/2a = 2.0 mm (+ 2 scans, 0.04 mm) of where the torch went out, Y does
@@ -189,7 +189,7 @@ def test_e8_homing_and_e9_limit_stop_through_the_daemon(table):
     t_x = settled_at(homing, 1, in_position)
     assert t_x == pytest.approx(15.59, abs=0.05) and t_x <= t_homed <= t_x + 0.05
     for axis in (1, 2):
-        assert 29.47 <= homing[-1][axis] <= 29.505
+        assert 29.47 <= homing[-1][axis] <= 29.50
 
     # E9
     off = lit[-1] + 1  # the first sample with the torch out: the fault scan

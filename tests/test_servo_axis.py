@@ -402,3 +402,125 @@ def test_servo_benchmark_runs_and_reports():
         assert r[part]["faults"] == 0  # the axes moved all along, no fault stopped them
     assert r["device"]["servo_cycles"] >= 2 * math.floor(0.5 * 9034.6 / 4)
     assert "x real time" in bench_servo.report(r)
+
+
+# -- one tick: commanded, actual and FE of the same servo tick (issue 23) --------------------
+CUT_TOML = ROOT / "ladder_programs" / "cutting_table.toml"
+
+
+def test_jog_words_and_stop_ramp_refer_to_the_same_tick():
+    """The cutting table's axis (ideal encoder, 10 nm counts) jogging at Ixx22 = 10 mm/s:
+    ACTUAL - COMMANDED = -FE (the old code read -443 counts = v T with FE 0); STOP then
+    brakes over v^2 / 2a = 0.5 mm (Ixx20 = 100 ms trapezoid: a = 100 mm/s^2)."""
+    rig = Rig.from_toml(CUT_TOML, "X", start=12_340_000.0, trace=True)
+    ax = rig.axes["X"]
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+    rig.run(0.5)
+    act, cmd = rig.word("X", Word.ACTUAL, "d"), rig.word("X", Word.COMMANDED, "d")
+    fe = rig.word("X", Word.FE, "f")
+    assert abs(fe) < 1 and abs(act - cmd + fe) <= 1
+    k, cp, ap, _ = ax.trace[-1]  # the last row is the tick the words show
+    assert k == rig.word("X", Word.TICKS, "d") and round(ap) == act and round(cp) == cmd
+    rig.command("X", Ctl.ENABLE)
+    rig.run(0.5)
+    assert not rig.word("X", Word.STATUS) & St.BUSY
+    braked = (act - rig.word("X", Word.ACTUAL, "d")) / 100_000  # mm
+    assert braked == pytest.approx(0.5, abs=2e-5)
+
+
+def test_moving_status_words_agree_with_the_last_trace_row():
+    rig = homed("X", start=-50000.0)
+    dev = rig.axes["X"]
+    rig.pulse("X", Ctl.EXECUTE, target=-30000, speed=SPEED)
+    for _ in range(150):  # every scan of the move: the words are the last row's tick
+        rig.step()
+        k, cp, ap, _ = dev.trace[-1]
+        assert k == rig.word("X", Word.TICKS, "d") and ap == dev.actual
+        assert rig.word("X", Word.ACTUAL, "d") == ap and round(cp) == rig.word(
+            "X", Word.COMMANDED, "d")
+        assert rig.word("X", Word.FE, "f") == pytest.approx(cp - ap, abs=1e-3)
+    assert dev.v > 60000  # it was moving
+
+
+def test_homed_rises_at_the_tick_the_encoder_reads_the_index():
+    """The trigger tick's encoder count is the first past the index mark (the old code
+    raised HOMED at the tick before, its count still short of the mark)."""
+    rig = enabled("X", start=-6000.0)
+    dev = rig.axes["X"]
+    rig.pulse("X", Ctl.HOME)
+    assert rig.run_until(lambda: dev.homed, 10.0)
+    rig.step()
+    rows = dev.trace
+    # rows up to the trigger tick are in the coordinates before homing (origin 0)
+    cut = next(i for i in range(len(rows) - 1, 0, -1) if rows[i][2] < rows[i - 1][2] - 1000)
+    before, trigger = rows[cut - 2][2], rows[cut - 1][2]
+    assert before < dev.origin <= trigger
+    assert trigger - dev.origin <= 2  # homing speed x T = 1.5 counts per tick
+
+
+# -- I-variables while running (issue 23) ----------------------------------------------------
+def test_ivars_read_and_write_while_running_with_clear_errors():
+    from softplc.devices.axis.ivars import IVarError
+
+    rig = homed("X", start=-50000.0)
+    iv = rig.axes["X"].ivars
+    assert iv.get("I30") == iv.get("Ixx30") == iv.get("kp") == 7990
+    iv.set("Ixx30", 8000)
+    assert iv.get("kp") == 7990  # applied at the next tick boundary, not before
+    rig.step()
+    assert iv.get("kp") == 8000 and rig.axes["X"].coef.fe == pytest.approx(8000 * 96 / 2**19)
+    for name, value, why in [("Ixx30", -1, "greater than or equal to 0"),
+                             ("Ixx34", 2, "less than or equal to 1"),
+                             ("Ixx60", 1, "configuration only"), ("Ixx99", 1, "unknown"),
+                             ("Ixx08", 0, "greater than 0"), ("kp", math.nan, "finite")]:
+        with pytest.raises(IVarError, match=why):
+            iv.set(name, value)
+    rig.step()
+    assert iv.get("kp") == 8000  # nothing refused was applied
+
+
+def test_a_gain_change_is_bumpless():
+    """Holding a 100-bit load, the integrator carries it; doubling Ki and raising Kp by half
+    at a tick would move the output by about 200 bits (the integral term scales with both);
+    the change leaves it where it was (the integrator takes the difference)."""
+    from softplc.devices.axis.law import Coefficients, law_output
+
+    rig = homed("X", start=-50000.0, **LINEAR, **{"plant.load": 100.0})
+    dev = rig.axes["X"]
+    rig.run(2.0)
+    u0 = dev.u
+    assert u0 == pytest.approx(100, abs=1)  # the integrator holds the load
+    new = dev.gains.model_copy(update={"ki": 2 * dev.gains.ki, "kp": dev.gains.kp * 1.5})
+    naive = law_output(Coefficients.of(new), new, dev.fe, dev._cvp, 0.0, dev._ie,
+                       0.0)  # (at rest: no acceleration, no velocity)
+    assert abs(naive - u0) > 150  # what a plain change of coefficients would do
+    dev.ivars.set("ki", new.ki)
+    dev.ivars.set("kp", new.kp)
+    n = len(dev.trace)
+    rig.step()
+    assert dev.gains.ki == new.ki
+    outputs = [r[3] for r in dev.trace[n - 3:]]
+    assert max(abs(u - u0) for u in outputs) < 1.0
+    rig.run(1.0)
+    assert abs(dev.actual + 50000) <= 1 and dev.u == pytest.approx(100, abs=1)
+
+
+def test_load_disturbance_is_taken_up_by_the_integrator():
+    """A 150-bit step of load torque while holding: the following error jumps, the
+    integrator's term grows to the load and brings the error back to about zero; without
+    an integrator (Ixx33 = 0) the error stays at load / Kp'."""
+    def run(ki: float) -> tuple[float, float, list]:
+        rig = homed("X", start=-50000.0, **LINEAR, **{"ivars.Ixx33": ki})
+        dev = rig.axes["X"]
+        rig.run(0.5)
+        gather = dev.start_gather()
+        dev.set_disturbance(150.0)
+        rig.run(1.5)
+        return max(abs(r[1] - r[2]) for r in gather), gather[-1][1] - gather[-1][2], gather
+
+    peak, end, gather = run(ki=10193)  # the tuned X axis's Ixx33 (servo_table.toml)
+    assert peak > 5 and abs(end) < 0.05 * peak
+    assert gather[-1][4] == pytest.approx(150, rel=0.02)  # the integrator's term, bits
+    _, end_p, _ = run(ki=0)
+    kp = 7990 * 96 / 2**19  # Kp' in bits per count
+    assert end_p == pytest.approx(150 / kp, rel=0.02)

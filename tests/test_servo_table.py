@@ -313,3 +313,88 @@ def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, ca
     out = capsys.readouterr().out
     fe = max_fe_counts(out)
     assert low <= fe <= high
+
+
+def test_ivar_words_read_and_write_while_running(cell):
+    """servo_table.toml maps X's I-variables at %MW300 (Y %MW350): Ixx30 is the %MF at +28
+    (the 13th row of IVARS); a write applies at the next scan, a refused one reverts and
+    names the I-variable in +0."""
+    from softplc.devices.axis import ivars as iv
+    from softplc.devices.axis.law import IVARS
+
+    row = [i for i, *_ in IVARS].index("Ixx30")
+    kp = f"%MF{300 + iv.FIRST + 2 * row}"
+    started(cell)
+    assert cell[kp] == 7990 and cell["%MW300"] == 0
+    cell[kp] = 8000.0
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW301"] == 1
+    cell[kp] = -5.0  # out of range: refused, the value in force written back
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW300"] == 30
+    cell["%MF352"] = 120.0  # Y's load disturbance, DAC bits
+    cell.scan()
+    assert cell.devices["Y"].disturbance == 120.0
+
+
+def in_process(tmp_path, monkeypatch, poll_ms: float = 0) -> PLC:
+    """The servo host commands on a PLC in this process, on its virtual clock."""
+    import time
+    from types import SimpleNamespace
+
+    import softplc.servo_client as servo_client
+
+    plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
+    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    monkeypatch.setattr(servo_client, "time", SimpleNamespace(
+        sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
+        monotonic=time.monotonic))
+    return plc
+
+
+def test_servo_set_and_get_ivars_while_running(tmp_path, monkeypatch, capsys):
+    from softplc.cli import main as softplc
+
+    plc = in_process(tmp_path, monkeypatch)
+    plc.scan()
+    assert softplc(["servo", "get", "I130", "I233", "--port", "1"]) == 0
+    assert capsys.readouterr().out.split("\n")[:2] == ["I130 = 7990", "I233 = 13454"]
+    assert softplc(["servo", "set", "I130=8000", "I233=12000", "--port", "1"]) == 0
+    assert plc.devices["X"].gains.kp == 8000 and plc.devices["Y"].gains.ki == 12000
+    for bad, why in [("I130=-1", "greater than or equal to 0"), ("I160=1", "configuration"),
+                     ("I330=1", "I1xx (motor 1, X) or I2xx"), ("I134=0.5", "integer")]:
+        assert softplc(["servo", "set", bad, "--port", "1"]) == 1
+        assert why in capsys.readouterr().err
+    assert plc.devices["X"].gains.kp == 8000
+    assert softplc(["servo", "disturb", "--axis", "Y", "--load", "40", "--port", "1"]) == 0
+    plc.scan()
+    assert plc.devices["Y"].disturbance == 40.0
+
+
+def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
+    """The README's `softplc servo` lines, then the command's own --help examples (their
+    daemon replaced by the in-process PLC): none refused."""
+    import re
+    import shlex
+
+    from softplc.cli import main as softplc
+    from softplc.commands.servo import _EXAMPLES
+
+    plc = in_process(tmp_path, monkeypatch)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme.split("## The servo XY table")[1].split("\n## ")[0]
+    lines = [ln.split("#")[0].strip() for ln in re.findall(r"^softplc servo .*$", section,
+                                                           re.M)]
+    helps = [ln.strip() for ln in re.findall(r"^  softplc servo .*$", _EXAMPLES, re.M)]
+    assert len(lines) >= 6 and len(helps) >= 10
+    for line in lines + helps:
+        argv = shlex.split(line)[1:]
+        if "--plot" in argv:  # (the plots are checked elsewhere: time)
+            del argv[argv.index("--plot"):argv.index("--plot") + 2]
+        sim = "--sim" in argv or argv[1] == "compare"
+        assert softplc(argv + ([] if sim else ["--port", "1"])) == 0, line
+        out = capsys.readouterr()
+        assert "refused" not in out.err, line
+        if argv[1] == "scurve" and "--start" in argv:  # the README's figure
+            assert 14 <= max_fe_counts(out.out) <= 22
+    assert plc.devices["X"].gains.kp == 8000  # the README's `set` reached the axis

@@ -107,3 +107,11 @@ class Coefficients:
         return cls(fe=c * g.pos_scale, cv=c * g.pos_scale * g.kvff / 128,
                    ca=c * g.pos_scale * g.kaff / 128, ie=c * g.pos_scale * g.ki / 2 ** 23,
                    av=c * g.kd * g.vel_scale / 128)
+
+
+def law_output(c: Coefficients, g: Any, fe: float, cv: float, ca: float, ie: float,
+               av: float) -> float:
+    """The law's output before its limit (the generated loop's expression, for the
+    bumpless change of gains: both laws are compared on one tick's terms)."""
+    u = c.fe * fe + c.cv * cv + c.ca * ca + c.ie * ie - c.av * av + g.offset
+    return u + (g.friction_ff if cv > 0 else -g.friction_ff if cv < 0 else 0.0)

@@ -3,7 +3,10 @@
 `compile_cycles(render(values, flags), ...)` gives `cycles(dev, n) -> cycles left`: up to
 n servo cycles of the device `dev` (a ServoAxis), its state read into locals once and
 written back once; an event (fatal following error, end of an open-loop output, the homing
-index pulse) stops the cycles and goes to `dev._on_event`.
+index pulse) stops the cycles and goes to `dev.runner.on_event`. A cycle first integrates
+the plant over the period that ends at its tick (the output computed at the previous tick
+held), then reads the encoder and computes the new output: state, count, commanded
+position and following error are then all the tick's.
 
 The source below is the one description of a cycle. Lines tagged `?flag` are kept only
 when the flag holds, `!flag` only when it does not (`?a&!b`, `?a|b` combine flags);
@@ -11,7 +14,7 @@ when the flag holds, `!flag` only when it does not (`?a&!b`, `?a|b` combine flag
 round-trips exactly). Only code that cannot change a result is dropped: a branch whose
 test is false for the configuration (no DAC quantisation, no current limit, no load
 table, no trace) or the drive state of the scan (loop closed, open loop, killed, homing
-search, faulted), or `- 0.0` (an exact identity). What remains is the same operations in
+search, faulted), or `- 0.0` and `1.0 *` (exact identities). What remains is the same operations in
 the same order, so the results are bit for bit those of one generic loop (checked against
 the previous generic implementation: identical traces and words). A function is compiled
 once per distinct source and cached.
@@ -34,15 +37,57 @@ def cycles(dev, n):
 ?closed    ntraj = len(traj)
 ?closed    last = traj[-1] if traj else cp
 ?trace    rec = dev._rec
-?trace    origin = dev.origin
+?gather    gat = dev.gather.append
+?trace|gather    origin = dev.origin
 ?open_loop    ol_u, ol_end = dev._ol_u, dev._ol_end
-?special    special = dev._special
+?special    special = dev.runner.special
     step, zoh = _step, dev.zoh
 ?table    table = dev.opt.plant.load_table
     warn = False
     event = None
     stop = k + n
     for k in range(k + 1, stop + 1):
+?ready        w = u + $uoff
+!ready        w = 0.0
+?up        if w > $up:
+?up            w = $up
+?up        elif w < $nup:
+?up            w = $nup
+?load        wl = w - $load
+!load        wl = w
+?table2        if x <= $t_x0:
+?table2            wl -= $t_y0
+?table2        elif x <= $t_x1:
+?table2            wl -= $t_y0 + $t_dy * (x - $t_x0) / $t_dx
+?table2        else:
+?table2            wl -= $t_y1
+?table        wl -= _interp(table, x)
+?search        x0 = x
+?special        x, v = special(x, v, wl)
+!special        if not $lo < x < $hi:
+!special            x, v = dev.runner.special(x, v, wl)
+!special        else:
+!special            if v > 0:
+!special                we = wl - $fc
+!special            elif v < 0:
+!special                we = wl + $fc
+!special            elif $nfc <= wl <= $fc:
+!special                we = None
+!special            else:
+!special                we = wl - $fc if wl > 0 else wl + $fc
+!special            if we is not None:
+!special                kw = $K * we
+!special&!phi1                v1 = $phi * v + kw * $g1
+!special&phi1                v1 = v + kw * $g1
+!special                if v * v1 < 0:
+!special                    x, v = step(x, v, wl, $K, $a, $fc, $T, zoh)
+!special                else:
+!special                    x += v * $g1 + kw * $g2
+!special                    v = v1
+?search        if $hlo <= x0 < $hhi and floor((x - $ioff) / $iper) > floor((x0 - $ioff) / $iper):
+?search            xi = floor((x - $ioff) / $iper) * $iper + $ioff
+?search&ideal            event = ("home", xi - $enc0)
+?search&!ideal            event = ("home", floor(xi) - $enc0)
 ?ideal        ap = x - $enc0
 !ideal        ap = floor(x) - $enc0
 ?closed        if ntraj:
@@ -57,7 +102,8 @@ def cycles(dev, n):
 ?closed&!int_always        if cv == 0 and not clamped:
 ?closed            ie += fe
 ?closed&ilim            ie = $ilim if ie > $ilim else ($nilim if ie < $nilim else ie)
-?closed        u = $cfe * fe + $ccv * cv + $cca * ca + $cie * ie - $cav * (ap - app) + $off
+?closed        av = ap - app
+?closed        u = $cfe * fe + $ccv * cv + $cca * ca + $cie * ie - $cav * av + $off
 ?closed        if cv > 0:
 ?closed            u += $ff
 ?closed        elif cv < 0:
@@ -88,56 +134,18 @@ def cycles(dev, n):
 ?dac        u = $q * floor(u / $q)
         app = ap
 ?trace        rec((k, cp - origin, ap - origin, u))
-?ready        w = u + $uoff
-!ready        w = 0.0
-?up        if w > $up:
-?up            w = $up
-?up        elif w < $nup:
-?up            w = $nup
-?load        wl = w - $load
-!load        wl = w
-?table2        if x <= $t_x0:
-?table2            wl -= $t_y0
-?table2        elif x <= $t_x1:
-?table2            wl -= $t_y0 + $t_dy * (x - $t_x0) / $t_dx
-?table2        else:
-?table2            wl -= $t_y1
-?table        wl -= _interp(table, x)
-?search        x0 = x
-?special        x, v = special(x, v, wl)
-!special        if not $lo < x < $hi:
-!special            x, v = dev._special(x, v, wl)
-!special        else:
-!special            if v > 0:
-!special                we = wl - $fc
-!special            elif v < 0:
-!special                we = wl + $fc
-!special            elif $nfc <= wl <= $fc:
-!special                we = None
-!special            else:
-!special                we = wl - $fc if wl > 0 else wl + $fc
-!special            if we is not None:
-!special                kw = $K * we
-!special                v1 = $phi * v + kw * $g1
-!special                if v * v1 < 0:
-!special                    x, v = step(x, v, wl, $K, $a, $fc, $T, zoh)
-!special                else:
-!special                    x += v * $g1 + kw * $g2
-!special                    v = v1
-?search        if $hlo <= x0 < $hhi and floor((x - $ioff) / $iper) > floor((x0 - $ioff) / $iper):
-?search            xi = floor((x - $ioff) / $iper) * $iper + $ioff
-?search&ideal            event = ("home", xi - $enc0)
-?search&!ideal            event = ("home", floor(xi) - $enc0)
+?gather        gat((k, cp - origin, ap - origin, u, $cie * ie))
         if event is not None:
             break
     dev.x, dev.v, dev.k = x, v, k
     dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie = cp, cpp, cvp, app, ie
     dev._clamped = clamped
+?closed&capture    dev._ca, dev._av = ca, av
     dev.u, dev.w, dev.fe, dev.fe_max = u, w, fe, fe_max
 ?closed&warn_on    dev.warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
 !closed|!warn_on    dev.warn = False
     if event is not None:
-        dev._on_event(event)
+        dev.runner.on_event(event)
     return stop - k
 """
 _CACHE: dict[str, Callable[..., Any]] = {}

@@ -17,6 +17,8 @@
     load_mass_word = "%MF290"   # optional: a %MF the device reads every scan: a change of
                                 # plant.load_mass_ratio at run time (0 after a cold start:
                                 # the configured mass; the sum is kept >= 0)
+    ivar_words = "%MW400"       # optional: the I-variables and the load disturbance as
+                                # words a host reads and writes while running (ivars.py)
     [devices.NAME.geometry]     # counts, true positions from the home index mark
     index_period = 4096.0       # one index (C) pulse per motor revolution, at x = 0 mod 4096
     home_switch = [-1024.0, 6144.0]    # the home flag is made in [lo, hi)
@@ -99,6 +101,7 @@ class ServoAxisOptions(_Strict):
     trace_max: int = Field(200_000, gt=0, le=10_000_000)
     trace_csv: str | None = None
     load_mass_word: str | None = None
+    ivar_words: str | None = None
     geometry: GeometryOptions = GeometryOptions()
     plant: PlantOptions
     ivars: Gains = Field(default_factory=Gains)  # type: ignore[valid-type]

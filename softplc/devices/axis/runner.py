@@ -1,0 +1,261 @@
+"""The servo axis's loop job: the constants of its generated servo loop (`loop.py`), running
+the cycles due in a scan, the exact fast path at a fixed point of the loop, what interrupts
+the cycles (events) and the drive's exceptional states. Like `Motion`, it acts on the
+state of its `ServoAxis` and holds none that a snapshot needs."""
+
+from __future__ import annotations
+
+import math
+import struct
+from itertools import repeat
+from typing import TYPE_CHECKING, Any
+
+from . import loop
+from .options import Err
+from .plant import ZOH, step
+
+if TYPE_CHECKING:
+    from .servo import ServoAxis
+
+
+class LoopRunner:
+    def __init__(self, axis: ServoAxis):
+        self.a = axis
+
+    def build(self) -> None:
+        """The plant terms that depend on the moving mass, and the loop's constants (after
+        a change of the mass, the load or an I-variable)."""
+        a = self.a
+        o, p, g = a.opt, a.opt.plant, a.opt.geometry
+        a.K = p.K / (1 + a.load_mass_ratio)
+        a.a = p.a / (1 + a.load_mass_ratio)
+        a.zoh = z = ZOH.of(a.a, a.T)
+        gn = a.gains
+        c = a.coef
+        inf = math.inf
+        table = p.load_table
+        load = p.load + a.disturbance
+        # Everything the servo loop reads but never changes: literals of its generated code
+        # (loop.py), with the flags that drop the branches this configuration never takes.
+        fatal = gn.fatal_fe / 16 if gn.fatal_fe else inf
+        warn = gn.warn_fe / 16 if gn.warn_fe else inf
+        ilim = gn.int_limit / 16 if gn.int_limit else inf
+        values = dict(
+            cfe=c.fe, ccv=c.cv, cca=c.ca, cie=c.ie, cav=c.av, ilim=ilim, nilim=-ilim,
+            ff=gn.friction_ff, off=gn.offset, lim=gn.output_limit, nlim=-gn.output_limit,
+            fatal=fatal, warn_lim=warn, check=min(warn, fatal), q=a._dac_q, K=a.K,
+            a=a.a, fc=p.coulomb, nfc=-p.coulomb, uoff=p.amp_offset, up=a.u_peak,
+            nup=-a.u_peak, load=load, phi=z.phi, g1=z.g1, g2=z.g2, T=a.T,
+            enc0=o.start if a._ideal else a._enc0, lo=a._lo, hi=a._hi,
+            hlo=g.home_switch[0], hhi=g.home_switch[1], iper=g.index_period,
+            ioff=g.index_offset)
+        if len(table) == 2:
+            (x0, y0), (x1, y1) = table
+            values.update(t_x0=x0, t_y0=y0, t_x1=x1, t_y1=y1, t_dy=y1 - y0, t_dx=x1 - x0)
+        self._values = values
+        self._flags = dict(
+            ideal=a._ideal, int_always=gn.int_mode == 0, ilim=ilim != inf,
+            check=min(warn, fatal) != inf, warn_on=warn != inf, fatal_on=fatal != inf,
+            dac=bool(a._dac_q), trace=a._rec is not None, gather=a.gather is not None,
+            up=a.u_peak != inf, load=load != 0, phi1=z.phi == 1.0, table2=len(table) == 2,
+            table=len(table) not in (0, 2))
+        self._loops: dict[tuple[bool, ...], Any] = {}
+        a._warn_lim = warn
+        a._in_pos = gn.in_position / 16
+        a._fixed = False
+
+    def run(self, due: int) -> None:
+        """The servo cycles due by the scan's time (the cycle count `due`). (The device's
+        update runs the common case itself, a closed loop moving: no fixed point.)"""
+        a = self.a
+        n = due - a.k
+        if n <= 0:
+            return
+        if a._fixed:
+            n = self._repeat(n)  # (a creep may end within the scan: the rest computed)
+        elif not a.closed and self._at_rest_open():
+            n, a.k = 0, due  # killed and stuck: nothing moves, nothing to record
+        elif a.v == 0.0 and self._fixed_candidate():
+            # (with FE != 0 and no clamp the integrator moves: a creep, not a fixed point)
+            if a.fe == 0.0 or a._clamped:
+                n = self._probe_fixed(n)
+            else:
+                a._creep = self._creep_ticks()
+                a._fixed = a._creep > 0
+            if a._fixed:
+                n = self._repeat(n)
+        while n > 0:
+            n = self.cycles(n)
+        if a._rec is not None and len(a.trace) >= a._trim_at:
+            self.trim()
+
+    def trim(self) -> None:
+        """Keep the trace's last trace_max rows (called once it holds twice that)."""
+        a = self.a
+        rec = a.trace
+        cut = len(rec) - a.opt.trace_max
+        del rec[:cut]
+        a._trace_dropped += cut
+
+    def _at_rest_open(self) -> bool:
+        """Loop open, carriage still and held by friction against the drive's offset and
+        the load: the cycles would change nothing."""
+        a = self.a
+        if a.closed or a.open_loop or a.v != 0.0 or a.fault != "none":
+            return False
+        p = a.opt.plant
+        w = (p.amp_offset if a.amp_ready() else 0.0) - p.load - a.disturbance
+        return not p.load_table and abs(w) <= p.coulomb and a._lm < a.x < a._lp
+
+    # -- the fixed point ----------------------------------------------------------------------
+    # A servo cycle maps the loop state L = (x, v, CP, CP', CV', AP', IE, clamped, u) to the
+    # next one; with the loop closed, no trajectory left (CP constant), no tail velocity, the
+    # drive ready, no fault, no homing search and the carriage inside the limits, the map
+    # depends on nothing else (not on the cycle number). So if one cycle leaves L bit for bit
+    # as it was, every later cycle does too and computes the same u, w, FE: the cycles can
+    # be skipped, their trace rows written in one go, until a command, a fault, the drive's
+    # READY, the moving mass, the load or an I-variable changes (Motion.commands, set_fault,
+    # build clear the flag). The test is on the packed bytes (-0.0 and 0.0 differ), so it is
+    # exact, not approximate. `_fixed` with `_creep` > 0: a creep (below) for that many
+    # cycles.
+    _PACK = struct.Struct("<9d").pack
+
+    def _loop_state(self) -> bytes:
+        a = self.a
+        return self._PACK(a.x, a.v, a._cp, a._cpp, a._cvp, a._app, a._ie, a._clamped, a.u)
+
+    def _fixed_candidate(self) -> bool:
+        """The conditions under which the cycle map is the same for every cycle."""
+        a = self.a
+        return (a.closed and not a.open_loop and not a._tail_v
+                and a.k + 1 - a._k0 >= len(a._traj) and a.homing != 1
+                and a._ready and a.fault == "none" and a._lo < a.x < a._hi)
+
+    def _probe_fixed(self, n: int) -> int:
+        """Run one of the n due cycles; note a fixed point. Returns the cycles left."""
+        before = self._loop_state()
+        left = self.cycles(1)
+        a = self.a
+        a._fixed, a._creep = self._fixed_candidate() and self._loop_state() == before, 0
+        return n - 1 + left
+
+    def _repeat(self, n: int) -> int:
+        """n cycles at the fixed point (only the cycle count and the records move on), or
+        up to n of a creep's (the integrator moves too). Returns the cycles left."""
+        a = self.a
+        k = a.k
+        o = a.origin
+        if a._creep:
+            n, left = min(n, a._creep), n - min(n, a._creep)
+            ie, fe = a._ie, a.fe
+            for _ in range(n):  # the loop's own additions, in its order: bit for bit
+                ie += fe
+            a._ie = ie
+            a._creep -= n
+            a._fixed = a._creep > 0
+            c = self._values  # the drive's command over the last period: the held output's
+            a.w = max(c["nup"], min(c["up"], a.u + c["uoff"]))
+        else:
+            left = 0
+        if a._rec is not None:
+            a.trace.extend(zip(range(k + 1, k + n + 1), repeat(a._cp - o),
+                               repeat(a._app - o), repeat(a.u), strict=False))
+        if a.gather is not None:
+            a.gather.extend(zip(range(k + 1, k + n + 1), repeat(a._cp - o),
+                                repeat(a._app - o), repeat(a.u),
+                                repeat(self._values["cie"] * a._ie), strict=False))
+        a.k = k + n
+        return left
+
+    # A creep: at rest with FE != 0 (the carriage stuck by friction a few counts off), each
+    # cycle adds FE to the integrator and changes nothing else while the output stays in
+    # its 12-bit DAC step: hundreds of cycles at a time at the servo table's Ki. Then the
+    # cycles can be skipped but for that addition, until the step's edge comes near.
+    def _creep_ticks(self) -> int:
+        """Cycles that are certainly a creep from now (0: none). Called at rest (v = 0)
+        under `_fixed_candidate`."""
+        a = self.a
+        fe, q = a.fe, a._dac_q
+        if (a._clamped or not q or a.gather is not None or a._cp != a._cpp
+                or a._cvp != 0.0 or a.opt.plant.load_table):
+            return 0
+        c = self._values
+        if abs(fe) > c["check"]:
+            return 0
+        w = a.u + c["uoff"]  # the drive's command the output gives, then stiction?
+        w = max(-c["up"], min(c["up"], w)) - c["load"]
+        if not -c["fc"] <= w <= c["fc"]:
+            return 0
+        # the law's output as the loop computes it (CV = CA = AV = 0), in the DAC step of u
+        u = c["cfe"] * fe + c["ccv"] * 0.0 + c["cca"] * 0.0 + c["cie"] * a._ie \
+            - c["cav"] * 0 + c["off"]
+        lo = q * math.floor(u / q)
+        if lo != a.u or not -c["lim"] <= lo < lo + q <= c["lim"]:
+            return 0
+        d = c["cie"] * fe  # the output's change per cycle
+        if d == 0.0:
+            return 0
+        m = math.floor((lo + q - u) / d if d > 0 else (u - lo) / -d) - 2  # (2: a margin)
+        if c["ilim"] != math.inf:
+            m = min(m, math.floor((c["ilim"] - abs(a._ie)) / abs(fe)) - 2)
+        return max(m, 0)
+    def cycles(self, n: int, capture: bool = False) -> int:
+        """Run up to n loop cycles; returns how many are left when an event interrupts.
+        `capture`: also keep the last cycle's CA and AV (`_ca`, `_av`; IVarTable.apply)."""
+        a = self.a
+        closed, open_loop = a.closed, a.open_loop
+        ready = a._ready
+        key = (closed, open_loop, a.homing == 1, ready, a.fault != "none", capture)
+        fn = self._loops.get(key)
+        if fn is None:
+            flags = dict(self._flags, closed=closed, open_loop=open_loop,
+                         killed=not (closed or open_loop), search=key[2],
+                         special=not ready or key[4], ready=ready, capture=capture)
+            fn = self._loops[key] = loop.compile_cycles(
+                loop.render(self._values, flags), _interp, step)
+        return fn(a, n)
+
+    def on_event(self, event: Any) -> None:
+        """What interrupted the cycles (called by the loop with its state written back)."""
+        a = self.a
+        if event == "fatal":
+            x = a.x
+            a.motion.kill(Err.LIMIT if x >= a._lp or x <= a._lm else Err.FATAL_FE)
+        elif event == "open loop end":  # output 0: the carriage coasts to a stop
+            a._ol_u = 0.0
+            a._ol_end = 0
+            a._coast = True
+        else:
+            a.motion.home_trigger(event[1])
+
+    def special(self, x: float, v: float, w: float) -> tuple[float, float]:
+        """The drive's and the mechanics' exceptional states, one cycle."""
+        a = self.a
+        p = a.opt.plant
+        if a.fault == "jammed":
+            return x, 0.0
+        brake = a.u_peak if math.isfinite(a.u_peak) else 32767.0
+        if a.estop_active():  # the drive brakes at its current limit, then lets go
+            w = -brake if v > 0 else (brake if v < 0 else 0.0)
+            x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
+            return x1, (0.0 if v1 * v <= 0 else v1)
+        if x >= a._lp and w > 0 or x <= a._lm and w < 0:
+            # END switch: no torque further that way; quick stop if still moving that way
+            moving_on = v > 0 if x >= a._lp else v < 0
+            w = (-brake if v > 0 else brake) if moving_on else 0.0
+        x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
+        if x1 > a._hp:
+            return a._hp, 0.0
+        if x1 < a._hm:
+            return a._hm, 0.0
+        return x1, v1
+
+
+def _interp(table: list[tuple[float, float]], x: float) -> float:
+    """Piecewise-linear load at x, constant beyond the table's ends."""
+    if x <= table[0][0]:
+        return table[0][1]
+    for (x0, y0), (x1, y1) in zip(table, table[1:], strict=False):
+        if x <= x1:
+            return y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+    return table[-1][1]
