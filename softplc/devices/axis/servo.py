@@ -60,7 +60,7 @@ class ServoAxis(AxisDevice):
              "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
              "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped", "_traj", "_active",
              "_k0", "_tail_v", "_ctl_prev", "_vel", "_x_prev_scan", "_ready", "_mass_f",
-             "load_mass_ratio", "_fixed")
+             "load_mass_ratio", "_fixed", "gains")
 
     def __init__(self, name: str, options: ServoAxisOptions):
         super().__init__(name, options)
@@ -71,10 +71,8 @@ class ServoAxis(AxisDevice):
         self.T = 1.0 / self.loop_hz
         p = o.plant
         self.load_mass_ratio = p.load_mass_ratio
-        self.coef = Coefficients.of(self.gains)
         self._dac_q = 2.0 ** (16 - p.dac_bits) if p.dac_bits else 0.0
         self.u_peak = p.u_peak or math.inf
-        self._in_pos = self.gains.in_position / 16
         self._cur_scale = 100 / p.u_peak if p.u_peak else 1.0  # CURRENT: % of the limit
         self._lp = g.limit_plus if g.limit_plus is not None else math.inf
         self._lm = g.limit_minus if g.limit_minus is not None else -math.inf
@@ -112,7 +110,7 @@ class ServoAxis(AxisDevice):
         self.a = p.a / (1 + self.load_mass_ratio)
         self.zoh = ZOH.of(self.a, self.T)
         gn = self.gains
-        c = self.coef
+        c = self.coef = Coefficients.of(gn)
         inf = math.inf
         table = p.load_table
         # Everything the servo loop reads but never changes: literals of its generated code
@@ -140,7 +138,7 @@ class ServoAxis(AxisDevice):
             dac=bool(self._dac_q), trace=self._rec is not None, up=self.u_peak != inf,
             load=p.load != 0, table2=len(table) == 2, table=len(table) not in (0, 2))
         self._loops: dict[tuple[bool, ...], Any] = {}
-        self._warn_lim = warn
+        self._warn_lim, self._in_pos = warn, gn.in_position / 16
         self._fixed = False
 
     def set_load_mass_ratio(self, ratio: float) -> None:
@@ -153,6 +151,11 @@ class ServoAxis(AxisDevice):
         if ratio != self.load_mass_ratio:
             self.load_mass_ratio = ratio
             self._build_consts()
+
+    def set_gains(self, gains: Any) -> None:
+        """New I-variables (a validated `law.Gains`, same Ixx60) from the next cycle."""
+        self.gains = gains
+        self._build_consts()
 
     # -- contract --------------------------------------------------------------------------
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
@@ -657,10 +660,10 @@ class ServoAxis(AxisDevice):
         return st
 
     def set_state(self, st: dict[str, Any]) -> None:
-        ratio = self.load_mass_ratio
+        ratio, gains = self.load_mass_ratio, self.gains
         fixed = st["_fixed"]
         super().set_state(st)
-        if self.load_mass_ratio != ratio:
+        if self.load_mass_ratio != ratio or self.gains is not gains:
             self._build_consts()
             self._fixed = fixed
         keep = st["trace"] - self._trace_dropped
