@@ -86,6 +86,7 @@ def test_softkey_enable_logic(tmp_path):
 
 def test_full_sequence_applies_the_row_at_standstill(tmp_path):
     p = plc_for(tmp_path)
+    kp0 = p.devices["X"].gains.kp
     assert p["%MF300"] == 1.0  # ACC_LIMIT at power-up (%KF16)
     press(p)
     press(p)  # a second press while running is ignored
@@ -100,6 +101,9 @@ def test_full_sequence_applies_the_row_at_standstill(tmp_path):
     assert p["%MW496"] == 2 and p["%MW498"] == 1
     assert [p[f"%MF{500 + 2 * i}"] for i in range(22)] == [3650.0 + i for i in range(22)]
     assert p["%MW218"] & 4  # applied while in position
+    # the drive retuned the axis from MP2500 (the template's 3350 = the configured gains)
+    assert p["%MW499"] == 1 and p["%MW497"] == 0
+    assert p.devices["X"].gains.kp == pytest.approx(kp0 * 3650 / 3350)
     # a second run, the host now answers row 1
     press(p)
     run_to(p, REQUEST_WAIT)
@@ -107,6 +111,7 @@ def test_full_sequence_applies_the_row_at_standstill(tmp_path):
     answer(p, row=1, mps=3550.0)
     run_to(p, IDLE, 2.0)
     assert p["%MW496"] == 1 and p["%MF500"] == 3550.0 and p["%MW498"] == 2
+    assert p["%MW499"] == 2 and p.devices["X"].gains.kp == pytest.approx(kp0 * 3550 / 3350)
 
 
 def test_host_refusal_and_timeout_leave_the_parameters(tmp_path):
@@ -116,6 +121,7 @@ def test_host_refusal_and_timeout_leave_the_parameters(tmp_path):
     answer(p, status=5)  # u/m > Acc_uncert: the MP words are not written
     run_to(p, FAULT, 1.0)
     assert p["%MW470"] == 3 and p["%MW498"] == 0 and p["%MF500"] == 0.0
+    assert p["%MW499"] == 0  # the drive's gains untouched
     assert p["%MF300"] == 1.0
     blink = set()
     for _ in range(30):

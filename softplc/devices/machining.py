@@ -164,3 +164,83 @@ class MachiningCentre:
         if not self.rig.run_until(lambda: d.applied != before or d.error, 10) or d.error:
             raise ConfigError("the drive did not apply the parameters (error "
                               f"{d.error})")
+
+
+@dataclass(frozen=True)
+class LoadRetune:
+    """One load of `compare_loads`: the estimates, the row applied, the FE before/after."""
+
+    load: float  # kg, the simulated moving mass
+    mass: float  # kg, estimated on the closed-loop axis (before the retune)
+    uncertainty: float
+    row: int
+    kp_scale: float  # Ixx30 after / before
+    before: MoveFE
+    after: MoveFE
+    mass_retuned: float  # kg, estimated again after the retune
+    mass_ideal: float  # kg, estimated on the ideal feed axis (no loop)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"load_kg": self.load, "estimate_kg": self.mass, "uncertainty_kg":
+                self.uncertainty, "row": self.row, "kp_scale": self.kp_scale,
+                "fe_peak_before_um": self.before.peak, "fe_peak_after_um": self.after.peak,
+                "fe_rms_before_um": self.before.rms, "fe_rms_after_um": self.after.rms,
+                "estimate_after_retune_kg": self.mass_retuned,
+                "estimate_ideal_axis_kg": self.mass_ideal}
+
+
+def compare_loads(loads: list[float], directory: Path, *, table: str = "machine",
+                  geometry: str = "settings", noise: bool = True) -> list[LoadRetune]:
+    """Per load: the measurement move's FE with the commissioned gains; the macro's
+    recordings, the estimate and the table row; the drive's retune; the same move's FE
+    again; and the estimate of the same runs on the retuned and on the ideal axis."""
+    from ..massest.mpfile import MPFile
+    from ..massest.params import default_template
+    from ..massest.recording import read_recording
+    from ..massest.retune import settings_with_table
+    from ..massest.synth import macro_scenario, macro_settings
+    from ..massest.tuning import CAL_FILE, GEOMETRIES, MEAS_FILE, tune
+
+    if geometry not in GEOMETRIES:
+        raise ConfigError(f"geometry {geometry!r}: expected one of {', '.join(GEOMETRIES)}")
+    macro = geometry == "macro"
+    sc = macro_scenario() if macro else Scenario()
+    settings = settings_with_table(macro_settings() if macro else None, table)
+    template = MPFile(default_template(settings.table.axis))
+
+    def estimate(mc: MachiningCentre, d: Path) -> Any:
+        mc.record(sc)
+        return tune(settings, read_recording(d / CAL_FILE), read_recording(d / MEAS_FILE),
+                    template, None)
+
+    out = []
+    for load in loads:
+        d = Path(directory) / f"{load:g}kg"
+        mc = MachiningCentre(d, load, ratio=settings.ratio, noise=noise)
+        kp0 = mc.axis.gains.kp
+        before = mc.fe_of_move(sc.measurement)
+        res = estimate(mc, d)
+        mc.apply(res.mp_values())
+        after = mc.fe_of_move(sc.measurement)
+        again = estimate(mc, d).estimate.mass
+        ideal = MachiningCentre(d / "ideal", load, ratio=settings.ratio, noise=noise,
+                                ideal=True)
+        out.append(LoadRetune(load, res.estimate.mass, res.estimate.uncertainty,
+                              res.row.number, mc.axis.gains.kp / kp0, before, after, again,
+                              estimate(ideal, d / "ideal").estimate.mass))
+    return out
+
+
+def markdown_table(results: list[LoadRetune]) -> str:
+    """The README's table of `softplc tune --compare`."""
+    rows = ["| load kg | estimate kg (closed loop) | row | Ixx30 x | peak FE before µm "
+            "| after µm | RMS FE before µm | after µm | estimate, retuned kg | ideal axis kg |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        def pct(m: float, r: LoadRetune = r) -> str:
+            return f"{m:.1f} ({(m / r.load - 1):+.3%})"
+        rows.append(f"| {r.load:g} | {pct(r.mass)} ± {r.uncertainty:.1f} | {r.row} "
+                    f"| {r.kp_scale:.3f} | {r.before.peak:.2f} | {r.after.peak:.2f} "
+                    f"({r.after.peak / r.before.peak - 1:+.0%}) | {r.before.rms:.2f} "
+                    f"| {r.after.rms:.2f} | {pct(r.mass_retuned)} | {pct(r.mass_ideal)} |")
+    return "\n".join(rows)

@@ -72,6 +72,12 @@ def plot_estimate(est: Estimate, a_lim: float, out: str | Path, title: str = "")
         ax.grid(alpha=0.3)
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.suptitle(title or f"m = {est.mass:.1f} ± {est.uncertainty:.1f} kg")
+    return _save(fig, out)
+
+
+def _save(fig, out: str | Path) -> Path:
+    import matplotlib.pyplot as plt
+
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
@@ -86,3 +92,28 @@ def _fit_lines(ax, t: np.ndarray, A: slice, B: slice, corner: float, k: float,
     tb = np.array([corner, t[B][-1]])
     ax.plot(ta, k * ta + b[0], color=colour, lw=1.4, label=label)
     ax.plot(tb, -k * tb + b[1], color=colour, lw=1.4)
+
+
+def plot_following_error(panels: list[tuple[str, list[tuple[str, np.ndarray, np.ndarray]]]],
+                         out: str | Path, title: str = "") -> Path:
+    """One panel per load: following error (µm) over time (s) of the same move, one line
+    per gain set; `panels` = [(panel title, [(label, t, fe), ...]), ...]."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 2.8 * len(panels)),
+                             constrained_layout=True, squeeze=False)
+    for ax, (name, lines) in zip(axes[:, 0], panels, strict=True):
+        for (label, t, fe), style in zip(lines, ("--", "-", ":"), strict=False):
+            ax.plot(t, fe, style, lw=1.1, label=label)
+        ax.axhline(0.0, lw=0.5, color="0.5")
+        ax.set_title(name, fontsize=10)
+        ax.set_ylabel("following error [µm]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    axes[-1, 0].set_xlabel("time from the move's start [s]")
+    if title:
+        fig.suptitle(title)
+    return _save(fig, out)

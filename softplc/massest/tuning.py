@@ -85,11 +85,14 @@ GEOMETRIES = ("settings", "macro")  # the thesis's settings file / its NC macro 
 
 
 def write_example(directory: str | Path, mass: float = 22699.0, seed: int = 0,
-                  noise: bool = True, geometry: str = "settings") -> dict[str, Path]:
+                  noise: bool = True, geometry: str = "settings",
+                  table: str = "thesis") -> dict[str, Path]:
     """Settings (thesis Fig. 3-1 + table), template, and seeded synthetic recordings of an
     axis of the given mass: a complete input set for `softplc tune`. `geometry` "macro"
     uses the NC macro's 100 mm triangle moves at 0.4 m/s² instead of the settings file's
-    300 mm at 0.22 m/s²."""
+    300 mm at 0.22 m/s²; `table` "machine" the simulated machine's parameter table
+    (`retune.machine_table_text`) instead of the thesis's."""
+    from .retune import settings_with_table
     from .synth import Scenario, macro_scenario, macro_settings, recordings
 
     if geometry not in GEOMETRIES:
@@ -102,7 +105,7 @@ def write_example(directory: str | Path, mass: float = 22699.0, seed: int = 0,
     cal, meas = recordings(sc if noise else sc.without_noise())
     paths = {"settings": d / SETTINGS_FILE, "template": d / TEMPLATE_FILE,
              "calibration": d / CAL_FILE, "measurement": d / MEAS_FILE}
-    settings: Settings = macro_settings() if macro else thesis_settings()
+    settings = settings_with_table(macro_settings() if macro else thesis_settings(), table)
     write_atomic(paths["settings"], format_settings(settings).encode())
     write_atomic(paths["template"], default_template(settings.table.axis))
     write_recording(cal, paths["calibration"])
