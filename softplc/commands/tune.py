@@ -64,6 +64,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     o.add_argument("--plot", metavar="OUT.png|OUT.svg",
                    help="figures of the intervals, fitted lines and current jumps")
     o.add_argument("--json", action="store_true", help="print the result as JSON")
+    o.add_argument("--report", metavar="OUT.png|OUT.svg",
+                   help="one report: fit, residuals, chosen row and the parameter "
+                        "changes against the template; its data in OUT.json")
     m = p.add_argument_group(
         "online mode: answer the PLC's requests over Modbus TCP (%MW401 EST_REQ, result "
         "words %MW402-%MW463)")
@@ -135,6 +138,12 @@ def run(args: argparse.Namespace) -> int:
             raise
         if args.plot:  # each run (online: each request) redraws the figures
             plot(res.estimate)
+        if args.report:
+            from ..massest.report import write_report
+            from ..massest.settings import read_settings
+
+            paths = write_report(res, read_settings(settings).a_lim_si, args.report)
+            print(f"report written to {paths[0]} and {paths[1]}", file=sys.stderr)
         return res
 
     if args.port is not None:
