@@ -93,17 +93,19 @@ class DriveTuning(Device):
         self.pending: tuple[float, ...] = ()  # a set waiting for standstill
         self.applied = 0
         self.error = 0
+        if self._mw is not None:
+            self._write_status()
 
     def update(self, t: float, dt: float) -> None:
         mw = self._mw
         trig = mw.w[self.trigger_at]
-        if trig != self.seen:
+        if trig != self.seen:  # (the common case is one word compared per scan)
             self.seen = trig
             self.pending = tuple(mw.get_f(self.mps_at + 2 * i) for i in range(len(MP_NAMES)))
         if self.pending and self._at_rest():
             self.apply(self.pending)
             self.pending = ()
-        self._write_status()
+            self._write_status()
 
     def _at_rest(self) -> bool:
         ax = self.axis
