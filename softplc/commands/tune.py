@@ -26,7 +26,7 @@ examples:
   softplc tune --example demo                      # write sample inputs (22699 kg axis)
   softplc tune --dir demo --plot demo/fit.png      # estimate, write demo/MPSet.H, plot
   softplc tune --dir demo --port 5020 --once      # answer the PLC's request (%MW401)
-  softplc tune --compare fe.png --loads 18000 22699  # FE before/after the retune
+  softplc tune --compare fe.png --loads 18000 22699  # FE before/after retune
   softplc tune --settings s.txt --calibration IMCal_.dta --measurement IMMea_.dta \\
                --template MPSetTemp.H --output MPSet.H
 """
