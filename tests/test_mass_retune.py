@@ -146,3 +146,20 @@ def test_compare_refuses_bad_input(tmp_path, capsys):
     assert "mass" in capsys.readouterr().err
     with pytest.raises(ConfigError, match="cannot read"):
         MachiningCentre(tmp_path, 1000.0, config=Path(tmp_path / "none.toml"))
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"reference": {"MP2500": 0.0, "MP2510": 43.5}}, "MP2500 must be given"),
+    ({"reference": {"MP9999": 1.0}}, "unknown parameter 'MP9999'"),
+    ({"axis": "scope"}, "not a servo_axis"),
+    ({"mps": "%MW500"}, "expected a %MF address"),
+])
+def test_drive_configuration_errors(tmp_path, change, message):
+    from softplc.devices.axis.rig import Rig, load_axes
+    from softplc.devices.machining import MACHINE_TOML
+
+    cfg = load_axes(MACHINE_TOML)
+    cfg["scope"]["directory"] = str(tmp_path)
+    cfg["drive"].update(change)
+    with pytest.raises(ConfigError, match=message):
+        Rig(cfg)

@@ -24,7 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from ..address import parse_address
 from ..errors import AddressError, ConfigError
 from ..massest.params import MP_NAMES
-from ..massest.retune import REFERENCE, mp_dict, retuned
+from ..massest.retune import DRIVE_MPS, REFERENCE, mp_dict, retuned
 from ..runtime.memory import MemoryImage
 from .axis.options import St
 from .axis.servo import ServoAxis
@@ -57,6 +57,9 @@ class DriveTuning(Device):
         unknown = sorted(set(options.reference) - set(MP_NAMES))
         if unknown:
             raise ConfigError(f"{self.where('reference')}: unknown parameter {unknown[0]!r}")
+        for mp in DRIVE_MPS:
+            if not options.reference.get(mp, 0.0) > 0:
+                raise ConfigError(f"{self.where('reference')}: {mp} must be given, > 0")
         self.axis: ServoAxis | None = None
         self.commissioned: Any = None  # the axis's configured I-variables
         self._mw: Any = None
