@@ -177,3 +177,21 @@ def test_two_runs_write_identical_files(tmp_path):
         run_to(p, REQUEST_WAIT)
         files.append([(d / f).read_bytes() for f in ("IMCal_.dta", "IMMea_.dta")])
     assert files[0] == files[1]
+
+
+def test_the_program_runs_the_ideal_feed_axis_too(tmp_path):
+    """`type = "feed_axis"` in place of the servo axis, nothing else changed: the same
+    sequence, no following error, the row applied to it."""
+    cfg = fast_config(tmp_path)
+    cfg["devices"]["X"]["type"] = "feed_axis"
+    p = PLC.from_file(IL, cfg)
+    p.scan(3)
+    p["%M205"] = 1
+    p.scan(2)
+    press(p)
+    run_to(p, REQUEST_WAIT)
+    assert p["%MW470"] == 0 and p["%MF216"] == 0.0  # FE_MAX of the last move: none
+    answer(p, row=2)
+    run_to(p, IDLE, 2.0)
+    assert p["%MW498"] == 1 and p["%MW499"] == 1 and p.devices["X"].type_name == "feed_axis"
+    assert (tmp_path / "IMMea_.dta").exists()
