@@ -77,7 +77,7 @@ def test_rotary_axis_in_degrees_and_rpm_with_a_current_channel(tmp_path, capsys)
                             tmp_path / "IMMea_.csv", tmp_path / "MPSetTemp.H", None)
     assert res.estimate.measurement.rotary
     assert res.estimate.mass == pytest.approx(12.0, rel=5e-4)  # kg·m² at the table
-    assert "kg·m²" in res.summary()
+    assert "kg·m²" in res.summary() and "rad/s²" in res.summary() and "A/rad" in res.summary()
     # the position-dependent torque needs the calibration here too
     nocal = tuning.tune_files(tmp_path / "settings.txt", None, tmp_path / "IMMea_.csv",
                               tmp_path / "MPSetTemp.H", None)

@@ -39,11 +39,11 @@ class TuneResult:
 
     def summary(self) -> str:
         e = self.estimate
-        kg = unit(e)
+        kg, x = unit(e), "rad" if e.measurement.rotary else "m"
         lines = [f"mass m = {e.mass:.2f} ± {e.uncertainty:.2f} {kg} "
-                 f"(u/m = {e.relative_uncertainty:.3%}), fitted a = {e.acceleration:.5f} m/s²",
+                 f"(u/m = {e.relative_uncertainty:.3%}), fitted a = {e.acceleration:.5f} {x}/s²",
                  f"pair masses {e.pairs[0].mass:.2f} {kg}, {e.pairs[1].mass:.2f} {kg}; "
-                 + (f"calibration I = {e.beta[0]:.6f} A/m x + {e.beta[1]:.6f} A"
+                 + (f"calibration I = {e.beta[0]:.6f} A/{x} x + {e.beta[1]:.6f} A"
                     if e.calibration is not None else "no calibration"),
                  f"table row {self.row.number} (inert >= {self.row.inert:g} {kg}), axis "
                  f"Q0 = {self.values[0]:g}: "
