@@ -16,15 +16,21 @@ from softplc import PLC
 from softplc.devices import DEVICE_TYPES, Device
 
 ROOT = Path(__file__).resolve().parents[1] / "ladder_programs"
-MACHINES = ("drawing_table", "cutting_table", "mass_tuning", "analog_thermostat", "fast_counter")
+MACHINES = ("drawing_table", "cutting_table", "mass_tuning", "analog_thermostat", "fast_counter",
+            "mass_tuning_ideal")
+IDEAL = "_ideal"  # a shipped machine with its servo axes made ideal feed axes
 SCOPE_START, SCOPE_STOP = 1, 2  # devices/scope.py SW.START, SW.STOP
 
 
 def machine(name: str, tmp: Path) -> PLC:
     """A shipped machine, writing no files outside `tmp`; the thermostat also gets an
     analog source (no shipped machine has one) on the base potentiometer."""
+    ideal = name.endswith(IDEAL)
+    name = name.removesuffix(IDEAL)
     cfg: dict[str, Any] = tomllib.loads((ROOT / f"{name}.toml").read_text(encoding="utf-8"))
     for dev in cfg["devices"].values():
+        if ideal and dev["type"] == "servo_axis":
+            dev["type"] = "feed_axis"
         if dev["type"] == "scope":
             dev["directory"] = str(tmp)
         if dev["type"] == "trace":

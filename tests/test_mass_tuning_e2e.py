@@ -27,6 +27,7 @@ TOML = ROOT / "ladder_programs" / "mass_tuning.toml"
 MACRO = {"%KD0": -30000, "%KD2": 130000, "%KD4": 0, "%KD6": 100000, "%KD8": 0,
          "%KF14": 0.4}
 SOFTKEY, AUTO, LOAD_WORD, ACTIVE_MPS, STATE = 200, 205, 290, 500, 400
+RETUNED = 497  # the drive: %MW497 error, %MW499 sets applied to the axis
 M0, CONFIGURED = 15000.0, 0.5132667  # mass_tuning.toml: table mass, workpiece ratio
 
 
@@ -82,6 +83,8 @@ def test_softkey_estimate_apply_row_2_then_row_1(tmp_path, capsys):
             assert mass == pytest.approx(22699.0, rel=0.01)
             assert h.read_words(handshake.W_ROW, 1) == [2] and h.read_words(496, 1) == [2]
             assert h.read_float(ACTIVE_MPS) == 3650.0  # MP2500 of row 2
+            # the drive retuned the axis: no error, applied by the PLC once, by the drive once
+            assert h.read_words(RETUNED, 3) == [0, 1, 1]
             assert h.read_float(300) == 1.0  # ACC_LIMIT restored
         first = (tmp_path / tuning.MEAS_FILE).read_bytes()
         assert MPFile.read(tmp_path / tuning.OUTPUT_FILE).values()[1] == 3650.0
@@ -93,6 +96,7 @@ def test_softkey_estimate_apply_row_2_then_row_1(tmp_path, capsys):
             wait_idle(h, 2)
             assert h.read_float(handshake.F_MASS) == pytest.approx(18000.0, rel=0.01)
             assert h.read_words(496, 1) == [1] and h.read_float(ACTIVE_MPS) == 3550.0
+            assert h.read_words(RETUNED, 3) == [0, 2, 2]
         assert (tmp_path / tuning.MEAS_FILE).read_bytes() != first
         err = capsys.readouterr().err
         assert "request 1: status 0" in err and "request 2: status 0" in err

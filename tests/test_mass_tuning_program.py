@@ -86,6 +86,7 @@ def test_softkey_enable_logic(tmp_path):
 
 def test_full_sequence_applies_the_row_at_standstill(tmp_path):
     p = plc_for(tmp_path)
+    kp0 = p.devices["X"].gains.kp
     assert p["%MF300"] == 1.0  # ACC_LIMIT at power-up (%KF16)
     press(p)
     press(p)  # a second press while running is ignored
@@ -100,6 +101,9 @@ def test_full_sequence_applies_the_row_at_standstill(tmp_path):
     assert p["%MW496"] == 2 and p["%MW498"] == 1
     assert [p[f"%MF{500 + 2 * i}"] for i in range(22)] == [3650.0 + i for i in range(22)]
     assert p["%MW218"] & 4  # applied while in position
+    # the drive retuned the axis from MP2500 (the template's 3350 = the configured gains)
+    assert p["%MW499"] == 1 and p["%MW497"] == 0
+    assert p.devices["X"].gains.kp == pytest.approx(kp0 * 3650 / 3350)
     # a second run, the host now answers row 1
     press(p)
     run_to(p, REQUEST_WAIT)
@@ -107,6 +111,7 @@ def test_full_sequence_applies_the_row_at_standstill(tmp_path):
     answer(p, row=1, mps=3550.0)
     run_to(p, IDLE, 2.0)
     assert p["%MW496"] == 1 and p["%MF500"] == 3550.0 and p["%MW498"] == 2
+    assert p["%MW499"] == 2 and p.devices["X"].gains.kp == pytest.approx(kp0 * 3550 / 3350)
 
 
 def test_host_refusal_and_timeout_leave_the_parameters(tmp_path):
@@ -116,6 +121,7 @@ def test_host_refusal_and_timeout_leave_the_parameters(tmp_path):
     answer(p, status=5)  # u/m > Acc_uncert: the MP words are not written
     run_to(p, FAULT, 1.0)
     assert p["%MW470"] == 3 and p["%MW498"] == 0 and p["%MF500"] == 0.0
+    assert p["%MW499"] == 0  # the drive's gains untouched
     assert p["%MF300"] == 1.0
     blink = set()
     for _ in range(30):
@@ -171,3 +177,21 @@ def test_two_runs_write_identical_files(tmp_path):
         run_to(p, REQUEST_WAIT)
         files.append([(d / f).read_bytes() for f in ("IMCal_.dta", "IMMea_.dta")])
     assert files[0] == files[1]
+
+
+def test_the_program_runs_the_ideal_feed_axis_too(tmp_path):
+    """`type = "feed_axis"` in place of the servo axis, nothing else changed: the same
+    sequence, no following error, the row applied to it."""
+    cfg = fast_config(tmp_path)
+    cfg["devices"]["X"]["type"] = "feed_axis"
+    p = PLC.from_file(IL, cfg)
+    p.scan(3)
+    p["%M205"] = 1
+    p.scan(2)
+    press(p)
+    run_to(p, REQUEST_WAIT)
+    assert p["%MW470"] == 0 and p["%MF216"] == 0.0  # FE_MAX of the last move: none
+    answer(p, row=2)
+    run_to(p, IDLE, 2.0)
+    assert p["%MW498"] == 1 and p["%MW499"] == 1 and p.devices["X"].type_name == "feed_axis"
+    assert (tmp_path / "IMMea_.dta").exists()

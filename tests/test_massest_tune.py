@@ -183,7 +183,7 @@ def test_readme_example_output(tmp_path, monkeypatch, capsys):
     import re
 
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    start = readme.index("## The machining centre: mass estimation")
+    start = readme.index("### The host", readme.index("## The machining centre"))
     cmds = re.compile(r"```sh\n(.*?)```", re.S).search(readme, start)[1]
     shown = re.compile(r"```text\n(.*?)```", re.S).search(readme, start)[1]
     monkeypatch.chdir(tmp_path)

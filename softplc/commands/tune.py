@@ -26,6 +26,7 @@ examples:
   softplc tune --example demo                  # sample inputs (22699 kg axis)
   softplc tune --dir demo --plot demo/fit.png  # estimate, write demo/MPSet.H
   softplc tune --dir demo --port 5020 --once   # answer one request (%MW401)
+  softplc tune --compare fe.png --loads 18000 22699  # FE before/after retune
   softplc tune --settings s.txt --calibration IMCal_.dta \\
                --measurement IMMea_.dta --template MPSetTemp.H --output MPSet.H
 """
@@ -33,6 +34,7 @@ examples:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     from ..massest import tuning
+    from ..massest.retune import TABLES
 
     p = subparsers.add_parser(
         "tune", help="estimate a feed axis's mass from scope recordings; write its parameters",
@@ -62,6 +64,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     o.add_argument("--plot", metavar="OUT.png|OUT.svg",
                    help="figures of the intervals, fitted lines and current jumps")
     o.add_argument("--json", action="store_true", help="print the result as JSON")
+    o.add_argument("--report", metavar="OUT.png|OUT.svg",
+                   help="one report: fit, residuals, chosen row and the parameter "
+                        "changes against the template; its data in OUT.json")
     m = p.add_argument_group(
         "online mode", "answer the PLC's requests over Modbus TCP (%MW401 EST_REQ,\n"
                        "result words %MW402-%MW463)")
@@ -86,15 +91,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument("--geometry", choices=tuning.GEOMETRIES, default="settings",
                    help="sample moves: the settings file's 300 mm at 0.22 m/s² or the NC "
                         "macro's 100 mm triangles at 0.4 m/s² (default %(default)s)")
+    e.add_argument("--table", choices=TABLES,
+                   help="parameter table: the thesis's (Fig. 3-40) or the simulated "
+                        "machine's, one row per 3 t (default: thesis; machine with "
+                        "--compare)")
+    c = p.add_argument_group(
+        "retune comparison on the simulated machine (mass_tuning.toml, no PLC)")
+    c.add_argument("--compare", metavar="OUT.png|OUT.svg",
+                   help="per load: FE of the measurement move, estimate, apply the row, "
+                        "the same move again; plot and table (--table, --geometry, "
+                        "--no-noise apply; default table: machine)")
+    c.add_argument("--loads", type=float, nargs="+", default=[18000.0, 22699.0],
+                   metavar="KG", help="moving masses to compare (default 18000 22699)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..massest import tuning
 
+    if args.compare:
+        return _compare(args)
     if args.example:
         paths = tuning.write_example(args.example, args.mass, args.seed, not args.no_noise,
-                                     args.geometry)
+                                     args.geometry, args.table or "thesis")
         for kind, path in paths.items():
             print(f"{kind:12s} {path}")
         return 0
@@ -121,6 +140,12 @@ def run(args: argparse.Namespace) -> int:
             raise
         if args.plot:  # each run (online: each request) redraws the figures
             plot(res.estimate)
+        if args.report:
+            from ..massest.report import write_report
+            from ..massest.settings import read_settings
+
+            paths = write_report(res, read_settings(settings).a_lim_si, args.report)
+            print(f"report written to {paths[0]} and {paths[1]}", file=sys.stderr)
         return res
 
     if args.port is not None:
@@ -135,6 +160,31 @@ def run(args: argparse.Namespace) -> int:
                           "output": str(res.output) if res.output else None}, indent=2))
     else:
         print(res.summary())
+    return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    import tempfile
+
+    from ..devices.machining import compare_loads, markdown_table
+    from ..massest.plots import plot_following_error
+
+    table = args.table or "machine"
+    with tempfile.TemporaryDirectory() as tmp:
+        res = compare_loads(args.loads, Path(tmp), table=table, geometry=args.geometry,
+                            noise=not args.no_noise)
+    panels = [(f"{r.load:g} kg: estimate {r.mass:.0f} kg -> row {r.row}, Ixx30 x "
+               f"{r.kp_scale:.3f}",
+               [(f"commissioned gains: peak {r.before.peak:.2f} µm", r.before.t, r.before.fe),
+                (f"retuned (row {r.row}): peak {r.after.peak:.2f} µm", r.after.t, r.after.fe)])
+              for r in res]
+    out = plot_following_error(panels, args.compare, "following error of the measurement "
+                               f"move ({args.geometry} geometry, {table} table)")
+    if args.json:
+        print(json.dumps([r.as_dict() for r in res], indent=2))
+    else:
+        print(markdown_table(res))
+    print(f"figure written to {out}", file=sys.stderr)
     return 0
 
 

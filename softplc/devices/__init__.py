@@ -3,7 +3,9 @@
 from . import (  # noqa: F401  (each registers its device type)
     analog_source,
     axis,
+    drive_tuning,
     encoder,
+    feed_axis,
     oven,
     pen,
     scope,

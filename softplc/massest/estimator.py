@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -51,6 +52,7 @@ class Trace:
     a: np.ndarray
     current: np.ndarray
     name: str = ""
+    rotary: bool = False  # rad, rad/s, rad/s²: the "mass" is a moment of inertia, kg·m²
 
 
 def to_trace(rec: Recording, s: Settings) -> Trace:
@@ -227,11 +229,18 @@ def estimate_traces(meas: Trace, cal: Trace | None, s: Settings, *,
     return est
 
 
-def estimate(meas: Recording, cal: Recording | None, s: Settings, *,
-             check_uncertainty: bool = True) -> Estimate:
-    """Estimate the reduced mass from the measurement and calibration recordings."""
-    mt = to_trace(meas, s)
-    ct = to_trace(cal, s) if cal is not None else None
+def as_trace(rec: Any, s: Settings) -> Trace:
+    """A scope recording (checked against the settings) or a CSV one (own units) in SI."""
+    return to_trace(rec, s) if isinstance(rec, Recording) else rec.to_trace(s)
+
+
+def estimate(meas: Any, cal: Any, s: Settings, *, check_uncertainty: bool = True) -> Estimate:
+    """Estimate the reduced mass from the measurement and calibration recordings (each a
+    scope `Recording` or a `csvrec.CsvRecording`; cal None: no calibration)."""
+    mt = as_trace(meas, s)
+    ct = as_trace(cal, s) if cal is not None else None
+    if ct is not None and ct.rotary != mt.rotary:
+        raise ChannelMismatchError(f"{mt.name} and {ct.name}: one is rotary, the other linear")
     _check_range(mt, s)
     return estimate_traces(mt, ct, s, check_uncertainty=check_uncertainty)
 

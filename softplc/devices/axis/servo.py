@@ -54,6 +54,8 @@ class ServoAxis(AxisDevice):
     read and written while running, their word table), `words` (the status words)."""
 
     Options = ServoAxisOptions
+    MOTION: type[Motion] = Motion  # the jobs, replaceable by a variant (devices/feed_axis.py)
+    RUNNER: type[LoopRunner] = LoopRunner
     # Everything a scan changes (Device.state); K, a and the loop constants follow from
     # load_mass_ratio, gains and disturbance and are rebuilt by set_state. The trace is a
     # record: see state().
@@ -100,8 +102,8 @@ class ServoAxis(AxisDevice):
         self._trim_at = 2 * o.trace_max
         # A tuning gather (`start_gather`): (k, CP, AP, output, integrator term) per tick.
         self.gather: list[tuple[int, float, float, float, float]] | None = None
-        self.motion = Motion(self)
-        self.runner = LoopRunner(self)
+        self.motion = self.MOTION(self)
+        self.runner = self.RUNNER(self)
         self.ivars = iv.IVarTable(self)
         self.words = StatusWords(self)
         # (bound once: used every scan)
@@ -145,6 +147,14 @@ class ServoAxis(AxisDevice):
         self.gather = []
         self.runner.build()
         return self.gather
+
+    def set_gains(self, gains: Any) -> None:
+        """A whole new set of I-variables (a validated `law.Gains`, same Ixx60) from the
+        next cycle: the machining centre's retune, made at standstill. A change while
+        moving goes through `ivars.set` (checked, bumpless, at a servo tick)."""
+        self.gains, self.coef = gains, Coefficients.of(gains)
+        self.runner.build()
+        self.ivars.write_words()
 
     # -- contract --------------------------------------------------------------------------
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:

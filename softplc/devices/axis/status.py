@@ -32,9 +32,8 @@ class StatusWords:
     def __init__(self, axis: ServoAxis):
         self.a = axis
 
-    def write(self) -> None:
-        """The status bits (class St), then every status word in one `pack_into` (its 'f'
-        rounds to single precision as the memory image's %MF casts do; native order)."""
+    def bits(self) -> int:
+        """The status bits (class St) of the last servo tick."""
         a = self.a
         busy = a.homing != 0 or bool(a._traj) or a._tail_v != 0.0 or a._coast or a.open_loop
         closed = a.closed
@@ -58,6 +57,14 @@ class StatusWords:
             s |= _LIMIT_PLUS
         elif x <= a._lm:
             s |= _LIMIT_MINUS
+        return s
+
+    def write(self) -> None:
+        """The status bits, then every status word in one `pack_into` (its 'f' rounds to
+        single precision as the memory image's %MF casts do; native order)."""
+        a = self.a
+        s = self.bits()
+        x, closed, err = a.x, a.closed, a.error
         origin = a.origin
         _STATUS_PACK(a._buf, a._status_at,
                      round((x - a._start if a._ideal else floor(x) - a._enc0)
