@@ -4,10 +4,18 @@ independent Modbus server of the client tests)."""
 from __future__ import annotations
 
 import asyncio
+import socket
 import threading
 
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import SimDevice
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now (for a server a test starts itself)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 class PymodbusThread:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import started
-from modbus_util import PymodbusThread
+from modbus_util import PymodbusThread, free_port
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from softplc.errors import ConfigError, ProgramError
@@ -33,12 +33,6 @@ sys.path.insert(0, str(EXAMPLES.parent / "tools"))
 
 import bench_exch  # noqa: E402
 from bench_exch import Dripper  # noqa: E402
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def config(port: int, timeout: str = "300ms", **more) -> dict:

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import io
 import math
-import socket
 from pathlib import Path
 
 import pytest
-from modbus_util import PymodbusThread
+from modbus_util import PymodbusThread, free_port
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from softplc.cli import main
@@ -62,11 +61,6 @@ def client(plc: FakePLC, **kw) -> DrawClient:
     opts.update(kw)
     return DrawClient("127.0.0.1", plc.port, **opts)
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 SQUARE = "G00 X1 Z1 Y0\nY1\nG01 X3\nZ3\nX1\nZ1\nY0\n"
