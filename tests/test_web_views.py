@@ -46,3 +46,66 @@ def test_servo_table_view_follows_homing(browser, tmp_path):
         page.close()
     finally:
         d.kill()
+
+
+def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path):
+    """A square streamed by the host (softplc.cutting.client) at full speed: the view
+    draws what the torch cut (#pen-path) apart from the moves with the torch off."""
+    from softplc.cutting import load_piece
+    from softplc.cutting.client import CutClient
+
+    text = (PROGRAMS / "cutting_table.toml").read_text(encoding="utf-8")
+    text = text.replace("start = 12340000.0", "start = 100000.0") \
+        .replace("start = 5700000.0", "start = 100000.0")  # 1 mm from the switches: short homing
+    machine = tmp_path / "machine.toml"
+    machine.write_text(text, encoding="utf-8")
+    d = Daemon(tmp_path, "--config", str(machine), "--web", "0", "--speed", "max",
+               "--stats-interval", "0", program=PROGRAMS / "cutting_table.il")
+    try:
+        page = open_page(browser, web_url(d))
+        machine_tab(page)
+        sync_api.expect(page.locator("#tool")).to_be_visible()
+        piece = load_piece(PROGRAMS / "pieces" / "cuadrado.toml", speed=10.0, move_speed=10.0)
+        with CutClient("127.0.0.1", d.port, progress=None, poll_interval=0.01) as client:
+            res = client.stream(piece)
+        assert res.done == len(piece.segments())
+        page.wait_for_function(
+            "() => { const p = document.querySelector('#pen-path');"
+            " return p && p.getTotalLength() > 80; }", timeout=20000)
+        box = page.locator("#pen-path").bounding_box()  # the 15 mm square: about 25 px
+        assert 20 < box["width"] < 40 and abs(box["width"] - box["height"]) < 2, box
+        assert page.locator("#travel-path").count() == 1  # homing and the move to the start
+        assert "torch off" in page.locator("#machine-hint").inner_text()  # the cut is over
+        shot(page, "machine-cutting")
+        page.close()
+    finally:
+        d.kill()
+
+
+def test_machining_centre_view_shows_axis_step_and_estimate(browser, tmp_path):
+    d, url, api = start(tmp_path, "mass_tuning", "--speed", "4")
+    try:
+        page = open_page(browser, url)
+        machine_tab(page)
+        step = page.locator("#machine-step")
+        sync_api.expect(step).to_have_text(re.compile(r"^step 0 \(initial\)"))
+        assert "no estimate yet" in page.locator("#machine-estimate").inner_text()
+        api.set("%M205", 1)  # automatic mode from the HMI, then the softkey
+        api.set("%M200", 1)
+        sync_api.expect(step).to_have_text(re.compile(r"^step [12]:"), timeout=5000)
+        # the axis runs to Q26 (-480 mm): the carriage moves left on the travel
+        page.wait_for_function(
+            "() => { const m = /X = (-?[\\d.]+) mm/.exec(document.querySelector("
+            "'#table-view').textContent); return m && +m[1] < -20; }", timeout=20000)
+        # the host's answer, as softplc tune writes it: mass, uncertainty, row, then EST_ACK
+        api.request("write", {"writes": [{"object": "%MF406", "value": 22650.5},
+                                         {"object": "%MF408", "value": 310.0},
+                                         {"object": "%MW404", "value": 3},
+                                         {"object": "%MW402", "value": 1}]})
+        est = page.locator("#machine-estimate")
+        sync_api.expect(est).to_contain_text("22650.5 kg", timeout=5000)
+        assert "± 310.0 kg" in est.inner_text()
+        shot(page, "machine-centre")
+        page.close()
+    finally:
+        d.kill()

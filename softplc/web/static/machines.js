@@ -44,20 +44,25 @@ function machineHistory(mc, m) {
   while (hist.length && hist[0].t < m.time - MACHINE_HISTORY_S) hist.shift();
 }
 
+// "step 3: title", unless the title says which step it is already
+const stepText = (n, title) => (new RegExp(`^step ${n}\\b`, "i").test(title) ? title : `step ${n}: ${title}`);
+
 // the Grafcet's active steps and the mass estimate, beside the drawing
 function showSequence(mc) {
   const box = $("#machine-panel"); box.innerHTML = "";
   if (mc.steps) {
     const act = mc.steps.active;
     box.append(h("h3", {}, "Sequence"), h("p", { id: "machine-step" },
-      act.length ? act.map((n) => `step ${n}: ${mc.steps.titles[n] || ""}`).join("; ") : "no step active"));
+      act.length ? act.map((n) => stepText(n, mc.steps.titles[n] || "")).join("; ") : "no step active"));
   }
   const e = mc.estimate;
   if (e) {
     const rows = [["host requests / answers", `${e.requests} / ${e.answers}`],
-      ["status", e.status === 0 ? "0 (ok)" : String(e.status)], ["estimated mass", mnum(e.mass_kg, 1) + " kg"],
-      ["uncertainty", "± " + mnum(e.uncertainty_kg, 1) + " kg"], ["fitted acceleration", mnum(e.accel, 4) + " m/s²"],
-      ["parameter row", String(e.row)]];
+      ["status", e.status === 0 ? "0 (ok)" : String(e.status)]];
+    if (e.answers > 0 && e.status === 0)  // the result words are the host's last answer
+      rows.push(["estimated mass", mnum(e.mass_kg, 1) + " kg"], ["uncertainty", "± " + mnum(e.uncertainty_kg, 1) + " kg"],
+        ["fitted acceleration", mnum(e.accel, 4) + " m/s²"], ["parameter row", String(e.row)]);
+    else rows.push(["estimated mass", e.answers > 0 ? "refused (status above)" : "no estimate yet"]);
     box.append(h("h3", {}, "Mass estimate"), h("table", { id: "machine-estimate", class: "devices" },
       h("tbody", {}, ...rows.map(([k, v]) => h("tr", {}, h("td", {}, k), h("td", {}, v))))));
   }
