@@ -109,3 +109,80 @@ def test_machining_centre_view_shows_axis_step_and_estimate(browser, tmp_path):
         page.close()
     finally:
         d.kill()
+
+
+# pixels of `colour` (#rrggbb) in the canvas rows [top, top + height) of the plot
+COUNT_COLOUR = """([top, height, colour]) => {
+  const cv = document.querySelector('#trend'), g = cv.getContext('2d');
+  const px = g.getImageData(90, top, cv.width - 90 - 230, height).data;
+  const want = [1, 3, 5].map((i) => parseInt(colour.slice(i, i + 2), 16));
+  let n = 0;
+  for (let i = 0; i < px.length; i += 4)
+    if (Math.abs(px[i] - want[0]) < 8 && Math.abs(px[i + 1] - want[1]) < 8
+        && Math.abs(px[i + 2] - want[2]) < 8) n++;
+  return n;
+}"""
+
+
+def test_trends_give_bits_lanes_and_words_their_own_axes(browser, tmp_path):
+    d, url, api = start(tmp_path, "star_delta")
+    try:
+        page = open_page(browser, url)
+        page.click("#tabs button[data-tab=trends]")
+        page.fill("#trend-add", "%MD100 %MW120 %M100")
+        page.click("#trend-add-btn")
+        for pos, step, bit in ((-500000, 3, 1), (480000, 27, 0), (-500000, 12, 1)):
+            api.request("write", {"writes": [{"object": "%MD100", "value": pos},
+                                             {"object": "%MW120", "value": step},
+                                             {"object": "%M100", "value": bit}]})
+            page.wait_for_timeout(600)
+        layout = page.evaluate("() => state.trend.layout")
+        kinds = {x["object"]: x for x in layout}
+        assert kinds["%M100"]["kind"] == "bit" and kinds["%MD100"]["kind"] == "word"
+        # each word on its own axis, over its own real range
+        assert (kinds["%MD100"]["min"], kinds["%MD100"]["max"]) == (-500000, 480000)
+        assert (kinds["%MW120"]["min"], kinds["%MW120"]["max"]) == (3, 27)
+        for x in layout:  # each trace drew in its own strip or lane, and not flat
+            n = page.evaluate(COUNT_COLOUR, [x["top"], x["height"], x["colour"]])
+            assert n > 100, (x, n)
+        bit = kinds["%M100"]
+        rows = page.evaluate("""([top, h, colour]) => {
+          const g = document.querySelector('#trend').getContext('2d');
+          const want = [1, 3, 5].map((i) => parseInt(colour.slice(i, i + 2), 16));
+          const hit = [];
+          for (let y = top; y < top + h; y++) {
+            const px = g.getImageData(90, y, 780, 1).data;
+            for (let i = 0; i < px.length; i += 4)
+              if (Math.abs(px[i] - want[0]) < 8 && Math.abs(px[i + 1] - want[1]) < 8
+                  && Math.abs(px[i + 2] - want[2]) < 8) { hit.push(y); break; }
+          }
+          return hit; }""", [bit["top"], bit["height"], bit["colour"]])
+        assert max(rows) - min(rows) >= bit["height"] - 14  # steps between 0 and 1
+        shot(page, "trends-lanes")
+        page.close()
+    finally:
+        d.kill()
+
+
+def test_header_says_disconnected_and_reconnects(browser, tmp_path):
+    d, url, _ = start(tmp_path, "star_delta")
+    port = re.search(r":(\d+)/$", url)[1]
+    page = open_page(browser, url)
+    state = page.locator("#state")
+    sync_api.expect(state).to_have_text("RUN")
+    d.stop()  # Ctrl-C: the daemon ends, its websocket closes
+    sync_api.expect(state).to_have_text("DISCONNECTED", timeout=5000)
+    assert "disconnected" in page.locator("body").get_attribute("class")
+    colour = "e => getComputedStyle(e).backgroundColor"
+    assert state.evaluate(colour) == "rgb(90, 101, 112)"  # grey, not RUN's green
+    shot(page, "disconnected")
+    # the daemon comes back on the same port: the page reconnects by itself
+    d2 = Daemon(tmp_path, "--config", str(PROGRAMS / "star_delta.toml"), "--web", port,
+                "--stats-interval", "0", program=PROGRAMS / "star_delta.il")
+    try:
+        sync_api.expect(state).to_have_text("RUN", timeout=10000)
+        assert state.evaluate(colour) != "rgb(90, 101, 112)"
+        assert "disconnected" not in (page.locator("body").get_attribute("class") or "")
+        page.close()
+    finally:
+        d2.kill()

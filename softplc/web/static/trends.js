@@ -61,7 +61,7 @@ function drawTrend() {
   if (cv.height !== H) cv.height = H;
   const W = cv.width, g = cv.getContext("2d");
   g.clearRect(0, 0, W, H); g.font = "12px sans-serif"; g.lineWidth = 1;
-  const data = tr.data, t1 = data.length ? data[data.length - 1].t : 0, t0 = t1 - tr.window;
+  const data = tr.data, t0 = Math.max(0, (data.length ? data[data.length - 1].t : 0) - tr.window);
   const shown = data.filter((d) => d.t >= t0);
   const X = (t) => L + (t - t0) / tr.window * (W - L - R), right = W - R;
   const colour = (o) => COLOURS[objs.indexOf(o) % COLOURS.length];
@@ -78,6 +78,7 @@ function drawTrend() {
     g.fillText("add objects above: words get a strip and an axis each, bits a 0/1 lane", L + 10, T + 30);
   }
   let y = T;
+  tr.layout = [];  // where each trace was drawn: for a reader of the page (and its tests)
   for (const o of words) {  // a strip each, its own axis over its min..max in the window
     const r = trendRange(shown, o);
     let [lo, hi] = r || [0, 1];
@@ -95,6 +96,7 @@ function drawTrend() {
     g.fillStyle = "#66707a";
     g.fillText(r ? `min ${trendLabel(r[0])}` : "no value", right + 34, top + 32);
     if (r) g.fillText(`max ${trendLabel(r[1])}`, right + 34, top + 48);
+    tr.layout.push({ object: o, kind: "word", top, height: STRIP_H, min: r && r[0], max: r && r[1], colour: colour(o) });
     y += STRIP_H + STRIP_GAP;
   }
   for (const o of bits) {  // a lane each: 0 at its foot, 1 near its top
@@ -105,6 +107,7 @@ function drawTrend() {
     g.strokeStyle = colour(o); g.lineWidth = 2; drawSteps(g, shown, o, X, Y); g.lineWidth = 1;
     g.fillStyle = colour(o); g.fillRect(right + 12, top + LANE_H / 2 - 2, 16, 4);
     g.fillStyle = "#1d232a"; g.textAlign = "left"; g.fillText(o + " (bit)", right + 34, top + LANE_H / 2 + 4);
+    tr.layout.push({ object: o, kind: "bit", top, height: LANE_H, colour: colour(o) });
     y += LANE_H;
   }
   if (tr.paused) { g.fillStyle = "#e07b00"; g.textAlign = "left"; g.fillText("paused", L + 6, T + 14); }
