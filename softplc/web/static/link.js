@@ -6,7 +6,7 @@
 // Loaded before app.js; uses its helpers ($, state) only when called.
 "use strict";
 
-const STALE_MS = 3000;  // no update for this long on an open socket: not live either
+const STALE_MS = 4000;  // no update for this long on an open socket: not live either
 const link = { up: false, last: 0, lost: false };
 
 function linkDown(why) {
