@@ -115,9 +115,12 @@ const traceTableView = {
     let down = "", up = "", last = null;
     for (const [, sx, sz, pen] of mc.trace) {
       const p = `${f.X(sx / gx.per).toFixed(1)},${f.Z(sz / gz.per).toFixed(1)}`;
-      if (last) { if (pen && last.pen) down += `L${p}`; else up += `M${last.p}L${p}`; }
+      if (last) {  // a run of moves with the pen up is one subpath: its dashes run on
+        if (pen && last.pen) down += `L${p}`;
+        else up += (last.up ? "" : `M${last.p}`) + `L${p}`;
+      }
       if (pen && !(last && last.pen)) down += `M${p}`;
-      last = { p, pen };
+      last = { p, pen, up: last !== null && !(pen && last.pen) };
     }
     const colour = torch ? "#e65100" : "#1f4fa0";
     svg.innerHTML = f.svg +
