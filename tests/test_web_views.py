@@ -5,6 +5,7 @@ in headless Chromium (the set-up of test_web_browser.py). Screenshots go to out/
 from __future__ import annotations
 
 import re
+import signal
 
 from daemon_util import Daemon
 from test_web_browser import PROGRAMS, browser, open_page, shot, sync_api, web_url
@@ -170,6 +171,13 @@ def test_header_says_disconnected_and_reconnects(browser, tmp_path):
     page = open_page(browser, url)
     state = page.locator("#state")
     sync_api.expect(state).to_have_text("RUN")
+    # a daemon that hangs (SIGSTOP): the socket stays open but nothing comes
+    d.proc.send_signal(signal.SIGSTOP)
+    try:
+        sync_api.expect(state).to_have_text("DISCONNECTED", timeout=8000)
+    finally:
+        d.proc.send_signal(signal.SIGCONT)
+    sync_api.expect(state).to_have_text("RUN", timeout=5000)  # updates again: live
     d.stop()  # Ctrl-C: the daemon ends, its websocket closes
     sync_api.expect(state).to_have_text("DISCONNECTED", timeout=5000)
     assert "disconnected" in page.locator("body").get_attribute("class")
