@@ -17,7 +17,7 @@ E2E = {
     "test_e2e_drawing", "test_exch", "test_first_hour", "test_host_client",
     "test_mass_tuning_daemon", "test_mass_tuning_e2e", "test_modbus", "test_modbus_slots",
     "test_program_contract", "test_runtime_attacks", "test_web_security",
-    "test_web_api", "test_web_browser",
+    "test_web_api", "test_web_browser", "test_web_views",
 }
 
 INTEGRATION = {
@@ -25,6 +25,7 @@ INTEGRATION = {
     "test_devices", "test_device_snapshots", "test_drawing_table_program", "test_examples",
     "test_mass_tuning", "test_mass_tuning_program", "test_pytest_plugin", "test_readme",
     "test_servo_snapshots", "test_servo_table", "test_snapshots", "test_twidosuite_export",
+    "test_web_machineview",
 }
 
 #: Single tests above their module's tier ("module::function").

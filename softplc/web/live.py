@@ -8,8 +8,9 @@ import math
 from typing import Any
 
 from ..address import Ref
-from . import ladderview
+from . import ladderview, machineview
 from .control import ApiError, Controller
+from .machineview import FE_WINDOW_MAX
 
 TRACE_CHUNK = 5000  # trace samples per update at most: a new page catches up over a few
 SVG_CACHE = 256  # rendered rungs kept (by program version, rung, values, forced objects)
@@ -35,6 +36,8 @@ class LiveViews:
         self.ctl = controller
         self._rung_refs: dict[tuple[int, int], list[Ref]] = {}
         self._svg_cache: dict[Any, str] = {}
+        self._fe_since = -1.0  # machine time of the last devices_now (FE envelopes start there)
+        self._titles: tuple[Any, dict[int, str]] = (None, {})
 
     def refs_of(self, n: int) -> list[Ref]:
         """The objects rung `n` shows (404 for a rung the program does not have)."""
@@ -67,22 +70,48 @@ class LiveViews:
         return svg
 
     def devices_now(self) -> dict[str, Any]:
-        out = {}
-        for name, dev in self.ctl.plc.devices.items():
+        """The machine's state of one scan (called in the scan thread): each device's status
+        with, under "view", what its drawing needs (machineview); the active Grafcet steps;
+        the estimator's words on a machine with a scope."""
+        plc = self.ctl.plc
+        since = self._fe_since if 0 <= plc.time - self._fe_since <= FE_WINDOW_MAX \
+            else plc.time - FE_WINDOW_MAX
+        self._fe_since = plc.time
+        out: dict[str, Any] = {}
+        scope = False
+        for name, dev in plc.devices.items():
             st = dict(dev.status())
-            st["type"] = getattr(dev, "type_name", "device")
+            st["type"] = kind = getattr(dev, "type_name", "device")
+            scope = scope or kind == "scope"
             for attr in ("travel", "steps_per_unit"):
                 if hasattr(dev, attr):
                     st[attr] = getattr(dev, attr)
+            view = machineview.device_view(dev, since)
+            if view is not None:
+                st["view"] = view
             out[name] = st
-        return out
+        snap: dict[str, Any] = {"devices": out, "time": plc.time}
+        titles = self._step_titles()
+        if titles:
+            x = plc.mem.x
+            snap["steps"] = {"active": [n for n in sorted(titles) if x[n]],
+                             "titles": {str(n): t for n, t in titles.items()}}
+        if scope:
+            snap["estimate"] = machineview.estimate(plc)
+        return snap
 
-    def machine_view(self, devices: dict[str, Any], since: int) -> dict[str, Any]:
+    def _step_titles(self) -> dict[int, str]:
+        plc = self.ctl.plc
+        if self._titles[0] != plc.program_version:
+            self._titles = (plc.program_version, machineview.step_titles(plc.rungs))
+        return self._titles[1]
+
+    def machine_view(self, snap: dict[str, Any], since: int) -> dict[str, Any]:
+        """`snap` (devices_now's) with the trace recorder's samples from `since`."""
         trace = self.ctl.plc.trace
         n = len(trace)
         chunk = [list(s) for s in trace[since:min(n, since + TRACE_CHUNK)]]
-        return {"devices": devices, "trace_from": since, "trace": chunk,
-                "trace_total": n}
+        return snap | {"trace_from": since, "trace": chunk, "trace_total": n}
 
 
 __all__ = ["LiveViews", "clean", "dumps"]

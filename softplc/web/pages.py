@@ -209,7 +209,7 @@ class Pages:
         def take() -> dict[str, Any]:
             return {"values": read_values(), "io": read_io(), "analog": read_analog(),
                     "ladder": {n: read() for n, read in read_rungs.items()},
-                    "devices": views.devices_now() if machine else {},
+                    "machine": views.devices_now() if machine else {},
                     "status": ctl.status()}
 
         snap = await reading.sample(take)
@@ -243,7 +243,7 @@ class Pages:
             if changed:
                 parts.append(', "ladder": {' + ", ".join(changed) + "}")
             if c.machine:
-                view = views.machine_view(snap["devices"], c.trace_sent)
+                view = views.machine_view(snap["machine"], c.trace_sent)
                 c.trace_sent = view["trace_from"] + len(view["trace"])
                 parts.append(', "machine": ' + dumps(view))
             parts.append("}")

@@ -35,7 +35,7 @@ const state = {
   table: 0, values: {},
   formats: saved("softplc.formats", () => ({}), (f) => typeof f === "object" && !Array.isArray(f)),
   trend: { objects: JSON.parse(localStorage.getItem("softplc.trends") || "[]"), data: [],
-           paused: false, window: 30 },
+           paused: false, window: 30, bits: new Set() },
   machine: { trace: [], devices: {} },
   held: new Set(),
 };
@@ -96,9 +96,9 @@ function connect() {
   const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/api/ws"
     + (token ? "?token=" + encodeURIComponent(token) : ""));
   state.ws = ws;
-  ws.onopen = () => { $("#link").classList.add("up"); subscribe(); };
+  ws.onopen = () => { $("#link").classList.add("up"); linkOpened(); subscribe(); };
   ws.onclose = (ev) => {
-    $("#link").classList.remove("up");
+    linkDown(ev.code === 1013 ? "too many pages open" : "the daemon closed the connection");
     if (ev.code === 1013) say(ev.reason || "too many pages open");  // the daemon's page limit
     setTimeout(connect, ev.code === 1013 ? 5000 : 1000);
   };
@@ -106,6 +106,7 @@ function connect() {
     const msg = JSON.parse(ev.data);
     if (msg.type === "error") { say(msg.error); return; }
     if (msg.type !== "update") return;
+    linkUpdate();
     guarded("status", () => showStatus(msg.status));
     if (msg.io) guarded("io", () => showIO(msg.io));
     if (msg.analog) guarded("analog", () => showAnalog(msg.analog));
@@ -508,72 +509,12 @@ $("#rung-next").addEventListener("click", () => showRung(state.rung + 1));
 // ---- trends ------------------------------------------------------------------------------
 const COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"];
 function saveTrends() { localStorage.setItem("softplc.trends", JSON.stringify(state.trend.objects)); }
-function trendSample(msg) {
-  const tr = state.trend;
-  if (tr.paused || !tr.objects.length) return;
-  const row = { t: msg.status.time };
-  for (const o of tr.objects) {
-    const v = msg.values[o];
-    row[o] = typeof v === "number" ? v : (v && typeof v === "object" && "V" in v ? v.V : null);
-  }
-  tr.data.push(row);
-  const keep = 3000; if (tr.data.length > keep) tr.data.splice(0, tr.data.length - keep);
-  if (state.tab === "trends") drawTrend();
-}
+// trendSample(msg) and drawTrend(): trends.js
 function buildTrendChips() {
   const box = $("#trend-objects"); box.innerHTML = "";
   state.trend.objects.forEach((o, i) => box.append(h("span", { class: "chip" },
     h("i", { style: `background:${COLOURS[i % COLOURS.length]}` }), o,
     h("button", { onclick: () => { state.trend.objects.splice(i, 1); saveTrends(); buildTrendChips(); subscribe(); } }, "✕"))));
-}
-function niceStep(raw) {  // 1, 2 or 5 times a power of ten
-  const p = Math.pow(10, Math.floor(Math.log10(raw)));
-  return [1, 2, 5, 10].map((m) => m * p).find((s) => s >= raw);
-}
-function drawTrend() {
-  const cv = $("#trend"), g = cv.getContext("2d"), tr = state.trend;
-  const W = cv.width, H = cv.height, L = 70, R = 170, T = 20, B = 44;  // legend right of the plot
-  g.clearRect(0, 0, W, H); g.font = "12px sans-serif"; g.fillStyle = "#1d232a";
-  const data = tr.data, t1 = data.length ? data[data.length - 1].t : 0, t0 = t1 - tr.window;
-  const shown = data.filter((d) => d.t >= t0);
-  let lo = Infinity, hi = -Infinity;
-  for (const d of shown) for (const o of tr.objects) if (d[o] !== null && d[o] !== undefined) { lo = Math.min(lo, d[o]); hi = Math.max(hi, d[o]); }
-  if (!isFinite(lo)) { lo = 0; hi = 1; }
-  if (lo === hi) { lo -= 1; hi += 1; }
-  const pad = (hi - lo) * 0.05; lo -= pad; hi += pad;
-  const step = niceStep((hi - lo) / 5);
-  lo = Math.floor(lo / step) * step; hi = Math.ceil(hi / step) * step;
-  const X = (t) => L + (t - t0) / tr.window * (W - L - R), Y = (v) => T + (hi - v) / (hi - lo) * (H - T - B);
-  g.strokeStyle = "#c9d0d7"; g.lineWidth = 1; g.strokeRect(L, T, W - L - R, H - T - B);
-  g.textAlign = "right";
-  for (let v = lo; v <= hi + step / 2; v += step) {
-    const y = Y(v);
-    g.beginPath(); g.moveTo(L, y); g.lineTo(W - R, y); g.stroke();
-    g.fillText(Number(v.toPrecision(4)).toString(), L - 6, y + 4);
-  }
-  g.textAlign = "center";
-  for (let k = 0; k <= 6; k++) {
-    const t = t0 + tr.window * k / 6, x = X(t);
-    g.beginPath(); g.moveTo(x, T); g.lineTo(x, H - B); g.stroke();
-    g.fillText(t.toFixed(1), x, H - B + 16);
-  }
-  g.fillText("PLC time (s)", L + (W - L - R) / 2, H - 8);
-  g.save(); g.translate(16, T + (H - T - B) / 2); g.rotate(-Math.PI / 2);
-  g.fillText("value (object units: bits 0/1, words as integers)", 0, 0); g.restore();
-  tr.objects.forEach((o, i) => {
-    g.strokeStyle = COLOURS[i % COLOURS.length]; g.lineWidth = 2; g.beginPath();
-    let first = true, prevY = 0;
-    for (const d of shown) {
-      if (d[o] === null || d[o] === undefined) { first = true; continue; }
-      const x = X(d.t), y = Y(d[o]);
-      if (first) g.moveTo(x, y); else { g.lineTo(x, prevY); g.lineTo(x, y); }  // PLC values hold between scans: steps
-      first = false; prevY = y;
-    }
-    g.stroke();
-    g.fillStyle = COLOURS[i % COLOURS.length]; g.fillRect(W - R + 14, T + 6 + i * 18, 16, 4);
-    g.fillStyle = "#1d232a"; g.textAlign = "left"; g.fillText(o, W - R + 36, T + 12 + i * 18);
-  });
-  if (tr.paused) { g.fillStyle = "#e07b00"; g.textAlign = "left"; g.fillText("paused", L + 6, T + 14); }
 }
 function addTrend() {
   for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) state.trend.objects.push(o.toUpperCase());
@@ -592,61 +533,7 @@ $("#trend-csv").addEventListener("click", () => {
   download("softplc-trend.csv", lines.join("\n") + "\n", "text/csv");
 });
 
-// ---- machine view ------------------------------------------------------------------------
-function showMachine(m) {
-  const mc = state.machine;
-  if (m.trace_from === 0) mc.trace = [];
-  mc.trace.push(...m.trace);
-  mc.devices = m.devices;
-  const body = $("#devices tbody"); body.innerHTML = "";
-  for (const [name, st] of Object.entries(m.devices)) {
-    const shown = Object.entries(st).filter(([k]) => k !== "type").map(([k, v]) => `${k}=${typeof v === "number" ? Number(v.toPrecision(6)) : v}`).join("  ");
-    body.append(h("tr", {}, h("td", {}, name), h("td", {}, st.type), h("td", {}, shown)));
-  }
-  const view = MACHINE_VIEWS.find((v) => v.fits(m.devices));
-  if (view) view.draw($("#table-view"), state.machine);
-  else {
-    $("#table-view").innerHTML = `<text x="20" y="40" font-size="16" fill="#66707a">no machine view for these devices</text>`;
-    $("#machine-hint").textContent = "";
-  }
-}
-
-// A machine view: fits(devices) says whether it can draw them, draw(svg, machine) draws.
-// Later machines add theirs to MACHINE_VIEWS; the first that fits is used.
-const drawingTableView = {
-  fits: (devs) => Object.values(devs).filter((d) => d.type === "stepper").length >= 2,
-  draw: drawTable,
-};
-const MACHINE_VIEWS = [drawingTableView];
-
-function drawTable(svg, mc) {  // two stepper axes, a pen, a trace recorder
-  const devs = mc.devices;
-  const axes = Object.entries(devs).filter(([, d]) => d.type === "stepper");
-  const [xn, x] = axes[0], [zn, z] = axes[1];
-  const S = 540 / Math.max(x.travel, z.travel), ox = 40, oy = 570;  // px per cm; origin lower left
-  const px = (steps) => ox + steps / x.steps_per_unit * S, pz = (steps) => oy - steps / z.steps_per_unit * S;
-  let paths = "", d = "", last = null;
-  for (const [, sx, sz, pen] of mc.trace) {
-    if (pen && last && last[3]) d += `L${px(sx).toFixed(1)},${pz(sz).toFixed(1)}`;
-    else if (pen) d += `M${px(sx).toFixed(1)},${pz(sz).toFixed(1)}`;
-    last = [0, sx, sz, pen];
-  }
-  if (d) paths = `<path id="pen-path" d="${d}" fill="none" stroke="#1f4fa0" stroke-width="2"/>`;
-  const pen = Object.values(devs).find((v) => v.type === "pen");
-  const cx = px(x.pos), cz = pz(z.pos);
-  let grid = "";
-  for (let u = 0; u <= x.travel; u += 5) grid += `<line x1="${ox + u * S}" y1="${oy}" x2="${ox + u * S}" y2="${oy - z.travel * S}" stroke="#eef1f4"/><text x="${ox + u * S}" y="${oy + 16}" font-size="11" text-anchor="middle">${u}</text>`;
-  for (let u = 0; u <= z.travel; u += 5) grid += `<line x1="${ox}" y1="${oy - u * S}" x2="${ox + x.travel * S}" y2="${oy - u * S}" stroke="#eef1f4"/><text x="${ox - 6}" y="${oy - u * S + 4}" font-size="11" text-anchor="end">${u}</text>`;
-  svg.innerHTML = grid +
-    `<rect id="table-outline" x="${ox}" y="${oy - z.travel * S}" width="${x.travel * S}" height="${z.travel * S}" fill="none" stroke="#4a5a6a" stroke-width="2"/>` +
-    `<text x="${ox + x.travel * S / 2}" y="${oy + 30}" font-size="12" text-anchor="middle">${xn} (cm)</text>` +
-    `<text x="12" y="${oy - z.travel * S / 2}" font-size="12" text-anchor="middle" transform="rotate(-90 12 ${oy - z.travel * S / 2})">${zn} (cm)</text>` +
-    paths +
-    `<circle cx="${cx}" cy="${cz}" r="6" fill="${pen && pen.down ? "#d62728" : "none"}" stroke="#d62728" stroke-width="2"/>` +
-    `<line x1="${cx - 12}" y1="${cz}" x2="${cx + 12}" y2="${cz}" stroke="#d62728"/><line x1="${cx}" y1="${cz - 12}" x2="${cx}" y2="${cz + 12}" stroke="#d62728"/>`;
-  $("#machine-hint").textContent = `${xn} = ${x.units} cm, ${zn} = ${z.units} cm, pen ${pen && pen.down ? "down" : "up"}; ` +
-    `${mc.trace.length} trace samples; the blue line is what the pen drew.`;
-}
+// ---- machine view: machines.js ------------------------------------------------------
 
 // ---- start -------------------------------------------------------------------------------
 async function start() {

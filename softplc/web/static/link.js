@@ -1,0 +1,42 @@
+// softplc web monitor: the connection to the daemon, shown where the user looks. When the
+// websocket closes (the daemon stopped) or no update comes for STALE_MS, the header's state
+// says DISCONNECTED and the figures grey out: the last values are not live any more. app.js
+// reconnects every second; the first update afterwards puts the live state back, and a
+// daemon restarted with another program reloads the page.
+// Loaded before app.js; uses its helpers ($, state) only when called.
+"use strict";
+
+const STALE_MS = 4000;  // no update for this long on an open socket: not live either
+const link = { up: false, last: 0, lost: false };
+
+function linkDown(why) {
+  link.up = false;
+  document.body.classList.add("disconnected");
+  const s = $("#state");
+  s.textContent = "DISCONNECTED"; s.className = "state disconnected";
+  s.title = why + " (reconnecting every second; the values shown are the last received)";
+  $("#link").classList.remove("up");
+  link.lost = true;
+}
+
+// the socket opened again: check it is the same program before trusting the page
+async function linkOpened() {
+  link.up = true; link.last = Date.now();
+  if (!link.lost || !state.info) return;
+  try {
+    const info = await (await fetch("/api/info")).json();
+    if (info.program !== state.info.program || info.rungs.length !== state.info.rungs.length) location.reload();
+  } catch (e) { /* the next close shows it */ }
+}
+
+// every update: live again
+function linkUpdate() {
+  link.last = Date.now();
+  if (document.body.classList.contains("disconnected")) {
+    document.body.classList.remove("disconnected"); $("#state").title = "";
+  }
+}
+
+setInterval(() => {
+  if (link.up && Date.now() - link.last > STALE_MS) linkDown(`no update for ${STALE_MS / 1000} s`);
+}, 500);
