@@ -181,3 +181,16 @@ def test_load_command(star, tmp_path, capsys, monkeypatch):
     assert "bad.il:2:1" in err and "Traceback" not in err
     assert cli(["load", str(tmp_path / "none.il"), *port]) == 1
     assert "none.il" in capsys.readouterr().err
+
+
+def test_symbols_follow_the_new_configuration(star):
+    config = CONFIG + '\n[symbols]\nSPEED = { address = "%MW20", comment = "belt speed" }\n'
+    c = star.client()
+    with pytest.raises(IoError, match="unknown object"):
+        c.get("SPEED")
+    assert c.request("program", {"program": SOURCE, "config": config})["applied"]
+    c.set("speed", 15)
+    star.scans()
+    assert c.get("SPEED") == {"%MW20": 15}
+    assert c.request("info")["symbols"]["%MW20"] == ["SPEED", "belt speed"]
+    assert c.request("info")["symbols"]["%MW10"][0] == "STARTS"  # the file's still there

@@ -22,7 +22,7 @@ from .. import online
 from ..errors import ConfigError, ProgramError, SoftPLCError
 from ..modbus import tags
 from ..modbus.regmap import COILS
-from ..symbols import from_config
+from ..symbols import SymbolTable, from_config
 from .control import Controller
 from .errors import ApiError
 
@@ -123,11 +123,14 @@ class ProgramChanges:
                 raise ApiError(f"configuration: {e}") from None
         return text, raw, name or "<online change>", flags[0], flags[1]
 
-    def _plan(self, text: str, raw: dict[str, Any] | None, name: str) -> online.Plan:
-        """Worker thread: check and compile against `raw` (None: the running config)."""
+    def _plan(self, text: str, raw: dict[str, Any] | None,
+              name: str) -> tuple[online.Plan, SymbolTable]:
+        """Worker thread: check and compile against `raw` (None: the running config); the
+        plan and the symbols of its configuration."""
         plc = self.ctl.plc
         config = _anchored(dict(plc.config if raw is None else raw), plc.config_dir)
-        return online.plan(plc, text, config, file=name)
+        change = online.plan(plc, text, config, file=name)
+        return change, from_config(change.raw_config, plc.config_dir, plc.profile)
 
     async def change(self, data: dict[str, Any]) -> tuple[int, dict[str, Any]]:
         """Check, then apply if nothing is lost or the change is confirmed: (status, body)."""
@@ -143,7 +146,7 @@ class ProgramChanges:
             version = plc.program_version
             loop = asyncio.get_running_loop()
             try:
-                plan = await loop.run_in_executor(None, self._plan, text, raw, name)
+                plan, names = await loop.run_in_executor(None, self._plan, text, raw, name)
             except ProgramError as e:
                 errors = diagnostics(e)
                 return 400, {"error": f"the program was not loaded: {len(e.diagnostics)} "
@@ -156,14 +159,14 @@ class ProgramChanges:
             if plan.needs_confirmation and not (confirm or cold):
                 return 200, {"applied": False, "losses": plan.losses,
                              "needs_confirmation": True, "info": program_info(plc)}
-            info = await self._swap(plan, version, confirm, cold)
+            info = await self._swap(plan, names, version, confirm, cold)
             self.ctl.objects.forget()
             return 200, {"applied": True, "losses": plan.losses, "cold": cold, "info": info}
         finally:
             self._busy = False
 
-    async def _swap(self, plan: online.Plan, version: int, confirm: bool,
-                    cold: bool) -> dict[str, Any]:
+    async def _swap(self, plan: online.Plan, names: SymbolTable, version: int,
+                    confirm: bool, cold: bool) -> dict[str, Any]:
         """Queue the swap in the control lane; wait for the scan thread to make it."""
         plc = self.ctl.plc
         done: concurrent.futures.Future[dict[str, Any]] = concurrent.futures.Future()
@@ -177,7 +180,7 @@ class ProgramChanges:
                         "the program was changed by another request meanwhile: check and "
                         "load again")
                 online.apply(plc, plan, confirm=confirm, cold=cold)
-                plc.symbols = from_config(plan.raw_config, plc.config_dir, plc.profile)
+                plc.symbols = names
                 done.set_result(program_info(plc))
             except SoftPLCError as e:
                 done.set_exception(e)
