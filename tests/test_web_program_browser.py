@@ -10,8 +10,6 @@ import pytest
 from test_web_api import STAR, Stack
 from test_web_browser import browser, open_page, shot, sync_api  # noqa: F401 (fixture)
 
-from softplc.cli import main as cli  # noqa: F401
-
 SOURCE = STAR.read_text()
 STEADY = SOURCE.replace("LD    %M1\nAND   %S6\nST    %Q0.3", "LD    %M1\nST    %Q0.3")
 NO_COUNTER = SOURCE.replace("BLK   %C0\nLD    %Q0.0\nCU\nEND_BLK\n", "").replace(
@@ -44,7 +42,7 @@ def load(page, program: str, config: str = "") -> None:
     page.click("#prog-load")
 
 
-def test_upload_errors_losses_and_a_kept_counter(browser, star):  # noqa: F811
+def test_upload_errors_losses_and_a_kept_counter(browser, star, tmp_path):  # noqa: F811
     set_counter(star, 6)
     page = open_page(browser, url(star))
     sync_api.expect(page.locator("#version")).to_contain_text("v0 · ")
@@ -59,10 +57,16 @@ def test_upload_errors_losses_and_a_kept_counter(browser, star):  # noqa: F811
     sync_api.expect(result).to_contain_text(f"line {bad_line}:1")
     assert star.plc.program_version == 0
     shot(page, "program-errors")
-    # no loss: loaded at once, the counter kept, the version and listing updated
-    load(page, STEADY)
+    # no loss, from a file: loaded at once, the counter kept, version and listing updated
+    steady = tmp_path / "steady.il"
+    steady.write_text(STEADY)
+    page.set_input_files("#prog-file", str(steady))
+    sync_api.expect(page.locator("#prog-text")).to_have_value(STEADY)
+    page.fill("#prog-config", "")
+    page.click("#prog-load")
     sync_api.expect(result).to_have_class(re.compile(r"\bok\b"))
     sync_api.expect(page.locator("#version")).to_contain_text("v1 · ")
+    assert page.locator("#version").get_attribute("title").startswith("steady.il")
     assert star.plc.program_version == 1 and star.plc["%C0.V"] == 6
     sync_api.expect(page.locator("#prog-listing .ln")).to_have_count(
         len(STEADY.split("\n")))
