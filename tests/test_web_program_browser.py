@@ -56,6 +56,10 @@ def test_upload_errors_losses_and_a_kept_counter(browser, star, tmp_path):  # no
     bad_line = next(n for n, t in enumerate(SOURCE.splitlines(), 1) if t == "ST    %Q0.1")
     sync_api.expect(result).to_contain_text(f"line {bad_line}:1")
     assert star.plc.program_version == 0
+    result.locator("li.err").first.click()  # the line is selected in the program text
+    selected = page.evaluate("() => { const a = document.querySelector('#prog-text');"
+                             " return a.value.slice(a.selectionStart, a.selectionEnd); }")
+    assert selected == "STT   %Q0.1"
     shot(page, "program-errors")
     # no loss, from a file: loaded at once, the counter kept, version and listing updated
     steady = tmp_path / "steady.il"

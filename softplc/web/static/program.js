@@ -67,7 +67,7 @@ function showOutcome(kind, title, items = [], buttons = []) {
   const box = $("#prog-result");
   box.className = "prog-result " + kind; box.innerHTML = "";
   box.append(h("b", {}, title));
-  if (items.length) box.append(h("ul", {}, ...items.map((t) => h("li", {}, t))));
+  if (items.length) box.append(h("ul", {}, ...items.map((t) => (t instanceof Node ? t : h("li", {}, t)))));
   if (buttons.length) box.append(h("div", { class: "toolbar" }, ...buttons));
 }
 
@@ -91,13 +91,25 @@ async function sendProgram(extra = {}) {
       h("button", { onclick: () => showOutcome("", "Not loaded: nothing changed.") }, "Cancel")]);
   } else if (data.errors && data.errors.length) {
     showOutcome("bad", `Not loaded, nothing changed: ${data.errors.length} error(s)`,
-      data.errors.map((d) => `line ${d.line}:${d.column}: ${d.message}` + (d.text ? ` (at '${d.text}')` : "")
-        + (d.expected ? `; expected ${d.expected}` : "")));
+      data.errors.map((d) => h("li", { class: "err", title: "show this line in the program",
+        onclick: () => selectLine($("#prog-text"), d.line) },
+      `line ${d.line}:${d.column}: ${d.message}` + (d.text ? ` (at '${d.text}')` : "")
+        + (d.expected ? `; expected ${d.expected}` : ""))));
   } else {
     showOutcome("bad", data.error || `refused (HTTP ${status})`);
   }
 }
 $("#prog-load").addEventListener("click", () => sendProgram());
+
+// select line n (1-based) of a textarea and scroll it into view
+function selectLine(area, n) {
+  const lines = area.value.split("\n");
+  if (n < 1 || n > lines.length) return;
+  const start = lines.slice(0, n - 1).reduce((a, l) => a + l.length + 1, 0);
+  area.focus(); area.setSelectionRange(start, start + lines[n - 1].length);
+  const lh = area.scrollHeight / lines.length;
+  area.scrollTop = Math.max(0, (n - 4) * lh);
+}
 $("#prog-current").addEventListener("click", () => {
   $("#prog-text").value = prog.source; $("#prog-text").dataset.file = "";
 });
