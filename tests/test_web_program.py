@@ -4,13 +4,14 @@ the Modbus map routes, and `softplc load` (issue 24), on the daemon's stack in p
 from __future__ import annotations
 
 import json
+import time
 import urllib.request
 
 import pytest
 from test_web_api import STAR, Stack
 
 from softplc.cli import main as cli
-from softplc.commands.io import IoError
+from softplc.commands.io import Client, IoError
 
 SOURCE = STAR.read_text()
 # the fault lamp steady instead of blinking: no block changes, nothing lost
@@ -194,3 +195,39 @@ def test_symbols_follow_the_new_configuration(star):
     assert c.get("SPEED") == {"%MW20": 15}
     assert c.request("info")["symbols"]["%MW20"] == ["SPEED", "belt speed"]
     assert c.request("info")["symbols"]["%MW10"][0] == "STARTS"  # the file's still there
+
+
+def until(ok, timeout: float = 5.0) -> None:
+    end = time.monotonic() + timeout
+    while not ok():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.02)
+
+
+def test_load_into_a_running_daemon(tmp_path, capsys):
+    """`softplc load` against a real `softplc run`: the counter counted by the old program
+    survives the change, and the new program runs."""
+    import re
+
+    from daemon_util import Daemon
+
+    d = Daemon(tmp_path, "--config", str(STAR.with_suffix(".toml")), "--web", "0",
+               "--stats-interval", "0", program=STAR)
+    try:
+        line = next(x for x in d.out if "web monitor on" in x)
+        port = re.search(r":(\d+)/", line)[1]
+        c = Client("127.0.0.1", int(port))
+        c.set("%I0.1", 1)  # stop (NC) and overload relay (NC) closed, fault reset pulsed
+        c.set("%I0.2", 1)
+        c.set("%I0.3", 1)
+        c.set("%I0.3", 0)
+        c.set("%I0.0", 1)  # start: KM1 latches, %C0 counts one start
+        until(lambda: c.get("%C0.V")["%C0.V"] == 1)
+        prog = tmp_path / "steady.il"
+        prog.write_text(STEADY.replace("[ %MW11 := 0 ]", "[ %MW11 := 0 ]\n[ %MW12 := 77 ]"))
+        assert cli(["load", str(prog), "--port", port]) == 0
+        assert "version 1" in capsys.readouterr().out
+        until(lambda: c.get("%MW12")["%MW12"] == 77)
+        assert c.get("%C0.V", "%MW12", "%Q0.0") == {"%C0.V": 1, "%MW12": 77, "%Q0.0": 1}
+    finally:
+        d.kill()
