@@ -20,6 +20,7 @@ COMMAND_MODULES = [
     "softplc.commands.ladder",
     "softplc.commands.draw",
     "softplc.commands.io",
+    "softplc.commands.load",
     "softplc.commands.map",
     "softplc.commands.symbols",
     "softplc.commands.cut",

@@ -35,7 +35,7 @@ from .il import ast as A
 #: and the descriptive ones. Any other section (scan period, devices, Modbus, analog, PID,
 #: EXCH...) shapes the running machine and needs a restart.
 BLOCK_SECTIONS = {"timers": "TM", "counters": "C", "drums": "DR", "registers": "R"}
-FREE_SECTIONS = {"name", "description", "symbols"}
+FREE_SECTIONS = {"name", "description", "symbols", "symbols_file"}
 
 
 class ChangeRefused(SoftPLCError):
@@ -105,9 +105,11 @@ def _describe(options: Any) -> str:
 
 
 def plan(plc: Any, program: A.Program | str | Path,
-         config: str | Path | dict[str, Any] | None = None) -> Plan:
+         config: str | Path | dict[str, Any] | None = None, *,
+         file: str = "<online change>") -> Plan:
     """Check and compile `program` (an AST, IL text or a file) against `config` (default:
-    the running configuration) without touching `plc`; what will not carry over."""
+    the running configuration) without touching `plc`; what will not carry over. `file`:
+    the name IL text goes by in the messages."""
     from .plc import PLC
 
     if config is None:
@@ -116,7 +118,7 @@ def plan(plc: Any, program: A.Program | str | Path,
     if isinstance(program, Path):
         trial = PLC.from_file(program, config, devices=False)
     elif isinstance(program, str):
-        trial = PLC.from_source(program, config, file="<online change>", devices=False)
+        trial = PLC.from_source(program, config, file=file, devices=False)
     else:
         trial = PLC(program, config, devices=False)
     program = trial.ast

@@ -17,7 +17,8 @@ E2E = {
     "test_e2e_drawing", "test_exch", "test_first_hour", "test_host_client",
     "test_mass_tuning_daemon", "test_mass_tuning_e2e", "test_modbus", "test_modbus_slots",
     "test_program_contract", "test_runtime_attacks", "test_web_security",
-    "test_web_api", "test_web_browser", "test_web_views",
+    "test_web_api", "test_web_browser", "test_web_program", "test_web_program_browser",
+    "test_web_views",
 }
 
 INTEGRATION = {

@@ -47,10 +47,11 @@ class Client:
     """A small client of the web API (also used by the tests and tools)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT,
-                 token: str | None = None):
+                 token: str | None = None, timeout: float = TIMEOUT):
         h = f"[{host}]" if ":" in host else host
         self.base = f"http://{h}:{port}/api/"
         self.token = token
+        self.timeout = timeout
 
     def request(self, path: str, body: Any = None) -> Any:
         headers = {"Content-Type": "application/json"}
@@ -60,7 +61,7 @@ class Client:
         req = urllib.request.Request(self.base + path, data=data, headers=headers,
                                      method="GET" if body is None else "POST")
         try:
-            with urllib.request.urlopen(req, timeout=TIMEOUT) as r:
+            with urllib.request.urlopen(req, timeout=self.timeout) as r:
                 return json.loads(r.read())
         except urllib.error.HTTPError as e:
             try:

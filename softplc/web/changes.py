@@ -4,7 +4,8 @@ Data changes (inputs and other objects the Modbus queue does not take, forcing, 
 values) wait in order, at most MAX_PENDING: past it a change is refused with 503, so a
 script writing faster than the scans take its changes is told at once instead of queuing
 hours of them. RUN/STOP/restart and unforce go in a short lane applied first at the next
-boundary: they never wait behind data changes (an unforce drops the forcing of its objects
+boundary (and "call": a function run there, the online program change's swap): they
+never wait behind data changes (an unforce drops the forcing of its objects
 still queued: it came after them). The scan thread applies both (`apply`, a before_scan
 hook); an input is changed at most once per scan, so a press and its release queued in the
 same period are seen in two scans.
@@ -27,7 +28,7 @@ from .errors import ApiError
 
 MAX_PENDING = 256  # data changes (writes, forcing) queued at once; past it: 503
 MAX_URGENT = 64  # RUN/STOP/restart and unforce queued at once
-URGENT = ("control", "unforce")
+URGENT = ("control", "unforce", "call")
 RECOMPILES_PER_SCAN = 2  # new forcings and unforcings applied at one scan boundary
 
 Change = tuple[str, Any, Any]  # (operation, object or action, value)
@@ -130,6 +131,8 @@ class ChangeQueue:
                 for r in ref or ():
                     if str(r) in forced:
                         plc.unforce(str(r))
+            elif op == "call":  # handles its own errors (online program change)
+                ref()
             elif ref == "run":
                 plc.start()
             elif ref == "stop":

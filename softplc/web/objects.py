@@ -41,6 +41,11 @@ class Objects:
                 self._cached_refs += len(refs)
         return refs
 
+    def forget(self) -> None:
+        """Drop the cached addresses (after a program or symbol change)."""
+        self._refs.clear()
+        self._cached_refs = 0
+
     def check_count(self, texts: list[Any]) -> None:
         """Refuse a list naming more than MAX_OBJECTS objects, counted before any range is
         expanded (a 64 KiB list of ranges would otherwise expand to millions)."""

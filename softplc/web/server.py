@@ -12,16 +12,22 @@
     POST /api/unforce {"object": "%I0.1"} (no object: all)
     POST /api/control {"action": "run" | "stop" | "cold" | "warm"}
     GET  /api/ws              websocket: send {"subscribe": {...}}, receive updates
+    GET  /api/program         the running program: IL listing, hash, time loaded, version
+    POST /api/program {"program": IL, "config": TOML or null, "confirm": false,
+                       "cold": false}   online change (program.py)
+    GET  /api/map[?format=csv]         the Modbus map of the running program
 
 Errors are JSON `{"error": "..."}` with status 400 (bad request), 401 (token missing or
 wrong), 403 (not writable, read-only monitor, another site's page, a Host name not
-allowed), 404, 413 (a body over 64 KiB), 415 (a POST body that is not JSON) or 503 (the
+allowed), 404, 409 (another program change under way), 413 (a body over 64 KiB; 4 MiB
+for /api/program), 415 (a POST body that is not JSON) or 503 (the
 change queue is full). Who may ask what (Host allow-list, Origin, tokens): `security.py`;
 the websocket pages and their limits: `pages.py`.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 from importlib import resources
 from pathlib import Path
@@ -33,6 +39,7 @@ from ..modbus.server import RateLimitedLog
 from .control import ApiError, Controller
 from .live import LiveViews, dumps
 from .pages import MAX_PAGES, UPDATE_HZ, Pages
+from .program import MAX_PROGRAM_BODY, ProgramChanges, program_info, symbols_of
 from .security import COOKIE, Guard
 
 log = logging.getLogger("softplc.web")
@@ -59,6 +66,7 @@ class WebServer:
         self.token = token
         self.guard = Guard(host, token, read_token, allowed_hosts)
         self.views = LiveViews(controller)
+        self.program = ProgramChanges(controller)
         self.pages = Pages(controller, self.views, max_pages=max_pages, update_hz=update_hz)
         self.warn = RateLimitedLog(log)
         self._runner: web.AppRunner | None = None
@@ -70,7 +78,8 @@ class WebServer:
 
     # -- set-up ------------------------------------------------------------------------------
     def _make_app(self) -> web.Application:
-        app = web.Application(middlewares=[self._errors], client_max_size=MAX_BODY)
+        # bodies are read by `_body`, which bounds each route (MAX_BODY, a program's more)
+        app = web.Application(middlewares=[self._errors], client_max_size=MAX_PROGRAM_BODY)
         r = app.router
         r.add_get("/", self._index)
         r.add_get("/api/info", self._info)
@@ -86,6 +95,9 @@ class WebServer:
         r.add_post("/api/unforce", self._unforce)
         r.add_post("/api/control", self._control)
         r.add_get("/api/ws", self.pages.handle)
+        r.add_get("/api/program", self._program)
+        r.add_post("/api/program", self._program_change)
+        r.add_get("/api/map", self._map)
         r.add_static("/static/", static_dir())
         return app
 
@@ -142,9 +154,18 @@ class WebServer:
         return web.Response(text=why + "\n", status=status)
 
     @staticmethod
-    async def _body(request: web.Request) -> dict[str, Any]:
+    async def _body(request: web.Request, limit: int = MAX_BODY) -> dict[str, Any]:
+        too_big = ApiError(f"the request body is over {limit // 1024} KiB", 413)
+        if (request.content_length or 0) > limit:
+            raise too_big
+        chunks, size = [], 0
+        async for chunk in request.content.iter_any():  # chunked bodies are bounded too
+            size += len(chunk)
+            if size > limit:
+                raise too_big
+            chunks.append(chunk)
         try:
-            data = await request.json()
+            data = json.loads(b"".join(chunks))
         except (ValueError, UnicodeDecodeError, RecursionError):  # deep nesting too
             raise ApiError("the request body must be a JSON object") from None
         if not isinstance(data, dict):
@@ -165,6 +186,8 @@ class WebServer:
         info = self.ctl.info()
         info["token_required"] = self.token is not None
         info["update_hz"] = self.pages.update_hz
+        info["version"] = program_info(self.ctl.plc)
+        info["symbols"] = symbols_of(self.ctl.plc)
         return _json(info)
 
     async def _status(self, request: web.Request) -> web.Response:
@@ -243,3 +266,21 @@ class WebServer:
         if not isinstance(force, bool):
             raise ApiError(f'"force": true or false, not {force!r}')
         return _json(self.ctl.write_analog(self._obj(data), data["value"], force))
+
+    async def _program(self, request: web.Request) -> web.Response:
+        return _json(self.program.listing())
+
+    async def _program_change(self, request: web.Request) -> web.Response:
+        data = await self._body(request, MAX_PROGRAM_BODY)
+        status, answer = await self.program.change(data)
+        return _json(answer, status)
+
+    async def _map(self, request: web.Request) -> web.Response:
+        fmt = request.query.get("format", "json")
+        if fmt == "csv":
+            return web.Response(text=self.program.map_csv(), content_type="text/csv",
+                                headers={"Content-Disposition":
+                                         'attachment; filename="softplc-modbus-map.csv"'})
+        if fmt != "json":
+            raise ApiError(f"format {fmt[:20]!r}: json or csv")
+        return _json(self.program.map_json())

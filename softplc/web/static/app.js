@@ -204,7 +204,7 @@ function inputRow(addr) {
   push.addEventListener("pointerup", release);
   push.addEventListener("pointerleave", release);
   const row = h("div", { class: "io in" + (dev ? " driven" : "") + used(addr), "data-addr": addr },
-    h("span", { class: "led" }), h("span", { class: "addr" }, addr), toggle, push,
+    h("span", { class: "led" }), h("span", { class: "addr", title: symbolOf(addr) }, addr), toggle, push,
     forceButton(addr), h("span", { class: "forced-mark" }, "F"),
     h("span", { class: "dev", title: dev ? "driven by device " + dev : "" }, dev ? "⚙ " + dev : ""));
   return row;
@@ -213,7 +213,7 @@ function inputRow(addr) {
 function outputRow(addr) {
   const dev = state.info.device_io[addr] || "";
   return h("div", { class: "io out" + used(addr), "data-addr": addr },
-    h("span", { class: "led" }), h("span", { class: "addr" }, addr), forceButton(addr),
+    h("span", { class: "led" }), h("span", { class: "addr", title: symbolOf(addr) }, addr), forceButton(addr),
     h("span", { class: "forced-mark" }, "F"),
     h("span", { class: "dev", title: dev ? "drives device " + dev : "" }, dev ? "⚙ " + dev : ""));
 }
@@ -401,7 +401,7 @@ function tableRow(obj, entry) {
   const forceable = bit || /^%(MW|MD|MF)\d+$/.test(obj);
   const block = /^%(TM|C|DR|R|SBR|SC)\d+$/.test(obj);  // its fields are the writable objects
   return h("tr", { "data-obj": obj },
-    h("td", { class: "obj" }, obj, " ", h("span", { class: "forced-mark" }, "F")),
+    h("td", { class: "obj", title: commentOf(obj) }, obj, " ", symbolTag(obj), " ", h("span", { class: "forced-mark" }, "F")),
     h("td", { class: "val" }, "…"), h("td", {}, block || bit ? "" : sel),
     h("td", {}, block ? h("span", { class: "hint" }, `write ${obj}.P …`) : input, " ",
       block ? "" : h("button", { class: "write", onclick: doWrite }, "Write")),
@@ -424,7 +424,7 @@ function showTable() {
 
 function addToTable() {
   const text = $("#table-add").value;
-  for (const part of text.split(/[ ,;]+/).filter(Boolean)) currentTable().rows.push(part.toUpperCase());
+  for (const part of text.split(/[ ,;]+/).filter(Boolean)) currentTable().rows.push(toAddress(part));
   $("#table-add").value = ""; saveTables(); buildTables(); subscribe();
 }
 $("#table-add-btn").addEventListener("click", addToTable);
@@ -498,6 +498,7 @@ function showRung(n) {
   $$("#rung-list li").forEach((li) => li.classList.toggle("active", +li.dataset.rung === state.rung));
   const r = rungs[state.rung];
   $("#rung-title").textContent = `rung ${r.index}` + (r.title ? ": " + r.title : "");
+  document.dispatchEvent(new CustomEvent("rung-shown", { detail: state.rung }));  // program.js
   const box = $("#ladder"); box.innerHTML = "";
   for (const k of shownRungs()) box.append(h("div", { class: "rung", "data-rung": k }, "…"));
   subscribe();
@@ -513,11 +514,11 @@ function saveTrends() { localStorage.setItem("softplc.trends", JSON.stringify(st
 function buildTrendChips() {
   const box = $("#trend-objects"); box.innerHTML = "";
   state.trend.objects.forEach((o, i) => box.append(h("span", { class: "chip" },
-    h("i", { style: `background:${COLOURS[i % COLOURS.length]}` }), o,
+    h("i", { style: `background:${COLOURS[i % COLOURS.length]}` }), o, symbolTag(o),
     h("button", { onclick: () => { state.trend.objects.splice(i, 1); saveTrends(); buildTrendChips(); subscribe(); } }, "✕"))));
 }
 function addTrend() {
-  for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) state.trend.objects.push(o.toUpperCase());
+  for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) state.trend.objects.push(toAddress(o));
   $("#trend-add").value = ""; saveTrends(); buildTrendChips(); subscribe();
 }
 $("#trend-add-btn").addEventListener("click", addTrend);

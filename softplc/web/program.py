@@ -1,0 +1,198 @@
+"""The running program over the web API: its listing and version, an online change
+(`POST /api/program`) and the Modbus map (`GET /api/map`).
+
+An online change is checked and compiled (`online.plan`) in a worker thread, never in the
+event loop (a 1 MB program takes seconds) nor in the scan thread; the swap itself
+(`online.apply`) is queued in the control lane of the change queue and runs in the scan
+thread between two scans. One change at a time: a second one while the first is checked
+is refused (409). A plan made against another program version than the one running when
+the swap comes (two pages loading at once) is refused too: nothing changes.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import tomllib
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from .. import online
+from ..errors import ConfigError, ProgramError, SoftPLCError
+from ..modbus import tags
+from ..modbus.regmap import COILS
+from ..symbols import SymbolTable, from_config
+from .control import Controller
+from .errors import ApiError
+
+MAX_PROGRAM_BODY = 4 * 1024 * 1024  # POST /api/program: a ~1 MB program, JSON-escaped
+APPLY_TIMEOUT = 10.0  # s waiting for the scan thread to make the swap
+MAX_ERRORS = 200  # diagnostics listed in one answer
+#: What the map page says of the objects it lists apart.
+HIDDEN_NOTE = ("A Twido exposes only %M bits (coils) and %MW/%MD/%MF words (holding "
+               "registers) over Modbus: inputs (%I), outputs (%Q), timers (%TM), counters "
+               "and other blocks, system bits and words are not on the map. A program "
+               "copies what a host needs to %M/%MW.")
+
+
+def program_info(plc: Any) -> dict[str, Any]:
+    """What runs: file, hash, time loaded, version (online changes so far)."""
+    return online.ProgramInfo.of(plc).as_dict()
+
+
+def symbols_of(plc: Any) -> dict[str, list[str]]:
+    """address -> [symbol, comment] of the running configuration."""
+    return {s.address: [s.name, s.comment] for s in plc.symbols}
+
+
+def _anchored(raw: dict[str, Any], base: Path | None) -> dict[str, Any]:
+    """`raw` with a relative `symbols_file` made absolute from `base` (the folder of the
+    running configuration): a configuration given as text or dict has no folder of its
+    own."""
+    file = raw.get("symbols_file")
+    if base is not None and isinstance(file, str) and file and not Path(file).is_absolute():
+        return raw | {"symbols_file": str(base / file)}
+    return raw
+
+
+def diagnostics(e: ProgramError) -> list[dict[str, Any]]:
+    return [{"line": d.line, "column": d.column, "message": d.message, "text": d.text,
+             "expected": d.expected, "error": str(d)} for d in e.diagnostics[:MAX_ERRORS]]
+
+
+class ProgramChanges:
+    """The program routes' job over a `Controller` (its PLC, queue and objects)."""
+
+    def __init__(self, controller: Controller):
+        self.ctl = controller
+        self._busy = False  # a change is being checked or applied
+        self._map: tuple[int, tags.ProgramMap] | None = None
+
+    # -- reading -----------------------------------------------------------------------------
+    def listing(self) -> dict[str, Any]:
+        plc = self.ctl.plc
+        return {"info": program_info(plc), "source": plc.ast.source,
+                "rungs": [{"index": r.index, "first_line": r.first_line,
+                           "last_line": r.last_line} for r in plc.rungs]}
+
+    def program_map(self) -> tags.ProgramMap:
+        plc = self.ctl.plc
+        if self._map is None or self._map[0] != plc.program_version:
+            self._map = (plc.program_version, tags.of_plc(plc))
+        return self._map[1]
+
+    def map_json(self) -> dict[str, Any]:
+        pmap = self.program_map()
+        rows = []
+        for t in pmap.tags:
+            row = asdict(t) | {"table": "coil" if t.space == COILS else "holding register",
+                               "reference": t.reference, "read_fc": list(t.read_fcs),
+                               "write_fc": list(t.write_fcs)}
+            del row["space"]
+            rows.append(row)
+        return {"info": program_info(self.ctl.plc), "tags": rows,
+                "hidden": [asdict(h) for h in pmap.hidden], "note": HIDDEN_NOTE}
+
+    def map_csv(self) -> str:
+        return tags.to_csv(self.program_map())
+
+    # -- changing ----------------------------------------------------------------------------
+    @staticmethod
+    def _request(data: dict[str, Any]) -> tuple[str, dict[str, Any] | None, str, bool, bool]:
+        text, config = data.get("program"), data.get("config")
+        if not isinstance(text, str) or not text.strip():
+            raise ApiError('"program": the IL text of the new program')
+        if config is not None and not isinstance(config, str):
+            raise ApiError('"config": the TOML text of the configuration, or null to keep '
+                           'the running one')
+        name = data.get("file", "<online change>")
+        if not isinstance(name, str) or len(name) > 200:
+            raise ApiError('"file": the program\'s file name (for the messages)')
+        flags = []
+        for key in ("confirm", "cold"):
+            v = data.get(key, False)
+            if not isinstance(v, bool):
+                raise ApiError(f'"{key}": true or false, not {v!r}')
+            flags.append(v)
+        raw = None
+        if config is not None:
+            try:
+                raw = tomllib.loads(config)
+            except tomllib.TOMLDecodeError as e:
+                raise ApiError(f"configuration: {e}") from None
+        return text, raw, name or "<online change>", flags[0], flags[1]
+
+    def _plan(self, text: str, raw: dict[str, Any] | None,
+              name: str) -> tuple[online.Plan, SymbolTable]:
+        """Worker thread: check and compile against `raw` (None: the running config); the
+        plan and the symbols of its configuration."""
+        plc = self.ctl.plc
+        config = _anchored(dict(plc.config if raw is None else raw), plc.config_dir)
+        change = online.plan(plc, text, config, file=name)
+        return change, from_config(change.raw_config, plc.config_dir, plc.profile)
+
+    async def change(self, data: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+        """Check, then apply if nothing is lost or the change is confirmed: (status, body)."""
+        if self.ctl.read_only:
+            raise ApiError("the web monitor is read-only (--web-read-only)", 403)
+        text, raw, name, confirm, cold = self._request(data)
+        if self._busy:
+            raise ApiError("another program change is being made: try again when it is "
+                           "done", 409)
+        self._busy = True
+        try:
+            plc = self.ctl.plc
+            version = plc.program_version
+            loop = asyncio.get_running_loop()
+            try:
+                plan, names = await loop.run_in_executor(None, self._plan, text, raw, name)
+            except ProgramError as e:
+                errors = diagnostics(e)
+                return 400, {"error": f"the program was not loaded: {len(e.diagnostics)} "
+                             f"error(s), nothing changed\n"
+                             + "\n".join(d["error"] for d in errors),
+                             "errors": errors, "applied": False}
+            except (ConfigError, online.ChangeRefused) as e:
+                return 400, {"error": f"not loaded, nothing changed: {e}", "errors": [],
+                             "applied": False}
+            if plan.needs_confirmation and not (confirm or cold):
+                return 200, {"applied": False, "losses": plan.losses,
+                             "needs_confirmation": True, "info": program_info(plc)}
+            info = await self._swap(plan, names, version, confirm, cold)
+            self.ctl.objects.forget()
+            return 200, {"applied": True, "losses": plan.losses, "cold": cold, "info": info}
+        finally:
+            self._busy = False
+
+    async def _swap(self, plan: online.Plan, names: SymbolTable, version: int,
+                    confirm: bool, cold: bool) -> dict[str, Any]:
+        """Queue the swap in the control lane; wait for the scan thread to make it."""
+        plc = self.ctl.plc
+        done: concurrent.futures.Future[dict[str, Any]] = concurrent.futures.Future()
+
+        def swap() -> None:  # the scan thread, between two scans
+            if not done.set_running_or_notify_cancel():
+                return  # the request timed out: it was answered "not applied"
+            try:
+                if plc.program_version != version:
+                    raise online.ChangeRefused(
+                        "the program was changed by another request meanwhile: check and "
+                        "load again")
+                online.apply(plc, plan, confirm=confirm, cold=cold)
+                plc.symbols = names
+                done.set_result(program_info(plc))
+            except SoftPLCError as e:
+                done.set_exception(e)
+
+        self.ctl.changes.put([("call", swap, None)])
+        try:
+            return await asyncio.wait_for(asyncio.wrap_future(done), APPLY_TIMEOUT)
+        except TimeoutError:
+            raise ApiError(f"the scan did not reach a boundary within {APPLY_TIMEOUT:g} s: "
+                           f"the program was not changed", 503) from None
+        except SoftPLCError as e:
+            raise ApiError(f"not loaded, nothing changed: {e}", 409) from None
+
+
+__all__ = ["HIDDEN_NOTE", "MAX_PROGRAM_BODY", "ProgramChanges", "program_info", "symbols_of"]
