@@ -634,3 +634,27 @@ def test_device_driven_analog_input_forced_then_released(thermo):
     c.request("unforce", {"object": "%IW2.0"})
     thermo.scans(5)
     assert "%IW2.0" not in thermo.plc.forced and thermo.plc["%IW2.0"] < 5000  # the oven again
+
+
+def test_servo_i_variables_tuned_live_from_the_monitor():
+    """Issue 23: the animation table edits a running axis's I-variables through its word
+    table (%MF328 = Ixx30 of X, word table at %MW300): applied at a servo tick, counted in
+    %MW301, read back as the value in force; a value out of range is refused (%MW300 names
+    it) and the value in force stays."""
+    servo = ROOT / "ladder_programs" / "servo_table.il"
+    s = Stack(servo, servo.with_suffix(".toml"))
+    try:
+        c = s.client()
+        axis = s.plc.devices["X"]
+        kp = axis.gains.kp
+        c.set("%MF328", kp * 2)
+        s.scans(5)
+        assert axis.gains.kp == kp * 2
+        got = c.get("%MF328", "%MW300", "%MW301")
+        assert got["%MF328"] == kp * 2 and got["%MW300"] == 0 and got["%MW301"] >= 1
+        c.set("%MF328", -1.0)  # Ixx30 >= 0
+        s.scans(5)
+        got = c.get("%MF328", "%MW300")
+        assert axis.gains.kp == kp * 2 and got["%MF328"] == kp * 2 and got["%MW300"] == 30
+    finally:
+        s.close()
