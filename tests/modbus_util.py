@@ -18,6 +18,16 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def closed_or_reply(sock: socket.socket, timeout: float = 2.0) -> bytes:
+    """What the server does next: b"" if it closes or resets the connection, else the
+    bytes it sends."""
+    sock.settimeout(timeout)
+    try:
+        return sock.recv(1024)
+    except ConnectionResetError:
+        return b""
+
+
 class PymodbusThread:
     """`with PymodbusThread() as s:` serves `self.device()` on 127.0.0.1:`s.port`."""
 

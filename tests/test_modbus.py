@@ -16,6 +16,7 @@ import threading
 import time
 
 import pytest
+from modbus_util import closed_or_reply
 from pymodbus.client import ModbusTcpClient
 from pymodbus.pdu import ExceptionResponse
 from pyModbusTCP.client import ModbusClient
@@ -323,15 +324,6 @@ def test_fc16_frames_land_whole_while_scanning():
 
 
 # -- malformed traffic ---------------------------------------------------------------------
-def closed_or_reply(sock: socket.socket, timeout: float = 2.0) -> bytes:
-    """What the server does next: b"" if it closes the connection, else the bytes sent."""
-    sock.settimeout(timeout)
-    try:
-        return sock.recv(1024)
-    except ConnectionResetError:
-        return b""
-
-
 def test_malformed_traffic_keeps_server_serving(rig):
     good = rig.raw()
     good.write_registers(0, [1])

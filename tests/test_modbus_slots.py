@@ -26,6 +26,7 @@ from softplc.runtime.memory import MemoryImage
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
 from bench_slots import Attack, first_answer  # noqa: E402
+from modbus_util import closed_or_reply  # noqa: E402
 
 
 @pytest.fixture
@@ -126,15 +127,6 @@ def test_a_client_leaving_replies_unread_is_evicted_first():
             u.close()
     finally:
         th.stop()
-
-
-def closed_or_reply(sock: socket.socket, timeout: float = 2.0) -> bytes:
-    """b"" if the server closes or resets the connection, else the bytes it sends."""
-    sock.settimeout(timeout)
-    try:
-        return sock.recv(1024)
-    except ConnectionResetError:
-        return b""
 
 
 def test_frame_deadline_runs_from_the_first_byte():

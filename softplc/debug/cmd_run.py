@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..config import duration
@@ -22,26 +23,26 @@ def cmd_scan(s: Session, arg: str) -> str:
     return s.ctl.run_scans(n).text
 
 
-@command("step", "s")
-def cmd_step(s: Session, arg: str) -> str:
-    """step [N]: run to the start of the next rung (entering a scan if at the boundary)."""
+def _repeat(s: Session, arg: str, step: Callable[[], Ran]) -> str:
+    """`step` N times (default 1), or until a breakpoint, a fault or the end stops it."""
     ran = Ran(StopKind.DONE, "")
     for _ in range(s.count(arg, 1)):
-        ran = s.ctl.step()
+        ran = step()
         if ran.reason in STOPS_A_COMMAND:
             break
     return ran.text
+
+
+@command("step", "s")
+def cmd_step(s: Session, arg: str) -> str:
+    """step [N]: run to the start of the next rung (entering a scan if at the boundary)."""
+    return _repeat(s, arg, s.ctl.step)
 
 
 @command("stepi", "si")
 def cmd_stepi(s: Session, arg: str) -> str:
     """stepi [N]: run one instruction (entering a scan if at the boundary)."""
-    ran = Ran(StopKind.DONE, "")
-    for _ in range(s.count(arg, 1)):
-        ran = s.ctl.step_instruction()
-        if ran.reason in STOPS_A_COMMAND:
-            break
-    return ran.text
+    return _repeat(s, arg, s.ctl.step_instruction)
 
 
 @command("run", "r")
