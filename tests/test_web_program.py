@@ -231,3 +231,48 @@ def test_load_into_a_running_daemon(tmp_path, capsys):
         assert c.get("%C0.V", "%MW12", "%Q0.0") == {"%C0.V": 1, "%MW12": 77, "%Q0.0": 1}
     finally:
         d.kill()
+
+
+def test_the_state_file_follows_the_loaded_program(tmp_path, capsys):
+    """After `softplc load`, the --state file belongs to the new program: a restart with
+    the new program file warm-starts (the counter kept); one with the old file cold-starts
+    (its state is not laid into a program it does not belong to)."""
+    import re
+
+    from daemon_util import Daemon
+
+    cfg, state = str(STAR.with_suffix(".toml")), str(tmp_path / "plc.state")
+    (tmp_path / "star_delta_symbols.csv").write_bytes(
+        (STAR.parent / "star_delta_symbols.csv").read_bytes())
+    old = tmp_path / "old.il"
+    old.write_text(STAR.read_text())
+    new = tmp_path / "steady.il"
+    new.write_text(STEADY)
+
+    def start(program):
+        d = Daemon(tmp_path, "--config", cfg, "--state", state, "--web", "0",
+                   "--stats-interval", "0", program=program)
+        line = next(x for x in d.out if "web monitor on" in x)
+        return d, re.search(r":(\d+)/", line)[1]
+
+    d, port = start(old)
+    try:
+        c = Client("127.0.0.1", int(port))
+        c.set("%MW100", 123)  # a retained word no program writes
+        until(lambda: c.get("%MW100")["%MW100"] == 123)
+        assert cli(["load", str(new), "--port", port, "--yes"]) == 0
+        assert d.stop() == 0
+    finally:
+        d.kill()
+    d, port = start(new)
+    try:
+        assert "warm start" in d.out[0], d.out[0]
+        assert Client("127.0.0.1", int(port)).get("%MW100")["%MW100"] == 123
+        assert d.stop() == 0
+    finally:
+        d.kill()
+    d, _ = start(old)
+    try:
+        assert "cold start (the program or configuration changed" in d.out[0], d.out[0]
+    finally:
+        d.kill()

@@ -22,6 +22,7 @@ from .. import online
 from ..errors import ConfigError, ProgramError, SoftPLCError
 from ..modbus import tags
 from ..modbus.regmap import COILS
+from ..runtime.retain import application_id
 from ..symbols import SymbolTable, from_config
 from .control import Controller
 from .errors import ApiError
@@ -159,14 +160,17 @@ class ProgramChanges:
             if plan.needs_confirmation and not (confirm or cold):
                 return 200, {"applied": False, "losses": plan.losses,
                              "needs_confirmation": True, "info": program_info(plc)}
-            info = await self._swap(plan, names, version, confirm, cold)
+            # what `softplc run` would call this application (the configuration as written,
+            # not anchored): a restart with the new program finds its state file its own
+            app = application_id(text.encode(), dict(plc.config if raw is None else raw))
+            info = await self._swap(plan, names, version, confirm, cold, app)
             self.ctl.objects.forget()
             return 200, {"applied": True, "losses": plan.losses, "cold": cold, "info": info}
         finally:
             self._busy = False
 
     async def _swap(self, plan: online.Plan, names: SymbolTable, version: int,
-                    confirm: bool, cold: bool) -> dict[str, Any]:
+                    confirm: bool, cold: bool, app: bytes) -> dict[str, Any]:
         """Queue the swap in the control lane; wait for the scan thread to make it."""
         plc = self.ctl.plc
         done: concurrent.futures.Future[dict[str, Any]] = concurrent.futures.Future()
@@ -181,6 +185,9 @@ class ProgramChanges:
                         "load again")
                 online.apply(plc, plan, confirm=confirm, cold=cold)
                 plc.symbols = names
+                store = self.ctl.image.store if self.ctl.image is not None else None
+                if store is not None:  # the state file now belongs to the new program: a
+                    store.app = app  # restart with it warm-starts, with the old one not
                 done.set_result(program_info(plc))
             except SoftPLCError as e:
                 done.set_exception(e)
