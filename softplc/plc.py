@@ -446,8 +446,7 @@ class PLC:
         problems = self._allocate(program, resolved)
         state = self.program_state
         env = bind(self.mem, self.ops, state, self.engine.watchdog_expired, self.mem.blocks)
-        forced = frozenset(r for r in getattr(self, "_forced", {})
-                           if r.kind in ("I", "Q", "M", "S", "X") and r.offset is None)
+        forced = self._forced_bits()
         compiled = compile_program(program, resolved, env, state, counts, debug, forced,
                                    problems)
         state.size_edges(resolved.edges)
@@ -535,25 +534,33 @@ class PLC:
         keeps its value all through the scan (the program's stores to it are compiled out);
         a forced word is re-asserted at the start and end of every scan."""
         ref = self._ref(address)
-        new_bit = ref not in self._forced
+        bits = self._forced_bits()
         self._forced[ref] = value
         self.engine.set_forced(dict(self._forced))
         self.mem.write(ref, value, field_inputs=False)
-        if new_bit:
-            self._forced_changed()
+        self._forced_changed(bits)
 
     def unforce(self, address: str | None = None) -> None:
         """Release one forced object, or all of them."""
+        bits = self._forced_bits()
         if address is None:
             self._forced.clear()
         else:
             self._forced.pop(self._ref(address), None)
         self.engine.set_forced(dict(self._forced))
-        self._forced_changed()
+        self._forced_changed(bits)
 
-    def _forced_changed(self) -> None:
-        """Recompile so that stores to the forced bits are left out (or back in)."""
-        self.replace_program(self.ast)
+    def _forced_bits(self) -> frozenset[Ref]:
+        """The forced bits, whose stores the compiled program leaves out (words are
+        re-asserted by the engine instead: no code depends on them)."""
+        return frozenset(r for r in getattr(self, "_forced", {})
+                         if r.kind in ("I", "Q", "M", "S", "X") and r.offset is None)
+
+    def _forced_changed(self, before: frozenset[Ref]) -> None:
+        """Recompile when the set of forced bits changed (2-14 ms for a machine program),
+        so that stores to them are left out (or back in); not for words or a no-op."""
+        if self._forced_bits() != before:
+            self.replace_program(self.ast)
 
     @property
     def forced(self) -> dict[str, Any]:

@@ -246,6 +246,25 @@ def test_forced_word_and_internal_bit(plc_from_source):
     assert plc["%MW0"] == 42 and plc["%M0"]
 
 
+def test_forcing_recompiles_only_when_the_forced_bits_change(plc_from_source):
+    """Stores to forced bits are compiled out; words are re-asserted by the engine, so
+    forcing a word, re-forcing a bit or releasing nothing costs no recompilation."""
+    plc = plc_from_source("LD 1\n[ %MW0 := 5 ]\nLD 1\nST %Q0.0\n")
+    v = plc.program_version
+    plc.force("%MW0", 42)
+    plc.unforce("%MW1")  # not forced
+    assert plc.program_version == v
+    plc.force("%Q0.0", 0)
+    assert plc.program_version == v + 1
+    plc.force("%Q0.0", 1)  # the same bit, another value
+    plc.unforce("%MW0")
+    assert plc.program_version == v + 1
+    plc.scan()
+    assert plc["%Q0.0"] == 1 and plc["%MW0"] == 5
+    plc.unforce()
+    assert plc.program_version == v + 2 and plc.forced == {}
+
+
 # ---- HALT -----------------------------------------------------------------------------------
 def test_halt_outputs_to_zero_and_cold_start_recovers(plc_from_source):
     plc = plc_from_source("""
