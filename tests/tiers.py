@@ -15,7 +15,8 @@ E2E = {
     "test_bench_smoke", "test_check_command", "test_cutting_pieces", "test_daemon",
     "test_daemon_hardening", "test_daemon_host_wait", "test_debug_repl", "test_e2e_cutting",
     "test_e2e_drawing", "test_exch", "test_first_hour", "test_host_client",
-    "test_mass_tuning_daemon", "test_mass_tuning_e2e", "test_modbus", "test_program_contract",
+    "test_mass_tuning_daemon", "test_mass_tuning_e2e", "test_modbus", "test_modbus_slots",
+    "test_program_contract",
     "test_web_api", "test_web_browser",
 }
 

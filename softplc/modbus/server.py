@@ -46,7 +46,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from struct import pack, unpack_from
-from typing import Any
+from typing import Any, cast
 
 from ..errors import SoftPLCError
 from .image import ModbusImage
@@ -217,8 +217,8 @@ class _Connection(asyncio.Protocol):
         self.paused = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self.transport = transport
+        # uvloop's transports are not asyncio.Transport subclasses but have its methods
+        self.transport = transport = cast(asyncio.Transport, transport)
         transport.set_write_buffer_limits(high=WRITE_BUFFER_LIMIT)
         self.peer = transport.get_extra_info("peername")
         srv = self.server
@@ -529,6 +529,20 @@ def _reset(conn: socket.socket) -> None:
     conn.close()
 
 
+def new_event_loop() -> asyncio.AbstractEventLoop:
+    """uvloop's event loop when it is installed (its C event loop halves the server's CPU
+    per request: README "Performance"), else asyncio's. SOFTPLC_EVENT_LOOP=asyncio picks
+    asyncio's anyway (for comparing the two, tools/bench_modbus_c.py)."""
+    if os.environ.get("SOFTPLC_EVENT_LOOP", "") != "asyncio":
+        try:
+            import uvloop
+        except ImportError:
+            pass
+        else:
+            return uvloop.new_event_loop()
+    return asyncio.new_event_loop()
+
+
 class ServerThread:
     """Run a `ModbusTcpServer` on its own event loop in a background thread.
 
@@ -539,7 +553,7 @@ class ServerThread:
     def __init__(self, image: ModbusImage, host: str = "127.0.0.1", port: int = 5020,
                  **options: Any):
         self.server = ModbusTcpServer(image, host, port, **options)
-        self.loop = asyncio.new_event_loop()
+        self.loop = new_event_loop()
         self._thread = threading.Thread(target=self._run, name="modbus", daemon=True)
         self._ready = threading.Event()
         self._error: BaseException | None = None
