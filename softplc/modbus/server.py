@@ -78,6 +78,7 @@ EVICT_IDLE = 5.0  # seconds without a request before a client's slot may be give
 # TCP keepalive: first probe after 30 s of silence, then every 10 s, 3 unanswered = dead
 KEEPALIVE = (("TCP_KEEPIDLE", 30), ("TCP_KEEPINTVL", 10), ("TCP_KEEPCNT", 3))
 _LINGER_RESET = pack("ii", 1, 0)  # SO_LINGER on, 0 s: close() sends an RST
+_monotonic = time.monotonic
 _OUTQ = getattr(termios, "TIOCOUTQ", None)  # = SIOCOUTQ on Linux: unacknowledged bytes
 
 
@@ -293,29 +294,38 @@ class _Connection(asyncio.Protocol):
         return queued
 
     def data_received(self, data: bytes) -> None:
-        now = time.monotonic()
-        if not self.buf:
-            self.partial_since = now  # a frame starts: its deadline runs from now
-        self.buf += data
-        self._process(now)
+        now = _monotonic()
+        if self.buf:
+            self.buf += data
+            self._process(now, self.buf)
+            return
+        # Usually a whole request (or several): parsed straight from `data`, without
+        # copying it into the buffer first; what follows the last whole frame is kept.
+        self.partial_since = now  # a frame starts: its deadline runs from now
+        pos = self._process(now, data)
+        if pos < len(data) and self.transport is not None and not self.paused:
+            self.buf += data[pos:]
 
-    def _process(self, now: float) -> None:
-        buf = self.buf
+    def _process(self, now: float, buf: bytes | bytearray) -> int:
+        """Answer the whole frames in `buf` (the connection's buffer, whose answered
+        frames are deleted, or the bytes just received); returns the offset answered."""
         img = self.image
         stats = self.stats
         write = self.transport.write  # type: ignore[union-attr]
         done = False
-        while len(buf) >= 7 and not self.paused:
-            tid, pid, length, unit = unpack_from(">HHHB", buf)
+        pos = 0
+        size = len(buf)
+        while size - pos >= 7 and not self.paused:
+            tid, pid, length, unit = unpack_from(">HHHB", buf, pos)
             if pid != 0 or not 2 <= length <= MAX_PDU_LENGTH + 1:
                 self.drop("header", "clients closed for a bad MBAP header",
                           f"bad MBAP header (protocol id {pid}, length {length})")
-                return
-            end = 6 + length
-            if len(buf) < end:
+                return size
+            end = pos + 6 + length
+            if size < end:
                 break
-            pdu = bytes(buf[7:end])
-            del buf[:end]
+            pdu = bytes(buf[pos + 7:end])
+            pos = end
             done = True
             try:
                 resp = process_pdu(img, pdu)
@@ -326,13 +336,18 @@ class _Connection(asyncio.Protocol):
                 stats.exceptions += 1
             stats.requests += 1
             write(pack_mbap(tid, unit, resp))
+        if buf is self.buf and pos:
+            del buf[:pos]
+            size -= pos
+            pos = 0
         if done:
             self.last_request = now
             self.served = True
             # what follows the last complete frame arrived now: a new frame's first bytes
-            self.partial_since = now if buf else None
-        elif not buf:
+            self.partial_since = now if size > pos else None
+        elif size == pos:
             self.partial_since = None
+        return pos
 
 
 class ModbusTcpServer:
