@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import heapq
 import itertools
 import os
 import re
@@ -76,6 +77,36 @@ def _lark() -> Lark:
                 propagate_positions=True, maybe_placeholders=False, cache=_grammar_cache())
 
 
+# The commonest IL lines ("LD %M0", "ANDN %I0.3", "ST %Q0.1", "S %M5", ")") are parsed
+# without Lark: its lexer and tree builder cost ~50 us a line, a regex match and the
+# transformer's own methods ~5 (tools/bench_compile.py). The regex is assembled from the
+# grammar's terminals, so it accepts exactly what these rules accept, and the nodes come
+# from the same `_ToAST` methods; any other line (comments, expressions, labels, symbols,
+# errors) goes to Lark. tests/test_parser.py checks both paths give the same AST.
+_FAST_RULES = {"b": ("bool_instr", "LOAD_KW", "LOGIC_KW"), "s": ("store", "STORE_KW"),
+               "r": ("set_reset", "SETRESET_KW")}
+
+
+@lru_cache(maxsize=1)
+def _fast_line() -> re.Pattern[str] | None:
+    """`KEYWORD ADDRESS` or `)` alone on a line; None if the grammar lacks a terminal."""
+    lark = _lark()
+    try:
+        rx = {t: lark.get_terminal(t).pattern.to_regexp()
+              for _rule, *terms in _FAST_RULES.values() for t in (*terms, "ADDRESS", "RPAR")}
+    except KeyError:
+        return None
+    kws = "|".join(f"(?P<{g}>{'|'.join(rx[t] for t in terms)})"
+                   for g, (_rule, *terms) in _FAST_RULES.items())
+    return re.compile(rf"[ \t]*(?:(?:{kws})[ \t]+(?P<a>{rx['ADDRESS']})|(?P<p>{rx['RPAR']}))"
+                      r"[ \t]*")
+
+
+def _token(kind: str, m: re.Match[str], group: str, line: int) -> Token:
+    return Token(kind, m.group(group), m.start(group), line, m.start(group) + 1, line,
+                 m.end(group) + 1, m.end(group))
+
+
 def _pos(tok: Token | object) -> A.Pos:
     return A.Pos(getattr(tok, "line", 0) or 0, getattr(tok, "column", 0) or 0,
                  getattr(tok, "end_line", 0) or 0, getattr(tok, "end_column", 0) or 0)
@@ -101,10 +132,16 @@ class _ToAST(Transformer):
         self.file = file
         self.lines = lines
         self.diags: list[Diagnostic] = []
+        self._refs: dict[str, Ref] = {}  # a program names the same addresses again and again
 
     def _ref(self, tok: Token) -> Ref:
+        text = str(tok)
+        ref = self._refs.get(text)
+        if ref is not None:
+            return ref
         try:
-            return parse_address(str(tok))
+            ref = self._refs[text] = parse_address(text)
+            return ref
         except AddressError as e:
             self.diags.append(Diagnostic(str(e), self.file, tok.line, tok.column, str(tok),
                                          f"an address within the {DEFAULT_PROFILE.name} profile",
@@ -299,6 +336,19 @@ class _ToAST(Transformer):
     def start(self, items):
         return items
 
+    def fast_item(self, m: re.Match[str], line: int) -> A.Instruction:
+        """The node of a line matched by `_fast_line`, as Lark's parse would give it."""
+        # the methods' plain functions: each `self.<v_args method>` would build a wrapper
+        if m.group("p") is not None:
+            return _ToAST.paren_close.base_func(self, _pos(_token("RPAR", m, "p", line)), [])
+        group = next(g for g in _FAST_RULES if m.group(g) is not None)
+        rule, *terms = _FAST_RULES[group]
+        kind = terms[0] if len(terms) == 1 or m.group(group)[:2].upper() == "LD" else terms[1]
+        kw, addr = _token(kind, m, group, line), _token("ADDRESS", m, "a", line)
+        operand = self.address([addr]) if rule == "bool_instr" else addr
+        meta = A.Pos(line, kw.column, line, addr.end_column)
+        return getattr(_ToAST, rule).base_func(self, meta, [kw, operand])
+
 
 def _syntax_diag(e: UnexpectedInput, file: str, lines: list[str]) -> Diagnostic:
     line = getattr(e, "line", 0) or len(lines)
@@ -377,6 +427,10 @@ class _LineParser:
     def __init__(self, text: str, file: str):
         self.file = file
         self.lines = text.splitlines()
+        self.inside: bytearray | None = None  # 1: line starts inside a comment (parse_lines)
+        self.fast = _fast_line()
+        self.tx = _ToAST(file, self.lines)
+        self.done: dict[int, A.Instruction] = {}  # fast_items' nodes by 0-based line
         self.diags: list[Diagnostic] = []
         self.bad: set[int] = set()  # 1-based numbers of the lines left out
         self.parses = 0  # grammar runs (the recovery's cost)
@@ -388,9 +442,14 @@ class _LineParser:
         pos = start
         while pos < end and not self.lost:
             chunk = self.lines[pos:end]
+            fast = self.fast_items(pos, chunk)
             self.parses += 1
             try:
-                tree = _lark().parse("\n".join(chunk) + "\n")
+                # lines parsed without Lark stay as blank lines: line numbers hold
+                rest = [("" if k in fast else ln) for k, ln in enumerate(chunk)] if fast \
+                    else chunk
+                tree = _lark().parse("\n".join(rest) + "\n") if len(fast) < len(chunk) \
+                    else None
             except UnexpectedInput as e:
                 d = _syntax_diag(e, self.file, chunk)
                 d = dataclasses.replace(d, line=d.line + pos)
@@ -403,13 +462,35 @@ class _LineParser:
                 items += self.parse_range(pos, line - 1)
                 pos = line
                 continue
-            _shift_lines(tree, pos)
-            items += self.transform(tree)
+            if tree is not None:
+                _shift_lines(tree, pos)
+                slow = self.transform(tree)
+                items += heapq.merge(slow, fast.values(), key=lambda it: it.pos.line) \
+                    if fast else slow
+            else:
+                items += fast.values()
             break
         return items
 
+    def fast_items(self, pos: int, chunk: list[str]) -> dict[int, A.Instruction]:
+        """Nodes of the chunk's lines that `_fast_line` matches, by index in the chunk
+        (in line order), leaving out lines that start inside a comment."""
+        out: dict[int, A.Instruction] = {}
+        if self.fast is None:
+            return out
+        match, inside, done = self.fast.fullmatch, self.inside, self.done
+        for k, text in enumerate(chunk):
+            item = done.get(pos + k)  # after a syntax error: built once (its diagnostics)
+            if item is None:
+                m = match(text)
+                if m is None or inside and inside[pos + k]:
+                    continue
+                item = done[pos + k] = self.tx.fast_item(m, pos + k + 1)
+            out[k] = item
+        return out
+
     def transform(self, tree: Tree) -> list:
-        tx = _ToAST(self.file, self.lines)
+        tx = self.tx
         items = []
         for child in tree.children:  # one line item each (start's children)
             if not isinstance(child, Tree):
@@ -426,23 +507,30 @@ class _LineParser:
                 self.bad.add(line)
                 continue
             items.append(tx.transform(child))
-        self.diags.extend(tx.diags)
         return items
 
 
 CHUNK_LINES = 40  # lines parsed at once: a syntax error costs a re-parse of at most this
 
 
-def _chunks(text: str, lines: list[str]) -> Iterator[tuple[int, int]]:
-    """Line ranges [start, end) of about CHUNK_LINES lines, cut only where a line does not
-    start inside a comment (comments may span lines), so each parses on its own."""
+def _inside_comments(text: str, lines: list[str]) -> bytearray:
+    """1 at the 0-based index of each line that starts inside a comment (comments may
+    span lines)."""
+    inside = bytearray(len(lines) + 1)
+    if "(*" not in text:
+        return inside
     starts = list(itertools.accumulate((len(ln) + 1 for ln in lines), initial=0))
-    inside = bytearray(len(lines) + 1)  # 1: line k starts inside a comment
     for m in _COMMENT.finditer(text):
         first = bisect.bisect_right(starts, m.start())  # 1-based line of "(*"
         last = bisect.bisect_right(starts, m.end() - 1)
         for k in range(first, last):  # lines first+1 .. last start inside: 0-based k
             inside[k] = 1
+    return inside
+
+
+def _chunks(lines: list[str], inside: bytearray) -> Iterator[tuple[int, int]]:
+    """Line ranges [start, end) of about CHUNK_LINES lines, cut only where a line does not
+    start inside a comment, so each parses on its own."""
     pos = 0
     while pos < len(lines):
         end = min(pos + CHUNK_LINES, len(lines))
@@ -457,12 +545,13 @@ def parse_lines(text: str, file: str = "<string>") -> tuple[list, list, list[Dia
 
     Returns (items, comments, diagnostics); comments are (line, column, text)."""
     lp = _LineParser(text, file)
+    lp.inside = _inside_comments(text, lp.lines)
     items = []
-    for start, end in _chunks(text, lp.lines):
+    for start, end in _chunks(lp.lines, lp.inside):
         items += lp.parse_range(start, end)
         if lp.lost:
             break
-    diags = sorted(lp.diags, key=lambda d: (d.line, d.column))
+    diags = sorted(lp.diags + lp.tx.diags, key=lambda d: (d.line, d.column))
     if lp.lost:
         return [], [], diags
     work = [("" if n + 1 in lp.bad else ln) for n, ln in enumerate(lp.lines)]
