@@ -10,7 +10,8 @@ one C process (a Python client saturates before the server does). Cases: FC 3 re
 registers, FC 16 writing 100. The servers take turns each round; the best round is kept.
 Printed per case: requests/s, server CPU per request (us, from /proc: the whole process,
 the scan thread included) and softplc's ratio to libmodbus (goals: FC 3 >= 1.0x,
-FC 16 >= 0.9x, issue 26). Needs gcc and libmodbus-dev.
+FC 16 >= 0.9x, issue 26). `--baseline CHECKOUT` adds a server run from another checkout
+(before/after in one run). Needs gcc and libmodbus-dev.
 """
 
 from __future__ import annotations
@@ -48,12 +49,15 @@ def build_load(folder: Path) -> Path:
     return exe
 
 
-def softplc(program: Path, loop: str) -> ServerProcess:
-    env = {"SOFTPLC_EVENT_LOOP": loop}
-    os.environ.update(env)
+def softplc(program: Path, loop: str, checkout: Path | None = None) -> ServerProcess:
+    """`softplc run` of this checkout, or of another one (its softplc imported first)."""
+    os.environ["SOFTPLC_EVENT_LOOP"] = loop
+    start = ["-m", "softplc"] if checkout is None else [
+        "-c", f"import sys; sys.path.insert(0, {str(checkout)!r}); from softplc.cli import "
+        "main; sys.exit(main())"]
     try:
-        return ServerProcess([sys.executable, "-m", "softplc", "run", str(program),
-                              "--period", "10ms", "--port", "0", "--stats-interval", "0"],
+        return ServerProcess([sys.executable, *start, "run", str(program), "--period",
+                              "10ms", "--port", "0", "--stats-interval", "0"],
                              r"listening on [\d.]+:(\d+)")
     finally:
         os.environ.pop("SOFTPLC_EVENT_LOOP", None)
@@ -81,6 +85,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=2.0, help="seconds per run (2)")
     ap.add_argument("--rounds", type=int, default=3, help="turns per server, best kept (3)")
     ap.add_argument("--clients", type=int, default=8, help="connections (8)")
+    ap.add_argument("--baseline", type=Path, metavar="CHECKOUT",
+                    help="also serve from this checkout (e.g. a git worktree of main)")
     a = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         exe = build_load(Path(tmp))
@@ -89,6 +95,8 @@ def main(argv: list[str] | None = None) -> int:
         servers = {"softplc": softplc(program, "default"),
                    "softplc asyncio": softplc(program, "asyncio"),
                    "libmodbus": LibmodbusServer()}
+        if a.baseline is not None:
+            servers["baseline"] = softplc(program, "default", a.baseline.resolve())
         best: dict[tuple[str, str], tuple[float, float]] = {}
         try:
             time.sleep(1.0)
@@ -110,9 +118,9 @@ def main(argv: list[str] | None = None) -> int:
         cells = "".join(f"{best[n, case][0]:>12,.0f} ({best[n, case][1]:5.1f})"
                         for n in servers)
         ratio = best["softplc", case][0] / best["libmodbus", case][0]
-        ratio0 = best["softplc asyncio", case][0] / best["libmodbus", case][0]
-        print(f"{case:14}{cells}   {ratio:.2f}x (asyncio {ratio0:.2f}x), goal >= "
-              f"{GOALS[case]:g}x")
+        others = ", ".join(f"{n} {best[n, case][0] / best['libmodbus', case][0]:.2f}x"
+                           for n in servers if n not in ("softplc", "libmodbus"))
+        print(f"{case:14}{cells}   {ratio:.2f}x ({others}), goal >= {GOALS[case]:g}x")
     return 0
 
 
