@@ -22,9 +22,11 @@ Front-ends (Modbus, a web monitor...) call `write_words` / `write_bits`, which r
 `WriteRefused` (carrying the Modbus exception code that fits); the Modbus protocol code
 checks the same rules itself on its hot path and calls `queue_registers` / `queue_coils`.
 
-The server and the scan may run in different threads: snapshots are immutable `bytes`
-replaced by one reference assignment; a lock orders queueing a write (and laying it over
-the snapshot) against applying the pending writes and taking a new snapshot.
+The server and the scan may run in different threads: the snapshot is a bytearray of
+fixed size, rewritten by single slice assignments (a memmove under the GIL: a reader's
+slice sees all of it or none) and read only by slicing; a lock orders queueing a write
+(and laying it over the snapshot) against applying the pending writes and taking a new
+snapshot.
 """
 
 from __future__ import annotations
@@ -159,7 +161,8 @@ class ModbusImage:
         return self.regs_wire[2 * addr: 2 * (addr + count)]
 
     def read_coils_packed(self, addr: int, count: int) -> bytes:
-        bits = np.frombuffer(self.coils, np.uint8, count, addr)
+        # a copy first: the scan thread rewrites `coils` in place (a slice is atomic)
+        bits = np.frombuffer(self.coils[addr:addr + count], np.uint8)
         return np.packbits(bits, bitorder="little").tobytes()
 
     def queue_registers(self, addr: int, wire: bytes) -> None:
