@@ -47,6 +47,14 @@ ST %M24
 END_BLK
 LD [ %MW1 > 3 ]
 ST %M25
+OR(N %M1
+AND(%M2
+)
+XOR(
+LD %M3
+)
+)
+ST %M27
 LD %M1 garbage ]]
 ST %M26
 """
@@ -76,7 +84,7 @@ def test_fast_path_with_comments_errors_and_cases(monkeypatch: pytest.MonkeyPatc
     assert fast == slow
     program, diags = fast
     # the indexed input, the out-of-range address and the garbage line, once each
-    assert sorted(d.line for d in diags) == [14, 16, 31]
+    assert sorted(d.line for d in diags) == [14, 16, 39]
     instrs = [i for r in program.rungs for i in r.instructions]
     first = instrs[0]  # LD %M0 of line 5: the commented-out lines 1-4 gave nothing
     assert isinstance(first, A.BoolInstr) and first.pos == A.Pos(5, 1, 5, 7)
@@ -95,7 +103,7 @@ def test_fast_path_is_used(monkeypatch: pytest.MonkeyPatch) -> None:
             return real.parse(text)
 
     monkeypatch.setattr(parser, "_lark", lambda: Spy())
-    parser.parse("LD %M0\nAND %M1\nST %Q0.0\n")
+    parser.parse("LD %M0\nAND( %M1\nOR %M2\n)\nST %Q0.0\nS %M3\n")
     assert calls == []
     parser.parse("LD %M0\n[ %MW1 := 2 ]\nST %Q0.0\n")
     assert calls == ["\n[ %MW1 := 2 ]\n\n"]  # the others blanked: line numbers hold
