@@ -33,8 +33,8 @@ def program(rungs: int) -> str:
             out += [f"LD [ %MW{w} > {k % 1000} ]", f"AND %M{a}", f"ANDN %M{b}",
                     f"OR %M{c}", f"ST %M{q}"]
         else:
-            out += [f"LD %M{a}", f"AND %M{b}", f"[ %MW{w} := %MW{(w + 1) % 500} + {k % 100} ]",
-                    f"LDN %M{c}", f"ST %M{q}"]
+            out += [f"LD %M{a}", f"ANDN %M{b}", f"OR %M{c}",
+                    f"[ %MW{w} := %MW{(w + 1) % 500} + {k % 100} ]", f"ST %M{q}"]
     return "\n".join(out) + "\nEND\n"
 
 
