@@ -27,6 +27,8 @@ from ..address import Ref, parse_address
 from ..errors import AddressError, Code, Diagnostic, ParseError
 from ..profile import DEFAULT_PROFILE
 from . import ast as A
+from . import fastlines
+from .fastlines import FastLines
 
 GRAMMAR = Path(__file__).with_name("twido_il.lark")
 
@@ -77,36 +79,10 @@ def _lark() -> Lark:
                 propagate_positions=True, maybe_placeholders=False, cache=_grammar_cache())
 
 
-# The commonest IL lines ("LD %M0", "ANDN %I0.3", "ST %Q0.1", "S %M5", "AND( %M1", ")")
-# are parsed without Lark: its lexer and tree builder cost ~50 us a line, a regex match
-# and the transformer's own methods ~6 (tools/bench_compile.py). The regex is assembled
-# from the grammar's terminals, so what it matches these rules accept, and the nodes come
-# from the same `_ToAST` methods; any other line (comments, expressions, labels, symbols,
-# errors) goes to Lark. tests/test_il_fastpath.py checks both paths give the same AST.
-_FAST_RULES = {"b": ("bool_instr", "LOAD_KW", "LOGIC_KW"), "s": ("store", "STORE_KW"),
-               "r": ("set_reset", "SETRESET_KW")}
-
-
 @lru_cache(maxsize=1)
-def _fast_line() -> re.Pattern[str] | None:
-    """`KEYWORD ADDRESS` or `)` alone on a line; None if the grammar lacks a terminal."""
-    lark = _lark()
-    try:
-        rx = {t: lark.get_terminal(t).pattern.to_regexp()
-              for _rule, *terms in _FAST_RULES.values()
-              for t in (*terms, "ADDRESS", "RPAR", "PAREN_KW")}
-    except KeyError:
-        return None
-    kws = "|".join(f"(?P<{g}>{'|'.join(rx[t] for t in terms)})"
-                   for g, (_rule, *terms) in _FAST_RULES.items())
-    return re.compile(rf"[ \t]*(?:(?:{kws})[ \t]+(?P<a>{rx['ADDRESS']})"
-                      rf"|(?P<o>{rx['PAREN_KW']})(?:[ \t]*(?P<oa>{rx['ADDRESS']}))?"
-                      rf"|(?P<p>{rx['RPAR']}))[ \t]*")
-
-
-def _token(kind: str, m: re.Match[str], group: str, line: int) -> Token:
-    return Token(kind, m.group(group), m.start(group), line, m.start(group) + 1, line,
-                 m.end(group) + 1, m.end(group))
+def _fast_line() -> FastLines | None:
+    """The fast path for the commonest lines (il/fastlines.py); None: Lark for all."""
+    return fastlines.build(_lark(), _ToAST)
 
 
 def _pos(tok: Token | object) -> A.Pos:
@@ -338,33 +314,6 @@ class _ToAST(Transformer):
     def start(self, items):
         return items
 
-    def fast_item(self, m: re.Match[str], line: int) -> A.Instruction:
-        """The node of a line matched by `_fast_line`, as Lark's parse would give it."""
-        if m.group("p") is not None:
-            return _FAST_FUNCS["paren_close"](self, _pos(_token("RPAR", m, "p", line)), [])
-        if m.group("o") is not None:  # AND( / OR( / XOR(, with or without its operand
-            kw = _token("PAREN_KW", m, "o", line)
-            if m.group("oa") is None:
-                return _FAST_FUNCS["paren_open"](self, _pos(kw), [kw])
-            addr = _token("ADDRESS", m, "oa", line)
-            return _FAST_FUNCS["paren_open"](self, A.Pos(line, kw.column, line,
-                                                         addr.end_column),
-                                             [kw, self.address([addr])])
-        group = next(g for g in _FAST_RULES if m.group(g) is not None)
-        rule, *terms = _FAST_RULES[group]
-        kind = terms[0] if len(terms) == 1 or m.group(group)[:2].upper() == "LD" else terms[1]
-        kw, addr = _token(kind, m, group, line), _token("ADDRESS", m, "a", line)
-        operand = self.address([addr]) if rule == "bool_instr" else addr
-        meta = A.Pos(line, kw.column, line, addr.end_column)
-        return _FAST_FUNCS[rule](self, meta, [kw, operand])
-
-
-# The plain functions of the fast path's rules: getting a `v_args` method from the class or
-# an instance builds a new wrapper every time (functools.update_wrapper, ~3 us).
-_FAST_FUNCS = {rule: vars(_ToAST)[rule].base_func
-               for rule in ("paren_open", "paren_close",
-                            *(r for r, *_t in _FAST_RULES.values()))}
-
 
 def _syntax_diag(e: UnexpectedInput, file: str, lines: list[str]) -> Diagnostic:
     line = getattr(e, "line", 0) or len(lines)
@@ -494,14 +443,14 @@ class _LineParser:
         out: dict[int, A.Instruction] = {}
         if self.fast is None:
             return out
-        match, inside, done = self.fast.fullmatch, self.inside, self.done
+        match, inside, done = self.fast.pattern.fullmatch, self.inside, self.done
         for k, text in enumerate(chunk):
             item = done.get(pos + k)  # after a syntax error: built once (its diagnostics)
             if item is None:
                 m = match(text)
                 if m is None or inside and inside[pos + k]:
                     continue
-                item = done[pos + k] = self.tx.fast_item(m, pos + k + 1)
+                item = done[pos + k] = self.fast.item(self.tx, m, pos + k + 1)
             out[k] = item
         return out
 
