@@ -10,19 +10,19 @@ life. `malloc_trim(0)` returns it (measured with tools/bench_compile.py: README
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 from functools import lru_cache
 from typing import Any
 
 
 @lru_cache(maxsize=1)
 def _libc() -> Any:
-    name = ctypes.util.find_library("c")
+    # the process's own symbols (dlopen(NULL)): libc is loaded already, and
+    # ctypes.util.find_library would start a subprocess to look for it
     try:
-        libc = ctypes.CDLL(name) if name else None
+        libc = ctypes.CDLL(None)
     except OSError:
         return None
-    return libc if libc is not None and hasattr(libc, "malloc_trim") else None
+    return libc if hasattr(libc, "malloc_trim") else None
 
 
 def release_free_memory() -> bool:
