@@ -50,6 +50,8 @@ bench: $(STAMP)
 	$(BIN)/pip install -q --no-deps 'pyrung==0.15.2' 'pyclickplc==0.4.1'
 	$(BIN)/python tools/bench.py
 	$(BIN)/python tools/bench_web.py --duration 2
+	$(BIN)/python tools/bench_compile.py
+	-$(BIN)/python tools/bench_modbus_c.py  # needs gcc and libmodbus-dev
 
 lint: $(STAMP)
 	$(BIN)/ruff check softplc tests tools

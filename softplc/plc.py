@@ -35,6 +35,7 @@ from .errors import (
     ProgramError,
     SoftPLCError,
 )
+from .heap import release_free_memory
 from .il import ast as A
 from .il.parser import parse, parse_file
 from .il.rungtree import syntax_follow_ups
@@ -55,6 +56,9 @@ from .semantics import Ops
 
 # signed or unsigned views of a word / double word
 _INT_CONSTANT_RANGE = {"KW": (-(1 << 15), (1 << 16) - 1), "KD": (-(1 << 31), (1 << 32) - 1)}
+
+
+TRIM_SOURCE = 256 * 1024  # generated source bytes past which compiling is worth a trim
 
 
 class PLC:
@@ -449,6 +453,8 @@ class PLC:
         forced = self._forced_bits()
         compiled = compile_program(program, resolved, env, state, counts, debug, forced,
                                    problems)
+        if len(compiled.source) > TRIM_SOURCE:  # compile() left its peak in the C heap
+            release_free_memory()
         state.size_edges(resolved.edges)
         state.initial_steps = self.grafcet.initial = resolved.initial_steps
         ts = self.time_source

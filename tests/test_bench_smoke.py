@@ -93,3 +93,42 @@ def test_cutting_benchmark_small() -> None:
     for key in ("simulated_s", "wall_s", "cpu_s", "speedup", "speedup_cpu"):
         assert _positive(r[key]), key
     assert "Cutting table" in bench_cutting.report(r)
+
+
+def test_compile_benchmark_small(capsys: pytest.CaptureFixture[str]) -> None:
+    import bench_compile
+
+    from softplc.il.parser import parse
+
+    text = bench_compile.program(30)
+    assert text.count("\n") == 30 * 5 + 1
+    assert len(parse(text).rungs) == 30  # END closes the last one
+    assert bench_compile.main(["--rungs", "30", "--repeat", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "30 rungs (151 lines)" in out and "RSS loaded" in out
+
+
+@pytest.mark.parametrize("fc", [3, 16])
+def test_c_load_generator_against_the_server(tmp_path: Path, fc: int) -> None:
+    """The C load generator of bench_modbus_c.py: a short run gets replies, no error."""
+    import shutil
+
+    import bench_modbus_c
+
+    from softplc.modbus import ModbusImage, ServerThread
+    from softplc.runtime.memory import MemoryImage
+
+    if not shutil.which("gcc"):
+        pytest.skip("gcc not installed")
+    exe = bench_modbus_c.build_load(tmp_path)
+    th = ServerThread(ModbusImage(MemoryImage()), "127.0.0.1", 0).start()
+    try:
+        qty = 10 if fc == 3 else 100
+        r = subprocess.run([str(exe), str(th.port), "4", "0.3", str(fc), str(qty), "100"],
+                           capture_output=True, text=True, timeout=20)
+    finally:
+        th.stop()
+    words = r.stdout.split()
+    assert r.returncode == 0 and words[0] == "replies" and words[2] == "errors"
+    assert int(words[1]) > 0 and int(words[3]) == 0
+    assert th.stats.requests >= int(words[1]) and th.stats.exceptions == 0

@@ -426,3 +426,34 @@ def test_client_that_never_reads_replies_is_reset(rig):
     with rig.raw() as c:
         assert c.read_registers(0, 1) == [0]
     s.close()
+
+
+# -- both event loops (issue 26: uvloop when installed, asyncio on request) -----------------
+@pytest.mark.parametrize("loop", ["default", "asyncio"])
+def test_both_event_loops_serve_writes_and_reads(monkeypatch, loop):
+    """FC 16 of 100 registers is read back at once (before any scan), lands in %MW at the
+    next scan start in one piece, and coils likewise, with either event loop."""
+    monkeypatch.setenv("SOFTPLC_EVENT_LOOP", loop)
+    r = Rig()
+    try:
+        kind = type(r.server.loop).__module__
+        if loop == "asyncio":
+            assert kind.startswith("asyncio")
+        else:
+            uvloop = pytest.importorskip("uvloop")
+            assert isinstance(r.server.loop, uvloop.Loop)
+        values = [(i * 517) & 0xFFFF for i in range(100)]
+        with r.raw() as c:
+            c.write_registers(300, values)
+            assert c.read_registers(300, 100) == values  # the pending write, read back
+            assert c.read_registers(299, 1) == [0]
+            assert r.mem.mw.w[300] == 0  # not applied before the scan
+            c.call(struct.pack(">BHHB", 15, 20, 4, 1) + bytes((0b1101,)))  # coils 20-23
+            r.scan()
+            assert [r.mem.mw.w[300 + i] & 0xFFFF for i in range(100)] == values
+            assert [r.mem.m[20 + i] for i in range(4)] == [1, 0, 1, 1]
+            c.write_registers(350, [7])  # a second write over the same range
+            r.scan()
+            assert c.read_registers(349, 3) == [values[49], 7, values[51]]
+    finally:
+        r.server.stop()

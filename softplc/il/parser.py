@@ -11,6 +11,7 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import difflib
+import heapq
 import itertools
 import os
 import re
@@ -28,6 +29,8 @@ from ..errors import AddressError, Code, Diagnostic, ParseError
 from ..profile import DEFAULT_PROFILE
 from ..symbols import SymbolTable
 from . import ast as A
+from . import fastlines
+from .fastlines import FastLines
 
 GRAMMAR = Path(__file__).with_name("twido_il.lark")
 
@@ -89,6 +92,12 @@ def _lark() -> Lark:
                 propagate_positions=True, maybe_placeholders=False, cache=_grammar_cache())
 
 
+@lru_cache(maxsize=1)
+def _fast_line() -> FastLines | None:
+    """The fast path for the commonest lines (il/fastlines.py); None: Lark for all."""
+    return fastlines.build(_lark(), _ToAST)
+
+
 def _pos(tok: Token | object) -> A.Pos:
     return A.Pos(getattr(tok, "line", 0) or 0, getattr(tok, "column", 0) or 0,
                  getattr(tok, "end_line", 0) or 0, getattr(tok, "end_column", 0) or 0)
@@ -115,16 +124,23 @@ class _ToAST(Transformer):
         self.lines = lines
         self.diags: list[Diagnostic] = []
         self.symbols = symbols
+        self._refs: dict[str, Ref] = {}  # a program names the same addresses again and again
 
     def _ref(self, tok: Token) -> Ref:
         text = str(tok)
+        ref = self._refs.get(text)
+        if ref is not None:
+            return ref
         try:
             if self.symbols is not None:  # a name, or an address: its symbol attached
-                return self.symbols.ref(text)
-            if not text.startswith("%"):
+                ref = self.symbols.ref(text)
+            elif not text.startswith("%"):
                 raise AddressError(f"unknown symbol {text!r} (no symbol table: declare "
                                    f"[symbols] in the configuration)")
-            return parse_address(text)
+            else:
+                ref = parse_address(text)
+            self._refs[text] = ref
+            return ref
         except AddressError as e:
             symbol = not text.startswith("%")
             self.diags.append(Diagnostic(
@@ -402,6 +418,10 @@ class _LineParser:
         self.file = file
         self.symbols = symbols
         self.lines = text.splitlines()
+        self.inside: bytearray | None = None  # 1: line starts inside a comment (parse_lines)
+        self.fast = _fast_line()
+        self.tx = _ToAST(file, self.lines, symbols)
+        self.done: dict[int, A.Instruction] = {}  # fast_items' nodes by 0-based line
         self.diags: list[Diagnostic] = []
         self.bad: set[int] = set()  # 1-based numbers of the lines left out
         self.parses = 0  # grammar runs (the recovery's cost)
@@ -413,9 +433,14 @@ class _LineParser:
         pos = start
         while pos < end and not self.lost:
             chunk = self.lines[pos:end]
+            fast = self.fast_items(pos, chunk)
             self.parses += 1
             try:
-                tree = _lark().parse("\n".join(chunk) + "\n")
+                # lines parsed without Lark stay as blank lines: line numbers hold
+                rest = [("" if k in fast else ln) for k, ln in enumerate(chunk)] if fast \
+                    else chunk
+                tree = _lark().parse("\n".join(rest) + "\n") if len(fast) < len(chunk) \
+                    else None
             except UnexpectedInput as e:
                 d = _syntax_diag(e, self.file, chunk)
                 d = dataclasses.replace(d, line=d.line + pos)
@@ -428,13 +453,35 @@ class _LineParser:
                 items += self.parse_range(pos, line - 1)
                 pos = line
                 continue
-            _shift_lines(tree, pos)
-            items += self.transform(tree)
+            if tree is not None:
+                _shift_lines(tree, pos)
+                slow = self.transform(tree)
+                items += heapq.merge(slow, fast.values(), key=lambda it: it.pos.line) \
+                    if fast else slow
+            else:
+                items += fast.values()
             break
         return items
 
+    def fast_items(self, pos: int, chunk: list[str]) -> dict[int, A.Instruction]:
+        """Nodes of the chunk's lines that `_fast_line` matches, by index in the chunk
+        (in line order), leaving out lines that start inside a comment."""
+        out: dict[int, A.Instruction] = {}
+        if self.fast is None:
+            return out
+        match, inside, done = self.fast.pattern.fullmatch, self.inside, self.done
+        for k, text in enumerate(chunk):
+            item = done.get(pos + k)  # after a syntax error: built once (its diagnostics)
+            if item is None:
+                m = match(text)
+                if m is None or inside and inside[pos + k]:
+                    continue
+                item = done[pos + k] = self.fast.item(self.tx, m, pos + k + 1)
+            out[k] = item
+        return out
+
     def transform(self, tree: Tree) -> list:
-        tx = _ToAST(self.file, self.lines, self.symbols)
+        tx = self.tx
         items = []
         for child in tree.children:  # one line item each (start's children)
             if not isinstance(child, Tree):
@@ -451,23 +498,30 @@ class _LineParser:
                 self.bad.add(line)
                 continue
             items.append(tx.transform(child))
-        self.diags.extend(tx.diags)
         return items
 
 
 CHUNK_LINES = 40  # lines parsed at once: a syntax error costs a re-parse of at most this
 
 
-def _chunks(text: str, lines: list[str]) -> Iterator[tuple[int, int]]:
-    """Line ranges [start, end) of about CHUNK_LINES lines, cut only where a line does not
-    start inside a comment (comments may span lines), so each parses on its own."""
+def _inside_comments(text: str, lines: list[str]) -> bytearray:
+    """1 at the 0-based index of each line that starts inside a comment (comments may
+    span lines)."""
+    inside = bytearray(len(lines) + 1)
+    if "(*" not in text:
+        return inside
     starts = list(itertools.accumulate((len(ln) + 1 for ln in lines), initial=0))
-    inside = bytearray(len(lines) + 1)  # 1: line k starts inside a comment
     for m in _COMMENT.finditer(text):
         first = bisect.bisect_right(starts, m.start())  # 1-based line of "(*"
         last = bisect.bisect_right(starts, m.end() - 1)
         for k in range(first, last):  # lines first+1 .. last start inside: 0-based k
             inside[k] = 1
+    return inside
+
+
+def _chunks(lines: list[str], inside: bytearray) -> Iterator[tuple[int, int]]:
+    """Line ranges [start, end) of about CHUNK_LINES lines, cut only where a line does not
+    start inside a comment, so each parses on its own."""
     pos = 0
     while pos < len(lines):
         end = min(pos + CHUNK_LINES, len(lines))
@@ -483,12 +537,13 @@ def parse_lines(text: str, file: str = "<string>", symbols: SymbolTable | None =
 
     Returns (items, comments, diagnostics); comments are (line, column, text)."""
     lp = _LineParser(text, file, symbols)
+    lp.inside = _inside_comments(text, lp.lines)
     items = []
-    for start, end in _chunks(text, lp.lines):
+    for start, end in _chunks(lp.lines, lp.inside):
         items += lp.parse_range(start, end)
         if lp.lost:
             break
-    diags = sorted(lp.diags, key=lambda d: (d.line, d.column))
+    diags = sorted(lp.diags + lp.tx.diags, key=lambda d: (d.line, d.column))
     if lp.lost:
         return [], [], diags
     work = [("" if n + 1 in lp.bad else ln) for n, ln in enumerate(lp.lines)]

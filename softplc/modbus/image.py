@@ -22,9 +22,11 @@ Front-ends (Modbus, a web monitor...) call `write_words` / `write_bits`, which r
 `WriteRefused` (carrying the Modbus exception code that fits); the Modbus protocol code
 checks the same rules itself on its hot path and calls `queue_registers` / `queue_coils`.
 
-The server and the scan may run in different threads: snapshots are immutable `bytes`
-replaced by one reference assignment; a lock orders queueing a write (and laying it over
-the snapshot) against applying the pending writes and taking a new snapshot.
+The server and the scan may run in different threads: the snapshot is a bytearray of
+fixed size, rewritten by single slice assignments (a memmove under the GIL: a reader's
+slice sees all of it or none) and read only by slicing; a lock orders queueing a write
+(and laying it over the snapshot) against applying the pending writes and taking a new
+snapshot.
 """
 
 from __future__ import annotations
@@ -68,10 +70,17 @@ class ModbusImage:
         self.n_registers = n = mem.mw.n
         self.n_coils = c = len(mem.m)
         self._regs_native = np.frombuffer(mem.mw.buf, np.uint16)
-        self._pend_regs = np.zeros(n, ">u2")  # wire order, like the snapshot
-        self._pend_rmask = np.zeros(n, bool)
-        self._pend_coils = np.zeros(c, np.uint8)
-        self._pend_cmask = np.zeros(c, bool)
+        # The pending image is bytearrays, written by slice assignment (one memmove per
+        # request, no numpy call on the client's path), with numpy views for applying it.
+        self._pend_regs_b = bytearray(2 * n)  # wire order, like the snapshot
+        self._pend_rmask_b = bytearray(n)  # 1: register written since the last apply
+        self._pend_coils_b = bytearray(c)
+        self._pend_cmask_b = bytearray(c)
+        self._pend_regs = np.frombuffer(self._pend_regs_b, ">u2")
+        self._pend_rmask = np.frombuffer(self._pend_rmask_b, bool)
+        self._pend_coils = np.frombuffer(self._pend_coils_b, np.uint8)
+        self._pend_cmask = np.frombuffer(self._pend_cmask_b, bool)
+        self._ones = b"\x01" * max(n, c)
         self._rlo, self._rhi, self._clo, self._chi = n, 0, c, 0  # pending bounds
         self._pending = 0  # writes acknowledged since the last apply
         self._lock = threading.Lock()
@@ -79,8 +88,11 @@ class ModbusImage:
         self.store = store
         self._blocks = blocks
         self.hold = False  # True: keep the last snapshot (a scan was interrupted)
-        self.regs_wire = b""  # %MW as big-endian bytes, ready to slice into a response
-        self.coils = b""  # %M, one byte (0/1) per bit
+        # %MW as big-endian bytes, ready to slice into a response, and %M one byte (0/1)
+        # per bit. Both keep their size: replaced by one slice assignment (a memmove, which
+        # readers in another thread never see half done: the GIL is held throughout).
+        self.regs_wire = bytearray(2 * n)
+        self.coils = bytearray(c)
         self.writes_applied = 0
         self.take_snapshot()
 
@@ -114,7 +126,8 @@ class ModbusImage:
         with self._lock:
             if self._pending:  # acknowledged but not yet scanned: still what hosts read
                 regs, coils = self._overlay(regs, coils)
-            self.regs_wire, self.coils = regs, coils
+            self.regs_wire[:] = regs
+            self.coils[:] = coils
             if self.store is not None:
                 self.store.commit(regs, coils, blocks)
 
@@ -149,38 +162,52 @@ class ModbusImage:
         return self.regs_wire[2 * addr: 2 * (addr + count)]
 
     def read_coils_packed(self, addr: int, count: int) -> bytes:
-        bits = np.frombuffer(self.coils, np.uint8, count, addr)
+        # a copy first: the scan thread rewrites `coils` in place (a slice is atomic)
+        bits = np.frombuffer(self.coils[addr:addr + count], np.uint8)
         return np.packbits(bits, bitorder="little").tobytes()
 
     def queue_registers(self, addr: int, wire: bytes) -> None:
         """Accept a write of big-endian register bytes at register `addr` (checked)."""
-        n = len(wire) // 2
+        nb = len(wire)
+        end = addr + nb // 2
+        a2 = 2 * addr
         with self._lock:
-            self._pend_regs[addr:addr + n] = np.frombuffer(wire, ">u2")
-            self._pend_rmask[addr:addr + n] = True
-            self._rlo, self._rhi = min(self._rlo, addr), max(self._rhi, addr + n)
+            self._pend_regs_b[a2:a2 + nb] = wire
+            self._pend_rmask_b[addr:end] = self._ones[:end - addr]
+            if addr < self._rlo:
+                self._rlo = addr
+            if end > self._rhi:
+                self._rhi = end
             self._pending += 1
-            r = self.regs_wire
-            self.regs_wire = r[:2 * addr] + wire + r[2 * addr + len(wire):]
+            self.regs_wire[a2:a2 + nb] = wire  # read back at once (module docstring)
             store = self.store
             if store is not None and not store.journal(J_REGISTERS, addr, wire):
                 store.commit(self.regs_wire, self.coils)  # includes this write
-        self.written.set()
+        self._signal()
 
     def queue_coils(self, addr: int, values: bytes) -> None:
         """Accept a write of coil values (one byte 0/1 per coil) at coil `addr` (checked)."""
-        n = len(values)
+        end = addr + len(values)
         with self._lock:
-            self._pend_coils[addr:addr + n] = np.frombuffer(values, np.uint8)
-            self._pend_cmask[addr:addr + n] = True
-            self._clo, self._chi = min(self._clo, addr), max(self._chi, addr + n)
+            self._pend_coils_b[addr:end] = values
+            self._pend_cmask_b[addr:end] = self._ones[:end - addr]
+            if addr < self._clo:
+                self._clo = addr
+            if end > self._chi:
+                self._chi = end
             self._pending += 1
-            c = self.coils
-            self.coils = c[:addr] + values + c[addr + n:]
+            self.coils[addr:end] = values
             store = self.store
             if store is not None and not store.journal(J_COILS, addr, values):
                 store.commit(self.regs_wire, self.coils)
-        self.written.set()
+        self._signal()
+
+    def _signal(self) -> None:
+        # Event.set() takes a lock and notifies: skip it while the event is still set.
+        # wait_for_write clears it before looking at `_pending` (incremented before
+        # this), so a write that skips set() is seen there.
+        if not self.written.is_set():
+            self.written.set()
 
     def wait_for_write(self, timeout: float) -> bool:
         """Block until a write is pending (True) or `timeout` seconds pass (False); the

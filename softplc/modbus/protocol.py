@@ -39,18 +39,22 @@ def exception(fc: int, code: int) -> bytes:
     return bytes(((fc | 0x80) & 0xFF, code))
 
 
+_READS = {fc: (f.max_quantity, f.space == REGISTERS) for fc, f in FUNCTIONS.items()
+          if fc in (1, 2, 3, 4)}  # fc -> (max quantity, registers?): the hot path's lookup
+
+
 def _read(img: ModbusImage, pdu: bytes) -> bytes:
     fc = pdu[0]
     if len(pdu) != 5:
         return exception(fc, ILLEGAL_VALUE)
     addr, qty = unpack_from(">HH", pdu, 1)
-    f = FUNCTIONS[fc]
-    if not 1 <= qty <= f.max_quantity:
+    max_qty, registers = _READS[fc]
+    if not 1 <= qty <= max_qty:
         return exception(fc, ILLEGAL_VALUE)
-    if f.space == REGISTERS:
+    if registers:
         if addr + qty > img.n_registers:
             return exception(fc, ILLEGAL_ADDRESS)
-        return bytes((fc, 2 * qty)) + img.read_registers_wire(addr, qty)
+        return pack("BB", fc, 2 * qty) + img.regs_wire[2 * addr:2 * (addr + qty)]
     if addr + qty > img.n_coils:
         return exception(fc, ILLEGAL_ADDRESS)
     data = img.read_coils_packed(addr, qty)

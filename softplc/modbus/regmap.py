@@ -90,9 +90,11 @@ class ReadOnly:
 
     def blocks(self, space: str, start: int, count: int) -> bool:
         """True if a write of `count` items at `start` touches a read-only range."""
-        ranges = self.registers if space == REGISTERS else self.coils
         stop = start + count
-        return any(start < b and a < stop for a, b in ranges)
+        for a, b in self.registers if space == REGISTERS else self.coils:  # hot: no genexpr
+            if start < b and a < stop:
+                return True
+        return False
 
 
 def parse_read_only(config: dict[str, Any] | None, profile: Profile = DEFAULT_PROFILE) -> ReadOnly:

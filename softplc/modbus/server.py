@@ -46,7 +46,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from struct import pack, unpack_from
-from typing import Any
+from typing import Any, cast
 
 from ..errors import SoftPLCError
 from .image import ModbusImage
@@ -78,6 +78,7 @@ EVICT_IDLE = 5.0  # seconds without a request before a client's slot may be give
 # TCP keepalive: first probe after 30 s of silence, then every 10 s, 3 unanswered = dead
 KEEPALIVE = (("TCP_KEEPIDLE", 30), ("TCP_KEEPINTVL", 10), ("TCP_KEEPCNT", 3))
 _LINGER_RESET = pack("ii", 1, 0)  # SO_LINGER on, 0 s: close() sends an RST
+_monotonic = time.monotonic
 _OUTQ = getattr(termios, "TIOCOUTQ", None)  # = SIOCOUTQ on Linux: unacknowledged bytes
 
 
@@ -217,8 +218,8 @@ class _Connection(asyncio.Protocol):
         self.paused = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self.transport = transport
+        # uvloop's transports are not asyncio.Transport subclasses but have its methods
+        self.transport = transport = cast(asyncio.Transport, transport)
         transport.set_write_buffer_limits(high=WRITE_BUFFER_LIMIT)
         self.peer = transport.get_extra_info("peername")
         srv = self.server
@@ -293,29 +294,38 @@ class _Connection(asyncio.Protocol):
         return queued
 
     def data_received(self, data: bytes) -> None:
-        now = time.monotonic()
-        if not self.buf:
-            self.partial_since = now  # a frame starts: its deadline runs from now
-        self.buf += data
-        self._process(now)
+        now = _monotonic()
+        if self.buf:
+            self.buf += data
+            self._process(now, self.buf)
+            return
+        # Usually a whole request (or several): parsed straight from `data`, without
+        # copying it into the buffer first; what follows the last whole frame is kept.
+        self.partial_since = now  # a frame starts: its deadline runs from now
+        pos = self._process(now, data)
+        if pos < len(data) and self.transport is not None and not self.paused:
+            self.buf += data[pos:]
 
-    def _process(self, now: float) -> None:
-        buf = self.buf
+    def _process(self, now: float, buf: bytes | bytearray) -> int:
+        """Answer the whole frames in `buf` (the connection's buffer, whose answered
+        frames are deleted, or the bytes just received); returns the offset answered."""
         img = self.image
         stats = self.stats
         write = self.transport.write  # type: ignore[union-attr]
         done = False
-        while len(buf) >= 7 and not self.paused:
-            tid, pid, length, unit = unpack_from(">HHHB", buf)
+        pos = 0
+        size = len(buf)
+        while size - pos >= 7 and not self.paused:
+            tid, pid, length, unit = unpack_from(">HHHB", buf, pos)
             if pid != 0 or not 2 <= length <= MAX_PDU_LENGTH + 1:
                 self.drop("header", "clients closed for a bad MBAP header",
                           f"bad MBAP header (protocol id {pid}, length {length})")
-                return
-            end = 6 + length
-            if len(buf) < end:
+                return size
+            end = pos + 6 + length
+            if size < end:
                 break
-            pdu = bytes(buf[7:end])
-            del buf[:end]
+            pdu = bytes(buf[pos + 7:end])
+            pos = end
             done = True
             try:
                 resp = process_pdu(img, pdu)
@@ -326,13 +336,18 @@ class _Connection(asyncio.Protocol):
                 stats.exceptions += 1
             stats.requests += 1
             write(pack_mbap(tid, unit, resp))
+        if buf is self.buf and pos:
+            del buf[:pos]
+            size -= pos
+            pos = 0
         if done:
             self.last_request = now
             self.served = True
             # what follows the last complete frame arrived now: a new frame's first bytes
-            self.partial_since = now if buf else None
-        elif not buf:
+            self.partial_since = now if size > pos else None
+        elif size == pos:
             self.partial_since = None
+        return pos
 
 
 class ModbusTcpServer:
@@ -529,6 +544,20 @@ def _reset(conn: socket.socket) -> None:
     conn.close()
 
 
+def new_event_loop() -> asyncio.AbstractEventLoop:
+    """uvloop's event loop when it is installed (its C event loop halves the server's CPU
+    per request: README "Performance"), else asyncio's. SOFTPLC_EVENT_LOOP=asyncio picks
+    asyncio's anyway (for comparing the two, tools/bench_modbus_c.py)."""
+    if os.environ.get("SOFTPLC_EVENT_LOOP", "") != "asyncio":
+        try:
+            import uvloop
+        except ImportError:
+            pass
+        else:
+            return uvloop.new_event_loop()
+    return asyncio.new_event_loop()
+
+
 class ServerThread:
     """Run a `ModbusTcpServer` on its own event loop in a background thread.
 
@@ -539,7 +568,7 @@ class ServerThread:
     def __init__(self, image: ModbusImage, host: str = "127.0.0.1", port: int = 5020,
                  **options: Any):
         self.server = ModbusTcpServer(image, host, port, **options)
-        self.loop = asyncio.new_event_loop()
+        self.loop = new_event_loop()
         self._thread = threading.Thread(target=self._run, name="modbus", daemon=True)
         self._ready = threading.Event()
         self._error: BaseException | None = None
