@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from ..address import Ref
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Pos:
     line: int
     column: int
@@ -27,12 +27,12 @@ def _pos() -> Pos:
 
 
 # ---- expressions (inside [ ] blocks) ------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Expr:
     pass
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Num(Expr):
     value: int | float
     text: str = field(default="", compare=False)  # as written: 1.0E3, #7FFF
@@ -43,13 +43,13 @@ class Num(Expr):
         return isinstance(self.value, float)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Addr(Expr):
     ref: Ref
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BinOp(Expr):
     op: str  # + - * / REM AND OR XOR
     left: Expr
@@ -57,20 +57,20 @@ class BinOp(Expr):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Neg(Expr):
     operand: Expr
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Call(Expr):
     func: str  # canonical upper-case name (aliases resolved)
     args: tuple[Expr, ...]
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Compare:
     op: str  # > >= < <= = <>
     left: Expr
@@ -78,7 +78,7 @@ class Compare:
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Const:
     """Boolean operand 0 / 1."""
 
@@ -86,7 +86,7 @@ class Const:
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BlockOutput:
     """`Q`, `D`, `E`, `F` after OUT_BLK: an output of the enclosing block."""
 
@@ -94,7 +94,7 @@ class BlockOutput:
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Operand:
     """A reference used as a boolean operand."""
 
@@ -106,21 +106,21 @@ BoolOperand = Operand | Const | Compare | BlockOutput
 
 
 # ---- statements in operation blocks -------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Assign:
     target: Ref
     expr: Expr
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class IncDec:
     op: str  # INC | DEC
     target: Ref
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class PidCall:
     """`[ PID n ]`: run PID function n (configured in [pid]) [manual]."""
 
@@ -128,7 +128,7 @@ class PidCall:
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class ExchCall:
     """`EXCHi %MWj:n`: start an exchange on port i with the table %MWj:n [manual]; an
     instruction of its own in the text, held as an operation-block statement (it runs
@@ -143,12 +143,12 @@ Statement = Assign | IncDec | PidCall | ExchCall
 
 
 # ---- instructions -------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Instruction:
     pass
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BoolInstr(Instruction):
     """LD / AND / OR / XOR with modifier '' | 'N' | 'R' | 'F'."""
 
@@ -162,7 +162,7 @@ class BoolInstr(Instruction):
         return self.op == "LD"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class ParenOpen(Instruction):
     op: str  # AND | OR | XOR
     modifier: str  # '' | N | R | F
@@ -170,82 +170,82 @@ class ParenOpen(Instruction):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class ParenClose(Instruction):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Store(Instruction):
     op: str  # ST STN S R
     target: Ref
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Negate(Instruction):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Stack(Instruction):
     op: str  # MPS MRD MPP
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class OpBlock(Instruction):
     stmt: Statement
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Jump(Instruction):
     op: str  # JMP JMPC JMPCN
     label: int
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class SRCall(Instruction):
     number: int
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Return(Instruction):
     op: str  # RET RETC RETCN
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class End(Instruction):
     op: str  # END ENDC ENDCN
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Nop(Instruction):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Blk(Instruction):
     block: Ref
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class OutBlk(Instruction):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class EndBlk(Instruction):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Pin(Instruction):
     """A block input: `IN`, `R`, `S`, `CU`, `CD`, `U`, `I`, `O`.
 
@@ -256,13 +256,13 @@ class Pin(Instruction):
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Label(Instruction):
     number: int
     pos: Pos = _pos()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Grafcet(Instruction):
     op: str  # "=*=" initial step, "-*-" step, "POST", "#" jump, "#D" deactivate
     step: int | None
@@ -270,7 +270,7 @@ class Grafcet(Instruction):
 
 
 # ---- program structure --------------------------------------------------------------------
-@dataclass
+@dataclass(slots=True)
 class Rung:
     """A rung: from a load (or BLK) after the previous rung's outputs to its last output."""
 
@@ -289,7 +289,7 @@ class Rung:
         return f"rung {self.index}" + (f" ({self.title})" if self.title else "")
 
 
-@dataclass
+@dataclass(slots=True)
 class Program:
     file: str
     source: str
