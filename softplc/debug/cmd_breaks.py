@@ -26,7 +26,7 @@ def cmd_break(s: Session, arg: str) -> str:
     if m:
         return _break_when(s, m[1])
     r = s.ctl.resolve_rung(arg)
-    b = s.ctl.add_breakpoint(kind="rung", text=r.name, rung=r.index, key=arg)
+    b = s.ctl.breakpoints.add(kind="rung", text=r.name, rung=r.index, key=arg)
     return f"breakpoint #{b.id} at {r.name}"
 
 
@@ -37,7 +37,7 @@ def _break_when(s: Session, text: str) -> str:
         if len(refs) != 1:
             raise DebugError("a condition names one object, not a range")
         ref = refs[0]
-        b = s.ctl.add_breakpoint(kind="cond", text=f"{ref} {parts[1].lower()}",
+        b = s.ctl.breakpoints.add(kind="cond", text=f"{ref} {parts[1].lower()}",
                       test=lambda: s.read(ref), mode=parts[1].lower())
         return f"breakpoint #{b.id} when {b.text}"
     m = COND.match(text)
@@ -58,7 +58,7 @@ def _break_when(s: Session, text: str) -> str:
 
         def right() -> Any:
             return val
-    b = s.ctl.add_breakpoint(kind="cond", text=f"{lref} {m[2]} {m[3]}",
+    b = s.ctl.breakpoints.add(kind="cond", text=f"{lref} {m[2]} {m[3]}",
                   test=lambda: bool(op(s.read(lref), right())))
     return f"breakpoint #{b.id} when {b.text}" + (" (true now: stops when it becomes "
                                                   "true again)" if b.last else "")
@@ -72,7 +72,7 @@ def cmd_watch(s: Session, arg: str) -> str:
     if len(refs) != 1:
         raise DebugError("watch one object, e.g. watch %MW32")
     ref = refs[0]
-    b = s.ctl.add_breakpoint(kind="watch", text=s.title(ref),
+    b = s.ctl.breakpoints.add(kind="watch", text=s.title(ref),
                                 test=lambda: s.read(ref))
     return f"watch #{b.id} {s.title(ref)} (now {s.fmt(ref, b.last)})"
 
@@ -92,21 +92,21 @@ def cmd_breakpoints(s: Session, arg: str) -> str:
 
 def _ids(s: Session, arg: str) -> list[Breakpoint]:
     if not arg or arg == "all":
-        return s.ctl.find_breakpoints(None)
+        return s.ctl.breakpoints.find(None)
     ids = []
     for t in arg.replace(",", " ").split():
         try:
             ids.append(int(t.lstrip("#")))
         except ValueError:
             raise DebugError(f"{t!r} is not a breakpoint number") from None
-    return s.ctl.find_breakpoints(ids)
+    return s.ctl.breakpoints.find(ids)
 
 
 @command("delete", "d")
 def cmd_delete(s: Session, arg: str) -> str:
     """delete [ID...]: delete breakpoints/watches (all without argument)."""
     gone = _ids(s, arg)
-    s.ctl.delete_breakpoints(gone)
+    s.ctl.breakpoints.delete(gone)
     return f"deleted {len(gone)} breakpoint(s)"
 
 

@@ -90,16 +90,14 @@ class Controller:
         self.gen: Iterator[tuple[int, int]] | None = None
         self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
         self.ring: deque[dict[str, Any]] = deque(maxlen=history)  # snapshots, for `back`
-        self.breaks: list[Breakpoint] = []
-        self.changes: dict[str, deque[Change]] = {}  # watched objects' recorded changes
+        self.breakpoints = Breakpoints(plc)
+        self.breaks = self.breakpoints.items  # (the same list and dict, kept in place)
+        self.changes = self.breakpoints.changes  # watched objects' recorded changes
         self.pending: list[tuple[Ref, Any]] = []  # writes applied at the next scan start
         self.interrupted = False
         self.last_rung = 0
         self.ran = ""  # what the last step ran, for the watch history
-        self.next_id = 1  # of the next breakpoint
         self.scan_end_hooks: list[Callable[[], None]] = []
-        self._rung_bp: dict[int | None, Breakpoint] = {}
-        self._data = False
         plc.before_scan.append(self._apply_pending)
 
     def _scan_end(self) -> None:
@@ -151,72 +149,12 @@ class Controller:
         self.ran = "scan"
         self._scan_end()
 
-    def _check_data(self, commit: bool = True) -> list[Stop]:
-        """Watches and conditions after a step or a scan: those that hit.
-        With commit False only tell whether one would hit (no state changes)."""
-        hits: list[Stop] = []
-        for b in self.breaks:
-            if b.kind == "rung" or b.test is None:
-                continue
-            try:
-                v = b.test()
-            except SoftPLCError:
-                continue
-            old = b.last
-            if not commit:
-                if b.enabled and (v != old if b.kind == "watch" or b.mode == "changes" else
-                                  (bool(old) and not v) if b.mode == "falls" else
-                                  (bool(v) and not old)):
-                    return [Stop(StopKind.WATCH if b.kind == "watch" else
-                                 StopKind.BREAKPOINT)]
-                continue
-            b.last = v
-            if b.kind == "watch":
-                if v != old:
-                    self.changes.setdefault(b.text, deque(maxlen=HISTORY)).append(
-                        Change(self.plc.scan_count, self.plc.time, self.ran, old, v))
-                    if b.enabled:
-                        b.hits += 1
-                        hits.append(Stop(StopKind.WATCH, f"watch #{b.id} {b.text}: "
-                                         f"{format_value(old)} -> {format_value(v)} "
-                                         f"(in {self.ran})"))
-            elif b.enabled:
-                hit = (b.mode in ("", "rises") and v and not old) or \
-                    (b.mode == "falls" and old and not v) or (b.mode == "changes" and v != old)
-                if hit:
-                    b.hits += 1
-                    hits.append(Stop(StopKind.BREAKPOINT,
-                                     f"breakpoint #{b.id} when {b.text} (in {self.ran})"))
-        return hits
-
-    def _hits(self) -> Stop | None:
-        """Why to stop here (breakpoints, watches), or None."""
-        hits = self._check_data() if self._data else []
-        if self.pos is not None and self.pos[1] == 0:
-            b = self._rung_bp.get(self.pos[0])
-            if b is not None:
-                b.hits += 1
-                hits.insert(0, Stop(StopKind.BREAKPOINT, f"breakpoint #{b.id} at {b.text}"))
-        if not hits:
-            return None
-        kind = StopKind.BREAKPOINT if any(h.kind == StopKind.BREAKPOINT for h in hits) \
-            else StopKind.WATCH
-        return Stop(kind, "; ".join(h.message for h in hits))
-
-    def _arm(self) -> None:
-        """Index the breakpoints for the per-instruction checks of a run."""
-        self._rung_bp = {}
-        for b in self.breaks:
-            if b.kind == "rung" and b.enabled:
-                self._rung_bp.setdefault(b.rung, b)
-        self._data = any(b.kind != "rung" for b in self.breaks)
-
     def _debug_scan(self) -> Stop | None:
         """Run the debug build to the end of the scan (starting one if needed); a hit or an
         interrupt stops it early. Returns why it stopped early, else None."""
         while True:
             done = self._tick()
-            stop = self._hits()
+            stop = self.breakpoints.hits(self.pos, self.ran)
             if stop or done:
                 return stop
             if self.interrupted:
@@ -228,13 +166,13 @@ class Controller:
         None: a step (one instruction, or to the next rung). Stops at breakpoints. Returns
         why it stopped (a typed reason) and the text for the user."""
         self.interrupted = False
-        self._arm()
+        self.breakpoints.arm()
         stop: Stop | None = None
         if scans is None:
             start_rung = self.pos[0] if self.pos else None
             while True:
                 done = self._tick()
-                stop = self._hits()
+                stop = self.breakpoints.hits(self.pos, self.ran)
                 if stop:
                     break
                 if done:
@@ -246,7 +184,7 @@ class Controller:
             if self.gen is not None:
                 stop = self._debug_scan()
             remaining = scans
-            debug = bool(self._rung_bp)
+            debug = bool(self.breakpoints.at_rung)
             while remaining > 0 and not stop:
                 if self.interrupted:
                     stop = Stop(StopKind.INTERRUPTED, "interrupted")
@@ -256,7 +194,8 @@ class Controller:
                         remaining -= 1
                 else:
                     self._fast_scan()
-                    if self._data and self._check_data(commit=False):
+                    bps = self.breakpoints
+                    if bps.data and bps.check_data(self.ran, commit=False):
                         # replay the scan on the debug build to stop where it happened
                         self._restore(self.ring.pop())
                         stop = self._debug_scan()
@@ -264,7 +203,7 @@ class Controller:
                             remaining -= 1
                     else:
                         remaining -= 1
-                        stop = self._hits()
+                        stop = self.breakpoints.hits(self.pos, self.ran)
         msgs = [stop.message] if stop else []
         if self.plc.state != "RUN":
             msgs.append(f"PLC in {self.plc.state}" + (f": {self.plc.fault}"
@@ -332,32 +271,6 @@ class Controller:
             raise DebugError(f"no rung {key!r} (rungs are 0..{len(self.plc.ast.rungs) - 1}; "
                              f"'rungs' lists the titles)") from None
 
-    def add_breakpoint(self, **kw: Any) -> Breakpoint:
-        """A new breakpoint or watch (see `Breakpoint`); a watch records its changes."""
-        b = Breakpoint(self.next_id, **kw)
-        self.next_id += 1
-        if b.test is not None:
-            b.last = b.test()
-        self.breaks.append(b)
-        if b.kind == "watch":
-            self.changes.setdefault(b.text, deque(maxlen=HISTORY))
-        return b
-
-    def find_breakpoints(self, ids: list[int] | None) -> list[Breakpoint]:
-        """The breakpoints with these ids (all for None)."""
-        if ids is None:
-            return list(self.breaks)
-        out = []
-        for i in ids:
-            b = next((b for b in self.breaks if b.id == i), None)
-            if b is None:
-                raise DebugError(f"no breakpoint #{i}")
-            out.append(b)
-        return out
-
-    def delete_breakpoints(self, gone: list[Breakpoint]) -> None:
-        self.breaks = [b for b in self.breaks if b not in gone]
-
     def reload(self, program: A.Program) -> tuple[bool, list[str]]:
         """Run `program` from now on, keeping memory; a scan in progress is finished first.
         Rung breakpoints follow their rung (by how it was named) or are disabled. Returns
@@ -409,3 +322,102 @@ class Controller:
             self.gen = None
         if self._apply_pending in self.plc.before_scan:
             self.plc.before_scan.remove(self._apply_pending)
+
+
+class Breakpoints:
+    """The breakpoints and watches of a debugging session, with the watches' recorded
+    changes, and the checks a run makes with them."""
+
+    def __init__(self, plc: PLC):
+        self.plc = plc
+        self.items: list[Breakpoint] = []
+        self.changes: dict[str, deque[Change]] = {}
+        self.next_id = 1  # of the next breakpoint
+        self.at_rung: dict[int | None, Breakpoint] = {}  # enabled rung breakpoints (arm)
+        self.data = False  # any watch or condition (arm)
+
+    def add(self, **kw: Any) -> Breakpoint:
+        """A new breakpoint or watch (see `Breakpoint`); a watch records its changes."""
+        b = Breakpoint(self.next_id, **kw)
+        self.next_id += 1
+        if b.test is not None:
+            b.last = b.test()
+        self.items.append(b)
+        if b.kind == "watch":
+            self.changes.setdefault(b.text, deque(maxlen=HISTORY))
+        return b
+
+    def find(self, ids: list[int] | None) -> list[Breakpoint]:
+        """The breakpoints with these ids (all for None)."""
+        if ids is None:
+            return list(self.items)
+        out = []
+        for i in ids:
+            b = next((b for b in self.items if b.id == i), None)
+            if b is None:
+                raise DebugError(f"no breakpoint #{i}")
+            out.append(b)
+        return out
+
+    def delete(self, gone: list[Breakpoint]) -> None:
+        self.items[:] = [b for b in self.items if b not in gone]
+
+    def arm(self) -> None:
+        """Index the breakpoints for the per-instruction checks of a run."""
+        self.at_rung = {}
+        for b in self.items:
+            if b.kind == "rung" and b.enabled:
+                self.at_rung.setdefault(b.rung, b)
+        self.data = any(b.kind != "rung" for b in self.items)
+
+    def hits(self, pos: tuple[int, int] | None, ran: str) -> Stop | None:
+        """Why to stop here (breakpoints, watches), or None."""
+        hits = self.check_data(ran) if self.data else []
+        if pos is not None and pos[1] == 0:
+            b = self.at_rung.get(pos[0])
+            if b is not None:
+                b.hits += 1
+                hits.insert(0, Stop(StopKind.BREAKPOINT, f"breakpoint #{b.id} at {b.text}"))
+        if not hits:
+            return None
+        kind = StopKind.BREAKPOINT if any(h.kind == StopKind.BREAKPOINT for h in hits) \
+            else StopKind.WATCH
+        return Stop(kind, "; ".join(h.message for h in hits))
+
+    def check_data(self, ran: str, commit: bool = True) -> list[Stop]:
+        """Watches and conditions after a step or a scan: those that hit.
+        With commit False only tell whether one would hit (no state changes)."""
+        hits: list[Stop] = []
+        for b in self.items:
+            if b.kind == "rung" or b.test is None:
+                continue
+            try:
+                v = b.test()
+            except SoftPLCError:
+                continue
+            old = b.last
+            if not commit:
+                if b.enabled and (v != old if b.kind == "watch" or b.mode == "changes" else
+                                  (bool(old) and not v) if b.mode == "falls" else
+                                  (bool(v) and not old)):
+                    return [Stop(StopKind.WATCH if b.kind == "watch" else
+                                 StopKind.BREAKPOINT)]
+                continue
+            b.last = v
+            if b.kind == "watch":
+                if v != old:
+                    self.changes.setdefault(b.text, deque(maxlen=HISTORY)).append(
+                        Change(self.plc.scan_count, self.plc.time, ran, old, v))
+                    if b.enabled:
+                        b.hits += 1
+                        hits.append(Stop(StopKind.WATCH, f"watch #{b.id} {b.text}: "
+                                         f"{format_value(old)} -> {format_value(v)} "
+                                         f"(in {ran})"))
+            elif b.enabled:
+                hit = (b.mode in ("", "rises") and v and not old) or \
+                    (b.mode == "falls" and old and not v) or (b.mode == "changes" and v != old)
+                if hit:
+                    b.hits += 1
+                    hits.append(Stop(StopKind.BREAKPOINT,
+                                     f"breakpoint #{b.id} when {b.text} (in {ran})"))
+        return hits
