@@ -1,0 +1,125 @@
+"""Timers and counters as solver terms: `runtime/blocks.py`'s Timer and Counter, one scan.
+
+The state of a timer is its fields (P, V, Q), its last IN (`_in`), `_on` (TOF/TP timing)
+and `_el`, the time since it started in microseconds (`now - _t0` of the engine), which the
+model advances by the scan period at the end of every scan and saturates at `cap` (past the
+largest preset nothing changes). Every update is guarded: `g` is whether the block runs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import z3
+
+from ..runtime.blocks import MAX_VALUE, Counter, Timer
+from .symbolic import as_bool, wide
+
+EL_BITS = 48  # 9999 x 1 min in microseconds fits
+
+
+def timer_cap(t: Timer, period_us: int) -> int:
+    """Elapsed time past which a timer's outputs no longer change."""
+    return MAX_VALUE * t.base_us + period_us
+
+
+def _set(st: dict[str, Any], key: str, g: Any, value: Any) -> None:
+    old = st[key]
+    if z3.is_bool(old):
+        value = as_bool(value)
+        st[key] = z3.If(g, value, old) if not z3.is_true(g) else value
+    else:
+        v = value if not isinstance(value, int) else z3.BitVecVal(value, old.size())
+        if z3.is_bv(v) and v.size() != old.size():
+            v = z3.Extract(old.size() - 1, 0, v)
+        st[key] = z3.If(g, v, old) if not z3.is_true(g) else v
+    st[key] = z3.simplify(st[key])
+
+
+def run_timer(st: dict[str, Any], name: str, t: Timer, g: Any, IN: Any) -> None:
+    """One execution of timer `name` (e.g. "%TM0") with input IN, guarded by g."""
+    k = {f: f"{name}.{f}" for f in ("P", "V", "Q", "_in", "_on", "_el")}
+    was_in, on, el = st[k["_in"]], st[k["_on"]], st[k["_el"]]
+    P = wide(st[k["P"]])
+    base = z3.BitVecVal(t.base_us, EL_BITS)
+
+    def ticks(e: Any) -> Any:
+        return z3.ZeroExt(72 - EL_BITS, z3.UDiv(e, base))
+
+    zero = z3.BitVecVal(0, EL_BITS)
+    if t.type == "TON":
+        el2 = z3.If(z3.And(IN, z3.Not(was_in)), zero, el)
+        v = ticks(el2)
+        done = v >= P
+        _set(st, k["_el"], g, el2)
+        _set(st, k["V"], g, z3.If(IN, z3.If(done, P, v), wide(0)))
+        _set(st, k["Q"], g, z3.And(IN, done))
+    elif t.type == "TOF":
+        start = z3.And(z3.Not(IN), was_in)
+        el2 = z3.If(start, zero, el)
+        on2 = z3.Or(start, on)
+        v = ticks(el2)
+        done = v >= P
+        _set(st, k["_el"], g, el2)
+        _set(st, k["V"], g, z3.If(IN, wide(0), z3.If(on2, z3.If(done, P, v), wide(st[k["V"]]))))
+        _set(st, k["Q"], g, z3.If(IN, True, z3.If(z3.And(on2, done), False, st[k["Q"]])))
+        _set(st, k["_on"], g, z3.And(z3.Not(IN), on2, z3.Not(done)))
+    else:  # TP
+        start = z3.And(IN, z3.Not(was_in), z3.Not(on))
+        el2 = z3.If(start, zero, el)
+        on2 = z3.Or(start, on)
+        q2 = z3.Or(start, st[k["Q"]])
+        v = ticks(el2)
+        done = v >= P
+        v2 = z3.If(on2, z3.If(done, P, v), wide(st[k["V"]]))
+        q3 = z3.If(z3.And(on2, done), False, q2)
+        on3 = z3.And(on2, z3.Not(done))
+        _set(st, k["_el"], g, el2)
+        _set(st, k["V"], g, z3.If(z3.And(z3.Not(on3), z3.Not(IN)), wide(0), v2))
+        _set(st, k["Q"], g, q3)
+        _set(st, k["_on"], g, on3)
+    _set(st, k["_in"], g, IN)
+
+
+def advance_timer(st: dict[str, Any], name: str, t: Timer, period_us: int) -> None:
+    """End of scan: the next scan starts one period later."""
+    key = f"{name}._el"
+    el = st[key]
+    cap = z3.BitVecVal(timer_cap(t, period_us), EL_BITS)
+    nxt = el + z3.BitVecVal(period_us, EL_BITS)
+    st[key] = z3.simplify(z3.If(z3.UGE(el, cap - period_us), cap, nxt))
+
+
+def run_counter(st: dict[str, Any], name: str, g: Any, R: Any, S: Any, CU: Any,
+                CD: Any) -> None:
+    """`Counter.run(R, S, CU, CD)` guarded by g."""
+    k = {f: f"{name}.{f}" for f in Counter.FIELDS}
+    up = z3.And(CU, z3.Not(st[k["_cu"]]))
+    down = z3.And(CD, z3.Not(st[k["_cd"]]))
+    V, P = wide(st[k["V"]]), wide(st[k["P"]])
+    count = z3.And(z3.Not(R), z3.Not(S), up != down)
+    over = z3.And(up, V + 1 > MAX_VALUE)
+    under = z3.And(down, V - 1 < 0)
+    counted = z3.If(up, z3.If(over, wide(0), V + 1), z3.If(under, wide(MAX_VALUE), V - 1))
+    V2 = z3.If(R, wide(0), z3.If(S, P, z3.If(count, counted, V)))
+    _set(st, k["_cu"], g, CU)
+    _set(st, k["_cd"], g, CD)
+    _set(st, k["E"], g, z3.If(R, False, z3.If(count, z3.And(z3.Not(up), under), st[k["E"]])))
+    _set(st, k["F"], g, z3.If(R, False, z3.If(count, over, st[k["F"]])))
+    _set(st, k["V"], g, V2)
+    _set(st, k["D"], g, V2 == P)
+
+
+def block_invariants(st: dict[str, Any], timers: dict[str, tuple[Timer, int]],
+                     counters: list[str]) -> list[Any]:
+    """Facts true in every reachable state by construction (checked by 1-induction before
+    use): value ranges of block fields and elapsed times."""
+    out = []
+    for name, (t, period) in timers.items():
+        out.append(z3.ULE(st[f"{name}._el"], timer_cap(t, period)))
+        P, V = st[f"{name}.P"], st[f"{name}.V"]
+        out += [P >= 0, P <= MAX_VALUE, V >= 0, V <= MAX_VALUE]
+    for name in counters:
+        P, V = st[f"{name}.P"], st[f"{name}.V"]
+        out += [P >= 0, P <= MAX_VALUE, V >= 0, V <= MAX_VALUE]
+    return out

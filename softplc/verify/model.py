@@ -1,0 +1,574 @@
+"""One scan of a program as solver terms: the transition relation the engines unroll.
+
+Built from the same rung structure as the compiler (`il.rungtree.build`: what each `)`,
+MRD/MPP and OUT_BLK refers to) and the same instruction rules (`semantics.arith` over
+`symbolic.Z3Domain`), in the engine's scan order: first-scan system bits and clocks,
+latched inputs, the program (jumps, subroutines and Grafcet steps as guards on every
+update), timers the program did not execute, then time advances by the scan period.
+
+A state is a dict: object key (`"%M3"`, `"%MW10"`, `"%TM0.V"`, `"%TM0._el"`, `"edge2"`)
+-> term. Only what the program or the requirements read or write is modelled. What the
+solver cannot model exactly (floats, tables, indexed objects, shifts...) is reported with
+its line:col (`VerifyError`), never approximated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import z3
+
+from ..address import BOOL, INT16, INT32, REAL, Ref
+from ..errors import Code, Diagnostic, VerifyError
+from ..il import ast as A
+from ..il import rungtree
+from ..runtime.blocks import MAX_VALUE, Counter, Timer
+from ..runtime.engine import S_CLOCKS
+from .blocks import EL_BITS, advance_timer, run_counter, run_timer
+from .exprs import ExprModel
+from .symbolic import WIDE, as_bool, narrow, wide
+
+FIRST_SCAN_BITS = (0, 13, 21)  # %S0 cold start, %S13 first scan, %S21 Grafcet init
+CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
+KEEP_BITS = {12: 1}  # %S12 is 1 in RUN
+
+
+@dataclass
+class Var:
+    key: str
+    sort: str  # "bool" | "w16" | "el" | "t"
+    init: int
+
+
+def sort_of(sort: str) -> Any:
+    return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "el": z3.BitVecSort(EL_BITS),
+            "t": z3.BitVecSort(32)}[sort]
+
+
+class _Lazy(dict):
+    """The pre-state of the discovery pass: creates a variable for any key first read."""
+
+    def __init__(self, model: Model):
+        super().__init__()
+        self.model = model
+
+    def __missing__(self, key: str) -> Any:
+        v = self.model.declare(key)
+        self[key] = v
+        return v
+
+
+class _LazyInputs(dict):
+    """The inputs of the discovery pass: a variable for any input first read."""
+
+    def __init__(self, model: Model):
+        super().__init__()
+        self.model = model
+
+    def __missing__(self, key: str) -> Any:
+        v = self[key] = self.model.input_var(key, "")
+        return v
+
+
+class Model(ExprModel):
+    """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
+
+    def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = ()):
+        super().__init__(plc)
+        self.period_us = round(plc.scan_period * 1e6)
+        self.vars: dict[str, Var] = {}
+        self.inputs: dict[str, tuple[str, int, int]] = {}  # key -> (sort, lo, hi)
+        self.host = {str(r) for r in host}
+        self.timers: dict[str, Timer] = {}
+        self.counters: list[str] = []
+        self.written: dict[str, A.Pos] = {}  # keys the program writes, where first
+        self.grafcet = any(isinstance(i, A.Grafcet) for r in plc.ast.rungs
+                           for i in r.instructions)
+        self.conditional = any(isinstance(i, (A.Jump, A.SRCall, A.Grafcet))
+                               or isinstance(i, A.End) and i.op != "END"
+                               for r in plc.ast.rungs for i in r.instructions)
+        self.initial_steps = tuple(plc.grafcet.initial)
+        # discovery: run the scan on lazily created variables until no new key appears
+        self.discovering = True
+        for ref in reads:
+            self.key_for(ref)
+        n = -1
+        while n != len(self.vars) + len(self.inputs):
+            n = len(self.vars) + len(self.inputs)
+            pre = _Lazy(self)
+            for k in list(self.vars):
+                pre[k] = self.declare(k)
+            self.scan(pre, _LazyInputs(self))
+            if self.problems:
+                raise VerifyError(sorted(set(self.problems), key=lambda d: (d.line, d.column)))
+        self.discovering = False
+
+    # ---- variables ----------------------------------------------------------------------
+    def declare(self, key: str, suffix: str = "") -> Any:
+        """The variable of state key `key` (registered on first use), named `key@suffix`."""
+        if key not in self.vars:
+            self.vars[key] = Var(key, self._sort(key), self._init(key))
+        return z3.Const(f"{key}@{suffix}" if suffix else key, sort_of(self.vars[key].sort))
+
+    def _sort(self, key: str) -> str:
+        if key.endswith("._el"):
+            return "el"
+        if key == "_tmod":
+            return "t"
+        if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
+            return "bool"
+        return "w16"
+
+    def is_bit_key(self, key: str) -> bool:
+        if key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
+                ("%MW", "%QW", "%SW", "%MD")):
+            return True
+        if "." in key and key.startswith(("%TM", "%C")):
+            return key.rsplit(".", 1)[1] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd")
+        return False
+
+    def _init(self, key: str) -> int:
+        """The value after a cold start."""
+        if key == "_first":
+            return 1
+        if key.startswith("%S") and int(key[2:]) in KEEP_BITS:
+            return KEEP_BITS[int(key[2:])]
+        if key.startswith("%X"):  # the initial steps are active from the cold start
+            return 1 if int(key[2:]) in self.initial_steps else 0
+        if key.startswith(("%TM", "%C")) and "." in key:
+            name, field = key.split(".", 1)
+            blk = self.block(name)
+            if field == "_el":
+                return 0
+            return int(getattr(blk, field))
+        return 0
+
+    def input_var(self, key: str, suffix: str) -> Any:
+        sort = self.inputs[key][0]
+        return z3.Const(f"{key}#in@{suffix}" if suffix else f"{key}#in", sort_of(sort))
+
+    def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None:
+        self.inputs.setdefault(key, (sort, lo, hi))
+
+    def input_constraints(self, inp: dict[str, Any]) -> list[Any]:
+        """Analog inputs within their configured span."""
+        return [z3.And(inp[k] >= lo, inp[k] <= hi) for k, (s, lo, hi) in self.inputs.items()
+                if s == "w16" and (lo, hi) != (-32768, 32767)]
+
+    def fresh(self, suffix: str) -> tuple[dict[str, Any], dict[str, Any]]:
+        """New variables for a state and the inputs of the scan after it."""
+        return ({k: z3.Const(f"{k}@{suffix}", sort_of(v.sort)) for k, v in self.vars.items()},
+                {k: self.input_var(k, suffix) for k in self.inputs})
+
+    def init_state(self) -> dict[str, Any]:
+        return {k: self.const(v.sort, v.init) for k, v in self.vars.items()}
+
+    @staticmethod
+    def const(sort: str, v: int) -> Any:
+        return z3.BoolVal(bool(v)) if sort == "bool" else z3.BitVecVal(v, sort_of(sort).size())
+
+    def invariants(self, st: dict[str, Any]) -> list[Any]:
+        """Range facts true by construction in every reachable state (see `blocks`)."""
+        from .blocks import block_invariants
+        out = block_invariants(st, {n: (t, self.period_us) for n, t in self.timers.items()},
+                               self.counters)
+        if "_tmod" in st:
+            out += [z3.ULT(st["_tmod"], CLOCK_WRAP_US),
+                    z3.URem(st["_tmod"], self.period_us) == 0]
+        return out
+
+    # ---- the scan -----------------------------------------------------------------------
+    def scan(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
+        """The state after one scan from `pre` with inputs `inp`; the result also holds
+        the inputs of the scan under their own keys (what requirements read)."""
+        st = pre if self.discovering else dict(pre)
+        self.st, self.inp = st, inp
+        first = st["_first"] if "_first" in self.vars or self.discovering else None
+        for b in FIRST_SCAN_BITS:
+            if f"%S{b}" in self.vars or (b == 21 and self.grafcet):
+                st[f"%S{b}"] = first if first is not None else st["_first"]
+        if any(f"%S{b}" in self.vars for b in S_CLOCKS):
+            now = st["_tmod"]
+            for b, p in S_CLOCKS.items():
+                if f"%S{b}" in self.vars:
+                    st[f"%S{b}"] = z3.ULT(z3.URem(now, p), p // 2)
+        for k in self.host:
+            if k in self.vars or self.discovering:
+                self.add_input(k, "w16", -32768, 32767)
+                if k in inp:
+                    st[k] = inp[k]
+        self.live: Any = z3.BoolVal(True)
+        self.executed: dict[str, Any] = {}
+        self.ga: dict[int, Any] = {}
+        self.gd: dict[int, Any] = {}
+        self.steps_at_start: dict[int, Any] = {}
+        self.frozen: Any = z3.BoolVal(False)
+        self.edge_n = 0
+        self.calls: list[int] = []
+        self.post_done = False
+        self.function(self.plc.ast.main, main=True)
+        if self.grafcet and not self.post_done:
+            self.post(self.live)
+        if self.conditional:
+            for name, t in self.timers.items():  # timers not executed keep timing
+                run_timer(st, name, t, z3.Not(self.executed.get(name, z3.BoolVal(False))),
+                          st[f"{name}._in"])
+        for b in FIRST_SCAN_BITS:
+            if f"%S{b}" in st:
+                st[f"%S{b}"] = z3.BoolVal(False)
+        for name, t in self.timers.items():
+            advance_timer(st, name, t, self.period_us)
+        if "_tmod" in self.vars or "_tmod" in st:
+            t = st["_tmod"]
+            st["_tmod"] = z3.simplify(z3.URem(t + self.period_us, CLOCK_WRAP_US))
+        if "_first" in st:
+            st["_first"] = z3.BoolVal(False)
+        out = dict(st)
+        out.update(inp)
+        return out
+
+    # ---- program structure ----------------------------------------------------------------
+    def function(self, rungs: list[A.Rung], main: bool) -> None:
+        pending: dict[int, Any] = {}
+        seen: set[int] = set()
+        step: int | None = None
+        for r in rungs:
+            if r.label is not None:
+                seen.add(r.label)
+                self.live = z3.simplify(z3.Or(self.live, pending.pop(r.label, False)))
+            marker = next((i for i in r.instructions if isinstance(i, A.Grafcet)
+                           and i.op in ("=*=", "-*-", "POST")), None)
+            if marker is not None:
+                if marker.op == "POST" or step is None and main:
+                    if step is None and not self.steps_at_start:
+                        self.grafcet_pre()
+                if marker.op == "POST":
+                    self.post(self.live)
+                    step = None
+                else:
+                    step = marker.step
+                continue
+            self.rung(r, step, pending, seen, main)
+
+    def grafcet_pre(self) -> None:
+        """End of preprocessing: %S21 (initial steps on), %S22 (all off), %S23 (freeze)."""
+        st = self.st
+        init = st["%S21"] if "%S21" in st else z3.BoolVal(False)
+        reset = st["%S22"] if "%S22" in st or "%S22" in self.vars else z3.BoolVal(False)
+        g = z3.And(self.live, z3.Or(init, reset))
+        for k in self.steps():
+            key = f"%X{k}"
+            st[key] = z3.simplify(z3.If(g, z3.And(init, k in self.initial_steps), st[key]))
+        if "%S23" in st or "%S23" in self.vars:
+            self.frozen = z3.And(self.live, st["%S23"])
+        for b in (21, 22, 23):
+            key = f"%S{b}"
+            if key in st or key in self.vars:
+                st[key] = z3.If(self.live, False, st[key])
+        self.steps_at_start = {k: st[f"%X{k}"] for k in self.steps()}
+
+    def steps(self) -> list[int]:
+        used: set[int] = set()
+        for r in self.plc.ast.rungs:
+            for i in r.instructions:
+                if isinstance(i, A.Grafcet) and i.step is not None:
+                    used.add(i.step)
+        used |= set(self.initial_steps)
+        used |= {int(k[2:]) for k in self.vars if k.startswith("%X")}
+        return sorted(used)
+
+    def post(self, g: Any) -> None:
+        """End of the sequential part: the transitions of the scan, unless frozen."""
+        self.post_done = True
+        st = self.st
+        g = z3.And(g, z3.Not(self.frozen))
+        for k in self.steps():
+            key = f"%X{k}"
+            new = z3.Or(self.ga.get(k, False), z3.And(st[key], z3.Not(self.gd.get(k, False))))
+            st[key] = z3.simplify(z3.If(g, new, st[key]))
+
+    # ---- one rung -------------------------------------------------------------------------
+    def rung(self, rung: A.Rung, step: int | None, pending: dict[int, Any], seen: set[int],
+             main: bool) -> None:
+        counts = self.plc.profile.counts
+        tree = rungtree.build(rung, counts["PAREN"], counts["STACK"])
+        guard0 = self.steps_at_start.get(step, z3.BoolVal(False)) if step is not None \
+            else z3.BoolVal(True)
+        acc: Any = None
+        saved: dict[int, Any] = {}
+        pins: dict[str, Any] = {}
+
+        def g() -> Any:  # the rung runs: not jumped over, in its active step
+            return z3.And(self.live, guard0)
+
+        for s in tree.steps:
+            ins, blk = s.instr, s.block
+            if not s.ok:
+                continue
+            if isinstance(ins, A.BoolInstr):
+                v = self.modified(self.operand(ins.operand, blk, g()), ins.modifier, g())
+                acc = v if ins.op == "LD" else self.combine(ins.op, acc, v)
+            elif isinstance(ins, A.ParenOpen):
+                saved[s.k] = acc
+                acc = self.modified(self.operand(ins.operand, blk, g()) if ins.operand
+                                    else z3.BoolVal(False), ins.modifier, g())
+            elif isinstance(ins, A.ParenClose):
+                acc = self.combine(tree.steps[s.opener].instr.op, saved[s.opener], acc)
+            elif isinstance(ins, A.Negate):
+                acc = z3.Not(acc)
+            elif isinstance(ins, A.Stack):
+                if ins.op == "MPS":
+                    saved[s.k] = acc
+                elif s.opener is not None:
+                    acc = saved[s.opener]
+            elif isinstance(ins, A.Store):
+                value = {"ST": acc, "STN": z3.Not(acc), "S": True, "R": False}[ins.op]
+                cond = g() if ins.op in ("ST", "STN") else z3.And(g(), acc)
+                self.write_bit(ins.target, cond, value, ins.pos)
+            elif isinstance(ins, A.OpBlock):
+                self.statement(ins.stmt, z3.And(g(), acc))
+            elif isinstance(ins, A.Jump):
+                c = z3.BoolVal(True) if ins.op == "JMP" else acc if ins.op == "JMPC" \
+                    else z3.Not(acc)
+                if ins.label in seen:
+                    self.unsupported("a backward jump (a loop)", ins.pos, f"{ins.op} %L"
+                                     f"{ins.label}")
+                    continue
+                take = z3.And(self.live, guard0, c)
+                pending[ins.label] = z3.Or(pending.get(ins.label, False), take)
+                self.live = z3.simplify(z3.And(self.live, z3.Not(take)))
+            elif isinstance(ins, A.SRCall):
+                self.call(ins, z3.And(g(), acc))
+            elif isinstance(ins, (A.Return, A.End)):
+                c = z3.BoolVal(True) if ins.op in ("RET", "END") else \
+                    acc if ins.op in ("RETC", "ENDC") else z3.Not(acc)
+                stop = z3.And(self.live, guard0, c)
+                if isinstance(ins, A.End) and self.grafcet and not self.post_done:
+                    self.post(stop)
+                self.live = z3.simplify(z3.And(self.live, z3.Not(stop)))
+            elif isinstance(ins, A.Blk):
+                pins = {}
+                acc = None
+            elif isinstance(ins, (A.OutBlk, A.EndBlk)):
+                if blk is not None and s.phase == "in":
+                    self.run_block(blk, g(), pins, ins.pos)
+                acc = None
+            elif isinstance(ins, A.Pin):
+                if ins.block is None:
+                    pins[ins.name] = acc
+                else:
+                    self.run_pin(ins.block, ins.name, g(), acc, ins.pos)
+            elif isinstance(ins, A.Grafcet):
+                self.transition(ins, step, z3.And(g(), acc if acc is not None else True))
+            elif not isinstance(ins, A.Nop):
+                self.unsupported(f"instruction {rungtree.describe(ins)}", s.pos, "")
+
+    @staticmethod
+    def combine(op: str, a: Any, b: Any) -> Any:
+        a = a if a is not None else z3.BoolVal(False)
+        return z3.And(a, b) if op == "AND" else z3.Or(a, b) if op == "OR" else z3.Xor(a, b)
+
+    def modified(self, v: Any, mod: str, g: Any) -> Any:
+        if mod == "N":
+            return z3.Not(v)
+        if mod in ("R", "F"):
+            key = f"edge{self.edge_n}"
+            self.edge_n += 1
+            old = self.st[key]
+            r = z3.And(v, z3.Not(old)) if mod == "R" else z3.And(z3.Not(v), old)
+            self.st[key] = z3.simplify(z3.If(g, v, old))
+            return r
+        return v
+
+    def call(self, ins: A.SRCall, g: Any) -> None:
+        n = ins.number
+        if n in self.calls:
+            self.unsupported("a recursive subroutine call", ins.pos, f"SR{n}")
+            return
+        if n not in self.plc.ast.subroutines:
+            return
+        saved = self.live
+        self.live = z3.And(self.live, g)
+        self.calls.append(n)
+        self.function(self.plc.ast.subroutine(n), main=False)
+        self.calls.pop()
+        self.live = saved
+
+    def transition(self, ins: A.Grafcet, step: int | None, g: Any) -> None:
+        if ins.op in ("=*=", "-*-", "POST") or step is None:
+            return
+        self.gd[step] = z3.Or(self.gd.get(step, False), g)
+        if ins.op == "#":
+            if ins.step is not None:
+                self.ga[ins.step] = z3.Or(self.ga.get(ins.step, False), g)
+        else:
+            self.gd[ins.step] = z3.Or(self.gd.get(ins.step, False), g)
+
+    # ---- blocks ---------------------------------------------------------------------------
+    def block(self, name: str) -> Any:
+        ref = Ref(name[1:3] if name.startswith("%TM") else "C", int(name.lstrip("%TMC")))
+        return self.plc.mem.blocks[ref.kind][ref.index]
+
+    def use_block(self, ref: Ref, pos: A.Pos | None) -> str | None:
+        name = f"%{ref.kind}{ref.index}"
+        if ref.kind == "TM":
+            self.timers.setdefault(name, self.plc.mem.blocks["TM"][ref.index])
+            for f in ("P", "V", "Q", "_in", "_on", "_el"):
+                _ = self.st[f"{name}.{f}"]
+            return name
+        if ref.kind == "C":
+            if name not in self.counters:
+                self.counters.append(name)
+            for f in Counter.FIELDS:
+                _ = self.st[f"{name}.{f}"]
+            return name
+        self.unsupported(f"the %{ref.kind} function block", pos, str(ref))
+        return None
+
+    def run_block(self, ref: Ref, g: Any, pins: dict[str, Any], pos: A.Pos | None) -> None:
+        name = self.use_block(ref, pos)
+        if name is None:
+            return
+        self.mark_written(f"{name}.V", pos)
+        p = {k: pins.get(k, z3.BoolVal(False)) for k in ("IN", "R", "S", "CU", "CD")}
+        if ref.kind == "TM":
+            self.executed[name] = z3.Or(self.executed.get(name, False), g)
+            run_timer(self.st, name, self.timers[name], g, p["IN"])
+        else:
+            run_counter(self.st, name, g, p["R"], p["S"], p["CU"], p["CD"])
+
+    def run_pin(self, ref: Ref, pin: str, g: Any, v: Any, pos: A.Pos | None) -> None:
+        """The short form (`CU %C0`, `IN %TM0`): edge inputs held at their last value."""
+        if ref.kind == "C":
+            name = self.use_block(ref, pos)
+            if name is None:
+                return
+            held = {"CU": self.st[f"{name}._cu"], "CD": self.st[f"{name}._cd"],
+                    "R": z3.BoolVal(False), "S": z3.BoolVal(False)}
+            held[pin] = v
+            self.mark_written(f"{name}.V", pos)
+            run_counter(self.st, name, g, held["R"], held["S"], held["CU"], held["CD"])
+        else:
+            self.run_block(ref, g, {pin: v}, pos)
+
+    # ---- objects --------------------------------------------------------------------------
+    def key_for(self, ref: Ref) -> str:
+        """The state key of a bit or word (inputs registered as inputs)."""
+        if ref.kind == "I":
+            self.add_input(str(ref), "bool")
+            return str(ref)
+        if ref.kind == "IW":
+            ch = self.plc.mem.analog.channels.get(ref) if self.plc.mem.analog else None
+            lo, hi = (min(ch.lo, ch.hi), max(ch.lo, ch.hi)) if ch else (-32768, 32767)
+            self.add_input(str(ref), "w16", lo, hi)
+            return str(ref)
+        if ref.kind in ("TM", "C") and ref.field is not None:
+            self.use_block(Ref(ref.kind, ref.index), None)
+            return f"%{ref.kind}{ref.index}.{ref.field}"
+        key = str(Ref(ref.kind, ref.index, ref.module, ref.channel))
+        if ref.kind == "S" and ref.index in S_CLOCKS:
+            _ = self.st["_tmod"] if hasattr(self, "st") else self.declare("_tmod")
+        if not hasattr(self, "st"):
+            self.declare(key)
+        else:
+            _ = self.st[key]
+        return key
+
+    def mark_written(self, key: str, pos: A.Pos | None) -> None:
+        self.written.setdefault(key, pos or A.NOPOS)
+
+    def read_bit(self, ref: Ref, pos: A.Pos | None) -> Any:
+        if ref.offset is not None or ref.length is not None:
+            self.unsupported("an indexed object or a bit string", pos, str(ref))
+            return z3.BoolVal(False)
+        if ref.kind in ("I", "Q", "M", "S", "X"):
+            key = self.key_for(ref)
+            return self.inp[key] if ref.kind == "I" else self.st[key]
+        if ref.bit is not None and ref.kind == "MW":
+            w = self.st[self.key_for(Ref("MW", ref.index))]
+            return z3.Extract(ref.bit, ref.bit, w) == 1
+        if ref.bit is not None and ref.kind == "KW":
+            return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
+        if ref.kind in ("TM", "C") and ref.field in ("Q", "D", "E", "F"):
+            return self.st[self.key_for(ref)]
+        self.unsupported(f"reading {ref}", pos, str(ref))
+        return z3.BoolVal(False)
+
+    def write_bit(self, ref: Ref, g: Any, value: Any, pos: A.Pos | None) -> None:
+        value = as_bool(value)
+        if ref.kind in ("Q", "M", "S", "X") and ref.offset is None:
+            key = self.key_for(ref)
+            self.mark_written(key, pos)
+            self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
+        elif ref.kind == "MW" and ref.bit is not None and ref.offset is None:
+            key = self.key_for(Ref("MW", ref.index))
+            self.mark_written(key, pos)
+            w = self.st[key]
+            mask = z3.BitVecVal(1 << ref.bit, 16)
+            new = z3.If(value, w | mask, w & ~mask)
+            self.st[key] = z3.simplify(z3.If(g, new, w))
+        else:
+            self.unsupported(f"writing {ref}", pos, str(ref))
+
+    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]:
+        k = ref.kind
+        if ref.offset is not None or ref.length is not None or ref.bit is not None:
+            self.unsupported("an indexed object, table or bit string", pos, str(ref))
+            return wide(0), INT16
+        if k == "KW":
+            return wide(int(self.plc.mem.kw.w[ref.index])), INT16
+        if k == "KD":
+            return wide(int(self.plc.mem.read(ref))), INT32
+        if k in ("MW", "QW"):
+            return wide(self.st[self.key_for(ref)]), INT16
+        if k == "IW":
+            return wide(self.inp[self.key_for(ref)]), INT16
+        if k == "MD":
+            lo = self.st[self.key_for(Ref("MW", ref.index))]
+            hi = self.st[self.key_for(Ref("MW", ref.index + 1))]
+            return wide(z3.Concat(hi, lo)), INT32
+        if k in ("TM", "C") and ref.field in ("V", "P"):
+            return wide(self.st[self.key_for(ref)]), INT16
+        if ref.type == REAL:
+            self.unsupported("floating-point values", pos, str(ref))
+        else:
+            self.unsupported(f"reading {ref}", pos, str(ref))
+        return wide(0), INT16
+
+    def store_word(self, ref: Ref, g: Any, v: Any, t: str, pos: A.Pos | None) -> None:
+        k = ref.kind
+        if ref.offset is not None or ref.length is not None:
+            self.unsupported("an indexed object or table", pos, str(ref))
+        elif k in ("MW", "QW"):
+            self._put(self.key_for(ref), g, narrow(v, 16), pos)
+        elif k == "MD":
+            v32 = narrow(v, 32)
+            self._put(self.key_for(Ref("MW", ref.index)), g, z3.Extract(15, 0, v32), pos)
+            self._put(self.key_for(Ref("MW", ref.index + 1)), g, z3.Extract(31, 16, v32), pos)
+        elif k in ("TM", "C") and ref.field == "P":
+            clamped = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
+            self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
+        else:
+            self.unsupported(f"writing {ref}", pos, str(ref))
+
+    def _put(self, key: str, g: Any, v: Any, pos: A.Pos | None) -> None:
+        self.mark_written(key, pos)
+        self.st[key] = z3.simplify(z3.If(g, v, self.st[key]))
+
+    def fault(self, g: Any, f: Any) -> None:
+        """%S18 set where a rule faulted (set by the system, reset only by the program)."""
+        f = z3.simplify(z3.And(g, as_bool(f)))
+        if z3.is_false(f):
+            return
+        self.st["%S18"] = z3.simplify(z3.Or(self.st["%S18"], f))
+
+    def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None:
+        p = pos or A.NOPOS
+        self.problems.append(Diagnostic(
+            f"verify cannot model {what}", self.plc.ast.file, p.line, p.column, text,
+            "booleans, edges, 16/32-bit words, comparisons, %TM, %C, SR, JMP, Grafcet",
+            Code.OTHER))
+
+
+__all__ = ["Model", "Var", "WIDE", "BOOL", "REAL"]
