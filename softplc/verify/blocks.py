@@ -8,19 +8,29 @@ largest preset nothing changes). Every update is guarded: `g` is whether the blo
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import z3
 
 from ..runtime.blocks import MAX_VALUE, Counter, Timer
-from .symbolic import as_bool, wide
+from .symbolic import WIDE, as_bool, wide
 
-EL_BITS = 48  # 9999 x 1 min in microseconds fits
+
+def time_unit(t: Timer, period_us: int) -> int:
+    """The timer's elapsed time counts in units of gcd(time base, period) microseconds:
+    exact, and the divider the solver builds stays small."""
+    return math.gcd(t.base_us, period_us)
 
 
 def timer_cap(t: Timer, period_us: int) -> int:
-    """Elapsed time past which a timer's outputs no longer change."""
-    return MAX_VALUE * t.base_us + period_us
+    """Elapsed time (in units) past which a timer's outputs no longer change."""
+    u = time_unit(t, period_us)
+    return (MAX_VALUE * t.base_us + period_us) // u
+
+
+def el_bits(t: Timer, period_us: int) -> int:
+    return (timer_cap(t, period_us) * 2).bit_length() + 1
 
 
 def _set(st: dict[str, Any], key: str, g: Any, value: Any) -> None:
@@ -36,17 +46,19 @@ def _set(st: dict[str, Any], key: str, g: Any, value: Any) -> None:
     st[key] = z3.simplify(st[key])
 
 
-def run_timer(st: dict[str, Any], name: str, t: Timer, g: Any, IN: Any) -> None:
+def run_timer(st: dict[str, Any], name: str, t: Timer, g: Any, IN: Any,
+              period_us: int) -> None:
     """One execution of timer `name` (e.g. "%TM0") with input IN, guarded by g."""
     k = {f: f"{name}.{f}" for f in ("P", "V", "Q", "_in", "_on", "_el")}
     was_in, on, el = st[k["_in"]], st[k["_on"]], st[k["_el"]]
     P = wide(st[k["P"]])
-    base = z3.BitVecVal(t.base_us, EL_BITS)
+    n = el.size()
+    base = z3.BitVecVal(t.base_us // time_unit(t, period_us), n)
 
     def ticks(e: Any) -> Any:
-        return z3.ZeroExt(72 - EL_BITS, z3.UDiv(e, base))
+        return z3.ZeroExt(WIDE - n, z3.UDiv(e, base))
 
-    zero = z3.BitVecVal(0, EL_BITS)
+    zero = z3.BitVecVal(0, n)
     if t.type == "TON":
         el2 = z3.If(z3.And(IN, z3.Not(was_in)), zero, el)
         v = ticks(el2)
@@ -85,9 +97,10 @@ def advance_timer(st: dict[str, Any], name: str, t: Timer, period_us: int) -> No
     """End of scan: the next scan starts one period later."""
     key = f"{name}._el"
     el = st[key]
-    cap = z3.BitVecVal(timer_cap(t, period_us), EL_BITS)
-    nxt = el + z3.BitVecVal(period_us, EL_BITS)
-    st[key] = z3.simplify(z3.If(z3.UGE(el, cap - period_us), cap, nxt))
+    n = el.size()
+    step = period_us // time_unit(t, period_us)
+    cap = z3.BitVecVal(timer_cap(t, period_us), n)
+    st[key] = z3.simplify(z3.If(z3.UGE(el, cap - step), cap, el + step))
 
 
 def run_counter(st: dict[str, Any], name: str, g: Any, R: Any, S: Any, CU: Any,
@@ -116,7 +129,7 @@ def block_invariants(st: dict[str, Any], timers: dict[str, tuple[Timer, int]],
     use): value ranges of block fields and elapsed times."""
     out = []
     for name, (t, period) in timers.items():
-        out.append(z3.ULE(st[f"{name}._el"], timer_cap(t, period)))
+        out.append(z3.ULE(st[f"{name}._el"], timer_cap(t, period)))  # units
         P, V = st[f"{name}.P"], st[f"{name}.V"]
         out += [P >= 0, P <= MAX_VALUE, V >= 0, V <= MAX_VALUE]
     for name in counters:

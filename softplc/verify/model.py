@@ -25,7 +25,7 @@ from ..il import ast as A
 from ..il import rungtree
 from ..runtime.blocks import MAX_VALUE, Counter, Timer
 from ..runtime.engine import S_CLOCKS
-from .blocks import EL_BITS, advance_timer, run_counter, run_timer
+from .blocks import advance_timer, el_bits, run_counter, run_timer
 from .exprs import ExprModel
 from .symbolic import WIDE, as_bool, narrow, wide
 
@@ -37,13 +37,14 @@ KEEP_BITS = {12: 1}  # %S12 is 1 in RUN
 @dataclass
 class Var:
     key: str
-    sort: str  # "bool" | "w16" | "el" | "t"
+    sort: str  # "bool" | "w16" | "t" | "bvN" (a timer's elapsed time)
     init: int
 
 
 def sort_of(sort: str) -> Any:
-    return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "el": z3.BitVecSort(EL_BITS),
-            "t": z3.BitVecSort(32)}[sort]
+    if sort.startswith("bv"):
+        return z3.BitVecSort(int(sort[2:]))
+    return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "t": z3.BitVecSort(32)}[sort]
 
 
 class _Lazy(dict):
@@ -75,8 +76,11 @@ class Model(ExprModel):
     """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
 
     def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = ()):
+        """`reads`: objects requirements read (modelled even if the program does not use
+        them); `host`: objects the environment sets at the start of every scan."""
         super().__init__(plc)
         self.period_us = round(plc.scan_period * 1e6)
+        self.clock_wrap = max(1, CLOCK_WRAP_US // self.period_us)  # scans in a minute
         self.vars: dict[str, Var] = {}
         self.inputs: dict[str, tuple[str, int, int]] = {}  # key -> (sort, lo, hi)
         self.host = {str(r) for r in host}
@@ -113,7 +117,7 @@ class Model(ExprModel):
 
     def _sort(self, key: str) -> str:
         if key.endswith("._el"):
-            return "el"
+            return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us)}"
         if key == "_tmod":
             return "t"
         if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
@@ -174,8 +178,7 @@ class Model(ExprModel):
         out = block_invariants(st, {n: (t, self.period_us) for n, t in self.timers.items()},
                                self.counters)
         if "_tmod" in st:
-            out += [z3.ULT(st["_tmod"], CLOCK_WRAP_US),
-                    z3.URem(st["_tmod"], self.period_us) == 0]
+            out.append(z3.ULT(st["_tmod"], self.clock_wrap))
         return out
 
     # ---- the scan -----------------------------------------------------------------------
@@ -189,15 +192,15 @@ class Model(ExprModel):
             if f"%S{b}" in self.vars or (b == 21 and self.grafcet):
                 st[f"%S{b}"] = first if first is not None else st["_first"]
         if any(f"%S{b}" in self.vars for b in S_CLOCKS):
-            now = st["_tmod"]
+            now = st["_tmod"] * self.period_us  # _tmod counts scans, modulo one minute
             for b, p in S_CLOCKS.items():
                 if f"%S{b}" in self.vars:
                     st[f"%S{b}"] = z3.ULT(z3.URem(now, p), p // 2)
-        for k in self.host:
-            if k in self.vars or self.discovering:
-                self.add_input(k, "w16", -32768, 32767)
-                if k in inp:
-                    st[k] = inp[k]
+        for k in self.host:  # words a host writes between scans, free bits
+            if self.discovering:
+                self.add_input(k, "bool" if self.is_bit_key(k) else "w16", -32768, 32767)
+                _ = st[k]
+            st[k] = inp[k]
         self.live: Any = z3.BoolVal(True)
         self.executed: dict[str, Any] = {}
         self.ga: dict[int, Any] = {}
@@ -213,7 +216,7 @@ class Model(ExprModel):
         if self.conditional:
             for name, t in self.timers.items():  # timers not executed keep timing
                 run_timer(st, name, t, z3.Not(self.executed.get(name, z3.BoolVal(False))),
-                          st[f"{name}._in"])
+                          st[f"{name}._in"], self.period_us)
         for b in FIRST_SCAN_BITS:
             if f"%S{b}" in st:
                 st[f"%S{b}"] = z3.BoolVal(False)
@@ -221,7 +224,7 @@ class Model(ExprModel):
             advance_timer(st, name, t, self.period_us)
         if "_tmod" in self.vars or "_tmod" in st:
             t = st["_tmod"]
-            st["_tmod"] = z3.simplify(z3.URem(t + self.period_us, CLOCK_WRAP_US))
+            st["_tmod"] = z3.simplify(z3.If(t + 1 >= self.clock_wrap, 0, t + 1))
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
@@ -434,7 +437,7 @@ class Model(ExprModel):
         p = {k: pins.get(k, z3.BoolVal(False)) for k in ("IN", "R", "S", "CU", "CD")}
         if ref.kind == "TM":
             self.executed[name] = z3.Or(self.executed.get(name, False), g)
-            run_timer(self.st, name, self.timers[name], g, p["IN"])
+            run_timer(self.st, name, self.timers[name], g, p["IN"], self.period_us)
         else:
             run_counter(self.st, name, g, p["R"], p["S"], p["CU"], p["CD"])
 
@@ -468,6 +471,9 @@ class Model(ExprModel):
             return f"%{ref.kind}{ref.index}.{ref.field}"
         key = str(Ref(ref.kind, ref.index, ref.module, ref.channel))
         if ref.kind == "S" and ref.index in S_CLOCKS:
+            if CLOCK_WRAP_US % self.period_us:
+                self.unsupported(f"{ref} with a scan period that does not divide 1 min",
+                                 None, str(ref))
             _ = self.st["_tmod"] if hasattr(self, "st") else self.declare("_tmod")
         if not hasattr(self, "st"):
             self.declare(key)
