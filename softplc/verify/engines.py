@@ -162,7 +162,7 @@ def spacer(ck: Checker, seconds: float) -> str:
     s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
     s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
     r = s.check()
-    return {z3.sat: "PROVEN", z3.unsat: "VIOLATED"}.get(r, "UNKNOWN")
+    return "PROVEN" if r == z3.sat else "VIOLATED" if r == z3.unsat else "UNKNOWN"
 
 
 def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str],
