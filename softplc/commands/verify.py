@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ..errors import SoftPLCError
 from ._args import add_program_arguments, existing_file, load_plc
 
 EXIT_UNPROVEN, EXIT_VIOLATED, EXIT_DISAGREE = 1, 2, 3
@@ -34,6 +35,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="largest k tried by k-induction (default %(default)s)")
     p.add_argument("--timeout", type=float, default=60.0,
                    help="seconds per requirement (default %(default)s)")
+    p.add_argument("--scan-period", metavar="MIN:MAX",
+                   help="any scan period from MIN to MAX in each scan (e.g. 10ms:1s; cyclic "
+                        "mode), instead of the configured fixed one")
     p.add_argument("--bounded", action="store_true",
                    help="exit 0 when no requirement is violated within --depth scans")
     p.add_argument("--no-spacer", action="store_true",
@@ -88,12 +92,19 @@ def run(args: argparse.Namespace) -> int:
         existing_file(args.require, "requirements")
     plc = load_plc(args, devices=False)
     spec = load_spec(args.require, args.require_expr, plc.profile)
+    if args.scan_period:
+        from ..verify.requirements import parse_periods
+        try:
+            spec.periods = parse_periods(args.scan_period)
+        except ValueError as e:
+            raise SoftPLCError(f"--scan-period {args.scan_period}: {e}") from None
     model = Model(plc, spec.reads + [r for r, _ in spec.free],
-                  spec.host + [r for r, _ in spec.free])
+                  spec.host + [r for r, _ in spec.free], spec.periods)
     check_environment(spec, model.written, str(args.program))
+    period = f"{model.period_us / 1000:g} ms" + (
+        f" to {model.longest_us / 1000:g} ms" if model.variable else "")
     print(f"{args.program}: {len(plc.ast.rungs)} rungs, {len(model.vars)} state "
-          f"variables, {len(model.inputs)} inputs, scan period "
-          f"{model.period_us / 1000:g} ms")
+          f"variables, {len(model.inputs)} inputs, scan period {period}")
     worst, cexs = 0, []
     for req in spec.requirements:
         ck = Checker(model, spec, req)
@@ -126,11 +137,14 @@ def run(args: argparse.Namespace) -> int:
             print("  replayed in the scan engine: same values in every scan")
             worst = max(worst, EXIT_VIOLATED)
         cexs.append({"requirement": req.name, "check": req.text, "scans": res.trace})
-    if cexs and args.cex:
-        write_cex(args.cex, args.program, args.config, cexs)
-        print(f"counterexamples written to {args.cex} (softplc repl {args.program} "
-              f"--replay {args.cex})")
-    if cexs and args.emit_test:
-        emit_test(args.emit_test, args.program, args.config, cexs)
-        print(f"pytest test written to {args.emit_test}")
+    try:
+        if cexs and args.cex:
+            write_cex(args.cex, args.program, args.config, cexs)
+            print(f"counterexamples written to {args.cex} (softplc repl {args.program} "
+                  f"--replay {args.cex})")
+        if cexs and args.emit_test:
+            emit_test(args.emit_test, args.program, args.config, cexs)
+            print(f"pytest test written to {args.emit_test}")
+    except OSError as e:
+        raise SoftPLCError(f"cannot write {e.filename}: {e.strerror}") from None
     return worst

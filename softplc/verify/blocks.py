@@ -23,14 +23,14 @@ def time_unit(t: Timer, period_us: int) -> int:
     return math.gcd(t.base_us, period_us)
 
 
-def timer_cap(t: Timer, period_us: int) -> int:
+def timer_cap(t: Timer, period_us: int, longest_us: int = 0) -> int:
     """Elapsed time (in units) past which a timer's outputs no longer change."""
     u = time_unit(t, period_us)
-    return (MAX_VALUE * t.base_us + period_us) // u
+    return (MAX_VALUE * t.base_us + max(period_us, longest_us)) // u
 
 
-def el_bits(t: Timer, period_us: int) -> int:
-    return (timer_cap(t, period_us) * 2).bit_length() + 1
+def el_bits(t: Timer, period_us: int, longest_us: int = 0) -> int:
+    return (timer_cap(t, period_us, longest_us) * 2).bit_length() + 1
 
 
 def _set(st: dict[str, Any], key: str, g: Any, value: Any) -> None:
@@ -93,13 +93,17 @@ def run_timer(st: dict[str, Any], name: str, t: Timer, g: Any, IN: Any,
     _set(st, k["_in"], g, IN)
 
 
-def advance_timer(st: dict[str, Any], name: str, t: Timer, period_us: int) -> None:
-    """End of scan: the next scan starts one period later."""
+def advance_timer(st: dict[str, Any], name: str, t: Timer, period_us: int,
+                  periods: Any = None, longest_us: int = 0) -> None:
+    """End of scan: the next scan starts one period later (with a variable period: the
+    term `periods` times the shortest one, at most `longest_us`)."""
     key = f"{name}._el"
     el = st[key]
     n = el.size()
-    step = period_us // time_unit(t, period_us)
-    cap = z3.BitVecVal(timer_cap(t, period_us), n)
+    step: Any = period_us // time_unit(t, period_us)
+    if periods is not None:
+        step = z3.ZeroExt(n - periods.size(), periods) * step
+    cap = z3.BitVecVal(timer_cap(t, period_us, longest_us), n)
     st[key] = z3.simplify(z3.If(z3.UGE(el, cap - step), cap, el + step))
 
 
@@ -123,13 +127,13 @@ def run_counter(st: dict[str, Any], name: str, g: Any, R: Any, S: Any, CU: Any,
     _set(st, k["D"], g, V2 == P)
 
 
-def block_invariants(st: dict[str, Any], timers: dict[str, tuple[Timer, int]],
+def block_invariants(st: dict[str, Any], timers: dict[str, tuple[Timer, int, int]],
                      counters: list[str]) -> list[Any]:
     """Facts true in every reachable state by construction (checked by 1-induction before
     use): value ranges of block fields and elapsed times."""
     out = []
-    for name, (t, period) in timers.items():
-        out.append(z3.ULE(st[f"{name}._el"], timer_cap(t, period)))  # units
+    for name, (t, period, longest) in timers.items():
+        out.append(z3.ULE(st[f"{name}._el"], timer_cap(t, period, longest)))  # units
         P, V = st[f"{name}.P"], st[f"{name}.V"]
         out += [P >= 0, P <= MAX_VALUE, V >= 0, V <= MAX_VALUE]
     for name in counters:

@@ -78,7 +78,11 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
             values[a] = value_of(model, rd(ref))
         objects = {k: value_of(model, post[k]) for k in ck.model.vars
                    if k.startswith("%") and "._" not in k}
-        rows.append({"inputs": {k: value_of(model, v) for k, v in inp.items()},
+        ins = {k: value_of(model, v) for k, v in inp.items()}
+        if "_dt" in ins:  # a variable period: this scan's, in ms
+            p = ins.pop("_dt") * ck.model.period_us / 1000
+            ins["period_ms"] = int(p) if p == int(p) else p
+        rows.append({"inputs": ins,
                      "values": values, "objects": objects})
     return rows
 

@@ -75,15 +75,22 @@ class _LazyInputs(dict):
 class Model(ExprModel):
     """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
 
-    def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = ()):
+    def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = (),
+                 periods: tuple[int, int] | None = None):
         """`reads`: objects requirements read (modelled even if the program does not use
-        them); `host`: objects the environment sets at the start of every scan."""
+        them); `host`: objects the environment sets at the start of every scan;
+        `periods`: (shortest, longest) scan period in us when any period in between (a
+        multiple of the shortest) may occur in each scan, as in cyclic mode."""
         super().__init__(plc)
-        self.period_us = round(plc.scan_period * 1e6)
+        self.period_us = round(plc.scan_period * 1e6) if periods is None else periods[0]
+        self.longest_us = self.period_us if periods is None else periods[1]
+        self.variable = periods is not None and periods[1] > periods[0]
         self.clock_wrap = max(1, CLOCK_WRAP_US // self.period_us)  # scans in a minute
         self.vars: dict[str, Var] = {}
         self.inputs: dict[str, tuple[str, int, int]] = {}  # key -> (sort, lo, hi)
         self.host = {str(r) for r in host}
+        if self.variable:  # the input "_dt": this scan lasts _dt x the shortest period
+            self.add_input("_dt", "w16", 1, self.longest_us // self.period_us)
         self.timers: dict[str, Timer] = {}
         self.counters: list[str] = []
         self.written: dict[str, A.Pos] = {}  # keys the program writes, where first
@@ -95,15 +102,16 @@ class Model(ExprModel):
         self.initial_steps = tuple(plc.grafcet.initial)
         # discovery: run the scan on lazily created variables until no new key appears
         self.discovering = True
-        for ref in reads:
-            self.key_for(ref)
         n = -1
         while n != len(self.vars) + len(self.inputs):
             n = len(self.vars) + len(self.inputs)
             pre = _Lazy(self)
             for k in list(self.vars):
                 pre[k] = self.declare(k)
-            self.scan(pre, _LazyInputs(self))
+            self.st, self.inp = pre, _LazyInputs(self)
+            for ref in reads:
+                self.key_for(ref)
+            self.scan(pre, self.inp)
             if self.problems:
                 raise VerifyError(sorted(set(self.problems), key=lambda d: (d.line, d.column)))
         self.discovering = False
@@ -117,7 +125,7 @@ class Model(ExprModel):
 
     def _sort(self, key: str) -> str:
         if key.endswith("._el"):
-            return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us)}"
+            return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us, self.longest_us)}"
         if key == "_tmod":
             return "t"
         if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
@@ -175,8 +183,8 @@ class Model(ExprModel):
     def invariants(self, st: dict[str, Any]) -> list[Any]:
         """Range facts true by construction in every reachable state (see `blocks`)."""
         from .blocks import block_invariants
-        out = block_invariants(st, {n: (t, self.period_us) for n, t in self.timers.items()},
-                               self.counters)
+        out = block_invariants(st, {n: (t, self.period_us, self.longest_us)
+                                    for n, t in self.timers.items()}, self.counters)
         if "_tmod" in st:
             out.append(z3.ULT(st["_tmod"], self.clock_wrap))
         return out
@@ -220,11 +228,13 @@ class Model(ExprModel):
         for b in FIRST_SCAN_BITS:
             if f"%S{b}" in st:
                 st[f"%S{b}"] = z3.BoolVal(False)
+        dt = z3.Extract(15, 0, inp["_dt"]) if self.variable else None
         for name, t in self.timers.items():
-            advance_timer(st, name, t, self.period_us)
+            advance_timer(st, name, t, self.period_us, dt, self.longest_us)
         if "_tmod" in self.vars or "_tmod" in st:
             t = st["_tmod"]
-            st["_tmod"] = z3.simplify(z3.If(t + 1 >= self.clock_wrap, 0, t + 1))
+            t = t + (z3.ZeroExt(16, dt) if dt is not None else 1)
+            st["_tmod"] = z3.simplify(z3.If(z3.UGE(t, self.clock_wrap), t - self.clock_wrap, t))
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
@@ -342,7 +352,7 @@ class Model(ExprModel):
                 pending[ins.label] = z3.Or(pending.get(ins.label, False), take)
                 self.live = z3.simplify(z3.And(self.live, z3.Not(take)))
             elif isinstance(ins, A.SRCall):
-                self.call(ins, z3.And(g(), acc))
+                self.call_sr(ins, z3.And(g(), acc))
             elif isinstance(ins, (A.Return, A.End)):
                 c = z3.BoolVal(True) if ins.op in ("RET", "END") else \
                     acc if ins.op in ("RETC", "ENDC") else z3.Not(acc)
@@ -384,7 +394,7 @@ class Model(ExprModel):
             return r
         return v
 
-    def call(self, ins: A.SRCall, g: Any) -> None:
+    def call_sr(self, ins: A.SRCall, g: Any) -> None:
         n = ins.number
         if n in self.calls:
             self.unsupported("a recursive subroutine call", ins.pos, f"SR{n}")
@@ -415,6 +425,9 @@ class Model(ExprModel):
 
     def use_block(self, ref: Ref, pos: A.Pos | None) -> str | None:
         name = f"%{ref.kind}{ref.index}"
+        if ref.kind in ("TM", "C") and ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
+            self.unsupported(f"{name}: not used by the program nor configured", pos, name)
+            return None
         if ref.kind == "TM":
             self.timers.setdefault(name, self.plc.mem.blocks["TM"][ref.index])
             for f in ("P", "V", "Q", "_in", "_on", "_el"):
@@ -467,18 +480,16 @@ class Model(ExprModel):
             self.add_input(str(ref), "w16", lo, hi)
             return str(ref)
         if ref.kind in ("TM", "C") and ref.field is not None:
-            self.use_block(Ref(ref.kind, ref.index), None)
+            if self.use_block(Ref(ref.kind, ref.index), None) is None:
+                return "_none"
             return f"%{ref.kind}{ref.index}.{ref.field}"
         key = str(Ref(ref.kind, ref.index, ref.module, ref.channel))
         if ref.kind == "S" and ref.index in S_CLOCKS:
             if CLOCK_WRAP_US % self.period_us:
                 self.unsupported(f"{ref} with a scan period that does not divide 1 min",
                                  None, str(ref))
-            _ = self.st["_tmod"] if hasattr(self, "st") else self.declare("_tmod")
-        if not hasattr(self, "st"):
-            self.declare(key)
-        else:
-            _ = self.st[key]
+            _ = self.st["_tmod"]
+        _ = self.st[key]
         return key
 
     def mark_written(self, key: str, pos: A.Pos | None) -> None:

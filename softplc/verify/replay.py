@@ -25,7 +25,9 @@ CEX_FORMAT = "softplc-cex/1"
 
 def set_inputs(plc: Any, inputs: dict[str, int]) -> None:
     for k, v in inputs.items():
-        if k.startswith("%IW"):
+        if k == "period_ms":  # this scan's length (a variable period)
+            plc.set_scan_period(v / 1000)
+        elif k.startswith("%IW"):
             plc.mem.write(k, v)
         else:
             plc[k] = v

@@ -67,6 +67,7 @@ class Spec:
     host: list[Ref]
     reads: list[Ref]  # every object a requirement or assumption reads
     free: list[tuple[Ref, Diagnostic]] = field(default_factory=list)  # with where declared
+    periods: tuple[int, int] | None = None  # (shortest, longest) scan period in us
 
 
 class _Where:
@@ -292,9 +293,17 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
         problems.append(Diagnostic(f"unknown table [{k}]", file, *where.find(k),
                                    expected="[environment], [[requirement]]", code=Code.SYNTAX))
     env = data.get("environment", {})
-    for k in sorted(set(env) - {"host", "free", "assume"}):
+    for k in sorted(set(env) - {"host", "free", "assume", "scan_period"}):
         problems.append(Diagnostic(f"unknown key environment.{k}", file, *_key(where, k),
-                                   expected="host, free, assume", code=Code.SYNTAX))
+                                   expected="host, free, assume, scan_period",
+                                   code=Code.SYNTAX))
+    periods = None
+    if "scan_period" in env:
+        try:
+            periods = parse_periods(env["scan_period"])
+        except ValueError as e:
+            problems.append(Diagnostic(f"environment.scan_period: {e}", file,
+                                       *_key(where, "scan_period"), code=Code.TYPE))
     free: list[tuple[Ref, Diagnostic]] = []
     for key in ("host", "free"):
         for s in env.get(key, []):
@@ -350,7 +359,30 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
         raise VerifyError(problems)
     for r in reqs:
         reads += r.reads
-    return Spec(reqs, assumptions, host, reads, free)
+    if periods is not None:
+        for r in reqs:
+            if r.kind == "response" and r.within < 0:
+                problems.append(Diagnostic(
+                    f"{r.name}: 'within ... ms' needs a fixed scan period", file,
+                    *where.find(r.text), expected="'within N scans'", code=Code.TYPE))
+    if problems:
+        raise VerifyError(problems)
+    return Spec(reqs, assumptions, host, reads, free, periods)
+
+
+def parse_periods(value: Any) -> tuple[int, int]:
+    """["10ms", "1s"] (or "10ms:1s") -> (10000, 1000000) us: any period from the shortest
+    to the longest, in steps of the shortest, may occur in each scan."""
+    from ..config import _parse_duration
+    if isinstance(value, str):
+        value = value.split(":")
+    if not isinstance(value, list) or len(value) != 2:
+        raise ValueError('expected ["SHORTEST", "LONGEST"], e.g. ["10ms", "1s"]')
+    lo, hi = (round(_parse_duration(v) * 1e6) for v in value)
+    if not 0 < lo <= hi <= 60_000_000 or hi % lo:
+        raise ValueError("0 < shortest <= longest <= 1min, the longest a multiple of the "
+                         "shortest")
+    return lo, hi
 
 
 def _key(where: _Where, key: str) -> tuple[int, int]:
