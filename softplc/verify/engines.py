@@ -12,6 +12,7 @@ next one; with BMC clean to depth k that proves it for every run.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -160,12 +161,17 @@ def spacer(ck: Checker, seconds: float) -> str:
     init = ck.init()
     xs = [cur[k] for k in names] + list(inp.values())
     s = z3.SolverFor("HORN")
-    s.set("timeout", max(1, int(seconds * 1000)))
     s.add(inv(*[init[k] for k in names]))
     body = z3.And(inv(*[cur[k] for k in names]), *ck.assumed(post, inp))
     s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
     s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
-    r = s.check()
+    # Spacer does not always honour the timeout parameter: interrupt it from a timer
+    timer = threading.Timer(max(0.1, seconds), s.ctx.interrupt)
+    timer.start()
+    try:
+        r = s.check()
+    finally:
+        timer.cancel()
     return "PROVEN" if r == z3.sat else "VIOLATED" if r == z3.unsat else "UNKNOWN"
 
 
@@ -178,7 +184,7 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str]
     if not inv_ok:  # pragma: no cover - would be a modelling bug: prove without them
         ck.invariants = lambda st: []  # type: ignore[method-assign]
     k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress)
-    base = bmc(ck, max(depth, k or 0), deadline, watch, progress)
+    base = bmc(ck, k if k is not None else depth, deadline, watch, progress)
     base.seconds = time.monotonic() - t0
     if base.status == "VIOLATED":
         return base

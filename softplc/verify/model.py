@@ -238,7 +238,7 @@ class Model(ExprModel):
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
-        out.update(inp)
+        out.update({k: v for k, v in inp.items() if k not in st})  # %I, %IW: as latched
         return out
 
     # ---- program structure ----------------------------------------------------------------
@@ -589,3 +589,23 @@ class Model(ExprModel):
 
 
 __all__ = ["Model", "Var", "WIDE", "BOOL", "REAL"]
+
+
+def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:
+    """The model's values scan by scan for concrete inputs (missing inputs are 0): every
+    object it models after each scan, for comparison with the engine."""
+    from .symbolic import value_of
+    st = model.init_state()
+    out = []
+    for given in scans:
+        inp = {k: model.const(sort, int(given.get(k, lo if sort == "w16" else 0)))
+               for k, (sort, lo, _hi) in model.inputs.items()}
+        post = model.scan(st, inp)
+        post = {k: z3.simplify(v) for k, v in post.items()}
+        st = {k: post[k] for k in model.vars}
+        s = z3.Solver()
+        s.check()
+        m = s.model()
+        out.append({k: value_of(m, v) for k, v in post.items()
+                    if k.startswith("%") and "._" not in k})
+    return out
