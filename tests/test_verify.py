@@ -202,3 +202,14 @@ def test_repl_replays_a_counterexample(tmp_path):
                         "-x", "scan 1", "-x", "print %Q0.0", "-x", "print %I0.2", "-x", "quit"],
                        capture_output=True, text=True, timeout=60)
     assert "%Q0.0 = 1" in r.stdout and "%I0.2 = 0" in r.stdout, r.stdout + r.stderr
+
+
+def test_readme_requirement_example_loads(tmp_path):
+    import re
+    readme = (ROOT / "README.md").read_text()
+    start = readme.index("## Formal verification")
+    toml = re.compile(r"```toml\n(.*?)```", re.S).search(readme, start).group(1)
+    plc = PLC.from_source("LD %I0.0\nANDN %Q0.2\nST %Q0.1\n", devices=False)
+    spec = load_spec(write(tmp_path, toml), [], plc.profile)
+    assert spec.periods == (10_000, 1_000_000) and len(spec.host) == 10
+    assert [r.kind for r in spec.requirements] == ["always"]
