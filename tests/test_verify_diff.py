@@ -1,7 +1,8 @@
 """Differential test of the verifier's model against the scan engine: random small
 programs and random input sequences give the same value of every modelled object, scan
 by scan (booleans, edges, MPS, 16/32-bit words with overflow and %S18, comparisons,
-timers, counters, forward jumps)."""
+timers (also when a jump or a subroutine leaves them out), counters, forward jumps,
+subroutines with conditional returns, ENDC)."""
 
 from __future__ import annotations
 
@@ -67,6 +68,14 @@ def program(seed: int) -> tuple[str, dict]:
         lines += rung(r, label)
     if label:
         lines += ["%L1:", "LD 1", "ST %M5"]
+    if r.random() < 0.4:  # a subroutine called on a condition, with a conditional return
+        lines += [f"LD {r.choice(BITS)}", "SR0", f"LD {r.choice(BITS)}", "ENDC",
+                  "LD 1", "ST %M4", "END", "SR0:"]
+        for _ in range(r.randrange(1, 4)):
+            lines += rung(r, [1])
+            if r.random() < 0.3:
+                lines += [f"LD {r.choice(BITS)}", "RETC"]
+        lines += ["RET"]
     config = {"scan_period": r.choice(["10ms", "100ms"]),
               "timers": {"%TM0": {"type": r.choice(["TON", "TOF", "TP"]),
                                   "base": r.choice(["10ms", "100ms"]),
