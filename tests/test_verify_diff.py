@@ -84,6 +84,30 @@ def program(seed: int) -> tuple[str, dict]:
     return "\n".join(lines) + "\n", config
 
 
+def grafcet_program(seed: int) -> tuple[str, dict]:
+    """Preprocessing (maybe acting on %S21-%S23), four steps with actions and transitions
+    (`# j`, `#`, `#D j`), post-processing."""
+    r = random.Random(seed)
+    lines: list[str] = []
+    for _ in range(r.randrange(2)):
+        lines += rung(r, [1])
+    if r.random() < 0.5:
+        lines += ["LD %I0.2", f"S %S{r.choice([21, 22, 23])}"]
+    for k in range(4):
+        lines.append(f"{'=*=' if k == 0 or r.random() < 0.2 else '-*-'} {k}")
+        for _ in range(r.randrange(1, 3)):
+            if r.random() < 0.4:
+                lines += rung(r, [1])
+            lines += [f"LD {r.choice(BITS)}", r.choice([f"# {r.randrange(4)}", "#",
+                                                        f"#D {r.randrange(4)}"])]
+    if r.random() < 0.7:
+        lines.append("=*= POST")
+    for k in range(4):
+        lines += [f"LD %X{k}", f"ST %Q0.{k}"]
+    _, config = program(seed)
+    return "\n".join(lines) + "\n", config
+
+
 HOST = [Ref("MW", 0), Ref("MW", 1)]  # a host writes these between scans
 word = st.one_of(st.integers(-32768, 32767), st.sampled_from([0, -1, 32767, -32768]))
 scan_inputs = st.fixed_dictionaries({"%I0.0": st.integers(0, 1), "%I0.1": st.integers(0, 1),
@@ -93,9 +117,10 @@ scan_inputs = st.fixed_dictionaries({"%I0.0": st.integers(0, 1), "%I0.1": st.int
 
 @settings(max_examples=examples(200), deadline=None,
           suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 10**9), scans=st.lists(scan_inputs, min_size=1, max_size=12))
-def test_model_and_engine_agree_scan_by_scan(seed, scans):
-    text, config = program(seed)
+@given(seed=st.integers(0, 10**9), scans=st.lists(scan_inputs, min_size=1, max_size=12),
+       grafcet=st.booleans())
+def test_model_and_engine_agree_scan_by_scan(seed, scans, grafcet):
+    text, config = (grafcet_program if grafcet else program)(seed)
     plc = PLC.from_source(text, config, devices=False)
     model = Model(plc, [Ref("MW", 0), Ref("MW", 1)], HOST)
     want = run_concrete(model, scans)
