@@ -1,7 +1,8 @@
 """Differential test of the verifier's model against the scan engine: random small
 programs and random input sequences give the same value of every modelled object, scan
 by scan (booleans, edges, MPS, 16/32-bit words with overflow and %S18, comparisons,
-timers (also when a jump or a subroutine leaves them out), counters, forward jumps,
+timers (also when a jump or a subroutine leaves them out), counters, shift registers,
+forward jumps,
 subroutines with conditional returns, ENDC)."""
 
 from __future__ import annotations
@@ -19,8 +20,8 @@ from softplc.verify.model import Model, run_concrete
 from softplc.verify.replay import set_inputs
 
 BITS = ["%I0.0", "%I0.1", "%I0.2", "%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%TM0.Q",
-        "%C0.D", "%MW1:X15"]
-OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3"]
+        "%C0.D", "%MW1:X15", "%SBR0.2"]
+OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3", "%SBR0.0"]
 WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "100", "-7", "32767"]
 TARGETS = ["%MW1", "%MW2", "%MW3"]
 
@@ -53,7 +54,8 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
     if kind == 3:  # timer
         return ["BLK %TM0", load, "IN", "OUT_BLK", "LD Q", f"ST {r.choice(OUTS)}", "END_BLK"]
     if kind == 4:  # counter, short form
-        return [load, r.choice(["CU %C0", "CD %C0", "R %C0", "S %C0"])]
+        return [load, r.choice(["CU %C0", "CD %C0", "R %C0", "S %C0", "CU %SBR0",
+                                "CD %SBR0", "R %SBR0"])]
     if kind == 5 and not label:  # a forward jump over the next rungs
         label.append(1)
         return [load, r.choice(["JMPC %L1", "JMPCN %L1"])]

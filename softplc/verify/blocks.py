@@ -127,6 +127,19 @@ def run_counter(st: dict[str, Any], name: str, g: Any, R: Any, S: Any, CU: Any,
     _set(st, k["D"], g, V2 == P)
 
 
+def run_shift_register(st: dict[str, Any], name: str, g: Any, R: Any, CU: Any,
+                       CD: Any) -> None:
+    """`ShiftRegister.run(R, CU, CD)` guarded by g: CU shifts left, then CD right."""
+    W = st[f"{name}.W"]
+    up = z3.And(CU, z3.Not(st[f"{name}._cu"]))
+    down = z3.And(CD, z3.Not(st[f"{name}._cd"]))
+    w1 = z3.If(up, W << 1, W)
+    w2 = z3.If(down, z3.LShR(w1, 1), w1)
+    _set(st, f"{name}.W", g, z3.If(R, z3.BitVecVal(0, 16), w2))
+    _set(st, f"{name}._cu", g, CU)
+    _set(st, f"{name}._cd", g, CD)
+
+
 def block_invariants(st: dict[str, Any], timers: dict[str, tuple[Timer, int, int]],
                      counters: list[str]) -> list[Any]:
     """Facts true in every reachable state by construction (checked by 1-induction before

@@ -21,7 +21,7 @@ from typing import Any
 import z3
 
 from .checker import Checker
-from .model import sort_of
+from .model import is_object, sort_of
 from .symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
@@ -78,7 +78,7 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
             ref = parse_address(a, ck.model.plc.profile)
             values[a] = value_of(model, rd(ref))
         objects = {k: value_of(model, post[k]) for k in ck.model.vars
-                   if k.startswith("%") and "._" not in k}
+                   if is_object(k)}
         ins = {k: value_of(model, v) for k, v in inp.items()}
         if "_dt" in ins:  # a variable period: this scan's, in ms
             p = ins.pop("_dt") * ck.model.period_us / 1000

@@ -26,7 +26,7 @@ from ..il import rungtree
 from ..runtime.blocks import Timer
 from ..runtime.engine import S_CLOCKS
 from .blocks import advance_timer, el_bits, run_timer
-from .objects import CLOCK_WRAP_US, ObjectModel
+from .objects import BLOCK_KEY, CLOCK_WRAP_US, ObjectModel
 
 FIRST_SCAN_BITS = (0, 13, 21)  # %S0 cold start, %S13 first scan, %S21 Grafcet init
 KEEP_BITS = {12: 1}  # %S12 is 1 in RUN
@@ -131,27 +131,24 @@ class Model(ObjectModel):
         return "w16"
 
     def is_bit_key(self, key: str) -> bool:
-        if key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
-                ("%MW", "%QW", "%SW", "%MD")):
-            return True
-        if "." in key and key.startswith(("%TM", "%C")):
-            return key.rsplit(".", 1)[1] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd")
-        return False
+        blk = BLOCK_KEY.match(key)
+        if blk:
+            return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd")
+        return key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
+            ("%MW", "%QW", "%SW", "%MD"))
 
     def _init(self, key: str) -> int:
         """The value after a cold start."""
         if key == "_first":
             return 1
+        blk = BLOCK_KEY.match(key)
+        if blk:
+            return 0 if blk[3] == "_el" else int(getattr(self.block(key.split(".")[0]),
+                                                         blk[3]))
         if key.startswith("%S") and int(key[2:]) in KEEP_BITS:
             return KEEP_BITS[int(key[2:])]
         if key.startswith("%X"):  # the initial steps are active from the cold start
             return 1 if int(key[2:]) in self.initial_steps else 0
-        if key.startswith(("%TM", "%C")) and "." in key:
-            name, field = key.split(".", 1)
-            blk = self.block(name)
-            if field == "_el":
-                return 0
-            return int(getattr(blk, field))
         return 0
 
     def input_var(self, key: str, suffix: str) -> Any:
@@ -417,7 +414,12 @@ class Model(ObjectModel):
             self.gd[ins.step] = z3.Or(self.gd.get(ins.step, False), g)
 
 
-__all__ = ["Model", "Var", "run_concrete"]
+__all__ = ["Model", "Var", "is_object", "run_concrete"]
+
+
+def is_object(key: str) -> bool:
+    """A state key that is an object address (not a block's internal state)."""
+    return key.startswith("%") and "._" not in key and not key.endswith(".W")
 
 
 def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:
@@ -436,5 +438,5 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
         s.check()
         m = s.model()
         out.append({k: value_of(m, v) for k, v in post.items()
-                    if k.startswith("%") and "._" not in k})
+                    if is_object(k)})
     return out

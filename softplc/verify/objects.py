@@ -4,6 +4,7 @@ rule faults, and what cannot be modelled reported with its line:col."""
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import z3
@@ -11,13 +12,14 @@ import z3
 from ..address import INT16, INT32, REAL, Ref
 from ..errors import Code, Diagnostic
 from ..il import ast as A
-from ..runtime.blocks import MAX_VALUE, Counter, Timer
+from ..runtime.blocks import MAX_VALUE, Counter, ShiftRegister, Timer
 from ..runtime.engine import S_CLOCKS
-from .blocks import run_counter, run_timer
+from .blocks import run_counter, run_shift_register, run_timer
 from .exprs import ExprModel
 from .symbolic import as_bool, narrow, wide
 
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
+BLOCK_KEY = re.compile(r"%(TM|C|SBR)(\d+)\.(\w+)$")  # a modelled block's field
 
 
 class ObjectModel(ExprModel):
@@ -35,12 +37,13 @@ class ObjectModel(ExprModel):
 
     # ---- blocks ---------------------------------------------------------------------------
     def block(self, name: str) -> Any:
-        ref = Ref(name[1:3] if name.startswith("%TM") else "C", int(name.lstrip("%TMC")))
-        return self.plc.mem.blocks[ref.kind][ref.index]
+        m = BLOCK_KEY.match(name + ".x")
+        return self.plc.mem.blocks[m[1]][int(m[2])]
 
     def use_block(self, ref: Ref, pos: A.Pos | None) -> str | None:
         name = f"%{ref.kind}{ref.index}"
-        if ref.kind in ("TM", "C") and ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
+        if ref.kind in ("TM", "C", "SBR") and \
+                ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
             self.unsupported(f"{name}: not used by the program nor configured", pos, name)
             return None
         if ref.kind == "TM":
@@ -52,6 +55,10 @@ class ObjectModel(ExprModel):
             if name not in self.counters:
                 self.counters.append(name)
             for f in Counter.FIELDS:
+                _ = self.st[f"{name}.{f}"]
+            return name
+        if ref.kind == "SBR":
+            for f in ShiftRegister.FIELDS:
                 _ = self.st[f"{name}.{f}"]
             return name
         self.unsupported(f"the %{ref.kind} function block", pos, str(ref))
@@ -66,20 +73,25 @@ class ObjectModel(ExprModel):
         if ref.kind == "TM":
             self.executed[name] = z3.Or(self.executed.get(name, False), g)
             run_timer(self.st, name, self.timers[name], g, p["IN"], self.period_us)
+        elif ref.kind == "SBR":
+            run_shift_register(self.st, name, g, p["R"], p["CU"], p["CD"])
         else:
             run_counter(self.st, name, g, p["R"], p["S"], p["CU"], p["CD"])
 
     def run_pin(self, ref: Ref, pin: str, g: Any, v: Any, pos: A.Pos | None) -> None:
         """The short form (`CU %C0`, `IN %TM0`): edge inputs held at their last value."""
-        if ref.kind == "C":
+        if ref.kind in ("C", "SBR"):
             name = self.use_block(ref, pos)
             if name is None:
                 return
             held = {"CU": self.st[f"{name}._cu"], "CD": self.st[f"{name}._cd"],
                     "R": z3.BoolVal(False), "S": z3.BoolVal(False)}
             held[pin] = v
-            self.mark_written(f"{name}.V", pos)
-            run_counter(self.st, name, g, held["R"], held["S"], held["CU"], held["CD"])
+            if ref.kind == "SBR":
+                run_shift_register(self.st, name, g, held["R"], held["CU"], held["CD"])
+            else:
+                self.mark_written(f"{name}.V", pos)
+                run_counter(self.st, name, g, held["R"], held["S"], held["CU"], held["CD"])
         else:
             self.run_block(ref, g, {pin: v}, pos)
 
@@ -94,7 +106,7 @@ class ObjectModel(ExprModel):
             lo, hi = (min(ch.lo, ch.hi), max(ch.lo, ch.hi)) if ch else (-32768, 32767)
             self.add_input(str(ref), "w16", lo, hi)
             return str(ref)
-        if ref.kind in ("TM", "C") and ref.field is not None:
+        if ref.kind in ("TM", "C", "SBR") and ref.field is not None:
             if self.use_block(Ref(ref.kind, ref.index), None) is None:
                 return "_none"
             return f"%{ref.kind}{ref.index}.{ref.field}"
@@ -124,6 +136,9 @@ class ObjectModel(ExprModel):
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
         if ref.kind in ("TM", "C") and ref.field in ("Q", "D", "E", "F"):
             return self.st[self.key_for(ref)]
+        if ref.kind == "SBR" and ref.field == "J":
+            w = self.st[self.key_for(Ref("SBR", ref.index, field="W"))]
+            return z3.Extract(ref.bit, ref.bit, w) == 1
         self.unsupported(f"reading {ref}", pos, str(ref))
         return z3.BoolVal(False)
 
@@ -133,8 +148,9 @@ class ObjectModel(ExprModel):
             key = self.key_for(ref)
             self.mark_written(key, pos)
             self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
-        elif ref.kind == "MW" and ref.bit is not None and ref.offset is None:
-            key = self.key_for(Ref("MW", ref.index))
+        elif ref.kind in ("MW", "SBR") and ref.bit is not None and ref.offset is None:
+            key = self.key_for(Ref("MW", ref.index) if ref.kind == "MW"
+                               else Ref("SBR", ref.index, field="W"))
             self.mark_written(key, pos)
             w = self.st[key]
             mask = z3.BitVecVal(1 << ref.bit, 16)
