@@ -213,3 +213,20 @@ def test_readme_requirement_example_loads(tmp_path):
     spec = load_spec(write(tmp_path, toml), [], plc.profile)
     assert spec.periods == (10_000, 1_000_000) and len(spec.host) == 10
     assert [r.kind for r in spec.requirements] == ["always"]
+
+
+def test_proven_requirements_strengthen_the_induction():
+    prog = ("LD %I0.0\n[ %MW10 := %MW10 + 1 ]\nLD [ %MW10 >= 1000 ]\n[ %MW10 := 0 ]\n"
+            "LD 1\n[ %MW40 := %MW10 * 2 ]\n")
+    plc = PLC.from_source(prog, devices=False)
+    spec = load_spec(None, ["always %MW10 >= 0 AND %MW10 < 1000", "always %MW40 <= 1998"],
+                     plc.profile)
+    model = Model(plc, spec.reads)
+    lemma, target = spec.requirements
+    alone = verify(Checker(model, spec, target), 5, 4, 20, [], use_spacer=False)
+    assert alone.status == "UNKNOWN"  # a negative %MW10 is not reachable, but inductive
+    first = verify(Checker(model, spec, lemma), 5, 4, 20, [], use_spacer=False)
+    assert first.status == "PROVEN"
+    helped = verify(Checker(model, spec, target, [lemma.cond]), 5, 4, 20, [],
+                    use_spacer=False)
+    assert helped.status == "PROVEN" and helped.method == "k-induction (k=1)"

@@ -55,10 +55,12 @@ def stations_program(n: int) -> tuple[str, dict, list[str]]:
 
 def run(plc: PLC, spec, timeout: float, depth: int) -> list[tuple[str, str, str, float]]:
     model = Model(plc, spec.reads, spec.host, spec.periods)
-    out = []
+    out, lemmas = [], []
     for req in spec.requirements:
         t0 = time.perf_counter()
-        res = verify(Checker(model, spec, req), depth, 10, timeout, [])
+        res = verify(Checker(model, spec, req, lemmas), depth, 10, timeout, [])
+        if res.status == "PROVEN" and req.kind == "always":
+            lemmas.append(req.cond)  # as softplc verify does
         out.append((req.name, res.status, res.method, time.perf_counter() - t0))
         print(f"  {req.name[:58]:58s} {res.status:8s} {res.method:22s} "
               f"{out[-1][3]:6.2f} s", flush=True)

@@ -105,9 +105,9 @@ def run(args: argparse.Namespace) -> int:
         f" to {model.longest_us / 1000:g} ms" if model.variable else "")
     print(f"{args.program}: {len(plc.ast.rungs)} rungs, {len(model.vars)} state "
           f"variables, {len(model.inputs)} inputs, scan period {period}")
-    worst, cexs = 0, []
+    worst, cexs, lemmas = 0, [], []
     for req in spec.requirements:
-        ck = Checker(model, spec, req)
+        ck = Checker(model, spec, req, lemmas)
         watch = list(dict.fromkeys(str(r) for r in req.reads))
         res = verify(ck, args.depth, args.max_k, args.timeout, watch,
                      not args.no_spacer, _progress(args.quiet))
@@ -115,6 +115,8 @@ def run(args: argparse.Namespace) -> int:
             print(" " * 50, end="\r", file=sys.stderr)
         if res.status == "PROVEN":
             print(f"PROVEN    {req.name}: {res.method}, {res.seconds:.1f} s")
+            if req.kind == "always":  # a lemma for the requirements after it
+                lemmas.append(req.cond)
             continue
         if res.status == "UNKNOWN":
             print(f"UNKNOWN   {req.name}: no violation within {res.depth} scans, no proof "

@@ -63,8 +63,12 @@ def response_step(D: Any, count: Any, prev: Any, x: Any, y: Any, n: int) -> Any:
 class Checker:
     """One requirement on a model: the transition with its monitor, and what must hold."""
 
-    def __init__(self, model: Model, spec: Spec, req: Requirement):
+    def __init__(self, model: Model, spec: Spec, req: Requirement,
+                 lemmas: list[Node] = ()):
+        """`lemmas`: invariants already proven for this model (end-of-scan conditions),
+        assumed after every scan of the induction step: they strengthen it."""
         self.model, self.spec, self.req = model, spec, req
+        self.lemmas = list(lemmas)
         period_us = model.period_us
         self.n = req.within if req.within >= 0 else (-req.within * 1000) // period_us
         self.monitor = req.kind == "response"
@@ -90,6 +94,9 @@ class Checker:
         for a in self.spec.assumptions:
             out.append(as_bool(evaluate(Z3Domain, a, self.read(post))))
         return out
+
+    def lemma_terms(self, post: dict[str, Any]) -> list[Any]:
+        return [as_bool(evaluate(Z3Domain, n, self.read(post))) for n in self.lemmas]
 
     def state_keys(self) -> dict[str, str]:
         keys = {k: v.sort for k, v in self.model.vars.items()}

@@ -6,8 +6,9 @@ BMC unrolls from the cold-start state one scan at a time, with fresh variables p
 tied by equalities, and asks at each depth whether the requirement can fail there first:
 the first depth that is satisfiable gives a shortest counterexample.
 k-induction: from any state satisfying the range invariants (`Checker.invariants`, first
-checked inductive themselves), k scans in which the requirement holds force it in the
-next one; with BMC clean to depth k that proves it for every run.
+checked inductive themselves), k scans in which the requirement (and the requirements
+already proven, `Checker.lemmas`) holds force it in the next one; with BMC clean to
+depth k that proves it for every run.
 """
 
 from __future__ import annotations
@@ -134,6 +135,7 @@ def k_induction(ck: Checker, max_k: int, deadline: float,
     u = _Unroll(ck, s, None, "k")
     for k in range(1, max_k + 1):
         post = u.extend()
+        s.add(*ck.lemma_terms(post))  # proven invariants hold after every scan
         left = deadline - time.monotonic()
         if left <= 0:
             return None, time.monotonic() - t0
