@@ -119,8 +119,10 @@ def run(args: argparse.Namespace) -> int:
                 lemmas.append(req.cond)
             continue
         if res.status == "UNKNOWN":
+            note = "; Spacer finds it can fail later (raise --depth, or a scan_period " \
+                "range)" if res.method.startswith("Spacer") else ""
             print(f"UNKNOWN   {req.name}: no violation within {res.depth} scans, no proof "
-                  f"({res.seconds:.1f} s)")
+                  f"({res.seconds:.1f} s){note}")
             ok = args.bounded and res.depth >= args.depth
             worst = max(worst, 0 if ok else EXIT_UNPROVEN)
             continue

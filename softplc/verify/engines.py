@@ -13,7 +13,8 @@ depth k that proves it for every run.
 
 from __future__ import annotations
 
-import threading
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -167,14 +168,25 @@ def spacer(ck: Checker, seconds: float) -> str:
     body = z3.And(inv(*[cur[k] for k in names]), *ck.assumed(post, inp))
     s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
     s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
-    # Spacer does not always honour the timeout parameter: interrupt it from a timer
-    timer = threading.Timer(max(0.1, seconds), s.ctx.interrupt)
-    timer.start()
+    # Spacer honours neither its timeout nor an interrupt promptly: it runs in a child
+    # process, killed at the deadline
+    return _solve_in_child(s.sexpr(), seconds)
+
+
+_CHILD = ("import sys, z3\n"
+          "s = z3.SolverFor('HORN')\n"
+          "s.from_string(sys.stdin.read())\n"
+          "print(s.check())\n")
+
+
+def _solve_in_child(smt2: str, seconds: float) -> str:
     try:
-        r = s.check()
-    finally:
-        timer.cancel()
-    return "PROVEN" if r == z3.sat else "VIOLATED" if r == z3.unsat else "UNKNOWN"
+        r = subprocess.run([sys.executable, "-c", _CHILD], input=smt2, capture_output=True,
+                           text=True, timeout=max(0.5, seconds))
+    except subprocess.TimeoutExpired:
+        return "UNKNOWN"
+    out = r.stdout.strip()
+    return "PROVEN" if out == "sat" else "VIOLATED" if out == "unsat" else "UNKNOWN"
 
 
 def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str],
@@ -196,6 +208,10 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str]
     if use_spacer and left > 0.5:
         if progress:
             progress("Spacer", base.depth, time.monotonic() - t0)
-        if spacer(ck, left) == "PROVEN":
+        found = spacer(ck, left)
+        if found == "PROVEN":
             return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
+        if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
+            return Result("UNKNOWN", "Spacer: fails after more scans than searched",
+                          base.depth, time.monotonic() - t0)
     return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)

@@ -126,7 +126,8 @@ class ExprModel:
             self.store_word(stmt.target, g, r, t, stmt.pos)
             return
         if not isinstance(stmt, A.Assign):
-            self.unsupported(type(stmt).__name__, stmt.pos, "")
+            what = "PID" if isinstance(stmt, A.PidCall) else "EXCH"
+            self.unsupported(f"{what} (its effect is outside the program)", stmt.pos, what)
             return
         ref = stmt.target
         if ref.length is not None or ref.type == REAL:
