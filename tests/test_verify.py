@@ -230,3 +230,21 @@ def test_proven_requirements_strengthen_the_induction():
     helped = verify(Checker(model, spec, target, [lemma.cond]), 5, 4, 20, [],
                     use_spacer=False)
     assert helped.status == "PROVEN" and helped.method == "k-induction (k=1)"
+
+
+def test_assumptions_and_analog_spans(tmp_path):
+    prog = "LD %I0.0\nAND %I0.1\nST %Q0.0\nLD [ %IW0.0 > 1000 ]\nST %Q0.1\n"
+    config = {"analog": {"%IW0.0": {"type": "pot"}}}  # the potentiometer: 0..1023
+    plc = PLC.from_source(prog, config, devices=False)
+    spec = load_spec(None, ["never %Q0.0", "never %Q0.1", "always %IW0.0 <= 1023"],
+                     plc.profile)
+    model = Model(plc, spec.reads)
+    both, pot, span = (Checker(model, spec, r) for r in spec.requirements)
+    assert verify(both, 3, 2, 20, []).status == "VIOLATED"
+    res = verify(pot, 3, 2, 20, ["%IW0.0"])
+    assert res.status == "VIOLATED" and 1000 < res.trace[0]["values"]["%IW0.0"] <= 1023
+    assert verify(span, 3, 2, 20, []).status == "PROVEN"
+    req = write(tmp_path, '[environment]\nassume = ["NOT (%I0.0 AND %I0.1)"]\n\n'
+                          '[[requirement]]\ncheck = "never %Q0.0"\n')
+    spec = load_spec(req, [], plc.profile)
+    assert verify(Checker(model, spec, spec.requirements[0]), 3, 2, 20, []).status == "PROVEN"
