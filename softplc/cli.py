@@ -26,6 +26,7 @@ COMMAND_MODULES = [
     "softplc.commands.cut",
     "softplc.commands.servo",
     "softplc.commands.tune",
+    "softplc.commands.verify",
 ]
 
 

@@ -107,6 +107,12 @@ class CompileError(ProgramError):
     """The program parses but breaks a rule: unknown object, bad label, type mix..."""
 
 
+class VerifyError(ProgramError):
+    """`softplc verify`: a requirement file or expression is wrong (unknown address, type
+    mismatch, a free input the program writes), or the program uses what the verifier
+    cannot model (floats, tables...): every problem with its line:col."""
+
+
 class ConfigError(SoftPLCError):
     """A configuration (dict or TOML) is wrong."""
 

@@ -418,3 +418,70 @@ class Ops:
             return i
         self.s[S_INDEX] = 1
         return base
+
+
+# -- the integer rules over any value domain ---------------------------------------------------
+# What a word operation computes, written once over a value domain `D` (`IntDomain`: Python
+# ints; the verifier's `verify.symbolic.Z3Domain`: solver terms on wide bit-vectors): the
+# exact result, then the Twido rule (%S18 and wrap-around out of range; divide by zero gives
+# 0 and %S18; truncation towards zero; the remainder takes the dividend's sign) [manual].
+# `Ops` keeps its own straight-line int code for the engine's speed; tests/test_verify_model.py
+# checks `Ops` against these rules value for value.
+WORD_RANGE = {16: (-32768, 32767), 32: (-2147483648, 2147483647)}
+
+
+class IntDomain:
+    """Concrete values: Python ints and bools."""
+
+    @staticmethod
+    def ite(c: Any, a: Any, b: Any) -> Any:
+        return a if c else b
+
+    @staticmethod
+    def and_(a: Any, b: Any) -> Any:
+        return a and b
+
+    @staticmethod
+    def or_(a: Any, b: Any) -> Any:
+        return a or b
+
+    @staticmethod
+    def not_(a: Any) -> Any:
+        return not a
+
+    @staticmethod
+    def wrap(v: int, bits: int) -> int:
+        return wrap16(v) if bits == 16 else wrap32(v)
+
+    @staticmethod
+    def tdiv(a: int, b: int) -> int:
+        return _tdiv(a, b)
+
+
+def checked(D: Any, v: Any, bits: int) -> tuple[Any, Any]:
+    """(value, fault): `v` stored in `bits` bits, wrapped with %S18 when it does not fit."""
+    lo, hi = WORD_RANGE[bits]
+    ok = D.and_(v >= lo, v <= hi)
+    return D.ite(ok, v, D.wrap(v, bits)), D.not_(ok)
+
+
+def arith(D: Any, op: str, a: Any, b: Any, bits: int) -> tuple[Any, Any]:
+    """(value, fault) of `a op b` (op: add sub mul div rem) on `bits`-bit words."""
+    if op in ("add", "sub", "mul"):
+        exact = a + b if op == "add" else a - b if op == "sub" else a * b
+        return checked(D, exact, bits)
+    zero = b == 0
+    q = D.tdiv(a, D.ite(zero, 1, b))
+    if op == "div":
+        v, fault = checked(D, q, bits)  # -32768 / -1 overflows
+    else:
+        v, fault = a - q * b, False  # the sign of the dividend
+    return D.ite(zero, 0, v), D.or_(zero, fault)
+
+
+def negate(D: Any, a: Any, bits: int) -> tuple[Any, Any]:
+    return checked(D, -a, bits)
+
+
+def absolute(D: Any, a: Any, bits: int) -> tuple[Any, Any]:
+    return checked(D, D.ite(a < 0, -a, a), bits)

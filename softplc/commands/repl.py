@@ -4,6 +4,7 @@ virtual clock, with the machine's simulated devices attached."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ._args import add_program_arguments, load_plc
 
@@ -22,6 +23,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "for a batch run")
     p.add_argument("--history", type=int, default=1000,
                    help="scans kept for 'back' (default 1000)")
+    p.add_argument("--replay", type=Path, metavar="CEX.json",
+                   help="feed each scan the inputs of a counterexample written by "
+                        "'softplc verify --cex' (the first one in the file)")
     p.set_defaults(func=run)
 
 
@@ -29,12 +33,19 @@ def run(args: argparse.Namespace) -> int:
     from ..debug.repl import run_repl
     from ..debug.session import Session
     plc = load_plc(args, clock="virtual")
+    replaying = ""
+    if args.replay is not None:
+        from ..verify.replay import read_cex, replay_hook
+        cex = read_cex(args.replay)["counterexamples"][0]
+        plc.before_scan.append(replay_hook(plc, cex))
+        replaying = (f"\nreplaying {args.replay}: {cex['requirement']} breaks within "
+                     f"{len(cex['scans'])} scans ('scan {len(cex['scans'])}' to get there)")
     session = Session(plc, args.program, history=max(1, args.history))
     n = len(plc.ast.rungs)
     intro = (f"softplc debugger: {args.program} ({n} rungs), scan period "
              f"{plc.scan_period * 1000:g} ms, virtual clock"
              + (f", devices: {', '.join(plc.devices)}" if plc.devices else "")
-             + "\ntype 'help' for the commands, 'quit' to leave")
+             + replaying + "\ntype 'help' for the commands, 'quit' to leave")
     try:
         return run_repl(session, intro, args.execute)
     finally:

@@ -1,0 +1,154 @@
+"""`softplc verify PROGRAM.il --config X.toml --require REQ.toml`: prove requirements for
+every input sequence, or show the scans that break one (replayed in the engine)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from ..errors import SoftPLCError
+from ._args import add_program_arguments, existing_file, load_plc
+
+EXIT_UNPROVEN, EXIT_VIOLATED, EXIT_DISAGREE = 1, 2, 3
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "verify", help="prove requirements (interlocks, responses) or find a counterexample",
+        description="Check requirements of a program for every input sequence with the z3 "
+                    "solver: PROVEN (k-induction or Spacer), VIOLATED (a shortest "
+                    "counterexample, replayed in the scan engine) or UNKNOWN up to a "
+                    "depth. Exit 0 only if every requirement is proven (or, with "
+                    "--bounded, holds to the depth).")
+    add_program_arguments(p)
+    p.add_argument("--require", type=Path, metavar="REQ.toml",
+                   help="requirement file ([environment], [[requirement]] check = ...)")
+    p.add_argument("--require-expr", action="append", default=[], metavar="TEXT",
+                   help="a requirement on the command line, e.g. 'never %%Q0.1 AND %%Q0.2' "
+                        "(repeatable)")
+    p.add_argument("--depth", type=int, default=30,
+                   help="scans searched for a counterexample (default %(default)s)")
+    p.add_argument("--max-k", type=int, default=10,
+                   help="largest k tried by k-induction (default %(default)s)")
+    p.add_argument("--timeout", type=float, default=60.0,
+                   help="seconds per requirement (default %(default)s)")
+    p.add_argument("--scan-period", metavar="MIN:MAX",
+                   help="any scan period from MIN to MAX in each scan (e.g. 10ms:1s; cyclic "
+                        "mode), instead of the configured fixed one")
+    p.add_argument("--bounded", action="store_true",
+                   help="exit 0 when no requirement is violated within --depth scans")
+    p.add_argument("--no-spacer", action="store_true",
+                   help="no Spacer (IC3/PDR) proof attempt after k-induction")
+    p.add_argument("--cex", type=Path, metavar="FILE.json",
+                   help="write the counterexamples (softplc repl --replay FILE.json)")
+    p.add_argument("--emit-test", type=Path, metavar="FILE.py",
+                   help="write a pytest test per counterexample")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    p.set_defaults(func=run)
+
+
+def _progress(quiet: bool) -> Any:
+    last = [time.monotonic()]  # the first line after a second: short runs print none
+    tty = sys.stderr.isatty()
+
+    def show(engine: str, depth: int, seconds: float) -> None:
+        now = time.monotonic()
+        if quiet or now - last[0] < (0.5 if tty else 2.0):
+            return
+        last[0] = now
+        end = "\r" if tty else "\n"
+        print(f"  {engine}: depth {depth}, {seconds:.1f} s", end=end, file=sys.stderr,
+              flush=True)
+    return show
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """Inputs per scan | the values the requirement reads."""
+    ins = sorted({k for r in rows for k in r["inputs"]})
+    vals = list(rows[0]["values"]) if rows else []
+    head = ["scan"] + ins + (["|"] if vals else []) + vals
+    body = [[str(n)] + [str(r["inputs"].get(k, "")) for k in ins] + (["|"] if vals else [])
+            + [str(r["values"][k]) for k in vals] for n, r in enumerate(rows, 1)]
+    widths = [max(len(c[i]) for c in [head] + body) for i in range(len(head))]
+    return "\n".join("    " + " ".join(c.rjust(w) for c, w in zip(line, widths, strict=True))
+                     for line in [head] + body)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..verify.checker import Checker
+    from ..verify.engines import verify
+    from ..verify.model import Model
+    from ..verify.replay import emit_test, replay, write_cex
+    from ..verify.requirements import check_environment, load_spec
+
+    if args.require is None and not args.require_expr:
+        print("softplc verify: give --require REQ.toml or --require-expr TEXT",
+              file=sys.stderr)
+        return 2
+    if args.require is not None:
+        existing_file(args.require, "requirements")
+    plc = load_plc(args, devices=False)
+    spec = load_spec(args.require, args.require_expr, plc.profile)
+    if args.scan_period:
+        from ..verify.requirements import parse_periods
+        try:
+            spec.periods = parse_periods(args.scan_period)
+        except ValueError as e:
+            raise SoftPLCError(f"--scan-period {args.scan_period}: {e}") from None
+    model = Model(plc, spec.reads + [r for r, _ in spec.free],
+                  spec.host + [r for r, _ in spec.free], spec.periods)
+    check_environment(spec, model.written, str(args.program))
+    period = f"{model.period_us / 1000:g} ms" + (
+        f" to {model.longest_us / 1000:g} ms" if model.variable else "")
+    print(f"{args.program}: {len(plc.ast.rungs)} rungs, {len(model.vars)} state "
+          f"variables, {len(model.inputs)} inputs, scan period {period}")
+    worst, cexs, lemmas = 0, [], []
+    for req in spec.requirements:
+        ck = Checker(model, spec, req, lemmas)
+        watch = list(dict.fromkeys(str(r) for r in req.reads))
+        res = verify(ck, args.depth, args.max_k, args.timeout, watch,
+                     not args.no_spacer, _progress(args.quiet))
+        if not args.quiet and sys.stderr.isatty():
+            print(" " * 50, end="\r", file=sys.stderr)
+        if res.status == "PROVEN":
+            print(f"PROVEN    {req.name}: {res.method}, {res.seconds:.1f} s")
+            if req.kind == "always":  # a lemma for the requirements after it
+                lemmas.append(req.cond)
+            continue
+        if res.status == "UNKNOWN":
+            note = "; Spacer finds it can fail later (raise --depth, or a scan_period " \
+                "range)" if res.method.startswith("Spacer") else ""
+            print(f"UNKNOWN   {req.name}: no violation within {res.depth} scans, no proof "
+                  f"({res.seconds:.1f} s){note}")
+            ok = args.bounded and res.depth >= args.depth
+            worst = max(worst, 0 if ok else EXIT_UNPROVEN)
+            continue
+        print(f"VIOLATED  {req.name}: counterexample of {res.depth} scan(s) from a cold "
+              f"start ({res.seconds:.1f} s)")
+        print(table(res.trace))
+        with type(plc).from_file(args.program, args.config, devices=False) as again:
+            diffs = replay(again, res.trace)
+        if diffs:
+            print("  !!! ENGINE AND MODEL DISAGREE on this counterexample: a bug in the "
+                  "verifier's model or in the scan engine; please report it:")
+            for d in diffs[:10]:
+                print(f"  !!! {d}")
+            worst = max(worst, EXIT_DISAGREE)
+        else:
+            print("  replayed in the scan engine: same values in every scan")
+            worst = max(worst, EXIT_VIOLATED)
+        cexs.append({"requirement": req.name, "check": req.text, "scans": res.trace})
+    try:
+        if cexs and args.cex:
+            write_cex(args.cex, args.program, args.config, cexs)
+            print(f"counterexamples written to {args.cex} (softplc repl {args.program} "
+                  f"--replay {args.cex})")
+        if cexs and args.emit_test:
+            emit_test(args.emit_test, args.program, args.config, cexs)
+            print(f"pytest test written to {args.emit_test}")
+    except OSError as e:
+        raise SoftPLCError(f"cannot write {e.filename}: {e.strerror}") from None
+    return worst

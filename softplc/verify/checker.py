@@ -1,0 +1,128 @@
+"""A requirement over a model: its monitor, what holds in a state, what the solver may
+assume. Requirement expressions and the response monitor are written once over a value
+domain (`semantics.IntDomain` to replay, `symbolic.Z3Domain` to verify)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import z3
+
+from ..address import BOOL, Ref
+from ..semantics import IntDomain
+from .model import Model
+from .requirements import Node, Requirement, Spec
+from .symbolic import Z3Domain, as_bool, wide
+
+CMP: dict[str, Callable[[Any, Any], Any]] = {
+    "=": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,
+    "<=": lambda a, b: a <= b, ">": lambda a, b: a > b, ">=": lambda a, b: a >= b}
+
+
+def evaluate(D: Any, n: Node, read: Callable[[Ref], Any]) -> Any:
+    """A requirement expression's value; words exact (no wrap-around)."""
+    op, a = n.op, n.args
+    if op == "addr":
+        return read(a[0])
+    if op in ("num", "bool"):
+        return a[0] if D is IntDomain else (z3.BoolVal(bool(a[0])) if op == "bool"
+                                            else wide(a[0]))
+    if op == "not":
+        return D.not_(evaluate(D, a[0], read))
+    if op in ("and", "or"):
+        f = D.and_ if op == "and" else D.or_
+        return f(evaluate(D, a[0], read), evaluate(D, a[1], read))
+    x, y = (evaluate(D, c, read) for c in a[:2]) if len(a) > 1 else (None, None)
+    if op == "xor":
+        return x != y
+    if op.startswith("cmp:"):
+        if a[0].type == BOOL and D is IntDomain:
+            x, y = int(bool(x)), int(bool(y))
+        return CMP[op[4:]](x, y)
+    if op == "neg":
+        return -evaluate(D, a[0], read)
+    if op == "+":
+        return x + y
+    if op == "-":
+        return x - y
+    if op == "*":
+        return x * y
+    q = D.tdiv(x, D.ite(y == 0, 1, y))
+    return q if op == "/" else x - q * y
+
+
+def response_step(D: Any, count: Any, prev: Any, x: Any, y: Any, n: int) -> Any:
+    """The response monitor: scans since the oldest unanswered rising edge of x (0: none),
+    saturating at n + 1 (the requirement broken)."""
+    rising = D.and_(x, D.not_(prev))
+    return D.ite(y, 0, D.ite(count > 0, D.ite(count > n, n + 1, count + 1),
+                             D.ite(rising, 1, 0)))
+
+
+class Checker:
+    """One requirement on a model: the transition with its monitor, and what must hold."""
+
+    def __init__(self, model: Model, spec: Spec, req: Requirement,
+                 lemmas: list[Node] = ()):
+        """`lemmas`: invariants already proven for this model (end-of-scan conditions),
+        assumed after every scan of the induction step: they strengthen it."""
+        self.model, self.spec, self.req = model, spec, req
+        self.lemmas = list(lemmas)
+        period_us = model.period_us
+        self.n = req.within if req.within >= 0 else (-req.within * 1000) // period_us
+        self.monitor = req.kind == "response"
+
+    def read(self, st: dict[str, Any]) -> Callable[[Ref], Any]:
+        m = self.model
+
+        def read(ref: Ref) -> Any:
+            m.st, m.inp = st, st
+            if ref.type == BOOL:
+                return m.read_bit(ref, None)
+            return m.read_word(ref, None)[0]
+        return read
+
+    def holds(self, post: dict[str, Any]) -> Any:
+        """What the requirement needs of the state after a scan."""
+        if self.monitor:
+            return z3.ULE(post["_mon"], self.n)
+        return as_bool(evaluate(Z3Domain, self.req.cond, self.read(post)))
+
+    def assumed(self, post: dict[str, Any], inp: dict[str, Any]) -> list[Any]:
+        out = self.model.input_constraints(inp)
+        for a in self.spec.assumptions:
+            out.append(as_bool(evaluate(Z3Domain, a, self.read(post))))
+        return out
+
+    def lemma_terms(self, post: dict[str, Any]) -> list[Any]:
+        return [as_bool(evaluate(Z3Domain, n, self.read(post))) for n in self.lemmas]
+
+    def state_keys(self) -> dict[str, str]:
+        keys = {k: v.sort for k, v in self.model.vars.items()}
+        if self.monitor:
+            keys.update({"_mon": "w16", "_prev": "bool"})
+        return keys
+
+    def init(self) -> dict[str, Any]:
+        st = self.model.init_state()
+        if self.monitor:
+            st.update({"_mon": z3.BitVecVal(0, 16), "_prev": z3.BoolVal(False)})
+        return st
+
+    def step(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
+        post = self.model.scan(pre, inp)
+        if self.monitor:
+            rd = self.read(post)
+            x = as_bool(evaluate(Z3Domain, self.req.cond, rd))
+            y = as_bool(evaluate(Z3Domain, self.req.target, rd))
+            c = response_step(Z3Domain, wide(pre["_mon"]), pre["_prev"], x, y, self.n)
+            post["_mon"] = z3.simplify(z3.Extract(15, 0, c))
+            post["_prev"] = x
+        return post
+
+    def invariants(self, st: dict[str, Any]) -> list[Any]:
+        out = self.model.invariants(st)
+        if self.monitor:
+            out.append(z3.ULE(st["_mon"], self.n + 1))
+        return out

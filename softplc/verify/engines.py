@@ -1,0 +1,217 @@
+"""Proof and search engines over a `Checker`: bounded model checking (BMC) for a minimal
+counterexample, k-induction for a proof, and z3's Spacer (IC3/PDR on constrained Horn
+clauses) for a proof without a k.
+
+BMC unrolls from the cold-start state one scan at a time, with fresh variables per scan
+tied by equalities, and asks at each depth whether the requirement can fail there first:
+the first depth that is satisfiable gives a shortest counterexample.
+k-induction: from any state satisfying the range invariants (`Checker.invariants`, first
+checked inductive themselves), k scans in which the requirement (and the requirements
+already proven, `Checker.lemmas`) holds force it in the next one; with BMC clean to
+depth k that proves it for every run.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import z3
+
+from .checker import Checker
+from .model import is_object, sort_of
+from .symbolic import value_of
+
+Progress = Callable[[str, int, float], None]
+
+
+@dataclass
+class Result:
+    status: str  # PROVEN | VIOLATED | UNKNOWN
+    method: str = ""  # "k-induction (k=3)", "Spacer", "BMC"
+    depth: int = 0  # scans searched (VIOLATED: the counterexample's length)
+    seconds: float = 0.0
+    trace: list[dict[str, dict[str, int]]] = field(default_factory=list)  # per scan
+
+
+class _Unroll:
+    """A path of scans: states as variables, each tied to the scan before."""
+
+    def __init__(self, ck: Checker, solver: z3.Solver, start: dict[str, Any] | None,
+                 tag: str):
+        self.ck, self.s, self.tag = ck, solver, tag
+        self.keys = ck.state_keys()
+        if start is None:
+            start = self.fresh_state(0)
+            solver.add(*ck.invariants(start))
+        self.states = [start]
+        self.inputs: list[dict[str, Any]] = []
+        self.posts: list[dict[str, Any]] = []
+
+    def fresh_state(self, i: int) -> dict[str, Any]:
+        return {k: z3.Const(f"{k}@{self.tag}{i}", sort_of(s)) for k, s in self.keys.items()}
+
+    def extend(self) -> dict[str, Any]:
+        i = len(self.inputs)
+        _, inp = self.ck.model.fresh(f"{self.tag}{i}")
+        post = self.ck.step(self.states[-1], inp)
+        nxt = self.fresh_state(i + 1)
+        self.s.add(*[nxt[k] == post[k] for k in self.keys])
+        self.s.add(*self.ck.assumed(post, inp))
+        view = dict(post)
+        view.update(nxt)  # read the state through its variables (smaller terms)
+        self.states.append(nxt)
+        self.inputs.append(inp)
+        self.posts.append(view)
+        return view
+
+
+def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> list[dict]:
+    rows = []
+    for inp, post in zip(u.inputs, u.posts, strict=True):
+        rd = ck.read(post)
+        from ..address import parse_address
+        values = {}
+        for a in watch:
+            ref = parse_address(a, ck.model.plc.profile)
+            values[a] = value_of(model, rd(ref))
+        objects = {k: value_of(model, post[k]) for k in ck.model.vars
+                   if is_object(k)}
+        ins = {k: value_of(model, v) for k, v in inp.items()}
+        if "_dt" in ins:  # a variable period: this scan's, in ms
+            p = ins.pop("_dt") * ck.model.period_us / 1000
+            ins["period_ms"] = int(p) if p == int(p) else p
+        rows.append({"inputs": ins,
+                     "values": values, "objects": objects})
+    return rows
+
+
+def bmc(ck: Checker, depth: int, deadline: float, watch: list[str],
+        progress: Progress | None = None) -> Result:
+    """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth)."""
+    t0 = time.monotonic()
+    s = z3.Solver()
+    u = _Unroll(ck, s, ck.init(), "b")
+    for d in range(depth):
+        post = u.extend()
+        bad = z3.Not(ck.holds(post))
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
+        s.set("timeout", max(1, int(left * 1000)))
+        r = s.check(bad)
+        if r == z3.sat:
+            return Result("VIOLATED", "BMC", d + 1, time.monotonic() - t0,
+                          _trace(ck, u, s.model(), watch))
+        if r == z3.unknown:
+            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
+        s.add(ck.holds(post))  # the first failure is at a later scan
+        if progress:
+            progress("BMC", d + 1, time.monotonic() - t0)
+    return Result("UNKNOWN", "BMC", depth, time.monotonic() - t0)
+
+
+def invariants_inductive(ck: Checker) -> bool:
+    """The range invariants hold initially and are kept by every scan."""
+    s = z3.Solver()
+    s.set("timeout", 20000)
+    init = ck.init()
+    if s.check(z3.Not(z3.And(*ck.invariants(init)))) != z3.unsat:
+        return False
+    u = _Unroll(ck, s, None, "i")
+    u.extend()
+    return s.check(z3.Not(z3.And(*ck.invariants(u.states[-1])))) == z3.unsat
+
+
+def k_induction(ck: Checker, max_k: int, deadline: float,
+                progress: Progress | None = None) -> tuple[int | None, float]:
+    """The smallest k <= max_k for which the requirement is k-inductive (None: none found
+    in time). The caller checks the base case (BMC clean to depth k)."""
+    t0 = time.monotonic()
+    s = z3.Solver()
+    u = _Unroll(ck, s, None, "k")
+    for k in range(1, max_k + 1):
+        post = u.extend()
+        s.add(*ck.lemma_terms(post))  # proven invariants hold after every scan
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return None, time.monotonic() - t0
+        s.set("timeout", max(1, int(left * 1000)))
+        r = s.check(z3.Not(ck.holds(post)))
+        if r == z3.unsat:
+            return k, time.monotonic() - t0
+        if r == z3.unknown:
+            return None, time.monotonic() - t0
+        s.add(ck.holds(post))
+        if progress:
+            progress("k-induction", k, time.monotonic() - t0)
+    return None, time.monotonic() - t0
+
+
+def spacer(ck: Checker, seconds: float) -> str:
+    """z3 Spacer on the Horn clauses of the system: "PROVEN", "VIOLATED" or "UNKNOWN"."""
+    keys = ck.state_keys()
+    names = list(keys)
+    sorts = [sort_of(keys[k]) for k in names]
+    inv = z3.Function("Inv", *sorts, z3.BoolSort())
+    cur = {k: z3.Const(f"{k}@h", sort_of(keys[k])) for k in names}
+    _, inp = ck.model.fresh("h")
+    post = ck.step(cur, inp)
+    init = ck.init()
+    xs = [cur[k] for k in names] + list(inp.values())
+    s = z3.SolverFor("HORN")
+    s.add(inv(*[init[k] for k in names]))
+    body = z3.And(inv(*[cur[k] for k in names]), *ck.assumed(post, inp))
+    s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
+    s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
+    # Spacer honours neither its timeout nor an interrupt promptly: it runs in a child
+    # process, killed at the deadline
+    return _solve_in_child(s.sexpr(), seconds)
+
+
+_CHILD = ("import sys, z3\n"
+          "s = z3.SolverFor('HORN')\n"
+          "s.from_string(sys.stdin.read())\n"
+          "print(s.check())\n")
+
+
+def _solve_in_child(smt2: str, seconds: float) -> str:
+    try:
+        r = subprocess.run([sys.executable, "-c", _CHILD], input=smt2, capture_output=True,
+                           text=True, timeout=max(0.5, seconds))
+    except subprocess.TimeoutExpired:
+        return "UNKNOWN"
+    out = r.stdout.strip()
+    return "PROVEN" if out == "sat" else "VIOLATED" if out == "unsat" else "UNKNOWN"
+
+
+def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str],
+           use_spacer: bool = True, progress: Progress | None = None) -> Result:
+    """BMC for a counterexample, k-induction (then Spacer) for a proof, within `seconds`."""
+    t0 = time.monotonic()
+    deadline = t0 + seconds
+    inv_ok = invariants_inductive(ck)
+    if not inv_ok:  # pragma: no cover - would be a modelling bug: prove without them
+        ck.invariants = lambda st: []  # type: ignore[method-assign]
+    k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress)
+    base = bmc(ck, k if k is not None else depth, deadline, watch, progress)
+    base.seconds = time.monotonic() - t0
+    if base.status == "VIOLATED":
+        return base
+    if k is not None and base.depth >= k:
+        return Result("PROVEN", f"k-induction (k={k})", base.depth, time.monotonic() - t0)
+    left = deadline - time.monotonic()
+    if use_spacer and left > 0.5:
+        if progress:
+            progress("Spacer", base.depth, time.monotonic() - t0)
+        found = spacer(ck, left)
+        if found == "PROVEN":
+            return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
+        if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
+            return Result("UNKNOWN", "Spacer: fails after more scans than searched",
+                          base.depth, time.monotonic() - t0)
+    return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)

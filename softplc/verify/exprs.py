@@ -1,0 +1,141 @@
+"""Operands, `[ ... ]` expressions and operation blocks as solver terms.
+
+The typing follows `compiler/values.py` (literals take the other side's type, a word
+operation on a double word is 32-bit, a 32-bit value stored in a word is narrowed with
+%S18) and every arithmetic rule is `semantics.arith` over `symbolic.Z3Domain`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import z3
+
+from ..address import INT16, INT32, REAL, Ref
+from ..errors import Diagnostic
+from ..il import ast as A
+from ..semantics import absolute, arith, checked, negate
+from .symbolic import Z3Domain, wide
+
+ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
+CMP = {"=": lambda a, b: a == b, "<>": lambda a, b: a != b, ">": lambda a, b: a > b,
+       ">=": lambda a, b: a >= b, "<": lambda a, b: a < b, "<=": lambda a, b: a <= b}
+
+
+class ExprModel:
+    """Expressions over the state being built (`self.st`); the model supplies object
+    access (`read_bit`, `read_word`, `store_word`), `fault` and `unsupported`."""
+
+    def __init__(self, plc: Any):
+        self.plc = plc
+        self.problems: list[Diagnostic] = []
+
+    # provided by Model
+    def read_bit(self, ref: Ref, pos: A.Pos | None) -> Any: ...
+    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]: ...
+    def store_word(self, ref: Ref, g: Any, v: Any, t: str, pos: A.Pos | None) -> None: ...
+    def fault(self, g: Any, f: Any) -> None: ...
+    def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None: ...
+    def key_for(self, ref: Ref) -> str: ...
+
+    def operand(self, op: Any, blk: Ref | None, g: Any) -> Any:
+        if op is None:
+            return z3.BoolVal(True)
+        if isinstance(op, A.Const):
+            return z3.BoolVal(bool(op.value))
+        if isinstance(op, A.Operand):
+            return self.read_bit(op.ref, op.pos)
+        if isinstance(op, A.BlockOutput):
+            if blk is None:
+                return z3.BoolVal(False)
+            return self.read_bit(Ref(blk.kind, blk.index, field=op.name), op.pos)
+        if isinstance(op, A.Compare):
+            (a, ta), (b, tb) = self.pair(op.left, op.right, None, g)
+            if REAL in (ta, tb):
+                self.unsupported("floating-point comparisons", op.pos, "")
+                return z3.BoolVal(False)
+            return CMP[op.op](a, b)
+        self.unsupported("this operand", getattr(op, "pos", None), "")
+        return z3.BoolVal(False)
+
+    def expr(self, e: A.Expr, want: str | None, g: Any) -> tuple[Any, str]:
+        """(wide term, type) of an expression; faults set %S18 where g holds."""
+        if isinstance(e, A.Num):
+            if e.is_float or want == REAL:
+                self.unsupported("floating-point values", e.pos, e.text)
+                return wide(0), REAL
+            v = int(e.value)
+            if e.text.startswith(("#", "16#")) and want != INT32 and 0x8000 <= v <= 0xFFFF:
+                v -= 0x10000  # hex word constants are bit patterns
+            t = INT32 if want == INT32 or not -32768 <= v <= 32767 else INT16
+            return wide(v), t
+        if isinstance(e, A.Addr):
+            return self.read_word(e.ref, e.pos)
+        if isinstance(e, A.Neg):
+            v, t = self.expr(e.operand, want, g)
+            r, f = negate(Z3Domain, v, 16 if t == INT16 else 32)
+            self.fault(g, f)
+            return r, t
+        if isinstance(e, A.BinOp):
+            (a, ta), (b, tb) = self.pair(e.left, e.right, want, g)
+            t = ta if ta == tb else INT32
+            if REAL in (ta, tb):
+                self.unsupported("floating-point arithmetic", e.pos, e.op)
+                return wide(0), REAL
+            if e.op in ("AND", "OR", "XOR"):
+                return (a & b if e.op == "AND" else a | b if e.op == "OR" else a ^ b), t
+            r, f = arith(Z3Domain, ARITH[e.op], a, b, 16 if t == INT16 else 32)
+            self.fault(g, f)
+            return r, t
+        if isinstance(e, A.Call):
+            return self.call(e, want, g)
+        self.unsupported("this expression", getattr(e, "pos", None), "")
+        return wide(0), INT16
+
+    def pair(self, left: A.Expr, right: A.Expr, want: str | None, g: Any
+             ) -> tuple[tuple[Any, str], tuple[Any, str]]:
+        """Literals take the type of the other side (as `ValueCompiler.operand_pair`)."""
+        lhint = None if isinstance(left, A.Num) else want
+        a = self.expr(left, lhint if not isinstance(right, A.Num) else want, g)
+        b = self.expr(right, a[1] if isinstance(right, A.Num) else want, g)
+        if isinstance(left, A.Num) and not isinstance(right, A.Num):
+            a = self.expr(left, b[1], g)
+        return a, b
+
+    def call(self, e: A.Call, want: str | None, g: Any) -> tuple[Any, str]:
+        if e.func in ("ABS", "NOT") and len(e.args) == 1:
+            v, t = self.expr(e.args[0], want, g)
+            if t == REAL:
+                self.unsupported("floating-point functions", e.pos, e.func)
+                return wide(0), REAL
+            if e.func == "NOT":
+                return ~v, t
+            r, f = absolute(Z3Domain, v, 16 if t == INT16 else 32)
+            self.fault(g, f)
+            return r, t
+        self.unsupported(f"the function {e.func}", e.pos, e.func)
+        return wide(0), want or INT16
+
+    def statement(self, stmt: A.Statement, g: Any) -> None:
+        """An operation block, run where g holds."""
+        if isinstance(stmt, A.IncDec):
+            v, t = self.read_word(stmt.target, stmt.pos)
+            r, f = arith(Z3Domain, "add" if stmt.op == "INC" else "sub", v, wide(1),
+                         16 if t == INT16 else 32)
+            self.fault(g, f)
+            self.store_word(stmt.target, g, r, t, stmt.pos)
+            return
+        if not isinstance(stmt, A.Assign):
+            what = "PID" if isinstance(stmt, A.PidCall) else "EXCH"
+            self.unsupported(f"{what} (its effect is outside the program)", stmt.pos, what)
+            return
+        ref = stmt.target
+        if ref.length is not None or ref.type == REAL:
+            self.unsupported("tables and floats", stmt.pos, str(ref))
+            return
+        tt = INT32 if ref.kind in ("MD", "KD") else INT16
+        v, t = self.expr(stmt.expr, tt, g)
+        if tt == INT16 and t == INT32:
+            v, f = checked(Z3Domain, v, 16)  # `narrow16`
+            self.fault(g, f)
+        self.store_word(ref, g, v, tt, stmt.pos)

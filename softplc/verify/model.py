@@ -1,0 +1,442 @@
+"""One scan of a program as solver terms: the transition relation the engines unroll.
+
+Built from the same rung structure as the compiler (`il.rungtree.build`: what each `)`,
+MRD/MPP and OUT_BLK refers to) and the same instruction rules (`semantics.arith` over
+`symbolic.Z3Domain`), in the engine's scan order: first-scan system bits and clocks,
+latched inputs, the program (jumps, subroutines and Grafcet steps as guards on every
+update), timers the program did not execute, then time advances by the scan period.
+
+A state is a dict: object key (`"%M3"`, `"%MW10"`, `"%TM0.V"`, `"%TM0._el"`, `"edge2"`)
+-> term. Only what the program or the requirements read or write is modelled. What the
+solver cannot model exactly (floats, tables, indexed objects, shifts...) is reported with
+its line:col (`VerifyError`), never approximated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import z3
+
+from ..address import Ref
+from ..errors import VerifyError
+from ..il import ast as A
+from ..il import rungtree
+from ..runtime.blocks import Timer
+from ..runtime.engine import S_CLOCKS
+from .blocks import advance_timer, el_bits, run_timer
+from .objects import BLOCK_KEY, CLOCK_WRAP_US, ObjectModel
+
+FIRST_SCAN_BITS = (0, 13, 21)  # %S0 cold start, %S13 first scan, %S21 Grafcet init
+KEEP_BITS = {12: 1}  # %S12 is 1 in RUN
+
+
+@dataclass
+class Var:
+    key: str
+    sort: str  # "bool" | "w16" | "t" | "bvN" (a timer's elapsed time)
+    init: int
+
+
+def sort_of(sort: str) -> Any:
+    if sort.startswith("bv"):
+        return z3.BitVecSort(int(sort[2:]))
+    return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "t": z3.BitVecSort(32)}[sort]
+
+
+class _Lazy(dict):
+    """The pre-state of the discovery pass: creates a variable for any key first read."""
+
+    def __init__(self, model: Model):
+        super().__init__()
+        self.model = model
+
+    def __missing__(self, key: str) -> Any:
+        v = self.model.declare(key)
+        self[key] = v
+        return v
+
+
+class _LazyInputs(dict):
+    """The inputs of the discovery pass: a variable for any input first read."""
+
+    def __init__(self, model: Model):
+        super().__init__()
+        self.model = model
+
+    def __missing__(self, key: str) -> Any:
+        v = self[key] = self.model.input_var(key, "")
+        return v
+
+
+class Model(ObjectModel):
+    """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
+
+    def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = (),
+                 periods: tuple[int, int] | None = None):
+        """`reads`: objects requirements read (modelled even if the program does not use
+        them); `host`: objects the environment sets at the start of every scan;
+        `periods`: (shortest, longest) scan period in us when any period in between (a
+        multiple of the shortest) may occur in each scan, as in cyclic mode."""
+        super().__init__(plc)
+        self.period_us = round(plc.scan_period * 1e6) if periods is None else periods[0]
+        self.longest_us = self.period_us if periods is None else periods[1]
+        self.variable = periods is not None and periods[1] > periods[0]
+        self.clock_wrap = max(1, CLOCK_WRAP_US // self.period_us)  # scans in a minute
+        self.vars: dict[str, Var] = {}
+        self.inputs: dict[str, tuple[str, int, int]] = {}  # key -> (sort, lo, hi)
+        self.host = {str(r) for r in host}
+        if self.variable:  # the input "_dt": this scan lasts _dt x the shortest period
+            self.add_input("_dt", "w16", 1, self.longest_us // self.period_us)
+        self.timers: dict[str, Timer] = {}
+        self.counters: list[str] = []
+        self.written: dict[str, A.Pos] = {}  # keys the program writes, where first
+        self.grafcet = any(isinstance(i, A.Grafcet) for r in plc.ast.rungs
+                           for i in r.instructions)
+        self.conditional = any(isinstance(i, (A.Jump, A.SRCall, A.Grafcet))
+                               or isinstance(i, A.End) and i.op != "END"
+                               for r in plc.ast.rungs for i in r.instructions)
+        self.initial_steps = tuple(plc.grafcet.initial)
+        # discovery: run the scan on lazily created variables until no new key appears
+        self.discovering = True
+        n = -1
+        while n != len(self.vars) + len(self.inputs):
+            n = len(self.vars) + len(self.inputs)
+            pre = _Lazy(self)
+            for k in list(self.vars):
+                pre[k] = self.declare(k)
+            self.st, self.inp = pre, _LazyInputs(self)
+            for ref in reads:
+                self.key_for(ref)
+            self.scan(pre, self.inp)
+            if self.problems:
+                raise VerifyError(sorted(set(self.problems), key=lambda d: (d.line, d.column)))
+        self.discovering = False
+
+    # ---- variables ----------------------------------------------------------------------
+    def declare(self, key: str, suffix: str = "") -> Any:
+        """The variable of state key `key` (registered on first use), named `key@suffix`."""
+        if key not in self.vars:
+            self.vars[key] = Var(key, self._sort(key), self._init(key))
+        return z3.Const(f"{key}@{suffix}" if suffix else key, sort_of(self.vars[key].sort))
+
+    def _sort(self, key: str) -> str:
+        if key.endswith("._el"):
+            return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us, self.longest_us)}"
+        if key == "_tmod":
+            return "t"
+        if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
+            return "bool"
+        return "w16"
+
+    def is_bit_key(self, key: str) -> bool:
+        blk = BLOCK_KEY.match(key)
+        if blk:
+            return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd")
+        return key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
+            ("%MW", "%QW", "%SW", "%MD"))
+
+    def _init(self, key: str) -> int:
+        """The value after a cold start."""
+        if key == "_first":
+            return 1
+        blk = BLOCK_KEY.match(key)
+        if blk:
+            return 0 if blk[3] == "_el" else int(getattr(self.block(key.split(".")[0]),
+                                                         blk[3]))
+        if key.startswith("%S") and int(key[2:]) in KEEP_BITS:
+            return KEEP_BITS[int(key[2:])]
+        if key.startswith("%X"):  # the initial steps are active from the cold start
+            return 1 if int(key[2:]) in self.initial_steps else 0
+        return 0
+
+    def input_var(self, key: str, suffix: str) -> Any:
+        sort = self.inputs[key][0]
+        return z3.Const(f"{key}#in@{suffix}" if suffix else f"{key}#in", sort_of(sort))
+
+    def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None:
+        self.inputs.setdefault(key, (sort, lo, hi))
+
+    def input_constraints(self, inp: dict[str, Any]) -> list[Any]:
+        """Analog inputs within their configured span."""
+        return [z3.And(inp[k] >= lo, inp[k] <= hi) for k, (s, lo, hi) in self.inputs.items()
+                if s == "w16" and (lo, hi) != (-32768, 32767)]
+
+    def fresh(self, suffix: str) -> tuple[dict[str, Any], dict[str, Any]]:
+        """New variables for a state and the inputs of the scan after it."""
+        return ({k: z3.Const(f"{k}@{suffix}", sort_of(v.sort)) for k, v in self.vars.items()},
+                {k: self.input_var(k, suffix) for k in self.inputs})
+
+    def init_state(self) -> dict[str, Any]:
+        return {k: self.const(v.sort, v.init) for k, v in self.vars.items()}
+
+    @staticmethod
+    def const(sort: str, v: int) -> Any:
+        return z3.BoolVal(bool(v)) if sort == "bool" else z3.BitVecVal(v, sort_of(sort).size())
+
+    def invariants(self, st: dict[str, Any]) -> list[Any]:
+        """Range facts true by construction in every reachable state (see `blocks`)."""
+        from .blocks import block_invariants
+        out = block_invariants(st, {n: (t, self.period_us, self.longest_us)
+                                    for n, t in self.timers.items()}, self.counters)
+        if "_tmod" in st:
+            out.append(z3.ULT(st["_tmod"], self.clock_wrap))
+        return out
+
+    # ---- the scan -----------------------------------------------------------------------
+    def scan(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
+        """The state after one scan from `pre` with inputs `inp`; the result also holds
+        the inputs of the scan under their own keys (what requirements read)."""
+        st = pre if self.discovering else dict(pre)
+        self.st, self.inp = st, inp
+        first = st["_first"] if "_first" in self.vars or self.discovering else None
+        for b in FIRST_SCAN_BITS:
+            if f"%S{b}" in self.vars or (b == 21 and self.grafcet):
+                st[f"%S{b}"] = first if first is not None else st["_first"]
+        if any(f"%S{b}" in self.vars for b in S_CLOCKS):
+            now = st["_tmod"] * self.period_us  # _tmod counts scans, modulo one minute
+            for b, p in S_CLOCKS.items():
+                if f"%S{b}" in self.vars:
+                    st[f"%S{b}"] = z3.ULT(z3.URem(now, p), p // 2)
+        for k in self.host:  # words a host writes between scans, free bits
+            if self.discovering:
+                self.add_input(k, "bool" if self.is_bit_key(k) else "w16", -32768, 32767)
+                _ = st[k]
+            st[k] = inp[k]
+        self.live: Any = z3.BoolVal(True)
+        self.executed: dict[str, Any] = {}
+        self.ga: dict[int, Any] = {}
+        self.gd: dict[int, Any] = {}
+        self.steps_at_start: dict[int, Any] = {}
+        self.frozen: Any = z3.BoolVal(False)
+        self.edge_n = 0
+        self.calls: list[int] = []
+        self.post_done = False
+        self.function(self.plc.ast.main, main=True)
+        if self.grafcet and not self.post_done:
+            self.post(self.live)
+        if self.conditional:
+            for name, t in self.timers.items():  # timers not executed keep timing
+                run_timer(st, name, t, z3.Not(self.executed.get(name, z3.BoolVal(False))),
+                          st[f"{name}._in"], self.period_us)
+        for b in FIRST_SCAN_BITS:
+            if f"%S{b}" in st:
+                st[f"%S{b}"] = z3.BoolVal(False)
+        dt = z3.Extract(15, 0, inp["_dt"]) if self.variable else None
+        for name, t in self.timers.items():
+            advance_timer(st, name, t, self.period_us, dt, self.longest_us)
+        if "_tmod" in self.vars or "_tmod" in st:
+            t = st["_tmod"]
+            t = t + (z3.ZeroExt(16, dt) if dt is not None else 1)
+            st["_tmod"] = z3.simplify(z3.If(z3.UGE(t, self.clock_wrap), t - self.clock_wrap, t))
+        if "_first" in st:
+            st["_first"] = z3.BoolVal(False)
+        out = dict(st)
+        out.update({k: v for k, v in inp.items() if k not in st})  # %I, %IW: as latched
+        return out
+
+    # ---- program structure ----------------------------------------------------------------
+    def function(self, rungs: list[A.Rung], main: bool) -> None:
+        pending: dict[int, Any] = {}
+        seen: set[int] = set()
+        step: int | None = None
+        for r in rungs:
+            if r.label is not None:
+                seen.add(r.label)
+                self.live = z3.simplify(z3.Or(self.live, pending.pop(r.label, False)))
+            marker = next((i for i in r.instructions if isinstance(i, A.Grafcet)
+                           and i.op in ("=*=", "-*-", "POST")), None)
+            if marker is not None:
+                if marker.op == "POST" or step is None and main:
+                    if step is None and not self.steps_at_start:
+                        self.grafcet_pre()
+                if marker.op == "POST":
+                    self.post(self.live)
+                    step = None
+                else:
+                    step = marker.step
+                continue
+            self.rung(r, step, pending, seen, main)
+
+    def grafcet_pre(self) -> None:
+        """End of preprocessing: %S21 (initial steps on), %S22 (all off), %S23 (freeze)."""
+        st = self.st
+        init = st["%S21"] if "%S21" in st else z3.BoolVal(False)
+        reset = st["%S22"] if "%S22" in st or "%S22" in self.vars else z3.BoolVal(False)
+        g = z3.And(self.live, z3.Or(init, reset))
+        for k in self.steps():
+            key = f"%X{k}"
+            st[key] = z3.simplify(z3.If(g, z3.And(init, k in self.initial_steps), st[key]))
+        if "%S23" in st or "%S23" in self.vars:
+            self.frozen = z3.And(self.live, st["%S23"])
+        for b in (21, 22, 23):
+            key = f"%S{b}"
+            if key in st or key in self.vars:
+                st[key] = z3.If(self.live, False, st[key])
+        self.steps_at_start = {k: st[f"%X{k}"] for k in self.steps()}
+
+    def steps(self) -> list[int]:
+        used: set[int] = set()
+        for r in self.plc.ast.rungs:
+            for i in r.instructions:
+                if isinstance(i, A.Grafcet) and i.step is not None:
+                    used.add(i.step)
+        used |= set(self.initial_steps)
+        used |= {int(k[2:]) for k in self.vars if k.startswith("%X")}
+        return sorted(used)
+
+    def post(self, g: Any) -> None:
+        """End of the sequential part: the transitions of the scan, unless frozen."""
+        self.post_done = True
+        st = self.st
+        g = z3.And(g, z3.Not(self.frozen))
+        for k in self.steps():
+            key = f"%X{k}"
+            new = z3.Or(self.ga.get(k, False), z3.And(st[key], z3.Not(self.gd.get(k, False))))
+            st[key] = z3.simplify(z3.If(g, new, st[key]))
+
+    # ---- one rung -------------------------------------------------------------------------
+    def rung(self, rung: A.Rung, step: int | None, pending: dict[int, Any], seen: set[int],
+             main: bool) -> None:
+        counts = self.plc.profile.counts
+        tree = rungtree.build(rung, counts["PAREN"], counts["STACK"])
+        guard0 = self.steps_at_start.get(step, z3.BoolVal(False)) if step is not None \
+            else z3.BoolVal(True)
+        acc: Any = None
+        saved: dict[int, Any] = {}
+        pins: dict[str, Any] = {}
+
+        def g() -> Any:  # the rung runs: not jumped over, in its active step
+            return z3.And(self.live, guard0)
+
+        for s in tree.steps:
+            ins, blk = s.instr, s.block
+            if not s.ok:
+                continue
+            if isinstance(ins, A.BoolInstr):
+                v = self.modified(self.operand(ins.operand, blk, g()), ins.modifier, g())
+                acc = v if ins.op == "LD" else self.combine(ins.op, acc, v)
+            elif isinstance(ins, A.ParenOpen):
+                saved[s.k] = acc
+                acc = self.modified(self.operand(ins.operand, blk, g()) if ins.operand
+                                    else z3.BoolVal(False), ins.modifier, g())
+            elif isinstance(ins, A.ParenClose):
+                acc = self.combine(tree.steps[s.opener].instr.op, saved[s.opener], acc)
+            elif isinstance(ins, A.Negate):
+                acc = z3.Not(acc)
+            elif isinstance(ins, A.Stack):
+                if ins.op == "MPS":
+                    saved[s.k] = acc
+                elif s.opener is not None:
+                    acc = saved[s.opener]
+            elif isinstance(ins, A.Store):
+                value = {"ST": acc, "STN": z3.Not(acc), "S": True, "R": False}[ins.op]
+                cond = g() if ins.op in ("ST", "STN") else z3.And(g(), acc)
+                self.write_bit(ins.target, cond, value, ins.pos)
+            elif isinstance(ins, A.OpBlock):
+                self.statement(ins.stmt, z3.And(g(), acc))
+            elif isinstance(ins, A.Jump):
+                c = z3.BoolVal(True) if ins.op == "JMP" else acc if ins.op == "JMPC" \
+                    else z3.Not(acc)
+                if ins.label in seen:
+                    self.unsupported("a backward jump (a loop)", ins.pos, f"{ins.op} %L"
+                                     f"{ins.label}")
+                    continue
+                take = z3.And(self.live, guard0, c)
+                pending[ins.label] = z3.Or(pending.get(ins.label, False), take)
+                self.live = z3.simplify(z3.And(self.live, z3.Not(take)))
+            elif isinstance(ins, A.SRCall):
+                self.call_sr(ins, z3.And(g(), acc))
+            elif isinstance(ins, (A.Return, A.End)):
+                c = z3.BoolVal(True) if ins.op in ("RET", "END") else \
+                    acc if ins.op in ("RETC", "ENDC") else z3.Not(acc)
+                stop = z3.And(self.live, guard0, c)
+                if isinstance(ins, A.End) and self.grafcet and not self.post_done:
+                    self.post(stop)
+                self.live = z3.simplify(z3.And(self.live, z3.Not(stop)))
+            elif isinstance(ins, A.Blk):
+                pins = {}
+                acc = None
+            elif isinstance(ins, (A.OutBlk, A.EndBlk)):
+                if blk is not None and s.phase == "in":
+                    self.run_block(blk, g(), pins, ins.pos)
+                acc = None
+            elif isinstance(ins, A.Pin):
+                if ins.block is None:
+                    pins[ins.name] = acc
+                else:
+                    self.run_pin(ins.block, ins.name, g(), acc, ins.pos)
+            elif isinstance(ins, A.Grafcet):
+                self.transition(ins, step, z3.And(g(), acc if acc is not None else True))
+            elif not isinstance(ins, A.Nop):
+                self.unsupported(f"instruction {rungtree.describe(ins)}", s.pos, "")
+
+    @staticmethod
+    def combine(op: str, a: Any, b: Any) -> Any:
+        a = a if a is not None else z3.BoolVal(False)
+        return z3.And(a, b) if op == "AND" else z3.Or(a, b) if op == "OR" else z3.Xor(a, b)
+
+    def modified(self, v: Any, mod: str, g: Any) -> Any:
+        if mod == "N":
+            return z3.Not(v)
+        if mod in ("R", "F"):
+            key = f"edge{self.edge_n}"
+            self.edge_n += 1
+            old = self.st[key]
+            r = z3.And(v, z3.Not(old)) if mod == "R" else z3.And(z3.Not(v), old)
+            self.st[key] = z3.simplify(z3.If(g, v, old))
+            return r
+        return v
+
+    def call_sr(self, ins: A.SRCall, g: Any) -> None:
+        n = ins.number
+        if n in self.calls:
+            self.unsupported("a recursive subroutine call", ins.pos, f"SR{n}")
+            return
+        if n not in self.plc.ast.subroutines:
+            return
+        saved = self.live
+        self.live = z3.And(self.live, g)
+        self.calls.append(n)
+        self.function(self.plc.ast.subroutine(n), main=False)
+        self.calls.pop()
+        self.live = saved
+
+    def transition(self, ins: A.Grafcet, step: int | None, g: Any) -> None:
+        if ins.op in ("=*=", "-*-", "POST") or step is None:
+            return
+        self.gd[step] = z3.Or(self.gd.get(step, False), g)
+        if ins.op == "#":
+            if ins.step is not None:
+                self.ga[ins.step] = z3.Or(self.ga.get(ins.step, False), g)
+        else:
+            self.gd[ins.step] = z3.Or(self.gd.get(ins.step, False), g)
+
+
+__all__ = ["Model", "Var", "is_object", "run_concrete"]
+
+
+def is_object(key: str) -> bool:
+    """A state key that is an object address (not a block's internal state)."""
+    return key.startswith("%") and "._" not in key and not key.endswith(".W")
+
+
+def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:
+    """The model's values scan by scan for concrete inputs (missing inputs are 0): every
+    object it models after each scan, for comparison with the engine."""
+    from .symbolic import value_of
+    st = model.init_state()
+    out = []
+    for given in scans:
+        inp = {k: model.const(sort, int(given.get(k, lo if sort == "w16" else 0)))
+               for k, (sort, lo, _hi) in model.inputs.items()}
+        post = model.scan(st, inp)
+        post = {k: z3.simplify(v) for k, v in post.items()}
+        st = {k: post[k] for k in model.vars}
+        s = z3.Solver()
+        s.check()
+        m = s.model()
+        out.append({k: value_of(m, v) for k, v in post.items()
+                    if is_object(k)})
+    return out

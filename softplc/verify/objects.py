@@ -1,0 +1,220 @@
+"""Object access for the model: bits, words, double words, %TM/%C blocks as entries of the
+state dict being built (`self.st`, inputs in `self.inp`), every write guarded, %S18 where a
+rule faults, and what cannot be modelled reported with its line:col."""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import z3
+
+from ..address import INT16, INT32, REAL, Ref
+from ..errors import Code, Diagnostic
+from ..il import ast as A
+from ..runtime.blocks import MAX_VALUE, Counter, ShiftRegister, Timer
+from ..runtime.engine import S_CLOCKS
+from .blocks import run_counter, run_shift_register, run_timer
+from .exprs import ExprModel
+from .symbolic import as_bool, narrow, wide
+
+CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
+BLOCK_KEY = re.compile(r"%(TM|C|SBR)(\d+)\.(\w+)$")  # a modelled block's field
+
+
+class ObjectModel(ExprModel):
+    """What `Model` reads and writes; `Model` supplies the state and the scan."""
+
+    st: dict[str, Any]
+    inp: dict[str, Any]
+    timers: dict[str, Timer]
+    counters: list[str]
+    written: dict[str, A.Pos]
+    executed: dict[str, Any]
+    period_us: int
+
+    def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None: ...
+
+    # ---- blocks ---------------------------------------------------------------------------
+    def block(self, name: str) -> Any:
+        m = BLOCK_KEY.match(name + ".x")
+        return self.plc.mem.blocks[m[1]][int(m[2])]
+
+    def use_block(self, ref: Ref, pos: A.Pos | None) -> str | None:
+        name = f"%{ref.kind}{ref.index}"
+        if ref.kind in ("TM", "C", "SBR") and \
+                ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
+            self.unsupported(f"{name}: not used by the program nor configured", pos, name)
+            return None
+        if ref.kind == "TM":
+            self.timers.setdefault(name, self.plc.mem.blocks["TM"][ref.index])
+            for f in ("P", "V", "Q", "_in", "_on", "_el"):
+                _ = self.st[f"{name}.{f}"]
+            return name
+        if ref.kind == "C":
+            if name not in self.counters:
+                self.counters.append(name)
+            for f in Counter.FIELDS:
+                _ = self.st[f"{name}.{f}"]
+            return name
+        if ref.kind == "SBR":
+            for f in ShiftRegister.FIELDS:
+                _ = self.st[f"{name}.{f}"]
+            return name
+        self.unsupported(f"the %{ref.kind} function block", pos, str(ref))
+        return None
+
+    def run_block(self, ref: Ref, g: Any, pins: dict[str, Any], pos: A.Pos | None) -> None:
+        name = self.use_block(ref, pos)
+        if name is None:
+            return
+        self.mark_written(f"{name}.V", pos)
+        p = {k: pins.get(k, z3.BoolVal(False)) for k in ("IN", "R", "S", "CU", "CD")}
+        if ref.kind == "TM":
+            self.executed[name] = z3.Or(self.executed.get(name, False), g)
+            run_timer(self.st, name, self.timers[name], g, p["IN"], self.period_us)
+        elif ref.kind == "SBR":
+            run_shift_register(self.st, name, g, p["R"], p["CU"], p["CD"])
+        else:
+            run_counter(self.st, name, g, p["R"], p["S"], p["CU"], p["CD"])
+
+    def run_pin(self, ref: Ref, pin: str, g: Any, v: Any, pos: A.Pos | None) -> None:
+        """The short form (`CU %C0`, `IN %TM0`): edge inputs held at their last value."""
+        if ref.kind in ("C", "SBR"):
+            name = self.use_block(ref, pos)
+            if name is None:
+                return
+            held = {"CU": self.st[f"{name}._cu"], "CD": self.st[f"{name}._cd"],
+                    "R": z3.BoolVal(False), "S": z3.BoolVal(False)}
+            held[pin] = v
+            if ref.kind == "SBR":
+                run_shift_register(self.st, name, g, held["R"], held["CU"], held["CD"])
+            else:
+                self.mark_written(f"{name}.V", pos)
+                run_counter(self.st, name, g, held["R"], held["S"], held["CU"], held["CD"])
+        else:
+            self.run_block(ref, g, {pin: v}, pos)
+
+    # ---- objects --------------------------------------------------------------------------
+    def key_for(self, ref: Ref) -> str:
+        """The state key of a bit or word (inputs registered as inputs)."""
+        if ref.kind == "I":
+            self.add_input(str(ref), "bool")
+            return str(ref)
+        if ref.kind == "IW":
+            ch = self.plc.mem.analog.channels.get(ref) if self.plc.mem.analog else None
+            lo, hi = (min(ch.lo, ch.hi), max(ch.lo, ch.hi)) if ch else (-32768, 32767)
+            self.add_input(str(ref), "w16", lo, hi)
+            return str(ref)
+        if ref.kind in ("TM", "C", "SBR") and ref.field is not None:
+            if self.use_block(Ref(ref.kind, ref.index), None) is None:
+                return "_none"
+            return f"%{ref.kind}{ref.index}.{ref.field}"
+        key = str(Ref(ref.kind, ref.index, ref.module, ref.channel))
+        if ref.kind == "S" and ref.index in S_CLOCKS:
+            if CLOCK_WRAP_US % self.period_us:
+                self.unsupported(f"{ref} with a scan period that does not divide 1 min",
+                                 None, str(ref))
+            _ = self.st["_tmod"]
+        _ = self.st[key]
+        return key
+
+    def mark_written(self, key: str, pos: A.Pos | None) -> None:
+        self.written.setdefault(key, pos or A.NOPOS)
+
+    def read_bit(self, ref: Ref, pos: A.Pos | None) -> Any:
+        if ref.offset is not None or ref.length is not None:
+            self.unsupported("an indexed object or a bit string", pos, str(ref))
+            return z3.BoolVal(False)
+        if ref.kind in ("I", "Q", "M", "S", "X"):
+            key = self.key_for(ref)
+            return self.inp[key] if ref.kind == "I" else self.st[key]
+        if ref.bit is not None and ref.kind == "MW":
+            w = self.st[self.key_for(Ref("MW", ref.index))]
+            return z3.Extract(ref.bit, ref.bit, w) == 1
+        if ref.bit is not None and ref.kind == "KW":
+            return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
+        if ref.kind in ("TM", "C") and ref.field in ("Q", "D", "E", "F"):
+            return self.st[self.key_for(ref)]
+        if ref.kind == "SBR" and ref.field == "J":
+            w = self.st[self.key_for(Ref("SBR", ref.index, field="W"))]
+            return z3.Extract(ref.bit, ref.bit, w) == 1
+        self.unsupported(f"reading {ref}", pos, str(ref))
+        return z3.BoolVal(False)
+
+    def write_bit(self, ref: Ref, g: Any, value: Any, pos: A.Pos | None) -> None:
+        value = as_bool(value)
+        if ref.kind in ("Q", "M", "S", "X") and ref.offset is None:
+            key = self.key_for(ref)
+            self.mark_written(key, pos)
+            self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
+        elif ref.kind in ("MW", "SBR") and ref.bit is not None and ref.offset is None:
+            key = self.key_for(Ref("MW", ref.index) if ref.kind == "MW"
+                               else Ref("SBR", ref.index, field="W"))
+            self.mark_written(key, pos)
+            w = self.st[key]
+            mask = z3.BitVecVal(1 << ref.bit, 16)
+            new = z3.If(value, w | mask, w & ~mask)
+            self.st[key] = z3.simplify(z3.If(g, new, w))
+        else:
+            self.unsupported(f"writing {ref}", pos, str(ref))
+
+    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]:
+        k = ref.kind
+        if ref.offset is not None or ref.length is not None or ref.bit is not None:
+            self.unsupported("an indexed object, table or bit string", pos, str(ref))
+            return wide(0), INT16
+        if k == "KW":
+            return wide(int(self.plc.mem.kw.w[ref.index])), INT16
+        if k == "KD":
+            return wide(int(self.plc.mem.read(ref))), INT32
+        if k in ("MW", "QW"):
+            return wide(self.st[self.key_for(ref)]), INT16
+        if k == "IW":
+            return wide(self.inp[self.key_for(ref)]), INT16
+        if k == "MD":
+            lo = self.st[self.key_for(Ref("MW", ref.index))]
+            hi = self.st[self.key_for(Ref("MW", ref.index + 1))]
+            return wide(z3.Concat(hi, lo)), INT32
+        if k in ("TM", "C") and ref.field in ("V", "P"):
+            return wide(self.st[self.key_for(ref)]), INT16
+        if ref.type == REAL:
+            self.unsupported("floating-point values", pos, str(ref))
+        else:
+            self.unsupported(f"reading {ref}", pos, str(ref))
+        return wide(0), INT16
+
+    def store_word(self, ref: Ref, g: Any, v: Any, t: str, pos: A.Pos | None) -> None:
+        k = ref.kind
+        if ref.offset is not None or ref.length is not None:
+            self.unsupported("an indexed object or table", pos, str(ref))
+        elif k in ("MW", "QW"):
+            self._put(self.key_for(ref), g, narrow(v, 16), pos)
+        elif k == "MD":
+            v32 = narrow(v, 32)
+            self._put(self.key_for(Ref("MW", ref.index)), g, z3.Extract(15, 0, v32), pos)
+            self._put(self.key_for(Ref("MW", ref.index + 1)), g, z3.Extract(31, 16, v32), pos)
+        elif k in ("TM", "C") and ref.field == "P":
+            clamped = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
+            self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
+        else:
+            self.unsupported(f"writing {ref}", pos, str(ref))
+
+    def _put(self, key: str, g: Any, v: Any, pos: A.Pos | None) -> None:
+        self.mark_written(key, pos)
+        self.st[key] = z3.simplify(z3.If(g, v, self.st[key]))
+
+    def fault(self, g: Any, f: Any) -> None:
+        """%S18 set where a rule faulted (set by the system, reset only by the program)."""
+        f = z3.simplify(z3.And(g, as_bool(f)))
+        if z3.is_false(f):
+            return
+        self.st["%S18"] = z3.simplify(z3.Or(self.st["%S18"], f))
+
+    def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None:
+        p = pos or A.NOPOS
+        self.problems.append(Diagnostic(
+            f"verify cannot model {what}", self.plc.ast.file, p.line, p.column, text,
+            "booleans, edges, 16/32-bit words, comparisons, %TM, %C, SR, JMP, Grafcet",
+            Code.OTHER))
+

@@ -1,0 +1,129 @@
+"""Counterexamples in the real scan engine: replay, cex.json, an emitted pytest test, and
+the REPL's `--replay` hook.
+
+A counterexample is the inputs of each scan from a cold start (%I bits, analog %IW words,
+host-written words, set before the scan as the field and a host would) and the values the
+model computed for every object it models. `replay` runs the same scans in a `PLC` and
+lists every object whose value differs: engine and model must agree exactly.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..errors import SoftPLCError
+from ..semantics import IntDomain
+from .checker import evaluate, response_step
+from .requirements import parse_check
+
+CEX_FORMAT = "softplc-cex/1"
+
+
+def set_inputs(plc: Any, inputs: dict[str, int]) -> None:
+    for k, v in inputs.items():
+        if k == "period_ms":  # this scan's length (a variable period)
+            plc.set_scan_period(v / 1000)
+        elif k.startswith("%IW"):
+            plc.mem.write(k, v)
+        else:
+            plc[k] = v
+
+
+def replay(plc: Any, trace: list[dict[str, Any]]) -> list[str]:
+    """Run the counterexample's scans on a cold-started `plc`; the disagreements."""
+    out = []
+    for n, row in enumerate(trace, 1):
+        set_inputs(plc, row["inputs"])
+        plc.scan()
+        for k, want in row["objects"].items():
+            got = int(plc[k])
+            if got != want:
+                out.append(f"scan {n}: {k} = {got} in the engine, {want} in the model")
+    return out
+
+
+def first_failure(plc: Any, check: str, scans: list[dict[str, int]]) -> int | None:
+    """Replay inputs on `plc` and evaluate the requirement on the engine's values after
+    each scan: the first scan (from 1) where it fails, or None."""
+    def err(msg: str, col: int) -> SoftPLCError:
+        return SoftPLCError(f"{check!r}: {msg} (column {col})")
+    req = parse_check(check, check, plc.profile, err)
+    count, prev = 0, False
+    n_resp = req.within if req.within >= 0 else (-req.within * 1000) // round(
+        plc.scan_period * 1e6)
+
+    def read(ref: Any) -> int:
+        return int(plc.mem.read(ref))
+    for n, inputs in enumerate(scans, 1):
+        set_inputs(plc, inputs)
+        plc.scan()
+        if req.kind == "always":
+            if not evaluate(IntDomain, req.cond, read):
+                return n
+            continue
+        x = bool(evaluate(IntDomain, req.cond, read))
+        y = bool(evaluate(IntDomain, req.target, read))
+        count, prev = response_step(IntDomain, count, prev, x, y, n_resp), x
+        if count > n_resp:
+            return n
+    return None
+
+
+def write_cex(path: Path, program: Path, config: Path | None,
+              items: list[dict[str, Any]]) -> None:
+    path.write_text(json.dumps({"format": CEX_FORMAT, "program": str(program),
+                                "config": str(config) if config else None,
+                                "counterexamples": items}, indent=1) + "\n")
+
+
+def read_cex(path: Path) -> dict[str, Any]:
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as e:
+        raise SoftPLCError(f"{path}: not a counterexample file ({e})") from None
+    if not isinstance(data, dict) or data.get("format") != CEX_FORMAT \
+            or not data.get("counterexamples"):
+        raise SoftPLCError(f"{path}: not a counterexample file written by softplc verify "
+                           f"--cex")
+    return data
+
+
+def replay_hook(plc: Any, cex: dict[str, Any]) -> Callable[[], None]:
+    """A `before_scan` hook applying the counterexample's inputs of scan n (counted from
+    the cold start, so stepping back in the debugger replays the same inputs)."""
+    scans = [row["inputs"] for row in cex["scans"]]
+
+    def hook() -> None:
+        n = plc.scan_count
+        if n < len(scans):
+            set_inputs(plc, scans[n])
+    return hook
+
+
+def emit_test(path: Path, program: Path, config: Path | None,
+              items: list[dict[str, Any]]) -> None:
+    """A pytest file: each counterexample's inputs replayed in the engine, asserting the
+    requirement holds, so it fails until the program is fixed."""
+    def rel(p: Path) -> str:  # from the test's folder: the test runs from anywhere
+        return os.path.relpath(Path(p).resolve(), Path(path).resolve().parent)
+
+    lines = ['"""Counterexamples found by `softplc verify`: each test replays the inputs',
+             'scan by scan from a cold start and fails while the requirement is broken."""',
+             "", "from pathlib import Path", "",
+             "from softplc.plc import PLC", "from softplc.verify.replay import first_failure",
+             "", "HERE = Path(__file__).parent", f"PROGRAM = HERE / {rel(program)!r}",
+             f"CONFIG = HERE / {rel(config)!r}" if config else "CONFIG = None", ""]
+    for i, it in enumerate(items):
+        scans = [row["inputs"] for row in it["scans"]]
+        lines += ["", f"def test_requirement_{i}():",
+                  f"    # {it['requirement']}",
+                  f"    check = {it['check']!r}",
+                  f"    scans = {scans!r}",
+                  "    with PLC.from_file(PROGRAM, CONFIG, devices=False) as plc:",
+                  "        failed = first_failure(plc, check, scans)",
+                  "    assert failed is None, f'{check} broken at scan {failed}'", ""]
+    path.write_text("\n".join(lines))

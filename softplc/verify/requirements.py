@@ -1,0 +1,405 @@
+"""Requirement files and expressions for `softplc verify`.
+
+A requirement file (TOML) beside the program:
+
+    [environment]
+    host = ["%MW0:10"]            # words a host writes: any value at the start of a scan
+    assume = ["NOT (%I0.0 AND %I0.1)"]   # what the environment never does
+
+    [[requirement]]
+    name = "star and delta never together"
+    check = "never %Q0.1 AND %Q0.2"
+
+Forms of `check` (evaluated on the values at the end of every scan):
+  `never E`, `always E`, `A -> B` (same scan), `X rising -> Y within N scans` or
+  `... within T ms`. Expressions use the IL address syntax and operators: NOT AND OR XOR,
+  comparisons = <> < <= > >=, + - * / REM on words (exact, no wrap-around), parentheses.
+%I bits and configured analog inputs %IW are free (any value in every scan, analog within
+the configured span). Errors carry the line:col in the file (`VerifyError`).
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..address import BOOL, Ref, expand, parse_address
+from ..errors import AddressError, Code, Diagnostic, VerifyError
+
+_TOKEN = re.compile(r"""\s*(?:
+    (?P<addr>%[A-Za-z]+[0-9][0-9A-Za-z.:\[\]%]*) |
+    (?P<num>-?\d+|16\#[0-9A-Fa-f]+|\#[0-9A-Fa-f]+) |
+    (?P<op>->|<=|>=|<>|[-+*/()=<>]) |
+    (?P<word>[A-Za-z_]+))""", re.X)
+KEYWORDS = {"AND", "OR", "XOR", "NOT", "REM", "NEVER", "ALWAYS", "RISING", "WITHIN",
+            "SCANS", "SCAN", "MS", "S"}
+
+
+@dataclass(frozen=True)
+class Node:
+    """An expression node: op ("addr", "num", "not", "and", "or", "xor", "cmp:<=",
+    "+", "-", "*", "/", "rem", "neg") with its children, type BOOL or "int", column."""
+
+    op: str
+    args: tuple[Any, ...]
+    type: str
+    col: int
+
+
+@dataclass
+class Requirement:
+    name: str
+    kind: str  # "always" | "response"
+    cond: Node  # always: the invariant; response: the trigger X (rising)
+    target: Node | None = None  # response: Y
+    within: int = 0  # response: scans
+    text: str = ""
+    reads: list[Ref] = field(default_factory=list)
+
+
+@dataclass
+class Spec:
+    requirements: list[Requirement]
+    assumptions: list[Node]
+    host: list[Ref]
+    reads: list[Ref]  # every object a requirement or assumption reads
+    free: list[tuple[Ref, Diagnostic]] = field(default_factory=list)  # with where declared
+    periods: tuple[int, int] | None = None  # (shortest, longest) scan period in us
+
+
+class _Where:
+    """Locates a string of the TOML file, for line:col in messages."""
+
+    def __init__(self, file: str, text: str):
+        self.file, self.lines = file, text.splitlines()
+
+    def find(self, s: str) -> tuple[int, int]:
+        for i, ln in enumerate(self.lines):
+            for q in ('"', "'"):
+                j = ln.find(q + s + q)
+                if j >= 0:
+                    return i + 1, j + 2
+        return 0, 0
+
+
+class Parser:
+    """One expression: tokens with their columns, recursive descent, typed nodes."""
+
+    def __init__(self, text: str, profile: Any, err: Any):
+        self.text, self.profile, self.err = text, profile, err
+        self.toks: list[tuple[str, str, int]] = []
+        pos = 0
+        while pos < len(text):
+            if text[pos:].strip() == "":
+                break
+            m = _TOKEN.match(text, pos)
+            if not m or m.end() == pos:
+                col = len(text) - len(text[pos:].lstrip()) + 1
+                raise err(f"unexpected {text[col - 1:col + 5]!r}", col)
+            kind = m.lastgroup
+            val = m[kind]
+            self.toks.append((kind, val.upper() if kind == "word" else val, m.start(kind) + 1))
+            pos = m.end()
+        self.i = 0
+        self.reads: list[Ref] = []
+
+    def peek(self) -> tuple[str, str, int]:
+        return self.toks[self.i] if self.i < len(self.toks) else ("end", "", len(self.text) + 1)
+
+    def take(self, val: str | None = None) -> tuple[str, str, int]:
+        t = self.peek()
+        if val is not None and t[1] != val:
+            raise self.err(f"expected {val!r}, found {t[1] or 'the end'!r}", t[2])
+        self.i += 1
+        return t
+
+    def at(self, *vals: str) -> bool:
+        return self.peek()[1] in vals and self.peek()[0] in ("op", "word")
+
+    def done(self) -> None:
+        t = self.peek()
+        if t[0] != "end":
+            raise self.err(f"unexpected {t[1]!r}", t[2])
+
+    def boolean(self) -> Node:
+        n = self.conj()
+        while self.at("OR", "XOR"):
+            op = self.take()[1].lower()
+            n = Node(op, (self.need_bool(n), self.need_bool(self.conj())), BOOL, n.col)
+        return n
+
+    def conj(self) -> Node:
+        n = self.unary()
+        while self.at("AND"):
+            self.take()
+            n = Node("and", (self.need_bool(n), self.need_bool(self.unary())), BOOL, n.col)
+        return n
+
+    def unary(self) -> Node:
+        if self.at("NOT"):
+            col = self.take()[2]
+            return Node("not", (self.need_bool(self.unary()),), BOOL, col)
+        return self.comparison()
+
+    def comparison(self) -> Node:
+        n = self.sum()
+        if self.at("=", "<>", "<", "<=", ">", ">="):
+            _, op, col = self.take()
+            m = self.sum()
+            if (n.type == BOOL) != (m.type == BOOL):  # a bit compared with 0 / 1
+                b, other = (n, m) if n.type == BOOL else (m, n)
+                if other.op != "num" or other.args[0] not in (0, 1) or op not in ("=", "<>"):
+                    raise self.err("type mismatch: a bit compared with a number", col)
+                return Node("cmp:" + op, (b, Node("bool", (other.args[0],), BOOL, other.col)),
+                            BOOL, n.col)
+            return Node("cmp:" + op, (n, m), BOOL, n.col)
+        return n
+
+    def sum(self) -> Node:
+        n = self.term()
+        while self.at("+", "-"):
+            op = self.take()[1]
+            n = Node(op, (self.need_int(n), self.need_int(self.term())), "int", n.col)
+        return n
+
+    def term(self) -> Node:
+        n = self.factor()
+        while self.at("*", "/", "REM"):
+            op = self.take()[1].lower()
+            n = Node(op, (self.need_int(n), self.need_int(self.factor())), "int", n.col)
+        return n
+
+    def factor(self) -> Node:
+        kind, val, col = self.peek()
+        if kind == "op" and val == "(":
+            self.take()
+            n = self.boolean()
+            self.take(")")
+            return n
+        if kind == "op" and val == "-":
+            self.take()
+            return Node("neg", (self.need_int(self.factor()),), "int", col)
+        if kind == "num":
+            self.take()
+            v = int(val.replace("16#", "").lstrip("#"), 16) if "#" in val else int(val)
+            return Node("num", (v,), "int", col)
+        if kind == "addr":
+            self.take()
+            try:
+                ref = parse_address(val, self.profile)
+            except AddressError as e:
+                raise self.err(f"unknown address: {e}", col) from None
+            if ref.length is not None or ref.offset is not None or ref.is_block:
+                raise self.err(f"{val}: a single bit or word", col)
+            self.reads.append(ref)
+            return Node("addr", (ref,), BOOL if ref.type == BOOL else "int", col)
+        raise self.err(f"expected a value, found {val or 'the end'!r}", col)
+
+    def need_bool(self, n: Node) -> Node:
+        if n.type != BOOL:
+            raise self.err("type mismatch: a number where a condition is expected "
+                           "(compare it, e.g. %MW10 > 0)", n.col)
+        return n
+
+    def need_int(self, n: Node) -> Node:
+        if n.type == BOOL:
+            raise self.err("type mismatch: a bit where a number is expected", n.col)
+        return n
+
+
+def parse_check(text: str, name: str, profile: Any, err: Any) -> Requirement:
+    """One requirement's text (`never E`, `always E`, `A -> B`, `X rising -> Y within N
+    scans|ms`); `err(message, col)` makes the error to raise."""
+    p = Parser(text, profile, err)
+    if p.at("NEVER", "ALWAYS"):
+        kw = p.take()[1]
+        e = p.need_bool(p.boolean())
+        p.done()
+        cond = Node("not", (e,), BOOL, e.col) if kw == "NEVER" else e
+        return Requirement(name, "always", cond, text=text, reads=p.reads)
+    a = p.need_bool(p.boolean())
+    if p.at("RISING"):
+        p.take()
+        p.take("->")
+        b = p.need_bool(p.boolean())
+        p.take("WITHIN")
+        kind, val, col = p.peek()
+        if kind != "num":
+            raise err("expected a number of scans or milliseconds after 'within'", col)
+        p.take()
+        unit = p.take()[1] if p.peek()[0] == "word" else ""
+        if unit not in ("SCANS", "SCAN", "MS"):
+            raise err("expected 'scans' or 'ms' after the number", p.peek()[2])
+        p.done()
+        n = int(val)
+        return Requirement(name, "response", a, b, n if unit != "MS" else -n, text, p.reads)
+    if not p.at("->"):
+        p.done()
+        return Requirement(name, "always", a, text=text, reads=p.reads)
+    p.take("->")
+    b = p.need_bool(p.boolean())
+    p.done()
+    return Requirement(name, "always", Node("or", (Node("not", (a,), BOOL, a.col), b),
+                                            BOOL, a.col), text=text, reads=p.reads)
+
+
+def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
+    """The requirements of a file and of `--require-expr` texts."""
+    problems: list[Diagnostic] = []
+    reqs: list[Requirement] = []
+    assumptions: list[Node] = []
+    host: list[Ref] = []
+    reads: list[Ref] = []
+    data: dict[str, Any] = {}
+    where = _Where("", "")
+    if path is not None:
+        try:
+            text = path.read_text()
+        except OSError as e:
+            raise VerifyError(Diagnostic(f"cannot read the requirements: {e.strerror}",
+                                         str(path), code=Code.CANNOT_READ)) from None
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as e:
+            m = re.search(r"line (\d+), column (\d+)", str(e))
+            ln, col = (int(m[1]), int(m[2])) if m else (0, 0)
+            raise VerifyError(Diagnostic(f"not valid TOML: {e}", str(path), ln, col,
+                                         code=Code.SYNTAX)) from None
+        where = _Where(str(path), text)
+    file = str(path) if path is not None else "--require-expr"
+
+    def parse_one(s: Any, what: str, fn: Any) -> Any:
+        if not isinstance(s, str):
+            problems.append(Diagnostic(f"{what}: a string expected, got {s!r}", file,
+                                       *where.find(str(s)), code=Code.TYPE))
+            return None
+        line, col0 = where.find(s)
+
+        def err(msg: str, col: int) -> VerifyError:
+            return VerifyError(Diagnostic(msg, file, line, col0 + col - 1 if line else col,
+                                          s, "", Code.ADDRESS if "address" in msg
+                                          else Code.TYPE if "mismatch" in msg else Code.SYNTAX))
+        try:
+            return fn(s, err)
+        except VerifyError as e:
+            problems.extend(e.diagnostics)
+            return None
+
+    unknown = set(data) - {"environment", "requirement"}
+    for k in sorted(unknown):
+        problems.append(Diagnostic(f"unknown table [{k}]", file, *where.find(k),
+                                   expected="[environment], [[requirement]]", code=Code.SYNTAX))
+    env = data.get("environment", {})
+    for k in sorted(set(env) - {"host", "free", "assume", "scan_period"}):
+        problems.append(Diagnostic(f"unknown key environment.{k}", file, *_key(where, k),
+                                   expected="host, free, assume, scan_period",
+                                   code=Code.SYNTAX))
+    periods = None
+    if "scan_period" in env:
+        try:
+            periods = parse_periods(env["scan_period"])
+        except ValueError as e:
+            problems.append(Diagnostic(f"environment.scan_period: {e}", file,
+                                       *_key(where, "scan_period"), code=Code.TYPE))
+    free: list[tuple[Ref, Diagnostic]] = []
+    for key in ("host", "free"):
+        for s in env.get(key, []):
+            def env_refs(s: str, err: Any, key: str = key) -> list[Ref]:
+                try:
+                    refs = expand(s, profile)
+                except AddressError as e:
+                    raise err(f"unknown address: {e}", 1) from None
+                kinds = ("MW", "MD") if key == "host" else ("MW", "MD", "M", "Q", "I")
+                if any(r.kind not in kinds for r in refs):
+                    raise err(f"{s}: {key} objects are "
+                              + ("%MW / %MD words" if key == "host" else
+                                 "%M, %MW, %MD (%I are free anyway)"), 1)
+                return [Ref("MW", r.index + k) if r.kind in ("MW", "MD") else r
+                        for r in refs for k in range(2 if r.kind == "MD" else 1)]
+            refs = parse_one(s, f"environment.{key}", env_refs) or []
+            if key == "host":
+                host += refs
+            else:
+                line, col = where.find(s)
+                free += [(r, Diagnostic(f"free input {r} is written by the program", file,
+                                        line, col, s, "'host' for words both a host and "
+                                        "the program write (a handshake)", Code.READ_ONLY))
+                         for r in refs]
+    for s in env.get("assume", []):
+        def assumption(s: str, err: Any) -> Node:
+            p = Parser(s, profile, err)
+            n = p.need_bool(p.boolean())
+            p.done()
+            reads.extend(p.reads)
+            return n
+        n = parse_one(s, "environment.assume", assumption)
+        if n is not None:
+            assumptions.append(n)
+    items = data.get("requirement", [])
+    if not isinstance(items, list):
+        items = []
+    for i, item in enumerate(items):
+        if not isinstance(item, dict) or "check" not in item:
+            problems.append(Diagnostic(f"requirement {i + 1}: no 'check' key", file,
+                                       code=Code.SYNTAX))
+            continue
+        name = str(item.get("name", item["check"]))
+        r = parse_one(item["check"], "check", lambda s, err, n=name: parse_check(
+            s, n, profile, err))
+        if r is not None:
+            reqs.append(r)
+    for s in exprs:
+        r = parse_one(s, "--require-expr", lambda s, err: parse_check(s, s, profile, err))
+        if r is not None:
+            reqs.append(r)
+    if problems:
+        raise VerifyError(problems)
+    for r in reqs:
+        reads += r.reads
+    if periods is not None:
+        for r in reqs:
+            if r.kind == "response" and r.within < 0:
+                problems.append(Diagnostic(
+                    f"{r.name}: 'within ... ms' needs a fixed scan period", file,
+                    *where.find(r.text), expected="'within N scans'", code=Code.TYPE))
+    if problems:
+        raise VerifyError(problems)
+    return Spec(reqs, assumptions, host, reads, free, periods)
+
+
+def parse_periods(value: Any) -> tuple[int, int]:
+    """["10ms", "1s"] (or "10ms:1s") -> (10000, 1000000) us: any period from the shortest
+    to the longest, in steps of the shortest, may occur in each scan."""
+    from ..config import _parse_duration
+    if isinstance(value, str):
+        value = value.split(":")
+    if not isinstance(value, list) or len(value) != 2:
+        raise ValueError('expected ["SHORTEST", "LONGEST"], e.g. ["10ms", "1s"]')
+    lo, hi = (round(_parse_duration(v) * 1e6) for v in value)
+    if not 0 < lo <= hi <= 60_000_000 or hi % lo:
+        raise ValueError("0 < shortest <= longest <= 1min, the longest a multiple of the "
+                         "shortest")
+    return lo, hi
+
+
+def _key(where: _Where, key: str) -> tuple[int, int]:
+    for i, ln in enumerate(where.lines):
+        j = ln.find(key)
+        if j >= 0 and "=" in ln[j:]:
+            return i + 1, j + 1
+    return 0, 0
+
+
+def check_environment(spec: Spec, written: dict[str, Any], program_file: str) -> None:
+    """A free input the program writes is an error (with where the program writes it)."""
+    bad = []
+    for ref, d in spec.free:
+        pos = written.get(str(ref))
+        if pos is not None:
+            bad.append(Diagnostic(f"{d.message} (at {program_file}:{pos.line}:{pos.column})",
+                                  d.file, d.line, d.column, d.text, d.expected, d.code))
+    if bad:
+        raise VerifyError(bad)

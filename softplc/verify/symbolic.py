@@ -1,0 +1,82 @@
+"""Solver terms for the verifier: the value domain `semantics` rules are written over.
+
+Words live in the model state as 16-bit bit-vectors (32-bit for %MD halves joined), and are
+computed on `WIDE`-bit signed bit-vectors so that the exact result of + - * on two 32-bit
+values exists before the Twido rule (`semantics.checked`) wraps it. Bits are z3 Booleans.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import z3
+
+WIDE = 72  # > 2 * 32 bits + sign: any product of two double words is exact
+
+
+class Z3Domain:
+    """`semantics.IntDomain`'s operations on z3 terms."""
+
+    @staticmethod
+    def ite(c: Any, a: Any, b: Any) -> Any:
+        c = as_bool(c)
+        if z3.is_true(c):
+            return wide(a)
+        if z3.is_false(c):
+            return wide(b)
+        return z3.If(c, wide(a), wide(b))
+
+    @staticmethod
+    def and_(a: Any, b: Any) -> Any:
+        return z3.And(as_bool(a), as_bool(b))
+
+    @staticmethod
+    def or_(a: Any, b: Any) -> Any:
+        return z3.Or(as_bool(a), as_bool(b))
+
+    @staticmethod
+    def not_(a: Any) -> Any:
+        return z3.Not(as_bool(a))
+
+    @staticmethod
+    def wrap(v: Any, bits: int) -> Any:
+        return z3.SignExt(WIDE - bits, z3.Extract(bits - 1, 0, v))
+
+    @staticmethod
+    def tdiv(a: Any, b: Any) -> Any:
+        return a / b  # bvsdiv truncates towards zero, as the Twido does
+
+
+def as_bool(v: Any) -> Any:
+    if isinstance(v, bool):
+        return z3.BoolVal(v)
+    if isinstance(v, int):
+        return z3.BoolVal(v != 0)
+    if z3.is_bv(v):
+        return v != 0
+    return v
+
+
+def wide(v: Any) -> Any:
+    """A value as a WIDE-bit signed bit-vector."""
+    if isinstance(v, (int, bool)):
+        return z3.BitVecVal(int(v), WIDE)
+    if z3.is_bool(v):
+        return z3.If(v, z3.BitVecVal(1, WIDE), z3.BitVecVal(0, WIDE))
+    n = v.size()
+    return v if n == WIDE else z3.SignExt(WIDE - n, v)
+
+
+def narrow(v: Any, bits: int) -> Any:
+    """The low `bits` bits of a wide value (the caller checked it fits, or wants the wrap)."""
+    return z3.simplify(z3.Extract(bits - 1, 0, wide(v)))
+
+
+def value_of(model: z3.ModelRef, term: Any) -> int:
+    """A term's value in a solver model: 0/1 for bits, signed ints for words."""
+    v = model.eval(term, model_completion=True)
+    if z3.is_bool(v):
+        return 1 if z3.is_true(v) else 0
+    if z3.is_bv_value(v):
+        return v.as_signed_long()
+    return int(str(v))
