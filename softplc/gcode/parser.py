@@ -41,6 +41,9 @@ UNIT_CM = {"cm": 1.0, "mm": 0.1, "in": 2.54}
 #: Largest step count the 16-bit %MW registers carry as a positive INT.
 MAX_STEPS = 32767
 
+#: What still counts as on the table's edge, cm (check_on_table).
+EDGE_TOLERANCE_CM = 1e-5
+
 PLANES = {"XY": 17, "XZ": 18, "YZ": 19}
 DIALECTS = ("auto", "seed")
 _PLANE_OF_G = {17: "XY", 18: "XZ", 19: "YZ"}
@@ -550,7 +553,10 @@ class _Reader:
 
     def check_on_table(self, line: int, col: int, pts: list[Point]) -> bool:
         w, h = self.cfg.table_width, self.cfg.table_height
-        eps = 1e-9
+        # An arc's chord points come from its centre, given to 6 decimals (I/K): an arc
+        # tangent to an edge can land a few 1e-7 cm past it. 1e-5 cm (0.1 um, far below a
+        # motor step) is no real excursion.
+        eps = EDGE_TOLERANCE_CM
         for u, v in pts:
             if not (-eps <= u <= w + eps and -eps <= v <= h + eps):
                 self.err(line, col, f"point {self.u_axis}{u:.4g} {self.v_axis}{v:.4g} cm is "
