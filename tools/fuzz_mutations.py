@@ -94,18 +94,25 @@ def fuzz_programs(n: int) -> Tally:
         text = mutate(PROGRAMS[name], data)
         config = ROOT / "ladder_programs" / CONFIGS[name]
         what = f"program {name} mutated:\n{text}"
-        try:
-            plc = PLC.from_source(text, config, file=name)
-        except SoftPLCError as e:
-            _refused(tally, e, what)
-            return
-        except Exception:
-            tally.add("tracebacks", f"{what}\n{traceback.format_exc()}")
-            return
-        _scan(plc, tally, what)
+        _load_and_scan(tally, what, lambda: PLC.from_source(text, config, file=name),
+                       SoftPLCError)
 
     _run(case, n, st.sampled_from(sorted(PROGRAMS)), st.data())
     return tally
+
+
+def _load_and_scan(tally: Tally, what: str, build: Any, refusals: Any) -> None:
+    """Build a PLC: a clear refusal (`refusals`) is counted as such, anything else as a
+    traceback; a PLC that loads runs its scans."""
+    try:
+        plc = build()
+    except refusals as e:
+        _refused(tally, e, what)
+        return
+    except Exception:
+        tally.add("tracebacks", f"{what}\n{traceback.format_exc()}")
+        return
+    _scan(plc, tally, what)
 
 
 def fuzz_configs(n: int) -> Tally:
@@ -119,15 +126,7 @@ def fuzz_configs(n: int) -> Tally:
     def case(c: Any) -> None:
         path, cfg, program = c
         what = f"config {path.name} mutated: {cfg!r}"
-        try:
-            plc = PLC(program, cfg)
-        except (ConfigError, ProgramError) as e:
-            _refused(tally, e, what)
-            return
-        except Exception:
-            tally.add("tracebacks", f"{what}\n{traceback.format_exc()}")
-            return
-        _scan(plc, tally, what)
+        _load_and_scan(tally, what, lambda: PLC(program, cfg), (ConfigError, ProgramError))
 
     _run(case, n, mutated())
     return tally
