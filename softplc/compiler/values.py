@@ -9,6 +9,7 @@ rules: read-only objects, word/float mixing, function signatures. The rung compi
 from __future__ import annotations
 
 import itertools
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,7 +20,7 @@ from ..program import Names
 from ..runtime.blocks import MAX_VALUE
 from ..runtime.catalog import BLOCK_CLASSES
 from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
-from ..semantics import FUNCTIONS
+from ..semantics import FUNCTIONS, inline_checked
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
@@ -33,6 +34,8 @@ BLOCK_PIN_METHODS = {pin: "run" if pin == "IN" else pin.lower()
 # A block's input pins (as its class declares them) and its bit outputs (its read-only bit
 # fields; the writable %VFCi.R / %VFCi.S are enable bits, not outputs).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
+# Operand code without side effects (a buffer read, a literal): may be evaluated out of order
+_PURE = re.compile(r"-?[\w\[\]]+")
 BLOCK_OUTPUTS = {kind: tuple(f for f, (t, w) in fields.items() if t == BOOL and not w)
                  for kind, fields in BLOCK_FIELDS.items() if fields}
 
@@ -98,8 +101,23 @@ class ValueCompiler:
     def emit(self, line: str) -> None:
         self.fn.lines.append("    " * self.indent + line)
 
+    def new_local(self) -> str:
+        """A fresh local for an inline operation's value (not an accumulator: see _Acc)."""
+        return f"_v{next(self.tmp)}"
+
     def new_tmp(self) -> str:
         return f"_t{next(self.tmp)}"
+
+    def checked(self, op: str, t: str, a: str, b: str = "") -> str:
+        """Code of the checked word operation `op` (add sub mul div neg narrow) of type `t`,
+        inline (`semantics.inline_checked`)."""
+        bits = 16 if t == INT16 else 32
+        local = self.new_local
+        if op != "div":
+            return inline_checked(op, bits, a, b, v=local(), ovf=self.helper(f"ovf{bits}"))
+        return inline_checked(op, bits, a, b, v=local(), ovf=self.helper(f"ovf{bits}"),
+                              div0=self.helper("div0"), d=local(),
+                              n="" if _PURE.fullmatch(a) else local())
 
     def materialize(self, acc: _Acc) -> _Acc:
         if acc.simple:
@@ -256,8 +274,7 @@ class ValueCompiler:
             code, t = self.expr(e.operand, want)
             if t == REAL:
                 return f"(-{code})", REAL
-            h = self.helper("neg16" if t == INT16 else "neg32")
-            return f"{h}({code})", t
+            return self.checked("neg", t, code), t
         if isinstance(e, A.BinOp):
             return self.binop(e, want)
         if isinstance(e, A.Call):
@@ -312,8 +329,9 @@ class ValueCompiler:
             if e.op == "/":
                 return f"{self.helper('fdiv')}({a[0]}, {b[0]})", REAL
             return f"({a[0]} {e.op} {b[0]})", REAL
-        h = self.helper(f"{ARITH[e.op]}{16 if t == INT16 else 32}")
-        return f"{h}({a[0]}, {b[0]})", t
+        if e.op == "REM":
+            return f"{self.helper(f'rem{16 if t == INT16 else 32}')}({a[0]}, {b[0]})", t
+        return self.checked(ARITH[e.op], t, a[0], b[0]), t
 
     @staticmethod
     def poison(want: str | None) -> tuple[str, str]:
@@ -416,8 +434,8 @@ class ValueCompiler:
                 self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word",
                          code=Code.TYPE)
                 return
-            h = self.helper(("add" if st.op == "INC" else "sub") + ("16" if t == INT16 else "32"))
-            self.store_value(ref, f"{h}({code}, 1)", t, st.pos)
+            self.store_value(ref, self.checked("add" if st.op == "INC" else "sub", t, code, "1"),
+                             t, st.pos)
             return
         ref, e = st.target, st.expr
         if not self.check_writable(ref, st.pos):
@@ -444,7 +462,7 @@ class ValueCompiler:
                          e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)",
                          code=Code.CONSTANT)
                 return
-            code = f"{self.helper('narrow16')}({code})"
+            code = self.checked("narrow", INT16, code)
         self.store_value(ref, code, tt, st.pos)
 
     def exch(self, st: A.ExchCall) -> None:
