@@ -39,8 +39,12 @@ def helper(name: str, *args: int) -> tuple[int, int]:
 
 
 def test_the_generated_code_is_inline() -> None:
+    """A plain store is left to the memoryview's own range check; a nested operation is
+    inline; a division too."""
     src = plc_for("[ %MW5 := %MW0 + %MW1 ]").program.source
-    assert "_add16" not in src and "(_v0 := _MW[0] + _MW[1])" in src
+    assert "    _MW[5] = _MW[0] + _MW[1]\n" in src and "except ValueError:" in src
+    src = plc_for("[ %MW5 := ( %MW0 + %MW1 ) * %MW2 ]").program.source
+    assert "_add16" not in src and "_mul16" not in src and "(_v0 := _MW[0] + _MW[1])" in src
     src = plc_for("[ %MD6 := %MD0 / %MD2 ]").program.source
     assert "_div32" not in src and "int(_MDE[0] / _v" in src
 
@@ -52,8 +56,10 @@ def test_inline_binary_operations_are_the_helpers(bits: int, op: str, a: int, b:
     lo, hi = WORD_RANGE[bits]
     a, b = min(max(a, lo), hi), min(max(b, lo), hi)
     x, y, r = W[bits]
-    got = one(plc_for(f"[ {r} := {x} {OPS[op]} {y} ]"), {x: a, y: b}, r)
-    assert got == helper(f"{op}{bits}", a, b)
+    want = helper(f"{op}{bits}", a, b)
+    assert one(plc_for(f"[ {r} := {x} {OPS[op]} {y} ]"), {x: a, y: b}, r) == want
+    # the same operation nested (the inline expression form, not the store's check)
+    assert one(plc_for(f"[ {r} := ( {x} {OPS[op]} {y} ) + 0 ]"), {x: a, y: b}, r) == want
 
 
 @pytest.mark.parametrize("bits", [16, 32])
@@ -82,6 +88,9 @@ def test_inline_negation_increment_and_narrowing(bits: int, a: int) -> None:
     assert one(plc_for(f"[ DEC {r} ]"), {r: w}, r) == helper(f"sub{bits}", w, 1)
     if bits == 16:
         assert one(plc_for("[ %MW5 := %MD0 ]"), {"%MD0": a}, "%MW5") == helper("narrow16", a)
+        # a word sum stored in a double word: checked on 16 bits, not by the store's range
+        got = one(plc_for("[ %MD6 := %MW0 + %MW1 ]"), {"%MW0": w, "%MW1": w}, "%MD6")
+        assert got == helper("add16", w, w)
 
 
 @pytest.mark.parametrize("b", [0, 6])

@@ -77,6 +77,8 @@ class ValueCompiler:
         self.indent = 1
         self.ninstr = 0
         self.env: dict[str, Any] = {}  # the bound names (`program.bind`): configured PIDs
+        # inline operation code -> (op, bits, a, b): what `store_value` may store unchecked
+        self.inline_parts: dict[str, tuple[str, int, str, str]] = {}
 
     # ---- diagnostics ----------------------------------------------------------------------
     def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "",
@@ -114,7 +116,9 @@ class ValueCompiler:
         bits = 16 if t == INT16 else 32
         local = self.new_local
         if op != "div":
-            return inline_checked(op, bits, a, b, v=local(), ovf=self.helper(f"ovf{bits}"))
+            code = inline_checked(op, bits, a, b, v=local(), ovf=self.helper(f"ovf{bits}"))
+            self.inline_parts[code] = (op, bits, a, b)
+            return code
         return inline_checked(op, bits, a, b, v=local(), ovf=self.helper(f"ovf{bits}"),
                               div0=self.helper("div0"), d=local(),
                               n="" if _PURE.fullmatch(a) else local())
@@ -490,6 +494,8 @@ class ValueCompiler:
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind
+        if self.store_unchecked(ref, code, t):
+            return
         if k in ("IW", "QW"):
             self.use(WORD_BUFFERS[k])
             self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
@@ -519,6 +525,34 @@ class ValueCompiler:
         else:
             self.err(f"cannot assign to {ref}", pos, str(ref),
                      "a word, double word, float or block preset", code=Code.TYPE)
+
+    def store_unchecked(self, ref: Ref, code: str, t: str) -> bool:
+        """`%MW5 := %MW3 + %MW7` (one add/sub/mul/neg/narrow of plain reads into a plain
+        word or double word): the memoryview store itself refuses a value out of its range
+        (ValueError), so the common path makes no check at all; the rare path recomputes
+        with the `Ops` helper (%S18, wrap). Operands without side effects may be read twice."""
+        parts = self.inline_parts.get(code)
+        if parts is None or ref.offset is not None or t == REAL:
+            return False
+        op, bits, a, b = parts
+        if not (_PURE.fullmatch(a) and (op in ("neg", "narrow") or _PURE.fullmatch(b))):
+            return False
+        # the store's range must be the operation's: a word sum stored in a %MD checks 16 bits
+        if ref.kind in WORD_BUFFERS and bits == 16:
+            target = f"{WORD_BUFFERS[ref.kind]}[{ref.index}]"
+        elif ref.kind in PAIR_VIEWS and bits == 32:
+            target = f"{PAIR_VIEWS[ref.kind][ref.index & 1]}[{ref.index >> 1}]"
+        else:
+            return False
+        self.use(target.split("[")[0])
+        exact = {"add": f"{a} + {b}", "sub": f"{a} - {b}", "mul": f"{a} * {b}",
+                 "neg": f"-{a}", "narrow": a}[op]
+        args = f"{a}, {b}" if op in ("add", "sub", "mul") else a
+        self.emit("try:")
+        self.emit(f"    {target} = {exact}")
+        self.emit("except ValueError:  # out of the word's range: %S18, wrapped")
+        self.emit(f"    {target} = {self.helper(f'{op}{bits}')}({args})")
+        return True
 
     def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
         """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,
