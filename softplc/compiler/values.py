@@ -20,7 +20,7 @@ from ..program import Names
 from ..runtime.blocks import MAX_VALUE
 from ..runtime.catalog import BLOCK_CLASSES
 from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
-from ..semantics import FUNCTIONS, inline_checked
+from ..semantics import FUNCTIONS, INLINE_EXACT, inline_checked
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
@@ -114,14 +114,14 @@ class ValueCompiler:
         """Code of the checked word operation `op` (add sub mul div neg narrow) of type `t`,
         inline (`semantics.inline_checked`)."""
         bits = 16 if t == INT16 else 32
-        local = self.new_local
+        narrow = self.helper(f"narrow{bits}")
         if op != "div":
-            code = inline_checked(op, bits, a, b, v=local(), ovf=self.helper(f"ovf{bits}"))
+            code = inline_checked(op, bits, a, b, v=self.new_local(), narrow=narrow)
             self.inline_parts[code] = (op, bits, a, b)
             return code
-        return inline_checked(op, bits, a, b, v=local(), ovf=self.helper(f"ovf{bits}"),
-                              div0=self.helper("div0"), d=local(),
-                              n="" if _PURE.fullmatch(a) else local())
+        return inline_checked(op, bits, a, b, v=self.new_local(), narrow=narrow,
+                              div=self.helper(f"div{bits}"), d=self.new_local(),
+                              n="" if _PURE.fullmatch(a) else self.new_local())
 
     def materialize(self, acc: _Acc) -> _Acc:
         if acc.simple:
@@ -545,8 +545,7 @@ class ValueCompiler:
         else:
             return False
         self.use(target.split("[")[0])
-        exact = {"add": f"{a} + {b}", "sub": f"{a} - {b}", "mul": f"{a} * {b}",
-                 "neg": f"-{a}", "narrow": a}[op]
+        exact = INLINE_EXACT[op].format(a=a, b=b)
         args = f"{a}, {b}" if op in ("add", "sub", "mul") else a
         self.emit("try:")
         self.emit(f"    {target} = {exact}")
