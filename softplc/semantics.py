@@ -499,11 +499,12 @@ def absolute(D: Any, a: Any, bits: int) -> tuple[Any, Any]:
 # is at least 1/|b| from one, a relative gap of at least 2**-31. The operands are evaluated
 # in order, a then b (their helpers may set %S17). tests/test_inline_arith.py checks each
 # form against the `Ops` helper value for value, %S18 included.
+INLINE_QUOTIENT = "int({n} / {d})"
 INLINE_EXACT = {"add": "{a} + {b}", "sub": "{a} - {b}", "mul": "{a} * {b}", "neg": "-{a}",
                 "narrow": "{a}",
                 # n, d: locals holding the dividend (when its code is not a plain read) and
                 # the divisor; `(n := a) is None` is never true, it only evaluates a first
-                "div": "(int({n} / {d}) if ({first}({d} := {b})) else {div}(0, 0))"}
+                "div": f"({INLINE_QUOTIENT} if ({{first}}({{d}} := {{b}})) else {{div}}(0, 0))"}
 
 
 def inline_checked(op: str, bits: int, a: str, b: str = "", *, v: str, narrow: str,

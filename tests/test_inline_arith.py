@@ -46,7 +46,9 @@ def test_the_generated_code_is_inline() -> None:
     src = plc_for("[ %MW5 := ( %MW0 + %MW1 ) * %MW2 ]").program.source
     assert "_add16" not in src and "_mul16" not in src and "(_v0 := _MW[0] + _MW[1])" in src
     src = plc_for("[ %MD6 := %MD0 / %MD2 ]").program.source
-    assert "_div32(0, 0)" in src and "_div32(_" not in src and "int(_MDE[0] / _v" in src
+    assert "    _MDE[3] = int(_MDE[0] / _MDE[1])\n" in src and "ZeroDivisionError" in src
+    src = plc_for("[ %MD6 := ( %MD0 + 0 ) / %MD2 ]").program.source
+    assert "_div32(0, 0)" in src and "_div32(_" not in src and "int(_v" in src
 
 
 @settings(max_examples=examples(300), deadline=None)

@@ -31,6 +31,9 @@ def _lines(kind: str, n: int) -> tuple[list[str], dict[str, Any]]:
     if kind == "sub32":
         return [f"[ %MD{200 + 2 * k} := %MD{2 * (k % 50)} - %MD{2 * ((k * 3) % 50)} ]"
                 for k in range(n)], {}
+    if kind == "div32s":  # a single division of plain reads
+        return [f"[ %MD{200 + 2 * k} := %MD{2 * (k % 50)} / %KD{2 * (k % 8)} ]"
+                for k in range(n)], {"constants": {f"%KD{2 * i}": 7 + i for i in range(8)}}
     if kind == "div32":
         return [f"[ %MD{200 + 2 * k} := ( %MD{2 * (k % 50)} - %MD100 ) / %KD{2 * (k % 8)} ]"
                 for k in range(n)], {"constants": {f"%KD{2 * i}": 7 + i for i in range(8)}}
@@ -51,7 +54,7 @@ def _lines(kind: str, n: int) -> tuple[list[str], dict[str, Any]]:
     raise ValueError(kind)
 
 
-CASES = ("add16", "inc16", "sub32", "div32", "timer", "counter", "counter_blk")
+CASES = ("add16", "inc16", "sub32", "div32s", "div32", "timer", "counter", "counter_blk")
 
 
 def _floor_main(lines: int) -> Any:

@@ -20,7 +20,7 @@ from ..program import Names
 from ..runtime.blocks import MAX_VALUE
 from ..runtime.catalog import BLOCK_CLASSES
 from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
-from ..semantics import FUNCTIONS, INLINE_EXACT, inline_checked
+from ..semantics import FUNCTIONS, INLINE_EXACT, INLINE_QUOTIENT, inline_checked
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
@@ -117,11 +117,12 @@ class ValueCompiler:
         narrow = self.helper(f"narrow{bits}")
         if op != "div":
             code = inline_checked(op, bits, a, b, v=self.new_local(), narrow=narrow)
-            self.inline_parts[code] = (op, bits, a, b)
-            return code
-        return inline_checked(op, bits, a, b, v=self.new_local(), narrow=narrow,
-                              div=self.helper(f"div{bits}"), d=self.new_local(),
-                              n="" if _PURE.fullmatch(a) else self.new_local())
+        else:
+            code = inline_checked(op, bits, a, b, v=self.new_local(), narrow=narrow,
+                                  div=self.helper(f"div{bits}"), d=self.new_local(),
+                                  n="" if _PURE.fullmatch(a) else self.new_local())
+        self.inline_parts[code] = (op, bits, a, b)
+        return code
 
     def materialize(self, acc: _Acc) -> _Acc:
         if acc.simple:
@@ -527,10 +528,11 @@ class ValueCompiler:
                      "a word, double word, float or block preset", code=Code.TYPE)
 
     def store_unchecked(self, ref: Ref, code: str, t: str) -> bool:
-        """`%MW5 := %MW3 + %MW7` (one add/sub/mul/neg/narrow of plain reads into a plain
-        word or double word): the memoryview store itself refuses a value out of its range
-        (ValueError), so the common path makes no check at all; the rare path recomputes
-        with the `Ops` helper (%S18, wrap). Operands without side effects may be read twice."""
+        """`%MW5 := %MW3 + %MW7` (one add/sub/mul/div/neg/narrow of plain reads into a
+        plain word or double word): the memoryview store itself refuses a value out of its
+        range (ValueError), a zero divisor raises ZeroDivisionError, so the common path
+        makes no check at all; the rare path recomputes with the `Ops` helper (%S18, wrap,
+        0 for a division by zero). Operands without side effects may be read twice."""
         parts = self.inline_parts.get(code)
         if parts is None or ref.offset is not None or t == REAL:
             return False
@@ -545,11 +547,14 @@ class ValueCompiler:
         else:
             return False
         self.use(target.split("[")[0])
-        exact = INLINE_EXACT[op].format(a=a, b=b)
-        args = f"{a}, {b}" if op in ("add", "sub", "mul") else a
+        if op == "div":
+            exact, errors = INLINE_QUOTIENT.format(n=a, d=b), "(ValueError, ZeroDivisionError)"
+        else:
+            exact, errors = INLINE_EXACT[op].format(a=a, b=b), "ValueError"
+        args = a if op in ("neg", "narrow") else f"{a}, {b}"
         self.emit("try:")
         self.emit(f"    {target} = {exact}")
-        self.emit("except ValueError:  # out of the word's range: %S18, wrapped")
+        self.emit(f"except {errors}:  # out of the word's range, or / 0: %S18")
         self.emit(f"    {target} = {self.helper(f'{op}{bits}')}({args})")
         return True
 
