@@ -102,6 +102,7 @@ class Ops:
         self.s[S_ARITH] = 1
         return wrap32(v)
 
+
     # -- 16-bit word arithmetic (%S18 on overflow; the result wraps) [sure: %S18] --------------
     def add16(self, a: int, b: int) -> int:
         return self._chk16(a + b)
@@ -485,3 +486,34 @@ def negate(D: Any, a: Any, bits: int) -> tuple[Any, Any]:
 
 def absolute(D: Any, a: Any, bits: int) -> tuple[Any, Any]:
     return checked(D, D.ite(a < 0, -a, a), bits)
+
+
+# -- inline forms for compiled code -------------------------------------------------------------
+# The checked word arithmetic of `Ops` (add16 .. narrow32, div16/div32) as one Python
+# expression, so that a word line makes no call on its common path (issue 26): the exact
+# value goes into a fresh local `v` of the generated function and is kept when it lies in
+# WORD_RANGE; else the rare path calls `Ops.narrow16/narrow32` (%S18 and wrap, as every
+# checked helper). A zero divisor calls `Ops.div16/div32(0, 0)` (%S18, result 0).
+# `int(a / b)` truncates towards zero exactly: for |a|, |b| <= 2**31 the float quotient
+# (correctly rounded, 53 bits) never rounds across an integer, since a non-integer quotient
+# is at least 1/|b| from one, a relative gap of at least 2**-31. The operands are evaluated
+# in order, a then b (their helpers may set %S17). tests/test_inline_arith.py checks each
+# form against the `Ops` helper value for value, %S18 included.
+INLINE_QUOTIENT = "int({n} / {d})"
+INLINE_EXACT = {"add": "{a} + {b}", "sub": "{a} - {b}", "mul": "{a} * {b}", "neg": "-{a}",
+                "narrow": "{a}",
+                # n, d: locals holding the dividend (when its code is not a plain read) and
+                # the divisor; `(n := a) is None` is never true, it only evaluates a first
+                "div": f"({INLINE_QUOTIENT} if ({{first}}({{d}} := {{b}})) else {{div}}(0, 0))"}
+
+
+def inline_checked(op: str, bits: int, a: str, b: str = "", *, v: str, narrow: str,
+                   div: str = "", d: str = "", n: str = "") -> str:
+    """Python expression of `op` (a key of INLINE_EXACT) on `bits`-bit words: operand codes
+    `a`, `b`; `v` a fresh local for the value; `narrow`, `div` the bound names of
+    `Ops.narrow<bits>` and `Ops.div<bits>`; for "div", `d` a fresh local for the divisor and
+    `n` one for the dividend, or "" when `a` has no side effect (a plain read, a literal)."""
+    lo, hi = WORD_RANGE[bits]
+    first = f"({n} := {a}) is None or " if n else ""
+    exact = INLINE_EXACT[op].format(a=a, b=b, d=d, n=n or a, first=first, div=div)
+    return f"({v} if {lo} <= ({v} := {exact}) <= {hi} else {narrow}({v}))"

@@ -76,6 +76,14 @@ def test_peer_table_ratios_and_unavailable_peers() -> None:
     assert "unavailable" in bench_peers.report(res)
 
 
+def test_bench_wordops_reports_every_case() -> None:
+    import bench_wordops
+    res = bench_wordops.run(lines=10, number=5, repeat=1)
+    assert set(res["ns_per_line"]) == set(bench_wordops.CASES) | {"add16 floor"}
+    assert all(v > 0 for v in res["ns_per_line"].values())
+    assert "counter_blk" in bench_wordops.report(res)
+
+
 def test_bench_rejects_unknown_section() -> None:
     r = subprocess.run([sys.executable, str(TOOLS / "bench.py"), "--sections", "engine,warp"],
                        capture_output=True, text=True, timeout=60)

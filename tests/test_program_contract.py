@@ -35,7 +35,8 @@ def free_names(source: str) -> set[str]:
     for fn in (n for n in tree.body if isinstance(n, ast.FunctionDef)):
         params = {a.arg for a in fn.args.args}
         local = params | {t.id for n in ast.walk(fn) for t in
-                          ([n.target] if isinstance(n, (ast.AugAssign, ast.For, ast.comprehension))
+                          ([n.target] if isinstance(n, (ast.AugAssign, ast.For, ast.comprehension,
+                                                   ast.NamedExpr))
                            else getattr(n, "targets", [])) if isinstance(t, ast.Name)}
         for default in fn.args.defaults:  # `_MW=_MW`: bound from the namespace
             free |= {n.id for n in ast.walk(default) if isinstance(n, ast.Name)}

@@ -2,10 +2,13 @@
 
     .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
                                     [--png results/bench.png]
-                                    [--sections engine,peers,modbus,drawing,servo,cutting,mass]
+                                    [--sections engine,wordops,peers,modbus,drawing,servo,
+                                                cutting,mass]
 
 Sections:
   engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
+  wordops ns per word line (%MW add, INC, %MD sub and div) and per timer / counter call
+          of the compiled main() (bench_wordops.py; issue 26: <= 50 ns, <= 100 ns)
   peers   one table against pyrung, awlsim, a bare pymodbus server and libmodbus
           (bench_peers.py; `make bench` installs the optional peers)
   modbus  the daemon under Modbus load: throughput, latency, scan jitter (bench_modbus.py,
@@ -41,11 +44,12 @@ import bench_engine
 import bench_mass
 import bench_peers
 import bench_servo
+import bench_wordops
 from peers.common import describe_machine, machine_info, progress
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SECTIONS = ("engine", "peers", "modbus", "drawing", "servo", "cutting", "mass")
+SECTIONS = ("engine", "wordops", "peers", "modbus", "drawing", "servo", "cutting", "mass")
 
 
 def run_modbus_section(quick: bool) -> dict[str, Any]:
@@ -167,6 +171,10 @@ def main(argv: list[str] | None = None) -> int:
         progress("section engine")
         res["engine"] = bench_engine.run(quick=a.quick)
         print("\n" + bench_engine.report(res["engine"]))
+    if "wordops" in sections:
+        progress("section wordops")
+        res["wordops"] = bench_wordops.run(200, 500 if a.quick else 2000, 3 if a.quick else 7)
+        print("\n" + bench_wordops.report(res["wordops"]))
     if "peers" in sections:
         progress("section peers")
         res["peers"] = bench_peers.run(quick=a.quick)

@@ -9,6 +9,7 @@ rules: read-only objects, word/float mixing, function signatures. The rung compi
 from __future__ import annotations
 
 import itertools
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,7 +20,7 @@ from ..program import Names
 from ..runtime.blocks import MAX_VALUE
 from ..runtime.catalog import BLOCK_CLASSES
 from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
-from ..semantics import FUNCTIONS
+from ..semantics import FUNCTIONS, INLINE_EXACT, INLINE_QUOTIENT, inline_checked
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
@@ -33,6 +34,8 @@ BLOCK_PIN_METHODS = {pin: "run" if pin == "IN" else pin.lower()
 # A block's input pins (as its class declares them) and its bit outputs (its read-only bit
 # fields; the writable %VFCi.R / %VFCi.S are enable bits, not outputs).
 BLOCK_KIND_PINS = {kind: cls.PINS for kind, cls in BLOCK_CLASSES.items()}
+# Operand code without side effects (a buffer read, a literal): may be evaluated out of order
+_PURE = re.compile(r"-?[\w\[\]]+")
 BLOCK_OUTPUTS = {kind: tuple(f for f, (t, w) in fields.items() if t == BOOL and not w)
                  for kind, fields in BLOCK_FIELDS.items() if fields}
 
@@ -74,6 +77,8 @@ class ValueCompiler:
         self.indent = 1
         self.ninstr = 0
         self.env: dict[str, Any] = {}  # the bound names (`program.bind`): configured PIDs
+        # inline operation code -> (op, bits, a, b): what `store_value` may store unchecked
+        self.inline_parts: dict[str, tuple[str, int, str, str]] = {}
 
     # ---- diagnostics ----------------------------------------------------------------------
     def err(self, msg: str, pos: A.Pos | None, text: str = "", expected: str = "",
@@ -98,8 +103,26 @@ class ValueCompiler:
     def emit(self, line: str) -> None:
         self.fn.lines.append("    " * self.indent + line)
 
+    def new_local(self) -> str:
+        """A fresh local for an inline operation's value (not an accumulator: see _Acc)."""
+        return f"_v{next(self.tmp)}"
+
     def new_tmp(self) -> str:
         return f"_t{next(self.tmp)}"
+
+    def checked(self, op: str, t: str, a: str, b: str = "") -> str:
+        """Code of the checked word operation `op` (add sub mul div neg narrow) of type `t`,
+        inline (`semantics.inline_checked`)."""
+        bits = 16 if t == INT16 else 32
+        narrow = self.helper(f"narrow{bits}")
+        if op != "div":
+            code = inline_checked(op, bits, a, b, v=self.new_local(), narrow=narrow)
+        else:
+            code = inline_checked(op, bits, a, b, v=self.new_local(), narrow=narrow,
+                                  div=self.helper(f"div{bits}"), d=self.new_local(),
+                                  n="" if _PURE.fullmatch(a) else self.new_local())
+        self.inline_parts[code] = (op, bits, a, b)
+        return code
 
     def materialize(self, acc: _Acc) -> _Acc:
         if acc.simple:
@@ -256,8 +279,7 @@ class ValueCompiler:
             code, t = self.expr(e.operand, want)
             if t == REAL:
                 return f"(-{code})", REAL
-            h = self.helper("neg16" if t == INT16 else "neg32")
-            return f"{h}({code})", t
+            return self.checked("neg", t, code), t
         if isinstance(e, A.BinOp):
             return self.binop(e, want)
         if isinstance(e, A.Call):
@@ -312,8 +334,9 @@ class ValueCompiler:
             if e.op == "/":
                 return f"{self.helper('fdiv')}({a[0]}, {b[0]})", REAL
             return f"({a[0]} {e.op} {b[0]})", REAL
-        h = self.helper(f"{ARITH[e.op]}{16 if t == INT16 else 32}")
-        return f"{h}({a[0]}, {b[0]})", t
+        if e.op == "REM":
+            return f"{self.helper(f'rem{16 if t == INT16 else 32}')}({a[0]}, {b[0]})", t
+        return self.checked(ARITH[e.op], t, a[0], b[0]), t
 
     @staticmethod
     def poison(want: str | None) -> tuple[str, str]:
@@ -416,8 +439,8 @@ class ValueCompiler:
                 self.err(f"{st.op} of a float", st.pos, str(ref), "a word or double word",
                          code=Code.TYPE)
                 return
-            h = self.helper(("add" if st.op == "INC" else "sub") + ("16" if t == INT16 else "32"))
-            self.store_value(ref, f"{h}({code}, 1)", t, st.pos)
+            self.store_value(ref, self.checked("add" if st.op == "INC" else "sub", t, code, "1"),
+                             t, st.pos)
             return
         ref, e = st.target, st.expr
         if not self.check_writable(ref, st.pos):
@@ -444,7 +467,7 @@ class ValueCompiler:
                          e.text or str(e.value), "-32768 .. 32767 (or #0000 .. #FFFF)",
                          code=Code.CONSTANT)
                 return
-            code = f"{self.helper('narrow16')}({code})"
+            code = self.checked("narrow", INT16, code)
         self.store_value(ref, code, tt, st.pos)
 
     def exch(self, st: A.ExchCall) -> None:
@@ -472,6 +495,8 @@ class ValueCompiler:
 
     def store_value(self, ref: Ref, code: str, t: str, pos: A.Pos | None) -> None:
         k = ref.kind
+        if self.store_unchecked(ref, code, t):
+            return
         if k in ("IW", "QW"):
             self.use(WORD_BUFFERS[k])
             self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
@@ -501,6 +526,37 @@ class ValueCompiler:
         else:
             self.err(f"cannot assign to {ref}", pos, str(ref),
                      "a word, double word, float or block preset", code=Code.TYPE)
+
+    def store_unchecked(self, ref: Ref, code: str, t: str) -> bool:
+        """`%MW5 := %MW3 + %MW7` (one add/sub/mul/div/neg/narrow of plain reads into a
+        plain word or double word): the memoryview store itself refuses a value out of its
+        range (ValueError), a zero divisor raises ZeroDivisionError, so the common path
+        makes no check at all; the rare path recomputes with the `Ops` helper (%S18, wrap,
+        0 for a division by zero). Operands without side effects may be read twice."""
+        parts = self.inline_parts.get(code)
+        if parts is None or ref.offset is not None or t == REAL:
+            return False
+        op, bits, a, b = parts
+        if not (_PURE.fullmatch(a) and (op in ("neg", "narrow") or _PURE.fullmatch(b))):
+            return False
+        # the store's range must be the operation's: a word sum stored in a %MD checks 16 bits
+        if ref.kind in WORD_BUFFERS and bits == 16:
+            target = f"{WORD_BUFFERS[ref.kind]}[{ref.index}]"
+        elif ref.kind in PAIR_VIEWS and bits == 32:
+            target = f"{PAIR_VIEWS[ref.kind][ref.index & 1]}[{ref.index >> 1}]"
+        else:
+            return False
+        self.use(target.split("[")[0])
+        if op == "div":
+            exact, errors = INLINE_QUOTIENT.format(n=a, d=b), "(ValueError, ZeroDivisionError)"
+        else:
+            exact, errors = INLINE_EXACT[op].format(a=a, b=b), "ValueError"
+        args = a if op in ("neg", "narrow") else f"{a}, {b}"
+        self.emit("try:")
+        self.emit(f"    {target} = {exact}")
+        self.emit(f"except {errors}:  # out of the word's range, or / 0: %S18")
+        self.emit(f"    {target} = {self.helper(f'{op}{bits}')}({args})")
+        return True
 
     def table_assign(self, ref: Ref, e: A.Expr, pos: A.Pos | None) -> None:
         """Tables and bit strings: %MW0:5 := %MW10:5, %MW0:5 := 0, %M0:16 := %MW3,

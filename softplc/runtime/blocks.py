@@ -200,33 +200,52 @@ class Counter(Block):
         self.P, self.V, self.D, self.E, self.F = int(preset), 0, 0, 0, 0
         self._cu = self._cd = 0
 
-    def _done(self) -> None:
-        self.D = 1 if self.V == self.P else 0
-
-    def _count(self, up: int, down: int) -> None:
-        if up == down:
-            return
-        self.E = self.F = 0
-        if up:
-            self.V += 1
-            if self.V > MAX_VALUE:
-                self.V, self.F = 0, 1
-        else:
-            self.V -= 1
-            if self.V < 0:
-                self.V, self.E = MAX_VALUE, 1
-
     def run(self, R: Any = 0, S: Any = 0, CU: Any = 0, CD: Any = 0) -> None:
-        cu, cd = (1 if CU else 0), (1 if CD else 0)
-        up, down = cu > self._cu, cd > self._cd
-        self._cu, self._cd = cu, cd
+        up, down = CU and not self._cu, CD and not self._cd  # rising edges
+        self._cu, self._cd = (1 if CU else 0), (1 if CD else 0)
         if R:
             self.V, self.E, self.F = 0, 0, 0
         elif S:
             self.V = self.P
+        elif up:
+            if not down:  # both in one scan cancel
+                self.E = 0
+                if self.V < MAX_VALUE:
+                    self.V, self.F = self.V + 1, 0
+                else:
+                    self.V, self.F = 0, 1
+        elif down:
+            self.F = 0
+            if self.V > 0:
+                self.V, self.E = self.V - 1, 0
+            else:
+                self.V, self.E = MAX_VALUE, 1
+        self.D = 1 if self.V == self.P else 0
+
+    # The short form (`CU %C0`, `CD %C0`): `run` with that input, R = S = 0 and the other
+    # edge input held (no edge), written out: one call instead of three, the rising edge
+    # the only branch that counts (tests/test_block_fastpath.py checks them against `run`).
+    def cu(self, v: Any) -> None:
+        if v and not self._cu:
+            self._cu, self.E, self.F = 1, 0, 0
+            if self.V < MAX_VALUE:
+                self.V += 1
+            else:
+                self.V, self.F = 0, 1
         else:
-            self._count(up, down)
-        self._done()
+            self._cu = 1 if v else 0
+        self.D = 1 if self.V == self.P else 0
+
+    def cd(self, v: Any) -> None:
+        if v and not self._cd:
+            self._cd, self.E, self.F = 1, 0, 0
+            if self.V > 0:
+                self.V -= 1
+            else:
+                self.V, self.E = MAX_VALUE, 1
+        else:
+            self._cd = 1 if v else 0
+        self.D = 1 if self.V == self.P else 0
 
 
 class Drum(Block):
