@@ -44,7 +44,7 @@ SW_LATE, SW_SKIPPED = 33, 34
 DEFAULT_WATCHDOG_S = 0.150  # [manual]
 
 
-@dataclass
+@dataclass(slots=True)  # slots: the generated scan updates it every scan
 class ScanStats:
     scans: int = 0
     last: float = 0.0  # seconds, measured wall time of the program execution
@@ -95,7 +95,9 @@ class Engine:
     def __init__(self, mem: MemoryImage, clock: Clock, period_s: float, watchdog_s: float,
                  time_source: Any = None):
         self.version = 0  # +1 on each change the generated scan depends on
-        self._scan: Callable[[], None] = self._rebuild
+        # the generated scan; a copy held by a caller after a change hands over to the new
+        # one (its first line compares the version)
+        self.scan: Callable[[], None] = self._rebuild
         self.mem = mem
         self.time_source = time_source  # timers read the scan's start time from it
         self.clock = clock
@@ -120,6 +122,7 @@ class Engine:
         self._deadline = 0.0
         self._cpu0: float | None = None  # thread CPU time at the scan's start, when measured
         self._suspect = False  # the last scan was late on the wall clock: measure CPU time
+        mem.on_copiers = self.invalidate
         mem.s[S_RUNNING] = 1
         mem.sw.w[SW_PERIOD] = min(32767, round(period_s * 1000))
         mem.sw.w[SW_WATCHDOG] = min(32767, round(watchdog_s * 1000))
@@ -135,23 +138,23 @@ class Engine:
         from another thread: the version is bumped first, so a scan being generated
         meanwhile is dropped (see `_rebuild`)."""
         self.version += 1
-        self._scan = self._rebuild
+        self.scan = self._rebuild
 
     def _rebuild(self) -> None:
         """Generate the scan for the configuration as it is now, and run it."""
         while True:
             v = self.version
             scan = build(self)[0]
-            self._scan = scan
+            self.scan = scan
             if self.version == v:
                 break
-            self._scan = self._rebuild
+            self.scan = self._rebuild
         scan()
 
     def _resume(self, part: int) -> Any:
         """A before_scan hook changed the configuration: the rest of this scan (0) or of
         this `begin` (1) with the new one."""
-        self._scan = self._rebuild
+        self.scan = self._rebuild
         return build(self, before=False)[part]()
 
     def watchdog_expired(self) -> bool:
@@ -292,9 +295,6 @@ class Engine:
             self.mem.write(ref, v, field_inputs=False)
 
     # -- the scan -----------------------------------------------------------------------------
-    def scan(self) -> None:
-        self._scan()
-
     def scan_stepwise(self, debug_main: Callable[[], Iterator[tuple[int, int]]]
                       ) -> Iterator[tuple[int, int]]:
         """One scan of a debug build, yielding (rung, instruction) before each instruction.

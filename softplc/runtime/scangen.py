@@ -82,8 +82,9 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
     ns: dict[str, Any] = {
         "eng": eng, "mem": eng.mem, "s": eng.mem.s, "sw": eng.mem.sw.w, "clock": eng.clock,
         "P": eng.period_us, "DTS": eng.period_us / 1e6, "W": eng.watchdog_s,
-        "RUN": "RUN", "V": eng.version, "main": eng.main, "latch": eng.mem.latch_inputs,
-        "publish": eng.mem.publish_outputs, "ts": eng.time_source, "rtc": eng.rtc,
+        "RUN": "RUN", "V": eng.version, "main": eng.main, "i": eng.mem.i,
+        "i_field": eng.mem.i_field,
+        "q": eng.mem.q, "q_field": eng.mem.q_field, "ts": eng.time_source, "rtc": eng.rtc,
         "pulses": eng.pulses, "perf_counter": time.perf_counter,
         "perf_counter_ns": time.perf_counter_ns, "thread_time": time.thread_time,
         "Watchdog": Watchdog, "clock_bits": CLOCK_BITS, "forced_inputs": eng._forced_inputs,
@@ -106,9 +107,9 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
         begin.append("rtc.tick(now)")
     begin.append(f"s[4:8] = clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]")
     begin += [f"s[{bit}] = {v}" for bit, v in eng._first.items()]
-    begin.append("latch()")
+    begin += eng.mem.copy_lines("I")  # the input latch, inlined
     if eng._forced_inputs:
-        begin += ["for buf, i, v in forced_inputs:", "    buf[i] = v"]
+        begin += ["for buf, k, v in forced_inputs:", "    buf[k] = v"]
     if eng.forced:
         begin.append("apply_forced()")
     run = ["t0 = perf_counter()", "eng._deadline = t0 + W"]  # step 4, scan() only
@@ -134,7 +135,8 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
                    "eng.invalidate()"]
     if eng.forced:
         finish.append("apply_forced()")
-    finish += ["if eng.state == RUN:", "    publish()",
+    publish = [f"    {x}" for x in eng.mem.copy_lines("Q")] or ["    pass"]
+    finish += ["if eng.state == RUN:", *publish,
                "st = eng.stats", "st.scans += 1", "st.last = dt", "st.total += dt",
                "ms = int(dt * 1000 + 0.5)", f"sw[{SW_LAST}] = ms = ms if ms < 32767 else 32767",
                "if dt > st.max:", "    st.max = dt", f"    sw[{SW_MAX}] = ms",
@@ -157,7 +159,9 @@ def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[
         return "".join(f"        {x}\n".replace("{part}", str(part)) for x in lines) \
             or "        pass\n"
 
-    scan = pre + begin + (run + finish if run is not None else [])
+    # a copy of the scan held by a caller after a change hands over to the current one
+    scan = ["if eng.version != V: return eng.scan()", *pre, *begin,
+            *(run + finish if run is not None else [])]
     return ("def make():\n"
             f"    def scan():\n{body(scan, 0)}"
             f"    def begin():\n{body(pre + begin + begun, 1)}"
