@@ -104,3 +104,17 @@ def test_nothing_configured_means_no_hook_device_or_forcing_code():
     text, _ = source(plc.engine)
     assert "b0()" not in text and "a0()" not in text and "d0(" not in text
     assert "forced" not in text and "clock.now_us += P" in text
+
+
+def test_a_loop_loaded_later_still_trips_the_watchdog():
+    """A program without a backward jump never reads the deadline, so the scan does not
+    set it; a looping program loaded in its place must get it back."""
+    plc = PLC.from_source(COPY, {"watchdog": "10ms"})
+    plc.scan(2)
+    assert "_deadline" not in source(plc.engine)[0]
+    plc.replace_program(PLC.from_source("LD 1\nST %Q0.0\n%L1:\nLD %M0\nJMPC %L1\n").ast)
+    plc.scan()
+    assert plc.state == "RUN" and plc.mem.q_field[0] == 1
+    plc["%M0"] = 1
+    plc.scan()
+    assert plc.state == "HALT" and plc["%S11"]

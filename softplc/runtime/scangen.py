@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Any, SupportsIndex
 
-from ..program import Watchdog
+from ..program import Names, Watchdog
 from .clock import Clock, RealClock, VirtualClock
 
 if TYPE_CHECKING:
@@ -62,7 +62,7 @@ CLOCK_STEP = 5000
 CLOCK_BITS = [tuple(1 if (k * CLOCK_STEP) % p < p // 2 else 0 for p in S_CLOCKS.values())
               for k in range(60_000_000 // CLOCK_STEP)]
 assert all(p % (2 * CLOCK_STEP) == 0 and 60_000_000 % p == 0 for p in S_CLOCKS.values())
-assert list(S_CLOCKS) == [4, 5, 6, 7]  # one slice, s[4:8]
+assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
 
 
 def _clock_code(clock: Clock) -> tuple[str, str]:
@@ -73,6 +73,14 @@ def _clock_code(clock: Clock) -> tuple[str, str]:
     if type(clock) is RealClock:
         return "now = clock.now_us = (perf_counter_ns() - clock._t0) // 1000", ""
     return "now = clock.start_scan(P)", "clock.end_scan(P)"
+
+
+def _checks_watchdog(eng: Engine) -> bool:
+    """Does the program read the watchdog deadline (a loop: a backward jump)? Only then
+    does the scan set it."""
+    program = eng.program
+    return program is None or eng.main is not program.main or \
+        f"{Names.WATCHDOG}(" in program.source
 
 
 def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
@@ -105,14 +113,16 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
         begin.append("ts.now_us = now")
     if eng.rtc is not None:
         begin.append("rtc.tick(now)")
-    begin.append(f"s[4:8] = clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]")
+    begin.append(f"s[4], s[5], s[6], s[7] = clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]")
     begin += [f"s[{bit}] = {v}" for bit, v in eng._first.items()]
     begin += eng.mem.copy_lines("I")  # the input latch, inlined
     if eng._forced_inputs:
         begin += ["for buf, k, v in forced_inputs:", "    buf[k] = v"]
     if eng.forced:
         begin.append("apply_forced()")
-    run = ["t0 = perf_counter()", "eng._deadline = t0 + W"]  # step 4, scan() only
+    run = ["t0 = perf_counter()"]  # step 4, scan() only
+    if _checks_watchdog(eng):
+        run.append("eng._deadline = t0 + W")
     if eng._suspect:  # the last scan was late: measure this one's CPU time
         run.append("eng._cpu0 = thread_time()")
     run += ["try:", "    main()", "except Watchdog:",
