@@ -154,7 +154,9 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
                "    ms = int(dt * 1000 + 0.5)",
                f"    sw[{SW_LAST}] = ms = ms if ms < 32767 else 32767",
                "if dt > st.max:", "    st.max = dt", f"    sw[{SW_MAX}] = ms",
-               "if dt < st.min or st.scans == 1:", "    st.min = dt", f"    sw[{SW_MIN}] = ms"]
+               # the first scan's time is the minimum (regenerated after it: _first)
+               "if dt < st.min" + (" or st.scans == 1:" if eng.stats.scans == 0 else ":"),
+               "    st.min = dt", f"    sw[{SW_MIN}] = ms"]
     if end:
         finish.append(end)
     if eng.devices:
