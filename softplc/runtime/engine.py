@@ -288,9 +288,9 @@ class Engine:
                 self._forced_other.append((ref, v))
         self.forced = forced  # regenerates the scan
 
-    def _apply_forced(self) -> None:
-        for buf, i, v in self._forced_bits:
-            buf[i] = v
+    def _apply_forced_other(self) -> None:
+        """Forced words and other non-bit objects (the generated scan stores forced bits
+        itself)."""
         for ref, v in self._forced_other:
             self.mem.write(ref, v, field_inputs=False)
 

@@ -83,6 +83,18 @@ def _checks_watchdog(eng: Engine) -> bool:
         f"{Names.WATCHDOG}(" in program.source
 
 
+def _forced_code(eng: Engine, ns: dict[str, Any], inputs: bool = False) -> list[str]:
+    """Forced values re-asserted, one store per bit (`inputs`: the forced %I, after the
+    latch), other objects through `Engine._apply_forced_other`."""
+    prefix = "fi" if inputs else "fb"
+    entries = eng._forced_inputs if inputs else eng._forced_bits
+    ns.update({f"{prefix}{k}": buf for k, (buf, _, _) in enumerate(entries)})
+    lines = [f"{prefix}{k}[{i}] = {v}" for k, (_, i, v) in enumerate(entries)]
+    if eng._forced_other and not inputs:
+        lines.append("apply_forced_other()")
+    return lines
+
+
 def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
     """The text of `make()`, which returns (scan, begin, finish), and its namespace.
     `before=False` leaves out the before_scan hooks (a hook changed the configuration and
@@ -95,8 +107,8 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
         "q": eng.mem.q, "q_field": eng.mem.q_field, "ts": eng.time_source, "rtc": eng.rtc,
         "pulses": eng.pulses, "perf_counter": time.perf_counter,
         "perf_counter_ns": time.perf_counter_ns, "thread_time": time.thread_time,
-        "Watchdog": Watchdog, "clock_bits": CLOCK_BITS, "forced_inputs": eng._forced_inputs,
-        "apply_forced": eng._apply_forced}
+        "Watchdog": Watchdog, "clock_bits": CLOCK_BITS,
+        "apply_forced_other": eng._apply_forced_other}
     hooks_b = [f"b{k}()" for k in range(len(eng.before_scan))] if before else []
     hooks_a = [f"a{k}()" for k in range(len(eng.after_scan))]
     ns.update({f"b{k}": h for k, h in enumerate(eng.before_scan)})
@@ -116,10 +128,8 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
     begin.append(f"s[4], s[5], s[6], s[7] = clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]")
     begin += [f"s[{bit}] = {v}" for bit, v in eng._first.items()]
     begin += eng.mem.copy_lines("I")  # the input latch, inlined
-    if eng._forced_inputs:
-        begin += ["for buf, k, v in forced_inputs:", "    buf[k] = v"]
-    if eng.forced:
-        begin.append("apply_forced()")
+    forced = _forced_code(eng, ns)
+    begin += _forced_code(eng, ns, inputs=True) + forced
     run = ["t0 = perf_counter()"]  # step 4, scan() only
     if _checks_watchdog(eng):
         run.append("eng._deadline = t0 + W")
@@ -143,8 +153,7 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
     if eng._first:
         finish += [*(f"s[{bit}] = 0" for bit in eng._first), "eng._first = {}",
                    "eng.invalidate()"]
-    if eng.forced:
-        finish.append("apply_forced()")
+    finish += forced
     publish = [f"    {x}" for x in eng.mem.copy_lines("Q")] or ["    pass"]
     finish += ["if eng.state == RUN:", *publish,
                "st = eng.stats", "st.scans += 1", "st.last = dt", "st.total += dt",
