@@ -23,14 +23,15 @@ import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from types import FunctionType
 from typing import Any
 
 from ..address import Ref
 from ..program import CompiledProgram
 from .clock import Clock
 from .memory import MemoryImage
+from .scangen import HANDOVER, HookList, build
 from .scangen import S_CLOCKS as S_CLOCKS  # where verify/ and others look for them
-from .scangen import HookList, build
 
 RUN, STOP, HALT = "RUN", "STOP", "HALT"
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
@@ -95,8 +96,8 @@ class Engine:
     def __init__(self, mem: MemoryImage, clock: Clock, period_s: float, watchdog_s: float,
                  time_source: Any = None):
         self.version = 0  # +1 on each change the generated scan depends on
-        # the generated scan; a copy held by a caller after a change hands over to the new
-        # one (its first line compares the version)
+        # the generated scan (a copy held by a caller after a change hands over to the new
+        # one: scangen.HANDOVER)
         self.scan: Callable[[], None] = self._rebuild
         self.mem = mem
         self.time_source = time_source  # timers read the scan's start time from it
@@ -138,7 +139,9 @@ class Engine:
         from another thread: the version is bumped first, so a scan being generated
         meanwhile is dropped (see `_rebuild`)."""
         self.version += 1
-        self.scan = self._rebuild
+        stale, self.scan = self.scan, self._rebuild
+        if isinstance(stale, FunctionType):
+            stale.__code__ = HANDOVER
 
     def _rebuild(self) -> None:
         """Generate the scan for the configuration as it is now, and run it."""
@@ -149,6 +152,7 @@ class Engine:
             if self.version == v:
                 break
             self.scan = self._rebuild
+            scan.__code__ = HANDOVER
         scan()
 
     def _resume(self, part: int) -> Any:

@@ -102,7 +102,7 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
     ns: dict[str, Any] = {
         "eng": eng, "mem": eng.mem, "s": eng.mem.s, "sw": eng.mem.sw.w, "clock": eng.clock,
         "P": eng.period_us, "DTS": eng.period_us / 1e6, "W": eng.watchdog_s,
-        "RUN": "RUN", "V": eng.version, "main": eng.main, "i": eng.mem.i,
+        "RUN": "RUN", "V": eng.version, "st": eng.stats, "main": eng.main, "i": eng.mem.i,
         "i_field": eng.mem.i_field,
         "q": eng.mem.q, "q_field": eng.mem.q_field, "ts": eng.time_source, "rtc": eng.rtc,
         "pulses": eng.pulses, "perf_counter": time.perf_counter,
@@ -155,8 +155,14 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
                    "eng.invalidate()"]
     finish += forced
     publish = [f"    {x}" for x in eng.mem.copy_lines("Q")] or ["    pass"]
-    finish += ["if eng.state == RUN:", *publish,
-               "st = eng.stats", "st.scans += 1", "st.last = dt", "st.total += dt",
+    # after a HALT in this scan the output image is all 0 (Engine.halt), so publishing it
+    # changes nothing, unless something writes %Q after the program: forcing, pulse
+    # generators, RTC schedules
+    if eng.forced or eng.pulses is not None or eng.rtc is not None:
+        finish += ["if eng.state == RUN:", *publish]
+    else:
+        finish += [x[4:] for x in publish if x != "    pass"]
+    finish += ["st.scans += 1", "st.last = dt", "st.total += dt",
                # int() of a float is the dearest step of the statistics: most scans are
                # under half a millisecond
                "if dt < 0.0005:", f"    sw[{SW_LAST}] = ms = 0", "else:",
@@ -184,14 +190,19 @@ def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[
         return "".join(f"        {x}\n".replace("{part}", str(part)) for x in lines) \
             or "        pass\n"
 
-    # a copy of the scan held by a caller after a change hands over to the current one
-    scan = ["if eng.version != V: return eng.scan()", *pre, *begin,
+    scan = [*pre, *begin,
             *(run + finish if run is not None else [])]
     return ("def make():\n"
             f"    def scan():\n{body(scan, 0)}"
             f"    def begin():\n{body(pre + begin + begun, 1)}"
             f"    def finish(dt):\n{body(finish, 0)}"
             "    return scan, begin, finish\n")
+
+
+# What `Engine.invalidate` puts into a generated scan a caller may still hold (PLC.scan(n),
+# benchmarks): it hands over to the current one, so the scan itself checks nothing.
+HANDOVER = compile("def scan():\n    return eng.scan()\n", "<scan handover>", "exec"
+                   ).co_consts[0]
 
 
 def build(eng: Engine, before: bool = True) -> tuple[Callable[[], None],
