@@ -118,3 +118,28 @@ def test_a_loop_loaded_later_still_trips_the_watchdog():
     plc["%M0"] = 1
     plc.scan()
     assert plc.state == "HALT" and plc["%S11"]
+
+
+LOOP = "LD 1\nST %Q0.0\n%L1:\nLD %M0\nJMPC %L1\n"  # loops while %M0
+
+
+def test_a_halt_in_the_scan_leaves_the_field_outputs_at_zero():
+    """Without forcing, pulses or RTC the scan publishes without looking at the state:
+    HALT has zeroed the output image, so the field gets zeros."""
+    plc = PLC.from_source(LOOP, {"watchdog": "10ms"})
+    plc.scan()
+    assert plc.mem.q_field[0] == 1
+    plc["%M0"] = 1
+    plc.scan()
+    assert plc.state == "HALT" and "watchdog" in plc.engine.fault
+    assert plc.mem.q_field[0] == 0
+
+
+def test_a_forced_output_is_not_published_in_halt():
+    plc = PLC.from_source(LOOP, {"watchdog": "10ms"})
+    plc.force("%Q0.3", 1)
+    plc.scan()
+    assert plc.mem.q_field[3] == 1
+    plc["%M0"] = 1
+    plc.scan()
+    assert plc.state == "HALT" and plc.mem.q_field[3] == 0
