@@ -143,3 +143,32 @@ def test_a_forced_output_is_not_published_in_halt():
     plc["%M0"] = 1
     plc.scan()
     assert plc.state == "HALT" and plc.mem.q_field[3] == 0
+
+
+def test_hooks_changed_from_another_thread_while_scanning():
+    """The web monitor and the daemon add and remove hooks from their own threads: every
+    scan runs with some consistent configuration and the last change wins."""
+    import threading
+
+    plc = PLC.from_source(COPY)
+    done = threading.Event()
+
+    def churn() -> None:
+        for _ in range(300):
+            h = (lambda: None)
+            plc.after_scan.append(h)
+            plc.after_scan.remove(h)
+        done.set()
+
+    t = threading.Thread(target=churn)
+    t.start()
+    n = 0
+    while not done.is_set() and n < 200_000:
+        plc.scan()
+        n += 1
+    t.join(10)
+    assert not t.is_alive() and plc.state == "RUN" and plc.scan_count == n
+    seen: list[int] = []
+    plc.after_scan.append(lambda: seen.append(1))
+    plc.scan(2)
+    assert seen == [1, 1] and len(plc.after_scan) == 1
