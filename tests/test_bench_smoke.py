@@ -15,6 +15,7 @@ TOOLS = Path(__file__).resolve().parents[1] / "tools"
 sys.path.insert(0, str(TOOLS))
 
 import bench_engine  # noqa: E402
+import bench_floor  # noqa: E402
 import bench_peers  # noqa: E402
 from peers.programs import chain_program, mixed_program, to_stl  # noqa: E402
 
@@ -23,6 +24,13 @@ from softplc.plc import PLC  # noqa: E402
 
 def _positive(x: object) -> bool:
     return isinstance(x, float) and math.isfinite(x) and x > 0
+
+
+def test_floor_benchmark_tiny() -> None:
+    res = bench_floor.run(number=20, repeat=1)
+    assert {k.split(", ")[0] for k in res} == {"virtual", "real"} and len(res) == 8
+    for name, r in res.items():
+        assert all(_positive(r[k]) for k in ("main", "engine", "plc")), name
 
 
 def test_engine_benchmark_tiny(tmp_path: Path) -> None:

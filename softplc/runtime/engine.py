@@ -10,6 +10,10 @@ One `scan()`:
      output image to the field
   6. simulated devices read field outputs / write field inputs
   7. scan time statistics (%SW30-%SW32), `after_scan` hooks
+
+The code of steps 1-3 and 5-7 is generated for the configuration (runtime/scangen.py) and
+regenerated when it changes: whatever sets an attribute below through `_Setting` or a
+hook list, or changes the run state, calls `invalidate()`.
 """
 
 from __future__ import annotations
@@ -19,18 +23,20 @@ import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from types import FunctionType
 from typing import Any
 
 from ..address import Ref
-from ..program import CompiledProgram, Watchdog
+from ..program import CompiledProgram
 from .clock import Clock
 from .memory import MemoryImage
+from .scangen import HANDOVER, HookList, build
+from .scangen import S_CLOCKS as S_CLOCKS  # where verify/ and others look for them
 
 RUN, STOP, HALT = "RUN", "STOP", "HALT"
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
 S_RUNNING = 12  # 1 in RUN, 0 in STOP/HALT [manual]; set on each change of state
 S_GRAFCET_INIT = 21  # set by the system on a cold start [manual]; see runtime/grafcet.py
-S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}  # period in us [manual]
 S_WATCHDOG, S_OVERRUN = 11, 19
 SW_PERIOD, SW_WATCHDOG, SW_LAST, SW_MAX, SW_MIN = 0, 11, 30, 31, 32
 # [softplc, not a Twido word] periodic mode's late and skipped scan starts (daemon), counted
@@ -39,7 +45,7 @@ SW_LATE, SW_SKIPPED = 33, 34
 DEFAULT_WATCHDOG_S = 0.150  # [manual]
 
 
-@dataclass
+@dataclass(slots=True)  # slots: the generated scan updates it every scan
 class ScanStats:
     scans: int = 0
     last: float = 0.0  # seconds, measured wall time of the program execution
@@ -51,9 +57,48 @@ class ScanStats:
     skipped_starts: int = 0  # scheduled starts that passed during overruns
 
 
+class _Setting:
+    """An engine attribute the generated scan depends on: setting it regenerates the scan.
+    A dict (`devices`) is read when the scan is generated: replace it, do not change it in
+    place."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.slot = "_" + name
+
+    def __get__(self, eng: Any, owner: type) -> Any:
+        return getattr(eng, self.slot)
+
+    def __set__(self, eng: Any, value: Any) -> None:
+        setattr(eng, self.slot, value)
+        eng.invalidate()
+
+
+class _Hooks(_Setting):
+    """A hook list attribute: kept as a `HookList`, which regenerates on each change."""
+
+    def __set__(self, eng: Any, value: Any) -> None:
+        super().__set__(eng, HookList(eng.invalidate, value))
+
+
 class Engine:
+    time_source = _Setting()
+    clock = _Setting()
+    period_us = _Setting()
+    watchdog_s = _Setting()
+    main = _Setting()
+    devices = _Setting()
+    rtc = _Setting()
+    pulses = _Setting()
+    forced = _Setting()
+    before_scan = _Hooks()
+    after_scan = _Hooks()
+
     def __init__(self, mem: MemoryImage, clock: Clock, period_s: float, watchdog_s: float,
                  time_source: Any = None):
+        self.version = 0  # +1 on each change the generated scan depends on
+        # the generated scan (a copy held by a caller after a change hands over to the new
+        # one: scangen.HANDOVER)
+        self.scan: Callable[[], None] = self._rebuild
         self.mem = mem
         self.time_source = time_source  # timers read the scan's start time from it
         self.clock = clock
@@ -75,10 +120,10 @@ class Engine:
         self._forced_inputs: list[tuple[list[int], int, int]] = []
         self._forced_other: list[tuple[Ref, Any]] = []
         self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}  # first-scan bits to raise
-        self._clocks = tuple((bit, p, p // 2) for bit, p in S_CLOCKS.items())
         self._deadline = 0.0
         self._cpu0: float | None = None  # thread CPU time at the scan's start, when measured
         self._suspect = False  # the last scan was late on the wall clock: measure CPU time
+        mem.on_copiers = self.invalidate
         mem.s[S_RUNNING] = 1
         mem.sw.w[SW_PERIOD] = min(32767, round(period_s * 1000))
         mem.sw.w[SW_WATCHDOG] = min(32767, round(watchdog_s * 1000))
@@ -87,6 +132,34 @@ class Engine:
     def load(self, program: CompiledProgram) -> None:
         self.program = program
         self.main = program.main
+
+    # -- the generated scan -------------------------------------------------------------------
+    def invalidate(self) -> None:
+        """The configuration changed: regenerate the scan before the next one runs. Safe
+        from another thread: the version is bumped first, so a scan being generated
+        meanwhile is dropped (see `_rebuild`)."""
+        self.version += 1
+        stale, self.scan = self.scan, self._rebuild
+        if isinstance(stale, FunctionType):
+            stale.__code__ = HANDOVER
+
+    def _rebuild(self) -> None:
+        """Generate the scan for the configuration as it is now, and run it."""
+        while True:
+            v = self.version
+            scan = build(self)[0]
+            self.scan = scan
+            if self.version == v:
+                break
+            self.scan = self._rebuild
+            scan.__code__ = HANDOVER
+        scan()
+
+    def _resume(self, part: int) -> Any:
+        """A before_scan hook changed the configuration: the rest of this scan (0) or of
+        this `begin` (1) with the new one."""
+        self.scan = self._rebuild
+        return build(self, before=False)[part]()
 
     def watchdog_expired(self) -> bool:
         return time.perf_counter() > self._deadline and self._overran_in_loop()
@@ -110,15 +183,17 @@ class Engine:
         self._deadline = time.perf_counter() + self.watchdog_s - used
         return False
 
-    def _late_scan(self) -> bool:
-        """A finished scan took longer than the watchdog on the wall clock: True when its CPU
-        time confirms it; without a CPU measurement, measure the next scans."""
-        if self.watchdog_s == -math.inf:
-            return True
-        if self._cpu0 is not None and time.thread_time() - self._cpu0 > self.watchdog_s:
-            return True
-        self._suspect = True
-        return False
+    def _overran(self, dt: float) -> None:
+        """A finished scan took longer than the watchdog on the wall clock: trip when its
+        CPU time confirms it; without a CPU measurement, measure the next scans."""
+        if self.state == RUN:
+            if self.watchdog_s == -math.inf or (
+                    self._cpu0 is not None and time.thread_time() - self._cpu0 > self.watchdog_s):
+                self._watchdog_trip(dt)
+            else:
+                self._suspect = True
+                self.invalidate()
+        self._cpu0 = None
 
     def interrupt(self) -> None:
         """End the running scan at its next watchdog check, and any later scan at once, as
@@ -143,6 +218,7 @@ class Engine:
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
         self.mem.s[S_RUNNING] = 1
+        self.invalidate()
 
     def warm_start(self) -> None:
         """Keep data; %S1 and %S13 on the next scan."""
@@ -150,10 +226,12 @@ class Engine:
         self.state, self.fault = RUN, ""
         self.mem.s[S_WATCHDOG] = 0
         self.mem.s[S_RUNNING] = 1
+        self.invalidate()
 
     def stop(self) -> None:
         self.state = STOP
         self.mem.s[S_RUNNING] = 0
+        self.invalidate()
 
     def start(self) -> None:
         """STOP -> RUN (%S13 on the first scan). A HALT needs cold_start/warm_start."""
@@ -161,11 +239,13 @@ class Engine:
             self.state = RUN
             self._first = {S_FIRST: 1}
             self.mem.s[S_RUNNING] = 1
+            self.invalidate()
 
     def halt(self, reason: str) -> None:
         self.state, self.fault = HALT, reason
         self.mem.s[S_RUNNING] = 0
         self.stop_outputs()
+        self.invalidate()
 
     def stop_outputs(self) -> None:
         """Outputs to their fallback value 0, image and field."""
@@ -199,10 +279,10 @@ class Engine:
             self.program.state.clear_transitions()  # those of an abandoned scan
         for name, st in snap["devices"].items():
             self.devices[name].set_state(st)
+        self.invalidate()  # the run state, first-scan bits, the clock bits' interval
 
     # -- forcing ------------------------------------------------------------------------------
     def set_forced(self, forced: dict[Ref, Any]) -> None:
-        self.forced = forced
         self._forced_bits, self._forced_inputs, self._forced_other = [], [], []
         for ref, v in forced.items():
             if ref.kind in ("I", "Q", "M", "S", "X") and ref.offset is None:
@@ -210,42 +290,25 @@ class Engine:
                 (self._forced_inputs if ref.kind == "I" else self._forced_bits).append(entry)
             else:
                 self._forced_other.append((ref, v))
+        self.forced = forced  # regenerates the scan
 
-    def _apply_forced(self) -> None:
-        for buf, i, v in self._forced_bits:
-            buf[i] = v
+    def _apply_forced_other(self) -> None:
+        """Forced words and other non-bit objects (the generated scan stores forced bits
+        itself)."""
         for ref, v in self._forced_other:
             self.mem.write(ref, v, field_inputs=False)
 
     # -- the scan -----------------------------------------------------------------------------
-    def scan(self) -> None:
-        if not self._begin():
-            return
-        t0 = time.perf_counter()
-        self._deadline = t0 + self.watchdog_s
-        if self._suspect:
-            self._cpu0 = time.thread_time()
-        try:
-            self.main()
-        except Watchdog:
-            self._watchdog_trip(time.perf_counter() - t0)
-        except Exception as e:  # any fault of the program: HALT, keep serving
-            self._fault(e)
-        dt = time.perf_counter() - t0
-        if dt > self.watchdog_s:
-            if self.state == RUN and self._late_scan():
-                self._watchdog_trip(dt)
-            self._cpu0 = None
-        elif self._suspect:
-            self._suspect, self._cpu0 = False, None
-        self._finish(dt)
-
     def scan_stepwise(self, debug_main: Callable[[], Iterator[tuple[int, int]]]
                       ) -> Iterator[tuple[int, int]]:
         """One scan of a debug build, yielding (rung, instruction) before each instruction.
         The watchdog is off (a person is stepping); the scan completes when exhausted."""
-        if not self._begin():
+        _, begin, finish = build(self)
+        version = self.version
+        if not begin():
             return
+        if self.version != version:  # a before_scan hook changed the configuration
+            finish = build(self, before=False)[2]
         self._deadline = float("inf")
         busy = 0.0  # execution time only: time stopped at a yield (a breakpoint) is not scan
         t0 = time.perf_counter()
@@ -256,78 +319,7 @@ class Engine:
                 t0 = time.perf_counter()
         except Exception as e:  # as scan()
             self._fault(e)
-        self._finish(busy + time.perf_counter() - t0)
-
-    def _begin(self) -> bool:
-        """Steps 1-3 of the scan. False when not in RUN (the scan is then complete)."""
-        mem, clock, period = self.mem, self.clock, self.period_us
-        for h in self.before_scan:
-            h()
-        if self.state != RUN:
-            clock.start_scan(period)
-            clock.end_scan(period)
-            for h in self.after_scan:
-                h()
-            return False
-        now = clock.start_scan(period)
-        if self.time_source is not None:
-            self.time_source.now_us = now
-        if self.rtc is not None:
-            self.rtc.tick(now)
-        s = mem.s
-        for bit, p, half in self._clocks:  # %S4..%S7: 50 % clocks
-            s[bit] = 1 if now % p < half else 0
-        if self._first:
-            for bit, v in self._first.items():
-                s[bit] = v
-        mem.latch_inputs()
-        if self._forced_inputs:
-            for buf, i, v in self._forced_inputs:
-                buf[i] = v
-        if self.forced:
-            self._apply_forced()
-        return True
-
-    def _finish(self, dt: float) -> None:
-        """Steps 5-7 of the scan; dt is the measured execution time."""
-        mem = self.mem
-        ts = self.time_source
-        if ts is not None and ts.running:  # timers whose block this scan did not execute
-            ts.update_running()
-        if self.rtc is not None:
-            self.rtc.end_of_scan(self.clock.now_us)
-        if self.pulses is not None:  # pulse generators run on; %Q shows their level
-            self.pulses.end_of_scan(self.clock.now_us)
-        if self._first:
-            s = mem.s
-            for bit in self._first:
-                s[bit] = 0
-            self._first = {}
-        if self.forced:
-            self._apply_forced()
-        if self.state == RUN:
-            mem.publish_outputs()
-        st = self.stats
-        st.scans += 1
-        st.last = dt
-        st.total += dt
-        sw = mem.sw.w
-        ms = int(dt * 1000 + 0.5)
-        sw[SW_LAST] = ms if ms < 32767 else 32767
-        if dt > st.max:
-            st.max = dt
-            sw[SW_MAX] = sw[SW_LAST]
-        if dt < st.min or st.scans == 1:
-            st.min = dt
-            sw[SW_MIN] = sw[SW_LAST]
-        self.clock.end_scan(self.period_us)
-        if self.devices:
-            t = self.clock.now_us / 1e6
-            dts = self.period_us / 1e6
-            for dev in self.devices.values():
-                dev.update(t, dts)
-        for h in self.after_scan:
-            h()
+        finish(busy + time.perf_counter() - t0)
 
     def _fault(self, e: Exception) -> None:
         """An exception inside the program: HALT with the fault recorded, as a Twido

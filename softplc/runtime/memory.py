@@ -12,6 +12,7 @@ indexing, and boolean rungs run 3.3x faster over lists than over a bytearray (3.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from ..address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
@@ -68,6 +69,8 @@ class MemoryImage:
         # drawing-table program's I/O.
         self._in_used: set[int] = set()
         self._out_used: set[int] = set()
+        # called when the copies change: the engine inlines them in its generated scan
+        self.on_copiers: Callable[[], None] | None = None
         self._build_copiers()
         self.m = [0] * c("M")
         self.s = [0] * c("S")
@@ -195,16 +198,24 @@ class MemoryImage:
         configuration, a device or an API write)."""
         return frozenset(self._in_used if kind == "I" else self._out_used)
 
+    def copy_lines(self, kind: str) -> list[str]:
+        """The scan-boundary copy of "I" (`i[k] = i_field[k]`) or "Q" (`q_field[k] = q[k]`)
+        as lines of Python, one per channel in use."""
+        dst, src, used = ("i", "i_field", self._in_used) if kind == "I" else \
+            ("q_field", "q", self._out_used)
+        return [f"{dst}[{k}] = {src}[{k}]" for k in sorted(used)]
+
     def _build_copiers(self) -> None:
-        def copier(name: str, dst: str, src: str, used: set[int]) -> object:
-            body = "".join(f"    {dst}[{k}] = {src}[{k}]\n" for k in sorted(used)) or "    pass\n"
+        def copier(name: str, kind: str, dst: str, src: str) -> object:
+            body = "".join(f"    {x}\n" for x in self.copy_lines(kind)) or "    pass\n"
             ns = {dst: getattr(self, dst), src: getattr(self, src)}
             exec(f"def {name}({dst}={dst}, {src}={src}):\n{body}", ns)
             return ns[name]
 
-        self.latch_inputs = copier("latch_inputs", "i", "i_field", self._in_used)
-        self.publish_outputs = copier("publish_outputs", "q_field", "q", self._out_used)
-
+        self.latch_inputs = copier("latch_inputs", "I", "i", "i_field")
+        self.publish_outputs = copier("publish_outputs", "Q", "q_field", "q")
+        if self.on_copiers is not None:
+            self.on_copiers()
 
     # -- snapshots (debugger history, retained state) -------------------------------------
     def snapshot(self) -> dict[str, Any]:

@@ -1,0 +1,214 @@
+"""The scan's start and end, generated per configuration (issue 26).
+
+`Engine.scan()` runs a function written for what the engine holds now: no hook calls
+without hooks, no device loop without devices, the virtual or real clock inlined, forced
+objects handled only when something is forced, first-scan bits only on a first scan. The
+engine rebuilds it when any of these changes (`Engine.invalidate`, called by its setters,
+by `HookList` on a change of a hook list, and on each change of state).
+
+The same text gives `scan_stepwise` its `begin()`/`finish(dt)` (the debugger), so the two
+scans cannot drift apart. What each step does is described in `engine.py`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any, SupportsIndex
+
+from ..program import Names, Watchdog
+from .clock import Clock, RealClock, VirtualClock
+
+if TYPE_CHECKING:
+    from .engine import Engine
+
+# %S4-%S7: 50 % clocks [manual]; bit -> period in us
+S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}
+SW_LAST, SW_MAX, SW_MIN = 30, 31, 32
+
+
+class HookList(list):
+    """A list of scan hooks that tells its engine when it changes (the daemon, the web
+    monitor and the debugger append to and remove from them after construction)."""
+
+    def __init__(self, changed: Callable[[], None], items: Iterable[Any] = ()) -> None:
+        super().__init__(items)
+        self._changed = changed
+
+    def _wrap(name: str) -> Any:  # noqa: N805 - a helper run in the class body
+        base = getattr(list, name)
+
+        def method(self: HookList, *args: Any) -> Any:
+            result = base(self, *args)
+            self._changed()
+            return result
+        method.__name__ = name
+        return method
+
+    for _name in ("append", "extend", "insert", "remove", "pop", "clear", "__setitem__",
+                  "__delitem__", "__iadd__", "sort", "reverse"):
+        locals()[_name] = _wrap(_name)
+    del _name, _wrap
+
+    def __imul__(self, n: SupportsIndex) -> HookList:
+        super().__imul__(n)
+        self._changed()
+        return self
+
+
+# Every half period is a multiple of 5 ms and they all divide 60 s: %S4-%S7 at time t are
+# CLOCK_BITS[t // 5000 % 12000], one table look-up per scan instead of four modulos.
+CLOCK_STEP = 5000
+CLOCK_BITS = [tuple(1 if (k * CLOCK_STEP) % p < p // 2 else 0 for p in S_CLOCKS.values())
+              for k in range(60_000_000 // CLOCK_STEP)]
+assert all(p % (2 * CLOCK_STEP) == 0 and 60_000_000 % p == 0 for p in S_CLOCKS.values())
+assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
+
+
+def _clock_code(clock: Clock) -> tuple[str, str]:
+    """(start, end) lines of the scan for this clock: the two clocks of clock.py inlined,
+    any other through its methods."""
+    if type(clock) is VirtualClock:
+        return "now = clock.now_us", "clock.now_us += P"
+    if type(clock) is RealClock:
+        return "now = clock.now_us = (perf_counter_ns() - clock._t0) // 1000", ""
+    return "now = clock.start_scan(P)", "clock.end_scan(P)"
+
+
+def _checks_watchdog(eng: Engine) -> bool:
+    """Does the program read the watchdog deadline (a loop: a backward jump)? Only then
+    does the scan set it."""
+    program = eng.program
+    return program is None or eng.main is not program.main or \
+        f"{Names.WATCHDOG}(" in program.source
+
+
+def _forced_code(eng: Engine, ns: dict[str, Any], inputs: bool = False) -> list[str]:
+    """Forced values re-asserted, one store per bit (`inputs`: the forced %I, after the
+    latch), other objects through `Engine._apply_forced_other`."""
+    prefix = "fi" if inputs else "fb"
+    entries = eng._forced_inputs if inputs else eng._forced_bits
+    ns.update({f"{prefix}{k}": buf for k, (buf, _, _) in enumerate(entries)})
+    lines = [f"{prefix}{k}[{i}] = {v}" for k, (_, i, v) in enumerate(entries)]
+    if eng._forced_other and not inputs:
+        lines.append("apply_forced_other()")
+    return lines
+
+
+def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
+    """The text of `make()`, which returns (scan, begin, finish), and its namespace.
+    `before=False` leaves out the before_scan hooks (a hook changed the configuration and
+    the scan goes on with the new one)."""
+    ns: dict[str, Any] = {
+        "eng": eng, "mem": eng.mem, "s": eng.mem.s, "sw": eng.mem.sw.w, "clock": eng.clock,
+        "P": eng.period_us, "DTS": eng.period_us / 1e6, "W": eng.watchdog_s,
+        "RUN": "RUN", "V": eng.version, "st": eng.stats, "main": eng.main, "i": eng.mem.i,
+        "i_field": eng.mem.i_field,
+        "q": eng.mem.q, "q_field": eng.mem.q_field, "ts": eng.time_source, "rtc": eng.rtc,
+        "pulses": eng.pulses, "perf_counter": time.perf_counter,
+        "perf_counter_ns": time.perf_counter_ns, "thread_time": time.thread_time,
+        "Watchdog": Watchdog, "clock_bits": CLOCK_BITS,
+        "apply_forced_other": eng._apply_forced_other}
+    hooks_b = [f"b{k}()" for k in range(len(eng.before_scan))] if before else []
+    hooks_a = [f"a{k}()" for k in range(len(eng.after_scan))]
+    ns.update({f"b{k}": h for k, h in enumerate(eng.before_scan)})
+    ns.update({f"a{k}": h for k, h in enumerate(eng.after_scan)})
+    start, end = _clock_code(eng.clock)
+    # step 1; a hook that changed the configuration: go on with the new one ({part}: 0 for
+    # scan(), 1 for begin())
+    pre = hooks_b + (["if eng.version != V: return eng._resume({part})"] if hooks_b else [])
+    if eng.state != "RUN":  # STOP/HALT: the clock runs, hooks run, nothing else
+        return _make(pre, ["clock.start_scan(P)", "clock.end_scan(P)", *hooks_a], None, [],
+                     ["return False"]), ns
+    begin = [start]  # steps 2-3
+    if eng.time_source is not None:
+        begin.append("ts.now_us = now")
+    if eng.rtc is not None:
+        begin.append("rtc.tick(now)")
+    begin.append(f"s[4], s[5], s[6], s[7] = clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]")
+    begin += [f"s[{bit}] = {v}" for bit, v in eng._first.items()]
+    begin += eng.mem.copy_lines("I")  # the input latch, inlined
+    forced = _forced_code(eng, ns)
+    begin += _forced_code(eng, ns, inputs=True) + forced
+    run = ["t0 = perf_counter()"]  # step 4, scan() only
+    if _checks_watchdog(eng):
+        run.append("eng._deadline = t0 + W")
+    if eng._suspect:  # the last scan was late: measure this one's CPU time
+        run.append("eng._cpu0 = thread_time()")
+    run += ["try:", "    main()", "except Watchdog:",
+            "    eng._watchdog_trip(perf_counter() - t0)",
+            "except Exception as e:  # any fault of the program: HALT, keep serving",
+            "    eng._fault(e)", "dt = perf_counter() - t0",
+            "if dt > W:", "    eng._overran(dt)"]
+    if eng._suspect:
+        run += ["else:", "    eng._suspect, eng._cpu0 = False, None", "    eng.invalidate()"]
+    finish = []  # steps 5-7
+    ts = eng.time_source
+    if ts is not None and ts.track:
+        finish += ["if ts.running:", "    ts.update_running()"]
+    if eng.rtc is not None:
+        finish.append("rtc.end_of_scan(clock.now_us)")
+    if eng.pulses is not None:
+        finish.append("pulses.end_of_scan(clock.now_us)")
+    if eng._first:
+        finish += [*(f"s[{bit}] = 0" for bit in eng._first), "eng._first = {}",
+                   "eng.invalidate()"]
+    finish += forced
+    publish = [f"    {x}" for x in eng.mem.copy_lines("Q")] or ["    pass"]
+    # after a HALT in this scan the output image is all 0 (Engine.halt), so publishing it
+    # changes nothing, unless something writes %Q after the program: forcing, pulse
+    # generators, RTC schedules
+    if eng.forced or eng.pulses is not None or eng.rtc is not None:
+        finish += ["if eng.state == RUN:", *publish]
+    else:
+        finish += [x[4:] for x in publish if x != "    pass"]
+    finish += ["st.scans += 1", "st.last = dt", "st.total += dt",
+               # int() of a float is the dearest step of the statistics: most scans are
+               # under half a millisecond
+               "if dt < 0.0005:", f"    sw[{SW_LAST}] = ms = 0", "else:",
+               "    ms = int(dt * 1000 + 0.5)",
+               f"    sw[{SW_LAST}] = ms = ms if ms < 32767 else 32767",
+               "if dt > st.max:", "    st.max = dt", f"    sw[{SW_MAX}] = ms",
+               # the first scan's time is the minimum (regenerated after it: _first)
+               "if dt < st.min" + (" or st.scans == 1:" if eng.stats.scans == 0 else ":"),
+               "    st.min = dt", f"    sw[{SW_MIN}] = ms"]
+    if end:
+        finish.append(end)
+    if eng.devices:
+        ns.update({f"d{k}": d.update for k, d in enumerate(eng.devices.values())})
+        finish += ["t = clock.now_us / 1e6",
+                   *(f"d{k}(t, DTS)" for k in range(len(eng.devices)))]
+    finish += hooks_a
+    return _make(pre, begin, run, finish, ["return True"]), ns
+
+
+def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[str],
+          begun: list[str]) -> str:
+    """make() -> (scan, begin, finish). `run` None: STOP or HALT, the scan is `pre` +
+    `begin` and `finish` does nothing."""
+    def body(lines: list[str], part: int) -> str:
+        return "".join(f"        {x}\n".replace("{part}", str(part)) for x in lines) \
+            or "        pass\n"
+
+    scan = [*pre, *begin,
+            *(run + finish if run is not None else [])]
+    return ("def make():\n"
+            f"    def scan():\n{body(scan, 0)}"
+            f"    def begin():\n{body(pre + begin + begun, 1)}"
+            f"    def finish(dt):\n{body(finish, 0)}"
+            "    return scan, begin, finish\n")
+
+
+# What `Engine.invalidate` puts into a generated scan a caller may still hold (PLC.scan(n),
+# benchmarks): it hands over to the current one, so the scan itself checks nothing.
+HANDOVER = compile("def scan():\n    return eng.scan()\n", "<scan handover>", "exec"
+                   ).co_consts[0]
+
+
+def build(eng: Engine, before: bool = True) -> tuple[Callable[[], None],
+                                                     Callable[[], bool],
+                                                     Callable[[float], None]]:
+    """(scan, begin, finish) for the engine as it is now."""
+    text, ns = source(eng, before)
+    exec(compile(text, "<scan>", "exec"), ns)
+    return ns["make"]()
