@@ -155,7 +155,8 @@ def test_hooks_changed_from_another_thread_while_scanning():
 
     def churn() -> None:
         for _ in range(300):
-            h = (lambda: None)
+            def h() -> None:  # a new hook object each time
+                pass
             plc.after_scan.append(h)
             plc.after_scan.remove(h)
         done.set()
