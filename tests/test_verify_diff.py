@@ -2,7 +2,7 @@
 programs and random input sequences give the same value of every modelled object, scan
 by scan (booleans, edges, MPS, 16/32-bit words with overflow and %S18, comparisons,
 timers (also when a jump or a subroutine leaves them out), counters, shift registers,
-forward jumps,
+drums (outputs shared with rungs), step counters (bits also written), forward jumps,
 subroutines with conditional returns, ENDC)."""
 
 from __future__ import annotations
@@ -20,14 +20,14 @@ from softplc.verify.model import Model, run_concrete
 from softplc.verify.replay import set_inputs
 
 BITS = ["%I0.0", "%I0.1", "%I0.2", "%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%TM0.Q",
-        "%C0.D", "%MW1:X15", "%SBR0.2"]
-OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3", "%SBR0.0"]
-WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "100", "-7", "32767"]
+        "%C0.D", "%MW1:X15", "%SBR0.2", "%DR0.F", "%SC0.1", "%SC0.255"]
+OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3", "%SBR0.0", "%SC0.2"]
+WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "%DR0.S", "100", "-7", "32767"]
 TARGETS = ["%MW1", "%MW2", "%MW3"]
 
 
 def rung(r: random.Random, label: list[int]) -> list[str]:
-    kind = r.randrange(7)
+    kind = r.randrange(8)
     a = r.choice(BITS)
     load = r.choice(["LD", "LDN", "LDR", "LDF"]) + f" {a}"
     if kind == 0:  # boolean logic with a parenthesis and an output
@@ -55,7 +55,13 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
         return ["BLK %TM0", load, "IN", "OUT_BLK", "LD Q", f"ST {r.choice(OUTS)}", "END_BLK"]
     if kind == 4:  # counter, short form
         return [load, r.choice(["CU %C0", "CD %C0", "R %C0", "S %C0", "CU %SBR0",
-                                "CD %SBR0", "R %SBR0"])]
+                                "CD %SBR0", "R %SBR0", "U %DR0", "R %DR0", "CU %SC0",
+                                "CD %SC0", "R %SC0"])]
+    if kind == 7:  # drum or step counter, block form
+        if r.random() < 0.5:
+            return ["BLK %DR0", load, "U", f"LD {r.choice(BITS)}", "R", "END_BLK"]
+        return ["BLK %SC0", load, "CU", f"LD {r.choice(BITS)}", "CD", f"LD {r.choice(BITS)}",
+                "R", "END_BLK"]
     if kind == 5 and not label:  # a forward jump over the next rungs
         label.append(1)
         return [load, r.choice(["JMPC %L1", "JMPCN %L1"])]
@@ -82,7 +88,9 @@ def program(seed: int) -> tuple[str, dict]:
               "timers": {"%TM0": {"type": r.choice(["TON", "TOF", "TP"]),
                                   "base": r.choice(["10ms", "100ms"]),
                                   "preset": r.randrange(0, 6)}},
-              "counters": {"%C0": {"preset": r.choice([0, 3, 9999])}}}
+              "counters": {"%C0": {"preset": r.choice([0, 3, 9999])}},
+              "drums": {"%DR0": {"steps": [r.randrange(8) for _ in range(r.randrange(1, 5))],
+                                 "outputs": ["%Q0.0", "%M1", "%Q0.2"]}}}
     return "\n".join(lines) + "\n", config
 
 

@@ -153,3 +153,47 @@ def block_invariants(st: dict[str, Any], timers: dict[str, tuple[Timer, int, int
         P, V = st[f"{name}.P"], st[f"{name}.V"]
         out += [P >= 0, P <= MAX_VALUE, V >= 0, V <= MAX_VALUE]
     return out
+
+
+def run_drum(st: dict[str, Any], name: str, steps: list[int], outs: list[str], g: Any,
+             R: Any, U: Any) -> None:
+    """`Drum.run(R, U)` guarded by g: the step's bits go to the outputs only when the step
+    differs from the one last written (`_written`, -1 after a cold start or a reset)."""
+    n = len(steps)
+    S, W = st[f"{name}.S"], st[f"{name}._written"]
+    up = z3.And(U, z3.Not(st[f"{name}._u"]))
+    nxt = z3.If(S == n - 1, z3.BitVecVal(0, 16), S + 1)
+    S2 = z3.If(R, z3.BitVecVal(0, 16), z3.If(up, nxt, S))
+    W1 = z3.If(R, z3.BitVecVal(-1, 16), W)
+    changed = z3.And(g, S2 != W1)
+    for k, key in enumerate(outs):
+        on = z3.Or([S2 == j for j, bits in enumerate(steps) if bits >> k & 1] or [False])
+        st[key] = z3.simplify(z3.If(changed, on, st[key]))
+    _set(st, f"{name}._written", g, S2)  # after the write, or already equal
+    _set(st, f"{name}.S", g, S2)
+    _set(st, f"{name}._u", g, U)
+    _set(st, f"{name}.F", g, S2 == n - 1)
+
+
+def run_step_counter(st: dict[str, Any], name: str, g: Any, R: Any, CU: Any,
+                     CD: Any) -> None:
+    """`StepCounter.run(R, CU, CD)` guarded by g: V the step (0..255), W its 256 bits."""
+    V = st[f"{name}.V"]
+    up = z3.And(CU, z3.Not(st[f"{name}._cu"]))
+    down = z3.And(CD, z3.Not(st[f"{name}._cd"]))
+    v1 = z3.If(up, (V + 1) & 255, V)
+    v2 = z3.If(R, z3.BitVecVal(0, 16), z3.If(down, (v1 - 1) & 255, v1))
+    moved = z3.Or(R, v2 != V)
+    _set(st, f"{name}.V", g, v2)
+    one = z3.BitVecVal(1, 256) << z3.ZeroExt(240, v2)
+    _set(st, f"{name}.W", g, z3.If(moved, one, st[f"{name}.W"]))
+    _set(st, f"{name}._cu", g, CU)
+    _set(st, f"{name}._cd", g, CD)
+
+
+def set_step_bit(st: dict[str, Any], name: str, k: int, g: Any, value: Any) -> None:
+    """`StepCounter.set_bit(k, value)` guarded by g: setting bit k makes k the step."""
+    W = st[f"{name}.W"]
+    mask = z3.BitVecVal(1 << k, 256)
+    _set(st, f"{name}.W", g, z3.If(value, W | mask, W & ~mask))
+    _set(st, f"{name}.V", g, z3.If(value, z3.BitVecVal(k, 16), st[f"{name}.V"]))
