@@ -240,6 +240,12 @@ class ObjectModel(ExprModel):
             return
         self.st["%S18"] = z3.simplify(z3.Or(self.st["%S18"], f))
 
+    def carry(self, g: Any, c: Any) -> None:
+        """%S17 := the bit a shift or rotation moved out, where g holds."""
+        key = self.key_for(Ref("S", 17))
+        self.mark_written(key, None)
+        self.st[key] = z3.simplify(z3.If(g, as_bool(c), self.st[key]))
+
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None:
         p = pos or A.NOPOS
         self.problems.append(Diagnostic(
