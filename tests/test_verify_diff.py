@@ -3,8 +3,8 @@ programs and random input sequences give the same value of every modelled object
 by scan (booleans, edges, MPS, 16/32-bit words with overflow and %S18, comparisons,
 timers (also when a jump or a subroutine leaves them out), counters, shift registers,
 drums (outputs shared with rungs), step counters (bits also written), forward jumps,
-word functions (shifts and rotations with %S17, BCD, Gray, LW/HW/CONCATW), subroutines
-with conditional returns, ENDC)."""
+%R FIFO/LIFO registers (at depths 1-4), word functions (shifts and rotations with %S17,
+BCD, Gray, LW/HW/CONCATW), subroutines with conditional returns, ENDC)."""
 
 from __future__ import annotations
 
@@ -33,9 +33,11 @@ from softplc.verify.model import Model, run_concrete
 from softplc.verify.replay import set_inputs
 
 BITS = ["%S17", "%S18", "%I0.0", "%I0.1", "%I0.2", "%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%TM0.Q",
-        "%C0.D", "%MW1:X15", "%SBR0.2", "%DR0.F", "%SC0.1", "%SC0.255"]
+        "%C0.D", "%MW1:X15", "%SBR0.2", "%DR0.F", "%SC0.1", "%SC0.255", "%R0.E",
+        "%R0.F"]
 OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3", "%SBR0.0", "%SC0.2"]
-WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "%DR0.S", "100", "-7", "32767"]
+WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "%DR0.S", "%R0.O", "100", "-7",
+         "32767"]
 TARGETS = ["%MW1", "%MW2", "%MW3"]
 SHIFTS = ["SHL", "SHR", "ROL", "ROR"]
 COUNTS = ["%MW0", "%MW3", "0", "1", "5", "16", "17", "31", "33", "-2"]
@@ -78,8 +80,12 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
     if kind == 4:  # counter, short form
         return [load, r.choice(["CU %C0", "CD %C0", "R %C0", "S %C0", "CU %SBR0",
                                 "CD %SBR0", "R %SBR0", "U %DR0", "R %DR0", "CU %SC0",
-                                "CD %SC0", "R %SC0"])]
-    if kind == 7:  # drum or step counter, block form
+                                "CD %SC0", "R %SC0", "I %R0", "O %R0", "R %R0"])]
+    if kind == 7:  # drum, step counter or register, block form
+        if r.random() < 0.3:
+            return [f"LD {r.choice(BITS)}", f"[ %R0.I := {r.choice(WORDS)} ]", "BLK %R0",
+                    load, "I", f"LD {r.choice(BITS)}", "O", f"LD {r.choice(BITS)}", "R",
+                    "END_BLK"]
         if r.random() < 0.5:
             return ["BLK %DR0", load, "U", f"LD {r.choice(BITS)}", "R", "END_BLK"]
         return ["BLK %SC0", load, "CU", f"LD {r.choice(BITS)}", "CD", f"LD {r.choice(BITS)}",
@@ -112,7 +118,8 @@ def program(seed: int) -> tuple[str, dict]:
                                   "preset": r.randrange(0, 6)}},
               "counters": {"%C0": {"preset": r.choice([0, 3, 9999])}},
               "drums": {"%DR0": {"steps": [r.randrange(8) for _ in range(r.randrange(1, 5))],
-                                 "outputs": ["%Q0.0", "%M1", "%Q0.2"]}}}
+                                 "outputs": ["%Q0.0", "%M1", "%Q0.2"]}},
+              "registers": {"%R0": {"type": r.choice(["FIFO", "LIFO"])}}}
     return "\n".join(lines) + "\n", config
 
 
@@ -154,6 +161,7 @@ scan_inputs = st.fixed_dictionaries({"%I0.0": st.integers(0, 1), "%I0.1": st.int
 def test_model_and_engine_agree_scan_by_scan(seed, scans, grafcet):
     text, config = (grafcet_program if grafcet else program)(seed)
     plc = PLC.from_source(text, config, devices=False)
+    plc.mem.blocks["R"][0].depth = 1 + seed % 4  # shallow: full within a few scans
     model = Model(plc, [Ref("MW", 0), Ref("MW", 1)], HOST)
     want = run_concrete(model, scans)
     for n, (inputs, values) in enumerate(zip(scans, want, strict=True), 1):

@@ -197,3 +197,37 @@ def set_step_bit(st: dict[str, Any], name: str, k: int, g: Any, value: Any) -> N
     mask = z3.BitVecVal(1 << k, 256)
     _set(st, f"{name}.W", g, z3.If(value, W | mask, W & ~mask))
     _set(st, f"{name}.V", g, z3.If(value, z3.BitVecVal(k, 16), st[f"{name}.V"]))
+
+
+def register_fields(depth: int) -> tuple[str, ...]:
+    """A %R register's state: its fields, the edge inputs, the count `_n` and the slots
+    `_d0`.. (oldest first, as the engine's list; slots past `_n` are never read)."""
+    return ("I", "O", "E", "F", "_i", "_o", "_n", *(f"_d{j}" for j in range(depth)))
+
+
+def run_register(st: dict[str, Any], name: str, lifo: bool, depth: int, g: Any, R: Any,
+                 I: Any, O: Any) -> None:
+    """`Register.run(R, I, O)` guarded by g: a rising I stores .I unless full, then a
+    rising O retrieves the oldest (FIFO) or newest (LIFO) word unless empty."""
+    d = [st[f"{name}._d{j}"] for j in range(depth)]
+    n = st[f"{name}._n"]
+    push = z3.And(z3.Not(R), I, z3.Not(st[f"{name}._i"]), z3.ULT(n, depth))
+    d = [z3.If(z3.And(push, n == j), st[f"{name}.I"], d[j]) for j in range(depth)]
+    n = z3.If(push, n + 1, n)
+    pop = z3.And(z3.Not(R), O, z3.Not(st[f"{name}._o"]), n != 0)
+    if lifo:
+        top = d[0]
+        for j in range(1, depth):
+            top = z3.If(n == j + 1, d[j], top)
+        _set(st, f"{name}.O", g, z3.If(pop, top, st[f"{name}.O"]))
+    else:
+        _set(st, f"{name}.O", g, z3.If(pop, d[0], st[f"{name}.O"]))
+        d = [z3.If(pop, d[j + 1], d[j]) for j in range(depth - 1)] + [d[-1]]
+    n = z3.If(R, z3.BitVecVal(0, 16), z3.If(pop, n - 1, n))
+    for j in range(depth):
+        _set(st, f"{name}._d{j}", g, d[j])
+    _set(st, f"{name}._n", g, n)
+    _set(st, f"{name}._i", g, I)
+    _set(st, f"{name}._o", g, O)
+    _set(st, f"{name}.E", g, n == 0)
+    _set(st, f"{name}.F", g, z3.UGE(n, depth))

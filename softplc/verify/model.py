@@ -136,7 +136,7 @@ class Model(ObjectModel):
     def is_bit_key(self, key: str) -> bool:
         blk = BLOCK_KEY.match(key)
         if blk:
-            return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd", "_u")
+            return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd", "_u", "_i", "_o")
         return key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
             ("%MW", "%QW", "%SW", "%MD"))
 
@@ -146,8 +146,10 @@ class Model(ObjectModel):
             return 1
         blk = BLOCK_KEY.match(key)
         if blk:
-            return 0 if blk[3] == "_el" else int(getattr(self.block(key.split(".")[0]),
-                                                         blk[3]))
+            b, f = self.block(key.split(".")[0]), blk[3]
+            if blk[1] == "R" and f.startswith(("_n", "_d")):  # a register's stored words
+                return len(b._data) if f == "_n" else (b._data + [0] * b.depth)[int(f[2:])]
+            return 0 if f == "_el" else int(getattr(b, f))
         if key.startswith("%S") and int(key[2:]) in KEEP_BITS:
             return KEEP_BITS[int(key[2:])]
         if key.startswith("%X"):  # the initial steps are active from the cold start
@@ -188,6 +190,8 @@ class Model(ObjectModel):
             out += [z3.ULT(st[f"{name}.S"], n), st[f"{name}._written"] >= -1,
                     st[f"{name}._written"] < n]
         out += [z3.ULE(st[k], 255) for k in st if k.startswith("%SC") and k.endswith(".V")]
+        out += [z3.ULE(st[k], self.block(k[:-3]).depth) for k in st
+                if k.startswith("%R") and k.endswith("._n")]
         if "_tmod" in st:
             out.append(z3.ULT(st["_tmod"], self.clock_wrap))
         return out

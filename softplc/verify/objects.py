@@ -16,8 +16,10 @@ from ..runtime.blocks import MAX_VALUE, Counter, ShiftRegister, StepCounter, Tim
 from ..runtime.catalog import BLOCK_CLASSES
 from ..runtime.engine import S_CLOCKS
 from .blocks import (
+    register_fields,
     run_counter,
     run_drum,
+    run_register,
     run_shift_register,
     run_step_counter,
     run_timer,
@@ -27,11 +29,11 @@ from .exprs import ExprModel
 from .symbolic import as_bool, narrow, wide
 
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
-BLOCK_KEY = re.compile(r"%(TM|C|SBR|DR|SC)(\d+)\.(\w+)$")  # a modelled block's field
+BLOCK_KEY = re.compile(r"%(TM|C|SBR|DR|SC|R)(\d+)\.(\w+)$")  # a modelled block's field
 # the state kept per modelled block kind (a drum's `_written`: the step its outputs hold)
 MODELLED = {"TM": ("P", "V", "Q", "_in", "_on", "_el"), "C": Counter.FIELDS,
             "SBR": ShiftRegister.FIELDS, "SC": StepCounter.FIELDS,
-            "DR": ("S", "F", "_u", "_written")}
+            "DR": ("S", "F", "_u", "_written"), "R": ()}  # %R: `register_fields`
 
 
 class ObjectModel(ExprModel):
@@ -67,7 +69,9 @@ class ObjectModel(ExprModel):
             self.counters.append(name)
         elif ref.kind == "DR" and name not in self.drums:
             self.drums[name] = self.drum_outputs(ref, pos)
-        for f in MODELLED[ref.kind]:
+        fields = register_fields(self.block(name).depth) if ref.kind == "R" else \
+            MODELLED[ref.kind]
+        for f in fields:
             _ = self.st[f"{name}.{f}"]
         return name
 
@@ -92,7 +96,8 @@ class ObjectModel(ExprModel):
         name = self.use_block(ref, pos)
         if name is None:
             return
-        p = {k: pins.get(k, z3.BoolVal(False)) for k in ("IN", "R", "S", "CU", "CD", "U")}
+        p = {k: pins.get(k, z3.BoolVal(False))
+             for k in ("IN", "R", "S", "CU", "CD", "U", "I", "O")}
         st = self.st
         if ref.kind == "TM":
             self.mark_written(f"{name}.V", pos)
@@ -102,6 +107,9 @@ class ObjectModel(ExprModel):
             run_shift_register(st, name, g, p["R"], p["CU"], p["CD"])
         elif ref.kind == "SC":
             run_step_counter(st, name, g, p["R"], p["CU"], p["CD"])
+        elif ref.kind == "R":
+            b = self.block(name)
+            run_register(st, name, b.type == "LIFO", b.depth, g, p["R"], p["I"], p["O"])
         elif ref.kind == "DR":
             run_drum(st, name, self.block(name).steps, self.drums[name], g, p["R"], p["U"])
         else:
@@ -158,7 +166,7 @@ class ObjectModel(ExprModel):
             return z3.Extract(ref.bit, ref.bit, w) == 1
         if ref.bit is not None and ref.kind == "KW":
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
-        if ref.kind in ("TM", "C", "DR") and ref.field in ("Q", "D", "E", "F"):
+        if ref.kind in ("TM", "C", "DR", "R") and ref.field in ("Q", "D", "E", "F"):
             return self.st[self.key_for(ref)]
         if ref.kind in ("SBR", "SC") and ref.field == "J":
             w = self.st[self.key_for(Ref(ref.kind, ref.index, field="W"))]
@@ -205,7 +213,8 @@ class ObjectModel(ExprModel):
             lo = self.st[self.key_for(Ref("MW", ref.index))]
             hi = self.st[self.key_for(Ref("MW", ref.index + 1))]
             return wide(z3.Concat(hi, lo)), INT32
-        if k in ("TM", "C") and ref.field in ("V", "P") or k == "DR" and ref.field == "S":
+        if k in ("TM", "C") and ref.field in ("V", "P") or k == "DR" and ref.field == "S" \
+                or k == "R" and ref.field in ("I", "O"):
             return wide(self.st[self.key_for(ref)]), INT16
         if ref.type == REAL:
             self.unsupported("floating-point values", pos, str(ref))
@@ -226,6 +235,8 @@ class ObjectModel(ExprModel):
         elif k in ("TM", "C") and ref.field == "P":
             clamped = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
             self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
+        elif k == "R" and ref.field in ("I", "O"):
+            self._put(self.key_for(ref), g, narrow(v, 16), pos)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 
@@ -250,7 +261,7 @@ class ObjectModel(ExprModel):
         p = pos or A.NOPOS
         self.problems.append(Diagnostic(
             f"verify cannot model {what}", self.plc.ast.file, p.line, p.column, text,
-            "booleans, edges, 16/32-bit words, comparisons, %TM, %C, %SBR, %DR, %SC, SR, JMP, "
+            "booleans, edges, 16/32-bit words, comparisons, %TM, %C, %SBR, %DR, %SC, %R, SR, JMP, "
             "Grafcet",
             Code.OTHER))
 
