@@ -559,3 +559,14 @@ def high_word(D: Any, d: Any) -> Any:
 def concat_words(D: Any, low: Any, high: Any) -> Any:
     """Two words into a double word, the first argument the low word (as `Ops.concatw`)."""
     return D.wrap(((high & 0xFFFF) << 16) | (low & 0xFFFF), 32)
+
+
+def int_sqrt(D: Any, a: Any, bits: int) -> tuple[Any, Any]:
+    """(value, fault) of the integer SQRT: the root rounded down, bit by bit from the top
+    (exact: each square fits twice the word's width); a negative argument faults, 0."""
+    r: Any = 0
+    for b in reversed(range(bits // 2)):
+        cand = r | (1 << b)
+        r = D.ite(cand * cand <= a, cand, r)
+    neg = a < 0
+    return D.ite(neg, 0, r), neg

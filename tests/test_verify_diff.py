@@ -4,7 +4,7 @@ by scan (booleans, edges, MPS, 16/32-bit words with overflow and %S18, compariso
 timers (also when a jump or a subroutine leaves them out), counters, shift registers,
 drums (outputs shared with rungs), step counters (bits also written), forward jumps,
 %R FIFO/LIFO registers (at depths 1-4), word functions (shifts and rotations with %S17,
-BCD, Gray, LW/HW/CONCATW), subroutines with conditional returns, ENDC)."""
+BCD, Gray, LW/HW/CONCATW, SQRT), subroutines with conditional returns, ENDC)."""
 
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ from softplc.semantics import (
     concat_words,
     gray_to_int,
     high_word,
+    int_sqrt,
     int_to_bcd,
     low_word,
     shift,
@@ -41,7 +42,7 @@ WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "%DR0.S", "%R0.O", "
 TARGETS = ["%MW1", "%MW2", "%MW3"]
 SHIFTS = ["SHL", "SHR", "ROL", "ROR"]
 COUNTS = ["%MW0", "%MW3", "0", "1", "5", "16", "17", "31", "33", "-2"]
-FUNCS1 = ["NOT", "BCD_TO_INT", "INT_TO_BCD", "GRAY_TO_INT", "BTI", "ITB"]
+FUNCS1 = ["NOT", "SQRT", "BCD_TO_INT", "INT_TO_BCD", "GRAY_TO_INT", "BTI", "ITB"]
 
 
 def rung(r: random.Random, label: list[int]) -> list[str]:
@@ -73,6 +74,7 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
                          f"{r.choice(COUNTS)})",
                          f"%MD4 := {r.choice(SHIFTS)}(%MD0, {r.choice(COUNTS)})",
                          f"{r.choice(TARGETS)} := {r.choice(['LW', 'HW'])}(%MD4)",
+                         f"%MD4 := SQRT(%MD{r.choice([0, 4])})",
                          f"%MD4 := CONCATW({r.choice(WORDS)}, {r.choice(WORDS)})"])
         return [load, f"[ {stmt} ]"]
     if kind == 3:  # timer
@@ -203,7 +205,8 @@ def test_generic_shifts_are_the_engines_helpers(kind, bits, a, n):
 @settings(max_examples=examples(400), deadline=None)
 @given(w=st.integers(-32768, 32767), v=st.integers(-20, 10020), d=st.integers(-2**31, 2**31 - 1))
 def test_generic_word_functions_are_the_engines_helpers(w, v, d):
-    """BCD both ways (%S18 out of range), Gray, LW / HW / CONCATW: as `Ops`."""
+    """BCD both ways (%S18 out of range), Gray, LW / HW / CONCATW, integer SQRT: as
+    `Ops`."""
     ops = Ops([0] * 32)
     for helper, rule, x in ((ops.bcd_to_int, bcd_to_int, w), (ops.int_to_bcd, int_to_bcd, v),
                             (ops.int_to_bcd, int_to_bcd, w)):
@@ -214,3 +217,8 @@ def test_generic_word_functions_are_the_engines_helpers(w, v, d):
     assert ops.gray_to_int(w) == gray_to_int(IntDomain, w)
     assert (ops.lw(d), ops.hw(d)) == (low_word(IntDomain, d), high_word(IntDomain, d))
     assert ops.concatw(w, v) == concat_words(IntDomain, w, v)
+    for bits, x in ((16, w), (32, d)):
+        ops.s[18] = 0
+        got = getattr(ops, f"sqrt{bits}")(x)
+        value, fault = int_sqrt(IntDomain, x, bits)
+        assert (got, ops.s[18]) == (value, int(bool(fault)))

@@ -23,6 +23,7 @@ from ..semantics import (
     concat_words,
     gray_to_int,
     high_word,
+    int_sqrt,
     int_to_bcd,
     low_word,
     negate,
@@ -31,8 +32,8 @@ from ..semantics import (
 from .symbolic import Z3Domain, wide
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
-# the integer functions modelled exactly (SQRT's integer root is not a bit-vector rule)
-INT_FUNCS = frozenset({"ABS", "NOT", "SHL", "SHR", "ROL", "ROR", "BCD_TO_INT", "BTI",
+# the integer functions modelled exactly (each a rule in `semantics`)
+INT_FUNCS = frozenset({"ABS", "SQRT", "NOT", "SHL", "SHR", "ROL", "ROR", "BCD_TO_INT", "BTI",
                        "INT_TO_BCD", "ITB", "GRAY_TO_INT", "LW", "HW", "CONCATW"})
 CMP = {"=": lambda a, b: a == b, "<>": lambda a, b: a != b, ">": lambda a, b: a > b,
        ">=": lambda a, b: a >= b, "<": lambda a, b: a < b, "<=": lambda a, b: a <= b}
@@ -139,6 +140,8 @@ class ExprModel:
             return ~v, t
         if f == "ABS":
             r, fault = absolute(D, v, bits)
+        elif f == "SQRT":
+            r, fault = int_sqrt(D, v, bits)
         elif f in ("SHL", "SHR", "ROL", "ROR"):
             r, carry, moved = shift(D, f, v, args[1][0], bits)
             self.carry(z3.And(g, moved), carry)
