@@ -517,3 +517,88 @@ def inline_checked(op: str, bits: int, a: str, b: str = "", *, v: str, narrow: s
     first = f"({n} := {a}) is None or " if n else ""
     exact = INLINE_EXACT[op].format(a=a, b=b, d=d, n=n or a, first=first, div=div)
     return f"({v} if {lo} <= ({v} := {exact}) <= {hi} else {narrow}({v}))"
+
+
+# Word functions over a value domain (`Ops` keeps its own int code; the hypothesis test in
+# tests/test_verify_diff.py checks these against it value for value).
+def shift(D: Any, kind: str, a: Any, n: Any, bits: int) -> tuple[Any, Any, Any]:
+    """(value, carry, moved) of SHL SHR ROL ROR `a` by `n` on `bits`-bit words: carry is
+    the new %S17 (the last bit shifted out; for a rotation the bit that went round), moved
+    whether anything happens (n <= 0 keeps `a` and %S17). Every shift count used is
+    within 0..bits, so the rule is safe for any `n` in both domains."""
+    mask = (1 << bits) - 1
+    u = a & mask
+    moved = n > 0
+    if kind in ("SHL", "SHR"):
+        big = n > bits  # everything shifted out, the carry too
+        k = D.ite(D.or_(big, D.not_(moved)), 1, n)
+        if kind == "SHL":
+            carry, r = (u >> (bits - k)) & 1, (u << k) & mask
+        else:  # logical: zeros come in on the left [manual]
+            carry, r = (u >> (k - 1)) & 1, u >> k
+        carry, r = D.ite(big, 0, carry), D.ite(big, 0, r)
+    else:
+        k = D.ite(moved, n % bits, 0)
+        if kind == "ROL":
+            r = ((u << k) | (u >> (bits - k))) & mask
+            carry = r & 1
+        else:
+            r = ((u >> k) | (u << (bits - k))) & mask
+            carry = (r >> (bits - 1)) & 1
+    return D.ite(moved, D.wrap(r, bits), a), carry, moved
+
+
+def gray_to_int(D: Any, w: Any) -> Any:
+    """A Gray-coded word to its value: the XOR of every right shift of it."""
+    u = w & 0xFFFF
+    v = u
+    for s in range(1, 16):
+        v = v ^ (u >> s)
+    return D.wrap(v, 16)
+
+
+def bcd_to_int(D: Any, w: Any) -> tuple[Any, Any]:
+    """(value, fault) of a BCD word: a nibble above 9 faults, value 0."""
+    u = w & 0xFFFF
+    digits = [(u >> s) & 0xF for s in (12, 8, 4, 0)]
+    bad = False
+    v: Any = 0
+    for d in digits:
+        bad = D.or_(bad, d > 9)
+        v = v * 10 + d
+    return D.ite(bad, 0, v), bad
+
+
+def int_to_bcd(D: Any, v: Any) -> tuple[Any, Any]:
+    """(value, fault) of 0..9999 as a BCD word (signed 16-bit): out of range faults, 0."""
+    ok = D.and_(v >= 0, v <= 9999)
+    x = D.ite(ok, v, 0)
+    u: Any = 0
+    for s in (12, 8, 4, 0):
+        p = 10 ** (s // 4)
+        u = u | ((D.tdiv(x, p) - D.tdiv(x, p * 10) * 10) << s)
+    return D.ite(ok, D.wrap(u, 16), 0), D.not_(ok)
+
+
+def low_word(D: Any, d: Any) -> Any:
+    return D.wrap(d, 16)
+
+
+def high_word(D: Any, d: Any) -> Any:
+    return D.wrap(d >> 16, 16)
+
+
+def concat_words(D: Any, low: Any, high: Any) -> Any:
+    """Two words into a double word, the first argument the low word (as `Ops.concatw`)."""
+    return D.wrap(((high & 0xFFFF) << 16) | (low & 0xFFFF), 32)
+
+
+def int_sqrt(D: Any, a: Any, bits: int) -> tuple[Any, Any]:
+    """(value, fault) of the integer SQRT: the root rounded down, bit by bit from the top
+    (exact: each square fits twice the word's width); a negative argument faults, 0."""
+    r: Any = 0
+    for b in reversed(range(bits // 2)):
+        cand = r | (1 << b)
+        r = D.ite(cand * cand <= a, cand, r)
+    neg = a < 0
+    return D.ite(neg, 0, r), neg

@@ -2,8 +2,9 @@
 programs and random input sequences give the same value of every modelled object, scan
 by scan (booleans, edges, MPS, 16/32-bit words with overflow and %S18, comparisons,
 timers (also when a jump or a subroutine leaves them out), counters, shift registers,
-forward jumps,
-subroutines with conditional returns, ENDC)."""
+drums (outputs shared with rungs), step counters (bits also written), forward jumps,
+%R FIFO/LIFO registers (at depths 1-4), word functions (shifts and rotations with %S17,
+BCD, Gray, LW/HW/CONCATW, SQRT), subroutines with conditional returns, ENDC)."""
 
 from __future__ import annotations
 
@@ -15,19 +16,37 @@ from hypothesis import strategies as st
 
 from softplc.address import Ref
 from softplc.plc import PLC
-from softplc.semantics import WORD_RANGE, IntDomain, Ops, arith
+from softplc.semantics import (
+    WORD_RANGE,
+    IntDomain,
+    Ops,
+    arith,
+    bcd_to_int,
+    concat_words,
+    gray_to_int,
+    high_word,
+    int_sqrt,
+    int_to_bcd,
+    low_word,
+    shift,
+)
 from softplc.verify.model import Model, run_concrete
 from softplc.verify.replay import set_inputs
 
-BITS = ["%I0.0", "%I0.1", "%I0.2", "%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%TM0.Q",
-        "%C0.D", "%MW1:X15", "%SBR0.2"]
-OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3", "%SBR0.0"]
-WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "100", "-7", "32767"]
+BITS = ["%S17", "%S18", "%I0.0", "%I0.1", "%I0.2", "%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%TM0.Q",
+        "%C0.D", "%MW1:X15", "%SBR0.2", "%DR0.F", "%SC0.1", "%SC0.255", "%R0.E",
+        "%R0.F"]
+OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3", "%SBR0.0", "%SC0.2"]
+WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "%DR0.S", "%R0.O", "100", "-7",
+         "32767"]
 TARGETS = ["%MW1", "%MW2", "%MW3"]
+SHIFTS = ["SHL", "SHR", "ROL", "ROR"]
+COUNTS = ["%MW0", "%MW3", "0", "1", "5", "16", "17", "31", "33", "-2"]
+FUNCS1 = ["NOT", "SQRT", "BCD_TO_INT", "INT_TO_BCD", "GRAY_TO_INT", "BTI", "ITB"]
 
 
 def rung(r: random.Random, label: list[int]) -> list[str]:
-    kind = r.randrange(7)
+    kind = r.randrange(8)
     a = r.choice(BITS)
     load = r.choice(["LD", "LDN", "LDR", "LDF"]) + f" {a}"
     if kind == 0:  # boolean logic with a parenthesis and an output
@@ -49,13 +68,30 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
                          f"{r.choice(TARGETS)} := -{r.choice(WORDS)}",
                          f"%MD4 := %MD4 {op if op != 'REM' else '+'} %MD0",
                          f"{r.choice(TARGETS)} := %MD4 + 1",
-                         f"{r.choice(TARGETS)} := ABS({r.choice(WORDS)})"])
+                         f"{r.choice(TARGETS)} := ABS({r.choice(WORDS)})",
+                         f"{r.choice(TARGETS)} := {r.choice(FUNCS1)}({r.choice(WORDS)})",
+                         f"{r.choice(TARGETS)} := {r.choice(SHIFTS)}({r.choice(WORDS)}, "
+                         f"{r.choice(COUNTS)})",
+                         f"%MD4 := {r.choice(SHIFTS)}(%MD0, {r.choice(COUNTS)})",
+                         f"{r.choice(TARGETS)} := {r.choice(['LW', 'HW'])}(%MD4)",
+                         f"%MD4 := SQRT(%MD{r.choice([0, 4])})",
+                         f"%MD4 := CONCATW({r.choice(WORDS)}, {r.choice(WORDS)})"])
         return [load, f"[ {stmt} ]"]
     if kind == 3:  # timer
         return ["BLK %TM0", load, "IN", "OUT_BLK", "LD Q", f"ST {r.choice(OUTS)}", "END_BLK"]
     if kind == 4:  # counter, short form
         return [load, r.choice(["CU %C0", "CD %C0", "R %C0", "S %C0", "CU %SBR0",
-                                "CD %SBR0", "R %SBR0"])]
+                                "CD %SBR0", "R %SBR0", "U %DR0", "R %DR0", "CU %SC0",
+                                "CD %SC0", "R %SC0", "I %R0", "O %R0", "R %R0"])]
+    if kind == 7:  # drum, step counter or register, block form
+        if r.random() < 0.3:
+            return [f"LD {r.choice(BITS)}", f"[ %R0.I := {r.choice(WORDS)} ]", "BLK %R0",
+                    load, "I", f"LD {r.choice(BITS)}", "O", f"LD {r.choice(BITS)}", "R",
+                    "END_BLK"]
+        if r.random() < 0.5:
+            return ["BLK %DR0", load, "U", f"LD {r.choice(BITS)}", "R", "END_BLK"]
+        return ["BLK %SC0", load, "CU", f"LD {r.choice(BITS)}", "CD", f"LD {r.choice(BITS)}",
+                "R", "END_BLK"]
     if kind == 5 and not label:  # a forward jump over the next rungs
         label.append(1)
         return [load, r.choice(["JMPC %L1", "JMPCN %L1"])]
@@ -82,7 +118,10 @@ def program(seed: int) -> tuple[str, dict]:
               "timers": {"%TM0": {"type": r.choice(["TON", "TOF", "TP"]),
                                   "base": r.choice(["10ms", "100ms"]),
                                   "preset": r.randrange(0, 6)}},
-              "counters": {"%C0": {"preset": r.choice([0, 3, 9999])}}}
+              "counters": {"%C0": {"preset": r.choice([0, 3, 9999])}},
+              "drums": {"%DR0": {"steps": [r.randrange(8) for _ in range(r.randrange(1, 5))],
+                                 "outputs": ["%Q0.0", "%M1", "%Q0.2"]}},
+              "registers": {"%R0": {"type": r.choice(["FIFO", "LIFO"])}}}
     return "\n".join(lines) + "\n", config
 
 
@@ -124,6 +163,7 @@ scan_inputs = st.fixed_dictionaries({"%I0.0": st.integers(0, 1), "%I0.1": st.int
 def test_model_and_engine_agree_scan_by_scan(seed, scans, grafcet):
     text, config = (grafcet_program if grafcet else program)(seed)
     plc = PLC.from_source(text, config, devices=False)
+    plc.mem.blocks["R"][0].depth = 1 + seed % 4  # shallow: full within a few scans
     model = Model(plc, [Ref("MW", 0), Ref("MW", 1)], HOST)
     want = run_concrete(model, scans)
     for n, (inputs, values) in enumerate(zip(scans, want, strict=True), 1):
@@ -145,3 +185,40 @@ def test_generic_rules_are_the_engines_helpers(op, bits, a, b):
     got = getattr(ops, f"{op}{bits}")(a, b)
     v, fault = arith(IntDomain, op, a, b, bits)
     assert (got, ops.s[18]) == (v, int(bool(fault)))
+
+
+@settings(max_examples=examples(400), deadline=None)
+@given(kind=st.sampled_from(["SHL", "SHR", "ROL", "ROR"]), bits=st.sampled_from([16, 32]),
+       a=st.integers(-2**31, 2**31 - 1),
+       n=st.one_of(st.integers(-3, 40), st.integers(-32768, 32767)))
+def test_generic_shifts_are_the_engines_helpers(kind, bits, a, n):
+    """`semantics.shift` computes `Ops`'s value and %S17 (kept when nothing moves)."""
+    lo, hi = WORD_RANGE[bits]
+    a = min(max(a, lo), hi)
+    ops = Ops([0] * 32)
+    ops.s[17] = 7
+    got = getattr(ops, f"{kind.lower()}{bits}")(a, n)
+    v, carry, moved = shift(IntDomain, kind, a, n, bits)
+    assert (got, ops.s[17]) == (v, carry if moved else 7)
+
+
+@settings(max_examples=examples(400), deadline=None)
+@given(w=st.integers(-32768, 32767), v=st.integers(-20, 10020), d=st.integers(-2**31, 2**31 - 1))
+def test_generic_word_functions_are_the_engines_helpers(w, v, d):
+    """BCD both ways (%S18 out of range), Gray, LW / HW / CONCATW, integer SQRT: as
+    `Ops`."""
+    ops = Ops([0] * 32)
+    for helper, rule, x in ((ops.bcd_to_int, bcd_to_int, w), (ops.int_to_bcd, int_to_bcd, v),
+                            (ops.int_to_bcd, int_to_bcd, w)):
+        ops.s[18] = 0
+        got = helper(x)
+        value, fault = rule(IntDomain, x)
+        assert (got, ops.s[18]) == (value, int(bool(fault)))
+    assert ops.gray_to_int(w) == gray_to_int(IntDomain, w)
+    assert (ops.lw(d), ops.hw(d)) == (low_word(IntDomain, d), high_word(IntDomain, d))
+    assert ops.concatw(w, v) == concat_words(IntDomain, w, v)
+    for bits, x in ((16, w), (32, d)):
+        ops.s[18] = 0
+        got = getattr(ops, f"sqrt{bits}")(x)
+        value, fault = int_sqrt(IntDomain, x, bits)
+        assert (got, ops.s[18]) == (value, int(bool(fault)))

@@ -153,3 +153,81 @@ def block_invariants(st: dict[str, Any], timers: dict[str, tuple[Timer, int, int
         P, V = st[f"{name}.P"], st[f"{name}.V"]
         out += [P >= 0, P <= MAX_VALUE, V >= 0, V <= MAX_VALUE]
     return out
+
+
+def run_drum(st: dict[str, Any], name: str, steps: list[int], outs: list[str], g: Any,
+             R: Any, U: Any) -> None:
+    """`Drum.run(R, U)` guarded by g: the step's bits go to the outputs only when the step
+    differs from the one last written (`_written`, -1 after a cold start or a reset)."""
+    n = len(steps)
+    S, W = st[f"{name}.S"], st[f"{name}._written"]
+    up = z3.And(U, z3.Not(st[f"{name}._u"]))
+    nxt = z3.If(S == n - 1, z3.BitVecVal(0, 16), S + 1)
+    S2 = z3.If(R, z3.BitVecVal(0, 16), z3.If(up, nxt, S))
+    W1 = z3.If(R, z3.BitVecVal(-1, 16), W)
+    changed = z3.And(g, S2 != W1)
+    for k, key in enumerate(outs):
+        on = z3.Or([S2 == j for j, bits in enumerate(steps) if bits >> k & 1] or [False])
+        st[key] = z3.simplify(z3.If(changed, on, st[key]))
+    _set(st, f"{name}._written", g, S2)  # after the write, or already equal
+    _set(st, f"{name}.S", g, S2)
+    _set(st, f"{name}._u", g, U)
+    _set(st, f"{name}.F", g, S2 == n - 1)
+
+
+def run_step_counter(st: dict[str, Any], name: str, g: Any, R: Any, CU: Any,
+                     CD: Any) -> None:
+    """`StepCounter.run(R, CU, CD)` guarded by g: V the step (0..255), W its 256 bits."""
+    V = st[f"{name}.V"]
+    up = z3.And(CU, z3.Not(st[f"{name}._cu"]))
+    down = z3.And(CD, z3.Not(st[f"{name}._cd"]))
+    v1 = z3.If(up, (V + 1) & 255, V)
+    v2 = z3.If(R, z3.BitVecVal(0, 16), z3.If(down, (v1 - 1) & 255, v1))
+    moved = z3.Or(R, v2 != V)
+    _set(st, f"{name}.V", g, v2)
+    one = z3.BitVecVal(1, 256) << z3.ZeroExt(240, v2)
+    _set(st, f"{name}.W", g, z3.If(moved, one, st[f"{name}.W"]))
+    _set(st, f"{name}._cu", g, CU)
+    _set(st, f"{name}._cd", g, CD)
+
+
+def set_step_bit(st: dict[str, Any], name: str, k: int, g: Any, value: Any) -> None:
+    """`StepCounter.set_bit(k, value)` guarded by g: setting bit k makes k the step."""
+    W = st[f"{name}.W"]
+    mask = z3.BitVecVal(1 << k, 256)
+    _set(st, f"{name}.W", g, z3.If(value, W | mask, W & ~mask))
+    _set(st, f"{name}.V", g, z3.If(value, z3.BitVecVal(k, 16), st[f"{name}.V"]))
+
+
+def register_fields(depth: int) -> tuple[str, ...]:
+    """A %R register's state: its fields, the edge inputs, the count `_n` and the slots
+    `_d0`.. (oldest first, as the engine's list; slots past `_n` are never read)."""
+    return ("I", "O", "E", "F", "_i", "_o", "_n", *(f"_d{j}" for j in range(depth)))
+
+
+def run_register(st: dict[str, Any], name: str, lifo: bool, depth: int, g: Any, R: Any,
+                 I: Any, O: Any) -> None:
+    """`Register.run(R, I, O)` guarded by g: a rising I stores .I unless full, then a
+    rising O retrieves the oldest (FIFO) or newest (LIFO) word unless empty."""
+    d = [st[f"{name}._d{j}"] for j in range(depth)]
+    n = st[f"{name}._n"]
+    push = z3.And(z3.Not(R), I, z3.Not(st[f"{name}._i"]), z3.ULT(n, depth))
+    d = [z3.If(z3.And(push, n == j), st[f"{name}.I"], d[j]) for j in range(depth)]
+    n = z3.If(push, n + 1, n)
+    pop = z3.And(z3.Not(R), O, z3.Not(st[f"{name}._o"]), n != 0)
+    if lifo:
+        top = d[0]
+        for j in range(1, depth):
+            top = z3.If(n == j + 1, d[j], top)
+        _set(st, f"{name}.O", g, z3.If(pop, top, st[f"{name}.O"]))
+    else:
+        _set(st, f"{name}.O", g, z3.If(pop, d[0], st[f"{name}.O"]))
+        d = [z3.If(pop, d[j + 1], d[j]) for j in range(depth - 1)] + [d[-1]]
+    n = z3.If(R, z3.BitVecVal(0, 16), z3.If(pop, n - 1, n))
+    for j in range(depth):
+        _set(st, f"{name}._d{j}", g, d[j])
+    _set(st, f"{name}._n", g, n)
+    _set(st, f"{name}._i", g, I)
+    _set(st, f"{name}._o", g, O)
+    _set(st, f"{name}.E", g, n == 0)
+    _set(st, f"{name}.F", g, z3.UGE(n, depth))

@@ -14,10 +14,27 @@ import z3
 from ..address import INT16, INT32, REAL, Ref
 from ..errors import Diagnostic
 from ..il import ast as A
-from ..semantics import absolute, arith, checked, negate
+from ..semantics import (
+    FUNCTIONS,
+    absolute,
+    arith,
+    bcd_to_int,
+    checked,
+    concat_words,
+    gray_to_int,
+    high_word,
+    int_sqrt,
+    int_to_bcd,
+    low_word,
+    negate,
+    shift,
+)
 from .symbolic import Z3Domain, wide
 
 ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
+# the integer functions modelled exactly (each a rule in `semantics`)
+INT_FUNCS = frozenset({"ABS", "SQRT", "NOT", "SHL", "SHR", "ROL", "ROR", "BCD_TO_INT", "BTI",
+                       "INT_TO_BCD", "ITB", "GRAY_TO_INT", "LW", "HW", "CONCATW"})
 CMP = {"=": lambda a, b: a == b, "<>": lambda a, b: a != b, ">": lambda a, b: a > b,
        ">=": lambda a, b: a >= b, "<": lambda a, b: a < b, "<=": lambda a, b: a <= b}
 
@@ -35,6 +52,7 @@ class ExprModel:
     def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]: ...
     def store_word(self, ref: Ref, g: Any, v: Any, t: str, pos: A.Pos | None) -> None: ...
     def fault(self, g: Any, f: Any) -> None: ...
+    def carry(self, g: Any, c: Any) -> None: ...
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None: ...
     def key_for(self, ref: Ref) -> str: ...
 
@@ -103,18 +121,43 @@ class ExprModel:
         return a, b
 
     def call(self, e: A.Call, want: str | None, g: Any) -> tuple[Any, str]:
-        if e.func in ("ABS", "NOT") and len(e.args) == 1:
-            v, t = self.expr(e.args[0], want, g)
-            if t == REAL:
-                self.unsupported("floating-point functions", e.pos, e.func)
-                return wide(0), REAL
-            if e.func == "NOT":
-                return ~v, t
-            r, f = absolute(Z3Domain, v, 16 if t == INT16 else 32)
-            self.fault(g, f)
-            return r, t
-        self.unsupported(f"the function {e.func}", e.pos, e.func)
-        return wide(0), want or INT16
+        """The integer functions with a bit-vector rule in `semantics`, typed as
+        `ValueCompiler.call` (argument hints from `FUNCTIONS`, "same" result type)."""
+        f = e.func
+        if f not in INT_FUNCS or f not in FUNCTIONS or len(e.args) != len(FUNCTIONS[f][0]):
+            self.unsupported(f"the function {f}", e.pos, f)
+            return wide(0), want or INT16
+        params, result = FUNCTIONS[f]
+        args = [self.expr(a, p if p in (INT16, INT32, REAL) else want, g)
+                for p, a in zip(params, e.args, strict=True)]
+        if any(t == REAL for _, t in args):
+            self.unsupported("floating-point functions", e.pos, f)
+            return wide(0), REAL
+        (v, t), bits = args[0], 16 if args[0][1] == INT16 else 32
+        rtype = t if result == "same" else result
+        D = Z3Domain
+        if f == "NOT":
+            return ~v, t
+        if f == "ABS":
+            r, fault = absolute(D, v, bits)
+        elif f == "SQRT":
+            r, fault = int_sqrt(D, v, bits)
+        elif f in ("SHL", "SHR", "ROL", "ROR"):
+            r, carry, moved = shift(D, f, v, args[1][0], bits)
+            self.carry(z3.And(g, moved), carry)
+            return r, rtype
+        elif f in ("BCD_TO_INT", "BTI"):
+            r, fault = bcd_to_int(D, v)
+        elif f in ("INT_TO_BCD", "ITB"):
+            r, fault = int_to_bcd(D, v)
+        elif f == "GRAY_TO_INT":
+            return gray_to_int(D, v), rtype
+        elif f == "CONCATW":
+            return concat_words(D, v, args[1][0]), rtype
+        else:
+            return (low_word if f == "LW" else high_word)(D, v), rtype
+        self.fault(g, fault)
+        return r, rtype
 
     def statement(self, stmt: A.Statement, g: Any) -> None:
         """An operation block, run where g holds."""

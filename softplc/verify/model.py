@@ -91,6 +91,7 @@ class Model(ObjectModel):
             self.add_input("_dt", "w16", 1, self.longest_us // self.period_us)
         self.timers: dict[str, Timer] = {}
         self.counters: list[str] = []
+        self.drums: dict[str, list[str]] = {}
         self.written: dict[str, A.Pos] = {}  # keys the program writes, where first
         self.grafcet = any(isinstance(i, A.Grafcet) for r in plc.ast.rungs
                            for i in r.instructions)
@@ -126,6 +127,8 @@ class Model(ObjectModel):
             return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us, self.longest_us)}"
         if key == "_tmod":
             return "t"
+        if key.startswith("%SC") and key.endswith(".W"):
+            return "bv256"  # a step counter's 256 bits
         if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
             return "bool"
         return "w16"
@@ -133,7 +136,7 @@ class Model(ObjectModel):
     def is_bit_key(self, key: str) -> bool:
         blk = BLOCK_KEY.match(key)
         if blk:
-            return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd")
+            return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd", "_u", "_i", "_o")
         return key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
             ("%MW", "%QW", "%SW", "%MD"))
 
@@ -143,8 +146,10 @@ class Model(ObjectModel):
             return 1
         blk = BLOCK_KEY.match(key)
         if blk:
-            return 0 if blk[3] == "_el" else int(getattr(self.block(key.split(".")[0]),
-                                                         blk[3]))
+            b, f = self.block(key.split(".")[0]), blk[3]
+            if blk[1] == "R" and f.startswith(("_n", "_d")):  # a register's stored words
+                return len(b._data) if f == "_n" else (b._data + [0] * b.depth)[int(f[2:])]
+            return 0 if f == "_el" else int(getattr(b, f))
         if key.startswith("%S") and int(key[2:]) in KEEP_BITS:
             return KEEP_BITS[int(key[2:])]
         if key.startswith("%X"):  # the initial steps are active from the cold start
@@ -180,6 +185,13 @@ class Model(ObjectModel):
         from .blocks import block_invariants
         out = block_invariants(st, {n: (t, self.period_us, self.longest_us)
                                     for n, t in self.timers.items()}, self.counters)
+        for name in self.drums:
+            n = len(self.block(name).steps)
+            out += [z3.ULT(st[f"{name}.S"], n), st[f"{name}._written"] >= -1,
+                    st[f"{name}._written"] < n]
+        out += [z3.ULE(st[k], 255) for k in st if k.startswith("%SC") and k.endswith(".V")]
+        out += [z3.ULE(st[k], self.block(k[:-3]).depth) for k in st
+                if k.startswith("%R") and k.endswith("._n")]
         if "_tmod" in st:
             out.append(z3.ULT(st["_tmod"], self.clock_wrap))
         return out
@@ -419,7 +431,8 @@ __all__ = ["Model", "Var", "is_object", "run_concrete"]
 
 def is_object(key: str) -> bool:
     """A state key that is an object address (not a block's internal state)."""
-    return key.startswith("%") and "._" not in key and not key.endswith(".W")
+    return key.startswith("%") and "._" not in key and not key.endswith(".W") and \
+        not key.startswith("%SC")  # a step counter's step has no address
 
 
 def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:

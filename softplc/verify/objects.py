@@ -9,17 +9,31 @@ from typing import Any
 
 import z3
 
-from ..address import INT16, INT32, REAL, Ref
-from ..errors import Code, Diagnostic
+from ..address import INT16, INT32, REAL, Ref, parse_address
+from ..errors import AddressError, Code, Diagnostic
 from ..il import ast as A
-from ..runtime.blocks import MAX_VALUE, Counter, ShiftRegister, Timer
+from ..runtime.blocks import MAX_VALUE, Counter, ShiftRegister, StepCounter, Timer
+from ..runtime.catalog import BLOCK_CLASSES
 from ..runtime.engine import S_CLOCKS
-from .blocks import run_counter, run_shift_register, run_timer
+from .blocks import (
+    register_fields,
+    run_counter,
+    run_drum,
+    run_register,
+    run_shift_register,
+    run_step_counter,
+    run_timer,
+    set_step_bit,
+)
 from .exprs import ExprModel
 from .symbolic import as_bool, narrow, wide
 
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
-BLOCK_KEY = re.compile(r"%(TM|C|SBR)(\d+)\.(\w+)$")  # a modelled block's field
+BLOCK_KEY = re.compile(r"%(TM|C|SBR|DR|SC|R)(\d+)\.(\w+)$")  # a modelled block's field
+# the state kept per modelled block kind (a drum's `_written`: the step its outputs hold)
+MODELLED = {"TM": ("P", "V", "Q", "_in", "_on", "_el"), "C": Counter.FIELDS,
+            "SBR": ShiftRegister.FIELDS, "SC": StepCounter.FIELDS,
+            "DR": ("S", "F", "_u", "_written"), "R": ()}  # %R: `register_fields`
 
 
 class ObjectModel(ExprModel):
@@ -29,6 +43,7 @@ class ObjectModel(ExprModel):
     inp: dict[str, Any]
     timers: dict[str, Timer]
     counters: list[str]
+    drums: dict[str, list[str]]  # drum -> its output keys
     written: dict[str, A.Pos]
     executed: dict[str, Any]
     period_us: int
@@ -42,58 +57,75 @@ class ObjectModel(ExprModel):
 
     def use_block(self, ref: Ref, pos: A.Pos | None) -> str | None:
         name = f"%{ref.kind}{ref.index}"
-        if ref.kind in ("TM", "C", "SBR") and \
-                ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
+        if ref.kind not in MODELLED:
+            self.unsupported(f"the %{ref.kind} function block", pos, str(ref))
+            return None
+        if ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
             self.unsupported(f"{name}: not used by the program nor configured", pos, name)
             return None
         if ref.kind == "TM":
             self.timers.setdefault(name, self.plc.mem.blocks["TM"][ref.index])
-            for f in ("P", "V", "Q", "_in", "_on", "_el"):
-                _ = self.st[f"{name}.{f}"]
-            return name
-        if ref.kind == "C":
-            if name not in self.counters:
-                self.counters.append(name)
-            for f in Counter.FIELDS:
-                _ = self.st[f"{name}.{f}"]
-            return name
-        if ref.kind == "SBR":
-            for f in ShiftRegister.FIELDS:
-                _ = self.st[f"{name}.{f}"]
-            return name
-        self.unsupported(f"the %{ref.kind} function block", pos, str(ref))
-        return None
+        elif ref.kind == "C" and name not in self.counters:
+            self.counters.append(name)
+        elif ref.kind == "DR" and name not in self.drums:
+            self.drums[name] = self.drum_outputs(ref, pos)
+        fields = register_fields(self.block(name).depth) if ref.kind == "R" else \
+            MODELLED[ref.kind]
+        for f in fields:
+            _ = self.st[f"{name}.{f}"]
+        return name
+
+    def drum_outputs(self, ref: Ref, pos: A.Pos | None) -> list[str]:
+        """The state keys of a drum's configured output bits, in bit order."""
+        for text, d in self.plc.config.get("drums", {}).items():
+            try:
+                if parse_address(str(text), self.plc.profile).index != ref.index:
+                    continue
+                outs = [parse_address(str(a), self.plc.profile) for a in d.get("outputs", [])]
+            except AddressError:
+                continue
+            keys = [self.key_for(r) for r in outs]
+            for k in keys:
+                self.mark_written(k, pos)
+            return keys
+        self.unsupported(f"{ref}: its outputs are not found in the configuration", pos,
+                         str(ref))
+        return []
 
     def run_block(self, ref: Ref, g: Any, pins: dict[str, Any], pos: A.Pos | None) -> None:
         name = self.use_block(ref, pos)
         if name is None:
             return
-        self.mark_written(f"{name}.V", pos)
-        p = {k: pins.get(k, z3.BoolVal(False)) for k in ("IN", "R", "S", "CU", "CD")}
+        p = {k: pins.get(k, z3.BoolVal(False))
+             for k in ("IN", "R", "S", "CU", "CD", "U", "I", "O")}
+        st = self.st
         if ref.kind == "TM":
+            self.mark_written(f"{name}.V", pos)
             self.executed[name] = z3.Or(self.executed.get(name, False), g)
-            run_timer(self.st, name, self.timers[name], g, p["IN"], self.period_us)
+            run_timer(st, name, self.timers[name], g, p["IN"], self.period_us)
         elif ref.kind == "SBR":
-            run_shift_register(self.st, name, g, p["R"], p["CU"], p["CD"])
+            run_shift_register(st, name, g, p["R"], p["CU"], p["CD"])
+        elif ref.kind == "SC":
+            run_step_counter(st, name, g, p["R"], p["CU"], p["CD"])
+        elif ref.kind == "R":
+            b = self.block(name)
+            run_register(st, name, b.type == "LIFO", b.depth, g, p["R"], p["I"], p["O"])
+        elif ref.kind == "DR":
+            run_drum(st, name, self.block(name).steps, self.drums[name], g, p["R"], p["U"])
         else:
-            run_counter(self.st, name, g, p["R"], p["S"], p["CU"], p["CD"])
+            self.mark_written(f"{name}.V", pos)
+            run_counter(st, name, g, p["R"], p["S"], p["CU"], p["CD"])
 
     def run_pin(self, ref: Ref, pin: str, g: Any, v: Any, pos: A.Pos | None) -> None:
-        """The short form (`CU %C0`, `IN %TM0`): edge inputs held at their last value."""
-        if ref.kind in ("C", "SBR"):
-            name = self.use_block(ref, pos)
-            if name is None:
-                return
-            held = {"CU": self.st[f"{name}._cu"], "CD": self.st[f"{name}._cd"],
-                    "R": z3.BoolVal(False), "S": z3.BoolVal(False)}
-            held[pin] = v
-            if ref.kind == "SBR":
-                run_shift_register(self.st, name, g, held["R"], held["CU"], held["CD"])
-            else:
-                self.mark_written(f"{name}.V", pos)
-                run_counter(self.st, name, g, held["R"], held["S"], held["CU"], held["CD"])
-        else:
-            self.run_block(ref, g, {pin: v}, pos)
+        """The short form (`CU %C0`, `U %DR0`): as `Block`'s generated pin methods, the
+        edge inputs held at their last value, the level inputs at 0."""
+        name = self.use_block(ref, pos)
+        if name is None:
+            return
+        held = {p: self.st[f"{name}.{a}"] for p, a in
+                BLOCK_CLASSES[ref.kind].EDGE_PINS.items()} if ref.kind != "TM" else {}
+        held[pin] = v
+        self.run_block(ref, g, held, pos)
 
     # ---- objects --------------------------------------------------------------------------
     def key_for(self, ref: Ref) -> str:
@@ -106,7 +138,7 @@ class ObjectModel(ExprModel):
             lo, hi = (min(ch.lo, ch.hi), max(ch.lo, ch.hi)) if ch else (-32768, 32767)
             self.add_input(str(ref), "w16", lo, hi)
             return str(ref)
-        if ref.kind in ("TM", "C", "SBR") and ref.field is not None:
+        if ref.kind in MODELLED and ref.field is not None:
             if self.use_block(Ref(ref.kind, ref.index), None) is None:
                 return "_none"
             return f"%{ref.kind}{ref.index}.{ref.field}"
@@ -134,10 +166,10 @@ class ObjectModel(ExprModel):
             return z3.Extract(ref.bit, ref.bit, w) == 1
         if ref.bit is not None and ref.kind == "KW":
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
-        if ref.kind in ("TM", "C") and ref.field in ("Q", "D", "E", "F"):
+        if ref.kind in ("TM", "C", "DR", "R") and ref.field in ("Q", "D", "E", "F"):
             return self.st[self.key_for(ref)]
-        if ref.kind == "SBR" and ref.field == "J":
-            w = self.st[self.key_for(Ref("SBR", ref.index, field="W"))]
+        if ref.kind in ("SBR", "SC") and ref.field == "J":
+            w = self.st[self.key_for(Ref(ref.kind, ref.index, field="W"))]
             return z3.Extract(ref.bit, ref.bit, w) == 1
         self.unsupported(f"reading {ref}", pos, str(ref))
         return z3.BoolVal(False)
@@ -156,6 +188,11 @@ class ObjectModel(ExprModel):
             mask = z3.BitVecVal(1 << ref.bit, 16)
             new = z3.If(value, w | mask, w & ~mask)
             self.st[key] = z3.simplify(z3.If(g, new, w))
+        elif ref.kind == "SC" and ref.bit is not None and ref.offset is None:
+            name = self.use_block(Ref("SC", ref.index), pos)
+            if name is not None:
+                self.mark_written(f"{name}.W", pos)
+                set_step_bit(self.st, name, ref.bit, g, value)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 
@@ -176,7 +213,8 @@ class ObjectModel(ExprModel):
             lo = self.st[self.key_for(Ref("MW", ref.index))]
             hi = self.st[self.key_for(Ref("MW", ref.index + 1))]
             return wide(z3.Concat(hi, lo)), INT32
-        if k in ("TM", "C") and ref.field in ("V", "P"):
+        if k in ("TM", "C") and ref.field in ("V", "P") or k == "DR" and ref.field == "S" \
+                or k == "R" and ref.field in ("I", "O"):
             return wide(self.st[self.key_for(ref)]), INT16
         if ref.type == REAL:
             self.unsupported("floating-point values", pos, str(ref))
@@ -197,6 +235,8 @@ class ObjectModel(ExprModel):
         elif k in ("TM", "C") and ref.field == "P":
             clamped = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
             self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
+        elif k == "R" and ref.field in ("I", "O"):
+            self._put(self.key_for(ref), g, narrow(v, 16), pos)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 
@@ -211,10 +251,17 @@ class ObjectModel(ExprModel):
             return
         self.st["%S18"] = z3.simplify(z3.Or(self.st["%S18"], f))
 
+    def carry(self, g: Any, c: Any) -> None:
+        """%S17 := the bit a shift or rotation moved out, where g holds."""
+        key = self.key_for(Ref("S", 17))
+        self.mark_written(key, None)
+        self.st[key] = z3.simplify(z3.If(g, as_bool(c), self.st[key]))
+
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None:
         p = pos or A.NOPOS
         self.problems.append(Diagnostic(
             f"verify cannot model {what}", self.plc.ast.file, p.line, p.column, text,
-            "booleans, edges, 16/32-bit words, comparisons, %TM, %C, SR, JMP, Grafcet",
+            "booleans, edges, 16/32-bit words, comparisons, %TM, %C, %SBR, %DR, %SC, %R, SR, JMP, "
+            "Grafcet",
             Code.OTHER))
 
