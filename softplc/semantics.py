@@ -426,7 +426,7 @@ class Ops:
 # ints; the verifier's `verify.symbolic.Z3Domain`: solver terms on wide bit-vectors): the
 # exact result, then the Twido rule (%S18 and wrap-around out of range; divide by zero gives
 # 0 and %S18; truncation towards zero; the remainder takes the dividend's sign) [manual].
-# `Ops` keeps its own straight-line int code for the engine's speed; tests/test_verify_model.py
+# `Ops` keeps its own straight-line int code for the engine's speed; tests/test_verify_diff.py
 # checks `Ops` against these rules value for value.
 WORD_RANGE = {16: (-32768, 32767), 32: (-2147483648, 2147483647)}
 
