@@ -155,6 +155,8 @@ def apply(plc: Any, change: Plan, *, confirm: bool = False, cold: bool = False) 
     carried = {(k, i): b.state() for k, d in mem.blocks.items() for i, b in d.items()
                if (k, i) not in change.reset and (k, i) not in change.removed}
     old_settings, old_raw = plc.settings, plc.config
+    old_blocks = {k: dict(d) for k, d in mem.blocks.items()}
+    old_cold = dict(plc.engine.cold_states)
     try:
         for kind, index in change.removed | change.reset:
             mem.blocks[kind].pop(index, None)
@@ -166,8 +168,13 @@ def apply(plc: Any, change: Plan, *, confirm: bool = False, cold: bool = False) 
             if block is not None:
                 block.set_state(st)
         plc.replace_program(change.program)
-    except SoftPLCError:  # cannot happen after a clean plan; leave the PLC as it was
+    except SoftPLCError:  # not expected after a clean plan: put the PLC back as it was
         plc.settings, plc.config = old_settings, old_raw
+        for kind, blocks in mem.blocks.items():  # the old objects, with their state
+            blocks.clear()
+            blocks.update(old_blocks.get(kind, {}))
+        plc.engine.cold_states.clear()
+        plc.engine.cold_states.update(old_cold)
         raise
     if cold:
         plc.cold_start()

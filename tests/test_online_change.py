@@ -116,3 +116,24 @@ def test_program_info_names_the_running_code():
     second = ProgramInfo.of(plc)
     assert first.sha256 != second.sha256 and second.version == first.version + 1
     assert set(second.as_dict()) == {"file", "sha256", "hash", "loaded_at", "version"}
+
+
+def test_a_swap_that_fails_leaves_the_running_program_and_its_blocks(monkeypatch):
+    """If the swap itself failed after a clean plan, blocks, settings and code stay those
+    of the running program (with their values)."""
+    from softplc.errors import CompileError
+
+    plc = running()
+    cfg = {**CONFIG, "timers": {"%TM0": {"type": "TON", "base": "10ms", "preset": 80}}}
+    change = plan(plc, OLD.replace("LD %I0.2\nCU %C1\n", ""), cfg)
+    code, settings, tm = plc.program, plc.settings, plc.mem.blocks["TM"][0]
+
+    def fail(_program):
+        raise CompileError([])
+
+    monkeypatch.setattr(plc, "replace_program", fail)
+    with pytest.raises(CompileError):
+        apply(plc, change, confirm=True)
+    assert plc.program is code and plc.settings is settings
+    assert plc.mem.blocks["TM"][0] is tm and plc["%TM0.P"] == 50 and plc["%TM0.V"] == 23
+    assert plc["%C1.V"] == 0 and 1 in plc.mem.blocks["C"]
