@@ -48,9 +48,10 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .errors import SoftPLCError
-from .modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
+from .modbus import ModbusImage, ReadOnly, ServerThread
 from .modbus.regmap import describe
 from .modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
+from .modbus.tags import host_read_only
 from .runtime import retain
 from .runtime.keeper import StateKeeper
 
@@ -256,9 +257,9 @@ class Daemon:
             if store is not None:
                 def blocks() -> bytes:
                     return retain.encode_blocks(retain.capture_blocks(plc.mem))
-            ro = parse_read_only(plc.config, plc.mem.profile)
+            ro, device_words = host_read_only(plc)
             # devices' status words (e.g. a servo axis's) are read-only for hosts too
-            device_ro = tuple(r for d in plc.devices.values() for r in d.read_only_words())
+            device_ro = tuple(r for ranges in device_words.values() for r in ranges)
             image = self.image = ModbusImage(
                 plc.mem, ReadOnly(ro.registers + device_ro, ro.coils), store=store,
                 blocks=blocks, writes_allowed=not opt.read_only)
