@@ -1,0 +1,210 @@
+"""Measure the structure rules of CONTRIBUTING.md / issue 22 on softplc/.
+
+Prints, and exits 1 when a rule is broken (`--strict`), or always 0 (default):
+
+- files over 700 lines;
+- classes over 25 methods (tables of one method per instruction are listed with
+  `--allow`);
+- files that name each block kind (%VFC %PLS %PWM %DR %FC %PID): the kind as a
+  whole word in a string literal or an identifier, outside comments and docstrings
+  (so a regex alternation, a dict key, a `kind == "PLS"` test or a `_configure_pid`
+  all count; a sentence in a docstring does not);
+- import cycles between files (module-level imports; `if TYPE_CHECKING:` blocks and
+  imports inside functions are left out);
+- files of softplc/web/ that reach the PLC object (`.plc` attribute, `PLC` name, or
+  an import of softplc.plc).
+
+    python tools/check_structure.py [--strict] [--kinds VFC,PLS,...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent / "softplc"
+MAX_LINES = 700
+MAX_METHODS = 25
+MAX_KIND_FILES = 3
+KINDS = ("VFC", "PLS", "PWM", "DR", "FC", "PID")
+# Tables of one method per instruction or grammar rule (DEVELOPERS.md excepts them).
+CLASS_ALLOW = {"Ops", "_ToAST"}
+
+
+def _docstring_nodes(tree: ast.AST) -> set[int]:
+    ids: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = getattr(node, "body", [])
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+                    and isinstance(body[0].value.value, str):
+                ids.add(id(body[0].value))
+    return ids
+
+
+def kind_names(tree: ast.AST) -> set[str]:
+    """The block kinds a module names in code (strings outside docstrings, identifiers)."""
+    docs = _docstring_nodes(tree)
+    found: set[str] = set()
+    words = {k: re.compile(rf"(?<![A-Za-z0-9]){k}(?![A-Za-z])") for k in KINDS}
+    # a function or class named after the kind (`_configure_pid`, `VfcBlock`)
+    ident = {k: re.compile(rf"(?:^|_){k.lower()}(?:_|$)|{k.capitalize()}[A-Z]|^{k}") for k in KINDS}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs:
+            for k, rx in words.items():
+                if rx.search(node.value):
+                    found.add(k)
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            for k, rx in ident.items():
+                if rx.search(node.name):
+                    found.add(k)
+    return found
+
+
+def methods(tree: ast.AST) -> list[tuple[str, int, int]]:
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ClassDef):
+            n = sum(isinstance(b, (ast.FunctionDef, ast.AsyncFunctionDef)) for b in node.body)
+            out.append((node.name, node.lineno, n))
+    return out
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _top_imports(tree: ast.Module, mod: str, is_pkg: bool, modules: set[str]) -> set[str]:
+    """Module-level imports of softplc modules (TYPE_CHECKING blocks left out)."""
+    out: set[str] = set()
+
+    def visit(stmts: list[ast.stmt]) -> None:
+        for st in stmts:
+            if isinstance(st, ast.If):
+                test = ast.unparse(st.test)
+                if "TYPE_CHECKING" in test:
+                    continue
+                visit(st.body)
+                visit(st.orelse)
+            elif isinstance(st, ast.Try):
+                visit(st.body)
+            elif isinstance(st, ast.Import):
+                out.update(a.name for a in st.names if a.name.startswith("softplc"))
+            elif isinstance(st, ast.ImportFrom):
+                if st.level:
+                    base = mod.split(".")
+                    base = base[: len(base) - st.level + (1 if is_pkg else 0)]
+                    target = ".".join(base + ([st.module] if st.module else []))
+                else:
+                    target = st.module or ""
+                if target.startswith("softplc"):
+                    # `from . import sub` imports the module sub (the package is
+                    # being initialised already); `from .m import x` imports m
+                    subs = {f"{target}.{a.name}" for a in st.names} & modules
+                    out.update(subs)
+                    if len(subs) < len(st.names):
+                        out.add(target)
+    visit(tree.body)
+    return out
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+    counter = [0]
+    sys.setrecursionlimit(10000)
+
+    def strong(v: str) -> None:
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                strong(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in list(graph):
+        if v not in index:
+            strong(v)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--strict", action="store_true", help="exit 1 when a rule is broken")
+    ap.add_argument("--kinds", default=",".join(KINDS), help="block kinds to count")
+    args = ap.parse_args(argv)
+    kinds = tuple(k for k in args.kinds.split(",") if k)
+    files = sorted(p for p in ROOT.rglob("*.py") if "__pycache__" not in p.parts)
+    broken = 0
+    trees: dict[str, tuple[ast.Module, bool]] = {}
+    per_kind: dict[str, list[str]] = {k: [] for k in kinds}
+    big_classes: list[str] = []
+    long_files: list[str] = []
+    web_reach: list[str] = []
+    for path in files:
+        text = path.read_text()
+        rel = str(path.relative_to(ROOT.parent))
+        tree = ast.parse(text)
+        n_lines = text.count("\n")
+        if n_lines > MAX_LINES:
+            long_files.append(f"{rel} {n_lines}")
+        for name, line, n in methods(tree):
+            if n > MAX_METHODS and name not in CLASS_ALLOW:
+                big_classes.append(f"{rel}:{line} {name} {n}")
+        for k in kind_names(tree) & set(kinds):
+            per_kind[k].append(rel)
+        mod = _module_name(path)
+        trees[mod] = (tree, path.name == "__init__.py")
+        if path.parent.name == "web":
+            if re.search(r"\.plc\b|\bPLC\b|softplc\.plc\b|from \.\.plc\b", text):
+                web_reach.append(rel)
+    known = set(trees)
+    graph = {m: _top_imports(t, m, pkg, known) for m, (t, pkg) in trees.items()}
+    graph = {m: {t for t in deps if t in known and t != m} for m, deps in graph.items()}
+    cyc = cycles(graph)
+    print(f"files over {MAX_LINES} lines: {len(long_files)}")
+    for x in long_files:
+        print("   ", x)
+    print(f"classes over {MAX_METHODS} methods: {len(big_classes)}")
+    for x in big_classes:
+        print("   ", x)
+    for k in kinds:
+        mark = "" if len(per_kind[k]) <= MAX_KIND_FILES else f"  (> {MAX_KIND_FILES})"
+        print(f"%{k} named in {len(per_kind[k])} files{mark}: {' '.join(per_kind[k])}")
+    print(f"import cycles: {len(cyc)}")
+    for c in cyc:
+        print("   ", " <-> ".join(c))
+    print(f"web/ files reaching the PLC object: {len(web_reach)} {' '.join(web_reach)}")
+    broken = len(long_files) + len(big_classes) + len(cyc) + len(web_reach) + sum(
+        len(v) > MAX_KIND_FILES for v in per_kind.values())
+    print(f"rules broken: {broken}")
+    return 1 if (broken and args.strict) else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
