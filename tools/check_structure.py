@@ -23,6 +23,7 @@ import argparse
 import ast
 import re
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent / "softplc"
@@ -153,57 +154,69 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return out
 
 
+@dataclass
+class Report:
+    """What `measure` found; each list holds one printable line per finding."""
+
+    long_files: list[str] = field(default_factory=list)
+    big_classes: list[str] = field(default_factory=list)
+    per_kind: dict[str, list[str]] = field(default_factory=dict)
+    cycles: list[list[str]] = field(default_factory=list)
+    web_reach: list[str] = field(default_factory=list)
+
+    @property
+    def broken(self) -> int:
+        return len(self.long_files) + len(self.big_classes) + len(self.cycles) + len(
+            self.web_reach) + sum(len(v) > MAX_KIND_FILES for v in self.per_kind.values())
+
+
+def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
+    rep = Report(per_kind={k: [] for k in kinds})
+    trees: dict[str, tuple[ast.Module, bool]] = {}
+    for path in sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts):
+        text = path.read_text()
+        rel = str(path.relative_to(root.parent))
+        tree = ast.parse(text)
+        n_lines = text.count("\n")
+        if n_lines > MAX_LINES:
+            rep.long_files.append(f"{rel} {n_lines}")
+        for name, line, n in methods(tree):
+            if n > MAX_METHODS and name not in CLASS_ALLOW:
+                rep.big_classes.append(f"{rel}:{line} {name} {n}")
+        for k in kind_names(tree) & set(kinds):
+            rep.per_kind[k].append(rel)
+        trees[_module_name(path)] = (tree, path.name == "__init__.py")
+        if path.parent.name == "web" and re.search(
+                r"\.plc\b|\bPLC\b|softplc\.plc\b|from \.\.plc\b", text):
+            rep.web_reach.append(rel)
+    known = set(trees)
+    graph = {m: _top_imports(t, m, pkg, known) for m, (t, pkg) in trees.items()}
+    rep.cycles = cycles({m: {t for t in deps if t in known and t != m}
+                         for m, deps in graph.items()})
+    return rep
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--strict", action="store_true", help="exit 1 when a rule is broken")
     ap.add_argument("--kinds", default=",".join(KINDS), help="block kinds to count")
     args = ap.parse_args(argv)
-    kinds = tuple(k for k in args.kinds.split(",") if k)
-    files = sorted(p for p in ROOT.rglob("*.py") if "__pycache__" not in p.parts)
-    broken = 0
-    trees: dict[str, tuple[ast.Module, bool]] = {}
-    per_kind: dict[str, list[str]] = {k: [] for k in kinds}
-    big_classes: list[str] = []
-    long_files: list[str] = []
-    web_reach: list[str] = []
-    for path in files:
-        text = path.read_text()
-        rel = str(path.relative_to(ROOT.parent))
-        tree = ast.parse(text)
-        n_lines = text.count("\n")
-        if n_lines > MAX_LINES:
-            long_files.append(f"{rel} {n_lines}")
-        for name, line, n in methods(tree):
-            if n > MAX_METHODS and name not in CLASS_ALLOW:
-                big_classes.append(f"{rel}:{line} {name} {n}")
-        for k in kind_names(tree) & set(kinds):
-            per_kind[k].append(rel)
-        mod = _module_name(path)
-        trees[mod] = (tree, path.name == "__init__.py")
-        if path.parent.name == "web":
-            if re.search(r"\.plc\b|\bPLC\b|softplc\.plc\b|from \.\.plc\b", text):
-                web_reach.append(rel)
-    known = set(trees)
-    graph = {m: _top_imports(t, m, pkg, known) for m, (t, pkg) in trees.items()}
-    graph = {m: {t for t in deps if t in known and t != m} for m, deps in graph.items()}
-    cyc = cycles(graph)
-    print(f"files over {MAX_LINES} lines: {len(long_files)}")
-    for x in long_files:
+    rep = measure(kinds=tuple(k for k in args.kinds.split(",") if k))
+    print(f"files over {MAX_LINES} lines: {len(rep.long_files)}")
+    for x in rep.long_files:
         print("   ", x)
-    print(f"classes over {MAX_METHODS} methods: {len(big_classes)}")
-    for x in big_classes:
+    print(f"classes over {MAX_METHODS} methods: {len(rep.big_classes)}")
+    for x in rep.big_classes:
         print("   ", x)
-    for k in kinds:
-        mark = "" if len(per_kind[k]) <= MAX_KIND_FILES else f"  (> {MAX_KIND_FILES})"
-        print(f"%{k} named in {len(per_kind[k])} files{mark}: {' '.join(per_kind[k])}")
-    print(f"import cycles: {len(cyc)}")
-    for c in cyc:
+    for k, files in rep.per_kind.items():
+        mark = "" if len(files) <= MAX_KIND_FILES else f"  (> {MAX_KIND_FILES})"
+        print(f"%{k} named in {len(files)} files{mark}: {' '.join(files)}")
+    print(f"import cycles: {len(rep.cycles)}")
+    for c in rep.cycles:
         print("   ", " <-> ".join(c))
-    print(f"web/ files reaching the PLC object: {len(web_reach)} {' '.join(web_reach)}")
-    broken = len(long_files) + len(big_classes) + len(cyc) + len(web_reach) + sum(
-        len(v) > MAX_KIND_FILES for v in per_kind.values())
-    print(f"rules broken: {broken}")
-    return 1 if (broken and args.strict) else 0
+    print(f"web/ files reaching the PLC object: {len(rep.web_reach)} {' '.join(rep.web_reach)}")
+    print(f"rules broken: {rep.broken}")
+    return 1 if (rep.broken and args.strict) else 0
 
 
 if __name__ == "__main__":
