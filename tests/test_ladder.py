@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from softplc import ladder
 from softplc.cli import main
-from softplc.debug import ladder
 from softplc.debug.session import Session
 from softplc.il import ast as A
 from softplc.il import rungtree

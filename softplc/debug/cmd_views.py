@@ -7,9 +7,9 @@ import difflib
 import textwrap
 from typing import TYPE_CHECKING, Any
 
+from .. import ladder
 from ..il import ast as A
 from ..il.parser import parse_file
-from . import ladder
 from .controller import DebugError
 from .registry import command, first_sentence
 

@@ -1,5 +1,5 @@
 """The live ladder of the web monitor: the one place the web package uses the ladder
-renderer (`softplc.debug.ladder`), so that a change of that module's layout touches only
+renderer (`softplc.ladder`), so that a change of that module's layout touches only
 this file.
 
 The daemon runs the fast build (no accumulator log), so power flow comes from the
@@ -13,8 +13,8 @@ from __future__ import annotations
 from types import SimpleNamespace
 from typing import Any
 
+from .. import ladder
 from ..address import Ref
-from ..debug import ladder
 from ..il import ast as A
 
 

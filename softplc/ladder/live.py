@@ -5,11 +5,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ...address import Ref
-from ...display import format_value
-from ...il import ast as A
-from ...il.printer import format_expr
-from ...semantics import COMPARE
+from ..address import Ref
+from ..display import format_value
+from ..il import ast as A
+from ..il.printer import format_expr
+from ..semantics import COMPARE
 from .tree import Elem
 
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from ...address import Ref
-from ...compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
-from ...il import ast as A
-from ...il import rungtree
-from ...il.printer import format_expr, format_instruction, format_statement
+from ..address import Ref
+from ..compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
+from ..il import ast as A
+from ..il import rungtree
+from ..il.printer import format_expr, format_instruction, format_statement
 
 CONTACT = {"": "┤ ├", "N": "┤/├", "R": "┤P├", "F": "┤N├"}
 COIL = {"ST": "( )", "STN": "(/)", "S": "(S)", "R": "(R)"}
