@@ -4,8 +4,8 @@ this file.
 
 The daemon runs the fast build (no accumulator log), so power flow comes from the
 contacts' current values, as the renderer does without a log. The values are those of one
-scan: `refs` lists what a rung reads (found once by rendering it with a recording reader),
-the scan thread reads them, `capture` and `render` draw them here.
+scan: `refs` lists what a rung reads (from the rung's structure, `ladder.reads`), the scan
+thread reads them, `capture` and `render` draw them here.
 """
 
 from __future__ import annotations
@@ -20,14 +20,7 @@ from ..il import ast as A
 
 def refs(rung: A.Rung) -> list[Ref]:
     """The objects a rung's live view reads."""
-    seen: dict[Ref, None] = {}
-
-    def record(ref: Ref) -> int:
-        seen[ref] = None
-        return 0
-
-    ladder.render_rung_svg(rung, ladder.Live(record, None))
-    return list(seen)
+    return ladder.reads(rung)
 
 
 def capture(wanted: list[Ref], values: list[Any]) -> dict[Ref, Any]:
