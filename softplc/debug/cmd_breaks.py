@@ -7,8 +7,9 @@ import re
 from typing import TYPE_CHECKING, Any
 
 from ..display import format_value
-from .controller import Breakpoint, DebugError
 from .registry import CMP_OPS, COND, command, parse_value
+from .report import executed_text
+from .stepper import Breakpoint, DebugError, resolve_rung
 
 if TYPE_CHECKING:
     from .session import Session
@@ -25,7 +26,7 @@ def cmd_break(s: Session, arg: str) -> str:
     m = re.match(r"when\s+(.*)$", arg, re.I)
     if m:
         return _break_when(s, m[1])
-    r = s.ctl.resolve_rung(arg)
+    r = resolve_rung(s.plc.ast, arg)
     b = s.ctl.breakpoints.add(kind="rung", text=r.name, rung=r.index, key=arg)
     return f"breakpoint #{b.id} at {r.name}"
 
@@ -139,6 +140,6 @@ def cmd_history(s: Session, arg: str) -> str:
         hist = s.ctl.changes[key]
         lines.append(f"{key}: {len(hist)} change(s)")
         for c in hist:
-            lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {c.where:<18} "
+            lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {executed_text(c.where):<18} "
                          f"{format_value(c.old)} -> {format_value(c.new)}")
     return "\n".join(lines)
