@@ -349,6 +349,7 @@ def test_the_stepper_returns_typed_stop_reasons() -> None:
     """Each run's result is data: the reason, the hits with their ids, rungs and raw values,
     where it stands; the REPL formats it (debug/report.py)."""
     from softplc.debug.stepper import (
+        BreakKind,
         CondHit,
         Executed,
         Position,
@@ -366,18 +367,18 @@ def test_the_stepper_returns_typed_stop_reasons() -> None:
     for _ in range(len(plc.rungs)):
         ran = ctl.step()
     assert ran.reason == StopKind.SCAN_END and ran.position.rung is None
-    b = ctl.breakpoints.add(kind="rung", text="rung 3 (stack)", rung=3, key="3")
+    b = ctl.breakpoints.add(kind=BreakKind.RUNG, text="rung 3 (stack)", rung=3, key="3")
     ran = ctl.run_scans(5)
     assert ran.reason == StopKind.BREAKPOINT and ran.hits == (RungHit(b.id, 3, b.text),)
     ctl.breakpoints.delete([b])
-    w = ctl.breakpoints.add(kind="watch", text="%MW0", test=lambda: plc["%MW0"])
+    w = ctl.breakpoints.add(kind=BreakKind.WATCH, text="%MW0", test=lambda: plc["%MW0"])
     plc["%I0.0"] = 1
     ran = ctl.run_scans(5)
     assert ran.reason == StopKind.WATCH
     assert ran.hits == (WatchHit(w.id, "%MW0", 0, 1, Executed(0, 1)),)
     assert isinstance(ran.hits[0].new, int)  # the value, not its text
     ctl.breakpoints.delete([w])
-    c = ctl.breakpoints.add(kind="cond", text="%M5 rises", test=lambda: plc["%M5"],
+    c = ctl.breakpoints.add(kind=BreakKind.COND, text="%M5 rises", test=lambda: plc["%M5"],
                             mode="rises")
     assert ctl.run_until_hit(3).reason == StopKind.SCAN_LIMIT  # %M5 stays 0
     plc["%MW0"] = 3

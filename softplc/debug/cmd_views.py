@@ -12,7 +12,7 @@ from ..il import ast as A
 from ..il.parser import parse_file
 from .registry import command, first_sentence
 from .report import position_text, reload_text
-from .stepper import DebugError, resolve_rung
+from .stepper import BreakKind, DebugError, resolve_rung
 
 if TYPE_CHECKING:
     from .session import Session
@@ -140,7 +140,7 @@ def cmd_rung(s: Session, arg: str) -> str:
 @command("rungs", "l")
 def cmd_rungs(s: Session, arg: str) -> str:
     """rungs: list the rungs (* breakpoint, > current)."""
-    bp = {b.rung for b in s.ctl.breaks if b.kind == "rung" and b.enabled}
+    bp = {b.rung for b in s.ctl.breaks if b.kind == BreakKind.RUNG and b.enabled}
     lines = []
     for r in s.plc.ast.rungs:
         mark = (">" if s.ctl.pos and s.ctl.pos[0] == r.index else " ") + \

@@ -40,6 +40,14 @@ STOPS_A_COMMAND = frozenset({StopKind.BREAKPOINT, StopKind.WATCH, StopKind.INTER
                              StopKind.FAULT})
 
 
+class BreakKind(Enum):
+    """What a breakpoint waits for."""
+
+    RUNG = "rung"  # a rung's start
+    COND = "cond"  # a condition (becomes true, rises, falls, changes)
+    WATCH = "watch"  # any change of an object (its changes are recorded)
+
+
 class DebugError(SoftPLCError):
     """A command the debugger cannot do (bad argument, unknown rung...)."""
 
@@ -124,7 +132,7 @@ class Reloaded:
 @dataclasses.dataclass
 class Breakpoint:
     id: int
-    kind: str  # rung | cond | watch
+    kind: BreakKind
     text: str  # as shown in the list
     rung: int | None = None
     key: str = ""  # how the rung was named (re-resolved after reload)
@@ -360,7 +368,7 @@ class Stepper:
         self.dbg_version = self.plc.program_version
         lost = []
         for b in self.breaks:
-            if b.kind == "rung":
+            if b.kind == BreakKind.RUNG:
                 try:
                     r = resolve_rung(program, b.key)
                     b.rung, b.text = r.index, r.name
@@ -420,7 +428,7 @@ class Breakpoints:
         if b.test is not None:
             b.last = b.test()
         self.items.append(b)
-        if b.kind == "watch":
+        if b.kind == BreakKind.WATCH:
             self.changes.setdefault(b.text, deque(maxlen=HISTORY))
         return b
 
@@ -443,9 +451,9 @@ class Breakpoints:
         """Index the breakpoints for the per-instruction checks of a run."""
         self.at_rung = {}
         for b in self.items:
-            if b.kind == "rung" and b.enabled:
+            if b.kind == BreakKind.RUNG and b.enabled:
                 self.at_rung.setdefault(b.rung, b)
-        self.data = any(b.kind != "rung" for b in self.items)
+        self.data = any(b.kind != BreakKind.RUNG for b in self.items)
 
     def hits(self, pos: tuple[int, int] | None, executed: Executed) -> _Stop | None:
         """Why to stop here (breakpoints, watches), or None."""
@@ -464,7 +472,7 @@ class Breakpoints:
     def _values(self) -> Iterator[tuple[Breakpoint, Any]]:
         """Each watch and condition with its value now (those that cannot be read skipped)."""
         for b in self.items:
-            if b.kind == "rung" or b.test is None:
+            if b.kind == BreakKind.RUNG or b.test is None:
                 continue
             try:
                 yield b, b.test()
@@ -474,7 +482,7 @@ class Breakpoints:
     @staticmethod
     def _fires(b: Breakpoint, old: Any, new: Any) -> bool:
         """Whether a watch or condition going from `old` to `new` stops a run."""
-        if b.kind == "watch" or b.mode == "changes":
+        if b.kind == BreakKind.WATCH or b.mode == "changes":
             return new != old
         if b.mode == "falls":
             return bool(old) and not new
@@ -490,11 +498,11 @@ class Breakpoints:
         hits: list[CondHit | WatchHit] = []
         for b, v in self._values():
             old, b.last = b.last, v
-            if b.kind == "watch" and v != old:
+            if b.kind == BreakKind.WATCH and v != old:
                 self.changes.setdefault(b.text, deque(maxlen=HISTORY)).append(
                     Change(self.plc.scan_count, self.plc.time, executed, old, v))
             if b.enabled and self._fires(b, old, v):
                 b.hits += 1
-                hits.append(WatchHit(b.id, b.text, old, v, executed) if b.kind == "watch"
+                hits.append(WatchHit(b.id, b.text, old, v, executed) if b.kind == BreakKind.WATCH
                             else CondHit(b.id, b.text, executed))
         return hits
