@@ -300,7 +300,7 @@ def test_subroutine_rungs_and_where() -> None:
 
 
 def test_step_count_is_not_cut_by_rung_titles_that_read_like_stops() -> None:
-    """The stepping controller stops on typed reasons, not on words in its own output."""
+    """The stepper stops on typed reasons, not on words in its own output."""
     src = ("(* watch the pump *)\nLD %I0.0\nST %Q0.0\n(* breakpoint zone *)\nLD %I0.1\n"
            "ST %Q0.1\n(* third *)\nLD %I0.2\nST %Q0.2\n(* fourth *)\nLD %I0.3\nST %Q0.3\n")
     ses = Session(PLC.from_source(src))
