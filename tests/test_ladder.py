@@ -389,3 +389,21 @@ def test_the_ladder_package_stands_apart_from_the_debugger() -> None:
                 mod = "." * node.level + (node.module or "")
                 assert not mod.startswith(("..debug", "..web", "softplc.debug", "softplc.web",
                                            "..plc", "softplc.plc")), (f.name, mod)
+
+
+def test_the_web_monitor_finds_a_rungs_reads_without_drawing_it(monkeypatch) -> None:
+    """The web monitor's list of what a rung shows comes from the rung tree: no layout."""
+    import importlib
+
+    from softplc.web import ladderview
+
+    lay = importlib.import_module("softplc.ladder.layout")  # (the package names a function so)
+
+    def no_drawing(*args, **kw):
+        raise AssertionError("the rung was drawn")
+
+    monkeypatch.setattr(lay, "build", no_drawing)
+    rung = parse_file(SAMPLE).rungs[1]  # threshold: LD [ %MW0 >= 3 ] / ST %M5
+    assert [str(r) for r in ladderview.refs(rung)] == ["%MW0", "%M5"]
+    with pytest.raises(AssertionError, match="drawn"):  # (the patch is where drawing goes)
+        ladder.render_rung_svg(rung)
