@@ -300,7 +300,7 @@ def test_subroutine_rungs_and_where() -> None:
 
 
 def test_step_count_is_not_cut_by_rung_titles_that_read_like_stops() -> None:
-    """The stepping controller stops on typed reasons, not on words in its own output."""
+    """The stepper stops on typed reasons, not on words in its own output."""
     src = ("(* watch the pump *)\nLD %I0.0\nST %Q0.0\n(* breakpoint zone *)\nLD %I0.1\n"
            "ST %Q0.1\n(* third *)\nLD %I0.2\nST %Q0.2\n(* fourth *)\nLD %I0.3\nST %Q0.3\n")
     ses = Session(PLC.from_source(src))
@@ -328,12 +328,12 @@ def test_help_lists_whole_first_sentences_wrapped(s: Session, width: int) -> Non
     assert first_sentence("a: b, e.g. c. More.") == "a: b, e.g. c."
 
 
-def test_the_controller_runs_without_the_command_layer() -> None:
+def test_the_stepper_runs_without_the_command_layer() -> None:
     """What the web monitor will drive: typed results, no terminal, no command parsing."""
-    from softplc.debug.controller import Controller, StopKind
+    from softplc.debug.stepper import Stepper, StopKind
 
     plc = PLC.from_file(SAMPLE, config=CONFIG)
-    ctl = Controller(plc)
+    ctl = Stepper(plc)
     ran = ctl.step_instruction()
     assert ran.reason == StopKind.DONE and ctl.pos == (0, 0)
     ran = ctl.run_scans(3)
@@ -343,6 +343,88 @@ def test_the_controller_runs_without_the_command_layer() -> None:
     assert plc.scan_count == 2 and len(ctl.ring) == 2
     ctl.close()
     assert ctl._apply_pending not in plc.before_scan
+
+
+def test_the_stepper_returns_typed_stop_reasons() -> None:
+    """Each run's result is data: the reason, the hits with their ids, rungs and raw values,
+    where it stands; the REPL formats it (debug/report.py)."""
+    from softplc.debug.stepper import (
+        BreakKind,
+        CondHit,
+        Executed,
+        Position,
+        RungHit,
+        Stepper,
+        StopKind,
+        WatchHit,
+    )
+
+    plc = PLC.from_file(SAMPLE, config=CONFIG)
+    ctl = Stepper(plc)
+    ran = ctl.step()  # enters the scan: stops before rung 0
+    assert ran.reason == StopKind.DONE and ran.position == Position(0, plc.time, 0, 0)
+    assert ran.running and ran.state == "RUN" and not ran.hits
+    for _ in range(len(plc.rungs)):
+        ran = ctl.step()
+    assert ran.reason == StopKind.SCAN_END and ran.position.rung is None
+    b = ctl.breakpoints.add(kind=BreakKind.RUNG, text="rung 3 (stack)", rung=3, key="3")
+    ran = ctl.run_scans(5)
+    assert ran.reason == StopKind.BREAKPOINT and ran.hits == (RungHit(b.id, 3, b.text),)
+    ctl.breakpoints.delete([b])
+    w = ctl.breakpoints.add(kind=BreakKind.WATCH, text="%MW0", test=lambda: plc["%MW0"])
+    plc["%I0.0"] = 1
+    ran = ctl.run_scans(5)
+    assert ran.reason == StopKind.WATCH
+    assert ran.hits == (WatchHit(w.id, "%MW0", 0, 1, Executed(0, 1)),)
+    assert isinstance(ran.hits[0].new, int)  # the value, not its text
+    ctl.breakpoints.delete([w])
+    c = ctl.breakpoints.add(kind=BreakKind.COND, text="%M5 rises", test=lambda: plc["%M5"],
+                            mode="rises")
+    assert ctl.run_until_hit(3).reason == StopKind.SCAN_LIMIT  # %M5 stays 0
+    plc["%MW0"] = 3
+    ran = ctl.run_until_hit(3)
+    assert ran.reason == StopKind.BREAKPOINT and ran.hits == (CondHit(c.id, c.text,
+                                                                      Executed(1, 1)),)
+    ctl.close()
+
+
+def test_a_fault_stops_a_run() -> None:
+    """The PLC leaving RUN ends `run` and `continue` at that scan, with the reason FAULT
+    (they used to run their scans on in HALT: continue, 100000 of them)."""
+    from softplc.debug.stepper import Stepper, StopKind
+
+    plc = PLC.from_source("LD %M0\nJMPC %L1\n%L1:\nLD 1\n[ INC %MW0 ]\nLD %M1\n"
+                          "JMPC %L1\n", {"watchdog": "5ms", "scan_period": "10ms"})
+    ctl = Stepper(plc)
+    assert ctl.run_scans(3).reason == StopKind.DONE and plc.scan_count == 3
+    plc["%M1"] = 1  # rung 1 jumps back to itself for ever: the watchdog halts the PLC
+    ran = ctl.run_scans(50)
+    assert ran.reason == StopKind.FAULT and not ran.running and "watchdog" in ran.fault
+    assert plc.scan_count == 4
+    s = Session(PLC.from_source("LD 1\n[ INC %MW0 ]\nLD [ %MW0 > 2 ]\nJMPC %L1\n"
+                                "%L1:\nLD [ %MW0 > 2 ]\nJMPC %L1\n", {"watchdog": "5ms"}))
+    s.execute("break when %MW5 = 1")
+    out = s.execute("continue")
+    assert s.plc.scan_count == 3 and "no breakpoint hit" not in out
+    assert out.splitlines()[0].startswith("PLC in HALT: watchdog")
+    assert "a fault stops it" in " ".join(s.execute("help continue").split())
+
+
+def test_the_stepper_builds_no_text() -> None:
+    """No printing or text building in the stepper: f-strings only in its errors."""
+    import ast
+
+    import softplc.debug.stepper as mod
+
+    tree = ast.parse(Path(mod.__file__).read_text(encoding="utf-8"))
+    in_raise = {id(n) for r in ast.walk(tree) if isinstance(r, ast.Raise)
+                for n in ast.walk(r)}
+    built = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.JoinedStr)
+             and id(n) not in in_raise]
+    assert not built, f"text built at lines {built}"
+    calls = {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call)
+             and isinstance(n.func, ast.Name)}
+    assert not calls & {"print", "format_value", "format_instruction"}
 
 
 def test_one_command_table() -> None:

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from softplc import ladder
 from softplc.cli import main
-from softplc.debug import ladder
 from softplc.debug.session import Session
 from softplc.il import ast as A
 from softplc.il import rungtree
@@ -315,3 +315,95 @@ def test_svg_box_configuration_clear_of_the_pin_names(tmp_path):
                      if ln.get("y1") == ln.get("y2")
                      and float(ln.get("x1")) < float(info.get("x")) < float(ln.get("x2")))
     assert float(info.get("y")) < box_bottom
+
+
+# ---- what a rung reads, from the rung tree -------------------------------------------------
+def _drawn_reads(rung: A.Rung) -> set:
+    """What drawing the rung live reads (the oracle: a reader that records every object)."""
+    seen: set = set()
+
+    def record(ref):
+        seen.add(ref)
+        return 0
+
+    ladder.render_rung_svg(rung, ladder.Live(record, None))
+    ladder.render_text(rung, ladder.Live(record, None))
+    return seen
+
+
+PROGRAMS = sorted((HERE.parent / "ladder_programs").rglob("*.il")) + [SAMPLE]
+
+
+@pytest.mark.parametrize("path", PROGRAMS, ids=lambda p: p.name)
+def test_reads_are_what_the_live_view_shows(path: Path) -> None:
+    """`ladder.reads` (from `il/rungtree.py`, no drawing) lists exactly the objects the live
+    view of each rung of the shipped programs reads, each once."""
+    for rung in parse_file(path).rungs:
+        got = ladder.reads(rung)
+        assert len(got) == len(set(got)), rung.name
+        assert set(got) == _drawn_reads(rung), rung.name
+
+
+def test_reads_of_a_block_a_comparison_and_an_operation() -> None:
+    box, op = parse("BLK %C0\nLD %I0.0\nCU\nOUT_BLK\nLD D\nAND [ %MW1 + 2 > -%MW2 ]\n"
+                    "ST %Q0.0\nEND_BLK\nLD %M3\n[ %MW4 := %MW5 * 2 ]\n").rungs
+    # the box (the block, its output pins), the input, the comparison's objects, the coil
+    assert [str(r) for r in ladder.reads(box)] == ["%C0", "%C0.E", "%C0.D", "%C0.F", "%I0.0",
+                                                   "%MW1", "%MW2", "%Q0.0"]
+    # an operation block shows its target's value, not its operands'
+    assert [str(r) for r in ladder.reads(op)] == ["%M3", "%MW4"]
+
+
+def test_reads_cover_random_rungs() -> None:
+    """Random (also malformed) rungs: every object the drawing reads is listed (an
+    unfinished load that a later LD replaces is listed though not drawn)."""
+    from fuzz_budget import examples
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+    from test_fuzz import line, rung
+
+    from softplc.errors import SoftPLCError
+
+    @settings(max_examples=examples(400), deadline=None,
+              suppress_health_check=[HealthCheck.too_slow])
+    @given(st.lists(st.one_of(line, rung.map("\n".join)), max_size=20))
+    def check(lines: list[str]) -> None:
+        try:
+            prog = parse("\n".join(lines) + "\n")
+        except SoftPLCError:
+            return
+        for r in prog.rungs:
+            assert set(ladder.reads(r)) >= _drawn_reads(r), r.instructions
+
+    check()
+
+
+def test_the_ladder_package_stands_apart_from_the_debugger() -> None:
+    """softplc.ladder imports neither the debugger nor the web monitor (both use it)."""
+    import ast as pyast
+
+    pkg = HERE.parent / "softplc" / "ladder"
+    for f in pkg.glob("*.py"):
+        for node in pyast.walk(pyast.parse(f.read_text(encoding="utf-8"))):
+            if isinstance(node, pyast.ImportFrom):
+                mod = "." * node.level + (node.module or "")
+                assert not mod.startswith(("..debug", "..web", "softplc.debug", "softplc.web",
+                                           "..plc", "softplc.plc")), (f.name, mod)
+
+
+def test_the_web_monitor_finds_a_rungs_reads_without_drawing_it(monkeypatch) -> None:
+    """The web monitor's list of what a rung shows comes from the rung tree: no layout."""
+    import importlib
+
+    from softplc.web import ladderview
+
+    lay = importlib.import_module("softplc.ladder.layout")  # (the package names a function so)
+
+    def no_drawing(*args, **kw):
+        raise AssertionError("the rung was drawn")
+
+    monkeypatch.setattr(lay, "build", no_drawing)
+    rung = parse_file(SAMPLE).rungs[1]  # threshold: LD [ %MW0 >= 3 ] / ST %M5
+    assert [str(r) for r in ladderview.refs(rung)] == ["%MW0", "%M5"]
+    with pytest.raises(AssertionError, match="drawn"):  # (the patch is where drawing goes)
+        ladder.render_rung_svg(rung)

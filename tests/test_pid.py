@@ -173,7 +173,7 @@ def test_program_errors(src, message):
 
 
 def test_pid_shows_in_the_ladder_view():
-    from softplc.debug.ladder import render_text
+    from softplc.ladder import render_text
 
     plc = oven_plc({})
     text = render_text(plc.ast.rungs[0])

@@ -6,9 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from softplc import PLC
+from softplc import PLC, ladder
 from softplc.cli import main as softplc
-from softplc.debug import ladder
 from softplc.debug.session import Session
 from softplc.errors import AddressError, Code, ConfigError, ParseError
 from softplc.symbols import SymbolTable, read_csv

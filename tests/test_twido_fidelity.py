@@ -528,8 +528,8 @@ def test_check_accepts_the_new_syntax_and_reports_misuse(tmp_path, capsys):
 
 
 def test_ladder_view_shows_block_bits_in_twido_spelling():
-    from softplc.debug.ladder import render_text
     from softplc.il.parser import parse
+    from softplc.ladder import render_text
 
     text = render_text(parse("LD %SBR0.J3\nANDN %SC1.7\nST %SC1.8\n").rungs[0])
     assert "%SBR0.3" in text and "%SC1.7" in text and "%SC1.8" in text

@@ -30,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..debug import ladder
+    from .. import ladder
     from ..errors import SoftPLCError
     from ..il import ast as A
     from ..il.parser import parse_file

@@ -7,8 +7,9 @@ import re
 from typing import TYPE_CHECKING, Any
 
 from ..display import format_value
-from .controller import Breakpoint, DebugError
 from .registry import CMP_OPS, COND, command, parse_value
+from .report import executed_text
+from .stepper import BreakKind, Breakpoint, DebugError, resolve_rung
 
 if TYPE_CHECKING:
     from .session import Session
@@ -25,8 +26,8 @@ def cmd_break(s: Session, arg: str) -> str:
     m = re.match(r"when\s+(.*)$", arg, re.I)
     if m:
         return _break_when(s, m[1])
-    r = s.ctl.resolve_rung(arg)
-    b = s.ctl.breakpoints.add(kind="rung", text=r.name, rung=r.index, key=arg)
+    r = resolve_rung(s.plc.ast, arg)
+    b = s.ctl.breakpoints.add(kind=BreakKind.RUNG, text=r.name, rung=r.index, key=arg)
     return f"breakpoint #{b.id} at {r.name}"
 
 
@@ -37,7 +38,7 @@ def _break_when(s: Session, text: str) -> str:
         if len(refs) != 1:
             raise DebugError("a condition names one object, not a range")
         ref = refs[0]
-        b = s.ctl.breakpoints.add(kind="cond", text=f"{ref} {parts[1].lower()}",
+        b = s.ctl.breakpoints.add(kind=BreakKind.COND, text=f"{ref} {parts[1].lower()}",
                       test=lambda: s.read(ref), mode=parts[1].lower())
         return f"breakpoint #{b.id} when {b.text}"
     m = COND.match(text)
@@ -58,7 +59,7 @@ def _break_when(s: Session, text: str) -> str:
 
         def right() -> Any:
             return val
-    b = s.ctl.breakpoints.add(kind="cond", text=f"{lref} {m[2]} {m[3]}",
+    b = s.ctl.breakpoints.add(kind=BreakKind.COND, text=f"{lref} {m[2]} {m[3]}",
                   test=lambda: bool(op(s.read(lref), right())))
     return f"breakpoint #{b.id} when {b.text}" + (" (true now: stops when it becomes "
                                                   "true again)" if b.last else "")
@@ -72,9 +73,12 @@ def cmd_watch(s: Session, arg: str) -> str:
     if len(refs) != 1:
         raise DebugError("watch one object, e.g. watch %MW32")
     ref = refs[0]
-    b = s.ctl.breakpoints.add(kind="watch", text=s.title(ref),
+    b = s.ctl.breakpoints.add(kind=BreakKind.WATCH, text=s.title(ref),
                                 test=lambda: s.read(ref))
     return f"watch #{b.id} {s.title(ref)} (now {s.fmt(ref, b.last)})"
+
+
+_LISTED_AS = {BreakKind.RUNG: "at", BreakKind.COND: "when", BreakKind.WATCH: "watch"}
 
 
 @command("breakpoints", "breaks", "tb")
@@ -84,7 +88,7 @@ def cmd_breakpoints(s: Session, arg: str) -> str:
         return "no breakpoints"
     lines = []
     for b in s.ctl.breaks:
-        what = {"rung": "at", "cond": "when", "watch": "watch"}[b.kind]
+        what = _LISTED_AS[b.kind]
         lines.append(f"#{b.id:<3} {what} {b.text}{'' if b.enabled else '  (disabled)'}"
                      f"  hits {b.hits}")
     return "\n".join(lines)
@@ -139,6 +143,6 @@ def cmd_history(s: Session, arg: str) -> str:
         hist = s.ctl.changes[key]
         lines.append(f"{key}: {len(hist)} change(s)")
         for c in hist:
-            lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {c.where:<18} "
+            lines.append(f"  scan {c.scan:>6}  t={c.time:9.3f} s  {executed_text(c.where):<18} "
                          f"{format_value(c.old)} -> {format_value(c.new)}")
     return "\n".join(lines)

@@ -7,8 +7,8 @@ import re
 from typing import TYPE_CHECKING, Any
 
 from ..address import Ref
-from .controller import DebugError
 from .registry import command, parse_value
+from .stepper import DebugError
 
 if TYPE_CHECKING:
     from .session import Session

@@ -8,8 +8,9 @@ from typing import TYPE_CHECKING
 
 from ..config import duration
 from ..errors import ConfigError
-from .controller import STOPS_A_COMMAND, DebugError, Ran, StopKind
 from .registry import command
+from .report import position_text, run_text
+from .stepper import STOPS_A_COMMAND, DebugError, Ran
 
 if TYPE_CHECKING:
     from .session import Session
@@ -20,17 +21,17 @@ def cmd_scan(s: Session, arg: str) -> str:
     """scan [N]: finish the scan in progress, then run N more scans (default 1; 0 when a
     scan is in progress). Stops at breakpoints."""
     n = s.count(arg, 0 if s.ctl.in_scan else 1)
-    return s.ctl.run_scans(n).text
+    return run_text(s.ctl.run_scans(n), s.plc.ast)
 
 
 def _repeat(s: Session, arg: str, step: Callable[[], Ran]) -> str:
     """`step` N times (default 1), or until a breakpoint, a fault or the end stops it."""
-    ran = Ran(StopKind.DONE, "")
+    ran: Ran | None = None
     for _ in range(s.count(arg, 1)):
         ran = step()
         if ran.reason in STOPS_A_COMMAND:
             break
-    return ran.text
+    return run_text(ran, s.plc.ast) if ran is not None else ""
 
 
 @command("step", "s")
@@ -62,27 +63,23 @@ def cmd_run(s: Session, arg: str) -> str:
         n = max(1, round(secs / s.plc.scan_period))
     if s.ctl.in_scan:
         n = max(0, n - 1)  # the scan in progress counts as one
-    return s.ctl.run_scans(n).text
+    return run_text(s.ctl.run_scans(n), s.plc.ast)
 
 
 @command("continue", "c", "cont")
 def cmd_continue(s: Session, arg: str) -> str:
     """continue: run until a breakpoint or watch stops it (at most 100000 scans;
-    Ctrl-C stops it)."""
+    Ctrl-C or a fault stops it)."""
     if not s.ctl.breaks or not any(b.enabled for b in s.ctl.breaks):
         raise DebugError("no breakpoint is enabled: continue would never stop "
                          "(use 'run N' or set one with 'break')")
-    ran = s.ctl.run_scans(s.continue_limit)
-    if ran.reason not in STOPS_A_COMMAND:
-        return f"no breakpoint hit in {s.continue_limit} scans\n" + ran.text
-    return ran.text
+    return run_text(s.ctl.run_until_hit(s.continue_limit), s.plc.ast, s.continue_limit)
 
 
 @command("back")
 def cmd_back(s: Session, arg: str) -> str:
     """back [N]: go back N scans (default 1; a scan in progress counts as one)."""
     n = s.count(arg, 1)
-    if n == 0:
-        return s.ctl.position()
-    s.ctl.back(n)
-    return s.ctl.position()
+    if n:
+        s.ctl.back(n)
+    return position_text(s.ctl.position(), s.plc.ast)

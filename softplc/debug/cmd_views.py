@@ -7,11 +7,12 @@ import difflib
 import textwrap
 from typing import TYPE_CHECKING, Any
 
+from .. import ladder
 from ..il import ast as A
 from ..il.parser import parse_file
-from . import ladder
-from .controller import DebugError
 from .registry import command, first_sentence
+from .report import position_text, reload_text
+from .stepper import BreakKind, DebugError, resolve_rung
 
 if TYPE_CHECKING:
     from .session import Session
@@ -99,7 +100,7 @@ def cmd_status(s: Session, arg: str) -> str:
              f"{s.plc.scan_period * 1000:g} ms",
              f"scan     last {st.last * 1e6:.0f} us  min {st.min * 1e6:.0f} us  max "
              f"{st.max * 1e6:.0f} us  mean {st.total / n * 1e6:.0f} us (execution, wall)",
-             f"position {s.ctl.position()}",
+             f"position {position_text(s.ctl.position(), s.plc.ast)}",
              f"history  {len(s.ctl.ring)} scans (back)",
              f"forced   {', '.join(f'{k}={v}' for k, v in s.plc.forced.items()) or '-'}"]
     if s.ctl.pending:
@@ -119,14 +120,14 @@ def cmd_status(s: Session, arg: str) -> str:
 @command("where", "bt")
 def cmd_where(s: Session, arg: str) -> str:
     """where: the current position (the next instruction to run)."""
-    return s.ctl.position()
+    return position_text(s.ctl.position(), s.plc.ast)
 
 
 @command("rung")
 def cmd_rung(s: Session, arg: str) -> str:
     """rung [N | TITLE]: the rung as a ladder with live power flow (double lines) and
     values (F = forced); > marks the next instruction. Default: the current rung."""
-    r = s.ctl.resolve_rung(arg) if arg else s.plc.ast.rungs[s.ctl.last_rung]
+    r = resolve_rung(s.plc.ast, arg) if arg else s.plc.ast.rungs[s.ctl.last_rung]
     live = ladder.Live(s.read, s.ctl.dbg.log[r.index] if r.index < len(s.ctl.dbg.log)
                        else None, set(s.plc.forced))
     marker = s.ctl.pos[1] if s.ctl.pos and s.ctl.pos[0] == r.index else None
@@ -139,7 +140,7 @@ def cmd_rung(s: Session, arg: str) -> str:
 @command("rungs", "l")
 def cmd_rungs(s: Session, arg: str) -> str:
     """rungs: list the rungs (* breakpoint, > current)."""
-    bp = {b.rung for b in s.ctl.breaks if b.kind == "rung" and b.enabled}
+    bp = {b.rung for b in s.ctl.breaks if b.kind == BreakKind.RUNG and b.enabled}
     lines = []
     for r in s.plc.ast.rungs:
         mark = (">" if s.ctl.pos and s.ctl.pos[0] == r.index else " ") + \
@@ -158,9 +159,9 @@ def cmd_reload(s: Session, arg: str) -> str:
         raise DebugError("the program was not loaded from a file")
     new = parse_file(s.path)
     old = s.plc.ast
-    finished, lost = s.ctl.reload(new)
-    pre = "finished the scan in progress\n" if finished else ""
-    report = diff_programs(old, new) + lost
+    done = s.ctl.reload(new)
+    pre = "finished the scan in progress\n" if done.finished else ""
+    report = diff_programs(old, new) + reload_text(done)
     return pre + (f"reloaded {s.path}: " + ("; ".join(report) if report else
                                                "no change"))
 

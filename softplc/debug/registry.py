@@ -13,7 +13,7 @@ import re
 from collections.abc import Callable
 
 from ..semantics import COMPARE, COMPARE_PY
-from .controller import DebugError
+from .stepper import DebugError
 
 # the Twido operators and their Python spellings (== !=), as users also type them
 CMP_OPS = {**COMPARE, **{COMPARE_PY[op]: fn for op, fn in COMPARE.items()}}

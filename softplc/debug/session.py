@@ -23,13 +23,13 @@ import struct
 from pathlib import Path
 from typing import Any
 
-from ..address import IO_KINDS, Ref, expand
+from ..address import BLOCK_FIELDS, IO_KINDS, Ref, expand
 from ..display import format_value
 from ..errors import SoftPLCError
 from ..plc import PLC
 from . import cmd_breaks, cmd_data, cmd_run, cmd_views  # noqa: F401 (they fill COMMANDS)
-from .controller import HISTORY, Controller, DebugError
 from .registry import COMMANDS
+from .stepper import HISTORY, DebugError, Stepper
 
 CONTINUE_LIMIT = 100_000  # scans `continue` runs before giving up
 WORDS = ("MW", "KW", "SW")
@@ -38,14 +38,14 @@ FLOATS = ("MF", "KF")
 
 
 class Session:
-    """A debugging session over one PLC: the command and format layer over a stepping
-    controller (`self.ctl`, which the web monitor can drive the same way). `execute(line)`
+    """A debugging session over one PLC: the command and format layer over a `Stepper`
+    (`self.ctl`, which the web monitor can drive the same way). `execute(line)`
     runs a command from the table `COMMANDS` and returns its text."""
 
     def __init__(self, plc: PLC, program_path: str | Path | None = None,
                  history: int = HISTORY):
         self.plc = plc
-        self.ctl = Controller(plc, history)
+        self.ctl = Stepper(plc, history)
         self.path = Path(program_path) if program_path else None
         self.width = 80  # of the text `help` wraps to (the REPL sets the terminal's)
         self.trace_file: Any = None
@@ -117,7 +117,7 @@ class Session:
         found.update(s.name for s in self.plc.symbols)
         for kind, blocks in self.plc.mem.blocks.items():
             for i in blocks:
-                if kind != "PID":  # PID n is no address
+                if kind in BLOCK_FIELDS:  # a block with an address (PID n has none)
                     found.add(f"%{kind}{i}")
         return sorted(found)
 

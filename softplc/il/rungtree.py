@@ -9,7 +9,7 @@ accumulator it leaves. The rung-structure checks live here too, with their `erro
 
 Consumers keep only their own values, indexed by instruction number (`Step.k`):
 code generation (`compiler/codegen.py`: Python expressions) and the ladder view
-(`debug/ladder/tree.py`: series/parallel drawings), so neither parses the stack machine.
+(`ladder/tree.py`: series/parallel drawings), so neither parses the stack machine.
 A new instruction kind that reads the accumulator is added to `READS_ACC`; one that
 changes the structure (a new kind of bracket or block) to `build`; then each consumer
 handles it.

@@ -1,11 +1,11 @@
 """The live ladder of the web monitor: the one place the web package uses the ladder
-renderer (`softplc.debug.ladder`), so that a change of that module's layout touches only
+renderer (`softplc.ladder`), so that a change of that module's layout touches only
 this file.
 
 The daemon runs the fast build (no accumulator log), so power flow comes from the
 contacts' current values, as the renderer does without a log. The values are those of one
-scan: `refs` lists what a rung reads (found once by rendering it with a recording reader),
-the scan thread reads them, `capture` and `render` draw them here.
+scan: `refs` lists what a rung reads (from the rung's structure, `ladder.reads`), the scan
+thread reads them, `capture` and `render` draw them here.
 """
 
 from __future__ import annotations
@@ -13,21 +13,14 @@ from __future__ import annotations
 from types import SimpleNamespace
 from typing import Any
 
+from .. import ladder
 from ..address import Ref
-from ..debug import ladder
 from ..il import ast as A
 
 
 def refs(rung: A.Rung) -> list[Ref]:
     """The objects a rung's live view reads."""
-    seen: dict[Ref, None] = {}
-
-    def record(ref: Ref) -> int:
-        seen[ref] = None
-        return 0
-
-    ladder.render_rung_svg(rung, ladder.Live(record, None))
-    return list(seen)
+    return ladder.reads(rung)
 
 
 def capture(wanted: list[Ref], values: list[Any]) -> dict[Ref, Any]:

@@ -5,12 +5,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ...address import Ref
-from ...display import format_value
-from ...il import ast as A
-from ...il.printer import format_expr
-from ...semantics import COMPARE
-from .tree import Elem
+from ..address import Ref
+from ..display import format_value
+from ..il import ast as A
+from ..il import rungtree
+from ..il.printer import format_expr
+from ..semantics import COMPARE
+from .tree import BOX_PINS, Elem, element
 
 
 class Live:
@@ -81,6 +82,43 @@ class Live:
                 return None
             return v != (mod == "N")
         return None
+
+
+def _expr_refs(e: A.Expr) -> list[Ref]:
+    """The objects `Live.expr_text` shows the values of (those under + - * / and -x)."""
+    if isinstance(e, A.Addr):
+        return [e.ref]
+    if isinstance(e, A.BinOp):
+        return _expr_refs(e.left) + _expr_refs(e.right)
+    if isinstance(e, A.Neg):
+        return _expr_refs(e.operand)
+    return []
+
+
+def reads(rung: A.Rung) -> list[Ref]:
+    """The objects the live view of `rung` reads, in instruction order, from the rung's
+    structure (`il/rungtree.py`) without drawing it: what each instruction's element shows
+    (a contact's bit, a comparison's operands, a coil's or an operation's target, the block
+    of a short-form input) and each BLK box (the block and its output pins)."""
+    seen: dict[Ref, None] = {}
+    for st in rungtree.build(rung).steps:
+        if not st.ok:
+            continue
+        if isinstance(st.instr, A.Blk) and st.block is not None:
+            b = st.block
+            seen[Ref(b.kind, b.index)] = None
+            seen.update((Ref(b.kind, b.index, field=pin), None)
+                        for pin in BOX_PINS.get(b.kind, ((), ()))[1])
+            continue
+        el = element(st)
+        if el is None:
+            continue
+        cmp_ = getattr(el.instr, "operand", None)
+        if el.kind == "compare" and isinstance(cmp_, A.Compare):
+            seen.update((r, None) for r in _expr_refs(cmp_.left) + _expr_refs(cmp_.right))
+        elif el.ref is not None:
+            seen[el.ref] = None
+    return list(seen)
 
 
 def block_summary(b: Any) -> str:

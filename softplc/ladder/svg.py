@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import html
 
-from ...il import ast as A
-from ...il.printer import format_instruction
+from ..il import ast as A
+from ..il.printer import format_instruction
 from .layout import BlockReader, Cell, layout
 from .live import Live
 from .text import box_inner_width, program_sections

@@ -6,8 +6,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from ...address import Ref
-from ...il import ast as A
+from ..address import Ref
+from ..il import ast as A
 from .live import Live
 from .tree import BOX_PINS, Block, Branch, Elem, Junction, Leaf, Merge, Par, Ser, build
 

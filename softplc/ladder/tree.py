@@ -5,11 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from ...address import Ref
-from ...compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
-from ...il import ast as A
-from ...il import rungtree
-from ...il.printer import format_expr, format_instruction, format_statement
+from ..address import Ref
+from ..compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
+from ..il import ast as A
+from ..il import rungtree
+from ..il.printer import format_expr, format_instruction, format_statement
 
 CONTACT = {"": "┤ ├", "N": "┤/├", "R": "┤P├", "F": "┤N├"}
 COIL = {"ST": "( )", "STN": "(/)", "S": "(S)", "R": "(R)"}
@@ -164,6 +164,23 @@ def _output_elem(instr: A.Instruction, k: int, blk: Ref | None) -> Elem | None:
     return None
 
 
+def _contact(st: rungtree.Step) -> Elem:
+    """The contact or comparison of a LD/AND/OR/XOR or of an opening `AND(` (drawn as a
+    load: its operand starts the logic inside the parentheses)."""
+    ins = st.instr
+    assert isinstance(ins, (A.BoolInstr, A.ParenOpen))
+    return _operand_elem(ins.operand, ins.modifier, st.k, ins, st.block,
+                         ins.op if isinstance(ins, A.BoolInstr) else "LD")
+
+
+def element(st: rungtree.Step) -> Elem | None:
+    """The element an instruction draws (contact, comparison, coil, box), None for one
+    that only shapes the rung (a closing parenthesis, MPS, the block markers...)."""
+    if isinstance(st.instr, (A.BoolInstr, A.ParenOpen)):
+        return _contact(st)
+    return _output_elem(st.instr, st.k, st.block)
+
+
 def _block_output(ins: A.BoolInstr, blk: Ref) -> str | None:
     """The output pin a plain `LD Q` (or `LD %C0.D`) after OUT_BLK reads, else None."""
     op = ins.operand
@@ -240,8 +257,7 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
             continue
         elif isinstance(ins, A.BoolInstr):
             # an OR operand's own state is not the accumulator after it
-            e = Leaf(_operand_elem(ins.operand, ins.modifier, k, ins, blk, ins.op),
-                     None if ins.op == "OR" else k)
+            e = Leaf(_contact(st), None if ins.op == "OR" else k)
             pin = (_block_output(ins, blk) if block is not None and rail is root
                    and ins.op == "LD" else None)
             if pin is not None:
@@ -253,8 +269,7 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
                 combine(ins.op, e, k)
         elif isinstance(ins, A.ParenOpen):
             saved[k] = (cur, pend)
-            cur, pend = Junction(), Leaf(_operand_elem(ins.operand, ins.modifier, k, ins, blk,
-                                                       "LD"), k)
+            cur, pend = Junction(), Leaf(_contact(st), k)
         elif isinstance(ins, A.ParenClose):
             op = tree.steps[st.opener].instr.op
             cur, outer = saved[st.opener]
@@ -279,7 +294,7 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
             rail = cur = block.ins
             pend = None
         else:
-            el = _output_elem(ins, k, blk)
+            el = element(st)
             if el is None:
                 continue
             unconditional = (isinstance(ins, (A.Jump, A.Return, A.End)) and

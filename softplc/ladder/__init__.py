@@ -25,7 +25,7 @@ Modules by job: `tree` (IL rung -> tree), `live` (values for the live view), `la
 from __future__ import annotations
 
 from .layout import BoxRow, Cell, Grid, layout
-from .live import Live, block_summary
+from .live import Live, block_summary, reads
 from .svg import CH, PAD, POWER_COLOUR, ROW_H, render_program_svg, render_rung_svg
 from .text import render_program_text, render_text
 from .tree import (
@@ -47,6 +47,6 @@ from .tree import (
 __all__ = [
     "ASCII", "BOX_PINS", "Block", "BoxRow", "Branch", "CH", "COIL", "CONTACT", "Cell", "Elem",
     "Grid", "Junction", "Leaf", "Live", "Merge", "PAD", "POWER_COLOUR", "Par", "ROW_H", "Ser",
-    "block_summary", "build", "layout", "render_program_svg", "render_program_text",
+    "block_summary", "build", "layout", "reads", "render_program_svg", "render_program_text",
     "render_rung_svg", "render_text",
 ]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ...il import ast as A
-from ...il.printer import format_instruction
+from ..il import ast as A
+from ..il.printer import format_instruction
 from .layout import BlockReader, Cell, layout
 from .live import Live
 from .tree import ASCII
