@@ -16,6 +16,7 @@ from types import SimpleNamespace
 
 import pytest
 
+from softplc.access import AccessPort
 from softplc.cli import main as cli
 from softplc.commands.io import Client, IoError, parse_value
 from softplc.modbus import ModbusImage, ServerThread, parse_read_only
@@ -43,7 +44,8 @@ class Stack:
         self.modbus = ServerThread(self.image, "127.0.0.1", 0).start()
         daemon = SimpleNamespace(plc=self.plc, program_name=program.name, overruns=0,
                                  late_starts=0, skipped_starts=0, jitter_max=0.0)
-        self.web = attach(daemon, self.modbus, self.image, WebOptions(port=0, **web))
+        self.web = attach(daemon, self.modbus, AccessPort(self.plc, self.image),
+                          WebOptions(port=0, **web))
         self.port = self.web.server.port
         self._stop = False
         self.lock = threading.Lock()  # held: no scan runs
@@ -506,8 +508,10 @@ def test_port_taken_default_falls_back_explicit_fails():
         port = busy.getsockname()[1]
         try:
             with pytest.raises(SoftPLCError, match=f"cannot listen on 127.0.0.1:{port}"):
-                attach(daemon, modbus, image, WebOptions(port=port, port_given=True))
-            web = attach(daemon, modbus, image, WebOptions(port=port, port_given=False))
+                attach(daemon, modbus, AccessPort(plc, image),
+                       WebOptions(port=port, port_given=True))
+            web = attach(daemon, modbus, AccessPort(plc, image),
+                         WebOptions(port=port, port_given=False))
             assert web.server.port != port
             assert f"(port {port} is taken)" in web.banner()[0]
             web.stop()
@@ -541,10 +545,8 @@ def test_run_command_web_options(tmp_path):
 
 def test_fast_reader_agrees_with_memory_read():
     """The scan-thread reader gives what `MemoryImage.read` gives, latched or not."""
-    from softplc.web.control import Controller
-
     plc = PLC.from_file(TABLE, config=TABLE.with_suffix(".toml"))
-    ctl = Controller(plc)
+    ctl = AccessPort(plc)
     plc.run(0.05)
     plc["%MW5"], plc["%MD8"], plc["%MF20"], plc["%M3"], plc["%SW40"] = 7, -70000, 2.5, 1, 9
     plc.mem.i_field[20] = 1  # %I0.20: never latched, read from the field

@@ -21,6 +21,7 @@ from ..errors import SoftPLCError
 from ..il import ast as A
 from ..il.printer import format_instruction
 from ..plc import PLC
+from ..runtime.runstate import RUN
 
 HISTORY = 1000  # scans kept for `back`
 
@@ -205,7 +206,7 @@ class Controller:
                         remaining -= 1
                         stop = self.breakpoints.hits(self.pos, self.ran)
         msgs = [stop.message] if stop else []
-        if self.plc.state != "RUN":
+        if self.plc.state != RUN:
             msgs.append(f"PLC in {self.plc.state}" + (f": {self.plc.fault}"
                                                         if self.plc.fault else ""))
         msgs.append(self.position())
