@@ -4,7 +4,7 @@ and expansion modules), the analog channels, the simulated devices as a typed li
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,28 +28,20 @@ class DeviceEntry:
     io: tuple[str, ...]
 
 
-def _addresses(value: Any) -> Iterator[str]:
-    """The %I/%Q address strings in a device's options (nested models, lists, dicts)."""
-    if isinstance(value, str):
-        if value[:2].upper() in IO_PREFIXES:
-            yield value
-    elif isinstance(value, dict):
-        for v in value.values():
-            yield from _addresses(v)
-    elif isinstance(value, list | tuple):
-        for v in value:
-            yield from _addresses(v)
-
-
 def device_entry(name: str, dev: Any, profile: Any) -> DeviceEntry:
-    options = getattr(dev, "options", None)
-    raw = options.model_dump() if hasattr(options, "model_dump") else {}
+    """The entry of a device; its I/O is found from the address strings (and lists of
+    them) among its attributes, the options it copied from its configuration. Its options
+    model would name more (an encoder's inputs, a servo's E-stop button), but they do not
+    say whether the device drives an input or only reads it (a user presses the E-stop):
+    an input listed here refuses writes."""
     io: dict[str, None] = {}
-    for text in _addresses(raw):
-        try:
-            io[str(parse_address(text, profile))] = None
-        except AddressError:
-            pass
+    for value in vars(dev).values():
+        for item in value if isinstance(value, list | tuple) else [value]:
+            if isinstance(item, str) and item[:2].upper() in IO_PREFIXES:
+                try:
+                    io[str(parse_address(item, profile))] = None
+                except AddressError:
+                    pass
     return DeviceEntry(name, str(dev.type_name), dev, tuple(io))
 
 
