@@ -51,6 +51,11 @@ class WordLane(Protocol):
         online change's swap); it handles its own errors."""
         self.queue.put([Call(fn)])
 
+    def apply_now(self) -> None:
+        """Apply the queued commands at once: for a caller that owns the scan thread and
+        stands between two scans or instructions (the debugger)."""
+        self.queue.apply()
+
     @property
     def pending(self) -> int: ...
 
@@ -87,10 +92,12 @@ class Status:
 class AccessPort:
     """Typed reads, checked and queued changes, status, over a `PLC` (and its
     `ModbusImage`, the `WordLane`, if it is served over Modbus). `refuse_changes`: a
-    front-end's reason to refuse every change (a read-only monitor), "" to allow them."""
+    front-end's reason to refuse every change (a read-only monitor), "" to allow them.
+    `hooks=False`: the caller owns the scan (the debugger, between two instructions) and
+    applies the queue itself (`apply_now`); reads are `read_now` only."""
 
     def __init__(self, plc: Any, image: WordLane | None = None, *,
-                 refuse_changes: str = ""):
+                 refuse_changes: str = "", hooks: bool = True):
         self.plc = plc
         self.image = image
         self.refuse_changes = refuse_changes
@@ -100,8 +107,9 @@ class AccessPort:
         self.reading = Reading(plc)  # typed reads at a scan boundary
         self.machine = MachineInfo(plc)  # I/O layout, analog channels, devices, rungs
         self.program = ProgramAccess(plc, image)  # listing, symbols, map, online change
-        plc.before_scan.append(self.queue.apply)
-        plc.after_scan.append(self.reading.serve)
+        if hooks:
+            plc.before_scan.append(self.queue.apply)
+            plc.after_scan.append(self.reading.serve)
 
     def close(self) -> None:
         """Unhook from the controller; pending reads are answered directly."""
@@ -119,11 +127,13 @@ class AccessPort:
         return plain and ref.kind in ("I", "Q", "M", "S", "X", "MW", "MD", "MF")
 
     def why_not_writable(self, ref: Ref, forcing: bool = False) -> str | None:
-        """Why `ref` cannot be written (or forced), None if it can."""
+        """Why `ref` cannot be written, None if it can. `forcing`: a force (or the
+        debugger's set), which overrides the simulated devices and the host read-only
+        ranges."""
         if self.refuse_changes:
             return self.refuse_changes
         if ref.kind in CONSTANT_KINDS:
-            return f"{ref} is a constant: set it in the configuration ([constants])"
+            return f"{ref} is a constant (read-only): set it in the configuration ([constants])"
         if ref.kind in BLOCK_FIELDS:
             if ref.is_block:
                 return f"{ref} is a function block: read or write its fields (.P, .V...)"
@@ -165,7 +175,7 @@ class AccessPort:
         if ref.kind in BLOCK_FIELDS:
             lo, hi = BLOCK_RANGE
         if not lo <= value <= hi:
-            raise AccessError(f"{ref}: {value} is out of range {lo}..{hi}")
+            raise AccessError(f"{ref}: {value} is out of range {lo}..{hi} (does not fit)")
         return value
 
     def _deny(self) -> None:
@@ -266,6 +276,11 @@ class AccessPort:
         """Queue `fn` in the control lane: run in the scan thread at the next boundary (the
         online change's swap); it handles its own errors."""
         self.queue.put([Call(fn)])
+
+    def apply_now(self) -> None:
+        """Apply the queued commands at once: for a caller that owns the scan thread and
+        stands between two scans or instructions (the debugger)."""
+        self.queue.apply()
 
     @property
     def pending(self) -> int:
