@@ -161,3 +161,15 @@ def test_device_listing_is_typed():
     assert kinds["X"] == "stepper" and all(isinstance(k, str) for k in kinds.values())
     assert port.machine.device_io and set(port.machine.device_io.values()) <= set(kinds)
     assert port.queue.apply not in plc.before_scan  # no hooks: the caller applies
+
+
+def test_bench_access_reports_its_figures():
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import bench_access
+
+    res = bench_access.run(objects=10, number=50)
+    assert res["objects"] == 10 and all(v > 0 for v in res.values())
+    assert "us per read" in bench_access.report(res)
