@@ -124,6 +124,26 @@ def test_read_ranges_blocks_and_bits(star):
     assert star.client().get("%MF6") == {"%MF6": "inf"}
 
 
+def test_every_bit_reads_0_or_1_even_one_a_comparison_stored(tmp_path):
+    """The compiled comparison stores a Python bool; the API sends 0/1 all the same (an
+    output bit sent as `true` once broke the animation table)."""
+    il = tmp_path / "compare.il"
+    il.write_text("LD [%MW0 > 3]\nST %M5\nLD [%MW0 > 3]\nST %Q0.2\n", encoding="utf-8")
+    s = Stack(il)
+    try:
+        c = s.client()
+        c.set("%MW0", 7)
+        s.scans()
+        assert s.plc.mem.m[5] is True  # what the program stored
+        v = c.get("%M5", "%Q0.2", "%Q0.2:2", "%MW0:X0")
+        assert v == {"%M5": 1, "%Q0.2": 1, "%Q0.3": 0, "%MW0:X0": 1}
+        assert all(type(x) is int for x in v.values())
+        io = c.request("io")["io"]
+        assert type(io["%Q0.2"]["value"]) is int and io["%Q0.2"]["value"] == 1
+    finally:
+        s.close()
+
+
 @pytest.mark.parametrize("obj, message", [
     ("%XX0", "unknown object"), ("%MW5000", "beyond the controller profile"),
     ("MW3", "start with %"), ("%TM99", "not configured"), ("%I0.40", "has 24 inputs"),
