@@ -85,7 +85,7 @@ class Reading:
             return await s.future
 
     def values_fn(self, refs: list[tuple[str, Ref]]) -> Callable[[], dict[str, Any]]:
-        """A function giving {name: value} of `refs`: prepare it here (in the web thread),
+        """A function giving {name: value} of `refs`: prepare it here (in the front-end's thread),
         call it in the scan thread (`sample`), where it costs little."""
         reader = self.reader([r for _, r in refs])
         names = [n for n, _ in refs]
