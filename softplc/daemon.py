@@ -53,6 +53,7 @@ from .modbus.regmap import describe
 from .modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
 from .modbus.tags import host_read_only
 from .runtime import retain
+from .runtime.engine import HALT, RUN
 from .runtime.keeper import StateKeeper
 
 log = logging.getLogger("softplc.daemon")
@@ -271,9 +272,11 @@ class Daemon:
             server.start()
             self._server = server
             # web monitor hook: served on the Modbus server's event loop (softplc.web)
-            from .web import attach
+            if opt.web is not None and opt.web.port is not None:
+                from .access import AccessPort
+                from .web import attach
 
-            self.web = attach(self, server, image, opt.web)
+                self.web = attach(self, server, AccessPort(plc, image), opt.web)
             for hook in opt.on_serving:
                 hook(server, image)
         except BaseException:
@@ -361,7 +364,7 @@ class Daemon:
         held = False
         while not self._stop:
             if (wait_bit is not None and mem_m[wait_bit] and image is not None
-                    and not image.pending and plc.state == "RUN"
+                    and not image.pending and plc.state == RUN
                     and not (self.web is not None and self.web.controller.pending)):
                 # the program waits for its host: hold the virtual clock until a write
                 # (short waits: signals, stop requests and a change queued by the web
@@ -400,7 +403,7 @@ class Daemon:
                 break
             if plc.state != state:
                 state = plc.state
-                if state == "HALT":
+                if state == HALT:
                     log.error("controller halted: %s", plc.fault)
                     self.say(f"controller in HALT: {plc.fault}")
             end = clock()

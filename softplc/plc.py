@@ -45,7 +45,7 @@ from .runtime.analog import AnalogChannel, AnalogIO, normal_range
 from .runtime.blocks import Counter, Drum, Message, Register, Timer, TimeSource
 from .runtime.catalog import BLOCK_CLASSES
 from .runtime.clock import Clock, VirtualClock, make_clock
-from .runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
+from .runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine, RunState
 from .runtime.exch import ETHERNET_PORT, ExchPort
 from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
@@ -596,7 +596,7 @@ class PLC:
         return self.engine.stats.scans
 
     @property
-    def state(self) -> str:
+    def state(self) -> RunState:
         return self.engine.state
 
     @property

@@ -16,6 +16,7 @@ from types import SimpleNamespace
 
 import pytest
 
+from softplc.access import AccessPort
 from softplc.cli import main as cli
 from softplc.commands.io import Client, IoError, parse_value
 from softplc.modbus import ModbusImage, ServerThread, parse_read_only
@@ -43,7 +44,8 @@ class Stack:
         self.modbus = ServerThread(self.image, "127.0.0.1", 0).start()
         daemon = SimpleNamespace(plc=self.plc, program_name=program.name, overruns=0,
                                  late_starts=0, skipped_starts=0, jitter_max=0.0)
-        self.web = attach(daemon, self.modbus, self.image, WebOptions(port=0, **web))
+        self.web = attach(daemon, self.modbus, AccessPort(self.plc, self.image),
+                          WebOptions(port=0, **web))
         self.port = self.web.server.port
         self._stop = False
         self.lock = threading.Lock()  # held: no scan runs
@@ -120,6 +122,26 @@ def test_read_ranges_blocks_and_bits(star):
     star.plc["%MF6"] = float("inf")  # a float word can hold what JSON cannot
     star.scans()
     assert star.client().get("%MF6") == {"%MF6": "inf"}
+
+
+def test_every_bit_reads_0_or_1_even_one_a_comparison_stored(tmp_path):
+    """The compiled comparison stores a Python bool; the API sends 0/1 all the same (an
+    output bit sent as `true` once broke the animation table)."""
+    il = tmp_path / "compare.il"
+    il.write_text("LD [%MW0 > 3]\nST %M5\nLD [%MW0 > 3]\nST %Q0.2\n", encoding="utf-8")
+    s = Stack(il)
+    try:
+        c = s.client()
+        c.set("%MW0", 7)
+        s.scans()
+        assert s.plc.mem.m[5] is True  # what the program stored
+        v = c.get("%M5", "%Q0.2", "%Q0.2:2", "%MW0:X0")
+        assert v == {"%M5": 1, "%Q0.2": 1, "%Q0.3": 0, "%MW0:X0": 1}
+        assert all(type(x) is int for x in v.values())
+        io = c.request("io")["io"]
+        assert type(io["%Q0.2"]["value"]) is int and io["%Q0.2"]["value"] == 1
+    finally:
+        s.close()
 
 
 @pytest.mark.parametrize("obj, message", [
@@ -506,8 +528,10 @@ def test_port_taken_default_falls_back_explicit_fails():
         port = busy.getsockname()[1]
         try:
             with pytest.raises(SoftPLCError, match=f"cannot listen on 127.0.0.1:{port}"):
-                attach(daemon, modbus, image, WebOptions(port=port, port_given=True))
-            web = attach(daemon, modbus, image, WebOptions(port=port, port_given=False))
+                attach(daemon, modbus, AccessPort(plc, image),
+                       WebOptions(port=port, port_given=True))
+            web = attach(daemon, modbus, AccessPort(plc, image),
+                         WebOptions(port=port, port_given=False))
             assert web.server.port != port
             assert f"(port {port} is taken)" in web.banner()[0]
             web.stop()
@@ -541,10 +565,8 @@ def test_run_command_web_options(tmp_path):
 
 def test_fast_reader_agrees_with_memory_read():
     """The scan-thread reader gives what `MemoryImage.read` gives, latched or not."""
-    from softplc.web.control import Controller
-
     plc = PLC.from_file(TABLE, config=TABLE.with_suffix(".toml"))
-    ctl = Controller(plc)
+    ctl = AccessPort(plc)
     plc.run(0.05)
     plc["%MW5"], plc["%MD8"], plc["%MF20"], plc["%M3"], plc["%SW40"] = 7, -70000, 2.5, 1, 9
     plc.mem.i_field[20] = 1  # %I0.20: never latched, read from the field

@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
+from softplc.access import AccessPort
 from softplc.plc import PLC
+from softplc.web.control import Controller
 from softplc.web.live import LiveViews, dumps
 
 PROGRAMS = Path(__file__).resolve().parents[1] / "ladder_programs"
@@ -21,7 +22,7 @@ def machine(name: str) -> tuple[PLC, LiveViews]:
     cfg = tomllib.loads((PROGRAMS / f"{name}.toml").read_text(encoding="utf-8"))
     plc = PLC.from_file(PROGRAMS / f"{name}.il", cfg)
     plc.scan()
-    return plc, LiveViews(SimpleNamespace(plc=plc))
+    return plc, LiveViews(Controller(AccessPort(plc)))
 
 
 @pytest.fixture

@@ -15,7 +15,8 @@ import time
 import pytest
 from test_web_api import ROOT, STAR, Stack
 
-from softplc.web import changes, objects, pages
+from softplc.access import commands, objects
+from softplc.web import pages
 
 aiohttp = pytest.importorskip("aiohttp")
 
@@ -237,7 +238,7 @@ def test_a_page_that_never_reads_does_not_stall_the_others(star, monkeypatch):
 # ---- 5. the change queue: bounded, control commands first ---------------------------------
 def test_change_queue_is_bounded_and_stop_does_not_wait(star):
     s = star
-    limit = changes.MAX_PENDING
+    limit = commands.MAX_PENDING
     presses = [{"object": "%I0.5", "value": k % 2} for k in range(limit)]
     with s.lock:  # no scan meanwhile: everything queued waits
         status, text = http(s.port, "POST", "/api/write",

@@ -20,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gen_programs import boolean_program  # noqa: E402 (tools/, the script's folder)
 
 from softplc import online  # noqa: E402
+from softplc.access import AccessPort  # noqa: E402
 from softplc.commands.io import Client  # noqa: E402
 from softplc.modbus import ModbusImage, ServerThread  # noqa: E402
 from softplc.plc import PLC  # noqa: E402
@@ -38,7 +39,8 @@ class Running:
         self.modbus = ServerThread(self.image, "127.0.0.1", 0).start()
         daemon = SimpleNamespace(plc=self.plc, program_name="bench.il", overruns=0,
                                  late_starts=0, skipped_starts=0, jitter_max=0.0)
-        self.web = attach(daemon, self.modbus, self.image, WebOptions(port=0))
+        self.web = attach(daemon, self.modbus, AccessPort(self.plc, self.image),
+                          WebOptions(port=0))
         self.period = period
         self.late: list[float] = []
         self._stop = False

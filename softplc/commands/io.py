@@ -1,4 +1,6 @@
-"""`softplc io`: operate a running daemon through its web API (the monitor's JSON API).
+"""`softplc io`: operate a running daemon through its web API (the monitor's JSON API),
+which is the daemon's access port (`softplc.access`) over HTTP: the same command names
+(`Action`), typed values (bits 0/1, words int, floats float), the same checks.
 
     softplc io set %I0.0 1            # an input (applied at the next scan boundary)
     softplc io get %MW0:4 %TM0        # values of one scan
@@ -16,6 +18,7 @@ import urllib.error
 import urllib.request
 from typing import Any
 
+from ..access.commands import ACTIONS
 from ..errors import SoftPLCError
 from ._args import port
 
@@ -88,6 +91,9 @@ class Client:
         return self.request("unforce", {} if obj is None else {"object": obj})["unforced"]
 
     def control(self, action: str) -> str:
+        """Queue one of the port's control commands (`ACTIONS`: run, stop, cold, warm)."""
+        if action not in ACTIONS:
+            raise IoError(f"action {action!r}: one of {', '.join(ACTIONS)}")
         return self.request("control", {"action": action})["action"]
 
     def status(self) -> dict[str, Any]:
@@ -108,8 +114,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="token for changes when the monitor is not on loopback "
                         "(default: $SOFTPLC_TOKEN)")
     p.add_argument("--json", action="store_true", help="print the API's JSON answer")
-    p.add_argument("action", choices=["get", "set", "force", "unforce", "run", "stop", "cold",
-                                      "warm", "status"],
+    p.add_argument("action", choices=["get", "set", "force", "unforce", *ACTIONS, "status"],
                    help="get OBJ..., set OBJ VALUE [OBJ VALUE...], force OBJ VALUE, "
                         "unforce [OBJ], run, stop, cold, warm, status")
     p.add_argument("args", nargs="*", help="objects (%%MW3, %%MW0:10, %%I0.0, %%TM0.P...) "

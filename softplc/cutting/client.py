@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import HostError
 from ..modbus.host import ModbusHost, ProgressLine
+from ..runtime.engine import RUN
 from .motion import split_line
 from .piece import MOVE, Piece, Segment
 from .regmap import (
@@ -409,14 +410,14 @@ def feed_plc(plc: object, piece: Piece, timeout: float = 600.0,
     uw = plc.mem.mw.uw  # type: ignore[attr-defined]  # the same, unsigned as on the wire
 
     def stopped(p: object) -> bool:
-        return bool(w[FAULT]) or p.state != "RUN"  # type: ignore[attr-defined]
+        return bool(w[FAULT]) or p.state != RUN  # type: ignore[attr-defined]
 
     def wait(seg: Segment, cond: Callable[[object], bool], what: str) -> None:
         if not plc.run_until(lambda p: cond(p) or stopped(p),  # type: ignore[attr-defined]
                              timeout=timeout):
             raise HostError(f"segment {seg.number} ({seg.where}): {what} after "
                             f"{timeout:g} simulated s")
-        if plc.state != "RUN":  # type: ignore[attr-defined]
+        if plc.state != RUN:  # type: ignore[attr-defined]
             raise HostError(f"segment {seg.number} ({seg.where}): the PLC is in "
                             f"{plc.state} ({plc.fault})")  # type: ignore[attr-defined]
         if w[FAULT]:

@@ -1,17 +1,36 @@
-"""Debugger commands: data (print, set, force, unforce, trace)."""
+"""Debugger commands: data (print, set, force, unforce, trace).
+
+They go through the access port (`softplc.access`), as the web monitor does: its typed
+reads, its value and writability checks, its force and unforce commands. The debugger owns
+the scan thread, so the port has no scan hooks here: a force or unforce is applied at once
+(`apply_now`), a set waits in the debugger's own queue for the next scan (its history
+keeps it: `back` takes it back with the scan).
+"""
 
 from __future__ import annotations
 
 import csv
 import re
 from typing import TYPE_CHECKING, Any
+from weakref import WeakKeyDictionary
 
+from ..access import AccessError, AccessPort
 from ..address import Ref
 from .registry import command, parse_value
 from .stepper import DebugError
 
 if TYPE_CHECKING:
     from .session import Session
+
+_PORTS: WeakKeyDictionary[Any, AccessPort] = WeakKeyDictionary()  # one per PLC
+
+
+def port_of(s: Session) -> AccessPort:
+    """The access port of the session's PLC (made on first use, without scan hooks)."""
+    port = _PORTS.get(s.plc)
+    if port is None:
+        port = _PORTS[s.plc] = AccessPort(s.plc, hooks=False)
+    return port
 
 
 @command("print", "p", formats=True)
@@ -31,12 +50,12 @@ def cmd_print(s: Session, arg: str, fmt: str = "") -> str:
             lines.append(f"{s.title(refs[0])} = {s.show(refs[0], fmt)}")
             continue
         per = 8 if fmt in ("", "d", "u", "f") else 4
+        port = port_of(s)
+        forced = port.forced
         for i in range(0, len(refs), per):
             chunk = refs[i:i + per]
-            vals = []
-            for r in chunk:
-                text = s.fmt(r, s.read(r), fmt)
-                vals.append(text + ("F" if str(r) in s.plc.forced else ""))
+            vals = [s.fmt(r, v, fmt) + ("F" if str(r) in forced else "")
+                    for r, v in zip(chunk, port.read_now(chunk), strict=True)]
             lines.append(f"{str(chunk[0]) + ':':<9} " + " ".join(f"{v:>6}" for v in vals))
     return "\n".join(lines)
 
@@ -44,25 +63,19 @@ def cmd_print(s: Session, arg: str, fmt: str = "") -> str:
 def _check_set(s: Session, refs: list[Ref], values: list[str]) -> list[tuple[Ref, Any]]:
     if len(values) != len(refs):
         raise DebugError(f"{len(refs)} object(s) but {len(values)} value(s)")
+    port = port_of(s)
     out = []
     for ref, t in zip(refs, values, strict=True):
-        if not (ref.writable or ref.kind == "I"):
-            raise DebugError(f"{ref} is read-only" + (" (a constant: set it in the "
-                                                      "configuration)" if ref.kind in
-                                                      ("KW", "KD", "KF") else ""))
-        v = parse_value(t)
-        if ref.type == "bool":
-            if v not in (0, 1):
-                raise DebugError(f"{ref} is a bit: 0 or 1, not {t}")
-        elif ref.type == "int16" and not -32768 <= v <= 65535:
-            raise DebugError(f"{t} does not fit the word {ref}")
-        elif ref.type == "int32" and not -2**31 <= v < 2**32:
-            raise DebugError(f"{t} does not fit the double word {ref}")
-        if ref.type != "real" and isinstance(v, float):
-            if v != int(v):
-                raise DebugError(f"{ref} holds integers, not {t}")
-            v = int(v)
-        out.append((ref, v))
+        # a debugger's set overrides devices, as a force does; %I: the field input
+        why = port.why_not_writable(ref, forcing=True)
+        if why is None and not (ref.writable or ref.kind == "I"):
+            why = f"{ref} is read-only"
+        if why:
+            raise DebugError(why)
+        try:
+            out.append((ref, port.check_value(ref, parse_value(t))))
+        except AccessError as e:
+            raise DebugError(str(e)) from None
     return out
 
 
@@ -82,8 +95,9 @@ def cmd_set(s: Session, arg: str) -> str:
 def cmd_force(s: Session, arg: str) -> str:
     """force ADDR VALUE: hold an object at a value every scan (force alone lists)."""
     parts = arg.split()
+    port = port_of(s)
     if not parts:
-        f = s.plc.forced
+        f = port.forced
         return "\n".join(f"{k} = {v}" for k, v in f.items()) if f else "nothing forced"
     refs = s.parse_obj(parts[0])
     if len(refs) != 1:
@@ -91,21 +105,27 @@ def cmd_force(s: Session, arg: str) -> str:
     (ref, v), = _check_set(s, refs, parts[1:])
     if ref.offset is not None:
         raise DebugError("an indexed object cannot be forced")
-    s.plc.force(str(ref), v)
+    try:
+        port.force(str(ref), v)
+    except AccessError as e:
+        raise DebugError(str(e)) from None
+    port.apply_now()
     return f"{ref} forced to {v}"
 
 
 @command("unforce")
 def cmd_unforce(s: Session, arg: str) -> str:
     """unforce [ADDR | all]: release a forced object (all without argument)."""
+    port = port_of(s)
     if not arg or arg == "all":
-        n = len(s.plc.forced)
-        s.plc.unforce()
+        n = len(port.unforce())
+        port.apply_now()
         return f"released {n} forced object(s)"
     ref = s.parse_obj(arg)[0]
-    if str(ref) not in s.plc.forced:
+    if str(ref) not in port.forced:
         raise DebugError(f"{ref} is not forced")
-    s.plc.unforce(str(ref))
+    port.unforce(str(ref))
+    port.apply_now()
     return f"{ref} released"
 
 

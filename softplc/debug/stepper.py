@@ -19,6 +19,7 @@ from ..address import Ref
 from ..errors import SoftPLCError
 from ..il import ast as A
 from ..plc import PLC
+from ..runtime.runstate import RUN
 
 HISTORY = 1000  # scans kept for `back`
 
@@ -179,7 +180,7 @@ def resolve_rung(program: A.Program, key: str) -> A.Rung:
 
 
 def _running(plc: PLC) -> bool:
-    return plc.state == "RUN"
+    return plc.state == RUN
 
 
 class Stepper:

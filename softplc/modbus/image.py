@@ -18,9 +18,13 @@ With a retained-state store (`--state`), every write is journaled into it before
 caller acknowledges it, and every snapshot is committed to it: a process that dies loses
 nothing it acknowledged (see `softplc.runtime.retain`).
 
-Front-ends (Modbus, a web monitor...) call `write_words` / `write_bits`, which refuse with
-`WriteRefused` (carrying the Modbus exception code that fits); the Modbus protocol code
-checks the same rules itself on its hot path and calls `queue_registers` / `queue_coils`.
+Front-ends call `write_words` / `write_bits`, which refuse with `WriteRefused` (carrying
+the Modbus exception code that fits); the Modbus protocol code checks the same rules
+itself on its hot path and calls `queue_registers` / `queue_coils`. The access port
+(`softplc.access`, the web monitor's way in) uses the image as its word lane: typed
+%MW/%MD/%MF/%M values (`queue_value`, encoded by the memory's own conversions) and the
+configured read-only ranges by object (`read_only_object`), so a host reads back a
+monitor's write exactly as its own.
 
 The server and the scan may run in different threads: the snapshot is a bytearray of
 fixed size, rewritten by single slice assignments (a memmove under the GIL: a reader's
@@ -37,8 +41,10 @@ from struct import pack
 
 import numpy as np
 
+from ..address import WIDTH
 from ..errors import SoftPLCError
-from ..runtime.memory import MemoryImage
+from ..numeric import wrap16
+from ..runtime.memory import MemoryImage, WordFamily
 from ..runtime.retain import COILS as J_COILS
 from ..runtime.retain import REGISTERS as J_REGISTERS
 from ..runtime.retain import StateStore, be_to_words, words_to_be
@@ -242,3 +248,27 @@ class ModbusImage:
         vals = bytes(1 if v else 0 for v in values)
         self.check_write(COILS, addr, len(vals))
         self.queue_coils(addr, vals)
+
+    # -- the access port's word lane (typed objects) -----------------------------------
+    def queue_value(self, kind: str, index: int, value: int | float) -> None:
+        """Accept a checked value of %M`index` or %MW/%MD/%MF`index` (the access port
+        checked it and its range)."""
+        if kind == "M":
+            self.queue_coils(index, b"\x01" if value else b"\x00")
+            return
+        fam = WordFamily(WIDTH[kind])  # encoded by the memory's own conversions
+        if kind == "MW":
+            fam.w[0] = wrap16(int(value))
+        elif kind == "MD":
+            fam.set_d(0, int(value))
+        else:
+            fam.set_f(0, float(value))
+        self.queue_registers(index, words_to_wire(fam.buf))
+
+    def read_only_object(self, kind: str, index: int, bit: int | None = None) -> bool:
+        """Whether the configured read-only ranges cover %M`index` or the words of
+        %MW/%MD/%MF`index` (a bit of a word: that word)."""
+        if kind == "M":
+            return self.read_only.blocks(COILS, index, 1)
+        n = 1 if bit is not None else WIDTH[kind]
+        return self.read_only.blocks(REGISTERS, index, n)

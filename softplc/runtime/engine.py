@@ -30,10 +30,10 @@ from ..address import Ref
 from ..program import CompiledProgram
 from .clock import Clock
 from .memory import MemoryImage
+from .runstate import HALT, RUN, STOP, RunState
 from .scangen import HANDOVER, HookList, build
 from .scangen import S_CLOCKS as S_CLOCKS  # where verify/ and others look for them
 
-RUN, STOP, HALT = "RUN", "STOP", "HALT"
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
 S_RUNNING = 12  # 1 in RUN, 0 in STOP/HALT [manual]; set on each change of state
 S_GRAFCET_INIT = 21  # set by the system on a cold start [manual]; see runtime/grafcet.py
@@ -106,7 +106,7 @@ class Engine:
         self.watchdog_s = watchdog_s
         self.program: CompiledProgram | None = None
         self.main: Callable[[], Any] | None = None
-        self.state = RUN
+        self.state: RunState = RUN
         self.fault = ""
         self.stats = ScanStats()
         self.before_scan: list[Callable[[], None]] = []

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, SupportsIndex
 
 from ..program import Names, Watchdog
 from .clock import Clock, RealClock, VirtualClock
+from .runstate import RUN
 
 if TYPE_CHECKING:
     from .engine import Engine
@@ -101,8 +102,8 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
     the scan goes on with the new one)."""
     ns: dict[str, Any] = {
         "eng": eng, "mem": eng.mem, "s": eng.mem.s, "sw": eng.mem.sw.w, "clock": eng.clock,
-        "P": eng.period_us, "DTS": eng.period_us / 1e6, "W": eng.watchdog_s,
-        "RUN": "RUN", "V": eng.version, "st": eng.stats, "main": eng.main, "i": eng.mem.i,
+        "P": eng.period_us, "DTS": eng.period_us / 1e6, "W": eng.watchdog_s, "RUN": RUN,
+        "V": eng.version, "st": eng.stats, "main": eng.main, "i": eng.mem.i,
         "i_field": eng.mem.i_field,
         "q": eng.mem.q, "q_field": eng.mem.q_field, "ts": eng.time_source, "rtc": eng.rtc,
         "pulses": eng.pulses, "perf_counter": time.perf_counter,
@@ -117,7 +118,7 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
     # step 1; a hook that changed the configuration: go on with the new one ({part}: 0 for
     # scan(), 1 for begin())
     pre = hooks_b + (["if eng.version != V: return eng._resume({part})"] if hooks_b else [])
-    if eng.state != "RUN":  # STOP/HALT: the clock runs, hooks run, nothing else
+    if eng.state != RUN:  # STOP/HALT: the clock runs, hooks run, nothing else
         return _make(pre, ["clock.start_scan(P)", "clock.end_scan(P)", *hooks_a], None, [],
                      ["return False"]), ns
     begin = [start]  # steps 2-3

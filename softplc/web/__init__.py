@@ -1,6 +1,7 @@
-"""The web monitor of a running soft-PLC and its JSON/websocket API.
+"""The web monitor of a running softplc controller and its JSON/websocket API.
 
-`control.Controller` is the API without HTTP (checks, queued changes, scan-boundary reads);
+`control.Controller` is the API without HTTP over the access port (`softplc.access`:
+checks, queued changes, scan-boundary reads);
 `server.WebServer` serves it and the page (`static/`) with aiohttp on the daemon's asyncio
 loop; `attach` is the daemon's hook. See README "Web monitor and `softplc io`".
 """
@@ -12,6 +13,7 @@ import secrets
 from dataclasses import dataclass
 from typing import Any
 
+from ..access import AccessPort
 from ..errors import SoftPLCError
 from .control import MAX_PAGES, ApiError, Controller
 from .security import is_loopback
@@ -70,14 +72,18 @@ def web_token(opt: WebOptions) -> str | None:
     return opt.token
 
 
-def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebHandle | None:
-    """The daemon's hook: serve the monitor on the Modbus server's event loop."""
+def attach(daemon: Any, modbus: Any, port: AccessPort,
+           opt: WebOptions | None) -> WebHandle | None:
+    """The daemon's hook: serve the monitor on the Modbus server's event loop, over
+    `port` (the controller's access port, with the Modbus image as its word lane), which
+    it owns from then on (closed when the monitor stops or cannot start)."""
     if opt is None or opt.port is None:
+        port.close()
         return None
     from .server import WebServer
 
     token = web_token(opt)
-    ctl = Controller(daemon.plc, image, read_only=opt.read_only,
+    ctl = Controller(port, read_only=opt.read_only,
                      program_name=daemon.program_name,
                      status_extra=lambda: {"modbus_clients": modbus.stats.clients,
                                            "modbus_requests": modbus.stats.requests,
@@ -86,16 +92,16 @@ def attach(daemon: Any, modbus: Any, image: Any, opt: WebOptions | None) -> WebH
                                            "skipped_starts": daemon.skipped_starts,
                                            "jitter_max_ms": daemon.jitter_max * 1000})
     note = ""
-    for port in (opt.port, 0):
-        server = WebServer(ctl, opt.host, port, token=token, read_token=opt.read_token,
+    for tcp in (opt.port, 0):
+        server = WebServer(ctl, opt.host, tcp, token=token, read_token=opt.read_token,
                            allowed_hosts=opt.allowed_hosts, max_pages=opt.max_pages)
         try:
             asyncio.run_coroutine_threadsafe(server.start(), modbus.loop).result(10)
             break
         except OSError as e:
-            if opt.port_given or port == 0:
+            if opt.port_given or tcp == 0:
                 ctl.close()
-                raise SoftPLCError(f"web monitor: cannot listen on {opt.host}:{port}: "
+                raise SoftPLCError(f"web monitor: cannot listen on {opt.host}:{tcp}: "
                                    f"{e.strerror or e}") from None
             note = f" (port {opt.port} is taken)"
     return WebHandle(server, ctl, modbus.loop, note)

@@ -1,16 +1,10 @@
-"""The web API's error: a refused request and its HTTP status."""
+"""The web API's error: a refused request and its HTTP status (the access port's error,
+whose `status` is already an HTTP status)."""
 
 from __future__ import annotations
 
-from ..errors import SoftPLCError
+from ..access.errors import AccessError
 
-
-class ApiError(SoftPLCError):
-    """A request the API refuses; `status` is the HTTP status that goes with it."""
-
-    def __init__(self, message: str, status: int = 400):
-        super().__init__(message)
-        self.status = status
-
+ApiError = AccessError
 
 __all__ = ["ApiError"]

@@ -41,11 +41,11 @@ class LiveViews:
 
     def refs_of(self, n: int) -> list[Ref]:
         """The objects rung `n` shows (404 for a rung the program does not have)."""
-        plc = self.ctl.plc
-        rungs = plc.rungs
+        m = self.ctl.machine
+        rungs = m.rungs
         if not 0 <= n < len(rungs):
             raise ApiError(f"rung {n}: the program has rungs 0..{len(rungs) - 1}", 404)
-        key = (plc.program_version, n)
+        key = (m.program_version, n)
         refs = self._rung_refs.get(key)
         if refs is None:
             refs = self._rung_refs[key] = ladderview.refs(rungs[n])
@@ -58,57 +58,47 @@ class LiveViews:
         return {n: self.svg(n, ladderview.capture(refs[n], raw[n])) for n in wanted}
 
     def svg(self, n: int, values: dict[Ref, Any]) -> str:
-        plc = self.ctl.plc
-        forced = set(plc.forced)
-        key = (plc.program_version, n, repr(sorted(values.items(), key=lambda kv: str(kv[0]))),
+        m = self.ctl.machine
+        forced = set(self.ctl.port.forced)
+        key = (m.program_version, n, repr(sorted(values.items(), key=lambda kv: str(kv[0]))),
                tuple(sorted(forced)))
         svg = self._svg_cache.get(key)
         if svg is None:
             if len(self._svg_cache) > SVG_CACHE:
                 self._svg_cache.clear()
-            svg = self._svg_cache[key] = ladderview.render(plc.rungs[n], values, forced)
+            svg = self._svg_cache[key] = ladderview.render(m.rungs[n], values, forced)
         return svg
 
     def devices_now(self) -> dict[str, Any]:
         """The machine's state of one scan (called in the scan thread): each device's status
         with, under "view", what its drawing needs (machineview); the active Grafcet steps;
         the estimator's words on a machine with a scope."""
-        plc = self.ctl.plc
-        since = self._fe_since if 0 <= plc.time - self._fe_since <= FE_WINDOW_MAX \
-            else plc.time - FE_WINDOW_MAX
-        self._fe_since = plc.time
-        out: dict[str, Any] = {}
-        scope = False
-        for name, dev in plc.devices.items():
-            st = dict(dev.status())
-            st["type"] = kind = getattr(dev, "type_name", "device")
-            scope = scope or kind == "scope"
-            for attr in ("travel", "steps_per_unit"):
-                if hasattr(dev, attr):
-                    st[attr] = getattr(dev, attr)
-            view = machineview.device_view(dev, since)
-            if view is not None:
-                st["view"] = view
-            out[name] = st
-        snap: dict[str, Any] = {"devices": out, "time": plc.time}
+        m, port = self.ctl.machine, self.ctl.port
+        now = m.time
+        since = self._fe_since if 0 <= now - self._fe_since <= FE_WINDOW_MAX \
+            else now - FE_WINDOW_MAX
+        self._fe_since = now
+        out = {d.name: machineview.device_status(d, since) for d in m.devices}
+        snap: dict[str, Any] = {"devices": out, "time": now}
         titles = self._step_titles()
         if titles:
-            x = plc.mem.x
-            snap["steps"] = {"active": [n for n in sorted(titles) if x[n]],
+            steps = sorted(titles)
+            active = port.read_now([Ref("X", n) for n in steps])
+            snap["steps"] = {"active": [n for n, on in zip(steps, active, strict=True) if on],
                              "titles": {str(n): t for n, t in titles.items()}}
-        if scope:
-            snap["estimate"] = machineview.estimate(plc)
+        if any(d.kind == "scope" for d in m.devices):
+            snap["estimate"] = machineview.estimate(port.read_now, port.profile)
         return snap
 
     def _step_titles(self) -> dict[int, str]:
-        plc = self.ctl.plc
-        if self._titles[0] != plc.program_version:
-            self._titles = (plc.program_version, machineview.step_titles(plc.rungs))
+        m = self.ctl.machine
+        if self._titles[0] != m.program_version:
+            self._titles = (m.program_version, machineview.step_titles(m.rungs))
         return self._titles[1]
 
     def machine_view(self, snap: dict[str, Any], since: int) -> dict[str, Any]:
         """`snap` (devices_now's) with the trace recorder's samples from `since`."""
-        trace = self.ctl.plc.trace
+        trace = self.ctl.machine.trace
         n = len(trace)
         chunk = [list(s) for s in trace[since:min(n, since + TRACE_CHUNK)]]
         return snap | {"trace_from": since, "trace": chunk, "trace_total": n}

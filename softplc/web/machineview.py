@@ -9,9 +9,11 @@ reads only.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
-from ..address import parse_address
+from ..access import DeviceEntry
+from ..address import Ref, parse_address
 from ..il.ast import Grafcet
 
 FE_WINDOW_MAX = 1.0  # s of machine time an FE envelope covers at most (a page's first one)
@@ -58,8 +60,8 @@ def trace_view(dev: Any) -> dict[str, Any]:
     return {"axes": axes, "pen": dev.options.pen, "samples": len(dev.samples)}
 
 
-def device_view(dev: Any, since_t: float) -> dict[str, Any] | None:
-    kind = getattr(dev, "type_name", "")
+def device_view(dev: Any, since_t: float, kind: str) -> dict[str, Any] | None:
+    """What the drawing of a device of type `kind` needs (None: no drawing)."""
     if kind == "servo_axis":
         return servo_view(dev, since_t)
     if kind == "stepper":
@@ -67,6 +69,19 @@ def device_view(dev: Any, since_t: float) -> dict[str, Any] | None:
     if kind == "trace":
         return trace_view(dev)
     return None
+
+
+def device_status(entry: DeviceEntry, since_t: float) -> dict[str, Any]:
+    """A device's status, its type, a stepper's geometry (the page scales its axis by
+    them) and, under "view", what its drawing needs."""
+    dev, kind = entry.device, entry.kind
+    st = dict(dev.status()) | {"type": kind}
+    if kind == "stepper":
+        st |= stepper_view(dev)
+    view = device_view(dev, since_t, kind)
+    if view is not None:
+        st["view"] = view
+    return st
 
 
 def step_titles(rungs: list[Any]) -> dict[int, str]:
@@ -79,21 +94,20 @@ def step_titles(rungs: list[Any]) -> dict[int, str]:
     return out
 
 
-def estimate(plc: Any) -> dict[str, Any]:
-    """The mass estimator's handshake words (massest/handshake.py is their one place)."""
+def estimate(read: Callable[[list[Ref]], list[Any]], profile: Any) -> dict[str, Any]:
+    """The mass estimator's handshake words (massest/handshake.py is their one place),
+    read by `read` (the access port's `read_now`)."""
     from ..massest import handshake as hs
 
-    mem = plc.mem
-
     def word(n: int) -> int:
-        return int(mem.read(parse_address(f"%MW{n}", plc.profile)))
+        return int(read([parse_address(f"%MW{n}", profile)])[0])
 
     def real(n: int) -> float | None:
-        return _finite(float(mem.read(parse_address(f"%MF{n}", plc.profile))))
+        return _finite(float(read([parse_address(f"%MF{n}", profile)])[0]))
 
     return {"state": word(hs.W_STATE), "requests": word(hs.W_REQ), "answers": word(hs.W_ACK),
             "status": word(hs.W_STATUS), "row": word(hs.W_ROW), "mass_kg": real(hs.F_MASS),
             "uncertainty_kg": real(hs.F_UNCERT), "accel": real(hs.F_ACCEL)}
 
 
-__all__ = ["device_view", "estimate", "step_titles"]
+__all__ = ["device_status", "device_view", "estimate", "step_titles"]

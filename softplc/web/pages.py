@@ -196,14 +196,14 @@ class Pages:
         if not clients:
             return
         objs = {name: ref for c in clients for name, ref in c.objects}
-        io = ctl.io_refs() if any(c.io for c in clients) else []
+        io = ctl.machine.io_refs() if any(c.io for c in clients) else []
         rungs = {n for c in clients for n in c.rungs}
-        rung_refs = {n: views.refs_of(n) for n in rungs if n < len(ctl.plc.rungs)}
+        rung_refs = {n: views.refs_of(n) for n in rungs if n < len(ctl.machine.rungs)}
         machine = any(c.machine for c in clients)
         # prepared here, run in the scan thread: there, only the reads themselves
         reading = ctl.reading
         read_values, read_io = reading.values_fn(list(objs.items())), reading.values_fn(io)
-        read_analog = ctl.analog_values_fn() if io else dict
+        read_analog = ctl.machine.analog_values_fn() if io else dict
         read_rungs = {n: reading.reader(r) for n, r in rung_refs.items()}
 
         def take() -> dict[str, Any]:
@@ -218,7 +218,7 @@ class Pages:
         head = '{"type": "update", "status": ' + dumps(
             snap["status"] | {"web_clients": len(self.clients)})
         io_part = (', "io": ' + dumps(snap["io"]) + ', "analog": ' + dumps(snap["analog"])
-                   + ', "device_io": ' + dumps(ctl.device_io)) if io else ""
+                   + ', "device_io": ' + dumps(ctl.machine.device_io)) if io else ""
         values = clean(snap["values"])
         by_table: dict[tuple[str, ...], str] = {}
         svg_json: dict[int, str] = {}

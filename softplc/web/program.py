@@ -15,15 +15,14 @@ import asyncio
 import concurrent.futures
 import tomllib
 from dataclasses import asdict
-from pathlib import Path
 from typing import Any
 
 from .. import online
+from ..access.program import ProgramAccess
 from ..errors import ConfigError, ProgramError, SoftPLCError
 from ..modbus import tags
 from ..modbus.regmap import COILS
-from ..runtime.retain import application_id
-from ..symbols import SymbolTable, from_config
+from ..symbols import SymbolTable
 from .control import Controller
 from .errors import ApiError
 
@@ -37,51 +36,26 @@ HIDDEN_NOTE = ("A Twido exposes only %M bits (coils) and %MW/%MD/%MF words (hold
                "copies what a host needs to %M/%MW.")
 
 
-def program_info(plc: Any) -> dict[str, Any]:
-    """What runs: file, hash, time loaded, version (online changes so far)."""
-    return online.ProgramInfo.of(plc).as_dict()
-
-
-def symbols_of(plc: Any) -> dict[str, list[str]]:
-    """address -> [symbol, comment] of the running configuration."""
-    return {s.address: [s.name, s.comment] for s in plc.symbols}
-
-
-def _anchored(raw: dict[str, Any], base: Path | None) -> dict[str, Any]:
-    """`raw` with a relative `symbols_file` made absolute from `base` (the folder of the
-    running configuration): a configuration given as text or dict has no folder of its
-    own."""
-    file = raw.get("symbols_file")
-    if base is not None and isinstance(file, str) and file and not Path(file).is_absolute():
-        return raw | {"symbols_file": str(base / file)}
-    return raw
-
-
 def diagnostics(e: ProgramError) -> list[dict[str, Any]]:
     return [{"line": d.line, "column": d.column, "message": d.message, "text": d.text,
              "expected": d.expected, "error": str(d)} for d in e.diagnostics[:MAX_ERRORS]]
 
 
 class ProgramChanges:
-    """The program routes' job over a `Controller` (its PLC, queue and objects)."""
+    """The program routes' job over a `Controller` (its access port's program, queue and
+    objects)."""
 
     def __init__(self, controller: Controller):
         self.ctl = controller
+        self.program: ProgramAccess = controller.port.program
         self._busy = False  # a change is being checked or applied
-        self._map: tuple[int, tags.ProgramMap] | None = None
 
     # -- reading -----------------------------------------------------------------------------
     def listing(self) -> dict[str, Any]:
-        plc = self.ctl.plc
-        return {"info": program_info(plc), "source": plc.ast.source,
-                "rungs": [{"index": r.index, "first_line": r.first_line,
-                           "last_line": r.last_line} for r in plc.rungs]}
+        return self.program.listing()
 
     def program_map(self) -> tags.ProgramMap:
-        plc = self.ctl.plc
-        if self._map is None or self._map[0] != plc.program_version:
-            self._map = (plc.program_version, tags.of_plc(plc))
-        return self._map[1]
+        return self.program.modbus_map()
 
     def map_json(self) -> dict[str, Any]:
         pmap = self.program_map()
@@ -92,7 +66,7 @@ class ProgramChanges:
                                "write_fc": list(t.write_fcs)}
             del row["space"]
             rows.append(row)
-        return {"info": program_info(self.ctl.plc), "tags": rows,
+        return {"info": self.program.info(), "tags": rows,
                 "hidden": [asdict(h) for h in pmap.hidden], "note": HIDDEN_NOTE}
 
     def map_csv(self) -> str:
@@ -124,15 +98,6 @@ class ProgramChanges:
                 raise ApiError(f"configuration: {e}") from None
         return text, raw, name or "<online change>", flags[0], flags[1]
 
-    def _plan(self, text: str, raw: dict[str, Any] | None,
-              name: str) -> tuple[online.Plan, SymbolTable]:
-        """Worker thread: check and compile against `raw` (None: the running config); the
-        plan and the symbols of its configuration."""
-        plc = self.ctl.plc
-        config = _anchored(dict(plc.config if raw is None else raw), plc.config_dir)
-        change = online.plan(plc, text, config, file=name)
-        return change, from_config(change.raw_config, plc.config_dir, plc.profile)
-
     async def change(self, data: dict[str, Any]) -> tuple[int, dict[str, Any]]:
         """Check, then apply if nothing is lost or the change is confirmed: (status, body)."""
         if self.ctl.read_only:
@@ -143,11 +108,11 @@ class ProgramChanges:
                            "done", 409)
         self._busy = True
         try:
-            plc = self.ctl.plc
-            version = plc.program_version
+            program = self.program
+            version = program.version
             loop = asyncio.get_running_loop()
             try:
-                plan, names = await loop.run_in_executor(None, self._plan, text, raw, name)
+                plan, names = await loop.run_in_executor(None, program.plan, text, raw, name)
             except ProgramError as e:
                 errors = diagnostics(e)
                 return 400, {"error": f"the program was not loaded: {len(e.diagnostics)} "
@@ -159,11 +124,9 @@ class ProgramChanges:
                              "applied": False}
             if plan.needs_confirmation and not (confirm or cold):
                 return 200, {"applied": False, "losses": plan.losses,
-                             "needs_confirmation": True, "info": program_info(plc)}
-            # what `softplc run` would call this application (the configuration as written,
-            # not anchored): a restart with the new program finds its state file its own
-            app = application_id(text.encode(), dict(plc.config if raw is None else raw))
-            info = await self._swap(plan, names, version, confirm, cold, app)
+                             "needs_confirmation": True, "info": program.info()}
+            info = await self._swap(plan, names, version, confirm, cold,
+                                    program.app_id(text, raw))
             self.ctl.objects.forget()
             return 200, {"applied": True, "losses": plan.losses, "cold": cold, "info": info}
         finally:
@@ -172,27 +135,18 @@ class ProgramChanges:
     async def _swap(self, plan: online.Plan, names: SymbolTable, version: int,
                     confirm: bool, cold: bool, app: bytes) -> dict[str, Any]:
         """Queue the swap in the control lane; wait for the scan thread to make it."""
-        plc = self.ctl.plc
         done: concurrent.futures.Future[dict[str, Any]] = concurrent.futures.Future()
 
         def swap() -> None:  # the scan thread, between two scans
             if not done.set_running_or_notify_cancel():
                 return  # the request timed out: it was answered "not applied"
             try:
-                if plc.program_version != version:
-                    raise online.ChangeRefused(
-                        "the program was changed by another request meanwhile: check and "
-                        "load again")
-                online.apply(plc, plan, confirm=confirm, cold=cold)
-                plc.symbols = names
-                store = self.ctl.image.store if self.ctl.image is not None else None
-                if store is not None:  # the state file now belongs to the new program: a
-                    store.app = app  # restart with it warm-starts, with the old one not
-                done.set_result(program_info(plc))
+                done.set_result(self.program.swap(plan, names, version, confirm=confirm,
+                                                  cold=cold, app=app))
             except SoftPLCError as e:
                 done.set_exception(e)
 
-        self.ctl.changes.put([("call", swap, None)])
+        self.ctl.port.call(swap)
         try:
             return await asyncio.wait_for(asyncio.wrap_future(done), APPLY_TIMEOUT)
         except TimeoutError:
@@ -202,4 +156,4 @@ class ProgramChanges:
             raise ApiError(f"not loaded, nothing changed: {e}", 409) from None
 
 
-__all__ = ["HIDDEN_NOTE", "MAX_PROGRAM_BODY", "ProgramChanges", "program_info", "symbols_of"]
+__all__ = ["HIDDEN_NOTE", "MAX_PROGRAM_BODY", "ProgramChanges"]

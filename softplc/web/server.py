@@ -39,7 +39,7 @@ from ..modbus.server import RateLimitedLog
 from .control import ApiError, Controller
 from .live import LiveViews, dumps
 from .pages import MAX_PAGES, UPDATE_HZ, Pages
-from .program import MAX_PROGRAM_BODY, ProgramChanges, program_info, symbols_of
+from .program import MAX_PROGRAM_BODY, ProgramChanges
 from .security import COOKIE, Guard
 
 log = logging.getLogger("softplc.web")
@@ -186,8 +186,8 @@ class WebServer:
         info = self.ctl.info()
         info["token_required"] = self.token is not None
         info["update_hz"] = self.pages.update_hz
-        info["version"] = program_info(self.ctl.plc)
-        info["symbols"] = symbols_of(self.ctl.plc)
+        info["version"] = self.ctl.port.program.info()
+        info["symbols"] = self.ctl.port.program.symbols()
         return _json(info)
 
     async def _status(self, request: web.Request) -> web.Response:
@@ -198,21 +198,11 @@ class WebServer:
             objs = (await self._body(request)).get("objects")
         else:
             objs = request.query.getall("obj", [])
-        values = await self.ctl.read(objs)
+        values = await self.ctl.port.read(objs)
         return _json({"values": values})
 
     async def _io(self, request: web.Request) -> web.Response:
-        refs = self.ctl.io_refs()
-        read_io, read_analog = self.ctl.reading.values_fn(refs), self.ctl.analog_values_fn()
-        values, analog = await self.ctl.reading.sample(lambda: (read_io(), read_analog()))
-        forced = self.ctl.plc.forced
-        return _json({"modules": self.ctl.io_layout(),
-                      "io": {name: {"value": v, "forced": name in forced,
-                                    "driven_by": self.ctl.device_io.get(name, "")}
-                             for name, v in values.items()},
-                      "analog": {ch["address"]: ch | analog[ch["address"]]
-                                 | {"forced": ch["address"] in forced}
-                                 for ch in self.ctl.analog_channels()}})
+        return _json(await self.ctl.io())
 
     async def _ladder(self, request: web.Request) -> web.Response:
         try:
@@ -241,22 +231,22 @@ class WebServer:
             if not isinstance(w, dict) or "value" not in w:
                 raise ApiError('each write is {"object": "%MW3", "value": 5}')
             pairs.append((self._obj(w), w["value"]))
-        done = self.ctl.write_many(pairs)
+        done = self.ctl.port.write_many(pairs)
         return _json({"queued": done})
 
     async def _force(self, request: web.Request) -> web.Response:
         data = await self._body(request)
         if "value" not in data:
             raise ApiError('missing "value"')
-        return _json({"forced": self.ctl.force(self._obj(data), data["value"])})
+        return _json({"forced": self.ctl.port.force(self._obj(data), data["value"])})
 
     async def _unforce(self, request: web.Request) -> web.Response:
         data = await self._body(request) if request.can_read_body else {}
-        return _json({"unforced": self.ctl.unforce(data.get("object"))})
+        return _json({"unforced": self.ctl.port.unforce(data.get("object"))})
 
     async def _control(self, request: web.Request) -> web.Response:
         data = await self._body(request)
-        return _json({"action": self.ctl.control(data.get("action"))})
+        return _json({"action": self.ctl.port.control(data.get("action"))})
 
     async def _analog(self, request: web.Request) -> web.Response:
         data = await self._body(request)
@@ -265,7 +255,7 @@ class WebServer:
         force = data.get("force", False)
         if not isinstance(force, bool):
             raise ApiError(f'"force": true or false, not {force!r}')
-        return _json(self.ctl.write_analog(self._obj(data), data["value"], force))
+        return _json(self.ctl.port.write_analog(self._obj(data), data["value"], force))
 
     async def _program(self, request: web.Request) -> web.Response:
         return _json(self.program.listing())

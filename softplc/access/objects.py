@@ -1,4 +1,4 @@
-"""Addresses the web API accepts: text -> single objects, with a clear error, and the
+"""Addresses the access port accepts: text -> single objects, with a clear error, and the
 count of a list checked before any range is expanded."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from typing import Any
 
 from ..address import BLOCK_FIELDS, Ref, expand, parse_address
 from ..errors import AddressError
-from .errors import ApiError
+from .errors import AccessError
 
 MAX_OBJECTS = 2000  # objects one read or page may name (counted before expanding ranges)
 REF_CACHE = 20000  # single objects kept by the address cache (over all its keys)
@@ -24,17 +24,18 @@ class Objects:
         """An address, range or symbol -> single objects, with a clear error for anything
         else."""
         if not isinstance(text, str) or not text.strip():
-            raise ApiError(f"object {text!r}: expected an address like %MW3, %MW0:10, %I0.0")
+            raise AccessError(f"object {text!r}: expected an address like %MW3, %MW0:10, "
+                              "%I0.0")
         key = text.strip().upper()
         refs = self._refs.get(key)
         if refs is None:
             try:  # an address, or a symbol of the configuration (softplc.symbols)
                 refs = expand(self.plc.symbols.address_of(key), self.profile)
             except AddressError as e:
-                raise ApiError(f"unknown object {text!r}: {e}") from None
+                raise AccessError(f"unknown object {text!r}: {e}") from None
             for r in refs:
                 if r.kind in BLOCK_FIELDS and r.index not in self.plc.mem.blocks[r.kind]:
-                    raise ApiError(f"unknown object {text!r}: %{r.kind}{r.index} is not "
+                    raise AccessError(f"unknown object {text!r}: %{r.kind}{r.index} is not "
                                    f"configured or used by the program")
             if self._cached_refs + len(refs) <= REF_CACHE:
                 self._refs[key] = refs
@@ -57,7 +58,7 @@ class Objects:
                 if n > MAX_OBJECTS:
                     break
         if n > MAX_OBJECTS:
-            raise ApiError(f"more than {MAX_OBJECTS} objects in one request or page: "
+            raise AccessError(f"more than {MAX_OBJECTS} objects in one request or page: "
                            f"at most {MAX_OBJECTS}")
 
     def _count(self, text: Any) -> int:
@@ -77,11 +78,11 @@ class Objects:
         if isinstance(texts, str):
             texts = [texts]
         if not isinstance(texts, list) or not texts:
-            raise ApiError("objects: expected a list of addresses")
+            raise AccessError("objects: expected a list of addresses")
         self.check_count(texts)
         out = [(str(r), r) for t in texts for r in self.resolve(t)]
         if len(out) > MAX_OBJECTS:
-            raise ApiError(f"{len(out)} objects in one read: at most {MAX_OBJECTS}")
+            raise AccessError(f"{len(out)} objects in one read: at most {MAX_OBJECTS}")
         return out
 
 

@@ -1,4 +1,9 @@
-"""Reads of a running PLC for the web API, taken in the scan thread at a scan boundary.
+"""Typed reads of a running controller, taken in the scan thread at a scan boundary.
+
+One JSON type per object type, whatever path a value takes: bits are 0/1 (int, never
+true/false: compiled code may store a bool in a bit list), words and double words int,
+floats float, a function block a dict of its fields by their types (`BLOCK_FIELDS`: bits
+0/1, words int), None for an object that cannot be read.
 
 `Reading.sample(fn)` runs `fn` right after the next scan (an `after_scan` hook), so a
 read is the values of one scan, never a half-finished one; `reader` builds the function
@@ -80,15 +85,14 @@ class Reading:
             return await s.future
 
     def values_fn(self, refs: list[tuple[str, Ref]]) -> Callable[[], dict[str, Any]]:
-        """A function giving {name: value} of `refs`: prepare it here (in the web thread),
+        """A function giving {name: value} of `refs`: prepare it here (in the front-end's thread),
         call it in the scan thread (`sample`), where it costs little."""
         reader = self.reader([r for _, r in refs])
         names = [n for n, _ in refs]
         return lambda: dict(zip(names, reader(), strict=True))
 
     def read_one(self, ref: Ref) -> Any:
-        """One value through `MemoryImage.read`, as the API gives it: bits as 0/1, a block
-        as a dict of its fields, None for an object that cannot be read."""
+        """One typed value (module docstring) through `MemoryImage.read`."""
         try:
             v = self.plc.mem.read(ref)
         except SoftPLCError:
@@ -100,9 +104,10 @@ class Reading:
     def reader(self, refs: list[Ref]) -> Callable[[], list[Any]]:
         """A function that reads `refs` into a list. It runs in the scan thread after a scan,
         ten times a second per page, so plain words and bits are read straight from the
-        memory image's arrays (about 50 ns each, where `MemoryImage.read` takes a few us);
-        the rest goes through `read_one`. An input not yet latched by any scan reads from
-        the field, as `MemoryImage.read` does: the reader is rebuilt when that set grows."""
+        memory image's arrays (about 50 ns each, where `MemoryImage.read` takes a few us;
+        a bit with a unary +: a stored bool reads 0/1); the rest goes through `read_one`.
+        An input not yet latched by any scan reads from the field, as `MemoryImage.read`
+        does: the reader is rebuilt when that set grows."""
         mem = self.plc.mem
         latched = mem.io_used("I")
         key = (tuple(refs), len(latched))
@@ -116,10 +121,12 @@ class Reading:
         for k, ref in enumerate(refs):
             plain = ref.offset is None and ref.bit is None and ref.length is None \
                 and ref.field is None
-            if plain and ref.kind in ("MW", "KW", "SW", "M", "S", "X", "Q"):
+            if plain and ref.kind in ("MW", "KW", "SW"):
                 items.append(f"{ref.kind}[{ref.index}]")
+            elif plain and ref.kind in ("M", "S", "X", "Q"):
+                items.append(f"+{ref.kind}[{ref.index}]")
             elif plain and ref.kind == "I":
-                items.append(f"{'I' if ref.index in latched else 'F'}[{ref.index}]")
+                items.append(f"+{'I' if ref.index in latched else 'F'}[{ref.index}]")
             else:
                 items.append(f"read(R[{k}])")
         exec(f"def reader():\n    return [{', '.join(items)}]\n", env)
