@@ -50,9 +50,14 @@ def kind_names(tree: ast.AST) -> set[str]:
     """The block kinds a module names in code (strings outside docstrings, identifiers)."""
     docs = _docstring_nodes(tree)
     found: set[str] = set()
-    words = {k: re.compile(rf"(?<![A-Za-z0-9]){k}(?![A-Za-z])") for k in KINDS}
+    # in a string: "%PID0", "PID" alone, or one alternative of a regex ("TM|DR|PLS");
+    # "FC 3/4" (a Modbus function code) or "kill -USR1 PID" (a process id) is not a kind
+    words = {k: re.compile(rf"%{k}(?![A-Za-z])|^{k}$|(?:^|\|){k}(?:\||$)|\({k}\||\|{k}\)")
+             for k in KINDS}
     # a function or class named after the kind (`_configure_pid`, `VfcBlock`)
-    ident = {k: re.compile(rf"(?:^|_){k.lower()}(?:_|$)|{k.capitalize()}[A-Z]|^{k}") for k in KINDS}
+    ident = {k: re.compile(rf"(?:^|_){k.lower()}(?:_|$)|{k.capitalize()}[A-Z]|^{k}")
+             for k in KINDS}
+    ident["PID"] = re.compile(r"(?:^|_)pid(?:_|$)(?<!set_pid)|Pid[A-Z]|^PID")  # set_pid: a process
     for node in ast.walk(tree):
         if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs:
             for k, rx in words.items():
