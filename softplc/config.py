@@ -32,6 +32,7 @@ with the same kind of message.
 
 from __future__ import annotations
 
+import ipaddress
 import re
 import tomllib
 from collections.abc import Mapping
@@ -46,9 +47,11 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationError,
+    ValidationInfo,
     field_validator,
 )
 
+from .address import parse_address
 from .config_fields import (  # noqa: F401  (the field types devices import from here)
     DRUM_STEPS,
     MAX_CLIENTS,
@@ -73,6 +76,7 @@ from .config_fields import (  # noqa: F401  (the field types devices import from
     frame_timeout_ok,
     idle_timeout_ok,
     numbered,
+    profile_of,
 )
 from .config_models import (
     AnalogChannelConfig,
@@ -81,7 +85,7 @@ from .config_models import (
     ScheduleConfig,
     ScheduleNumber,
 )
-from .errors import ConfigCode, ConfigError, ConfigIssue, SoftPLCError
+from .errors import AddressError, ConfigCode, ConfigError, ConfigIssue, SoftPLCError
 from .profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES
 from .runtime.blocks import MAX_VALUE
 from .symbols import SymbolTable
@@ -108,13 +112,34 @@ class RegisterConfig(Section):
     type: Literal["FIFO", "LIFO"] = "FIFO"
 
 
+def _network(text: str) -> str:
+    try:
+        ipaddress.ip_network(text.strip(), strict=False)
+    except ValueError:
+        raise ValueError("not an IP address or network (e.g. 192.168.1.0/24, 10.0.0.5, ::1)"
+                         ) from None
+    return text
+
+
+def _memory_bit(text: str, info: ValidationInfo) -> str:
+    try:
+        ref = parse_address(text, profile_of(info))
+    except AddressError as e:
+        raise ValueError(str(e)) from None
+    if ref.kind != "M" or ref.bit is not None or ref.length is not None or ref.offset:
+        raise ValueError(f"{text!r} is not a memory bit %Mi")
+    return text
+
+
 class ModbusConfig(Section):
     """`[modbus]`: the daemon's server (softplc run)."""
 
     host: str = "127.0.0.1"
     port: int = Field(5020, ge=0, le=65535)
     read_only: list[Address] | Address = Field(default_factory=list)
-    allow: list[str] | str | None = None  # client addresses/networks (the daemon's --allow)
+    # client addresses/networks (the daemon's --allow)
+    allow: list[Annotated[str, AfterValidator(_network)]] | \
+        Annotated[str, AfterValidator(_network)] | None = None
     max_clients: int = Field(32, ge=1, le=MAX_CLIENTS)
     frame_timeout: Annotated[Duration, AfterValidator(frame_timeout_ok)] = 2.0
     # seconds without a complete request; 0 = never (softplc.modbus.server)
@@ -130,7 +155,12 @@ class DaemonConfig(Section):
     rt_priority: int = Field(10, ge=0, le=99)
     # a %M bit the program sets while it waits for its host: with --speed the daemon holds
     # the virtual clock meanwhile (deterministic runs; softplc.daemon)
-    host_wait: Address | None = None
+    host_wait: Annotated[Address, AfterValidator(_memory_bit)] | None = None
+
+    @property
+    def host_wait_bit(self) -> int | None:
+        """The index i of the `host_wait` bit %Mi (checked against the profile)."""
+        return None if self.host_wait is None else parse_address(self.host_wait).index
 
 
 class WebConfig(Section):
@@ -324,8 +354,11 @@ def error_issues(e: ValidationError, model: type[BaseModel],
                  prefix: tuple[Any, ...] = ()) -> list[ConfigIssue]:
     """One issue per problem: its key path, `message (got VALUE)` and code."""
     by_path: dict[str, tuple[str, ConfigCode]] = {}
+    keys = set()  # paths whose table key is wrong: shown with what is wrong inside
     for err in e.errors(include_url=False):
         loc = tuple(err["loc"])
+        if loc and loc[-1] == "[key]":
+            keys.add(key_path(prefix + loc[:-1]))
         # a `X | Y` field reports the loc through the member tried: drop type names; a
         # dict key's own error adds "[key]"
         loc = tuple(p for p in loc if not (isinstance(p, str) and
@@ -374,7 +407,7 @@ def error_issues(e: ValidationError, model: type[BaseModel],
     # a union (`list[str] | str`) that failed inside its list member also says the list is
     # not a string: the deeper problem is the one to show
     return [ConfigIssue(p, m, c) for p, (m, c) in by_path.items()
-            if not any(q.startswith((p + "[", p + ".")) for q in by_path)]
+            if p in keys or not any(q.startswith((p + "[", p + ".")) for q in by_path)]
 
 
 def error_lines(e: ValidationError, model: type[BaseModel],

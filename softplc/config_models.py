@@ -38,7 +38,7 @@ from pydantic import (
 
 from .address import Ref, parse_address
 from .config_fields import Duration, exch_timeout_ok, numbered
-from .errors import AddressError, ConfigError
+from .errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.exch import Remote
 from .runtime.fastcount import MAX_COUNT, N_ZONES, CountingInputs, FastCounter, VeryFastCounter
@@ -140,11 +140,16 @@ def parse_pid(section: Any) -> dict[int, PidConfig]:
     return out
 
 
+def _problem(where: str, key: str, message: str,
+             code: ConfigCode = ConfigCode.ADDRESS) -> ConfigError:
+    return ConfigError(ConfigIssue(f"{where}.{key}", message, code))
+
+
 def _address(where: str, key: str, text: str, mem: Any) -> Ref:
     try:
         return parse_address(text, mem.profile)
     except AddressError as e:
-        raise ConfigError(f"{where}.{key}: {e}") from None
+        raise _problem(where, key, str(e)) from None
 
 
 def _word(where: str, key: str, v: Any, mem: Any, writable: bool = False) -> Any:
@@ -153,9 +158,9 @@ def _word(where: str, key: str, v: Any, mem: Any, writable: bool = False) -> Any
         return v
     ref = _address(where, key, v, mem)
     if ref.type != "int16" or ref.length is not None or ref.offset is not None:
-        raise ConfigError(f"{where}.{key}: {v!r} is not a word (%MW, %IW, %QW...)")
+        raise _problem(where, key, f"{v!r} is not a word (%MW, %IW, %QW...)")
     if writable and not ref.writable:
-        raise ConfigError(f"{where}.{key}: {v!r} cannot be written")
+        raise _problem(where, key, f"{v!r} cannot be written", ConfigCode.VALUE)
     return ref
 
 
@@ -164,8 +169,7 @@ def _bit(where: str, key: str, v: Any, mem: Any, kinds: tuple[str, ...]) -> Ref 
         return None
     ref = _address(where, key, v, mem)
     if ref.kind not in kinds or ref.type != "bool" or ref.length is not None:
-        raise ConfigError(f"{where}.{key}: {v!r} is not a "
-                          f"{'/'.join('%' + k for k in kinds)} bit")
+        raise _problem(where, key, f"{v!r} is not a {'/'.join('%' + k for k in kinds)} bit")
     if ref.kind == "Q":
         mem.use_io(ref)
     return ref
