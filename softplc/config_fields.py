@@ -12,7 +12,7 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo
 
 from .errors import ConfigError
-from .profile import DEFAULT_PROFILE, PROFILES, Profile
+from .profile import DEFAULT_PROFILE, Profile
 from .runtime.blocks import TIME_BASES_US
 
 _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(us|ms|s|min)?\s*$", re.I)
@@ -130,8 +130,7 @@ class Section(BaseModel):
 
 def profile_of(info: ValidationInfo) -> Profile:
     """The controller profile a validation runs for (`validate_config` passes it as context)."""
-    ctx = info.context or {}
-    return ctx.get("profile") or PROFILES.get(str(ctx.get("profile_name")), DEFAULT_PROFILE)
+    return (info.context or {}).get("profile", DEFAULT_PROFILE)
 
 
 def numbered(lo: int, hi: int | Callable[[Profile], int], message: str) -> Any:

@@ -58,6 +58,9 @@ def _engine_value(name: str, doc: str) -> property:
 
 
 class PLC:
+    """A soft Twido: the machine `softplc.build` assembles (`self.machine`), run (`scan`,
+    `run`, `start`/`stop`...) and read or written by address (`plc["%MW3"]`, `force`)."""
+
     def __init__(self, program: A.Program, config: str | Path | dict[str, Any] | None = None,
                  *, clock: str | Clock = "virtual", devices: bool = True):
         m = self.machine = build.assemble(config, clock)
