@@ -125,3 +125,21 @@ def test_numbered_keys_follow_the_profile():
         validate_config({"exch": {"remote": {"0": {"host": "h"}}}})
     with pytest.raises(ConfigError, match=r"modules.x: slot x outside 1..7"):
         validate_config({"modules": {"x": "TM2DDO8TT"}})
+
+
+def test_machine_files_of_other_commands_go_through_the_loader(tmp_path):
+    """`softplc cut --machine` reads the axes' start and scale from the checked devices; the
+    servo rig names a missing axis; a misspelt option is a key path, not a KeyError."""
+    from softplc.commands._cut_run import _machine_axes
+    from softplc.cutting.geometry import CuttingError
+    from softplc.devices.axis.rig import load_axes
+
+    assert _machine_axes("ladder_programs/cutting_table.toml") == \
+        ((12340000.0, 5700000.0), 100000.0)
+    bad = tmp_path / "m.toml"
+    bad.write_text('[devices.X]\ntype = "servo_axis"\ncounts_per_mn = 1.0\n')
+    with pytest.raises(CuttingError, match=r"m.toml:\n  devices.X.plant: required key missing"
+                       r"\n  devices.X.counts_per_mn: unknown key"):
+        _machine_axes(str(bad))
+    with pytest.raises(ConfigError, match=r"no \[devices.Z\]; devices: X"):
+        load_axes(bad, "Z")
