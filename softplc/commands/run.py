@@ -104,8 +104,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "run", help="run a program with a Modbus TCP server (a soft Twido)",
         description="Run PROGRAM.il periodically on the real clock and serve its memory over "
-                    "Modbus TCP: %MWn = holding/input register n (FC 3/4/6/16/23), %Mn = "
-                    "coil/discrete input n (FC 1/2/5/15), FC 43/14 device identification. "
+                    "Modbus TCP: %MWn = holding/input register n (functions 3/4/6/16/23), %Mn = "
+                    "coil/discrete input n (functions 1/2/5/15), function 43/14 device "
+                    "identification. "
                     "Host writes are applied at the start of the next scan; reads return the "
                     "image of the last scan with the writes acknowledged since. Stop with "
                     "Ctrl-C or SIGTERM: the scan finishes, outputs go to 0, the state file is "
@@ -138,7 +139,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "its host (ignore the config's [daemon] host_wait bit)")
     p.add_argument("--stats-interval", type=_interval,
                    help="statistics line every ... (default 60s; 0 = none); "
-                        "`kill -USR1 PID` prints one at once")
+                        "SIGUSR1 prints one at once")
     p.add_argument("--max-clients", type=_max_clients,
                    help="simultaneous Modbus connections (32, up to 1000); when all "
                         "are taken a new client takes the slot of an unused one")
