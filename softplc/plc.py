@@ -52,6 +52,13 @@ def _engine(name: str) -> Callable[..., Any]:
     return call
 
 
+def _machine_value(name: str, doc: str) -> property:
+    """A PLC attribute that is the machine's (online change replaces it: one copy only)."""
+    def set_value(self: PLC, value: Any) -> None:
+        setattr(self.machine, name, value)
+    return property(attrgetter(f"machine.{name}"), set_value, doc=doc)
+
+
 def _engine_value(name: str, doc: str) -> property:
     """A read-only PLC attribute that is the engine's."""
     return property(attrgetter(f"engine.{name}"), doc=doc)
@@ -64,8 +71,7 @@ class PLC:
     def __init__(self, program: A.Program, config: str | Path | dict[str, Any] | None = None,
                  *, clock: str | Clock = "virtual", devices: bool = True):
         m = self.machine = build.assemble(config, clock)
-        self.config = m.raw  # as written; `settings` is the same, checked and typed
-        self.config_dir, self.settings = m.config_dir, m.settings
+        self.config_dir = m.config_dir
         self.profile, self.symbols, self.mem = m.profile, m.symbols, m.mem
         self.time_source, self._clock, self.engine = m.time_source, m.clock, m.engine
         self.ops, self.grafcet, self.program_state = m.ops, m.grafcet, m.program_state
@@ -87,6 +93,9 @@ class PLC:
         self.program_loaded_at = time.time()  # wall time of the last load (online change)
         self.devices: dict[str, Any] = build.attach_devices(m) if devices else {}
         self.engine.cold_start()
+
+    config = _machine_value("raw", "The configuration as written (a dict).")
+    settings = _machine_value("settings", "The configuration, checked and typed (Config).")
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
