@@ -22,12 +22,16 @@
     [web]                    # the web monitor: allowed_hosts, max_pages (softplc run)
 
 The schema is the pydantic model `Config` below (device options: each device class's
-`Options` model, looked up by `type`). Every problem found is reported at once, as
-`key.path: what is wrong (got VALUE)`, in one `ConfigError`. Durations are strings with a
-unit ("10ms", "1.5s", "1min", "200us"): a bare number is refused, since `scan_period = 10`
-could mean 10 ms or 10 s. What the schema cannot know (whether an address exists in the
-profile, whether a device names another device of the machine) is checked where it is used,
-with the same kind of message.
+`Options` model, looked up by `type`; field types in `config_fields.py`, section models in
+`config_models.py`). Every problem found is reported at once, as `key.path: what is wrong
+(got VALUE)`, in one `ConfigError` whose `issues` give each its path and `ConfigCode`.
+Durations are strings with a unit ("10ms", "1.5s", "1min", "200us"): a bare number is
+refused, since `scan_period = 10` could mean 10 ms or 10 s. Numbered keys (`[schedule.3]`,
+`[exch.remote.1]`, module slots) are checked against the profile (`validate_config` passes
+it as the validation context). What needs the memory image (whether an address exists in
+the profile, a channel a module provides) is checked by the machine builder
+(`softplc.build`), which collects its problems the same way; `read_toml` is the one reader
+of TOML files (machines, pieces, rigs).
 """
 
 from __future__ import annotations
