@@ -22,20 +22,24 @@
     [web]                    # the web monitor: allowed_hosts, max_pages (softplc run)
 
 The schema is the pydantic model `Config` below (device options: each device class's
-`Options` model, looked up by `type`). Every problem found is reported at once, as
-`key.path: what is wrong (got VALUE)`, in one `ConfigError`. Durations are strings with a
-unit ("10ms", "1.5s", "1min", "200us"): a bare number is refused, since `scan_period = 10`
-could mean 10 ms or 10 s. What the schema cannot know (whether an address exists in the
-profile, whether a device names another device of the machine) is checked where it is used,
-with the same kind of message.
+`Options` model, looked up by `type`; field types in `config_fields.py`, section models in
+`config_models.py`). Every problem found is reported at once, as `key.path: what is wrong
+(got VALUE)`, in one `ConfigError` whose `issues` give each its path and `ConfigCode`.
+Durations are strings with a unit ("10ms", "1.5s", "1min", "200us"): a bare number is
+refused, since `scan_period = 10` could mean 10 ms or 10 s. Numbered keys (`[schedule.3]`,
+`[exch.remote.1]`, module slots) are checked against the profile (`validate_config` passes
+it as the validation context). What needs the memory image (whether an address exists in
+the profile, a channel a module provides) is checked by the machine builder
+(`softplc.build`), which collects its problems the same way; `read_toml` is the one reader
+of TOML files (machines, pieces, rigs).
 """
 
 from __future__ import annotations
 
-import math
+import ipaddress
 import re
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -47,126 +51,49 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationError,
+    ValidationInfo,
     field_validator,
 )
 
-from .errors import ConfigError, SoftPLCError
-from .profile import DEFAULT_PROFILE, PROFILES
-from .runtime.blocks import MAX_VALUE, TIME_BASES_US
+from .address import parse_address
+from .config_fields import (  # noqa: F401  (the field types devices import from here)
+    DRUM_STEPS,
+    MAX_CLIENTS,
+    MAX_DURATION_S,
+    MIN_INTERVAL_S,
+    MIN_SCAN_PERIOD_S,
+    MIN_WATCHDOG_S,
+    Address,
+    Duration,
+    FiniteFloat,
+    InfFloat,
+    Interval,
+    PositiveDuration,
+    Section,
+    TimeBase,
+    _at_least,
+    _parse_duration,
+    between,
+    check_interval,
+    duration,
+    exch_timeout_ok,
+    frame_timeout_ok,
+    idle_timeout_ok,
+    numbered,
+    profile_of,
+)
+from .config_models import (
+    AnalogChannelConfig,
+    ExchConfig,
+    RtcConfig,
+    ScheduleConfig,
+    ScheduleNumber,
+)
+from .errors import AddressError, ConfigCode, ConfigError, ConfigIssue, SoftPLCError
+from .profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES
+from .runtime.blocks import MAX_VALUE
 from .symbols import SymbolTable
 from .symbols import from_config as symbols_from_config
-
-_DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(us|ms|s|min)?\s*$", re.I)
-_UNIT_S = {"us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0}
-MAX_DURATION_S = 86400.0  # a day: longer is a typo, and keeps every duration finite in code
-
-
-def _parse_duration(value: Any) -> float:
-    """'10ms', '1.5s', '1min', '200us' -> seconds (ValueError with a hint otherwise)."""
-    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise ValueError("expected a duration string with a unit, like \"10ms\" or \"1s\"")
-    m = _DUR.match(str(value))
-    if m and not m.group(2):
-        raise ValueError(f"a bare number is ambiguous: write the unit, e.g. \"{value}ms\" or "
-                         f"\"{value}s\"")
-    if not m:
-        raise ValueError("not a duration like \"10ms\", \"1s\", \"1min\"")
-    secs = float(m.group(1)) * _UNIT_S[m.group(2).lower()]
-    if not secs <= MAX_DURATION_S:
-        raise ValueError(f"longer than {MAX_DURATION_S / 3600:g} h")
-    return secs
-
-
-def duration(value: Any, what: str = "duration") -> float:
-    """'10ms', '1.5s', '1min' -> seconds, as a ConfigError naming `what` when wrong."""
-    try:
-        return _parse_duration(value)
-    except ValueError as e:
-        raise ConfigError(f"{what}: {e} (got {value!r})") from None
-
-
-def _parse_time_base(value: Any) -> str:
-    s = _parse_duration(value)
-    for name, us in TIME_BASES_US.items():
-        if abs(s * 1e6 - us) < 1e-3:
-            return name
-    raise ValueError(f"one of {', '.join(TIME_BASES_US)}")
-
-
-def _positive(v: float) -> float:
-    if not v > 0:
-        raise ValueError("must be longer than 0")
-    return v
-
-
-def between(lo: float, hi: float, never: bool = False) -> Callable[[float], float]:
-    """A check that a duration in seconds is within lo..hi (or 0, meaning never)."""
-    def check(v: float) -> float:
-        if not (lo <= v <= hi or (never and v == 0)):
-            raise ValueError(f"must be from {lo:g} s to {hi:g} s" + (" (0: never)" if never
-                                                                    else ""))
-        return v
-    return check
-
-
-# ---- bounds of the Modbus server's and EXCH's numbers (issue 21) ---------------------------------
-MAX_CLIENTS = 1000  # each client holds a file descriptor; a process gets 1024 by default
-# a frame is at most 260 bytes: 60 s is ample; without a deadline a client may drip forever
-frame_timeout_ok = between(0.1, 60.0)
-idle_timeout_ok = between(1.0, MAX_DURATION_S, never=True)
-exch_timeout_ok = between(0.01, 60.0)  # [our choice]: a LAN reply takes ms
-
-
-# Bounds of the numeric settings that have no Twido range: what makes sense, so that a typo
-# (a period of 1 ns, a statistics line every microsecond) is an error, not a hang or a flood.
-MIN_SCAN_PERIOD_S = 1e-6  # the engine counts PLC time in whole microseconds
-MIN_WATCHDOG_S = 0.001
-MIN_INTERVAL_S = 0.010  # save and statistics intervals (0 = off)
-DRUM_STEPS = 8  # [m221] a drum has 1 to 8 steps of 16 control bits
-
-
-def _at_least(low: float, what: str) -> Any:
-    def check(v: float) -> float:
-        if not v >= low:
-            raise ValueError(f"{what} is at least " + (f"{low * 1e6:g} us" if low < 1e-3
-                                                         else f"{low * 1000:g} ms"))
-        return v
-    return AfterValidator(check)
-
-
-def check_interval(v: float) -> float:
-    """A save or statistics interval: 0 (off) or from MIN_INTERVAL_S on."""
-    if v != 0 and not v >= MIN_INTERVAL_S:
-        raise ValueError(f"0 (off) or at least {MIN_INTERVAL_S * 1000:g} ms")
-    return v
-
-
-# ---- field types shared by the schema and the devices' Options ---------------------------------
-Duration = Annotated[float, BeforeValidator(_parse_duration)]
-"""Seconds, written with a unit ("10ms"); bare numbers refused."""
-PositiveDuration = Annotated[Duration, AfterValidator(_positive)]
-TimeBase = Annotated[str, BeforeValidator(_parse_time_base)]
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
-Interval = Annotated[Duration, AfterValidator(check_interval)]
-"""Seconds between two periodic actions: 0 (never) or at least 10 ms."""
-Address = Annotated[str, Field(min_length=1)]
-
-
-def _no_nan(v: float) -> float:
-    if math.isnan(v):
-        raise ValueError("nan is not a number here")
-    return v
-
-
-InfFloat = Annotated[float, AfterValidator(_no_nan)]
-"""A float where `inf` means "no limit" (nan still refused)."""
-
-
-class Section(BaseModel):
-    """A config table: unknown keys are errors, no silent type conversion (a string is not a
-    number, a number is not a bool)."""
-
-    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 
 
 class TimerConfig(Section):
@@ -189,13 +116,34 @@ class RegisterConfig(Section):
     type: Literal["FIFO", "LIFO"] = "FIFO"
 
 
+def _network(text: str) -> str:
+    try:
+        ipaddress.ip_network(text.strip(), strict=False)
+    except ValueError:
+        raise ValueError("not an IP address or network (e.g. 192.168.1.0/24, 10.0.0.5, ::1)"
+                         ) from None
+    return text
+
+
+def _memory_bit(text: str, info: ValidationInfo) -> str:
+    try:
+        ref = parse_address(text, profile_of(info))
+    except AddressError as e:
+        raise ValueError(str(e)) from None
+    if ref.kind != "M" or ref.bit is not None or ref.length is not None or ref.offset:
+        raise ValueError(f"{text!r} is not a memory bit %Mi")
+    return text
+
+
 class ModbusConfig(Section):
     """`[modbus]`: the daemon's server (softplc run)."""
 
     host: str = "127.0.0.1"
     port: int = Field(5020, ge=0, le=65535)
     read_only: list[Address] | Address = Field(default_factory=list)
-    allow: list[str] | str | None = None  # client addresses/networks (the daemon's --allow)
+    # client addresses/networks (the daemon's --allow)
+    allow: list[Annotated[str, AfterValidator(_network)]] | \
+        Annotated[str, AfterValidator(_network)] | None = None
     max_clients: int = Field(32, ge=1, le=MAX_CLIENTS)
     frame_timeout: Annotated[Duration, AfterValidator(frame_timeout_ok)] = 2.0
     # seconds without a complete request; 0 = never (softplc.modbus.server)
@@ -211,7 +159,12 @@ class DaemonConfig(Section):
     rt_priority: int = Field(10, ge=0, le=99)
     # a %M bit the program sets while it waits for its host: with --speed the daemon holds
     # the virtual clock meanwhile (deterministic runs; softplc.daemon)
-    host_wait: Address | None = None
+    host_wait: Annotated[Address, AfterValidator(_memory_bit)] | None = None
+
+    @property
+    def host_wait_bit(self) -> int | None:
+        """The index i of the `host_wait` bit %Mi (checked against the profile)."""
+        return None if self.host_wait is None else parse_address(self.host_wait).index
 
 
 class WebConfig(Section):
@@ -239,6 +192,29 @@ def _str_keys(v: Any) -> Any:
     return {str(k): x for k, x in v.items()} if isinstance(v, dict) else v
 
 
+def _module_name(name: str) -> str:
+    name = name.upper()
+    if name not in MODULES and name not in ANALOG_MODULES:
+        raise ValueError(f"unknown module {name!r}; known: "
+                         f"{', '.join(sorted(MODULES | ANALOG_MODULES))}")
+    return name
+
+
+Slot = numbered(1, lambda p: p.expansion_slots, "slot {key} outside {lo}..{hi}")
+ModuleName = Annotated[str, AfterValidator(_module_name)]
+
+
+class SymbolEntry(Section):
+    """`symbols.NAME = { address = "%I0.0", comment = "..." }` (or just the address)."""
+
+    address: Address
+    comment: str = ""
+
+
+def _none_if_empty(v: Any) -> Any:
+    return None if v == {} else v  # `exch = {}`: no EXCH, as if absent
+
+
 class Config(Section):
     """The whole machine/PLC configuration."""
 
@@ -253,26 +229,29 @@ class Config(Section):
     drums: dict[str, DrumConfig] = Field(default_factory=dict)
     registers: dict[str, RegisterConfig] = Field(default_factory=dict)
     constants: dict[str, int | FiniteFloat] = Field(default_factory=dict)
-    modules: Annotated[dict[str, str] | None, BeforeValidator(_str_keys)] = None
+    # expansion modules by slot; None: not configured (I/O addresses are not checked)
+    modules: Annotated[dict[Slot, ModuleName] | None, BeforeValidator(_str_keys)] = None
     devices: dict[str, DeviceSection] = Field(default_factory=dict)
     modbus: ModbusConfig = Field(default_factory=ModbusConfig)
     daemon: DaemonConfig = Field(default_factory=DaemonConfig)
     web: WebConfig = Field(default_factory=WebConfig)
-    # controller functions: checked by their own models in softplc/config_models.py when the
-    # PLC builds them (they need the profile and the memory image to resolve addresses)
-    analog: dict[str, Any] = Field(default_factory=dict)
+    # controller functions (softplc/config_models.py); what needs the profile's addresses
+    # and the memory image is resolved by the machine builder (softplc.build)
+    analog: dict[str, AnalogChannelConfig] = Field(default_factory=dict)
     pid: dict[str, Any] = Field(default_factory=dict)
-    rtc: dict[str, Any] | None = None
-    schedule: dict[str, Any] = Field(default_factory=dict)
+    rtc: RtcConfig | None = None
+    schedule: Annotated[dict[ScheduleNumber, ScheduleConfig], BeforeValidator(_str_keys)] = \
+        Field(default_factory=dict)
     pls: dict[str, Any] = Field(default_factory=dict)  # pulse outputs (issue 11 B)
     pwm: dict[str, Any] = Field(default_factory=dict)
     # fast counters (config_models.build_counters)
     fast_counters: dict[str, Any] = Field(default_factory=dict)
     very_fast_counters: dict[str, Any] = Field(default_factory=dict)
-    exch: dict[str, Any] = Field(default_factory=dict)  # EXCH3 remote devices (issue 11 B)
-    # names for addresses: checked by softplc.symbols (the parser needs them first)
-    symbols: dict[str, Any] = Field(default_factory=dict)
-    symbols_file: str | None = None
+    # EXCH3 remote devices (issue 11 B)
+    exch: Annotated[ExchConfig | None, BeforeValidator(_none_if_empty)] = None
+    # names for addresses: softplc.symbols resolves them (the parser needs them first)
+    symbols: dict[str, Address | SymbolEntry] = Field(default_factory=dict)
+    symbols_file: str | None = Field(None, min_length=1)
 
     @field_validator("profile")
     @classmethod
@@ -283,7 +262,7 @@ class Config(Section):
 
 
 # ---- error messages ------------------------------------------------------------------------------
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
+_IDENT = re.compile(r"^[A-Za-z0-9_-]+$")  # a TOML bare key
 
 
 def key_path(loc: tuple[Any, ...]) -> str:
@@ -293,6 +272,7 @@ def key_path(loc: tuple[Any, ...]) -> str:
         if isinstance(part, int):
             out += f"[{part}]"
         else:
+            part = str(part)
             s = part if _IDENT.match(part) else f'"{part}"'
             out += f".{s}" if out else s
     return out or "(top level)"
@@ -363,36 +343,53 @@ def _short(value: Any) -> str:
     return s if len(s) <= 60 else s[:57] + "..."
 
 
-def error_lines(e: ValidationError, model: type[BaseModel],
-                prefix: tuple[Any, ...] = ()) -> list[str]:
-    """One line per problem: `key.path: message (got VALUE)`."""
-    by_path: dict[str, str] = {}
+def _code(kind: str) -> ConfigCode:
+    """The issue code of a pydantic error type."""
+    if kind == "extra_forbidden":
+        return ConfigCode.UNKNOWN_KEY
+    if kind in ("missing", "union_tag_not_found"):
+        return ConfigCode.MISSING_KEY
+    if kind.endswith("_type") or kind in ("is_instance_of", "model_attributes_type"):
+        return ConfigCode.TYPE
+    return ConfigCode.VALUE
+
+
+def error_issues(e: ValidationError, model: type[BaseModel],
+                 prefix: tuple[Any, ...] = ()) -> list[ConfigIssue]:
+    """One issue per problem: its key path, `message (got VALUE)` and code."""
+    by_path: dict[str, tuple[str, ConfigCode]] = {}
+    keys = set()  # paths whose table key is wrong: shown with what is wrong inside
     for err in e.errors(include_url=False):
         loc = tuple(err["loc"])
-        # a `X | Y` field reports the loc through the member tried: drop type names
+        if loc and loc[-1] == "[key]":
+            keys.add(key_path(prefix + loc[:-1]))
+        # a `X | Y` field reports the loc through the member tried: drop type names; a
+        # dict key's own error adds "[key]"
         loc = tuple(p for p in loc if not (isinstance(p, str) and
-                                           (p in ("int", "float", "str", "bool")
+                                           (p in ("int", "float", "str", "bool", "[key]")
                                             or p.startswith(("function-", "list[", "dict[",
                                                              "constrained-")))))
         tags = _tag_positions(model, loc)
         loc = tuple(p for i, p in enumerate(loc) if i not in tags)
         path = key_path(prefix + loc)
         kind = err["type"]
+        code = _code(kind)
         msg = err["msg"]
         if kind == "union_tag_invalid":  # a discriminated union (a piece's op kind)
             ctx = err["ctx"]
             by_path[path] = (f"unknown {ctx['discriminator'].strip(chr(39))} {ctx['tag']!r}; "
-                             f"expected {ctx['expected_tags'].replace(chr(39), '')}")
+                             f"expected {ctx['expected_tags'].replace(chr(39), '')}", code)
             continue
         if kind == "union_tag_not_found":
-            by_path[path] = f"missing {err['ctx']['discriminator']}"
+            by_path[path] = f"missing {err['ctx']['discriminator']}", code
             continue
         if kind == "extra_forbidden":
             known = _known_keys(model, loc[:-1])
-            by_path[path] = "unknown key" + (f"; known: {', '.join(known)}" if known else "")
+            by_path[path] = ("unknown key" + (f"; known: {', '.join(known)}" if known else ""),
+                             code)
             continue
         if kind == "missing":
-            by_path[path] = "required key missing"
+            by_path[path] = "required key missing", code
             continue
         if msg.startswith("Value error, "):
             msg = msg[len("Value error, "):]
@@ -406,24 +403,35 @@ def error_lines(e: ValidationError, model: type[BaseModel],
             msg = "expected a list"
         got = f" (got {_short(err['input'])})"
         if path in by_path:  # a union (`int | float`) reports one problem per member
-            by_path[path] = by_path[path][:-len(got)] + " or " + \
-                msg.removeprefix("expected ") + got
+            before = by_path[path][0]
+            by_path[path] = (before[:-len(got)] + " or " + msg.removeprefix("expected ") + got,
+                             code)
         else:
-            by_path[path] = f"{msg}{got}"
+            by_path[path] = f"{msg}{got}", code
     # a union (`list[str] | str`) that failed inside its list member also says the list is
     # not a string: the deeper problem is the one to show
-    return [f"{p}: {m}" for p, m in by_path.items()
-            if not any(q.startswith((p + "[", p + ".")) for q in by_path)]
+    return [ConfigIssue(p, m, c) for p, (m, c) in by_path.items()
+            if p in keys or not any(q.startswith((p + "[", p + ".")) for q in by_path)]
+
+
+def error_lines(e: ValidationError, model: type[BaseModel],
+                prefix: tuple[Any, ...] = ()) -> list[str]:
+    """One line per problem: `key.path: message (got VALUE)`."""
+    return [str(i) for i in error_issues(e, model, prefix)]
 
 
 def validate_config(raw: Any, device_types: Mapping[str, Any] | None = None) -> Config:
-    """Check a whole configuration. `device_types` maps a device `type` to its class (with an
-    `Options` model); given, every `[devices.NAME]` table is checked against it too."""
-    lines: list[str] = []
+    """Check a whole configuration, collecting every problem. `device_types` maps a device
+    `type` to its class (with an `Options` model); given, every `[devices.NAME]` table is
+    checked against it too."""
+    issues: list[ConfigIssue] = []
+    name = raw.get("profile") if isinstance(raw, dict) else None
+    context = {"profile": PROFILES.get(name, DEFAULT_PROFILE) if isinstance(name, str)
+               else DEFAULT_PROFILE}
     try:
-        cfg = Config.model_validate(raw)
+        cfg = Config.model_validate(raw, context=context)
     except ValidationError as e:
-        lines = error_lines(e, Config)
+        issues = error_issues(e, Config)
         cfg = None
     if device_types is not None:
         devices = raw.get("devices") if isinstance(raw, dict) else None
@@ -433,21 +441,43 @@ def validate_config(raw: Any, device_types: Mapping[str, Any] | None = None) -> 
             cls = device_types.get(section["type"])
             where = ("devices", name)
             if cls is None:
-                lines.append(f"{key_path(where + ('type',))}: unknown device type "
-                             f"{section['type']!r}; known: {', '.join(sorted(device_types))}")
+                issues.append(ConfigIssue(
+                    key_path(where + ("type",)), f"unknown device type {section['type']!r}; "
+                    f"known: {', '.join(sorted(device_types))}", ConfigCode.DEVICE))
                 continue
             opts = {k: v for k, v in section.items() if k != "type"}
             try:
                 model = cls.Options.model_validate(opts)
             except ValidationError as e:
-                lines += error_lines(e, cls.Options, where)
+                issues += error_issues(e, cls.Options, where)
                 continue
             if cfg is not None:
                 cfg.devices[name]._options = model
-    if lines:
-        raise ConfigError("\n".join(lines))
+    if issues:
+        raise ConfigError(issues)
     assert cfg is not None
     return cfg
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """A TOML file's tables: the one reader of configuration files (machines, pieces, rigs).
+    ConfigError (code `file`) naming the file when it cannot be read or is not TOML."""
+    p = Path(path)
+
+    def fail(what: str) -> ConfigError:
+        return ConfigError(ConfigIssue("", f"{p}: {what}", ConfigCode.FILE))
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise fail("no such file") from None
+    except OSError as e:
+        raise fail(f"cannot read the file: {e.strerror or e}") from None
+    except UnicodeDecodeError:
+        raise fail("not a UTF-8 text file") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise fail(f"not valid TOML: {e}") from None
 
 
 def read_config(config: str | Path | dict[str, Any] | None) -> tuple[dict[str, Any], Path | None]:
@@ -456,19 +486,7 @@ def read_config(config: str | Path | dict[str, Any] | None) -> tuple[dict[str, A
         return {}, None
     if isinstance(config, dict):
         return dict(config), None
-    p = Path(config)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such file") from None
-    except OSError as e:
-        raise ConfigError(f"cannot read config {p}: {e.strerror}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file") from None
-    try:
-        return tomllib.loads(text), p.parent
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{p}: {e}") from None
+    return read_toml(config), Path(config).parent
 
 
 def load_config(config: str | Path | dict[str, Any] | None,
@@ -481,7 +499,7 @@ def load_config(config: str | Path | dict[str, Any] | None,
         cfg = validate_config(raw, device_types)
     except ConfigError as e:
         if base is not None:
-            raise ConfigError(f"{config}:\n  " + str(e).replace("\n", "\n  ")) from None
+            raise e.in_file(str(config)) from None
         raise
     return raw, base, cfg
 

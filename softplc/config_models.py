@@ -1,17 +1,14 @@
 """Pydantic v2 models of the configuration sections added by issue 11, each with
-`extra="forbid"` (a misspelt key is an error) and a `parse_*` function that turns a
-validation error into a `ConfigError` naming the key path:
+`extra="forbid"` (a misspelt key is an error). `softplc.config.Config` types its sections
+with them, so every problem is reported at once with its key path and code:
 
-- `[analog]` (`parse_analog`): one entry per analog channel, as TwidoSuite's module
+- `[analog]` (`AnalogChannelConfig`): one entry per analog channel, as TwidoSuite's module
   configuration screen sets it (signal type and range of each channel);
 - `[pid.n]` (`parse_pid`): the PID functions, as TwidoSuite's PID screen sets them;
-- `[rtc]` (`parse_rtc`): the calendar start of the clock; `[schedule.n]`
-  (`parse_schedules`): the schedule blocks;
-- `[exch]` (`parse_exch`): EXCH3's timeout and remote devices `[exch.remote.<index>]`.
-
-For the schema in `softplc/config.py`: `analog: dict[str, AnalogChannelConfig]` and
-`pid: dict[str, PidConfig]` (keys "0".."13"), `rtc: RtcConfig`,
-`schedule: dict[str, ScheduleConfig]` (keys "0".."15").
+- `[rtc]` (`RtcConfig`, `rtc_start`): the calendar start of the clock; `[schedule.n]`
+  (`ScheduleConfig`, keys 0..15, resolved by `schedules`): the schedule blocks;
+- `[exch]` (`ExchConfig`, resolved by `exch_remotes`): EXCH3's timeout and remote devices
+  `[exch.remote.<index>]`.
 
     modules = { 1 = "TWDAMM3HT", 2 = "TWDALM3LT" }
     analog."%IW1.0" = { type = "4-20mA", range = "custom", min = 0, max = 1000 }
@@ -22,8 +19,6 @@ For the schema in `softplc/config.py`: `analog: dict[str, AnalogChannelConfig]` 
 
 `[analog]`: channels of a configured analog module that the section does not name get the module's
 first signal type and the normal range; the base's inputs get their profile type.
-Pydantic v2 models with `extra="forbid"` (a misspelt key is an error); `parse_analog` turns
-a validation error into a `ConfigError` naming the key path.
 """
 
 from __future__ import annotations
@@ -42,8 +37,8 @@ from pydantic import (
 )
 
 from .address import Ref, parse_address
-from .config import Duration, exch_timeout_ok
-from .errors import AddressError, ConfigError
+from .config_fields import Duration, exch_timeout_ok, numbered
+from .errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from .runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from .runtime.exch import Remote
 from .runtime.fastcount import MAX_COUNT, N_ZONES, CountingInputs, FastCounter, VeryFastCounter
@@ -77,14 +72,6 @@ class AnalogChannelConfig(BaseModel):
 
 
 assert set(SIGNAL_SPAN) == set(Signal.__args__)  # one list of signal types
-
-
-def parse_analog(section: Any) -> dict[str, AnalogChannelConfig]:
-    """Validate the `[analog]` table: address -> channel config."""
-    if not isinstance(section, dict):
-        raise ConfigError(f"analog must be a table of channels, not {section!r}")
-    return {addr: _validated("analog", addr, AnalogChannelConfig, table)
-            for addr, table in section.items()}
 
 
 Word = str  # an address, checked when the PLC resolves it
@@ -153,11 +140,16 @@ def parse_pid(section: Any) -> dict[int, PidConfig]:
     return out
 
 
+def _problem(where: str, key: str, message: str,
+             code: ConfigCode = ConfigCode.ADDRESS) -> ConfigError:
+    return ConfigError(ConfigIssue(f"{where}.{key}", message, code))
+
+
 def _address(where: str, key: str, text: str, mem: Any) -> Ref:
     try:
         return parse_address(text, mem.profile)
     except AddressError as e:
-        raise ConfigError(f"{where}.{key}: {e}") from None
+        raise _problem(where, key, str(e)) from None
 
 
 def _word(where: str, key: str, v: Any, mem: Any, writable: bool = False) -> Any:
@@ -166,9 +158,9 @@ def _word(where: str, key: str, v: Any, mem: Any, writable: bool = False) -> Any
         return v
     ref = _address(where, key, v, mem)
     if ref.type != "int16" or ref.length is not None or ref.offset is not None:
-        raise ConfigError(f"{where}.{key}: {v!r} is not a word (%MW, %IW, %QW...)")
+        raise _problem(where, key, f"{v!r} is not a word (%MW, %IW, %QW...)")
     if writable and not ref.writable:
-        raise ConfigError(f"{where}.{key}: {v!r} cannot be written")
+        raise _problem(where, key, f"{v!r} cannot be written", ConfigCode.VALUE)
     return ref
 
 
@@ -177,8 +169,7 @@ def _bit(where: str, key: str, v: Any, mem: Any, kinds: tuple[str, ...]) -> Ref 
         return None
     ref = _address(where, key, v, mem)
     if ref.kind not in kinds or ref.type != "bool" or ref.length is not None:
-        raise ConfigError(f"{where}.{key}: {v!r} is not a "
-                          f"{'/'.join('%' + k for k in kinds)} bit")
+        raise _problem(where, key, f"{v!r} is not a {'/'.join('%' + k for k in kinds)} bit")
     if ref.kind == "Q":
         mem.use_io(ref)
     return ref
@@ -241,8 +232,13 @@ class ScheduleConfig(BaseModel):
         return v
 
 
-def parse_rtc(section: Any) -> datetime | None:
-    o = _validated("rtc", "", RtcConfig, section if section is not None else {})
+ScheduleNumber = numbered(0, SCHEDULE_BLOCKS - 1, "schedule blocks are {lo} .. {hi}")
+
+
+def rtc_start(o: RtcConfig | None) -> datetime | None:
+    """The calendar date-time at PLC time 0 that `[rtc]` gives (None: the default)."""
+    if o is None:
+        return None
     if isinstance(o.start, datetime):
         return o.start.replace(tzinfo=None)
     if isinstance(o.start, date):
@@ -250,25 +246,12 @@ def parse_rtc(section: Any) -> datetime | None:
     return None
 
 
-def parse_schedules(section: Any, mem: Any) -> list[Schedule]:
-    """Validate `[schedule]` and resolve the output bits."""
-    if not isinstance(section, dict):
-        raise ConfigError(f"schedule must be a table of schedule blocks, not {section!r}")
-    out = []
-    for key, table in section.items():
-        try:
-            n = int(key)
-        except ValueError:
-            n = -1
-        if not 0 <= n < SCHEDULE_BLOCKS:
-            raise ConfigError(f"schedule: {key!r}: schedule blocks are 0 .. "
-                              f"{SCHEDULE_BLOCKS - 1}")
-        o = _validated("schedule", str(key), ScheduleConfig, table)
-        ref = _bit(f"schedule.{key}", "output", o.output, mem, ("Q", "M"))
-        out.append(Schedule(n, ref, parse_time_of_day(o.start), parse_time_of_day(o.stop),
-                            frozenset(DAYS.index(d) for d in o.days),
-                            parse_month_day(o.first), parse_month_day(o.last)))
-    return out
+def schedule(n: int, o: ScheduleConfig, mem: Any) -> Schedule:
+    """A validated `[schedule.n]` block with its output bit resolved."""
+    ref = _bit(f"schedule.{n}", "output", o.output, mem, ("Q", "M"))
+    return Schedule(n, ref, parse_time_of_day(o.start), parse_time_of_day(o.stop),
+                    frozenset(DAYS.index(d) for d in o.days),
+                    parse_month_day(o.first), parse_month_day(o.last))
 
 
 # ---- pulse outputs (issue 11 B): [pls] and [pwm] ---------------------------------------------
@@ -401,26 +384,26 @@ class ExchRemoteConfig(BaseModel):
     unit_id: int = Field(255, ge=0, le=255)  # 255: a Twido server's default [manual]
 
 
+RemoteIndex = numbered(1, lambda p: p.count("EXCH_REMOTES"), "the remote device index is "
+                       "{lo} .. {hi} (the first byte of the EXCH table)")
+
+
 class ExchConfig(BaseModel):
     """`[exch]`: EXCH3 as a Modbus TCP client. `timeout` in seconds (or "500ms")."""
 
     model_config = ConfigDict(extra="forbid")
 
     timeout: Annotated[Duration, AfterValidator(exch_timeout_ok)] = 1.0
-    remote: dict[str, ExchRemoteConfig] = Field(default_factory=dict)
+    remote: dict[RemoteIndex, ExchRemoteConfig] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _some_remote(self) -> ExchConfig:
+        if not self.remote:
+            raise ValueError("no remote device in exch.remote (e.g. [exch.remote.1] "
+                             "host = ...)")
+        return self
 
 
-def parse_exch(section: Any, max_remotes: int) -> tuple[float, dict[int, Remote]] | None:
-    """Validate `[exch]`: (timeout in s, remote index -> Remote), None when absent."""
-    if not section:
-        return None
-    cfg: ExchConfig = _validated("exch", "", ExchConfig, section)
-    remotes = {}
-    for key, r in cfg.remote.items():
-        if not key.isdigit() or not 1 <= int(key) <= max_remotes:
-            raise ConfigError(f"exch.remote.{key}: the remote device index is 1 .. "
-                              f"{max_remotes} (the first byte of the EXCH table)")
-        remotes[int(key)] = Remote(r.host, r.port, r.unit_id)
-    if not remotes:
-        raise ConfigError("exch.remote: no remote device (e.g. [exch.remote.1] host = ...)")
-    return cfg.timeout, remotes
+def exch_remotes(cfg: ExchConfig) -> dict[int, Remote]:
+    """The validated `[exch]` remote devices: index -> Remote."""
+    return {n: Remote(r.host, r.port, r.unit_id) for n, r in cfg.remote.items()}

@@ -113,8 +113,51 @@ class VerifyError(ProgramError):
     cannot model (floats, tables...): every problem with its line:col."""
 
 
+class ConfigCode(StrEnum):
+    """What kind of problem a configuration issue is (stable, like `Code` for programs)."""
+
+    UNKNOWN_KEY = "unknown-key"  # a misspelt or misplaced key
+    MISSING_KEY = "missing-key"
+    TYPE = "type"  # a string for a number, a value for a table...
+    VALUE = "value"  # out of range, not one of the choices, not a duration/date/time
+    ADDRESS = "address"  # not an address of the profile, or not the kind of object wanted
+    CONFLICT = "conflict"  # two settings claim one thing (an output, an input)
+    MODULE = "module"  # an expansion module or a channel no module provides
+    DEVICE = "device"  # an unknown device type
+    FILE = "file"  # the file cannot be read, or is not TOML
+    OTHER = "other"
+
+
+@dataclass(frozen=True)
+class ConfigIssue:
+    """One problem in a configuration: where (`path`, like `timers."%TM0".preset`), what,
+    and its code."""
+
+    path: str
+    message: str
+    code: ConfigCode = ConfigCode.OTHER
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.message}" if self.path else self.message
+
+
 class ConfigError(SoftPLCError):
-    """A configuration (dict or TOML) is wrong."""
+    """A configuration (dict or TOML) is wrong. Carries every problem found (`issues`), and
+    the file they are in when there is one; its text is one `path: message` line each."""
+
+    def __init__(self, issues: str | ConfigIssue | list[ConfigIssue], file: str | None = None):
+        if isinstance(issues, str):
+            issues = [ConfigIssue("", issues)]
+        elif isinstance(issues, ConfigIssue):
+            issues = [issues]
+        self.issues: list[ConfigIssue] = list(issues)
+        self.file = file
+        text = "\n".join(str(i) for i in self.issues)
+        super().__init__(f"{file}:\n  " + text.replace("\n", "\n  ") if file else text)
+
+    def in_file(self, file: str) -> ConfigError:
+        """The same issues, said to be in `file`."""
+        return ConfigError(self.issues, file)
 
 
 class AddressError(SoftPLCError, ValueError):

@@ -12,7 +12,6 @@ one or two gain sets on the same move (overlay), their figures written on it.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -94,12 +93,8 @@ def run_move(move: str, axis: str = "X", distance: int = 100, *, config: str | P
 def _holding(config: str | Path, axis: str, start: float, gains: dict[str, float] | None
              ) -> tuple[Rig, Any]:
     """A simulated axis of `config` (homed), its gains set, loop closed at `start` 0.5 s."""
-    try:
-        rig = Rig.from_toml(config, axis, start=start, require_home=False)
-    except (OSError, tomllib.TOMLDecodeError) as e:
-        raise SoftPLCError(f"{config}: {getattr(e, 'strerror', None) or e}") from None
-    except KeyError:
-        raise SoftPLCError(f"{config}: no servo axis named {axis!r}") from None
+    # a file that cannot be read, or has no device `axis`: ConfigError (softplc.config)
+    rig = Rig.from_toml(config, axis, start=start, require_home=False)
     if axis not in rig.axes:
         raise SoftPLCError(f"{config}: device {axis!r} is not a servo_axis")
     dev = rig.axes[axis]

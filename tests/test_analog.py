@@ -78,7 +78,7 @@ def test_base_potentiometer_and_voltage_input():
     ({"modules": {1: "TWDAMI2HT"}, "analog": {"%IW1.0": {"type": "PT100"}}},
      "type 'PT100' not available on this channel"),
     ({"modules": {1: "TWDAMI2HT"}, "analog": {"%IW1.0": {"type": "0-10V", "rnage": "x"}}},
-     "analog.%IW1.0.rnage: Extra inputs are not permitted"),
+     "analog.\"%IW1.0\".rnage: unknown key; known: max, min, range, type"),
     ({"modules": {1: "TWDAMI2HT"}, "analog": {"%IW1.0": {"type": "0-10V",
                                                            "range": "celsius"}}},
      "is for temperature sensors"),

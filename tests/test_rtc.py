@@ -100,7 +100,7 @@ def test_schedule_over_midnight_dates_and_enable_word():
 
 @pytest.mark.parametrize("cfg, message", [
     ({"rtc": {"start": "yesterday"}}, "rtc.start"),
-    ({"rtc": {"begin": "2026-01-01"}}, "rtc.begin: Extra inputs"),
+    ({"rtc": {"begin": "2026-01-01"}}, "rtc.begin: unknown key; known: start"),
     ({"schedule": {"0": {"output": "%Q0.0", "start": "25:00", "stop": "08:00"}}},
      "schedule.0.start"),
     ({"schedule": {"0": {"output": "%Q0.0", "start": "07:00", "stop": "08:00",

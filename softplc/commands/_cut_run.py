@@ -104,18 +104,21 @@ def _report_seed(piece: Piece, variant: str) -> None:
 
 
 def _machine_axes(path: str) -> tuple[tuple[float, float], float]:
-    """The axes' `start` (true counts at power-up) and counts per mm from a machine TOML:
-    what maps the trace's true positions onto work coordinates."""
-    import tomllib
+    """The axes' `start` (true counts at power-up) and counts per mm from a machine TOML
+    (read and checked by the configuration loader): what maps the trace's true positions
+    onto work coordinates."""
+    from ..config import load_config
+    from ..devices import DEVICE_TYPES
+    from ..errors import ConfigError
 
     try:
-        devs = tomllib.loads(Path(path).read_text(encoding="utf-8"))["devices"]
-        x, y = devs["X"], devs["Y"]
-        return (float(x.get("start", 0.0)), float(y.get("start", 0.0))), \
-            float(x["counts_per_mm"])
-    except (OSError, KeyError, ValueError, tomllib.TOMLDecodeError) as e:
-        raise CuttingError(f"--machine {path}: cannot read the X/Y axes' start and "
-                           f"counts_per_mm ({e})") from None
+        devices = load_config(path, DEVICE_TYPES)[2].devices
+    except ConfigError as e:
+        raise CuttingError(f"--machine {e}") from None
+    axes = [devices[n].options for n in ("X", "Y") if n in devices]
+    if len(axes) < 2 or not all(hasattr(o, "counts_per_mm") for o in axes):
+        raise CuttingError(f"--machine {path}: no servo axes [devices.X] and [devices.Y]")
+    return (axes[0].start, axes[1].start), axes[0].counts_per_mm
 
 
 def _stream(piece: Piece, args: argparse.Namespace) -> int:

@@ -47,9 +47,12 @@ def run(args: argparse.Namespace) -> int:
     except SoftPLCError as e:  # a missing file, a configuration error
         if not args.json:
             raise
-        where = args.config if isinstance(e, ConfigError) and args.config else args.program
-        print(json.dumps({"ok": False, "errors": [asdict(Diagnostic(str(e), str(where)))]},
-                         indent=2))
+        if isinstance(e, ConfigError) and args.config:  # one error per issue, with its code
+            errors = [{**asdict(Diagnostic(i.message, str(args.config), text=i.path)),
+                       "code": str(i.code)} for i in e.issues]
+        else:
+            errors = [asdict(Diagnostic(str(e), str(args.program)))]
+        print(json.dumps({"ok": False, "errors": errors}, indent=2))
         return 1
     prog = plc.ast
     if args.json:

@@ -21,7 +21,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, SoftPLCError
+from ..errors import ConfigError
 from ._args import add_program_arguments, load_plc, port
 
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
@@ -52,12 +52,19 @@ def _checked(check_name: str) -> Any:
     return parse
 
 
+def _whole(lo: int, hi: int) -> Any:
+    """An argparse type: a whole number lo..hi (the bounds of the configuration key)."""
+    def parse(text: str) -> int:
+        if not text.strip().isdigit() or not lo <= int(text) <= hi:
+            raise argparse.ArgumentTypeError(f"{text!r}: a whole number from {lo} to {hi}")
+        return int(text)
+    return parse
+
+
 def _max_clients(text: str) -> int:
     from ..config import MAX_CLIENTS
 
-    if not text.strip().isdigit() or not 1 <= int(text) <= MAX_CLIENTS:
-        raise argparse.ArgumentTypeError(f"{text!r}: a whole number from 1 to {MAX_CLIENTS}")
-    return int(text)
+    return _whole(1, MAX_CLIENTS)(text)
 
 
 def _interval(text: str) -> float:
@@ -97,8 +104,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "run", help="run a program with a Modbus TCP server (a soft Twido)",
         description="Run PROGRAM.il periodically on the real clock and serve its memory over "
-                    "Modbus TCP: %MWn = holding/input register n (FC 3/4/6/16/23), %Mn = "
-                    "coil/discrete input n (FC 1/2/5/15), FC 43/14 device identification. "
+                    "Modbus TCP: %MWn = holding/input register n (functions 3/4/6/16/23), %Mn = "
+                    "coil/discrete input n (functions 1/2/5/15), function 43/14 device "
+                    "identification. "
                     "Host writes are applied at the start of the next scan; reads return the "
                     "image of the last scan with the writes acknowledged since. Stop with "
                     "Ctrl-C or SIGTERM: the scan finishes, outputs go to 0, the state file is "
@@ -131,7 +139,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "its host (ignore the config's [daemon] host_wait bit)")
     p.add_argument("--stats-interval", type=_interval,
                    help="statistics line every ... (default 60s; 0 = none); "
-                        "`kill -USR1 PID` prints one at once")
+                        "SIGUSR1 prints one at once")
     p.add_argument("--max-clients", type=_max_clients,
                    help="simultaneous Modbus connections (32, up to 1000); when all "
                         "are taken a new client takes the slot of an unused one")
@@ -147,7 +155,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="accept clients only from these addresses or networks (IPv4/IPv6, "
                         "comma-separated, repeatable); others are disconnected before any "
                         "byte is read")
-    p.add_argument("--rt-priority", type=int,
+    p.add_argument("--rt-priority", type=_whole(0, 99),
                    help="SCHED_FIFO priority of the scan thread, 1..99, the Modbus thread "
                         "one below (default 10; 0 = normal scheduling); needs root or "
                         "CAP_SYS_NICE, else ignored")
@@ -175,7 +183,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="a Host name the monitor answers to besides localhost, this "
                         "machine's name and IP addresses (repeatable; * = any; or [web] "
                         "allowed_hosts)")
-    p.add_argument("--web-max-pages", type=int, default=None, metavar="N",
+    p.add_argument("--web-max-pages", type=_whole(1, 1000), default=None, metavar="N",
                    help="websocket pages open at once, 1..1000 (default 32, or [web] "
                         "max_pages)")
     p.add_argument("--log-level", default="warning",
@@ -187,19 +195,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _pick(cli: Any, configured: Any) -> Any:
     """The command-line value if given, else the configuration's (validated, defaulted)."""
     return configured if cli is None else cli
-
-
-def _memory_bit(text: str, profile: Any) -> int:
-    """`[daemon] host_wait`: the index of a %Mi bit of the controller `profile`."""
-    from ..address import parse_address
-
-    try:
-        ref = parse_address(text, profile)
-    except SoftPLCError as e:
-        raise ConfigError(f"config [daemon] host_wait: {e}") from None
-    if ref.kind != "M" or ref.bit is not None or ref.length is not None or ref.offset:
-        raise ConfigError(f"config [daemon] host_wait: {text!r} is not a memory bit %Mi")
-    return ref.index
 
 
 _LOCKED: list[int] = []  # descriptors held open (and locked) until the process ends
@@ -257,8 +252,7 @@ def run(args: argparse.Namespace) -> int:
         frame_timeout=_pick(args.frame_timeout, mb.frame_timeout),
         idle_timeout=_pick(args.idle_timeout, mb.idle_timeout) or None,
         rt_priority=_pick(args.rt_priority, dm.rt_priority),
-        host_wait=None if args.no_host_wait or dm.host_wait is None else _memory_bit(
-            dm.host_wait, plc.profile),
+        host_wait=None if args.no_host_wait else dm.host_wait_bit,
         read_only=args.read_only,
         allow=allow,
         open_outputs=outputs,
@@ -266,8 +260,6 @@ def run(args: argparse.Namespace) -> int:
         web=_web_options(args, plc.settings.web),
         gc_freeze=not args.no_gc_freeze,
     )
-    if not 0 <= opts.rt_priority <= 99:
-        raise SoftPLCError("rt_priority must be 0..99")
     app = application_id(args.program.read_bytes(), cfg)
     return Daemon(plc, opts, program_name=str(args.program), app=app).run()
 
@@ -280,8 +272,6 @@ def _web_options(args: argparse.Namespace, configured: Any) -> Any:
     if args.web == _WEB_OFF:
         return None
     pages = _pick(args.web_max_pages, configured.max_pages)
-    if not 1 <= pages <= 1000:
-        raise SoftPLCError(f"--web-max-pages {pages}: 1..1000")
     hosts = [h for arg in args.web_allow_host for h in arg.split(",")] \
         or configured.allowed_hosts
     return WebOptions(port=DEFAULT_WEB_PORT if args.web is None else args.web,

@@ -32,7 +32,6 @@ point: a move (torch off) is inserted when the torch is elsewhere. Every op but 
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Literal
@@ -40,7 +39,8 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..config import error_lines
+from ..config import error_lines, read_toml
+from ..errors import ConfigError
 from . import seed as thesis
 from .geometry import (
     DEFAULT_TOLERANCE,
@@ -459,11 +459,9 @@ def load_piece(path: str | Path, **options: float | Point | None) -> Piece:
     if p.suffix.lower() != ".toml":
         return piece_from_gcode(p, **given)
     try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise PieceError(f"{p}: cannot read the file: {e.strerror or e}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise PieceError(f"{p}: not valid TOML: {e}") from None
+        data = read_toml(p)
+    except ConfigError as e:
+        raise PieceError(str(e)) from None
     data.update({OPTION_KEYS[k]: v for k, v in given.items()})
     return piece_from_dict(data, str(p))
 

@@ -13,13 +13,13 @@ the before/after comparison of `softplc tune --compare`.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..config import read_toml
 from ..errors import ConfigError
 from ..massest.synth import CAL_JOB, MEAS_JOB, Run, Scenario
 from .axis.options import Ctl, Mode, St, Word
@@ -35,11 +35,7 @@ APPROACH = 0.005  # m: fe_of_move's approach distance
 
 
 def machine_devices(path: str | Path = MACHINE_TOML) -> dict[str, dict[str, Any]]:
-    try:
-        cfg = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError) as e:
-        raise ConfigError(f"{path}: cannot read the machine ({e})") from None
-    return cfg.get("devices", {})
+    return read_toml(path).get("devices", {})  # ConfigError naming the file
 
 
 def configured_mass(devices: dict[str, dict[str, Any]], ratio: float) -> float:

@@ -9,10 +9,11 @@ program (for tests, the benchmark and experiments). Time advances in whole scans
 from __future__ import annotations
 
 import copy
-import tomllib
 from pathlib import Path
 from typing import Any
 
+from ...config import read_toml
+from ...errors import ConfigError
 from ...runtime.memory import MemoryImage
 from ..base import build_devices
 from .options import Ctl, Mode, Word
@@ -20,9 +21,14 @@ from .servo import ServoAxis
 
 
 def load_axes(path: str | Path, *names: str) -> dict[str, dict[str, Any]]:
-    """The `[devices.NAME]` tables of a machine TOML (deep copies, to override freely)."""
-    cfg = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    devs = cfg.get("devices", {})
+    """The `[devices.NAME]` tables of a machine TOML, as written (deep copies, to override
+    freely; `Rig` checks them with the devices' Options). Read by the configuration loader:
+    ConfigError naming the file if it cannot be read, or a name it lacks."""
+    devs = read_toml(path).get("devices", {})
+    missing = [n for n in names if n not in devs]
+    if missing:
+        raise ConfigError(f"{path}: no [devices.{missing[0]}]; devices: "
+                          f"{', '.join(devs) or 'none'}")
     return {n: copy.deepcopy(devs[n]) for n in (names or devs)}
 
 

@@ -1,0 +1,125 @@
+"""`Machine`: the assembled parts of one soft Twido, and `assemble`, which builds them from a
+configuration (a dict, a TOML file or None)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from .. import symbols
+from ..address import Ref
+from ..config import Config, load_config
+from ..config_models import rtc_start
+from ..profile import PROFILES, Profile
+from ..program import ProgramState
+from ..runtime.blocks import TimeSource
+from ..runtime.clock import Clock, make_clock
+from ..runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
+from ..runtime.exch import ExchPort
+from ..runtime.grafcet import Grafcet
+from ..runtime.memory import MemoryImage
+from ..runtime.rtc import Schedule
+from ..semantics import Ops
+from ..symbols import SymbolTable
+from . import hardware
+
+
+def _no_blocks(ref: Ref) -> str | None:
+    return f"{ref}: no function blocks on this machine"
+
+
+@dataclass(eq=False)
+class Machine:
+    """What the builder returns: the checked configuration and the parts built from it."""
+
+    raw: dict[str, Any]  # the configuration as written
+    config_dir: Path | None  # the folder of its file (relative paths), None for a dict
+    settings: Config  # the same, checked and typed
+    profile: Profile
+    symbols: SymbolTable
+    mem: MemoryImage
+    time_source: TimeSource
+    clock: Clock
+    modules: hardware.Modules | None  # None: [modules] not given (I/O not checked)
+    exch: ExchPort | None
+    ops: Ops
+    grafcet: Grafcet
+    engine: Engine
+    program_state: ProgramState  # shared by the fast and the debug build
+    rtc_start: datetime | None
+    schedules: list[Schedule]
+    # creates a block the program uses and the configuration does not name, or says what
+    # to configure (the block set-up provides it)
+    block_factory: Callable[[Ref], str | None] = _no_blocks
+    devices: dict[str, Any] = field(default_factory=dict)
+
+
+def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "virtual"
+             ) -> Machine:
+    """Load and check `config`, then build the controller's parts (no function blocks, no
+    program, no devices yet). Raises ConfigError with every problem found."""
+    from ..devices import DEVICE_TYPES
+
+    raw, config_dir, settings = load_config(config, DEVICE_TYPES)
+    profile = PROFILES[settings.profile]
+    table = symbols.from_config(raw, config_dir, profile)
+    mem = MemoryImage(profile)
+    clk = make_clock(clock)
+    problems = hardware.Problems()
+    discrete, analog_modules = hardware.modules(settings)
+    mem.analog = hardware.analog_io(settings.analog, profile, mem, analog_modules, problems)
+    hardware.constants(settings.constants, profile, mem, problems)
+    found = hardware.schedules(settings, mem, problems)
+    problems.raise_any(None if config_dir is None else str(config))
+    time_source = TimeSource()
+    watchdog = settings.watchdog if settings.watchdog is not None else DEFAULT_WATCHDOG_S
+    grafcet = Grafcet(mem.x, mem.s)
+    return Machine(
+        raw=raw, config_dir=config_dir, settings=settings, profile=profile, symbols=table,
+        mem=mem, time_source=time_source, clock=clk, modules=discrete,
+        exch=hardware.exch_port(settings.exch, mem, clk), ops=Ops(mem.s, mem.sw.w),
+        grafcet=grafcet,
+        engine=Engine(mem, clk, settings.scan_period, watchdog, time_source),
+        program_state=ProgramState(grafcet=grafcet), rtc_start=rtc_start(settings.rtc),
+        schedules=found)
+
+
+def attach_scan_hooks(m: Machine) -> None:
+    """The scan-boundary work of the configured functions (once the blocks are set up):
+    the very fast counters' preset/catch inputs, the EXCH port. Programs without them pay
+    nothing."""
+    counting = m.mem.counting
+    if counting is not None and counting.vfc:
+        m.engine.before_scan.append(counting.poll)
+    if m.exch is not None:
+        m.engine.before_scan.append(
+            hardware.exch_boundary(m.exch, lambda: m.engine.state, RUN))
+
+
+def settle_exchange(m: Machine, timeout: float) -> bool:
+    """Virtual clock: wait up to `timeout` s for the EXCH exchange in progress (the next
+    scan would, up to its deadline); True when the next scan will not wait."""
+    port = m.exch
+    return port is None or not port.wait or m.engine.state != RUN or port.settle(timeout)
+
+
+def attach_devices(m: Machine) -> dict[str, Any]:
+    """Build the simulated machine of [devices] on the memory image (relative files made
+    relative to the config file's folder)."""
+    if not m.settings.devices:
+        return {}
+    from ..devices import build_devices
+
+    config = {}
+    for name, section in m.settings.devices.items():
+        opts = section.options
+        csv = getattr(opts, "csv", None)
+        if m.config_dir is not None and isinstance(csv, str) and not Path(csv).is_absolute():
+            opts = opts.model_copy(update={"csv": str(m.config_dir / csv)})
+        config[name] = (section.type, opts)
+    m.devices = build_devices(config, m.mem)
+    m.engine.devices = m.devices
+    return m.devices
