@@ -10,11 +10,11 @@
     constants = { "%KW0" = 100, "%KF2" = 1.5 }
     modules = { 1 = "TM2DDO8TT" }    # expansion modules; when given, I/O addresses are checked
     analog."%IW2.0" = { type = "PT100", range = "celsius" }   # analog channels
-    [pid.0]                  # PID functions, [rtc] the clock's calendar start,
-    [schedule.0]             # schedule blocks: see softplc/config_models.py
+    [pid.0]                  # PID functions (runtime/pid.py), [rtc] the clock's calendar
+    [schedule.0]             # start, schedule blocks: see softplc/config_models.py
     pls."%PLS0" = { base = "10ms", preset = 10, pulses = 200 }   # pulse outputs on %Q0.0/1
-    pwm."%PWM1" = { base = "10ms", preset = 100, ratio = 0 }    # (config_models.py)
-    [fast_counters."%FC0"]   # fast counters, [very_fast_counters."%VFC0"]: config_models.py
+    pwm."%PWM1" = { base = "10ms", preset = 100, ratio = 0 }    # (runtime/pulse.py)
+    [fast_counters."%FC0"]   # fast counters, [very_fast_counters."%VFC0"]: runtime/fastcount.py
     [exch.remote.1]          # EXCH3's remote devices: host, port, unit_id; [exch] timeout
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
@@ -47,9 +47,11 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationError,
+    create_model,
     field_validator,
 )
 
+from . import catalog
 from .errors import ConfigError, SoftPLCError
 from .profile import DEFAULT_PROFILE, PROFILES
 from .runtime.blocks import MAX_VALUE, TIME_BASES_US
@@ -239,7 +241,16 @@ def _str_keys(v: Any) -> Any:
     return {str(k): x for k, x in v.items()} if isinstance(v, dict) else v
 
 
-class Config(Section):
+# The function blocks' sections typed by their catalog entries' models ([pid], [pls], [pwm],
+# [fast_counters], ...: softplc/catalog.py); addresses are resolved when the blocks are set up.
+_BlockSections = create_model(  # type: ignore[call-overload]
+    "_BlockSections", __base__=Section,
+    **{f.section: (Annotated[dict[str, f.config_model()], BeforeValidator(_str_keys)],
+                   Field(default_factory=dict))
+       for f in catalog.FAMILIES.values() if f.model})
+
+
+class Config(_BlockSections):  # type: ignore[misc, valid-type]
     """The whole machine/PLC configuration."""
 
     name: str = ""
@@ -261,14 +272,8 @@ class Config(Section):
     # controller functions: checked by their own models in softplc/config_models.py when the
     # PLC builds them (they need the profile and the memory image to resolve addresses)
     analog: dict[str, Any] = Field(default_factory=dict)
-    pid: dict[str, Any] = Field(default_factory=dict)
     rtc: dict[str, Any] | None = None
     schedule: dict[str, Any] = Field(default_factory=dict)
-    pls: dict[str, Any] = Field(default_factory=dict)  # pulse outputs (issue 11 B)
-    pwm: dict[str, Any] = Field(default_factory=dict)
-    # fast counters (config_models.build_counters)
-    fast_counters: dict[str, Any] = Field(default_factory=dict)
-    very_fast_counters: dict[str, Any] = Field(default_factory=dict)
     exch: dict[str, Any] = Field(default_factory=dict)  # EXCH3 remote devices (issue 11 B)
     # names for addresses: checked by softplc.symbols (the parser needs them first)
     symbols: dict[str, Any] = Field(default_factory=dict)
@@ -283,7 +288,7 @@ class Config(Section):
 
 
 # ---- error messages ------------------------------------------------------------------------------
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
+_IDENT = re.compile(r"^[A-Za-z0-9_-]+$")  # a TOML bare key
 
 
 def key_path(loc: tuple[Any, ...]) -> str:

@@ -14,18 +14,10 @@ from typing import Any
 
 from . import symbols
 from .address import BLOCK_FIELDS, IO_KINDS, Ref, parse_address
+from .build.blocks import build_blocks
 from .compiler import Resolved, compile_program, resolve
 from .config import Config, key_path, load_config, symbol_table
-from .config_models import (
-    build_counters,
-    parse_analog,
-    parse_exch,
-    parse_pid,
-    parse_pulse,
-    parse_rtc,
-    parse_schedules,
-    pid_params,
-)
+from .config_models import parse_analog, parse_exch, parse_rtc, parse_schedules
 from .errors import (
     AddressError,
     Code,
@@ -42,15 +34,12 @@ from .il.rungtree import syntax_follow_ups
 from .profile import ANALOG_MODULES, MODULES, PROFILES, AnalogModule, Profile
 from .program import CompiledProgram, ProgramState, bind
 from .runtime.analog import AnalogChannel, AnalogIO, normal_range
-from .runtime.blocks import Counter, Drum, Message, Register, Timer, TimeSource
-from .runtime.catalog import BLOCK_CLASSES
+from .runtime.blocks import Message, TimeSource
 from .runtime.clock import Clock, VirtualClock, make_clock
 from .runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
 from .runtime.exch import ETHERNET_PORT, ExchPort
 from .runtime.grafcet import Grafcet
 from .runtime.memory import MemoryImage
-from .runtime.pid import Pid
-from .runtime.pulse import PulseGenerator, PulseOutputs, PwmOutput
 from .runtime.rtc import DEFAULT_START, RTC
 from .semantics import Ops
 
@@ -81,18 +70,13 @@ class PLC:
         self._analog_modules: dict[int, AnalogModule] = {}
         self._modules = self._load_modules(settings.modules)
         self.mem.analog = self._configure_analog(settings.analog)
-        self.configure_blocks(settings)
         self._configure_constants(settings.constants)
-        self._configure_pid(settings.pid)
-        self.mem.counting = build_counters(settings.fast_counters, settings.very_fast_counters,
-                                           self.mem)
         self._exch = self._configure_exch(settings.exch)
         self.ops = Ops(self.mem.s, self.mem.sw.w)
         self.grafcet = Grafcet(self.mem.x, self.mem.s)
         self.engine = Engine(self.mem, self._clock, self.scan_period, watchdog, self.time_source)
-        self._configure_pulses(settings)
-        if self.mem.counting is not None and self.mem.counting.vfc:  # preset/catch inputs
-            self.engine.before_scan.append(self.mem.counting.poll)
+        self.block_setup = build_blocks(self.mem, self.profile, self.time_source,
+                                        self.scan_period, self.engine, settings)
         if self._exch is not None:  # only then: programs without EXCH pay nothing
             self.engine.before_scan.append(self._exch_boundary)
         self.program_state = ProgramState(grafcet=self.grafcet)  # fast and debug build share it
@@ -218,60 +202,6 @@ class PLC:
                 normal_range(o.type, ch.full_scale)
         return AnalogIO(self.mem, chans)
 
-    def _cfg_ref(self, text: str, kind: str, section: str) -> Ref:
-        try:
-            ref = parse_address(text, self.profile)
-        except AddressError as e:
-            raise ConfigError(f"{key_path((section, text))}: {e}") from None
-        if ref.kind != kind or not (ref.is_block or kind in ("KW", "KD", "KF")):
-            raise ConfigError(f"{key_path((section, text))}: {text!r} is not a %{kind} object")
-        return ref
-
-    def configure_blocks(self, cfg: Config) -> None:
-        """Create the blocks `cfg` configures (replacing those of the same address)."""
-        blocks = self.mem.blocks
-        for text, t in cfg.timers.items():
-            ref = self._cfg_ref(text, "TM", "timers")
-            try:
-                blocks["TM"][ref.index] = Timer(self.time_source, t.type, t.base, t.preset)
-            except ValueError as e:
-                raise ConfigError(f"timers.{text}: {e}") from None
-        for text, c in cfg.counters.items():
-            ref = self._cfg_ref(text, "C", "counters")
-            try:
-                blocks["C"][ref.index] = Counter(c.preset)
-            except ValueError as e:
-                raise ConfigError(f"counters.{text}: {e}") from None
-        for text, d in cfg.drums.items():
-            ref = self._cfg_ref(text, "DR", "drums")
-            outs = []
-            for k, a in enumerate(d.outputs):
-                try:
-                    r = parse_address(a, self.profile)
-                except AddressError as e:
-                    raise ConfigError(f"drums.{text}.outputs[{k}]: {e}") from None
-                if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
-                    raise ConfigError(f"drums.{text}.outputs[{k}]: %Q or %M bits, not {a!r}")
-                self.mem.use_io(r)
-                outs.append((self.mem.bits(r.kind), r.index))
-            try:
-                blocks["DR"][ref.index] = Drum(d.steps, outs)
-            except ValueError as e:
-                raise ConfigError(f"drums.{text}: {e}") from None
-        for text, g in cfg.registers.items():
-            ref = self._cfg_ref(text, "R", "registers")
-            try:
-                blocks["R"][ref.index] = Register(g.type, self.profile.count("FIFO_DEPTH"))
-            except ValueError as e:
-                raise ConfigError(f"registers.{text}: {e}") from None
-
-    def _default_block(self, kind: str) -> Any:
-        """A block the program uses and the configuration does not name (%C, %R, %SBR, %SC:
-        the block class's own defaults; timers and drums must be configured)."""
-        if kind == "R":
-            return Register("FIFO", self.profile.count("FIFO_DEPTH"))
-        return BLOCK_CLASSES[kind]()
-
     # ---- communication (issue 11 B) ----
     def _configure_exch(self, section: Any) -> ExchPort | None:
         """[exch]: the Ethernet port's remote devices; %MSG3 drives the port."""
@@ -297,77 +227,6 @@ class PLC:
             self._exch.poll()
         else:
             self._exch.stop()
-
-    def _configure_pid(self, section: Any) -> None:
-        """The PID functions of [pid], addresses resolved and checked once."""
-        self.mem.blocks["PID"] = pids = {}
-        for n, o in parse_pid(section).items():
-            if not 0 <= n < self.profile.count("PID"):
-                raise ConfigError(f"pid.{n}: PID 0 .. PID {self.profile.count('PID') - 1}")
-            params = pid_params(f"pid.{n}", o, self.mem, self.scan_period)
-            pids[n] = Pid(self.mem, self.time_source, params)
-
-    def _configure_pulses(self, cfg: Config) -> None:
-        """%PLS / %PWM of [pls] / [pwm] on the profile's transistor outputs; the engine
-        updates them only when there are some."""
-        pulses = PulseOutputs(self.mem.q)
-        owner: dict[int, str] = {}
-        outputs = self.profile.pulse_outputs
-        for kind, section in (("PLS", cfg.pls), ("PWM", cfg.pwm)):
-            for text, o in parse_pulse(kind, section).items():
-                ref = self._cfg_ref(text, kind, kind.lower())
-                where = key_path((kind.lower(), text))
-                if ref.index >= len(outputs):
-                    raise ConfigError(f"{where}: {self.profile.name} has no output for {text}")
-                q = outputs[ref.index]
-                if q in owner:
-                    raise ConfigError(f"{where}: %Q0.{q} is already the output of "
-                                      f"{owner[q]} (an output is one pulse block or none)")
-                owner[q] = str(ref)
-                try:
-                    gen = (PulseGenerator(self.time_source, o.base, o.preset, o.pulses)
-                           if kind == "PLS" else
-                           PwmOutput(self.time_source, o.base, o.preset, o.ratio))
-                except ValueError as e:
-                    raise ConfigError(f"{where}: {e}") from None
-                self.mem.blocks[kind][ref.index] = gen
-                out = parse_address(f"%Q0.{q}", self.profile)
-                self.mem.use_io(out)
-                pulses.add(out.index, gen, f"{ref} on {out}")
-        for n, pid in self.mem.blocks["PID"].items():  # the PID's PWM writes its output too
-            out = pid.p.pwm_output
-            if out is not None and out.kind == "Q" and out.module == 0 and out.channel in owner:
-                raise ConfigError(f"pid.{n}.pwm_output: %Q0.{out.channel} is the output of "
-                                  f"{owner[out.channel]}")
-        if pulses.by_output:
-            self.mem.pulses = self.engine.pulses = pulses
-
-    def _block_factory(self, ref: Ref) -> str | None:
-        """Create a block the program uses but the configuration does not name, where
-        Twido has an obvious default; otherwise say what to configure."""
-        count = self.profile.count(ref.kind)
-        if ref.index >= count:
-            return f"{ref} beyond the {count} %{ref.kind} of {self.profile.name}"
-        blocks = self.mem.blocks[ref.kind]
-        if ref.index not in blocks:
-            if ref.kind == "TM":
-                return (f"timer {ref} is used but not configured: give its type, time base "
-                        f"and preset, e.g. timers = {{\"{ref}\" = {{type = \"TON\", "
-                        f"base = \"100ms\", preset = 10}}}}")
-            if ref.kind == "DR":
-                return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
-            if ref.kind in ("PLS", "PWM"):  # TwidoSuite configures the output as one
-                q = self.profile.pulse_outputs[ref.index]
-                return (f"{ref} is used but not configured: %Q0.{q} must be configured as "
-                        f"a {'pulse generator' if ref.kind == 'PLS' else 'PWM output'}, "
-                        f"e.g. {ref.kind.lower()}.\"{ref}\" = {{base = \"10ms\", "
-                        f"preset = 100}}")
-            if ref.kind in ("FC", "VFC"):
-                section = "fast_counters" if ref.kind == "FC" else "very_fast_counters"
-                return (f"counter {ref} is used but not configured: add "
-                        f"[{section}.\"{ref}\"] with its mode (TwidoSuite's counter screen)")
-            blocks[ref.index] = self._default_block(ref.kind)
-        return None
 
     def _configure_constants(self, consts: dict[str, int | float]) -> None:
         for text, v in consts.items():
@@ -414,7 +273,7 @@ class PLC:
                                        expected, code))
 
         for ref, pos in resolved.blocks.items():
-            msg = self._block_factory(ref)
+            msg = self.block_setup.factory(ref)
             if msg:
                 problem(msg, ref, pos, "a configured block within the profile", Code.BLOCK)
         for ref, pos in resolved.io.items():
