@@ -23,6 +23,7 @@ import struct
 from pathlib import Path
 from typing import Any
 
+from .. import catalog
 from ..address import IO_KINDS, Ref, expand
 from ..display import format_value
 from ..errors import SoftPLCError
@@ -117,7 +118,7 @@ class Session:
         found.update(s.name for s in self.plc.symbols)
         for kind, blocks in self.plc.mem.blocks.items():
             for i in blocks:
-                if kind != "PID":  # PID n is no address
+                if catalog.family(kind).addressable:  # `PID n` is no address
                     found.add(f"%{kind}{i}")
         return sorted(found)
 

@@ -190,6 +190,14 @@ class Pid:
         self.diag &= ~(D_AT_DONE | D_AT_FAILED | D_NOT_STEADY)
 
     # -- what views show (the debugger's `pid`) ---------------------------------------------------
+    def listing(self, i: int) -> str:
+        """PID function `i` in one line (the debugger's `pid` command)."""
+        p, get = self.p, self.value
+        return (f"PID {i:<2} {p.mode:<6} {p.action:<7} SP={get(p.setpoint):<6} "
+                f"PV={get(p.measure):<6} OUT={round(self.u):<5} Kp={get(p.kp)}/100 "
+                f"Ti={get(p.ti)}/10s Td={get(p.td)}/10s diag={self.diag:#06x} "
+                f"AT={self.autotune_state or '-'}")
+
     def value(self, v: Ref | int) -> int:
         """A parameter's value now: the constant, or the word it names."""
         return self._get(v)
