@@ -128,6 +128,10 @@ FAMILIES: dict[str, Family] = {f.kind: f for f in (
            section="pls", model=f"{_PL}:PlsConfig", setup=f"{_PL}:setup_pulses",
            finish=f"{_PL}:finish_pulses", pulse_output=True,
            unconfigured=_PULSE_HINT),
+    Family("PWM", "PWM output", f"{_PL}:PwmOutput", 2, {"P": _RW, "R": _RW},
+           section="pwm", model=f"{_PL}:PwmConfig", setup=f"{_PL}:setup_pulses",
+           finish=f"{_PL}:finish_pulses", pulse_output=True,
+           unconfigured=_PULSE_HINT),
     # fast counters (runtime/fastcount.py) [manual, from memory of TWD USE 10AE]
     Family("FC", "fast counter", f"{_FC}:FastCounter", 4,
            {"V": _RO, "P": _RW, "D": _BW},

@@ -49,6 +49,7 @@ TIME_BASES_US = {"0.142ms": 142, "0.57ms": 570, "10ms": 10_000, "1s": 1_000_000}
 FAST_BASES = ("0.142ms", "0.57ms")  # .P at most 255 with these [manual, from memory]
 P_MAX_FAST, P_MAX = 255, 32767
 N_MAX = 32767  # %PLSi.N; 0 = no limit
+RATIO_MAX = 100  # %PWMi.R, per cent
 PulseBase = Literal["0.142ms", "0.57ms", "10ms", "1s"]
 assert set(PulseBase.__args__) == set(TIME_BASES_US)  # one list of time bases
 
@@ -221,6 +222,55 @@ class PulseGenerator(PulseOutput):
             self._offset += self._base + self._started(now)
             self._base = 0
             self._on = self.Q = self.D = 0
+
+
+class PwmConfig(BaseModel):
+    """`pwm."%PWMi"`: time base, period preset (%PWMi.P), initial ratio (%PWMi.R, %)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base: PulseBase = "10ms"
+    preset: int = Field(0, ge=0, le=32767)
+    ratio: int = Field(0, ge=0, le=RATIO_MAX)
+
+
+class PwmOutput(PulseOutput):
+    """%PWMi: period P x base, the ratio .R (per cent) high, while IN = 1."""
+
+    PINS = ("IN",)
+    FIELDS = ("P", "R", "_on", "_t0", "_count_before")
+    SUMMARY = ("P", "R")
+
+    def __init__(self, clock: Any, base: str = "10ms", preset: int = 0, ratio: int = 0):
+        super().__init__(clock, base, preset)
+        if not 0 <= int(ratio) <= RATIO_MAX:
+            raise BlockError(f"ratio {ratio}: 0..{RATIO_MAX} %")
+        self._R = int(ratio)
+        self._count_before = 0  # periods of the runs before the current one
+
+    @classmethod
+    def configured(cls, clock: Any, o: PwmConfig) -> PwmOutput:
+        return cls(clock, o.base, o.preset, o.ratio)
+
+    R = _Clamped(RATIO_MAX)
+
+    def duty(self) -> float:
+        return self._R / RATIO_MAX if self._on and self._P else 0.0
+
+    def pulses_at(self, t_us: int) -> int:
+        """Periods started in the current run (a device counting pulses sees one a period
+        while the ratio is above 0)."""
+        if not self._on or not self._R or not self._P or t_us < self._t0:
+            return self._count_before
+        return self._count_before + (t_us - self._t0) // self.period_us + 1
+
+    def run(self, IN: Any = 0) -> None:
+        now = self.clock.now_us
+        if IN and not self._on:
+            self._on, self._t0 = 1, now
+        elif not IN and self._on:
+            self._count_before = self.pulses_at(now)
+            self._on = 0
 
 
 class PulseOutputs:
