@@ -4,6 +4,9 @@ block set-up) agree with it."""
 
 from __future__ import annotations
 
+import ast
+from pathlib import Path
+
 import pytest
 from pydantic import BaseModel
 
@@ -85,3 +88,14 @@ def test_a_default_block_is_created_for_the_program():
     plc = PLC.from_source("LD 1\nI %R0\nCU %C3\n")
     assert plc.mem.blocks["R"][0].depth == DEFAULT_PROFILE.count("FIFO_DEPTH")
     assert plc.mem.blocks["C"][3].P == 9999  # the class's own default preset
+
+
+def test_the_catalog_imports_nothing_of_softplc():
+    """It is the bottom of the package (address.py reads it): what it names above itself is
+    a "module:attribute" string."""
+    tree = ast.parse(Path(catalog.__file__).read_text())
+    imported = [n.module or "." for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+    imported += [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+    assert not [m for m in imported if m.startswith(("softplc", "."))], imported
+    assert all(m in ("__future__", "importlib", "collections.abc", "dataclasses", "functools",
+                     "typing") for m in imported), imported
