@@ -7,9 +7,11 @@ The grammar, the PLC API, the Modbus tools and the debugger all turn address tex
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from dataclasses import field as dc_field  # Ref has a `field` of its own
 
+from . import catalog
 from .errors import AddressError
 from .profile import DEFAULT_PROFILE, Profile
 
@@ -26,26 +28,9 @@ IO_KINDS = {"I": BOOL, "Q": BOOL}
 # Analog I/O words %IWm.c / %QWm.c (module m, channel c) [manual].
 ANALOG_KINDS = {"IW": INT16, "QW": INT16}
 ANALOG_STRIDE = 8  # word channels per module in the flat index (the widest analog module)
-# Function-block objects: kind -> {field: (type, writable by the program)}.
+# Function-block objects: kind -> {field: (type, writable by the program)} (the catalog's).
 BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
-    "TM": {"Q": (BOOL, False), "V": (INT16, False), "P": (INT16, True)},
-    "C": {"V": (INT16, False), "P": (INT16, True), "D": (BOOL, False),
-          "E": (BOOL, False), "F": (BOOL, False)},
-    "DR": {"S": (INT16, False), "F": (BOOL, False)},
-    "SBR": {},  # bits %SBRi.Jk
-    "SC": {},  # bits %SCi.Jk
-    "R": {"I": (INT16, True), "O": (INT16, True), "E": (BOOL, False), "F": (BOOL, False)},
-    # pulse outputs (issue 11 B, runtime/pulse.py) [manual]
-    "PLS": {"Q": (BOOL, False), "D": (BOOL, False), "P": (INT16, True), "N": (INT16, True)},
-    "PWM": {"P": (INT16, True), "R": (INT16, True)},
-    # fast counters (runtime/fastcount.py) [manual, from memory of TWD USE 10AE]
-    "FC": {"V": (INT16, False), "P": (INT16, True), "D": (BOOL, False)},
-    "VFC": {"V": (INT16, False), "P": (INT16, True), "U": (BOOL, False), "C": (INT16, False),
-            "S0": (INT16, True), "S1": (INT16, True), "F": (BOOL, False),
-            "TH0": (BOOL, False), "TH1": (BOOL, False), "R": (BOOL, True), "S": (BOOL, True),
-            "T": (INT16, True)},
-    "MSG": {"D": (BOOL, False), "E": (BOOL, False)},  # exchanges of port i (runtime/exch.py)
-}
+    f.kind: dict(f.fields or {}) for f in catalog.addressable()}
 # Objects the program may never write.
 READ_ONLY_KINDS = {"I", "IW", "KW", "KD", "KF"}
 # Word-backed kinds: the 16-bit family a 32-bit or float object overlays.
@@ -54,11 +39,22 @@ WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF":
 # How many words an object occupies in its family.
 WIDTH = {"MW": 1, "KW": 1, "SW": 1, "MD": 2, "MF": 2, "KD": 2, "KF": 2}
 
+
+
+def _alternation(words: Iterable[str]) -> str:
+    """A regex alternation of `words`, longest first (%MSG before %M)."""
+    return "|".join(sorted(set(words), key=lambda w: (-len(w), w)))
+
+
+# field names of more than one letter before their number (%VFC0.TH1): the rest is one letter
+_LONG_FIELDS = {f.rstrip("0123456789") for fields in BLOCK_FIELDS.values() for f in fields
+                if len(f.rstrip("0123456789")) > 1}
 _ADDR = re.compile(
-    r"""%(?P<kind>MSG|SBR|SC|TM|DR|PLS|PWM|VFC|FC|MW|MD|MF|KW|KD|KF|SW|IW|QW|I|Q|M|S|X|C|R|L)
+    rf"""%(?P<kind>{_alternation([*SIMPLE_KINDS, *IO_KINDS, *ANALOG_KINDS, *BLOCK_FIELDS,
+                                  "L"])})
         (?P<a>\d+)
         (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
-        (?:\.(?P<field>TH|[A-Z])(?P<fbit>\d+)?)?   # %TM0.Q, %SBR0.J3, %VFC0.TH1
+        (?:\.(?P<field>{_alternation(_LONG_FIELDS)}|[A-Z])(?P<fbit>\d+)?)?  # %TM0.Q, .TH1
         (?::X(?P<bit>\d+))?                     # %MW3:X5
         (?::(?P<length>\d+))?                   # %MW0:10 table / bit string
         (?:\[(?P<offset>%MW\d+)\])?             # %MW2[%MW5]
@@ -133,7 +129,7 @@ class Ref:
 
 
 # Bits of a shift register (%SBRi.0-15) and of a step counter (%SCi.0-255) [manual].
-BLOCK_BITS = {"SBR": 16, "SC": 256}
+BLOCK_BITS = {f.kind: f.bits for f in catalog.addressable() if f.bits}
 
 
 def _block_bit(kind: str, a: int, k: int, text: str, profile: Profile) -> Ref:
@@ -195,7 +191,7 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         return Ref(kind, module * profile.channels_per_module + channel, module, channel,
                    length=length)
 
-    if m["b"] is not None and kind in ("SBR", "SC") and not (m["field"] or bit is not None
+    if m["b"] is not None and kind in BLOCK_BITS and not (m["field"] or bit is not None
                                                            or length or offset):
         # %SBRi.j / %SCi.j: TwidoSuite's spelling of bit j [manual]; %SBRi.Jj is the same
         return _block_bit(kind, a, int(m["b"]), text, profile)
@@ -214,12 +210,12 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     if kind in BLOCK_FIELDS:
         fields = BLOCK_FIELDS[kind]
         if field is not None:
-            if kind in ("SBR", "SC"):
+            if kind in BLOCK_BITS:
                 if field != "J" or m["fbit"] is None:
                     raise AddressError(f"{text!r}: %{kind} bits are %{kind}{a}.j "
                                        f"(or .Jj)")
                 return _block_bit(kind, a, int(m["fbit"]), text, profile)
-            if kind == "VFC" and m["fbit"] is not None:  # %VFCi.S0, .TH1: one field name
+            if m["fbit"] is not None and field + m["fbit"] in fields:  # %VFCi.S0: one name
                 field = field + m["fbit"]
             elif field not in fields or m["fbit"] is not None:
                 field = "?"

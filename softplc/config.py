@@ -10,11 +10,11 @@
     constants = { "%KW0" = 100, "%KF2" = 1.5 }
     modules = { 1 = "TM2DDO8TT" }    # expansion modules; when given, I/O addresses are checked
     analog."%IW2.0" = { type = "PT100", range = "celsius" }   # analog channels
-    [pid.0]                  # PID functions, [rtc] the clock's calendar start,
-    [schedule.0]             # schedule blocks: see softplc/config_models.py
+    [pid.0]                  # PID functions (runtime/pid.py), [rtc] the clock's calendar
+    [schedule.0]             # start, schedule blocks: see softplc/config_models.py
     pls."%PLS0" = { base = "10ms", preset = 10, pulses = 200 }   # pulse outputs on %Q0.0/1
-    pwm."%PWM1" = { base = "10ms", preset = 100, ratio = 0 }    # (config_models.py)
-    [fast_counters."%FC0"]   # fast counters, [very_fast_counters."%VFC0"]: config_models.py
+    pwm."%PWM1" = { base = "10ms", preset = 100, ratio = 0 }    # (runtime/pulse.py)
+    [fast_counters."%FC0"]   # fast counters, [very_fast_counters."%VFC0"]: runtime/fastcount.py
     [exch.remote.1]          # EXCH3's remote devices: host, port, unit_id; [exch] timeout
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
@@ -52,9 +52,11 @@ from pydantic import (
     PrivateAttr,
     ValidationError,
     ValidationInfo,
+    create_model,
     field_validator,
 )
 
+from . import catalog
 from .address import parse_address
 from .config_fields import (  # noqa: F401  (the field types devices import from here)
     DRUM_STEPS,
@@ -215,7 +217,16 @@ def _none_if_empty(v: Any) -> Any:
     return None if v == {} else v  # `exch = {}`: no EXCH, as if absent
 
 
-class Config(Section):
+# The function blocks' sections typed by their catalog entries' models ([pid], [pls], [pwm],
+# [fast_counters], ...: softplc/catalog.py); addresses are resolved when the blocks are set up.
+_BlockSections = create_model(  # type: ignore[call-overload]
+    "_BlockSections", __base__=Section,
+    **{f.section: (Annotated[dict[str, f.config_model()], BeforeValidator(_str_keys)],
+                   Field(default_factory=dict))
+       for f in catalog.FAMILIES.values() if f.model})
+
+
+class Config(_BlockSections):  # type: ignore[misc, valid-type]
     """The whole machine/PLC configuration."""
 
     name: str = ""
@@ -235,18 +246,13 @@ class Config(Section):
     modbus: ModbusConfig = Field(default_factory=ModbusConfig)
     daemon: DaemonConfig = Field(default_factory=DaemonConfig)
     web: WebConfig = Field(default_factory=WebConfig)
-    # controller functions (softplc/config_models.py); what needs the profile's addresses
+    # controller functions (softplc/config_models.py; the function blocks' sections come
+    # from the catalog: _BlockSections); what needs the profile's addresses
     # and the memory image is resolved by the machine builder (softplc.build)
     analog: dict[str, AnalogChannelConfig] = Field(default_factory=dict)
-    pid: dict[str, Any] = Field(default_factory=dict)
     rtc: RtcConfig | None = None
     schedule: Annotated[dict[ScheduleNumber, ScheduleConfig], BeforeValidator(_str_keys)] = \
         Field(default_factory=dict)
-    pls: dict[str, Any] = Field(default_factory=dict)  # pulse outputs (issue 11 B)
-    pwm: dict[str, Any] = Field(default_factory=dict)
-    # fast counters (config_models.build_counters)
-    fast_counters: dict[str, Any] = Field(default_factory=dict)
-    very_fast_counters: dict[str, Any] = Field(default_factory=dict)
     # EXCH3 remote devices (issue 11 B)
     exch: Annotated[ExchConfig | None, BeforeValidator(_none_if_empty)] = None
     # names for addresses: softplc.symbols resolves them (the parser needs them first)

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from . import catalog
 from .address import parse_address
 from .errors import SoftPLCError
 from .il import ast as A
@@ -34,7 +35,7 @@ from .il import ast as A
 #: Configuration sections an online change may alter: the blocks' (applied block by block)
 #: and the descriptive ones. Any other section (scan period, devices, Modbus, analog, PID,
 #: EXCH...) shapes the running machine and needs a restart.
-BLOCK_SECTIONS = {"timers": "TM", "counters": "C", "drums": "DR", "registers": "R"}
+BLOCK_SECTIONS = {f.section: f.kind for f in catalog.FAMILIES.values() if f.online}
 FREE_SECTIONS = {"name", "description", "symbols", "symbols_file"}
 
 
@@ -162,7 +163,7 @@ def apply(plc: Any, change: Plan, *, confirm: bool = False, cold: bool = False) 
             mem.blocks[kind].pop(index, None)
             plc.engine.cold_states.pop((kind, index), None)
         plc.settings, plc.config = change.settings, change.raw_config
-        plc.configure_blocks(change.settings)  # fresh objects for the configured blocks...
+        plc.block_setup.configure(change.settings, online=True)  # fresh configured blocks...
         for (kind, index), st in carried.items():  # ...given back the state they carry
             block = mem.blocks.get(kind, {}).get(index)
             if block is not None:

@@ -17,13 +17,8 @@ from typing import Any
 
 from . import build
 from .address import BLOCK_FIELDS, Ref, parse_address
-from .config import Config, key_path, symbol_table
-from .config_models import (
-    build_counters,
-    parse_pid,
-    parse_pulse,
-    pid_params,
-)
+from .build.blocks import build_blocks
+from .config import symbol_table
 from .errors import (
     AddressError,
     ConfigError,
@@ -35,12 +30,8 @@ from .il import ast as A
 from .il.parser import parse, parse_file
 from .il.rungtree import syntax_follow_ups
 from .program import CompiledProgram
-from .runtime.blocks import Counter, Drum, Register, Timer
-from .runtime.catalog import BLOCK_CLASSES
 from .runtime.clock import Clock
 from .runtime.engine import Engine
-from .runtime.pid import Pid
-from .runtime.pulse import PulseGenerator, PulseOutputs, PwmOutput
 
 
 def _engine(name: str) -> Callable[..., Any]:
@@ -78,14 +69,10 @@ class PLC:
         self.scan_period = m.settings.scan_period
         self._refs: dict[str, Ref] = {}
         self._forced: dict[Ref, Any] = {}
-        # the function blocks (issue 22 item 1 moves their set-up to softplc/build/)
-        settings = self.settings
-        self.configure_blocks(settings)
-        self._configure_pid(settings.pid)
-        self.mem.counting = build_counters(settings.fast_counters, settings.very_fast_counters,
-                                           self.mem)
-        self._configure_pulses(settings)
-        m.block_factory = self._block_factory
+        # the function blocks, family by family from the catalog (softplc/build/blocks.py)
+        self.block_setup = build_blocks(self.mem, self.profile, self.time_source,
+                                        self.scan_period, self.engine, self.settings)
+        m.block_factory = self.block_setup.factory
         build.attach_scan_hooks(m)
         self.ast = program
         self.program: CompiledProgram = build.load_program(m, program)
@@ -110,135 +97,11 @@ class PLC:
         table = symbol_table(config)
         return _checked(cls, lambda: parse(text, file, table), config, kw)
 
-    def _cfg_ref(self, text: str, kind: str, section: str) -> Ref:
-        try:
-            ref = parse_address(text, self.profile)
-        except AddressError as e:
-            raise ConfigError(f"{key_path((section, text))}: {e}") from None
-        if ref.kind != kind or not (ref.is_block or kind in ("KW", "KD", "KF")):
-            raise ConfigError(f"{key_path((section, text))}: {text!r} is not a %{kind} object")
-        return ref
-
-    def configure_blocks(self, cfg: Config) -> None:
-        """Create the blocks `cfg` configures (replacing those of the same address)."""
-        blocks = self.mem.blocks
-        for text, t in cfg.timers.items():
-            ref = self._cfg_ref(text, "TM", "timers")
-            try:
-                blocks["TM"][ref.index] = Timer(self.time_source, t.type, t.base, t.preset)
-            except ValueError as e:
-                raise ConfigError(f"timers.{text}: {e}") from None
-        for text, c in cfg.counters.items():
-            ref = self._cfg_ref(text, "C", "counters")
-            try:
-                blocks["C"][ref.index] = Counter(c.preset)
-            except ValueError as e:
-                raise ConfigError(f"counters.{text}: {e}") from None
-        for text, d in cfg.drums.items():
-            ref = self._cfg_ref(text, "DR", "drums")
-            outs = []
-            for k, a in enumerate(d.outputs):
-                try:
-                    r = parse_address(a, self.profile)
-                except AddressError as e:
-                    raise ConfigError(f"drums.{text}.outputs[{k}]: {e}") from None
-                if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
-                    raise ConfigError(f"drums.{text}.outputs[{k}]: %Q or %M bits, not {a!r}")
-                self.mem.use_io(r)
-                outs.append((self.mem.bits(r.kind), r.index))
-            try:
-                blocks["DR"][ref.index] = Drum(d.steps, outs)
-            except ValueError as e:
-                raise ConfigError(f"drums.{text}: {e}") from None
-        for text, g in cfg.registers.items():
-            ref = self._cfg_ref(text, "R", "registers")
-            try:
-                blocks["R"][ref.index] = Register(g.type, self.profile.count("FIFO_DEPTH"))
-            except ValueError as e:
-                raise ConfigError(f"registers.{text}: {e}") from None
-
-    def _default_block(self, kind: str) -> Any:
-        """A block the program uses and the configuration does not name (%C, %R, %SBR, %SC:
-        the block class's own defaults; timers and drums must be configured)."""
-        if kind == "R":
-            return Register("FIFO", self.profile.count("FIFO_DEPTH"))
-        return BLOCK_CLASSES[kind]()
 
     def settle_exchange(self, timeout: float) -> bool:
         """Virtual clock: wait up to `timeout` s for the EXCH exchange in progress; True
         when the next scan will not wait (softplc.build.settle_exchange)."""
         return build.settle_exchange(self.machine, timeout)
-
-    def _configure_pid(self, section: Any) -> None:
-        """The PID functions of [pid], addresses resolved and checked once."""
-        self.mem.blocks["PID"] = pids = {}
-        for n, o in parse_pid(section).items():
-            if not 0 <= n < self.profile.count("PID"):
-                raise ConfigError(f"pid.{n}: PID 0 .. PID {self.profile.count('PID') - 1}")
-            params = pid_params(f"pid.{n}", o, self.mem, self.scan_period)
-            pids[n] = Pid(self.mem, self.time_source, params)
-
-    def _configure_pulses(self, cfg: Config) -> None:
-        """%PLS / %PWM of [pls] / [pwm] on the profile's transistor outputs; the engine
-        updates them only when there are some."""
-        pulses = PulseOutputs(self.mem.q)
-        owner: dict[int, str] = {}
-        outputs = self.profile.pulse_outputs
-        for kind, section in (("PLS", cfg.pls), ("PWM", cfg.pwm)):
-            for text, o in parse_pulse(kind, section).items():
-                ref = self._cfg_ref(text, kind, kind.lower())
-                where = key_path((kind.lower(), text))
-                if ref.index >= len(outputs):
-                    raise ConfigError(f"{where}: {self.profile.name} has no output for {text}")
-                q = outputs[ref.index]
-                if q in owner:
-                    raise ConfigError(f"{where}: %Q0.{q} is already the output of "
-                                      f"{owner[q]} (an output is one pulse block or none)")
-                owner[q] = str(ref)
-                try:
-                    gen = (PulseGenerator(self.time_source, o.base, o.preset, o.pulses)
-                           if kind == "PLS" else
-                           PwmOutput(self.time_source, o.base, o.preset, o.ratio))
-                except ValueError as e:
-                    raise ConfigError(f"{where}: {e}") from None
-                self.mem.blocks[kind][ref.index] = gen
-                out = parse_address(f"%Q0.{q}", self.profile)
-                self.mem.use_io(out)
-                pulses.add(out.index, gen, f"{ref} on {out}")
-        for n, pid in self.mem.blocks["PID"].items():  # the PID's PWM writes its output too
-            out = pid.p.pwm_output
-            if out is not None and out.kind == "Q" and out.module == 0 and out.channel in owner:
-                raise ConfigError(f"pid.{n}.pwm_output: %Q0.{out.channel} is the output of "
-                                  f"{owner[out.channel]}")
-        if pulses.by_output:
-            self.mem.pulses = self.engine.pulses = pulses
-
-    def _block_factory(self, ref: Ref) -> str | None:
-        """Create a block the program uses but the configuration does not name, where
-        Twido has an obvious default; otherwise say what to configure."""
-        count = self.profile.count(ref.kind)
-        if ref.index >= count:
-            return f"{ref} beyond the {count} %{ref.kind} of {self.profile.name}"
-        blocks = self.mem.blocks[ref.kind]
-        if ref.index not in blocks:
-            if ref.kind == "TM":
-                return (f"timer {ref} is used but not configured: give its type, time base "
-                        f"and preset, e.g. timers = {{\"{ref}\" = {{type = \"TON\", "
-                        f"base = \"100ms\", preset = 10}}}}")
-            if ref.kind == "DR":
-                return f"drum {ref} is used but not configured (drums.\"{ref}\".steps)"
-            if ref.kind in ("PLS", "PWM"):  # TwidoSuite configures the output as one
-                q = self.profile.pulse_outputs[ref.index]
-                return (f"{ref} is used but not configured: %Q0.{q} must be configured as "
-                        f"a {'pulse generator' if ref.kind == 'PLS' else 'PWM output'}, "
-                        f"e.g. {ref.kind.lower()}.\"{ref}\" = {{base = \"10ms\", "
-                        f"preset = 100}}")
-            if ref.kind in ("FC", "VFC"):
-                section = "fast_counters" if ref.kind == "FC" else "very_fast_counters"
-                return (f"counter {ref} is used but not configured: add "
-                        f"[{section}.\"{ref}\"] with its mode (TwidoSuite's counter screen)")
-            blocks[ref.index] = self._default_block(ref.kind)
-        return None
 
     def compile_debug(self) -> CompiledProgram:
         """The debug build: `main()` is a generator yielding (rung, instruction) before each

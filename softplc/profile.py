@@ -1,12 +1,15 @@
 """Controller profiles: how many of each object a Twido model has.
 
-This table is the one place that knows object counts. A larger controller is one more
-entry. Counts are the documented TWDLCAE40DRF figures (TWD USE 10AE) [manual].
+This table is the one place that knows object counts (the function blocks' counts come
+from their catalog entries, `softplc/catalog.py`). A larger controller is one more entry.
+Counts are the documented TWDLCAE40DRF figures (TWD USE 10AE) [manual].
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+from . import catalog
 
 
 @dataclass(frozen=True)
@@ -62,12 +65,6 @@ TWDLCAE40DRF = Profile(
         "KW": 256,
         "S": 128,
         "SW": 128,
-        "TM": 128,
-        "C": 128,
-        "DR": 8,
-        "SBR": 8,
-        "SC": 8,
-        "R": 4,
         "L": 64,
         "SR": 64,
         "X": 96,  # Grafcet steps %X0..%X95
@@ -75,15 +72,10 @@ TWDLCAE40DRF = Profile(
         "DRUM_STEPS": 8,
         "STACK": 8,  # MPS depth [m221]
         "PAREN": 8,  # parenthesis nesting [manual]
-        "PID": 14,  # PID functions PID 0 .. PID 13 [manual, from memory]
-        "PLS": 2,  # pulse generators %PLS0-1 [manual]
-        "PWM": 2,  # pulse width modulators %PWM0-1 [manual]
-        "FC": 4,  # fast counters %FC0..%FC3 [manual, from memory]
-        "VFC": 2,  # very fast counters %VFC0..%VFC1 [manual, from memory]
-        # communication (issue 11 B, runtime/exch.py): %MSG1..%MSG3 (index 0 unused), the
-        # Ethernet port's remote devices 1..16 [manual, from memory]
-        "MSG": 4,
+        # the Ethernet port's remote devices 1..16 (runtime/exch.py) [manual, from memory]
         "EXCH_REMOTES": 16,
+        # the function blocks: their catalog entries (%TM0..%TM127, PID 0..13...)
+        **{f.kind: f.count for f in catalog.FAMILIES.values()},
     },
     # two analog potentiometers and one 0-10 V input, 10 bits [manual, from memory: the
     # hardware guide's figures were not found in the search corpora; check the counts]

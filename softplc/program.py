@@ -22,6 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from . import catalog
 from .il import ast as A
 from .semantics import Ops
 
@@ -80,7 +81,7 @@ class Names:
                 cls.WATCHDOG, cls.WATCHDOG_EXC, cls.LOG, cls.MAIN}
         return frozenset(out | cls.HELPERS)
 
-    _BLOCK = re.compile(r"_(TM|C|DR|SBR|SC|R|PID|PLS|PWM|FC|VFC|MSG)\d+$")
+    _BLOCK = re.compile(rf"_({'|'.join(catalog.FAMILIES)})\d+$")  # every block family
     _SR = re.compile(r"_sr\d+$")
 
     @classmethod

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from . import catalog
 from .address import Ref, parse_address
 from .errors import AddressError, ConfigError
 from .profile import DEFAULT_PROFILE, Profile
@@ -39,9 +40,9 @@ NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,31}$")
 # twido_il.lark): a symbol spelled so could not be told from the keyword.
 RESERVED = frozenset("""
     LD LDN LDR LDF AND ANDN ANDR ANDF OR ORN ORR ORF XOR XORN XORR XORF ST STN S R N
-    MPS MRD MPP INC DEC PID JMP JMPC JMPCN RET RETC RETCN END ENDC ENDCN NOP BLK OUT_BLK
+    MPS MRD MPP INC DEC JMP JMPC JMPCN RET RETC RETCN END ENDC ENDCN NOP BLK OUT_BLK
     END_BLK IN CU CD U I O Q D E F POST REM SECTION
-""".split())
+""".split()) | set(catalog.by_instruction())  # and the block instructions (`[ PID n ]`)
 _NUMBERED_KEYWORD = re.compile(r"^(SR|EXCH)\d+$", re.I)
 CSV_HEADER = ("Address", "Symbol", "Comment")
 
@@ -180,8 +181,8 @@ def _toml_str(s: str) -> str:
 
 def _address_key(address: str) -> tuple[Any, ...]:
     """%I before %Q before %M..., then by number: the order of TwidoSuite's table."""
-    order = ["I", "Q", "IW", "QW", "M", "MW", "MD", "MF", "KW", "KD", "KF", "S", "SW",
-             "TM", "C", "DR", "R"]
+    order = ["I", "Q", "IW", "QW", "M", "MW", "MD", "MF", "KW", "KD", "KF", "S", "SW"]
+    order += [f.kind for f in catalog.FAMILIES.values() if f.online]  # %TM %C %DR %R
     m = re.match(r"%([A-Z]+)(\d+)(?:\.(\d+))?", address)
     if not m:
         return (len(order) + 1, address)

@@ -237,7 +237,7 @@ def test_misuse_is_reported(src, message):
 @pytest.mark.parametrize(("cfg", "message"), [
     ({"fast_counters": {"%FC0": {}}, "very_fast_counters": {"%VFC0": {"preset_input": True}}},
      "input %I0.2 is already"),
-    ({"fast_counters": {"%FC0": {"mode": "sideways"}}}, "fast_counters.%FC0.mode"),
+    ({"fast_counters": {"%FC0": {"mode": "sideways"}}}, 'fast_counters."%FC0".mode'),
     ({"very_fast_counters": {"%VFC0": {"reflex0": [0, 1]}}}, "reflex0"),
     ({"very_fast_counters": {"%VFC2": {}}}, "beyond the controller profile"),
     ({"fast_counters": {"%C0": {}}}, "is not a %FC counter"),

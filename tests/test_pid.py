@@ -149,7 +149,7 @@ def test_cold_start_restarts_the_autotuning():
 
 
 @pytest.mark.parametrize("pid, message", [
-    ({"kp": 100, "kpp": 3}, "pid.0.kpp: Extra inputs are not permitted"),
+    ({"kp": 100, "kpp": 3}, "pid.0.kpp: unknown key; known: action"),
     ({"kp": "%MF4"}, "pid.0.kp: '%MF4' is not a word"),
     ({"output": "%IW2.1"}, "pid.0.output: '%IW2.1' cannot be written"),
     ({"mode": "AUTO"}, "pid.0.mode"),

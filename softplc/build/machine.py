@@ -88,12 +88,9 @@ def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "v
 
 
 def attach_scan_hooks(m: Machine) -> None:
-    """The scan-boundary work of the configured functions (once the blocks are set up):
-    the very fast counters' preset/catch inputs, the EXCH port. Programs without them pay
-    nothing."""
-    counting = m.mem.counting
-    if counting is not None and counting.vfc:
-        m.engine.before_scan.append(counting.poll)
+    """The scan-boundary work of the configured functions once the blocks are set up (the
+    blocks' own, such as the very fast counters' poll, their catalog `finish` hooks attach):
+    the EXCH port. Programs without it pay nothing."""
     if m.exch is not None:
         m.engine.before_scan.append(
             hardware.exch_boundary(m.exch, lambda: m.engine.state, RUN))

@@ -7,7 +7,7 @@ import difflib
 import textwrap
 from typing import TYPE_CHECKING, Any
 
-from .. import ladder
+from .. import catalog, ladder
 from ..il import ast as A
 from ..il.parser import parse_file
 from .registry import command, first_sentence
@@ -39,26 +39,20 @@ def cmd_counters(s: Session, arg: str) -> str:
     cs = s.plc.mem.blocks.get("C", {})
     lines = [f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} F={int(c.F)}"
              for i, c in sorted(cs.items())]
-    for kind in ("FC", "VFC"):  # fast counters (runtime/fastcount.py)
-        lines += [f"{f'%{kind}{i}':<6} {c.mode:<10} {ladder.block_summary(c)}"
-                  for i, c in sorted(s.plc.mem.blocks.get(kind, {}).items())]
+    for fam in catalog.listed_in("counters"):  # fast counters (runtime/fastcount.py)
+        lines += [f"{f'%{fam.kind}{i}':<6} {c.mode:<10} {ladder.block_summary(c)}"
+                  for i, c in sorted(s.plc.mem.blocks.get(fam.kind, {}).items())]
     return "\n".join(lines) or "no counters"
 
 
 @command("pid")
-def cmd_pid(s: Session, arg: str) -> str:
+def cmd_instruction_blocks(s: Session, arg: str) -> str:
     """pid: every PID function with its mode, set point, measure, output, Kp/Ti/Td,
     diagnostic word and auto-tuning state."""
-    pids = s.plc.mem.blocks.get("PID", {})
-    if not pids:
-        return "no PID functions"
     lines = []
-    for i, pid in sorted(pids.items()):
-        p, get = pid.p, pid.value
-        at = pid.autotune_state or "-"
-        lines.append(f"PID {i:<2} {p.mode:<6} {p.action:<7} SP={get(p.setpoint):<6} "
-                     f"PV={get(p.measure):<6} OUT={round(pid.u):<5} Kp={get(p.kp)}/100 "
-                     f"Ti={get(p.ti)}/10s Td={get(p.td)}/10s diag={pid.diag:#06x} AT={at}")
+    for fam in catalog.by_instruction().values():  # the blocks `[ PID n ]` runs
+        blocks = s.plc.mem.blocks.get(fam.kind, {})
+        lines += [b.listing(i) for i, b in sorted(blocks.items())] or [f"no {fam.title}s"]
     return "\n".join(lines)
 
 

@@ -23,7 +23,8 @@ import struct
 from pathlib import Path
 from typing import Any
 
-from ..address import BLOCK_FIELDS, IO_KINDS, Ref, expand
+from .. import catalog
+from ..address import IO_KINDS, Ref, expand
 from ..display import format_value
 from ..errors import SoftPLCError
 from ..plc import PLC
@@ -117,7 +118,7 @@ class Session:
         found.update(s.name for s in self.plc.symbols)
         for kind, blocks in self.plc.mem.blocks.items():
             for i in blocks:
-                if kind in BLOCK_FIELDS:  # a block with an address (PID n has none)
+                if catalog.family(kind).addressable:  # `PID n` is no address
                     found.add(f"%{kind}{i}")
         return sorted(found)
 

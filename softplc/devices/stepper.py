@@ -56,6 +56,7 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
+from .. import catalog
 from ..config import Address, InfFloat, Section
 from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
@@ -157,8 +158,11 @@ class Stepper(AxisDevice):
         i = self.io_index(mem, self.step, "Q", "step")
         self._gen = mem.pulses.source(i) if mem.pulses is not None else None
         if self._gen is None:
-            raise ConfigError(f"{self.where('step')}: {self.step} is not driven by a configured "
-                              f"%PLS or %PWM (pls.\"%PLS0\" drives %Q0.0, %PLS1 %Q0.1)")
+            pulse = [f for f in catalog.FAMILIES.values() if f.pulse_output]
+            raise ConfigError(
+                f"{self.where('step')}: {self.step} is not driven by a configured "
+                f"{' or '.join(f'%{f.kind}' for f in pulse)} ({pulse[0].section}."
+                f"\"%{pulse[0].kind}0\" drives %Q0.0, %{pulse[0].kind}1 %Q0.1)")
         self._dir = None if self.direction is None else \
             self.io_index(mem, self.direction, "Q", "direction")
         self.update = self._update_pulses  # type: ignore[method-assign]

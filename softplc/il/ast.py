@@ -7,6 +7,7 @@ its printed-and-reparsed copy compare equal.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 from ..address import Ref
 
@@ -124,6 +125,7 @@ class IncDec:
 class PidCall:
     """`[ PID n ]`: run PID function n (configured in [pid]) [manual]."""
 
+    keyword: ClassVar[str] = "PID"  # the catalog's `instruction` of the family it runs
     number: int
     pos: Pos = _pos()
 

@@ -53,7 +53,7 @@ def format_statement(st: A.Statement, name: RefText = str) -> str:
     if isinstance(st, A.IncDec):
         return f"[ {st.op} {name(st.target)} ]"
     if isinstance(st, A.PidCall):
-        return f"[ PID {st.number} ]"
+        return f"[ {st.keyword} {st.number} ]"
     if isinstance(st, A.ExchCall):  # the ladder view's box text
         return f"EXCH{st.port} {name(st.table)}"
     return f"[ {name(st.target)} := {format_expr(st.expr, True, name)} ]"

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from .. import catalog
 from ..address import Ref
 from ..errors import Code
 from . import ast as A
@@ -58,6 +59,8 @@ class Step:
 # of a block and of Grafcet steps, NOP): `used_later` looks through them.
 _TRANSPARENT = (A.Blk, A.OutBlk, A.EndBlk, A.Nop)
 NO_LIMIT = 1 << 30
+_BLK_KINDS = [f"%{f.kind}" for f in catalog.FAMILIES.values() if f.in_blk_hint]
+_BLK_HINT = f"{', '.join(_BLK_KINDS[:-1])} or {_BLK_KINDS[-1]}"  # what BLK takes, mostly
 # Instructions that use the accumulator as their condition or input, so need a load before
 # them (a new output-like instruction is added here). Jumps, END/RET and Grafcet
 # instructions are not: whether they need one depends on their variant and function.
@@ -157,7 +160,7 @@ def build(rung: A.Rung, max_parens: int = NO_LIMIT, max_stack: int = NO_LIMIT) -
                 s.problem("BLK inside a BLK", pos, "BLK", "END_BLK first", Code.STRUCTURE)
             if not instr.block.is_block:
                 s.problem(f"BLK {instr.block}: not a function block", pos, str(instr.block),
-                          "%TM, %C, %DR, %SBR, %SC or %R", Code.BLOCK)
+                          _BLK_HINT, Code.BLOCK)
                 st.ok = False
                 continue
             blk, blk_k, phase, acc = instr.block, k, "in", False

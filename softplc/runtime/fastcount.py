@@ -36,7 +36,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Any
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
 
 from ..numeric import wrap16
 from .blocks import Block
@@ -79,6 +81,15 @@ class _PulseCounter(Block):
         return n
 
 
+class FastCounterConfig(BaseModel):
+    """`[fast_counters."%FCi"]`, as TwidoSuite's fast counter screen: type and preset."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: Literal["up", "down"] = "up"
+    preset: int = Field(MAX_COUNT, ge=0, le=MAX_COUNT)
+
+
 class FastCounter(_PulseCounter):
     """%FCi, up or down counter on one base input."""
 
@@ -89,6 +100,15 @@ class FastCounter(_PulseCounter):
         super().__init__(mode, preset, max_hz, FC_MODES)
         self.V = 0 if mode == "up" else self.P
         self.D = 0
+
+    @classmethod
+    def configured(cls, ctx: Any, hub: CountingInputs, ref: Any, o: FastCounterConfig,
+                   where: str) -> FastCounter:
+        """%FCi on its profile input (claimed: an input counts for one counter)."""
+        wiring = ctx.profile.fast_counters[ref.index]
+        c = cls(o.mode, o.preset, wiring.max_hz)
+        hub.attach(c, ctx.claim_input(wiring.input, f"{where} (counting)"))
+        return c
 
     def run(self, IN: Any = 0, S: Any = 0) -> None:
         self._en = 1 if IN else 0
@@ -113,6 +133,24 @@ class FastCounter(_PulseCounter):
                 self.D = 1 if preset else self.D
                 v = (v - 1) % p + 1 if preset else v % SPAN
         self.V = word(v)
+
+
+class VeryFastCounterConfig(BaseModel):
+    """`[very_fast_counters."%VFCi"]`: mode, preset, thresholds, the optional preset and
+    catch inputs, the reflex outputs' state in the zones (V < S0, S0 <= V < S1, V >= S1),
+    the frequency meter's time base."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: Literal["up", "down", "up_down", "quadrature", "frequency"] = "up"
+    preset: int = Field(0, ge=0, le=MAX_COUNT)
+    s0: int = Field(MAX_COUNT, ge=0, le=MAX_COUNT)
+    s1: int = Field(MAX_COUNT, ge=0, le=MAX_COUNT)
+    preset_input: bool = False
+    catch_input: bool = False
+    reflex0: list[Literal[0, 1]] | None = Field(None, min_length=N_ZONES, max_length=N_ZONES)
+    reflex1: list[Literal[0, 1]] | None = Field(None, min_length=N_ZONES, max_length=N_ZONES)
+    time_base: Literal["100ms", "1s"] = "1s"
 
 
 class VeryFastCounter(_PulseCounter):
@@ -216,6 +254,26 @@ class VeryFastCounter(_PulseCounter):
         self._zone = -1  # rewrite the reflex outputs at the next change (restored image)
 
 
+    @classmethod
+    def configured(cls, ctx: Any, hub: CountingInputs, ref: Any, o: VeryFastCounterConfig,
+                   where: str) -> VeryFastCounter:
+        """%VFCi on its profile inputs and reflex outputs; the direction / phase B, preset
+        and catch inputs claimed only when its mode or configuration uses them."""
+        w, mem = ctx.profile.very_fast_counters[ref.index], ctx.mem
+        outputs = tuple(None if z is None else (mem.q, mem.q_field, w.reflex[k])
+                        for k, z in enumerate((o.reflex0, o.reflex1)))
+        c = cls(o.mode, o.preset, o.s0, o.s1, w.max_hz, 100 if o.time_base == "100ms" else 1000,
+                (o.reflex0 and tuple(o.reflex0), o.reflex1 and tuple(o.reflex1)), outputs,
+                hub.events, str(ref))
+        claim = ctx.claim_input
+        two_inputs = o.mode in ("up_down", "quadrature")
+        hub.attach(c, claim(w.pulse, f"{where} (pulses / phase A)"),
+                   claim(w.direction, f"{where} (direction / phase B)") if two_inputs else None)
+        hub.attach_vfc(c, claim(w.preset, f"{where} (preset input)") if o.preset_input else None,
+                       claim(w.catch, f"{where} (catch input)") if o.catch_input else None)
+        return c
+
+
 class CountingInputs:
     """`mem.counting`: which counter listens to which base input, fed by the sources.
 
@@ -260,3 +318,24 @@ class CountingInputs:
             if d is None:
                 d = 1 if dir_input is None or self.i_field[dir_input] else -1
             counter.pulses(edges, d, t, dt)
+
+
+# ---- set-up (the catalog's hooks, run by softplc.build.blocks) ---------------------------------
+def setup_counters(ctx: Any, family: Any, entries: dict[str, Any]) -> None:
+    """A counter family's configured blocks on the profile's inputs (an input used by two
+    counters is an error), fed through one `CountingInputs` (`mem.counting`)."""
+    hub = ctx.shared.setdefault("counting", CountingInputs(ctx.mem.i_field))
+    for key, o in entries.items():
+        ref = ctx.block_ref(key, family, f"counter (%{family.kind}0 ..)")
+        ctx.mem.blocks[family.kind][ref.index] = family.block_class.configured(
+            ctx, hub, ref, o, ctx.where(family.section, key))
+
+
+def finish_counters(ctx: Any) -> None:
+    """`mem.counting` for the sources; the preset / catch inputs sampled at each scan."""
+    hub = ctx.shared.get("counting")
+    if hub is None:
+        return
+    ctx.mem.counting = hub
+    if hub.vfc:
+        ctx.engine.before_scan.append(hub.poll)

@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from .. import catalog
 from ..address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
 from ..errors import AddressError
 from ..numeric import to_f32, wrap16, wrap32
@@ -89,7 +90,7 @@ class MemoryImage:
         # fast counters: the CountingInputs that pulse sources feed (runtime/fastcount.py)
         self.counting: Any = None
         # Function blocks, filled in by the engine from the configuration.
-        self.blocks: dict[str, dict[int, Any]] = {k: {} for k in BLOCK_FIELDS}
+        self.blocks: dict[str, dict[int, Any]] = {k: {} for k in catalog.FAMILIES}
 
     # -- address resolution ---------------------------------------------------------------
     def ref(self, address: str | Ref) -> Ref:

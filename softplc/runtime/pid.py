@@ -1,9 +1,9 @@
 """The Twido PID function (`[ PID n ]`) and its auto-tuning.
 
-Configured as TwidoSuite's PID screen configures it (`[pid.n]`, see
-`softplc/config_models.py`): measure, set point, output, Kp (x 0.01), Ti and Td (0.1 s),
-sampling period Ts (10 ms units, a multiple of the scan period), output limits, manual /
-automatic, direct / reverse action, an optional PWM output, a diagnostic word, and the
+Configured as TwidoSuite's PID screen configures it (`[pid.n]`, `PidConfig` below):
+measure, set point, output, Kp (x 0.01), Ti and Td (0.1 s), sampling period Ts (10 ms
+units, a multiple of the scan period), output limits, manual / automatic, direct / reverse
+action, an optional PWM output, a diagnostic word, and the
 operating mode PID, AT (auto-tuning only) or AT+PID [manual, from memory of TWD USE 10AE
 and the TwidoSuite PID quick start guide 35011386 ch. 18.3; unverified: the units].
 
@@ -32,9 +32,12 @@ AT+PID goes on regulating with them. A failed run leaves the output at 0 until
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..address import Ref
+from ..errors import ConfigError
 
 OUT_MAX = 10000  # the PID output range 0..10000 [manual, from memory]
 # diagnostic word bits (our layout; the Twido's own bits are unverified)
@@ -69,6 +72,86 @@ class PidParams:
     measure_span: int = 10000  # for the steady-state test
     period_us: int = 0  # the scan period, for the Ts check
     at_result: dict[str, float] = field(default_factory=dict)
+
+
+Word = str  # an address, checked when the blocks are set up
+WordOrConst = str | Annotated[int, Field(ge=-32768, le=32767)]  # a constant: a word's value
+
+
+class PidConfig(BaseModel):
+    """One PID function (`[pid.n]`, run by `[ PID n ]`). Units as TwidoSuite's PID screen
+    [manual, from memory]: kp x 0.01, ti and td in 0.1 s, ts and pwm_period in 10 ms,
+    the output 0..10000. A parameter is a constant or a %MW word (read at each sample;
+    auto-tuning writes its results into kp/ti/td words)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: Literal["PID", "AT", "AT+PID"] = "PID"
+    measure: Word
+    setpoint: WordOrConst
+    output: Word | None = None
+    kp: WordOrConst = 100
+    ti: WordOrConst = 0
+    td: WordOrConst = 0
+    ts: int = Field(100, ge=1, le=32767)
+    output_min: int = Field(0, ge=0, le=OUT_MAX)
+    output_max: int = Field(OUT_MAX, ge=0, le=OUT_MAX)
+    action: Literal["reverse", "direct"] = "reverse"
+    manual: Word | None = None
+    manual_output: WordOrConst = 0
+    pwm_output: Word | None = None
+    pwm_period: int = Field(100, ge=1, le=32767)
+    diagnostic: Word | None = None
+    at_output: int = Field(OUT_MAX, ge=1, le=OUT_MAX)
+    at_timeout: float = Field(14400.0, gt=0, le=86400)  # seconds
+    measure_span: int = Field(10000, ge=1, le=32767)
+
+    @model_validator(mode="after")
+    def _limits(self) -> PidConfig:
+        if self.output_min > self.output_max:
+            raise ValueError("output_min > output_max")
+        return self
+
+
+def params(where: str, o: PidConfig, ctx: Any) -> PidParams:
+    """A validated `[pid.n]` table resolved against the memory image (`ctx`: the block
+    set-up, `softplc.build.blocks.BlockSetup`)."""
+    word = ctx.word
+    return PidParams(
+        measure=word(where, "measure", o.measure), setpoint=word(where, "setpoint", o.setpoint),
+        output=word(where, "output", o.output, True),
+        kp=word(where, "kp", o.kp, True), ti=word(where, "ti", o.ti, True),
+        td=word(where, "td", o.td, True), ts_us=o.ts * 10_000,
+        out_min=o.output_min, out_max=o.output_max, action=o.action, mode=o.mode,
+        manual=ctx.bit(where, "manual", o.manual, ("M", "I", "Q")),
+        manual_output=word(where, "manual_output", o.manual_output),
+        pwm_output=ctx.bit(where, "pwm_output", o.pwm_output, ("Q",)),
+        pwm_period_us=o.pwm_period * 10_000,
+        diagnostic=word(where, "diagnostic", o.diagnostic, True),
+        at_output=o.at_output, at_timeout_us=round(o.at_timeout * 1e6),
+        measure_span=o.measure_span, period_us=round(ctx.scan_period * 1e6))
+
+
+def setup(ctx: Any, family: Any, entries: dict[str, PidConfig]) -> None:
+    """The PID functions of `[pid]`, addresses resolved and checked once; a PWM output may
+    not be a pulse block's output (`ctx.outputs`, claimed by those before)."""
+    count = ctx.profile.count(family.kind)
+    for key, o in entries.items():
+        try:
+            n = int(key)
+        except ValueError:
+            raise ConfigError(f"{family.section}: {key!r} is not a PID number "
+                              f"({family.section}.0, {family.section}.1 ...)") from None
+        if not 0 <= n < count:
+            raise ConfigError(f"{family.section}.{n}: PID 0 .. PID {count - 1}")
+        where = f"{family.section}.{n}"
+        p = params(where, o, ctx)
+        out = p.pwm_output  # the PID's PWM writes its output too
+        if out is not None and out.kind == "Q" and out.module == 0 \
+                and out.channel in ctx.outputs:
+            raise ConfigError(f"{where}.pwm_output: %Q0.{out.channel} is the output of "
+                              f"{ctx.outputs[out.channel]}")
+        ctx.mem.blocks[family.kind][n] = Pid(ctx.mem, ctx.time_source, p)
 
 
 class Pid:
@@ -107,6 +190,14 @@ class Pid:
         self.diag &= ~(D_AT_DONE | D_AT_FAILED | D_NOT_STEADY)
 
     # -- what views show (the debugger's `pid`) ---------------------------------------------------
+    def listing(self, i: int) -> str:
+        """PID function `i` in one line (the debugger's `pid` command)."""
+        p, get = self.p, self.value
+        return (f"PID {i:<2} {p.mode:<6} {p.action:<7} SP={get(p.setpoint):<6} "
+                f"PV={get(p.measure):<6} OUT={round(self.u):<5} Kp={get(p.kp)}/100 "
+                f"Ti={get(p.ti)}/10s Td={get(p.td)}/10s diag={self.diag:#06x} "
+                f"AT={self.autotune_state or '-'}")
+
     def value(self, v: Ref | int) -> int:
         """A parameter's value now: the constant, or the word it names."""
         return self._get(v)

@@ -36,9 +36,12 @@ A generator keeps running when its block is not executed (it is hardware, as on 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
-from ..errors import BlockError
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..address import parse_address
+from ..errors import BlockError, ConfigError
 from .blocks import TimedBlock
 
 # Time bases of %PLS / %PWM [manual, from memory] (microseconds: 0.142 ms = 142 us).
@@ -47,6 +50,8 @@ FAST_BASES = ("0.142ms", "0.57ms")  # .P at most 255 with these [manual, from me
 P_MAX_FAST, P_MAX = 255, 32767
 N_MAX = 32767  # %PLSi.N; 0 = no limit
 RATIO_MAX = 100  # %PWMi.R, per cent
+PulseBase = Literal["0.142ms", "0.57ms", "10ms", "1s"]
+assert set(PulseBase.__args__) == set(TIME_BASES_US)  # one list of time bases
 
 
 class _Clamped:
@@ -122,6 +127,19 @@ class PulseOutput(TimedBlock):
                 f"duty={self.duty():.2f}")
 
 
+class PlsConfig(BaseModel):
+    """`pls."%PLSi"`: what TwidoSuite's configuration of %Q0.i as a pulse generator sets:
+    the time base, the period preset (%PLSi.P) and the number of pulses (%PLSi.N, 0 = no
+    limit) [manual, from memory]. The preset's range depends on the base (checked by the
+    block)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base: PulseBase = "10ms"
+    preset: int = Field(0, ge=0, le=32767)
+    pulses: int = Field(0, ge=0, le=N_MAX)
+
+
 class PulseGenerator(PulseOutput):
     """%PLSi: N pulses (or an endless train) of period P x base, 50 % duty."""
 
@@ -138,6 +156,10 @@ class PulseGenerator(PulseOutput):
         self._T = 0  # the period of the current run (us): a new .P applies at a pulse
         self._base = 0  # pulses out before the current run (since the last R)
         self._offset = 0  # pulses out before the last R (the devices' count is monotonic)
+
+    @classmethod
+    def configured(cls, clock: Any, o: PlsConfig) -> PulseGenerator:
+        return cls(clock, o.base, o.preset, o.pulses)
 
     N = _Clamped(N_MAX)
 
@@ -202,6 +224,16 @@ class PulseGenerator(PulseOutput):
             self._on = self.Q = self.D = 0
 
 
+class PwmConfig(BaseModel):
+    """`pwm."%PWMi"`: time base, period preset (%PWMi.P), initial ratio (%PWMi.R, %)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base: PulseBase = "10ms"
+    preset: int = Field(0, ge=0, le=32767)
+    ratio: int = Field(0, ge=0, le=RATIO_MAX)
+
+
 class PwmOutput(PulseOutput):
     """%PWMi: period P x base, the ratio .R (per cent) high, while IN = 1."""
 
@@ -215,6 +247,10 @@ class PwmOutput(PulseOutput):
             raise BlockError(f"ratio {ratio}: 0..{RATIO_MAX} %")
         self._R = int(ratio)
         self._count_before = 0  # periods of the runs before the current one
+
+    @classmethod
+    def configured(cls, clock: Any, o: PwmConfig) -> PwmOutput:
+        return cls(clock, o.base, o.preset, o.ratio)
 
     R = _Clamped(RATIO_MAX)
 
@@ -259,3 +295,35 @@ class PulseOutputs:
         for i, g in self.by_output.items():
             g.update(now_us)
             q[i] = g.level(now_us)
+
+
+# ---- set-up (the catalog's hooks, run by softplc.build.blocks) ---------------------------------
+def setup_pulses(ctx: Any, family: Any, entries: dict[str, Any]) -> None:
+    """A pulse family's configured blocks on the profile's transistor outputs (an output is
+    one pulse block or none: `ctx.outputs` holds who has each)."""
+    pulses = ctx.shared.setdefault("pulses", PulseOutputs(ctx.mem.q))
+    outputs = ctx.profile.pulse_outputs
+    for text, o in entries.items():
+        ref, where = ctx.block_ref(text, family), ctx.where(family.section, text)
+        if ref.index >= len(outputs):
+            raise ConfigError(f"{where}: {ctx.profile.name} has no output for {text}")
+        q = outputs[ref.index]
+        if q in ctx.outputs:
+            raise ConfigError(f"{where}: %Q0.{q} is already the output of "
+                              f"{ctx.outputs[q]} (an output is one pulse block or none)")
+        ctx.outputs[q] = str(ref)
+        try:
+            gen = family.block_class.configured(ctx.time_source, o)
+        except ValueError as e:
+            raise ConfigError(f"{where}: {e}") from None
+        ctx.mem.blocks[family.kind][ref.index] = gen
+        out = parse_address(f"%Q0.{q}", ctx.profile)
+        ctx.mem.use_io(out)
+        pulses.add(out.index, gen, f"{ref} on {out}")
+
+
+def finish_pulses(ctx: Any) -> None:
+    """The engine updates the pulse outputs only when there are some."""
+    pulses = ctx.shared.get("pulses")
+    if pulses is not None and pulses.by_output:
+        ctx.mem.pulses = ctx.engine.pulses = pulses

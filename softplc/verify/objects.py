@@ -9,11 +9,19 @@ from typing import Any
 
 import z3
 
+from .. import catalog
 from ..address import INT16, INT32, REAL, Ref, parse_address
 from ..errors import AddressError, Code, Diagnostic
 from ..il import ast as A
-from ..runtime.blocks import MAX_VALUE, Counter, ShiftRegister, StepCounter, Timer
-from ..runtime.catalog import BLOCK_CLASSES
+from ..runtime.blocks import (
+    MAX_VALUE,
+    Counter,
+    Drum,
+    Register,
+    ShiftRegister,
+    StepCounter,
+    Timer,
+)
 from ..runtime.engine import S_CLOCKS
 from .blocks import (
     register_fields,
@@ -29,11 +37,14 @@ from .exprs import ExprModel
 from .symbolic import as_bool, narrow, wide
 
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
-BLOCK_KEY = re.compile(r"%(TM|C|SBR|DR|SC|R)(\d+)\.(\w+)$")  # a modelled block's field
+# the modelled families, named by their runtime class (their kinds are the catalog's)
+TM, C, DR, SBR, SC, R = map(catalog.of_class, (Timer, Counter, Drum, ShiftRegister,
+                                               StepCounter, Register))
 # the state kept per modelled block kind (a drum's `_written`: the step its outputs hold)
-MODELLED = {"TM": ("P", "V", "Q", "_in", "_on", "_el"), "C": Counter.FIELDS,
-            "SBR": ShiftRegister.FIELDS, "SC": StepCounter.FIELDS,
-            "DR": ("S", "F", "_u", "_written"), "R": ()}  # %R: `register_fields`
+MODELLED = {TM: ("P", "V", "Q", "_in", "_on", "_el"), C: Counter.FIELDS,
+            SBR: ShiftRegister.FIELDS, DR: ("S", "F", "_u", "_written"),
+            SC: StepCounter.FIELDS, R: ()}  # %R: `register_fields`
+BLOCK_KEY = re.compile(rf"%({'|'.join(MODELLED)})(\d+)\.(\w+)$")  # a modelled block's field
 
 
 class ObjectModel(ExprModel):
@@ -63,13 +74,13 @@ class ObjectModel(ExprModel):
         if ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
             self.unsupported(f"{name}: not used by the program nor configured", pos, name)
             return None
-        if ref.kind == "TM":
-            self.timers.setdefault(name, self.plc.mem.blocks["TM"][ref.index])
-        elif ref.kind == "C" and name not in self.counters:
+        if ref.kind == TM:
+            self.timers.setdefault(name, self.plc.mem.blocks[TM][ref.index])
+        elif ref.kind == C and name not in self.counters:
             self.counters.append(name)
-        elif ref.kind == "DR" and name not in self.drums:
+        elif ref.kind == DR and name not in self.drums:
             self.drums[name] = self.drum_outputs(ref, pos)
-        fields = register_fields(self.block(name).depth) if ref.kind == "R" else \
+        fields = register_fields(self.block(name).depth) if ref.kind == R else \
             MODELLED[ref.kind]
         for f in fields:
             _ = self.st[f"{name}.{f}"]
@@ -99,18 +110,18 @@ class ObjectModel(ExprModel):
         p = {k: pins.get(k, z3.BoolVal(False))
              for k in ("IN", "R", "S", "CU", "CD", "U", "I", "O")}
         st = self.st
-        if ref.kind == "TM":
+        if ref.kind == TM:
             self.mark_written(f"{name}.V", pos)
             self.executed[name] = z3.Or(self.executed.get(name, False), g)
             run_timer(st, name, self.timers[name], g, p["IN"], self.period_us)
-        elif ref.kind == "SBR":
+        elif ref.kind == SBR:
             run_shift_register(st, name, g, p["R"], p["CU"], p["CD"])
-        elif ref.kind == "SC":
+        elif ref.kind == SC:
             run_step_counter(st, name, g, p["R"], p["CU"], p["CD"])
-        elif ref.kind == "R":
+        elif ref.kind == R:
             b = self.block(name)
             run_register(st, name, b.type == "LIFO", b.depth, g, p["R"], p["I"], p["O"])
-        elif ref.kind == "DR":
+        elif ref.kind == DR:
             run_drum(st, name, self.block(name).steps, self.drums[name], g, p["R"], p["U"])
         else:
             self.mark_written(f"{name}.V", pos)
@@ -123,7 +134,7 @@ class ObjectModel(ExprModel):
         if name is None:
             return
         held = {p: self.st[f"{name}.{a}"] for p, a in
-                BLOCK_CLASSES[ref.kind].EDGE_PINS.items()} if ref.kind != "TM" else {}
+                catalog.family(ref.kind).block_class.EDGE_PINS.items()} if ref.kind != TM else {}
         held[pin] = v
         self.run_block(ref, g, held, pos)
 
@@ -166,9 +177,9 @@ class ObjectModel(ExprModel):
             return z3.Extract(ref.bit, ref.bit, w) == 1
         if ref.bit is not None and ref.kind == "KW":
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
-        if ref.kind in ("TM", "C", "DR", "R") and ref.field in ("Q", "D", "E", "F"):
+        if ref.kind in (TM, C, DR, R) and ref.field in ("Q", "D", "E", "F"):
             return self.st[self.key_for(ref)]
-        if ref.kind in ("SBR", "SC") and ref.field == "J":
+        if ref.kind in (SBR, SC) and ref.field == "J":
             w = self.st[self.key_for(Ref(ref.kind, ref.index, field="W"))]
             return z3.Extract(ref.bit, ref.bit, w) == 1
         self.unsupported(f"reading {ref}", pos, str(ref))
@@ -180,16 +191,16 @@ class ObjectModel(ExprModel):
             key = self.key_for(ref)
             self.mark_written(key, pos)
             self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
-        elif ref.kind in ("MW", "SBR") and ref.bit is not None and ref.offset is None:
+        elif ref.kind in ("MW", SBR) and ref.bit is not None and ref.offset is None:
             key = self.key_for(Ref("MW", ref.index) if ref.kind == "MW"
-                               else Ref("SBR", ref.index, field="W"))
+                               else Ref(SBR, ref.index, field="W"))
             self.mark_written(key, pos)
             w = self.st[key]
             mask = z3.BitVecVal(1 << ref.bit, 16)
             new = z3.If(value, w | mask, w & ~mask)
             self.st[key] = z3.simplify(z3.If(g, new, w))
-        elif ref.kind == "SC" and ref.bit is not None and ref.offset is None:
-            name = self.use_block(Ref("SC", ref.index), pos)
+        elif ref.kind == SC and ref.bit is not None and ref.offset is None:
+            name = self.use_block(Ref(SC, ref.index), pos)
             if name is not None:
                 self.mark_written(f"{name}.W", pos)
                 set_step_bit(self.st, name, ref.bit, g, value)
@@ -213,8 +224,8 @@ class ObjectModel(ExprModel):
             lo = self.st[self.key_for(Ref("MW", ref.index))]
             hi = self.st[self.key_for(Ref("MW", ref.index + 1))]
             return wide(z3.Concat(hi, lo)), INT32
-        if k in ("TM", "C") and ref.field in ("V", "P") or k == "DR" and ref.field == "S" \
-                or k == "R" and ref.field in ("I", "O"):
+        if k in (TM, C) and ref.field in ("V", "P") or k == DR and ref.field == "S" \
+                or k == R and ref.field in ("I", "O"):
             return wide(self.st[self.key_for(ref)]), INT16
         if ref.type == REAL:
             self.unsupported("floating-point values", pos, str(ref))
@@ -232,10 +243,10 @@ class ObjectModel(ExprModel):
             v32 = narrow(v, 32)
             self._put(self.key_for(Ref("MW", ref.index)), g, z3.Extract(15, 0, v32), pos)
             self._put(self.key_for(Ref("MW", ref.index + 1)), g, z3.Extract(31, 16, v32), pos)
-        elif k in ("TM", "C") and ref.field == "P":
+        elif k in (TM, C) and ref.field == "P":
             clamped = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
             self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
-        elif k == "R" and ref.field in ("I", "O"):
+        elif k == R and ref.field in ("I", "O"):
             self._put(self.key_for(ref), g, narrow(v, 16), pos)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
@@ -261,7 +272,7 @@ class ObjectModel(ExprModel):
         p = pos or A.NOPOS
         self.problems.append(Diagnostic(
             f"verify cannot model {what}", self.plc.ast.file, p.line, p.column, text,
-            "booleans, edges, 16/32-bit words, comparisons, %TM, %C, %SBR, %DR, %SC, %R, SR, JMP, "
-            "Grafcet",
+            "booleans, edges, 16/32-bit words, comparisons, "
+            + ", ".join(f"%{k}" for k in MODELLED) + ", SR, JMP, Grafcet",
             Code.OTHER))
 

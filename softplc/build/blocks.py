@@ -1,0 +1,154 @@
+"""The function blocks of a machine, built from the configuration by the catalog
+(`softplc/catalog.py`): each family's section is handed to its set-up hook (the basic
+blocks' below, the others' in their runtime module), then each distinct `finish` hook
+attaches what runs at scan time; a block the program uses but the configuration does not
+name gets its family's default, or a message saying what to configure.
+
+    setup = BlockSetup(mem, profile, time_source, scan_period, engine)
+    setup.configure(settings)           # every block section of a `config.Config`
+    setup.factory(ref)                  # the program uses `ref`: None, or what is wrong
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .. import catalog
+from ..address import Ref, parse_address
+from ..catalog import Family
+from ..config import key_path
+from ..config_models import _bit, _word
+from ..errors import AddressError, ConfigError
+from ..runtime.blocks import Counter, Drum, Register, Timer
+
+
+class BlockSetup:
+    """What a family's set-up needs (the memory image, profile, time source, scan period,
+    engine) and what set-ups share: the base's claimed inputs and outputs (%I0.x / %Q0.x
+    channel -> what uses it) and `shared` objects (the pulse outputs, the counting hub)."""
+
+    def __init__(self, mem: Any, profile: Any, time_source: Any, scan_period: float,
+                 engine: Any = None):
+        self.mem, self.profile, self.time_source = mem, profile, time_source
+        self.scan_period, self.engine = scan_period, engine
+        self.inputs: dict[int, str] = {}
+        self.outputs: dict[int, str] = {}
+        self.shared: dict[str, Any] = {}
+
+    # ---- building ----------------------------------------------------------------------------
+    def configure(self, settings: Any, online: bool = False) -> None:
+        """Create the blocks `settings` configures, family by family in catalog order, then
+        run the finish hooks; `online`: only the sections an online change may alter
+        (replacing the blocks of the same address)."""
+        finish: list[str] = []
+        for fam in catalog.FAMILIES.values():
+            if not fam.setup or (online and not fam.online):
+                continue
+            entries = getattr(settings, fam.section)
+            if entries:
+                catalog.resolve(fam.setup)(self, fam, entries)
+            if fam.finish and fam.finish not in finish:
+                finish.append(fam.finish)
+        for hook in finish:
+            catalog.resolve(hook)(self)
+
+    def factory(self, ref: Ref) -> str | None:
+        """Create a block the program uses but the configuration does not name, where
+        Twido has an obvious default; otherwise say what to configure."""
+        count = self.profile.count(ref.kind)
+        if ref.index >= count:
+            return f"{ref} beyond the {count} %{ref.kind} of {self.profile.name}"
+        blocks = self.mem.blocks[ref.kind]
+        if ref.index not in blocks:
+            fam = catalog.family(ref.kind)
+            if fam.unconfigured:
+                q = self.profile.pulse_outputs[ref.index] if fam.pulse_output else None
+                return fam.unconfigured.format(ref=ref, section=fam.section, title=fam.title,
+                                               q=q)
+            blocks[ref.index] = catalog.resolve(fam.default)(self.profile) if fam.default \
+                else fam.block_class()
+        return None
+
+    # ---- what the set-ups share ------------------------------------------------------------
+    @staticmethod
+    def where(section: str, key: str) -> str:
+        return key_path((section, key))
+
+    def block_ref(self, text: str, fam: Family, noun: str = "object") -> Ref:
+        """The block a configuration key names, of the family of its section."""
+        try:
+            ref = parse_address(text, self.profile)
+        except AddressError as e:
+            raise ConfigError(f"{self.where(fam.section, text)}: {e}") from None
+        if ref.kind != fam.kind or not ref.is_block:
+            raise ConfigError(f"{self.where(fam.section, text)}: {text!r} is not a "
+                              f"%{fam.kind} {noun}")
+        return ref
+
+    def word(self, where: str, key: str, v: Any, writable: bool = False) -> Any:
+        """A constant stays an int; an address must be a single 16-bit word."""
+        return _word(where, key, v, self.mem, writable)
+
+    def bit(self, where: str, key: str, v: Any, kinds: tuple[str, ...]) -> Ref | None:
+        return _bit(where, key, v, self.mem, kinds)
+
+    def claim_input(self, channel: int, who: str) -> int:
+        """%I0.`channel` for `who` alone (a counting input); its flat index."""
+        if channel in self.inputs:
+            raise ConfigError(f"{who}: input %I0.{channel} is already {self.inputs[channel]}")
+        self.inputs[channel] = who
+        self.mem.use_io(parse_address(f"%I0.{channel}", self.profile))
+        return channel  # base inputs: flat index = channel
+
+
+# ---- the basic blocks (typed by `config.Config`): the catalog's set-up hooks ------------------
+def _each(ctx: BlockSetup, fam: Family, entries: dict[str, Any], make: Any) -> None:
+    for text, o in entries.items():
+        ref = ctx.block_ref(text, fam)
+        try:
+            ctx.mem.blocks[fam.kind][ref.index] = make(o, text)
+        except ValueError as e:
+            raise ConfigError(f"{fam.section}.{text}: {e}") from None
+
+
+def timers(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
+    _each(ctx, fam, entries, lambda t, _: Timer(ctx.time_source, t.type, t.base, t.preset))
+
+
+def counters(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
+    _each(ctx, fam, entries, lambda c, _: Counter(c.preset))
+
+
+def registers(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
+    _each(ctx, fam, entries, lambda g, _: Register(g.type, ctx.profile.count("FIFO_DEPTH")))
+
+
+def default_register(profile: Any) -> Register:
+    """A register the configuration does not name: FIFO, the profile's depth."""
+    return Register("FIFO", profile.count("FIFO_DEPTH"))
+
+
+def drums(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
+    def make(d: Any, text: str) -> Drum:
+        outs = []
+        for k, a in enumerate(d.outputs):
+            try:
+                r = parse_address(a, ctx.profile)
+            except AddressError as e:
+                raise ConfigError(f"{fam.section}.{text}.outputs[{k}]: {e}") from None
+            if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
+                raise ConfigError(f"{fam.section}.{text}.outputs[{k}]: %Q or %M bits, "
+                                  f"not {a!r}")
+            ctx.mem.use_io(r)
+            outs.append((ctx.mem.bits(r.kind), r.index))
+        return Drum(d.steps, outs)
+    _each(ctx, fam, entries, make)
+
+
+def build_blocks(mem: Any, profile: Any, time_source: Any, scan_period: float, engine: Any,
+                 settings: Any) -> BlockSetup:
+    """Every block `settings` configures, set up; the `BlockSetup` for the blocks the
+    program will use (`factory`) and for online changes (`configure(..., online=True)`)."""
+    setup = BlockSetup(mem, profile, time_source, scan_period, engine)
+    setup.configure(settings)
+    return setup
