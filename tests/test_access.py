@@ -105,6 +105,7 @@ def test_checks_refuse_with_a_clear_error_and_queue_nothing():
     for obj, value, status, text in [
             ("%KW0", 1, 403, "constant"), ("%TM0.V", 1, 403, "read-only"),
             ("%MW1", 70000, 400, "out of range"), ("%M1", 2, 400, "0 or 1"),
+            ("%TM0.P", 40000, 400, "out of range 0..32767"),  # a preset a store clamps
             ("%ZZ1", 1, 400, "unknown object")]:
         with pytest.raises(AccessError, match=text) as e:
             port.write_many([("%MW2", 1), (obj, value)])
@@ -173,3 +174,13 @@ def test_bench_access_reports_its_figures():
     res = bench_access.run(objects=10, number=50)
     assert res["objects"] == 10 and all(v > 0 for v in res.values())
     assert "us per read" in bench_access.report(res)
+
+
+def test_a_block_word_that_is_not_a_clamped_preset_takes_a_whole_word():
+    """%VFCi.S0 is an unsigned threshold word: 40000 is a value, not out of range (only
+    the presets a store clamps, %TMi.P and %Ci.P, stop at 32767)."""
+    port = AccessPort(plc_of())
+    assert port.check_value(parse_address("%VFC0.S0"), 40000) == 40000
+    assert port.check_value(parse_address("%TM0.P"), 32767) == 32767
+    with pytest.raises(AccessError, match="0..32767"):
+        port.check_value(parse_address("%C0.P"), 32768)

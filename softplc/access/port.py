@@ -22,6 +22,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
+from .. import catalog
 from ..address import BLOCK_FIELDS, Ref
 from ..numeric import F32_MAX
 from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
@@ -36,7 +37,7 @@ from .reading import Reading
 # Value ranges the port accepts, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
 INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-BLOCK_RANGE = (0, 32767)  # presets and register words of function blocks [manual]
+BLOCK_RANGE = (0, 32767)  # the presets a store clamps (%TMi.P, %Ci.P) [manual]
 CONSTANT_KINDS = ("KW", "KD", "KF")
 IMAGE_KINDS = ("MW", "MD", "MF", "M")  # written through the Modbus image when there is one
 
@@ -172,8 +173,8 @@ class AccessPort:
                 raise AccessError(f"{ref} is an integer object: {value!r} is not whole")
             value = int(value)
         lo, hi = INT32_RANGE if ref.type == "int32" else INT16_RANGE
-        if ref.kind in BLOCK_FIELDS:
-            lo, hi = BLOCK_RANGE
+        if ref.kind in BLOCK_FIELDS and ref.field == "P" and catalog.family(ref.kind).clamp_preset:
+            lo, hi = BLOCK_RANGE  # other block words are words (%VFCi.S0 up to 65535)
         if not lo <= value <= hi:
             raise AccessError(f"{ref}: {value} is out of range {lo}..{hi} (does not fit)")
         return value
