@@ -14,7 +14,7 @@ finishes, or is cut short at once if it loops (its memory is then neither shown 
 kept: the state is the last scan boundary's); further signals are ignored.
 
 Periodic mode [manual]: a scan starts every %SW0 ms; a scan longer than the period sets
-%S19 (through `plc.note_overrun()`) and the next scan starts at once. A program that
+%S19 (through `plc.engine.note_overrun()`) and the next scan starts at once. A program that
 writes another value to %SW0 changes the period (2..150 ms on a Twido; 1..10000 here).
 On a shared host a scan may also start late (the OS ran something else): a cycle that
 ends past its period because its start was late is an overrun too, as the program sees
@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from . import build
 from .errors import SoftPLCError
 from .modbus import ModbusImage, ReadOnly, ServerThread
 from .modbus.regmap import describe
@@ -377,7 +378,7 @@ class Daemon:
                 next_start = clock()
                 continue
             held = False
-            if virtual and not plc.settle_exchange(0.1):
+            if virtual and not build.settle_exchange(plc.machine, 0.1):
                 next_start = clock()  # the virtual clock waits for the EXCH remote
                 continue
             delay = next_start - clock()
@@ -438,7 +439,7 @@ class Daemon:
             self.overruns += 1
             self.late_starts += late
             self.skipped_starts += passed - 1
-            self.plc.note_overrun(late=late, skipped=passed - 1)  # %S19, %SW33, %SW34
+            self.plc.engine.note_overrun(late=late, skipped=passed - 1)  # %S19, %SW33, %SW34
         return end
 
     def _state_kept(self, lost: str) -> None:
@@ -466,7 +467,7 @@ class Daemon:
     def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
                   keeper: StateKeeper | None) -> None:
         plc = self.plc
-        plc.stop_outputs()
+        plc.engine.stop_outputs()
         if self.web is not None:  # web monitor hook
             self.web.stop()
         server.stop()  # closes every client: nothing more can be acknowledged

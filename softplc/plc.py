@@ -98,11 +98,6 @@ class PLC:
         return _checked(cls, lambda: parse(text, file, table), config, kw)
 
 
-    def settle_exchange(self, timeout: float) -> bool:
-        """Virtual clock: wait up to `timeout` s for the EXCH exchange in progress; True
-        when the next scan will not wait (softplc.build.settle_exchange)."""
-        return build.settle_exchange(self.machine, timeout)
-
     def compile_debug(self) -> CompiledProgram:
         """The debug build: `main()` is a generator yielding (rung, instruction) before each
         instruction; `log[rung][k]` holds the accumulator after instruction k."""
@@ -218,8 +213,6 @@ class PLC:
     warm_start = _engine("warm_start")
     stop = _engine("stop")
     start = _engine("start")
-    stop_outputs = _engine("stop_outputs")
-    note_overrun = _engine("note_overrun")
 
     @property
     def trace(self) -> list:

@@ -349,11 +349,11 @@ def test_daemon_refuses_a_symlinked_state_file(daemons, tmp_path):
                         "noise": [0, 0, -1, 0]}}},
      "devices.s.noise[2]: expected greater than or equal to 0"),
     ({"pid": {"0": {"measure": "%MW0", "setpoint": 99999}}},
-     "pid.0.setpoint: Input should be less than or equal to 32767"),
+     "pid.0.setpoint: expected a valid string or less than or equal to 32767"),
     ({"pid": {"0": {"measure": "%MW0", "setpoint": 0, "at_timeout": 1e9}}},
-     "pid.0.at_timeout: Input should be less than or equal to 86400"),
+     "pid.0.at_timeout: expected less than or equal to 86400"),
     ({"pid": {"0": {"measure": "%MW0", "setpoint": 0, "measure_span": 2**40}}},
-     "pid.0.measure_span: Input should be less than or equal to 32767"),
+     "pid.0.measure_span: expected less than or equal to 32767"),
 ])
 def test_numeric_settings_are_bounded(raw, message):
     from softplc.errors import ConfigError

@@ -205,7 +205,7 @@ JMPC  %L1
 
 def test_overrun_sets_s19(plc_from_source):
     plc = plc_from_source(COPY)
-    plc.note_overrun()
+    plc.engine.note_overrun()
     assert plc["%S19"] and plc.state == "RUN"
 
 

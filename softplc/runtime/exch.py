@@ -29,7 +29,7 @@ reply arrived, and gives the exchange up (error 5) at the deadline whatever the 
 doing. On the virtual clock (tests, `--speed max`) the outcome must land at the first scan
 boundary after the request whatever the machine's load, so the virtual clock waits for it,
 up to the deadline in wall time: the daemon waits in 0.1 s slices before the scan
-(`PLC.settle_exchange`: signals stay prompt), `PLC.scan` at the boundary; a timeout is
+(`build.settle_exchange`: signals stay prompt), `PLC.scan` at the boundary; a timeout is
 delivered at the first scan whose virtual time is `timeout` after the request. Both make
 the outcome a function of the peer's behaviour only, not of thread timing. The worker is a
 daemon thread woken by a socket pair when the scan gives an exchange up, so neither
