@@ -524,3 +524,57 @@ def test_load_disturbance_is_taken_up_by_the_integrator():
     _, end_p, _ = run(ki=0)
     kp = 7990 * 96 / 2**19  # Kp' in bits per count
     assert end_p == pytest.approx(150 / kp, rel=0.02)
+
+
+# -- limit switches wired to the PMAC (issue 26) ---------------------------------------------
+def limit_rig(wiring: str) -> Rig:
+    """The cutting table's X axis (frictionless, 10 nm counts) 10 mm before an END-1 moved to
+    100 mm, jogging into it at Ixx22 = 10 mm/s."""
+    rig = Rig.from_toml(CUT_TOML, "X", start=9_000_000.0, **{
+        "geometry.limit_plus": 10_000_000.0, "geometry.limit_wiring": wiring})
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_PLUS)
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.LIMIT_PLUS, 1.5)
+    return rig
+
+
+def test_a_limit_wired_to_the_pmac_aborts_at_ixx15_holds_and_allows_moving_away_only():
+    """[manual: Turbo PMAC User Manual, hardware overtravel limits] The commanded trajectory
+    stops at Ixx15 (limit_decel 10 counts/ms^2: 1e6^2 / 2e7 = 50,000 counts past the switch,
+    plus <= 1 scan of travel), the loop stays closed and holds; a jog or a move further in
+    is refused (error LIMIT, not latched), a jog away runs."""
+    rig = limit_rig("pmac")
+    ax = rig.axes["X"]
+    rig.run(0.5)
+    over = ax.position - 10_000_000
+    assert 50_000 - 1 <= over <= 50_000 + 1_000 + 1
+    st = rig.word("X", Word.STATUS)
+    assert st & St.ENABLED and st & St.LIMIT_PLUS and not st & (St.BUSY | St.FE_FATAL | St.DONE)
+    assert rig.word("X", Word.ERROR) == Err.LIMIT and ax.fe_max < 1000
+    held = ax.position
+    rig.run(1.0)  # JOG+ still held: nothing moves
+    assert abs(ax.position - held) < 1.0 and abs(ax.v) < 1e-3
+    rig.command("X", Ctl.ENABLE)
+    rig.pulse("X", Ctl.RESET)
+    assert rig.word("X", Word.ERROR) == Err.NONE
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_PLUS)  # a new jog into the limit: refused
+    rig.run(0.3)
+    rig.command("X", Ctl.ENABLE)
+    rig.pulse("X", Ctl.EXECUTE, target=round(ax.commanded) + 100_000, speed=1_000_000)
+    rig.run(0.3)
+    assert abs(ax.position - held) < 1.0 and rig.word("X", Word.ERROR) == Err.LIMIT
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)  # away from it
+    rig.run(0.3)
+    assert ax.position < held - 100_000 and not rig.word("X", Word.STATUS) & St.LIMIT_PLUS
+
+
+def test_a_drive_quick_stop_on_its_end_switch_ends_at_standstill():
+    """Wired to the drive (the servo table's wiring) the END switch stops the carriage at the
+    current limit and the PMAC's fatal error follows; the quick stop used to reverse the
+    velocity, and the frictionless carriage then drifted back for ever once killed."""
+    rig = limit_rig("drive")
+    ax = rig.axes["X"]
+    assert rig.run_until(lambda: rig.word("X", Word.ERROR), 2.0)
+    assert rig.word("X", Word.ERROR) == Err.LIMIT and not ax.closed
+    stopped = ax.position
+    rig.run(1.0)
+    assert ax.position == stopped >= 10_000_000 and ax.v == 0.0

@@ -239,11 +239,13 @@ class LoopRunner:
             w = -brake if v > 0 else (brake if v < 0 else 0.0)
             x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
             return x1, (0.0 if v1 * v <= 0 else v1)
-        if x >= a._lp and w > 0 or x <= a._lm and w < 0:
+        stopping = False
+        if not a._pmac_lim and (x >= a._lp and w > 0 or x <= a._lm and w < 0):
             # END switch: no torque further that way; quick stop if still moving that way
-            moving_on = v > 0 if x >= a._lp else v < 0
-            w = (-brake if v > 0 else brake) if moving_on else 0.0
-        x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
+            stopping = v > 0 if x >= a._lp else v < 0
+            w = (-brake if v > 0 else brake) if stopping else 0.0
+        # (a quick stop ends at standstill, never reverses: `hold`)
+        x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh, hold=stopping)
         if x1 > a._hp:
             return a._hp, 0.0
         if x1 < a._hm:

@@ -64,7 +64,7 @@ class ServoAxis(AxisDevice):
              "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped",
              "_traj", "_active", "_k0", "_tail_v", "_ctl_prev", "_vel", "_x_prev_scan",
              "_ready", "_mass_f", "load_mass_ratio", "gains", "disturbance", "_fixed",
-             "_creep")
+             "_creep", "_limit_stop")
 
     def __init__(self, name: str, options: ServoAxisOptions):
         super().__init__(name, options)
@@ -85,7 +85,16 @@ class ServoAxis(AxisDevice):
         self._lm = g.limit_minus if g.limit_minus is not None else -math.inf
         self._hp = g.hard_stop_plus if g.hard_stop_plus is not None else math.inf
         self._hm = g.hard_stop_minus if g.hard_stop_minus is not None else -math.inf
-        self._lo, self._hi = max(self._lm, self._hm), min(self._lp, self._hp)
+        # The fast path of the loop runs inside (_lo, _hi): the drive acts at its END
+        # switches when they are wired to it, at the hard stops only when they go to the
+        # PMAC, which checks them once per scan instead (`_plo`, `_phi`: Motion.limit_stop).
+        self._pmac_lim = g.limit_wiring == "pmac"
+        if self._pmac_lim:
+            self._lo, self._hi = self._hm, self._hp
+            self._plo, self._phi = self._lm, self._lp
+        else:
+            self._lo, self._hi = max(self._lm, self._hm), min(self._lp, self._hp)
+            self._plo, self._phi = -math.inf, math.inf
         if not self._hm <= o.start <= self._hp:
             raise ConfigError(f"{self.where('start')}: {o.start} is beyond the hard stops")
         self._enc0 = math.floor(o.start)
@@ -220,6 +229,7 @@ class ServoAxis(AxisDevice):
         self._x_prev_scan = self.x
         self._fixed = False  # the loop's state is a fixed point: see LoopRunner
         self._creep = 0  # ... or a creep for that many cycles
+        self._limit_stop = False  # the trajectory is a "pmac" limit's abort
         self.trace.clear()
         self._trace_dropped = 0
 
@@ -285,6 +295,8 @@ class ServoAxis(AxisDevice):
                 if self._rec is not None and len(self.trace) >= self._trim_at:
                     self.runner.trim()
         x = self.x
+        if not self._plo < x < self._phi:  # on a limit wired to the PMAC
+            self.motion.limit_stop()
         if dt > 0:
             self._vel = (x - self._x_prev_scan) / dt
         self._x_prev_scan = x
