@@ -578,3 +578,53 @@ def test_a_drive_quick_stop_on_its_end_switch_ends_at_standstill():
     stopped = ax.position
     rig.run(1.0)
     assert ax.position == stopped >= 10_000_000 and ax.v == 0.0
+
+
+# -- the generated scan of the common case (issue 26) -----------------------------------------
+@pytest.mark.parametrize("toml, start", [
+    ("cutting_table.toml", 12_340_000.0),  # ideal encoder, frictionless, a = 0
+    ("servo_table.toml", -50_000.0),  # friction, 12-bit DAC, integrator, trace
+    ("mass_tuning.toml", -300_000.0)])  # viscous term, load table, current limit
+def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml, start):
+    """Every scan's status words, state and trace rows with the generated scan of the
+    closed loop (moving, or at a fixed point) equal those of the generic update."""
+    from softplc.devices.axis.runner import LoopRunner
+
+    def scenario() -> list:
+        rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
+                            require_home=False)
+        ax, b = rig.axes["X"], rig.base("X")
+        seen = []
+        for step in range(1200):
+            if step == 1:
+                rig.command("X", Ctl.ENABLE)
+            elif step == 300:
+                rig.command("X", Ctl.ENABLE | Ctl.EXECUTE, target=round(start) + 40_000,
+                            speed=200_000)
+            elif step == 302:
+                rig.command("X", Ctl.ENABLE)
+            elif step == 500:
+                rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+            elif step == 700:
+                rig.command("X", Ctl.ENABLE)
+            rig.step()
+            st = ax.state()
+            st.pop("trace")
+            seen.append((bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)]), st,
+                         ax.trace[-1] if ax.trace else None))
+        return seen
+
+    made, used = LoopRunner.scan_function, []
+
+    def counted(self):  # (how many scans the generated scan did)
+        fn = made(self)
+        return None if fn is None else lambda *a: used.append(fn(*a)) or used[-1]
+
+    monkeypatch.setattr(LoopRunner, "scan_function", counted)
+    fast = scenario()
+    assert used.count(True) > 800  # (the rest: commands, the moves' ends, the probes)
+    monkeypatch.setattr(LoopRunner, "scan_function", lambda self: None)
+    generic = scenario()
+    assert len(fast) == len(generic)
+    for i, (f, g) in enumerate(zip(fast, generic, strict=True)):
+        assert f == g, f"scan {i}"

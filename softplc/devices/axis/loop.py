@@ -27,8 +27,9 @@ from collections.abc import Callable
 from string import Template
 from typing import Any
 
-_SOURCE = """\
-def cycles(dev, n):
+from . import status
+
+_HEAD = """\
     x, v, k = dev.x, dev.v, dev.k
     cp, cpp, cvp, app, ie = dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie
     clamped = dev._clamped
@@ -46,6 +47,8 @@ def cycles(dev, n):
     warn = False
     event = None
     stop = k + n
+"""
+_LOOP = """\
     for k in range(k + 1, stop + 1):
 ?ready        w = u + $uoff
 !ready        w = 0.0
@@ -137,16 +140,86 @@ def cycles(dev, n):
 ?gather        gat((k, cp - origin, ap - origin, u, $cie * ie))
         if event is not None:
             break
+"""
+_STORE = """\
     dev.x, dev.v, dev.k = x, v, k
     dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie = cp, cpp, cvp, app, ie
     dev._clamped = clamped
 ?closed&capture    dev._ca, dev._av = ca, av
     dev.u, dev.w, dev.fe, dev.fe_max = u, w, fe, fe_max
-?closed&warn_on    dev.warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
-!closed|!warn_on    dev.warn = False
+?closed&warn_on    warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
+!closed|!warn_on    warn = False
+    dev.warn = warn
+"""
+_SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
     if event is not None:
         dev.runner.on_event(event)
     return stop - k
+"""
+
+# A whole scan of the device (ServoAxis.update) in its common cases, the loop closed and
+# moving (rendered with the flags of that state only), or held at a fixed point of the
+# loop (LoopRunner): the update's checks, the cycles above, the status words
+# (status.SOURCE) from the locals; at the fixed point the words of the last scan again,
+# with the new servo cycle count. It returns False, having done nothing, when the case
+# does not hold (a command word changed, a fault, an I-variable change waiting...);
+# whatever is rarer after the cycles (an event, the end of a trajectory, a limit wired
+# to the PMAC) goes to the device's own code.
+_SCAN = """\
+def scan(dev, t, dt):
+    if dev._w[$ctl_i] != dev._ctl_prev or not dev.closed or dev.fault != "none" \\
+            or dev.homing == 1 or dev._watch and not dev._ivars_clean():
+        return False
+    n = floor(round(t * 1e6) * $hz_us + 1e-9) - dev.k
+    if n <= 0:
+        return False
+    if dev._fixed:  # at the fixed point, still since the last scan: only the count moves
+        x = dev.x
+        if dev._creep or dev._active or x != dev._x_prev_scan \\
+                or not $plim_lo < x < $plim_hi or not dt > 0:
+            return False
+?trace        dev.runner._repeat(n)
+?trace        if len(dev.trace) >= $trim_at:
+?trace            dev.runner.trim()
+?trace        k = dev.k
+!trace        k = dev.k = dev.k + n
+        words = dev._rest_words  # the status words but TICKS, unchanged
+        if words is None:  # (the first such scan: written in full, and kept)
+            dev._finish(dt)
+            dev._rest_words = bytes(dev._buf[$status_at:$status_end])
+        else:
+            buf = dev._buf
+            buf[$status_at:$status_end] = words
+            _pack_ticks(buf, $ticks_at, k & 0x7FFFFFFF)
+        return True
+    if dev.v == 0.0:
+        return False
+""" + _HEAD + _LOOP + _STORE + """\
+    if event is not None:
+        dev.runner.on_event(event)
+        n = stop - k
+        while n > 0:
+            n = dev._cycles(n)
+?trace        if len(dev.trace) >= $trim_at:
+?trace            dev.runner.trim()
+        dev._finish(dt)
+        return True
+?trace    if len(dev.trace) >= $trim_at:
+?trace        dev.runner.trim()
+    if not $plim_lo < x < $plim_hi or dev._active and not tail_v and k - k0 + 1 >= ntraj:
+        dev._finish(dt)
+        return True
+    if dt > 0:
+        vel = dev._vel = (x - dev._x_prev_scan) / dt
+    else:
+        vel = dev._vel
+    dev._x_prev_scan = x
+    closed, open_loop, coast, ready = True, False, False, True
+    homing, done, homed, err, latched = dev.homing, dev.done, dev.homed, dev.error, dev.latched
+    origin = dev.origin
+    in_pos, lp, lm, cur_scale, buf, at = $in_pos, $lp, $lm, $cur_scale, dev._buf, $status_at
+$status
+    return True
 """
 _CACHE: dict[str, Callable[..., Any]] = {}
 
@@ -162,10 +235,10 @@ def _keep(tags: str, flags: dict[str, bool]) -> bool:
     return True
 
 
-def render(values: dict[str, Any], flags: dict[str, bool]) -> str:
-    """The cycles function's source for these constants and flags."""
+def render(values: dict[str, Any], flags: dict[str, bool], source: str = _SOURCE) -> str:
+    """The cycles function's source (or `scan_source`'s) for these constants and flags."""
     out = []
-    for line in _SOURCE.splitlines():
+    for line in source.splitlines():
         if line[:1] in ("?", "!"):
             tags = line.split(" ", 1)[0]
             if not _keep(tags[1:] if tags[0] == "?" else tags, flags):
@@ -176,12 +249,17 @@ def render(values: dict[str, Any], flags: dict[str, bool]) -> str:
         {k: repr(v) for k, v in values.items()})
 
 
-def compile_cycles(source: str, interp: Callable[..., float], step: Callable[..., Any]
-                   ) -> Callable[..., Any]:
+def scan_source() -> str:
+    """The scan template, the status words' description in it ($status)."""
+    return _SCAN.replace("$status\n", status.indent(status.SOURCE + status.PACK))
+
+
+def compile_cycles(source: str, interp: Callable[..., float], step: Callable[..., Any],
+                   name: str = "cycles") -> Callable[..., Any]:
     fn = _CACHE.get(source)
     if fn is None:
-        ns: dict[str, Any] = {"floor": math.floor, "_interp": interp, "_step": step,
-                              "inf": math.inf}
+        ns: dict[str, Any] = {**status.NAMESPACE, "floor": math.floor, "_interp": interp,
+                              "_step": step, "inf": math.inf}
         exec(compile(source, "<servo loop>", "exec"), ns)  # noqa: S102 (our own template)
-        fn = _CACHE[source] = ns["cycles"]
+        fn = _CACHE[source] = ns[name]
     return fn

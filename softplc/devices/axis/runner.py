@@ -10,7 +10,7 @@ import struct
 from itertools import repeat
 from typing import TYPE_CHECKING, Any
 
-from . import loop
+from . import loop, status
 from .options import Err
 from .plant import ZOH, step
 
@@ -63,6 +63,25 @@ class LoopRunner:
         a._warn_lim = warn
         a._in_pos = gn.in_position / 16
         a._fixed = False
+        a._scan = self.scan_function()
+
+    def scan_function(self) -> Any:
+        """The generated scan of the common case (`loop._SCAN`), or None where it does not
+        apply: before bind, a variant's own cycles (feed_axis), a drive wired to I/O, a
+        load mass word, a gather."""
+        a = self.a
+        if (getattr(a, "_mem", None) is None or type(self).cycles is not LoopRunner.cycles
+                or a._wired or a._mass_word is not None or a.gather is not None):
+            return None
+        values = dict(self._values, ctl_i=a._ctl_i, hz_us=a._hz_us, trim_at=a._trim_at,
+                      plim_lo=a._plo, plim_hi=a._phi, in_pos=a._in_pos, lp=a._lp, lm=a._lm,
+                      cur_scale=a._cur_scale, status_at=a._status_at,
+                      ticks_at=a._status_at + status.TICKS_AT,
+                      status_end=a._status_at + status.END_AT)
+        flags = dict(self._flags, closed=True, open_loop=False, killed=False, search=False,
+                     special=False, ready=True, capture=False)  # (cycles' key of the case)
+        return loop.compile_cycles(loop.render(values, flags, loop.scan_source()), _interp,
+                                   step, "scan")
 
     def run(self, due: int) -> None:
         """The servo cycles due by the scan's time (the cycle count `due`). (The device's

@@ -120,8 +120,10 @@ class ServoAxis(AxisDevice):
             self.words.write
         self._watch = False  # an I-variable table bound, or changes waiting
         self._ivars_clean: Any = bool  # (IVarTable keeps it: False once there is work)
-        self.runner.build()
+        self._scan: Any = None  # the generated scan of the common case (runner.build)
+        self._rest_words: bytes | None = None  # its status words at a fixed point
         self._mem: MemoryImage | None = None
+        self.runner.build()
         self._base = 0
         self._estop_idx: int | None = None
         self._wired = False  # the drive's READY depends on an input or an output
@@ -184,6 +186,7 @@ class ServoAxis(AxisDevice):
         if self.opt.ivar_words is not None:
             self.ivars.bind(_word_block(self, mem, self.opt.ivar_words, iv.SIZE, "ivar_words"))
         self.words.write()
+        self._scan = self.runner.scan_function()
 
     def read_only_words(self) -> list[tuple[int, int]]:
         """%MW ranges [start, stop) a Modbus host may read but not write (status words)."""
@@ -269,6 +272,9 @@ class ServoAxis(AxisDevice):
 
     # -- per scan ---------------------------------------------------------------------------
     def update(self, t: float, dt: float) -> None:
+        scan = self._scan  # the common case, generated (loop.py): False if it does not hold
+        if scan is not None and scan(self, t, dt):
+            return
         if self._mass_word is not None:
             r = self._mem.mw.get_f(self._mass_word)  # type: ignore[union-attr]
             if r != self._mass_f:  # a change of the ratio from the configured one
@@ -294,6 +300,12 @@ class ServoAxis(AxisDevice):
                     n = cycles(n)
                 if self._rec is not None and len(self.trace) >= self._trim_at:
                     self.runner.trim()
+        self._finish(dt)
+
+    def _finish(self, dt: float) -> None:
+        """The scan after its servo cycles: limits wired to the PMAC, the velocity word,
+        the sequencing at a trajectory's end, the status words."""
+        self._rest_words = None
         x = self.x
         if not self._plo < x < self._phi:  # on a limit wired to the PMAC
             self.motion.limit_stop()
@@ -333,6 +345,7 @@ class ServoAxis(AxisDevice):
         return st
 
     def set_state(self, st: dict[str, Any]) -> None:
+        self._rest_words = None
         ratio = self.load_mass_ratio
         fixed = st["_fixed"]
         built = (ratio, self.gains, self.disturbance)
