@@ -592,20 +592,20 @@ def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml,
 
     def scenario() -> list:
         rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
-                            require_home=False)
+                            require_home=False, load_mass_word=None)
         ax, b = rig.axes["X"], rig.base("X")
         seen = []
-        for step in range(1200):
-            if step == 1:
+        for scan in range(1200):
+            if scan == 1:
                 rig.command("X", Ctl.ENABLE)
-            elif step == 300:
+            elif scan == 300:
                 rig.command("X", Ctl.ENABLE | Ctl.EXECUTE, target=round(start) + 40_000,
                             speed=200_000)
-            elif step == 302:
+            elif scan == 302:
                 rig.command("X", Ctl.ENABLE)
-            elif step == 500:
+            elif scan == 500:
                 rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
-            elif step == 700:
+            elif scan == 700:
                 rig.command("X", Ctl.ENABLE)
             rig.step()
             st = ax.state()
