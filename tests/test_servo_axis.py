@@ -581,38 +581,44 @@ def test_a_drive_quick_stop_on_its_end_switch_ends_at_standstill():
 
 
 # -- the generated scan of the common case (issue 26) -----------------------------------------
-@pytest.mark.parametrize("toml, start", [
-    ("cutting_table.toml", 12_340_000.0),  # ideal encoder, frictionless, a = 0
-    ("servo_table.toml", -50_000.0),  # friction, 12-bit DAC, integrator, trace
-    ("mass_tuning.toml", -300_000.0)])  # viscous term, load table, current limit
+AXES = [("cutting_table.toml", 12_340_000.0),  # ideal encoder, frictionless, a = 0
+        ("servo_table.toml", -50_000.0),  # friction, 12-bit DAC, integrator, trace
+        ("mass_tuning.toml", -300_000.0)]  # viscous term, load table, current limit
+
+
+def scenario(toml: str, start: float, tweak=None) -> list:
+    """Every scan's status words, state and last trace row: enable, a move, a jog, rest."""
+    rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
+                        require_home=False, load_mass_word=None)
+    ax, b = rig.axes["X"], rig.base("X")
+    if tweak is not None:
+        tweak(ax)
+    seen = []
+    for scan in range(1200):
+        if scan == 1:
+            rig.command("X", Ctl.ENABLE)
+        elif scan == 300:
+            rig.command("X", Ctl.ENABLE | Ctl.EXECUTE, target=round(start) + 40_000,
+                        speed=200_000)
+        elif scan == 302:
+            rig.command("X", Ctl.ENABLE)
+        elif scan == 500:
+            rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+        elif scan == 700:
+            rig.command("X", Ctl.ENABLE)
+        rig.step()
+        st = ax.state()
+        st.pop("trace")
+        seen.append((bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)]), st,
+                     ax.trace[-1] if ax.trace else None))
+    return seen
+
+
+@pytest.mark.parametrize("toml, start", AXES)
 def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml, start):
     """Every scan's status words, state and trace rows with the generated scan of the
     closed loop (moving, or at a fixed point) equal those of the generic update."""
     from softplc.devices.axis.runner import LoopRunner
-
-    def scenario() -> list:
-        rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
-                            require_home=False, load_mass_word=None)
-        ax, b = rig.axes["X"], rig.base("X")
-        seen = []
-        for scan in range(1200):
-            if scan == 1:
-                rig.command("X", Ctl.ENABLE)
-            elif scan == 300:
-                rig.command("X", Ctl.ENABLE | Ctl.EXECUTE, target=round(start) + 40_000,
-                            speed=200_000)
-            elif scan == 302:
-                rig.command("X", Ctl.ENABLE)
-            elif scan == 500:
-                rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
-            elif scan == 700:
-                rig.command("X", Ctl.ENABLE)
-            rig.step()
-            st = ax.state()
-            st.pop("trace")
-            seen.append((bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)]), st,
-                         ax.trace[-1] if ax.trace else None))
-        return seen
 
     made, used = LoopRunner.scan_function, []
 
@@ -621,10 +627,27 @@ def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml,
         return None if fn is None else lambda *a: used.append(fn(*a)) or used[-1]
 
     monkeypatch.setattr(LoopRunner, "scan_function", counted)
-    fast = scenario()
+    fast = scenario(toml, start)
     assert used.count(True) > 800  # (the rest: commands, the moves' ends, the probes)
     monkeypatch.setattr(LoopRunner, "scan_function", lambda self: None)
-    generic = scenario()
-    assert len(fast) == len(generic)
+    generic = scenario(toml, start)
     for i, (f, g) in enumerate(zip(fast, generic, strict=True)):
         assert f == g, f"scan {i}"
+
+
+@pytest.mark.parametrize("toml, start", AXES)
+def test_the_loops_folded_constants_change_no_bit(toml, start):
+    """The loop without the folds that rest on u never being -0.0 (zero gains, no
+    friction, no amplifier offset, no friction feed-forward) gives the same bits."""
+    from softplc.devices.axis import loop
+
+    def unfolded(ax) -> None:
+        r = ax.runner
+        r._flags.update(fc0=False, w_is_u=False, ff0=False, ca=True, av=True)
+        c, off = ax.coef, ax.gains.offset
+        r._values["law"] = loop.Raw(f"{c.fe!r} * fe + {c.cv!r} * cv + {c.ca!r} * ca + "
+                                    f"{c.ie!r} * ie - {c.av!r} * av + {off!r}")
+        r._loops.clear()
+        ax._scan = r.scan_function()
+
+    assert scenario(toml, start) == scenario(toml, start, unfolded)

@@ -14,10 +14,14 @@ when the flag holds, `!flag` only when it does not (`?a&!b`, `?a|b` combine flag
 round-trips exactly). Only code that cannot change a result is dropped: a branch whose
 test is false for the configuration (no DAC quantisation, no current limit, no load
 table, no trace) or the drive state of the scan (loop closed, open loop, killed, homing
-search, faulted), or `- 0.0` and `1.0 *` (exact identities). What remains is the same operations in
-the same order, so the results are bit for bit those of one generic loop (checked against
-the previous generic implementation: identical traces and words). A function is compiled
-once per distinct source and cached.
+search, faulted), or `- 0.0` and `1.0 *` (exact identities), and where u can never be
+-0.0 (the law's offset Ixx29 is not -0.0: every value u takes is then +0.0 or non-zero)
+`+ 0.0` on u, a law term whose gain is 0 (0 x a finite term is +-0.0, which the sum's
+last `+ Ixx29` cannot tell from nothing), the friction's branches with no friction.
+What remains is the same operations in the same order, so the results are bit for bit
+those of one generic loop (checked against the previous generic implementation: identical
+traces and words; tests/test_servo_axis.py compares the generated scan with the generic
+update). A function is compiled once per distinct source and cached.
 """
 
 from __future__ import annotations
@@ -50,7 +54,8 @@ _HEAD = """\
 """
 _LOOP = """\
     for k in range(k + 1, stop + 1):
-?ready        w = u + $uoff
+?ready&!w_is_u        w = u + $uoff
+?ready&w_is_u        w = u
 !ready        w = 0.0
 ?up        if w > $up:
 ?up            w = $up
@@ -70,16 +75,18 @@ _LOOP = """\
 !special        if not $lo < x < $hi:
 !special            x, v = dev.runner.special(x, v, wl)
 !special        else:
-!special            if v > 0:
-!special                we = wl - $fc
-!special            elif v < 0:
-!special                we = wl + $fc
-!special            elif $nfc <= wl <= $fc:
-!special                we = None
-!special            else:
-!special                we = wl - $fc if wl > 0 else wl + $fc
-!special            if we is not None:
-!special                kw = $K * we
+!special&!fc0            if v > 0:
+!special&!fc0                we = wl - $fc
+!special&!fc0            elif v < 0:
+!special&!fc0                we = wl + $fc
+!special&!fc0            elif $nfc <= wl <= $fc:
+!special&!fc0                we = None
+!special&!fc0            else:
+!special&!fc0                we = wl - $fc if wl > 0 else wl + $fc
+!special&!fc0            if we is not None:
+!special&!fc0                kw = $K * we
+!special&fc0            if v != 0.0 or wl != 0.0:
+!special&fc0                kw = $K * wl
 !special&!phi1                v1 = $phi * v + kw * $g1
 !special&phi1                v1 = v + kw * $g1
 !special                if v * v1 < 0:
@@ -100,17 +107,17 @@ _LOOP = """\
 ?closed            cp += tail_v
 ?closed        fe = cp - ap
 ?closed        cv = cp - cpp
-?closed        ca = cv - cvp
+?closed&use_ca        ca = cv - cvp
 ?closed&int_always        if not clamped:
 ?closed&!int_always        if cv == 0 and not clamped:
 ?closed            ie += fe
 ?closed&ilim            ie = $ilim if ie > $ilim else ($nilim if ie < $nilim else ie)
-?closed        av = ap - app
-?closed        u = $cfe * fe + $ccv * cv + $cca * ca + $cie * ie - $cav * av + $off
-?closed        if cv > 0:
-?closed            u += $ff
-?closed        elif cv < 0:
-?closed            u -= $ff
+?closed&use_av        av = ap - app
+?closed        u = $law
+?closed&!ff0        if cv > 0:
+?closed&!ff0            u += $ff
+?closed&!ff0        elif cv < 0:
+?closed&!ff0            u -= $ff
 ?closed        clamped = True
 ?closed        if u > $lim:
 ?closed            u = $lim
@@ -233,6 +240,26 @@ def _keep(tags: str, flags: dict[str, bool]) -> bool:
         if flags[tag.lstrip("!")] != want:
             return False
     return True
+
+
+class Raw(str):
+    """A value written into the source as it is (an expression), not as its repr."""
+
+    def __repr__(self) -> str:
+        return str(self)
+
+
+def law(c: Any, off: float) -> tuple[Raw, bool]:
+    """The law's expression (the coefficients `c` as literals, Ixx29 last) with the terms
+    whose gain is 0 left out where that cannot change u (off is not -0.0), and whether u
+    then never is -0.0 (so `u + 0.0` is u)."""
+    no_neg_zero = not (off == 0 and math.copysign(1.0, off) < 0)
+    terms = [(c.fe, "+", "fe"), (c.cv, "+", "cv"), (c.ca, "+", "ca"), (c.ie, "+", "ie"),
+             (c.av, "-", "av")]
+    kept = [t for t in terms if t[0] != 0.0 or not no_neg_zero] or [(0.0, "+", "fe")]
+    expr = " ".join(f"{op} {g!r} * {v}" for g, op, v in kept)
+    expr = expr[2:] if expr.startswith("+ ") else expr
+    return Raw(f"{expr} + {off!r}"), no_neg_zero
 
 
 def render(values: dict[str, Any], flags: dict[str, bool], source: str = _SOURCE) -> str:

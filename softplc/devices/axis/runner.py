@@ -49,6 +49,7 @@ class LoopRunner:
             enc0=o.start if a._ideal else a._enc0, lo=a._lo, hi=a._hi,
             hlo=g.home_switch[0], hhi=g.home_switch[1], iper=g.index_period,
             ioff=g.index_offset)
+        values["law"], no_neg_zero = loop.law(c, gn.offset)
         if len(table) == 2:
             (x0, y0), (x1, y1) = table
             values.update(t_x0=x0, t_y0=y0, t_x1=x1, t_y1=y1, t_dy=y1 - y0, t_dx=x1 - x0)
@@ -58,7 +59,10 @@ class LoopRunner:
             check=min(warn, fatal) != inf, warn_on=warn != inf, fatal_on=fatal != inf,
             dac=bool(a._dac_q), trace=a._rec is not None, gather=a.gather is not None,
             up=a.u_peak != inf, load=load != 0, phi1=z.phi == 1.0, table2=len(table) == 2,
-            table=len(table) not in (0, 2))
+            table=len(table) not in (0, 2), fc0=p.coulomb == 0,
+            w_is_u=p.amp_offset == 0 and (no_neg_zero or math.copysign(1, p.amp_offset) < 0),
+            ff0=gn.friction_ff == 0 and no_neg_zero,
+            ca=" ca" in values["law"], av=" av" in values["law"])
         self._loops: dict[tuple[bool, ...], Any] = {}
         a._warn_lim = warn
         a._in_pos = gn.in_position / 16
@@ -79,7 +83,8 @@ class LoopRunner:
                       ticks_at=a._status_at + status.TICKS_AT,
                       status_end=a._status_at + status.END_AT)
         flags = dict(self._flags, closed=True, open_loop=False, killed=False, search=False,
-                     special=False, ready=True, capture=False)  # (cycles' key of the case)
+                     special=False, ready=True, capture=False, use_ca=self._flags["ca"],
+                     use_av=self._flags["av"])  # (cycles' key of the case)
         return loop.compile_cycles(loop.render(values, flags, loop.scan_source()), _interp,
                                    step, "scan")
 
@@ -229,7 +234,9 @@ class LoopRunner:
         if fn is None:
             flags = dict(self._flags, closed=closed, open_loop=open_loop,
                          killed=not (closed or open_loop), search=key[2],
-                         special=not ready or key[4], ready=ready, capture=capture)
+                         special=not ready or key[4], ready=ready, capture=capture,
+                         use_ca=self._flags["ca"] or capture,
+                         use_av=self._flags["av"] or capture)
             fn = self._loops[key] = loop.compile_cycles(
                 loop.render(self._values, flags), _interp, step)
         return fn(a, n)
