@@ -40,13 +40,11 @@ _HEAD = """\
     u, w, fe, fe_max = dev.u, dev.w, dev.fe, dev.fe_max
 ?closed    traj, k0, tail_v = dev._traj, dev._k0, dev._tail_v
 ?closed    ntraj = len(traj)
-?closed    last = traj[-1] if traj else cp
 ?trace    rec = dev._rec
 ?gather    gat = dev.gather.append
 ?trace|gather    origin = dev.origin
 ?open_loop    ol_u, ol_end = dev._ol_u, dev._ol_end
 ?special    special = dev.runner.special
-    step, zoh = _step, dev.zoh
 ?table    table = dev.opt.plant.load_table
     warn = False
     event = None
@@ -90,7 +88,7 @@ _LOOP = """\
 !special&!phi1                v1 = $phi * v + kw * $g1
 !special&phi1                v1 = v + kw * $g1
 !special                if v * v1 < 0:
-!special                    x, v = step(x, v, wl, $K, $a, $fc, $T, zoh)
+!special                    x, v = _step(x, v, wl, $K, $a, $fc, $T, dev.zoh)
 !special                else:
 !special                    x += v * $g1 + kw * $g2
 !special                    v = v1
@@ -102,7 +100,7 @@ _LOOP = """\
 !ideal        ap = floor(x) - $enc0
 ?closed        if ntraj:
 ?closed            j = k - k0
-?closed            cp = traj[j] if j < ntraj else last + tail_v * (j - ntraj + 1)
+?closed            cp = traj[j] if j < ntraj else traj[-1] + tail_v * (j - ntraj + 1)
 ?closed        elif tail_v:
 ?closed            cp += tail_v
 ?closed        fe = cp - ap
@@ -168,7 +166,9 @@ _SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
 # moving (rendered with the flags of that state only), or held at a fixed point of the
 # loop (LoopRunner): the update's checks, the cycles above, the status words
 # (status.SOURCE) from the locals; at the fixed point the words of the last scan again,
-# with the new servo cycle count. It returns False, having done nothing, when the case
+# with the new servo cycle count (so a state changed by assignment from outside the
+# device's methods shows in the words at its next change: a command, a move, a fault).
+# It returns False, having done nothing, when the case
 # does not hold (a command word changed, a fault, an I-variable change waiting...);
 # whatever is rarer after the cycles (an event, the end of a trajectory, a limit wired
 # to the PMAC) goes to the device's own code.
