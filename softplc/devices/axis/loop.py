@@ -34,16 +34,28 @@ from typing import Any
 from . import status
 
 _HEAD = """\
-    x, v, k = dev.x, dev.v, dev.k
-    cp, cpp, cvp, app, ie = dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie
+    x = dev.x
+    v = dev.v
+    k = dev.k
+    cp = dev._cp
+    cpp = dev._cpp
+    cvp = dev._cvp
+    app = dev._app
+    ie = dev._ie
     clamped = dev._clamped
-    u, w, fe, fe_max = dev.u, dev.w, dev.fe, dev.fe_max
-?closed    traj, k0, tail_v = dev._traj, dev._k0, dev._tail_v
+    u = dev.u
+    w = dev.w
+    fe = dev.fe
+    fe_max = dev.fe_max
+?closed    traj = dev._traj
+?closed    k0 = dev._k0
+?closed    tail_v = dev._tail_v
 ?closed    ntraj = len(traj)
 ?trace    rec = dev._rec
 ?gather    gat = dev.gather.append
 ?trace|gather    origin = dev.origin
-?open_loop    ol_u, ol_end = dev._ol_u, dev._ol_end
+?open_loop    ol_u = dev._ol_u
+?open_loop    ol_end = dev._ol_end
 ?special    special = dev.runner.special
 ?table    table = dev.opt.plant.load_table
     warn = False
@@ -147,11 +159,21 @@ _LOOP = """\
             break
 """
 _STORE = """\
-    dev.x, dev.v, dev.k = x, v, k
-    dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie = cp, cpp, cvp, app, ie
+    dev.x = x
+    dev.v = v
+    dev.k = k
+    dev._cp = cp
+    dev._cpp = cpp
+    dev._cvp = cvp
+    dev._app = app
+    dev._ie = ie
     dev._clamped = clamped
-?closed&capture    dev._ca, dev._av = ca, av
-    dev.u, dev.w, dev.fe, dev.fe_max = u, w, fe, fe_max
+?closed&capture    dev._ca = ca
+?closed&capture    dev._av = av
+    dev.u = u
+    dev.w = w
+    dev.fe = fe
+    dev.fe_max = fe_max
 ?closed&warn_on    warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
 !closed|!warn_on    warn = False
     dev.warn = warn
