@@ -567,6 +567,25 @@ def test_a_limit_wired_to_the_pmac_aborts_at_ixx15_holds_and_allows_moving_away_
     assert ax.position < held - 100_000 and not rig.word("X", Word.STATUS) & St.LIMIT_PLUS
 
 
+def test_a_minus_limit_wired_to_the_pmac_stops_minus_moves_only():
+    rig = Rig.from_toml(CUT_TOML, "X", start=9_000_000.0, **{
+        "geometry.limit_minus": 8_000_000.0, "geometry.limit_wiring": "pmac"})
+    ax = rig.axes["X"]
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.LIMIT_MINUS, 1.5)
+    rig.run(0.5)
+    assert 50_000 - 1 <= 8_000_000 - ax.position <= 50_000 + 1_000 + 1
+    assert ax.closed and rig.word("X", Word.ERROR) == Err.LIMIT
+    held = ax.position
+    rig.command("X", Ctl.ENABLE)
+    rig.pulse("X", Ctl.EXECUTE, target=round(ax.commanded) - 100_000, speed=1_000_000)
+    rig.run(0.3)
+    assert abs(ax.position - held) < 1.0
+    rig.pulse("X", Ctl.EXECUTE, target=round(ax.commanded) + 200_000, speed=1_000_000)
+    rig.run(0.5)
+    assert ax.position == pytest.approx(held + 200_000, abs=5)
+
+
 def test_a_drive_quick_stop_on_its_end_switch_ends_at_standstill():
     """Wired to the drive (the servo table's wiring) the END switch stops the carriage at the
     current limit and the PMAC's fatal error follows; the quick stop used to reverse the
