@@ -235,7 +235,9 @@ def scan(dev, t, dt):
         return True
 ?trace    if len(dev.trace) >= $trim_at:
 ?trace        dev.runner.trim()
-    if not $plim_lo < x < $plim_hi or dev._active and not tail_v and k - k0 + 1 >= ntraj:
+    slow = dev._st_slow  # (the bits no tick of this scan changed: status.SLOW)
+    if not $plim_lo < x < $plim_hi or dev._active and not tail_v and k - k0 + 1 >= ntraj \\
+            or slow < 0:
         dev._finish(dt)
         return True
     if dt > 0:
@@ -243,8 +245,8 @@ def scan(dev, t, dt):
     else:
         vel = dev._vel
     dev._x_prev_scan = x
-    closed, open_loop, coast, ready = True, False, False, True
-    homing, done, homed, err, latched = dev.homing, dev.done, dev.homed, dev.error, dev.latched
+    closed = True
+    err = dev.error
     origin = dev.origin
     in_pos, lp, lm, cur_scale, buf, at = $in_pos, $lp, $lm, $cur_scale, dev._buf, $status_at
 $status
@@ -300,7 +302,7 @@ def render(values: dict[str, Any], flags: dict[str, bool], source: str = _SOURCE
 
 def scan_source() -> str:
     """The scan template, the status words' description in it ($status)."""
-    return _SCAN.replace("$status\n", status.indent(status.SOURCE + status.PACK))
+    return _SCAN.replace("$status\n", status.indent(status.FAST + status.PACK))
 
 
 def compile_cycles(source: str, interp: Callable[..., float], step: Callable[..., Any],

@@ -124,6 +124,7 @@ class ServoAxis(AxisDevice):
         self._ivars_clean: Any = bool  # (IVarTable keeps it: False once there is work)
         self._scan: Any = None  # the generated scan of the common case (runner.build)
         self._rest_words: bytes | None = None  # its status words at a fixed point
+        self._st_slow = -1  # the status bits of the last write but the tick's (-1: none)
         self._mem: MemoryImage | None = None
         self.runner.build()
         self._base = 0
@@ -237,6 +238,7 @@ class ServoAxis(AxisDevice):
         self._limit_stop = False  # the trajectory is a "pmac" limit's abort
         self.trace.clear()
         self._trace_dropped = 0
+        self._rest_words, self._st_slow = None, -1
 
     def set_fault(self, fault: str) -> None:
         """Inject a fault at run time: "jammed" (the carriage is frozen), "estop" (the
@@ -347,7 +349,7 @@ class ServoAxis(AxisDevice):
         return st
 
     def set_state(self, st: dict[str, Any]) -> None:
-        self._rest_words = None
+        self._rest_words, self._st_slow = None, -1
         ratio = self.load_mass_ratio
         fixed = st["_fixed"]
         built = (ratio, self.gains, self.disturbance)

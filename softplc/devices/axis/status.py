@@ -32,35 +32,43 @@ NAMESPACE: dict[str, Any] = {
         "ENABLED", "BUSY", "IN_POSITION", "DONE", "HOMED", "FE_WARNING", "FE_FATAL",
         "AMP_FAULT", "LIMIT_PLUS", "LIMIT_MINUS", "ESTOP", "ERROR", "HOMING", "OPEN_LOOP")},
     "_FATAL_ERRORS": (Err.FATAL_FE, Err.LIMIT, Err.NOT_HOMED), "_AMP": Err.AMP_FAULT,
+    "_ENABLED_BUSY": St.ENABLED | St.BUSY,
     "_pack": _STATUS_PACK, "_pack_ticks": struct.Struct("=i").pack_into, "floor": floor}
 TICKS_AT = 2 * (Word.TICKS - Word.ACTUAL)  # byte offsets from the first status word
 END_AT = 2 * (Word.SIZE - Word.ACTUAL)
 
 # In: closed, open_loop, coast, homing, ntraj (trajectory samples), tail_v, done, homed,
 # warn, fe, fe_max, err, latched, ready, x, ap (raw encoder count), cp, origin, k, u, w,
-# vel, dev, and the axis's constants in_pos, lp, lm, cur_scale, buf, at. SOURCE gives s,
-# the bits; PACK writes them with every status word (its 'f' rounds to single precision
-# as the memory image's %MF casts do; native order).
-SOURCE = """\
+# vel, dev, and the axis's constants in_pos, lp, lm, cur_scale, buf, at. SLOW gives the
+# bits that change only with a command, an event or the end of a trajectory (`slow`, kept
+# as `dev._st_slow`: the generated scan of a moving axis starts from it); FAST adds those
+# of every tick: s, the bits. PACK writes them with every status word (its 'f' rounds to
+# single precision as the memory image's %MF casts do; native order).
+SLOW = """\
 busy = homing != 0 or ntraj != 0 or tail_v != 0.0 or coast or open_loop
-s = (_ENABLED if closed else 0) | (_BUSY if busy else 0) | (_DONE if done else 0) \\
-    | (_HOMED if homed else 0) | (_FE_WARNING if warn else 0) | (_HOMING if homing else 0) \\
+slow = (_ENABLED if closed else 0) | (_BUSY if busy else 0) | (_DONE if done else 0) \\
+    | (_HOMED if homed else 0) | (_HOMING if homing else 0) \\
     | (_OPEN_LOOP if open_loop else 0)
-if closed and not busy and (fe if fe >= 0 else -fe) <= in_pos:
-    s |= _IN_POSITION
 if err:
-    s |= _ERROR
+    slow |= _ERROR
     if latched and err in _FATAL_ERRORS:
-        s |= _FE_FATAL
+        slow |= _FE_FATAL
 if err == _AMP or not ready:
-    s |= _AMP_FAULT
+    slow |= _AMP_FAULT
     if dev.estop_active():
-        s |= _ESTOP
+        slow |= _ESTOP
+dev._st_slow = slow
+"""
+FAST = """\
+s = (slow | _FE_WARNING) if warn else slow
+if slow & _ENABLED_BUSY == _ENABLED and (fe if fe >= 0 else -fe) <= in_pos:
+    s |= _IN_POSITION
 if x >= lp:
     s |= _LIMIT_PLUS
 elif x <= lm:
     s |= _LIMIT_MINUS
 """
+SOURCE = SLOW + FAST
 PACK = """\
 _pack(buf, at, round(ap - origin), round(cp - origin), fe if closed else 0.0, fe_max, s, err,
       k & 0x7FFFFFFF, u, w * cur_scale, vel)
