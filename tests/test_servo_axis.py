@@ -627,7 +627,8 @@ def scenario(toml: str, start: float, tweak=None) -> list:
             rig.command("X", Ctl.ENABLE)
         rig.step()
         st = ax.state()
-        st.pop("trace")
+        for cache in ("trace", "_rest_words", "_st_slow"):  # (the scan's own caches)
+            st.pop(cache)
         seen.append((bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)]), st,
                      ax.trace[-1] if ax.trace else None))
     return seen

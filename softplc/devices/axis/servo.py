@@ -60,13 +60,14 @@ class ServoAxis(AxisDevice):
     RUNNER: type[LoopRunner] = LoopRunner
     # Everything a scan changes (Device.state); K, a and the loop constants follow from
     # load_mass_ratio, gains and disturbance and are rebuilt by set_state. The trace is a
-    # record: see state().
+    # record: see state(). (_rest_words, _st_slow: what the last status write left, for the
+    # generated scan; the memory image is restored with the state.)
     STATE = ("x", "v", "k", "origin", "fault", "closed", "open_loop", "_ol_u", "_ol_end",
              "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
              "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped",
              "_traj", "_active", "_k0", "_tail_v", "_ctl_prev", "_vel", "_x_prev_scan",
              "_ready", "_mass_f", "load_mass_ratio", "gains", "disturbance", "_fixed",
-             "_creep", "_limit_stop")
+             "_creep", "_limit_stop", "_rest_words", "_st_slow")
 
     def __init__(self, name: str, options: ServoAxisOptions):
         super().__init__(name, options)
@@ -349,7 +350,6 @@ class ServoAxis(AxisDevice):
         return st
 
     def set_state(self, st: dict[str, Any]) -> None:
-        self._rest_words, self._st_slow = None, -1
         ratio = self.load_mass_ratio
         fixed = st["_fixed"]
         built = (ratio, self.gains, self.disturbance)
