@@ -108,6 +108,7 @@ class Motion:
         a._app = ap
         a._ie = 0.0
         a._traj, a._tail_v = (), 0.0
+        a._limit_stop = False
 
     def rule(self, acc_ms: int = 0, s_ms: int = 0, trapezoid: bool = False) -> tj.RampRule:
         g = self.a.gains
