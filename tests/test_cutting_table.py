@@ -165,6 +165,35 @@ def test_e9_limit_switch_stops_both_axes_torch_off_reset_refused_while_made():
     assert plc[f"%MW{EJECUTANDO}"] == 0
 
 
+def test_a_max_switch_reached_for_real_stops_x_under_control_and_x_holds_there():
+    """The X max switch moved to 100 mm (true position), inside the work area, reached while
+    cutting at 20 mm/s: the controller's limit input stops X at limit_decel (100 mm/s^2:
+    2 mm past the trip point, + 1 scan), the loop stays closed and holds (it used to end in
+    a fatal following error, the axis drifting backwards); fault 1; X jogs away only."""
+    cfg = tomllib.loads(TOML.read_text(encoding="utf-8"))
+    cfg["devices"]["X"]["geometry"]["limit_plus"] = 100.0 * COUNTS_PER_MM
+    for axis in ("X", "Y"):
+        cfg["devices"][axis]["start"] = COUNTS_PER_MM
+    plc = PLC.from_file(IL, cfg)
+    assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=20)
+    offer(plc, 150_000, 0, 20.0)  # user 150 mm = true 179.5 mm: through the switch
+    assert plc.run_until(lambda p: p.devices["SensX_Max"].made, timeout=10)
+    plc.run(1.0)
+    x = plc.devices["X"]
+    assert 0 < true_mm(plc)[0] - 100.0 <= 20.0 ** 2 / (2 * 100.0) + 0.001 * 20.0 + 1e-6
+    assert plc[f"%MW{STATE}"] == FAULT_STEP and plc[f"%MW{FAULT}"] == 1
+    assert x.closed and x.error == 3 and x.fe_max < 0.01 * COUNTS_PER_MM  # Err.LIMIT
+    held = true_mm(plc)[0]
+    plc.run(3.0)
+    assert abs(true_mm(plc)[0] - held) < 1e-5  # held to 10 nm (it drifted 0.06 mm/s)
+    plc["%M104"] = 1  # jog X+ in FAULT: not into the made switch
+    plc.run(0.5)
+    assert abs(true_mm(plc)[0] - held) < 1e-5
+    plc["%M104"], plc["%M105"] = 0, 1  # jog X-: away from it
+    plc.run(0.5)
+    assert true_mm(plc)[0] < held - 2.0 and not plc.devices["SensX_Max"].made
+
+
 def test_estop_stops_and_latches_fault_5():
     plc = homed()
     offer(plc, 50_000, 50_000, 10.0)

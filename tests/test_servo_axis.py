@@ -524,3 +524,150 @@ def test_load_disturbance_is_taken_up_by_the_integrator():
     _, end_p, _ = run(ki=0)
     kp = 7990 * 96 / 2**19  # Kp' in bits per count
     assert end_p == pytest.approx(150 / kp, rel=0.02)
+
+
+# -- limit switches wired to the PMAC (issue 26) ---------------------------------------------
+def limit_rig(wiring: str) -> Rig:
+    """The cutting table's X axis (frictionless, 10 nm counts) 10 mm before an END-1 moved to
+    100 mm, jogging into it at Ixx22 = 10 mm/s."""
+    rig = Rig.from_toml(CUT_TOML, "X", start=9_000_000.0, **{
+        "geometry.limit_plus": 10_000_000.0, "geometry.limit_wiring": wiring})
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_PLUS)
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.LIMIT_PLUS, 1.5)
+    return rig
+
+
+def test_a_limit_wired_to_the_pmac_aborts_at_ixx15_holds_and_allows_moving_away_only():
+    """[manual: Turbo PMAC User Manual, hardware overtravel limits] The commanded trajectory
+    stops at Ixx15 (limit_decel 10 counts/ms^2: 1e6^2 / 2e7 = 50,000 counts past the switch,
+    plus <= 1 scan of travel), the loop stays closed and holds; a jog or a move further in
+    is refused (error LIMIT, not latched), a jog away runs."""
+    rig = limit_rig("pmac")
+    ax = rig.axes["X"]
+    rig.run(0.5)
+    over = ax.position - 10_000_000
+    assert 50_000 - 1 <= over <= 50_000 + 1_000 + 1
+    st = rig.word("X", Word.STATUS)
+    assert st & St.ENABLED and st & St.LIMIT_PLUS and not st & (St.BUSY | St.FE_FATAL | St.DONE)
+    assert rig.word("X", Word.ERROR) == Err.LIMIT and ax.fe_max < 1000
+    held = ax.position
+    rig.run(1.0)  # JOG+ still held: nothing moves
+    assert abs(ax.position - held) < 1.0 and abs(ax.v) < 1e-3
+    rig.command("X", Ctl.ENABLE)
+    rig.pulse("X", Ctl.RESET)
+    assert rig.word("X", Word.ERROR) == Err.NONE
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_PLUS)  # a new jog into the limit: refused
+    rig.run(0.3)
+    rig.command("X", Ctl.ENABLE)
+    rig.pulse("X", Ctl.EXECUTE, target=round(ax.commanded) + 100_000, speed=1_000_000)
+    rig.run(0.3)
+    assert abs(ax.position - held) < 1.0 and rig.word("X", Word.ERROR) == Err.LIMIT
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)  # away from it
+    rig.run(0.3)
+    assert ax.position < held - 100_000 and not rig.word("X", Word.STATUS) & St.LIMIT_PLUS
+
+
+def test_a_minus_limit_wired_to_the_pmac_stops_minus_moves_only():
+    rig = Rig.from_toml(CUT_TOML, "X", start=9_000_000.0, **{
+        "geometry.limit_minus": 8_000_000.0, "geometry.limit_wiring": "pmac"})
+    ax = rig.axes["X"]
+    rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+    assert rig.run_until(lambda: rig.word("X", Word.STATUS) & St.LIMIT_MINUS, 1.5)
+    rig.run(0.5)
+    assert 50_000 - 1 <= 8_000_000 - ax.position <= 50_000 + 1_000 + 1
+    assert ax.closed and rig.word("X", Word.ERROR) == Err.LIMIT
+    held = ax.position
+    rig.command("X", Ctl.ENABLE)
+    rig.pulse("X", Ctl.EXECUTE, target=round(ax.commanded) - 100_000, speed=1_000_000)
+    rig.run(0.3)
+    assert abs(ax.position - held) < 1.0
+    rig.pulse("X", Ctl.EXECUTE, target=round(ax.commanded) + 200_000, speed=1_000_000)
+    rig.run(0.5)
+    assert ax.position == pytest.approx(held + 200_000, abs=5)
+
+
+def test_a_drive_quick_stop_on_its_end_switch_ends_at_standstill():
+    """Wired to the drive (the servo table's wiring) the END switch stops the carriage at the
+    current limit and the PMAC's fatal error follows; the quick stop used to reverse the
+    velocity, and the frictionless carriage then drifted back for ever once killed."""
+    rig = limit_rig("drive")
+    ax = rig.axes["X"]
+    assert rig.run_until(lambda: rig.word("X", Word.ERROR), 2.0)
+    assert rig.word("X", Word.ERROR) == Err.LIMIT and not ax.closed
+    stopped = ax.position
+    rig.run(1.0)
+    assert ax.position == stopped >= 10_000_000 and ax.v == 0.0
+
+
+# -- the generated scan of the common case (issue 26) -----------------------------------------
+AXES = [("cutting_table.toml", 12_340_000.0),  # ideal encoder, frictionless, a = 0
+        ("servo_table.toml", -50_000.0),  # friction, 12-bit DAC, integrator, trace
+        ("mass_tuning.toml", -300_000.0)]  # viscous term, load table, current limit
+
+
+def scenario(toml: str, start: float, tweak=None) -> list:
+    """Every scan's status words, state and last trace row: enable, a move, a jog, rest."""
+    rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
+                        require_home=False, load_mass_word=None)
+    ax, b = rig.axes["X"], rig.base("X")
+    if tweak is not None:
+        tweak(ax)
+    seen = []
+    for scan in range(1200):
+        if scan == 1:
+            rig.command("X", Ctl.ENABLE)
+        elif scan == 300:
+            rig.command("X", Ctl.ENABLE | Ctl.EXECUTE, target=round(start) + 40_000,
+                        speed=200_000)
+        elif scan == 302:
+            rig.command("X", Ctl.ENABLE)
+        elif scan == 500:
+            rig.command("X", Ctl.ENABLE | Ctl.JOG_MINUS)
+        elif scan == 700:
+            rig.command("X", Ctl.ENABLE)
+        rig.step()
+        st = ax.state()
+        for cache in ("trace", "_rest_words", "_st_slow"):  # (the scan's own caches)
+            st.pop(cache)
+        seen.append((bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)]), st,
+                     ax.trace[-1] if ax.trace else None))
+    return seen
+
+
+@pytest.mark.parametrize("toml, start", AXES)
+def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml, start):
+    """Every scan's status words, state and trace rows with the generated scan of the
+    closed loop (moving, or at a fixed point) equal those of the generic update."""
+    from softplc.devices.axis.runner import LoopRunner
+
+    made, used = LoopRunner.scan_function, []
+
+    def counted(self):  # (how many scans the generated scan did)
+        fn = made(self)
+        return None if fn is None else lambda *a: used.append(fn(*a)) or used[-1]
+
+    monkeypatch.setattr(LoopRunner, "scan_function", counted)
+    fast = scenario(toml, start)
+    assert used.count(True) > 800  # (the rest: commands, the moves' ends, the probes)
+    monkeypatch.setattr(LoopRunner, "scan_function", lambda self: None)
+    generic = scenario(toml, start)
+    for i, (f, g) in enumerate(zip(fast, generic, strict=True)):
+        assert f == g, f"scan {i}"
+
+
+@pytest.mark.parametrize("toml, start", AXES)
+def test_the_loops_folded_constants_change_no_bit(toml, start):
+    """The loop without the folds that rest on u never being -0.0 (zero gains, no
+    friction, no amplifier offset, no friction feed-forward) gives the same bits."""
+    from softplc.devices.axis import loop
+
+    def unfolded(ax) -> None:
+        r = ax.runner
+        r._flags.update(fc0=False, w_is_u=False, ff0=False, ca=True, av=True)
+        c, off = ax.coef, ax.gains.offset
+        r._values["law"] = loop.Raw(f"{c.fe!r} * fe + {c.cv!r} * cv + {c.ca!r} * ca + "
+                                    f"{c.ie!r} * ie - {c.av!r} * av + {off!r}")
+        r._loops.clear()
+        ax._scan = r.scan_function()
+
+    assert scenario(toml, start) == scenario(toml, start, unfolded)

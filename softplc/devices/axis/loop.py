@@ -14,10 +14,14 @@ when the flag holds, `!flag` only when it does not (`?a&!b`, `?a|b` combine flag
 round-trips exactly). Only code that cannot change a result is dropped: a branch whose
 test is false for the configuration (no DAC quantisation, no current limit, no load
 table, no trace) or the drive state of the scan (loop closed, open loop, killed, homing
-search, faulted), or `- 0.0` and `1.0 *` (exact identities). What remains is the same operations in
-the same order, so the results are bit for bit those of one generic loop (checked against
-the previous generic implementation: identical traces and words). A function is compiled
-once per distinct source and cached.
+search, faulted), or `- 0.0` and `1.0 *` (exact identities), and where u can never be
+-0.0 (the law's offset Ixx29 is not -0.0: every value u takes is then +0.0 or non-zero)
+`+ 0.0` on u, a law term whose gain is 0 (0 x a finite term is +-0.0, which the sum's
+last `+ Ixx29` cannot tell from nothing), the friction's branches with no friction.
+What remains is the same operations in the same order, so the results are bit for bit
+those of one generic loop (checked against the previous generic implementation: identical
+traces and words; tests/test_servo_axis.py compares the generated scan with the generic
+update). A function is compiled once per distinct source and cached.
 """
 
 from __future__ import annotations
@@ -27,27 +31,41 @@ from collections.abc import Callable
 from string import Template
 from typing import Any
 
-_SOURCE = """\
-def cycles(dev, n):
-    x, v, k = dev.x, dev.v, dev.k
-    cp, cpp, cvp, app, ie = dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie
+from . import status
+
+_HEAD = """\
+    x = dev.x
+    v = dev.v
+    k = dev.k
+    cp = dev._cp
+    cpp = dev._cpp
+    cvp = dev._cvp
+    app = dev._app
+    ie = dev._ie
     clamped = dev._clamped
-    u, w, fe, fe_max = dev.u, dev.w, dev.fe, dev.fe_max
-?closed    traj, k0, tail_v = dev._traj, dev._k0, dev._tail_v
+    u = dev.u
+    w = dev.w
+    fe = dev.fe
+    fe_max = dev.fe_max
+?closed    traj = dev._traj
+?closed    k0 = dev._k0
+?closed    tail_v = dev._tail_v
 ?closed    ntraj = len(traj)
-?closed    last = traj[-1] if traj else cp
 ?trace    rec = dev._rec
 ?gather    gat = dev.gather.append
 ?trace|gather    origin = dev.origin
-?open_loop    ol_u, ol_end = dev._ol_u, dev._ol_end
+?open_loop    ol_u = dev._ol_u
+?open_loop    ol_end = dev._ol_end
 ?special    special = dev.runner.special
-    step, zoh = _step, dev.zoh
 ?table    table = dev.opt.plant.load_table
     warn = False
     event = None
     stop = k + n
+"""
+_LOOP = """\
     for k in range(k + 1, stop + 1):
-?ready        w = u + $uoff
+?ready&!w_is_u        w = u + $uoff
+?ready&w_is_u        w = u
 !ready        w = 0.0
 ?up        if w > $up:
 ?up            w = $up
@@ -67,20 +85,22 @@ def cycles(dev, n):
 !special        if not $lo < x < $hi:
 !special            x, v = dev.runner.special(x, v, wl)
 !special        else:
-!special            if v > 0:
-!special                we = wl - $fc
-!special            elif v < 0:
-!special                we = wl + $fc
-!special            elif $nfc <= wl <= $fc:
-!special                we = None
-!special            else:
-!special                we = wl - $fc if wl > 0 else wl + $fc
-!special            if we is not None:
-!special                kw = $K * we
+!special&!fc0            if v > 0:
+!special&!fc0                we = wl - $fc
+!special&!fc0            elif v < 0:
+!special&!fc0                we = wl + $fc
+!special&!fc0            elif $nfc <= wl <= $fc:
+!special&!fc0                we = None
+!special&!fc0            else:
+!special&!fc0                we = wl - $fc if wl > 0 else wl + $fc
+!special&!fc0            if we is not None:
+!special&!fc0                kw = $K * we
+!special&fc0            if v != 0.0 or wl != 0.0:
+!special&fc0                kw = $K * wl
 !special&!phi1                v1 = $phi * v + kw * $g1
 !special&phi1                v1 = v + kw * $g1
 !special                if v * v1 < 0:
-!special                    x, v = step(x, v, wl, $K, $a, $fc, $T, zoh)
+!special                    x, v = _step(x, v, wl, $K, $a, $fc, $T, dev.zoh)
 !special                else:
 !special                    x += v * $g1 + kw * $g2
 !special                    v = v1
@@ -92,22 +112,22 @@ def cycles(dev, n):
 !ideal        ap = floor(x) - $enc0
 ?closed        if ntraj:
 ?closed            j = k - k0
-?closed            cp = traj[j] if j < ntraj else last + tail_v * (j - ntraj + 1)
+?closed            cp = traj[j] if j < ntraj else traj[-1] + tail_v * (j - ntraj + 1)
 ?closed        elif tail_v:
 ?closed            cp += tail_v
 ?closed        fe = cp - ap
 ?closed        cv = cp - cpp
-?closed        ca = cv - cvp
+?closed&use_ca        ca = cv - cvp
 ?closed&int_always        if not clamped:
 ?closed&!int_always        if cv == 0 and not clamped:
 ?closed            ie += fe
 ?closed&ilim            ie = $ilim if ie > $ilim else ($nilim if ie < $nilim else ie)
-?closed        av = ap - app
-?closed        u = $cfe * fe + $ccv * cv + $cca * ca + $cie * ie - $cav * av + $off
-?closed        if cv > 0:
-?closed            u += $ff
-?closed        elif cv < 0:
-?closed            u -= $ff
+?closed&use_av        av = ap - app
+?closed        u = $law
+?closed&!ff0        if cv > 0:
+?closed&!ff0            u += $ff
+?closed&!ff0        elif cv < 0:
+?closed&!ff0            u -= $ff
 ?closed        clamped = True
 ?closed        if u > $lim:
 ?closed            u = $lim
@@ -137,16 +157,100 @@ def cycles(dev, n):
 ?gather        gat((k, cp - origin, ap - origin, u, $cie * ie))
         if event is not None:
             break
-    dev.x, dev.v, dev.k = x, v, k
-    dev._cp, dev._cpp, dev._cvp, dev._app, dev._ie = cp, cpp, cvp, app, ie
+"""
+_STORE = """\
+    dev.x = x
+    dev.v = v
+    dev.k = k
+    dev._cp = cp
+    dev._cpp = cpp
+    dev._cvp = cvp
+    dev._app = app
+    dev._ie = ie
     dev._clamped = clamped
-?closed&capture    dev._ca, dev._av = ca, av
-    dev.u, dev.w, dev.fe, dev.fe_max = u, w, fe, fe_max
-?closed&warn_on    dev.warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
-!closed|!warn_on    dev.warn = False
+?closed&capture    dev._ca = ca
+?closed&capture    dev._av = av
+    dev.u = u
+    dev.w = w
+    dev.fe = fe
+    dev.fe_max = fe_max
+?closed&warn_on    warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
+!closed|!warn_on    warn = False
+    dev.warn = warn
+"""
+_SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
     if event is not None:
         dev.runner.on_event(event)
     return stop - k
+"""
+
+# A whole scan of the device (ServoAxis.update) in its common cases, the loop closed and
+# moving (rendered with the flags of that state only), or held at a fixed point of the
+# loop (LoopRunner): the update's checks, the cycles above, the status words
+# (status.SOURCE) from the locals; at the fixed point the words of the last scan again,
+# with the new servo cycle count (so a state changed by assignment from outside the
+# device's methods shows in the words at its next change: a command, a move, a fault).
+# It returns False, having done nothing, when the case
+# does not hold (a command word changed, a fault, an I-variable change waiting...);
+# whatever is rarer after the cycles (an event, the end of a trajectory, a limit wired
+# to the PMAC) goes to the device's own code.
+_SCAN = """\
+def scan(dev, t, dt):
+    if dev._w[$ctl_i] != dev._ctl_prev or not dev.closed or dev.fault != "none" \\
+            or dev.homing == 1 or dev._watch and not dev._ivars_clean():
+        return False
+    n = floor(round(t * 1e6) * $hz_us + 1e-9) - dev.k
+    if n <= 0:
+        return False
+    if dev._fixed:  # at the fixed point, still since the last scan: only the count moves
+        x = dev.x
+        if dev._creep or dev._active or x != dev._x_prev_scan \\
+                or not $plim_lo < x < $plim_hi or not dt > 0:
+            return False
+?trace        dev.runner._repeat(n)
+?trace        if len(dev.trace) >= $trim_at:
+?trace            dev.runner.trim()
+?trace        k = dev.k
+!trace        k = dev.k = dev.k + n
+        words = dev._rest_words  # the status words but TICKS, unchanged
+        if words is None:  # (the first such scan: written in full, and kept)
+            dev._finish(dt)
+            dev._rest_words = bytes(dev._buf[$status_at:$status_end])
+        else:
+            buf = dev._buf
+            buf[$status_at:$status_end] = words
+            _pack_ticks(buf, $ticks_at, k & 0x7FFFFFFF)
+        return True
+    if dev.v == 0.0:
+        return False
+""" + _HEAD + _LOOP + _STORE + """\
+    if event is not None:
+        dev.runner.on_event(event)
+        n = stop - k
+        while n > 0:
+            n = dev._cycles(n)
+?trace        if len(dev.trace) >= $trim_at:
+?trace            dev.runner.trim()
+        dev._finish(dt)
+        return True
+?trace    if len(dev.trace) >= $trim_at:
+?trace        dev.runner.trim()
+    slow = dev._st_slow  # (the bits no tick of this scan changed: status.SLOW)
+    if not $plim_lo < x < $plim_hi or dev._active and not tail_v and k - k0 + 1 >= ntraj \\
+            or slow < 0:
+        dev._finish(dt)
+        return True
+    if dt > 0:
+        vel = dev._vel = (x - dev._x_prev_scan) / dt
+    else:
+        vel = dev._vel
+    dev._x_prev_scan = x
+    closed = True
+    err = dev.error
+    origin = dev.origin
+    in_pos, lp, lm, cur_scale, buf, at = $in_pos, $lp, $lm, $cur_scale, dev._buf, $status_at
+$status
+    return True
 """
 _CACHE: dict[str, Callable[..., Any]] = {}
 
@@ -162,10 +266,30 @@ def _keep(tags: str, flags: dict[str, bool]) -> bool:
     return True
 
 
-def render(values: dict[str, Any], flags: dict[str, bool]) -> str:
-    """The cycles function's source for these constants and flags."""
+class Raw(str):
+    """A value written into the source as it is (an expression), not as its repr."""
+
+    def __repr__(self) -> str:
+        return str(self)
+
+
+def law(c: Any, off: float) -> tuple[Raw, bool]:
+    """The law's expression (the coefficients `c` as literals, Ixx29 last) with the terms
+    whose gain is 0 left out where that cannot change u (off is not -0.0), and whether u
+    then never is -0.0 (so `u + 0.0` is u)."""
+    no_neg_zero = not (off == 0 and math.copysign(1.0, off) < 0)
+    terms = [(c.fe, "+", "fe"), (c.cv, "+", "cv"), (c.ca, "+", "ca"), (c.ie, "+", "ie"),
+             (c.av, "-", "av")]
+    kept = [t for t in terms if t[0] != 0.0 or not no_neg_zero] or [(0.0, "+", "fe")]
+    expr = " ".join(f"{op} {g!r} * {v}" for g, op, v in kept)
+    expr = expr[2:] if expr.startswith("+ ") else expr
+    return Raw(f"{expr} + {off!r}"), no_neg_zero
+
+
+def render(values: dict[str, Any], flags: dict[str, bool], source: str = _SOURCE) -> str:
+    """The cycles function's source (or `scan_source`'s) for these constants and flags."""
     out = []
-    for line in _SOURCE.splitlines():
+    for line in source.splitlines():
         if line[:1] in ("?", "!"):
             tags = line.split(" ", 1)[0]
             if not _keep(tags[1:] if tags[0] == "?" else tags, flags):
@@ -176,12 +300,17 @@ def render(values: dict[str, Any], flags: dict[str, bool]) -> str:
         {k: repr(v) for k, v in values.items()})
 
 
-def compile_cycles(source: str, interp: Callable[..., float], step: Callable[..., Any]
-                   ) -> Callable[..., Any]:
+def scan_source() -> str:
+    """The scan template, the status words' description in it ($status)."""
+    return _SCAN.replace("$status\n", status.indent(status.FAST + status.PACK))
+
+
+def compile_cycles(source: str, interp: Callable[..., float], step: Callable[..., Any],
+                   name: str = "cycles") -> Callable[..., Any]:
     fn = _CACHE.get(source)
     if fn is None:
-        ns: dict[str, Any] = {"floor": math.floor, "_interp": interp, "_step": step,
-                              "inf": math.inf}
+        ns: dict[str, Any] = {**status.NAMESPACE, "floor": math.floor, "_interp": interp,
+                              "_step": step, "inf": math.inf}
         exec(compile(source, "<servo loop>", "exec"), ns)  # noqa: S102 (our own template)
-        fn = _CACHE[source] = ns["cycles"]
+        fn = _CACHE[source] = ns[name]
     return fn

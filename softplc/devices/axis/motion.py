@@ -67,6 +67,37 @@ class Motion:
         elif fall & (Ctl.JOG_PLUS | Ctl.JOG_MINUS) or (rise & jog and jog != rise & jog):
             self.stop()
 
+    # -- limits wired to the PMAC (geometry.limit_wiring = "pmac"; Ixx24 bit 17 = 0) --------
+    # [manual: Turbo PMAC User Manual, "Making your Application Safe", hardware overtravel
+    # limits] On a made limit the PMAC brings the commanded trajectory to a stop at the
+    # Ixx15 rate (as an abort), the loop stays closed and holds; the limit is direction
+    # sensitive: the + limit stops positive moves only, so moving away is allowed. It is
+    # checked here once per scan (<= 1 ms late) [choice]; the servo output is not clamped
+    # (holding needs both signs) [choice]. Error code LIMIT, not latched, no DONE.
+    def limit_stop(self) -> None:
+        """The carriage is on a limit: abort a commanded motion going into it."""
+        a = self.a
+        if a._limit_stop or not a.closed:
+            return
+        into = 1.0 if a.x >= a._lp else -1.0
+        cv = a._cvp * a.loop_hz  # commanded velocity of the last tick, counts/s
+        if cv * into <= 0 and a._tail_v * into <= 0:
+            return
+        if a.homing == 1:
+            a.homing = 0
+        decel = a.opt.geometry.limit_decel * 1e6  # counts/ms^2 -> counts/s^2
+        self.follow(tj.velocity_change(a._cp, cv, 0.0, tj.RampRule(abs(cv) / decel, 0.0)))
+        a._limit_stop = True
+        a.error = Err.LIMIT
+
+    def _into_limit(self, direction: float) -> bool:
+        """A command moving `direction` (its sign) into a made "pmac" limit: refused."""
+        a = self.a
+        if a._pmac_lim and (direction > 0 and a.x >= a._lp or direction < 0 and a.x <= a._lm):
+            a.error = Err.LIMIT
+            return True
+        return False
+
     def close_loop(self) -> None:
         """PMAC `J/`: close the loop holding the present actual position."""
         a = self.a
@@ -77,6 +108,7 @@ class Motion:
         a._app = ap
         a._ie = 0.0
         a._traj, a._tail_v = (), 0.0
+        a._limit_stop = False
 
     def rule(self, acc_ms: int = 0, s_ms: int = 0, trapezoid: bool = False) -> tj.RampRule:
         g = self.a.gains
@@ -106,6 +138,8 @@ class Motion:
         a.done = False
         a.fe_max = 0.0
         if mode == Mode.OPEN_LOOP:
+            if self._into_limit(mw.w[b + Word.OPEN_LOOP]):
+                return
             a.closed, a.open_loop = False, True
             a._ol_u = mw.w[b + Word.OPEN_LOOP] / 10000 * a.gains.output_limit
             a._ol_end = a.k + math.ceil(acc_ms / 1000 * a.loop_hz) if acc_ms else 0
@@ -114,6 +148,8 @@ class Motion:
         speed = mw.get_d(b + Word.SPEED) or a.gains.jog_speed * 1000
         if speed <= 0:
             a.error = Err.BAD_COMMAND
+            return
+        if self._into_limit(target - a._cp):
             return
         if mode == Mode.STEP:  # the commanded position jumps at the next cycle
             self.follow(tj.Profile(float(target), 0.0), end=float(target))
@@ -136,6 +172,7 @@ class Motion:
             a.error = Err.BAD_COMMAND
             prof, end, v_end = tj.Profile(a._cp, 0.0), a._cp, 0.0
         traj = tj.sample(prof, a.T)
+        a._limit_stop = False
         a._tail_v = v_end * a.T
         a._active = True
         if traj and end is not None:
@@ -162,7 +199,7 @@ class Motion:
 
     def jog(self, sign: int) -> None:
         a = self.a
-        if self._refuse_unhomed() or a.homing:
+        if self._refuse_unhomed() or a.homing or self._into_limit(sign):
             return
         a.done = False
         v1 = sign * a.gains.jog_speed * 1000
@@ -172,6 +209,8 @@ class Motion:
         a = self.a
         if self.busy():
             a.error = Err.BAD_COMMAND
+            return
+        if self._into_limit(a.gains.home_speed):
             return
         a.homed = a.done = False
         a.fe_max = 0.0
@@ -203,5 +242,5 @@ class Motion:
         elif a.homing == 3:
             a.homing = 0
             a.done = True
-        elif a.closed:
+        elif a.closed and not a._limit_stop:
             a.done = True

@@ -26,6 +26,11 @@
     limit_minus = -217088.0     # END-0
     hard_stop_plus = 6144.0     # rubber end stops: the carriage stops dead there
     hard_stop_minus = -219136.0
+    limit_wiring = "drive"      # where END-0/END-1 are wired: "drive" (it refuses torque
+                                # that way; the PMAC keeps commanding: fatal FE, the servo
+                                # table) or "pmac" (its limit inputs, Ixx24 bit 17 = 0: an
+                                # abort at limit_decel, the loop holds, moves away only)
+    limit_decel = 0.25          # Ixx15: deceleration on a "pmac" limit, counts/ms^2
     [devices.NAME.plant]        # x'' = K sat(u + amp_offset) - a x' - K coulomb sgn(x') - K load
     K = 11157.2                 # counts/s^2 per DAC bit (required)
     a = 0.0                     # viscous term B/J, 1/s
@@ -85,6 +90,8 @@ class GeometryOptions(_Strict):
     limit_minus: float | None = None
     hard_stop_plus: float | None = None
     hard_stop_minus: float | None = None
+    limit_wiring: Literal["drive", "pmac"] = "drive"
+    limit_decel: float = Field(0.25, gt=0, allow_inf_nan=False)  # Ixx15, counts/ms^2
 
 
 class ServoAxisOptions(_Strict):

@@ -70,10 +70,11 @@ class ZOH:
 
 
 def step(x: float, v: float, w: float, K: float, a: float, fc: float, T: float,
-         zoh: ZOH | None = None) -> tuple[float, float]:
+         zoh: ZOH | None = None, hold: bool = False) -> tuple[float, float]:
     """Exact state (x, v) after holding the net command w (bits) for T seconds, with
     Coulomb friction fc (bits) and stiction. The servo loop inlines the common case (no
-    zero crossing) and calls this for the rest."""
+    zero crossing) and calls this for the rest. `hold`: a braking drive that holds the
+    carriage once the velocity reaches 0 within the period (a quick stop)."""
     z = zoh or ZOH.of(a, T)
     if v == 0.0:
         if -fc <= w <= fc:
@@ -95,6 +96,6 @@ def step(x: float, v: float, w: float, K: float, a: float, fc: float, T: float,
     z0 = ZOH.of(a, t0)
     x = x + v * z0.g1 + kw * z0.g2
     rest = T - t0
-    if rest <= 0.0 or -fc <= w <= fc:
+    if hold or rest <= 0.0 or -fc <= w <= fc:
         return x, 0.0
     return step(x, 0.0, w, K, a, fc, rest)

@@ -10,7 +10,7 @@ import struct
 from itertools import repeat
 from typing import TYPE_CHECKING, Any
 
-from . import loop
+from . import loop, status
 from .options import Err
 from .plant import ZOH, step
 
@@ -49,6 +49,7 @@ class LoopRunner:
             enc0=o.start if a._ideal else a._enc0, lo=a._lo, hi=a._hi,
             hlo=g.home_switch[0], hhi=g.home_switch[1], iper=g.index_period,
             ioff=g.index_offset)
+        values["law"], no_neg_zero = loop.law(c, gn.offset)
         if len(table) == 2:
             (x0, y0), (x1, y1) = table
             values.update(t_x0=x0, t_y0=y0, t_x1=x1, t_y1=y1, t_dy=y1 - y0, t_dx=x1 - x0)
@@ -58,11 +59,34 @@ class LoopRunner:
             check=min(warn, fatal) != inf, warn_on=warn != inf, fatal_on=fatal != inf,
             dac=bool(a._dac_q), trace=a._rec is not None, gather=a.gather is not None,
             up=a.u_peak != inf, load=load != 0, phi1=z.phi == 1.0, table2=len(table) == 2,
-            table=len(table) not in (0, 2))
+            table=len(table) not in (0, 2), fc0=p.coulomb == 0,
+            w_is_u=p.amp_offset == 0 and (no_neg_zero or math.copysign(1, p.amp_offset) < 0),
+            ff0=gn.friction_ff == 0 and no_neg_zero,
+            ca=" ca" in values["law"], av=" av" in values["law"])
         self._loops: dict[tuple[bool, ...], Any] = {}
         a._warn_lim = warn
         a._in_pos = gn.in_position / 16
         a._fixed = False
+        a._scan = self.scan_function()
+
+    def scan_function(self) -> Any:
+        """The generated scan of the common case (`loop._SCAN`), or None where it does not
+        apply: before bind, a variant's own cycles (feed_axis), a drive wired to I/O, a
+        load mass word, a gather."""
+        a = self.a
+        if (getattr(a, "_mem", None) is None or type(self).cycles is not LoopRunner.cycles
+                or a._wired or a._mass_word is not None or a.gather is not None):
+            return None
+        values = dict(self._values, ctl_i=a._ctl_i, hz_us=a._hz_us, trim_at=a._trim_at,
+                      plim_lo=a._plo, plim_hi=a._phi, in_pos=a._in_pos, lp=a._lp, lm=a._lm,
+                      cur_scale=a._cur_scale, status_at=a._status_at,
+                      ticks_at=a._status_at + status.TICKS_AT,
+                      status_end=a._status_at + status.END_AT)
+        flags = dict(self._flags, closed=True, open_loop=False, killed=False, search=False,
+                     special=False, ready=True, capture=False, use_ca=self._flags["ca"],
+                     use_av=self._flags["av"])  # (cycles' key of the case)
+        return loop.compile_cycles(loop.render(values, flags, loop.scan_source()), _interp,
+                                   step, "scan")
 
     def run(self, due: int) -> None:
         """The servo cycles due by the scan's time (the cycle count `due`). (The device's
@@ -210,7 +234,9 @@ class LoopRunner:
         if fn is None:
             flags = dict(self._flags, closed=closed, open_loop=open_loop,
                          killed=not (closed or open_loop), search=key[2],
-                         special=not ready or key[4], ready=ready, capture=capture)
+                         special=not ready or key[4], ready=ready, capture=capture,
+                         use_ca=self._flags["ca"] or capture,
+                         use_av=self._flags["av"] or capture)
             fn = self._loops[key] = loop.compile_cycles(
                 loop.render(self._values, flags), _interp, step)
         return fn(a, n)
@@ -239,11 +265,13 @@ class LoopRunner:
             w = -brake if v > 0 else (brake if v < 0 else 0.0)
             x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
             return x1, (0.0 if v1 * v <= 0 else v1)
-        if x >= a._lp and w > 0 or x <= a._lm and w < 0:
+        stopping = False
+        if not a._pmac_lim and (x >= a._lp and w > 0 or x <= a._lm and w < 0):
             # END switch: no torque further that way; quick stop if still moving that way
-            moving_on = v > 0 if x >= a._lp else v < 0
-            w = (-brake if v > 0 else brake) if moving_on else 0.0
-        x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
+            stopping = v > 0 if x >= a._lp else v < 0
+            w = (-brake if v > 0 else brake) if stopping else 0.0
+        # (a quick stop ends at standstill, never reverses: `hold`)
+        x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh, hold=stopping)
         if x1 > a._hp:
             return a._hp, 0.0
         if x1 < a._hm:
