@@ -481,6 +481,7 @@ def compile_program(program: A.Program, resolved: Resolved, env: dict[str, Any],
         defs += c.render(fn, Names.subroutine(n))
     fn = c.function("main", program.main, base_ctx)
     defs += c.render(fn, Names.MAIN)
+    fn.lines.clear()  # not needed now: the memory goes back before compile() below
     if c.diags:
         uniq = sorted(set(c.diags), key=lambda d: (d.line, d.column, d.message))
         raise CompileError(uniq)

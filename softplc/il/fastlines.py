@@ -14,6 +14,7 @@ checks that both paths give the same AST, positions and diagnostics.
 from __future__ import annotations
 
 import re
+import sys
 from typing import Any
 
 from lark import Lark
@@ -55,7 +56,7 @@ class FastLines:
                 return tx.bool_instr_node(kw, A.Operand(ref, Pos(line, col + 1, line, end + 1)),
                                           pos)
             if s is not None:
-                return A.Store(kw.upper(), ref, pos)
+                return A.Store(sys.intern(kw.upper()), ref, pos)  # one string for all
             return tx.set_reset_node(kw, ref, pos)
         if p is not None:
             return A.ParenClose(self._span(m, "p", "p", line))

@@ -104,6 +104,7 @@ def _pos(tok: Token | object) -> A.Pos:
 
 
 _LOGIC_OP = re.compile(r"AND|OR|XOR")
+_BOOL_WORDS: dict[str, tuple[str, str]] = {}  # LD, andn, ... as written -> (op, modifier)
 
 
 @dataclass(frozen=True)
@@ -160,14 +161,17 @@ class _ToAST(Transformer):
     # Nodes built from plain text, shared with the fast path (il/fastlines.py)
     @staticmethod
     def bool_instr_node(kw: str, operand: A.BoolOperand, pos: A.Pos) -> A.BoolInstr:
-        word = kw.upper()
-        op = "LD" if word.startswith("LD") else _LOGIC_OP.match(word).group(0)
-        return A.BoolInstr(op, word[len(op):], operand, pos)
+        split = _BOOL_WORDS.get(kw)
+        if split is None:  # op and modifier strings shared by every node (memory)
+            word = kw.upper()
+            op = "LD" if word.startswith("LD") else _LOGIC_OP.match(word).group(0)
+            split = _BOOL_WORDS[kw] = sys.intern(op), sys.intern(word[len(op):])
+        return A.BoolInstr(*split, operand, pos)
 
     @staticmethod
     def paren_open_node(kw: str, operand: A.BoolOperand | None, pos: A.Pos) -> A.ParenOpen:
         op, mod = kw.upper().replace(" ", "").replace("\t", "").split("(")
-        return A.ParenOpen(op, mod, operand, pos)
+        return A.ParenOpen(sys.intern(op), mod, operand, pos)
 
     @staticmethod
     def set_reset_node(kw: str, ref: Ref | None, pos: A.Pos) -> A.Instruction:
@@ -270,7 +274,7 @@ class _ToAST(Transformer):
     @v_args(meta=True)
     def store(self, meta, items):
         kw, target = items
-        return A.Store(str(kw).upper(), self._ref(target), _pos(meta))
+        return A.Store(sys.intern(str(kw).upper()), self._ref(target), _pos(meta))
 
     @v_args(meta=True)
     def set_reset(self, meta, items):
@@ -559,11 +563,14 @@ def parse_lines(text: str, file: str = "<string>", symbols: SymbolTable | None =
     items = []
     for start, end in _chunks(lp.lines, lp.inside):
         items += lp.parse_range(start, end)
+        lp.done.clear()  # a chunk's recovery never goes back to an earlier chunk
         if lp.lost:
             break
     diags = sorted(lp.diags + lp.tx.diags, key=lambda d: (d.line, d.column))
     if lp.lost:
         return [], [], diags
+    if "(*" not in text:
+        return items, [], diags
     work = [("" if n + 1 in lp.bad else ln) for n, ln in enumerate(lp.lines)]
     src = "\n".join(work) + "\n"
     starts = list(itertools.accumulate((len(ln) + 1 for ln in work), initial=0))
