@@ -37,6 +37,7 @@ MAX_EXPR = 2000  # characters of a fused expression before it is materialised
 # longer than twice PART_LINES is cut at rung boundaries into parts it calls in turn
 # (about 60 ns a call a scan, against the scan's hundreds of microseconds at that size).
 PART_LINES = 1500
+_ENDS = (A.End, A.Return)  # a rung with one may end its function
 
 __all__ = ["CompiledProgram", "Compiler", "Watchdog", "compile_program"]
 
@@ -397,7 +398,8 @@ class Compiler(ValueCompiler):
                 self.indent = 3
             for r in block:
                 marker = next((i for i in r.instructions if isinstance(i, A.Grafcet)
-                               and i.op in ("=*=", "-*-", "POST")), None)
+                               and i.op in ("=*=", "-*-", "POST")), None) \
+                    if ctx.get("grafcet") else None  # any Grafcet instruction sets it
                 if marker is not None:
                     if marker.op == "POST" or step is None and name == "main":
                         if step is None:
@@ -422,7 +424,7 @@ class Compiler(ValueCompiler):
                     continue
                 if cut:
                     cuts.append(len(fn.lines))
-                    cut = not any(isinstance(i, A.End | A.Return) for i in r.instructions)
+                    cut = not any(isinstance(i, _ENDS) for i in r.instructions)
                 self.rung(r, dict(ctx, step=step))
             if dispatch:
                 self.indent = 3
