@@ -39,7 +39,8 @@ def test_engine_benchmark_tiny(tmp_path: Path) -> None:
     res = bench_engine.run(tiny=True, programs_dir=tmp_path)
     b = res["boolean"]
     assert b["instructions"] == 40
-    for key in ("main_us", "scan_us", "main_ns_per_instr", "scan_ns_per_instr"):
+    for key in ("main_us", "scan_us", "main_ns_per_instr", "scan_ns_per_instr",
+                "floor_ns_per_instr"):
         assert _positive(b[key]), key
     assert res["mixed40"]["rungs"] == 40 and _positive(res["mixed40"]["scan_us"])
     by_name = {p["program"]: p for p in res["programs"]}
@@ -48,7 +49,7 @@ def test_engine_benchmark_tiny(tmp_path: Path) -> None:
     assert "error" in by_name["bad.il"] and "main_us" not in by_name["bad.il"]
     text = bench_engine.report(res)
     assert "bad.il" in text and "error" in text
-    assert len(bench_engine.verdicts(res)) == 3
+    assert len(bench_engine.verdicts(res)) == 4
 
 
 def test_generated_programs_have_the_announced_size() -> None:
