@@ -147,3 +147,42 @@ def test_fast_path_is_used(monkeypatch: pytest.MonkeyPatch) -> None:
     assert calls == []
     parser.parse("LD %M0\n[ %MW1 := 2 + 3 * 4 ]\nST %Q0.0\n")
     assert calls == ["\n[ %MW1 := 2 + 3 * 4 ]\n\n"]  # the others blanked: line numbers hold
+
+
+def test_fast_path_agrees_with_lark_on_random_block_lines(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Comparison and operation blocks made of random pieces, valid or not (spacing,
+    case, operands the fast path leaves to Lark): the same AST, positions, diagnostics."""
+    import random
+
+    rnd = random.Random(26)
+    atoms = ["%MW1", "%MW12", "%MW1:X3", "%MW1[%MW2]", "%KW3", "%MD4", "%MF6", "%M5",
+             "%MW9999", "7", "0", "16#1F", "1.5", "-3", "%SW30", "%IW0.1", "x"]
+    ops = ["+", "-", "*", "/", "REM", "AND", "+ -"]
+    cmps = [">", ">=", "<", "<=", "=", "<>", "=<", "=="]
+    sps = ["", " ", "  ", "\t"]
+
+    def expr() -> str:
+        e = rnd.choice(atoms)
+        if rnd.random() < 0.6:
+            e += rnd.choice(sps) + rnd.choice(ops) + rnd.choice(sps) + rnd.choice(atoms)
+        return e
+
+    lines = []
+    for _ in range(300):
+        sp = [rnd.choice(sps) for _ in range(6)]
+        if rnd.random() < 0.5:
+            kw = rnd.choice(["LD", "ldn", "AND", "ORN", "XOR", "LDR", "OR("])
+            lines.append(f"{sp[0]}{kw}{sp[1] or ' '}[{sp[2]}{expr()}{sp[3]}{rnd.choice(cmps)}"
+                         f"{sp[4]}{expr()}{sp[5]}]")
+        else:
+            target = rnd.choice(["%MW3", "%MD8", "%MF10", "%QW0.1", "%MW2:X1", "%M1"])
+            lines.append(f"{sp[0]}[{sp[1]}{target}{sp[2]}:={sp[3]}{expr()}{sp[4]}]")
+        lines.append("ST %M1")
+    text = "\n".join(lines) + "\n"
+    fast, slow = _parse(text, True, monkeypatch), _parse(text, False, monkeypatch)
+    assert fast == slow
+    assert fast[0] is not None
+    assert _positions(fast[0].rungs) == _positions(slow[0].rungs)
+    taken = sum(1 for ln in lines[::2] if parser._fast_line().pattern.fullmatch(ln))
+    assert 30 < taken < 270, taken  # both paths were exercised
