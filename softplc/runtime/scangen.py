@@ -69,8 +69,8 @@ assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
 def _clock_code(clock: Clock) -> tuple[str, str]:
     """(start, end) lines of the scan for this clock: the two clocks of clock.py inlined,
     any other through its methods."""
-    if type(clock) is VirtualClock:
-        return "now = clock.now_us", "clock.now_us += P"
+    if type(clock) is VirtualClock:  # {now}: see _make
+        return "now = clock.now_us", "clock.now_us = {now} + P"
     if type(clock) is RealClock:
         return "now = clock.now_us = (perf_counter_ns() - clock._t0) // 1000", ""
     return "now = clock.start_scan(P)", "clock.end_scan(P)"
@@ -192,8 +192,11 @@ def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[
     `begin` and `finish` does nothing. The names of `ns` each function reads are its
     default arguments: LOAD_FAST rather than LOAD_GLOBAL, about 20 ns a scan."""
     def fn(name: str, params: list[str], lines: list[str], part: int) -> str:
-        text = "".join(f"        {x}\n".replace("{part}", str(part)) for x in lines) \
-            or "        pass\n"
+        # {now}: the scan's start time, a local of scan() (nothing moves the clock in a
+        # scan) but not of finish()
+        now = "clock.now_us" if name == "finish" else "now"
+        text = "".join(f"        {x}\n".replace("{part}", str(part)).replace("{now}", now)
+                       for x in lines) or "        pass\n"
         params = params + [f"{n}={n}" for n in sorted(set(_NAME.findall(text)) & ns.keys())]
         return f"    def {name}({', '.join(params)}):\n{text}"
 
