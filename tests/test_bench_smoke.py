@@ -88,7 +88,7 @@ def test_peer_table_ratios_and_unavailable_peers() -> None:
 def test_bench_wordops_reports_every_case() -> None:
     import bench_wordops
     res = bench_wordops.run(lines=10, number=5, repeat=1)
-    assert set(res["ns_per_line"]) == set(bench_wordops.CASES) | {"add16 floor"}
+    assert set(res["ns_per_line"]) == set(bench_wordops.CASES) | {"add16 floor", "add16 list"}
     assert all(v > 0 for v in res["ns_per_line"].values())
     assert "counter_blk" in bench_wordops.report(res)
 
