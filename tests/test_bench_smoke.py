@@ -39,7 +39,8 @@ def test_engine_benchmark_tiny(tmp_path: Path) -> None:
     res = bench_engine.run(tiny=True, programs_dir=tmp_path)
     b = res["boolean"]
     assert b["instructions"] == 40
-    for key in ("main_us", "scan_us", "main_ns_per_instr", "scan_ns_per_instr"):
+    for key in ("main_us", "scan_us", "main_ns_per_instr", "scan_ns_per_instr",
+                "floor_ns_per_instr", "bools_ns_per_instr"):
         assert _positive(b[key]), key
     assert res["mixed40"]["rungs"] == 40 and _positive(res["mixed40"]["scan_us"])
     by_name = {p["program"]: p for p in res["programs"]}
@@ -48,7 +49,7 @@ def test_engine_benchmark_tiny(tmp_path: Path) -> None:
     assert "error" in by_name["bad.il"] and "main_us" not in by_name["bad.il"]
     text = bench_engine.report(res)
     assert "bad.il" in text and "error" in text
-    assert len(bench_engine.verdicts(res)) == 3
+    assert len(bench_engine.verdicts(res)) == 4
 
 
 def test_generated_programs_have_the_announced_size() -> None:
@@ -87,7 +88,7 @@ def test_peer_table_ratios_and_unavailable_peers() -> None:
 def test_bench_wordops_reports_every_case() -> None:
     import bench_wordops
     res = bench_wordops.run(lines=10, number=5, repeat=1)
-    assert set(res["ns_per_line"]) == set(bench_wordops.CASES) | {"add16 floor"}
+    assert set(res["ns_per_line"]) == set(bench_wordops.CASES) | {"add16 floor", "add16 list"}
     assert all(v > 0 for v in res["ns_per_line"].values())
     assert "counter_blk" in bench_wordops.report(res)
 

@@ -1,84 +1,136 @@
 """The parser's fast path: the commonest IL lines without Lark.
 
-Lines like `LD %M0`, `ANDN %I0.3`, `ST %Q0.1`, `S %M5`, `AND( %M1` and `)` make up most
-of a program. Lark's lexer and tree builder cost ~50 us a line; a regex match and the
-transformer's own methods ~6 (tools/bench_compile.py). The regex is assembled from the
-grammar's terminals, so what it matches the grammar's rules accept, and the nodes come
-from the same transformer methods Lark's path calls, with the same tokens and positions;
-any other line (comments, expressions, labels, symbols, errors) goes to Lark.
-tests/test_il_fastpath.py checks that both paths give the same AST and diagnostics.
+Lines like `LD %M0`, `ANDN %I0.3`, `ST %Q0.1`, `S %M5`, `AND( %M1`, `)`, and the simple
+comparison and operation blocks (`LD [ %MW1 > 3 ]`, `[ %MW2 := %MW3 + 4 ]`: operands
+`%` addresses or decimal integers, at most one `+ - * /` a side) make up most of a
+program. Lark's lexer and tree builder cost ~50 us a line (~85 for a block); a regex
+match and building the nodes a few. The regex is assembled from the grammar's terminals,
+so what it matches the grammar's rules accept; references and the nodes of rules with
+logic of their own come from the transformer (`SHARED`); any other line (comments,
+other expressions, labels, symbols, errors) goes to Lark. tests/test_il_fastpath.py
+checks that both paths give the same AST, positions and diagnostics.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+import sys
 from typing import Any
 
-from lark import Lark, Token
+from lark import Lark
 
 from . import ast as A
 
-# regex group -> (rule, its keyword terminals): `KEYWORD ADDRESS` lines
-RULES = {"b": ("bool_instr", "LOAD_KW", "LOGIC_KW"), "s": ("store", "STORE_KW"),
-         "r": ("set_reset", "SETRESET_KW")}
-PAREN_RULES = ("paren_open", "paren_close")
-
-
-def _token(kind: str, m: re.Match[str], group: str, line: int) -> Token:
-    return Token(kind, m.group(group), m.start(group), line, m.start(group) + 1, line,
-                 m.end(group) + 1, m.end(group))
+# regex group -> its keyword terminals: `KEYWORD ADDRESS` lines (bool_instr, store,
+# set_reset)
+KEYWORDS = {"b": ("LOAD_KW", "LOGIC_KW"), "s": ("STORE_KW",), "r": ("SETRESET_KW",)}
+TERMINALS = ("ADDRESS", "RPAR", "PAREN_KW", "CMP_OP", "ASSIGN", "ADD_OP", "MUL_OP", "INT",
+             "LSQB", "RSQB")
+# what the transformer shares with the fast path: references (cached, with their
+# diagnostics) and the nodes built from text by rules with logic of their own
+SHARED = ("ref_at", "bool_instr_node", "paren_open_node", "set_reset_node")
+Pos = A.Pos
 
 
 class FastLines:
-    """The matcher (`pattern.fullmatch(line)`) and the node builder of the fast path."""
+    """The matcher (`pattern.fullmatch(line)`) and the node builder of the fast path.
 
-    def __init__(self, pattern: re.Pattern[str], funcs: dict[str, Callable[..., Any]]):
+    The nodes are built here, as the transformer's methods build them from Lark's tokens
+    (positions: a token's columns, a rule's from its first token to its last, 1-based),
+    without the tokens: building those and calling the methods cost twice as much."""
+
+    def __init__(self, pattern: re.Pattern[str]):
         self.pattern = pattern
-        self.funcs = funcs
 
     def item(self, tx: Any, m: re.Match[str], line: int) -> A.Instruction:
-        """The node of a matched line (1-based `line`), built by transformer `tx`."""
-        f = self.funcs
-        if m.group("p") is not None:
-            t = _token("RPAR", m, "p", line)
-            return f["paren_close"](tx, A.Pos(line, t.column, line, t.end_column), [])
-        if m.group("o") is not None:  # AND( / OR( / XOR(, with or without its operand
-            kw = _token("PAREN_KW", m, "o", line)
+        """The node of a matched line (1-based `line`), built with transformer `tx`."""
+        b, s, r, o, p, c, x = m.group("b", "s", "r", "o", "p", "c", "x")
+        if b is not None or s is not None or r is not None:  # KEYWORD %address
+            kw = b or s or r
+            start = m.start("b" if b is not None else "s" if s is not None else "r") + 1
+            col, end = m.span("a")
+            text = m.group("a")
+            ref = tx.ref_at(text, line, col + 1)
+            pos = Pos(line, start, line, end + 1)
+            if b is not None:
+                return tx.bool_instr_node(kw, A.Operand(ref, Pos(line, col + 1, line, end + 1)),
+                                          pos)
+            if s is not None:
+                return A.Store(sys.intern(kw.upper()), ref, pos)  # one string for all
+            return tx.set_reset_node(kw, ref, pos)
+        if p is not None:
+            return A.ParenClose(self._span(m, "p", "p", line))
+        if o is not None:  # AND( / OR( / XOR(, with or without its operand
             if m.group("oa") is None:
-                return f["paren_open"](tx, A.Pos(line, kw.column, line, kw.end_column), [kw])
-            addr = _token("ADDRESS", m, "oa", line)
-            return f["paren_open"](tx, A.Pos(line, kw.column, line, addr.end_column),
-                                   [kw, tx.address([addr])])
-        group = next(g for g in RULES if m.group(g) is not None)
-        rule, *terms = RULES[group]
-        kind = terms[0] if len(terms) == 1 or m.group(group)[:2].upper() == "LD" else terms[1]
-        kw, addr = _token(kind, m, group, line), _token("ADDRESS", m, "a", line)
-        operand = tx.address([addr]) if rule == "bool_instr" else addr
-        return f[rule](tx, A.Pos(line, kw.column, line, addr.end_column), [kw, operand])
+                return tx.paren_open_node(o, None, self._span(m, "o", "o", line))
+            col, end = m.span("oa")
+            operand = A.Operand(tx.ref_at(m.group("oa"), line, col + 1),
+                                Pos(line, col + 1, line, end + 1))
+            return tx.paren_open_node(o, operand, self._span(m, "o", "oa", line))
+        if x is not None:  # [ %MW2 := expr ]
+            expr = self._expr(tx, m, "3", line)
+            col = m.start("t") + 1
+            stmt = A.Assign(tx.ref_at(m.group("t"), line, col), expr,
+                            Pos(line, col, line, expr.pos.end_column))
+            return A.OpBlock(stmt, self._span(m, "x", "xe", line))
+        # KEYWORD [ expr CMP expr ]
+        cmp = A.Compare(m.group("cmp"), self._expr(tx, m, "1", line),
+                        self._expr(tx, m, "2", line), self._span(m, "cb", "ce", line))
+        return tx.bool_instr_node(c, cmp, self._span(m, "c", "ce", line))
+
+    @staticmethod
+    def _span(m: re.Match[str], first: str, last: str, line: int) -> A.Pos:
+        """From group `first`'s start to group `last`'s end (a rule's meta)."""
+        return Pos(line, m.start(first) + 1, line, m.end(last) + 1)
+
+    def _expr(self, tx: Any, m: re.Match[str], n: str, line: int) -> A.Expr:
+        """Expression `n` of the line: an atom, or `atom op atom`."""
+        left = self._atom(tx, m, "l" + n, line)
+        op = m.group("o" + n)
+        if op is None:
+            return left
+        right = self._atom(tx, m, "r" + n, line)
+        return A.BinOp(op, left, right, Pos(line, left.pos.column, line, right.pos.end_column))
+
+    @staticmethod
+    def _atom(tx: Any, m: re.Match[str], group: str, line: int) -> A.Expr:
+        text = m.group(group)
+        col, end = m.span(group)
+        pos = Pos(line, col + 1, line, end + 1)
+        if text[0] == "%":
+            return A.Addr(tx.ref_at(text, line, col + 1), pos)
+        return A.Num(int(text), text, pos)
 
 
 def build(lark: Lark, transformer: type) -> FastLines | None:
     """The fast path for this grammar and transformer class; None (every line through
-    Lark) if the grammar lacks a terminal or a rule's method is not a `v_args(meta=True)`
-    method any more."""
-    # The methods' plain functions: getting a `v_args` method from the class or an
-    # instance builds a new wrapper every time (functools.update_wrapper, ~3 us).
-    funcs = {rule: getattr(vars(transformer).get(rule), "base_func", None)
-             for rule in (*PAREN_RULES, *(r for r, *_t in RULES.values()))}
-    if None in funcs.values():
+    Lark) if the grammar lacks a terminal or the transformer what the fast path shares."""
+    if not all(callable(getattr(transformer, name, None)) for name in SHARED):
         return None
     try:
         rx = {t: lark.get_terminal(t).pattern.to_regexp()
-              for _rule, *terms in RULES.values()
-              for t in (*terms, "ADDRESS", "RPAR", "PAREN_KW")}
+              for t in (*TERMINALS, *(t for terms in KEYWORDS.values() for t in terms))}
     except KeyError:
         return None
     kws = "|".join(f"(?P<{g}>{'|'.join(rx[t] for t in terms)})"
-                   for g, (_rule, *terms) in RULES.items())
+                   for g, terms in KEYWORDS.items())
     # `%` addresses only: a name (a symbol, or a pin such as `LD Q` inside BLK, which the
     # contextual lexer takes by priority) goes to Lark
-    pattern = re.compile(rf"[ \t]*(?:(?:{kws})[ \t]+(?P<a>(?=%)(?:{rx['ADDRESS']}))"
-                         rf"|(?P<o>{rx['PAREN_KW']})(?:[ \t]*(?P<oa>(?=%)(?:{rx['ADDRESS']})))?"
-                         rf"|(?P<p>{rx['RPAR']}))[ \t]*")
-    return FastLines(pattern, funcs)
+    addr = rf"(?=%)(?:{rx['ADDRESS']})"
+    sp = "[ \t]*"
+
+    def expr(n: str) -> str:  # atom, or atom (+ - * /) atom: no precedence to mind
+        atom = f"{addr}|{rx['INT']}"
+        return (rf"(?P<l{n}>{atom})(?:{sp}(?P<o{n}>{rx['ADD_OP']}|{rx['MUL_OP']}){sp}"
+                rf"(?P<r{n}>{atom}))?")
+
+    pattern = re.compile(
+        rf"{sp}(?:(?:{kws})[ \t]+(?P<a>{addr})"
+        rf"|(?P<o>{rx['PAREN_KW']})(?:{sp}(?P<oa>{addr}))?"
+        rf"|(?P<p>{rx['RPAR']})"
+        rf"|(?P<c>{rx['LOAD_KW']}|{rx['LOGIC_KW']}){sp}(?P<cb>{rx['LSQB']}){sp}{expr('1')}"
+        rf"{sp}(?P<cmp>{rx['CMP_OP']}){sp}{expr('2')}{sp}(?P<ce>{rx['RSQB']})"
+        rf"|(?P<x>{rx['LSQB']}){sp}(?P<t>{addr}){sp}(?P<as>{rx['ASSIGN']}){sp}{expr('3')}"
+        rf"{sp}(?P<xe>{rx['RSQB']})"
+        rf"){sp}")
+    return FastLines(pattern)

@@ -103,6 +103,10 @@ def _pos(tok: Token | object) -> A.Pos:
                  getattr(tok, "end_line", 0) or 0, getattr(tok, "end_column", 0) or 0)
 
 
+_LOGIC_OP = re.compile(r"AND|OR|XOR")
+_BOOL_WORDS: dict[str, tuple[str, str]] = {}  # LD, andn, ... as written -> (op, modifier)
+
+
 @dataclass(frozen=True)
 class _Section:
     number: int
@@ -127,7 +131,11 @@ class _ToAST(Transformer):
         self._refs: dict[str, Ref] = {}  # a program names the same addresses again and again
 
     def _ref(self, tok: Token) -> Ref:
-        text = str(tok)
+        return self.ref_at(str(tok), tok.line, tok.column)
+
+    def ref_at(self, text: str, line: int, column: int) -> Ref:
+        """The reference `text` (an address, or a symbol) at line:column (1-based), or a
+        placeholder with a diagnostic."""
         ref = self._refs.get(text)
         if ref is not None:
             return ref
@@ -144,11 +152,33 @@ class _ToAST(Transformer):
         except AddressError as e:
             symbol = not text.startswith("%")
             self.diags.append(Diagnostic(
-                str(e), self.file, tok.line, tok.column, text,
+                str(e), self.file, line, column, text,
                 "a declared symbol or an address" if symbol else
                 f"an address within the {DEFAULT_PROFILE.name} profile",
                 Code.SYMBOL if symbol else Code.ADDRESS))
             return Ref("M", 0)  # placeholder; the program is rejected anyway
+
+    # Nodes built from plain text, shared with the fast path (il/fastlines.py)
+    @staticmethod
+    def bool_instr_node(kw: str, operand: A.BoolOperand, pos: A.Pos) -> A.BoolInstr:
+        split = _BOOL_WORDS.get(kw)
+        if split is None:  # op and modifier strings shared by every node (memory)
+            word = kw.upper()
+            op = "LD" if word.startswith("LD") else _LOGIC_OP.match(word).group(0)
+            split = _BOOL_WORDS[kw] = sys.intern(op), sys.intern(word[len(op):])
+        return A.BoolInstr(*split, operand, pos)
+
+    @staticmethod
+    def paren_open_node(kw: str, operand: A.BoolOperand | None, pos: A.Pos) -> A.ParenOpen:
+        op, mod = kw.upper().replace(" ", "").replace("\t", "").split("(")
+        return A.ParenOpen(sys.intern(op), mod, operand, pos)
+
+    @staticmethod
+    def set_reset_node(kw: str, ref: Ref | None, pos: A.Pos) -> A.Instruction:
+        kw = kw.upper()
+        if ref is None or ref.is_block:  # a bare R / S inside BLK, or R %C0: a block input
+            return A.Pin(kw, ref, pos)
+        return A.Store(kw, ref, pos)
 
     # -- operands --
     def address(self, items):
@@ -230,15 +260,12 @@ class _ToAST(Transformer):
     @v_args(meta=True)
     def bool_instr(self, meta, items):
         kw, operand = items
-        word = str(kw).upper()
-        op = "LD" if word.startswith("LD") else re.match(r"AND|OR|XOR", word).group(0)
-        return A.BoolInstr(op, word[len(op):], operand, _pos(meta))
+        return self.bool_instr_node(str(kw), operand, _pos(meta))
 
     @v_args(meta=True)
     def paren_open(self, meta, items):
-        kw = str(items[0]).upper().replace(" ", "").replace("\t", "")
-        op, mod = kw.split("(")
-        return A.ParenOpen(op, mod, items[1] if len(items) > 1 else None, _pos(meta))
+        return self.paren_open_node(str(items[0]), items[1] if len(items) > 1 else None,
+                                    _pos(meta))
 
     @v_args(meta=True)
     def paren_close(self, meta, items):
@@ -247,17 +274,12 @@ class _ToAST(Transformer):
     @v_args(meta=True)
     def store(self, meta, items):
         kw, target = items
-        return A.Store(str(kw).upper(), self._ref(target), _pos(meta))
+        return A.Store(sys.intern(str(kw).upper()), self._ref(target), _pos(meta))
 
     @v_args(meta=True)
     def set_reset(self, meta, items):
-        kw = str(items[0]).upper()
-        if len(items) == 1:  # a bare R / S is a block input pin
-            return A.Pin(kw, None, _pos(meta))
-        ref = self._ref(items[1])
-        if ref.is_block:  # R %C0: short-form block input
-            return A.Pin(kw, ref, _pos(meta))
-        return A.Store(kw, ref, _pos(meta))
+        return self.set_reset_node(str(items[0]), self._ref(items[1]) if len(items) > 1
+                                   else None, _pos(meta))
 
     @v_args(meta=True)
     def negate(self, meta, items):
@@ -541,11 +563,14 @@ def parse_lines(text: str, file: str = "<string>", symbols: SymbolTable | None =
     items = []
     for start, end in _chunks(lp.lines, lp.inside):
         items += lp.parse_range(start, end)
+        lp.done.clear()  # a chunk's recovery never goes back to an earlier chunk
         if lp.lost:
             break
     diags = sorted(lp.diags + lp.tx.diags, key=lambda d: (d.line, d.column))
     if lp.lost:
         return [], [], diags
+    if "(*" not in text:
+        return items, [], diags
     work = [("" if n + 1 in lp.bad else ln) for n, ln in enumerate(lp.lines)]
     src = "\n".join(work) + "\n"
     starts = list(itertools.accumulate((len(ln) + 1 for ln in work), initial=0))

@@ -50,14 +50,16 @@ def best_per_batch(batch: Callable[[int], Any], number: int, repeat: int = 5,
 
 
 def best_interleaved(batches: dict[str, Callable[[int], Any]], number: int, repeat: int = 5,
-                     warmup: int | None = None) -> dict[str, float]:
+                     warmup: int | None = None,
+                     clock: Callable[[], float] = time.perf_counter) -> dict[str, float]:
     """Best-of seconds per iteration for several contestants, their timed runs alternating
-    (A, B, A, B, ...) so that a burst of load from elsewhere hits both sides alike."""
+    (A, B, A, B, ...) so that a burst of load from elsewhere hits both sides alike.
+    `clock`: wall time by default; `time.thread_time` for CPU time (steadier on a shared
+    machine, blind to time lost waiting)."""
     w = max(1, number // 10) if warmup is None else warmup
     for batch in batches.values():
         if w:
             batch(w)
-    clock = time.perf_counter
     best = dict.fromkeys(batches, float("inf"))
     for _ in range(repeat):
         for name, batch in batches.items():
