@@ -86,8 +86,8 @@ def methods(tree: ast.Module) -> list[tuple[str, int, int]]:
     return out
 
 
-def _module_name(path: Path) -> str:
-    rel = path.relative_to(ROOT.parent).with_suffix("")
+def _module_name(path: Path, root: Path = ROOT) -> str:
+    rel = path.relative_to(root.parent).with_suffix("")
     parts = list(rel.parts)
     if parts[-1] == "__init__":
         parts.pop()
@@ -197,7 +197,7 @@ def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
                 rep.big_classes.append(f"{rel}:{line} {name} {n}")
         for k in kind_names(tree) & set(kinds):
             rep.per_kind[k].append(rel)
-        trees[_module_name(path)] = (tree, path.name == "__init__.py")
+        trees[_module_name(path, root)] = (tree, path.name == "__init__.py")
         if path.parent.name == "web" and re.search(
                 r"\.plc\b|\bPLC\b|softplc\.plc\b|from \.\.plc\b", text):
             rep.web_reach.append(rel)

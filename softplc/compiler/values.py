@@ -191,7 +191,7 @@ class ValueCompiler(ObjectCompiler):
 
     # ---- operation blocks -----------------------------------------------------------------
     def statement(self, st: A.Statement) -> None:
-        if isinstance(st, A.PidCall):
+        if isinstance(st, A.BlockCall):
             fam = BLOCK_INSTRUCTIONS[st.keyword]
             name = Names.block(fam.kind, st.number)
             if self.env.get(name) is None:

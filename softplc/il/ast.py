@@ -7,7 +7,6 @@ its printed-and-reparsed copy compare equal.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
 
 from ..address import Ref
 
@@ -122,10 +121,11 @@ class IncDec:
 
 
 @dataclass(frozen=True, slots=True)
-class PidCall:
-    """`[ PID n ]`: run PID function n (configured in [pid]) [manual]."""
+class BlockCall:
+    """`[ KEYWORD n ]`: run block n of the family whose catalog `instruction` is KEYWORD
+    (`[ PID 0 ]`: PID function 0, configured in [pid]) [manual]."""
 
-    keyword: ClassVar[str] = "PID"  # the catalog's `instruction` of the family it runs
+    keyword: str
     number: int
     pos: Pos = _pos()
 
@@ -141,7 +141,7 @@ class ExchCall:
     pos: Pos = _pos()
 
 
-Statement = Assign | IncDec | PidCall | ExchCall
+Statement = Assign | IncDec | BlockCall | ExchCall
 
 
 # ---- instructions -------------------------------------------------------------------------

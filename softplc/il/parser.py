@@ -24,6 +24,7 @@ from pathlib import Path
 from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 
+from .. import catalog
 from ..address import Ref, parse_address
 from ..errors import AddressError, Code, Diagnostic, ParseError
 from ..profile import DEFAULT_PROFILE
@@ -51,7 +52,8 @@ TERMINAL_NAMES = {
     "GRAF_INIT": "=*=", "GRAF_STEP": "-*-", "GRAF_JUMP": "#", "JUMP_KW": "JMP",
     "RET_KW": "RET", "NOP_KW": "NOP", "NEG_KW": "N", "STACK_KW": "MPS/MRD/MPP",
     "SETRESET_KW": "S/R", "PIN_KW": "a block input (IN, CU, CD...)", "PAREN_KW": "AND(/OR(",
-    "INCDEC_KW": "INC/DEC", "PID_KW": "PID", "SR_CALL": "SRn", "SR_DEF": "SRn:",
+    "INCDEC_KW": "INC/DEC", "BLOCK_CALL_KW": "/".join(catalog.by_instruction()),
+    "SR_CALL": "SRn", "SR_DEF": "SRn:",
     "LABEL_DEF": "%Ln:",
     "SECTION_KW": "SECTION",
 }
@@ -88,7 +90,8 @@ def _grammar_cache() -> str | bool:
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    return Lark(GRAMMAR.read_text(), parser="lalr", lexer="contextual",
+    text = GRAMMAR.read_text().replace("@BLOCK_CALLS@", "|".join(catalog.by_instruction()))
+    return Lark(text, parser="lalr", lexer="contextual",
                 propagate_positions=True, maybe_placeholders=False, cache=_grammar_cache())
 
 
@@ -253,8 +256,8 @@ class _ToAST(Transformer):
         return A.IncDec(str(op).upper(), self._ref(target), _pos(meta))
 
     @v_args(meta=True)
-    def pid_call(self, meta, items):
-        return A.PidCall(int(items[1]), _pos(meta))
+    def block_call(self, meta, items):
+        return A.BlockCall(str(items[0]).upper(), int(items[1]), _pos(meta))
 
     # -- instructions --
     @v_args(meta=True)

@@ -52,7 +52,7 @@ def format_operand(op: A.BoolOperand | None, name: RefText = str) -> str:
 def format_statement(st: A.Statement, name: RefText = str) -> str:
     if isinstance(st, A.IncDec):
         return f"[ {st.op} {name(st.target)} ]"
-    if isinstance(st, A.PidCall):
+    if isinstance(st, A.BlockCall):
         return f"[ {st.keyword} {st.number} ]"
     if isinstance(st, A.ExchCall):  # the ladder view's box text
         return f"EXCH{st.port} {name(st.table)}"

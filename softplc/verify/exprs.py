@@ -169,7 +169,7 @@ class ExprModel:
             self.store_word(stmt.target, g, r, t, stmt.pos)
             return
         if not isinstance(stmt, A.Assign):
-            what = stmt.keyword if isinstance(stmt, A.PidCall) else "EXCH"
+            what = stmt.keyword if isinstance(stmt, A.BlockCall) else "EXCH"
             self.unsupported(f"{what} (its effect is outside the program)", stmt.pos, what)
             return
         ref = stmt.target
