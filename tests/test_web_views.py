@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 import signal
+import time
 
 from daemon_util import Daemon
 from test_web_browser import PROGRAMS, browser, open_page, shot, sync_api, web_url
@@ -130,12 +131,19 @@ def test_trends_give_bits_lanes_and_words_their_own_axes(browser, tmp_path):
     try:
         page = open_page(browser, url)
         page.click("#tabs button[data-tab=trends]")
-        page.fill("#trend-add", "%MD100 %MW120 %M100")
-        page.click("#trend-add-btn")
-        for pos, step, bit in ((-500000, 3, 1), (480000, 27, 0), (-500000, 12, 1)):
+        first = {"%MD100": -500000, "%MW120": 3, "%M100": 1}
+        for n, (pos, step, bit) in enumerate(((-500000, 3, 1), (480000, 27, 0),
+                                              (-500000, 12, 1))):
             api.request("write", {"writes": [{"object": "%MD100", "value": pos},
                                              {"object": "%MW120", "value": step},
                                              {"object": "%M100", "value": bit}]})
+            if n == 0:  # trend from the first values on: under load the page could
+                # otherwise sample the zeros before the first write reached the PLC
+                deadline = time.monotonic() + 10
+                while api.get(*first) != first and time.monotonic() < deadline:
+                    time.sleep(0.05)
+                page.fill("#trend-add", "%MD100 %MW120 %M100")
+                page.click("#trend-add-btn")
             page.wait_for_timeout(600)
         layout = page.evaluate("() => state.trend.layout")
         kinds = {x["object"]: x for x in layout}
