@@ -55,6 +55,7 @@ from pydantic import (
     create_model,
     field_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from . import catalog
 from .address import parse_address
@@ -137,12 +138,32 @@ def _memory_bit(text: str, info: ValidationInfo) -> str:
     return text
 
 
+def _read_only_entry(text: str, info: ValidationInfo) -> str:
+    # imported here: the Modbus package sits above the configuration (numpy, the server)
+    from .modbus.regmap import read_only_range
+
+    try:
+        read_only_range(text, profile_of(info))
+    except ValueError as e:  # AddressError included
+        raise PydanticCustomError("address", "{reason}", {"reason": str(e)}) from None
+    return text
+
+
+def _listed(v: Any) -> Any:
+    return [v] if isinstance(v, str) else v
+
+
+ReadOnlyEntry = Annotated[Address, AfterValidator(_read_only_entry)]
+
+
 class ModbusConfig(Section):
     """`[modbus]`: the daemon's server (softplc run)."""
 
     host: str = "127.0.0.1"
     port: int = Field(5020, ge=0, le=65535)
-    read_only: list[Address] | Address = Field(default_factory=list)
+    # ranges hosts may not write (softplc.modbus.regmap.read_only_of); one may be a string
+    read_only: Annotated[list[ReadOnlyEntry], BeforeValidator(_listed)] = \
+        Field(default_factory=list)
     # client addresses/networks (the daemon's --allow)
     allow: list[Annotated[str, AfterValidator(_network)]] | \
         Annotated[str, AfterValidator(_network)] | None = None
@@ -353,6 +374,8 @@ def _code(kind: str) -> ConfigCode:
     """The issue code of a pydantic error type."""
     if kind == "extra_forbidden":
         return ConfigCode.UNKNOWN_KEY
+    if kind == "address":  # a validator's PydanticCustomError("address", ...)
+        return ConfigCode.ADDRESS
     if kind in ("missing", "union_tag_not_found"):
         return ConfigCode.MISSING_KEY
     if kind.endswith("_type") or kind in ("is_instance_of", "model_attributes_type"):

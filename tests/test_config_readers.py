@@ -1,0 +1,51 @@
+"""Issue 22: the configuration is read through the typed `Config` only (`plc.settings`),
+and every problem, the devices' included, is collected with its code and key path."""
+
+from __future__ import annotations
+
+import pytest
+
+from softplc import PLC
+from softplc.errors import ConfigCode, ConfigError
+from softplc.modbus import tags
+from softplc.modbus.regmap import COILS, REGISTERS
+
+PROG = "LD 1\nST %M0\n"
+
+
+def issues(config: dict, program: str = PROG) -> dict[str, tuple[ConfigCode, str]]:
+    """Key path -> (code, message) of every problem `config` has (building a PLC on it)."""
+    with pytest.raises(ConfigError) as e:
+        PLC.from_source(program, config)
+    return {i.path: (i.code, i.message) for i in e.value.issues}
+
+
+def test_read_only_ranges_are_typed_and_every_wrong_entry_reported():
+    found = issues({"modbus": {"read_only": ["%MW100:10", "%Q0.0", "%MW99999", "%MW3:X2",
+                                             "junk", 5]},
+                    "scan_period": "1"})
+    assert {p: c for p, (c, _) in found.items()} == {
+        "modbus.read_only[1]": ConfigCode.ADDRESS,
+        "modbus.read_only[2]": ConfigCode.ADDRESS,
+        "modbus.read_only[3]": ConfigCode.ADDRESS,
+        "modbus.read_only[4]": ConfigCode.ADDRESS,
+        "modbus.read_only[5]": ConfigCode.TYPE,
+        "scan_period": ConfigCode.VALUE,
+    }
+    assert "only %M, %MW, %MD, %MF" in found["modbus.read_only[1]"][1]
+    assert "beyond the controller profile" in found["modbus.read_only[2]"][1]
+    # one entry may be written as a string; it is checked the same way
+    assert list(issues({"modbus": {"read_only": "%I0.0"}})) == ["modbus.read_only[0]"]
+
+
+def test_the_map_reads_the_typed_ranges():
+    plc = PLC.from_source("LD %M9\nST %M0\n[ %MW101 := %MD40 ]\n",
+                          {"modbus": {"read_only": ["%MW100:10", "%MD40", "%M8:4"]}})
+    assert plc.settings.modbus.read_only == ["%MW100:10", "%MD40", "%M8:4"]
+    ro, devices = tags.host_read_only(plc)
+    assert ro.registers == ((100, 110), (40, 42)) and ro.coils == ((8, 12),)
+    assert devices == {}
+    access = {t.address: (t.space, t.access) for t in tags.of_plc(plc).tags}
+    assert access == {"%M0": (COILS, "read/write"), "%M9": (COILS, "read"),
+                      "%MW101": (REGISTERS, "read"), "%MD40": (REGISTERS, "read")}
+    plc.close()
