@@ -49,3 +49,16 @@ def test_the_map_reads_the_typed_ranges():
     assert access == {"%M0": (COILS, "read/write"), "%M9": (COILS, "read"),
                       "%MW101": (REGISTERS, "read"), "%MD40": (REGISTERS, "read")}
     plc.close()
+
+
+def test_the_io_layout_reads_the_typed_modules():
+    from softplc.access.machine import MachineInfo
+
+    # a Python dict may give slots as numbers and names in any case: the schema settles it
+    plc = PLC.from_source("LD %I1.0\nST %Q2.1\n",
+                          {"modules": {2: "tm2ddo8tt", "1": "TM2DDI8DT", 3: "TWDAMM3HT"}})
+    assert [(m["slot"], m["name"], m["inputs"], m["outputs"])
+            for m in MachineInfo(plc).io_layout()] == [
+        (0, "TWDLCAE40DRF", 24, 16), (1, "TM2DDI8DT", 8, 0), (2, "TM2DDO8TT", 0, 8),
+        (3, "TWDAMM3HT", 0, 0)]
+    plc.close()
