@@ -71,7 +71,8 @@ class PLC:
         self._forced: dict[Ref, Any] = {}
         # the function blocks, family by family from the catalog (softplc/build/blocks.py)
         self.block_setup = build_blocks(self.mem, self.profile, self.time_source,
-                                        self.scan_period, self.engine, self.settings)
+                                        self.scan_period, self.engine, self.settings,
+                                        self.symbols)
         m.block_factory = self.block_setup.factory
         build.attach_scan_hooks(m)
         self.ast = program

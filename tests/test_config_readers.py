@@ -62,3 +62,46 @@ def test_the_io_layout_reads_the_typed_modules():
         (0, "TWDLCAE40DRF", 24, 16), (1, "TM2DDI8DT", 8, 0), (2, "TM2DDO8TT", 0, 8),
         (3, "TWDAMM3HT", 0, 0)]
     plc.close()
+
+
+DRUM_PROG = "LD %I0.0\nU %DR0\nLD %I0.1\nR %DR0\n"
+
+
+def drum_config(outputs: list[str]) -> dict:
+    return {"symbols": {"LAMP_A": "%Q0.0", "LAMP_C": {"address": "%Q0.2"}},
+            "drums": {"%DR0": {"steps": [1, 2, 4, 2], "outputs": outputs}}}
+
+
+def test_a_drum_output_given_as_a_symbol_runs_and_is_verified():
+    from softplc.verify.checker import Checker
+    from softplc.verify.engines import verify
+    from softplc.verify.model import Model
+    from softplc.verify.requirements import load_spec
+
+    def status(check: str) -> str:
+        plc = PLC.from_source(DRUM_PROG, cfg, devices=False)
+        spec = load_spec(None, [check], plc.profile)
+        model = Model(plc, spec.reads, spec.host)
+        return verify(Checker(model, spec, spec.requirements[0]), 8, 4, 20, [],
+                      use_spacer=True).status
+
+    cfg = drum_config(["LAMP_A", "%Q0.1", "lamp_c"])
+    plc = PLC.from_source(DRUM_PROG, cfg)
+    plc.scan()
+    assert (plc["%Q0.0"], plc["%Q0.1"], plc["%Q0.2"]) == (1, 0, 0)
+    plc["%I0.0"] = 1
+    plc.scan(2)
+    assert (plc["%Q0.0"], plc["%Q0.1"], plc["%Q0.2"]) == (0, 1, 0)
+    plc.close()
+    # the verifier models the drum's outputs from the same typed, resolved configuration
+    assert status("never %Q0.0 AND %Q0.2") == "PROVEN"
+    assert status("never %Q0.2") == "VIOLATED"  # the third step, on LAMP_C
+
+
+def test_wrong_drum_outputs_are_all_reported():
+    found = issues(drum_config(["LAMP_B", "%MW3", "LAMP_C"]),
+                   "LD %I0.0\nU %DR0\n")
+    assert {p: c for p, (c, _) in found.items()} == {
+        'drums."%DR0".outputs[0]': ConfigCode.ADDRESS,
+        'drums."%DR0".outputs[1]': ConfigCode.ADDRESS}
+    assert "unknown symbol 'LAMP_B'" in found['drums."%DR0".outputs[0]'][1]
