@@ -17,7 +17,6 @@ from typing import Any
 
 from . import build
 from .address import BLOCK_FIELDS, Ref, parse_address
-from .build.blocks import build_blocks
 from .config import symbol_table
 from .errors import (
     AddressError,
@@ -69,17 +68,15 @@ class PLC:
         self.scan_period = m.settings.scan_period
         self._refs: dict[str, Ref] = {}
         self._forced: dict[Ref, Any] = {}
-        # the function blocks, family by family from the catalog (softplc/build/blocks.py)
-        self.block_setup = build_blocks(self.mem, self.profile, self.time_source,
-                                        self.scan_period, self.engine, self.settings,
-                                        self.symbols)
-        m.block_factory = self.block_setup.factory
+        # the function blocks, family by family from the catalog (softplc/build/blocks.py),
+        # and the devices: every configuration problem the build finds is raised here
+        self.block_setup = build.equip(m, devices)
+        self.devices: dict[str, Any] = m.devices
         build.attach_scan_hooks(m)
         self.ast = program
         self.program: CompiledProgram = build.load_program(m, program)
         self.program_version = 0  # bumped when the running code is rebuilt
         self.program_loaded_at = time.time()  # wall time of the last load (online change)
-        self.devices: dict[str, Any] = build.attach_devices(m) if devices else {}
         self.engine.cold_start()
 
     config = _machine_value("raw", "The configuration as written (a dict).")

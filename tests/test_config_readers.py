@@ -105,3 +105,48 @@ def test_wrong_drum_outputs_are_all_reported():
         'drums."%DR0".outputs[0]': ConfigCode.ADDRESS,
         'drums."%DR0".outputs[1]': ConfigCode.ADDRESS}
     assert "unknown symbol 'LAMP_B'" in found['drums."%DR0".outputs[0]'][1]
+
+
+BAD_DEVICES = {
+    "constants": {"%MW0": 3},                                    # the builder's
+    "devices": {
+        "start": {"type": "push_button", "input": "%Q0.0"},      # not an input
+        "stop": {"type": "push_button", "input": "%I0.99"},      # beyond the base
+        "home": {"type": "limit_switch", "axis": "start", "input": "%I0.2"},  # not an axis
+        "feed": {"type": "analog_source", "input": "%IW0.0",
+                 "profile": [[0, 1], [2, 3], [1, 5]]},           # times go back
+    },
+}
+
+
+def test_device_problems_are_collected_with_the_builders():
+    found = issues({**BAD_DEVICES, "devices": {k: v for k, v in BAD_DEVICES["devices"].items()
+                                               if k != "feed"}})
+    assert {p: c for p, (c, _) in found.items()} == {
+        'constants."%MW0"': ConfigCode.ADDRESS,
+        "devices.start.input": ConfigCode.ADDRESS,
+        "devices.stop.input": ConfigCode.ADDRESS,
+        "devices.home.axis": ConfigCode.DEVICE,
+    }
+    # a device that cannot be made: the others are not bound (they may name it), every
+    # device made wrong is still reported
+    found = issues(BAD_DEVICES)
+    assert {p: c for p, (c, _) in found.items()} == {
+        'constants."%MW0"': ConfigCode.ADDRESS, "devices.feed.profile[2]": ConfigCode.VALUE}
+    assert "times must increase" in found["devices.feed.profile[2]"][1]
+
+
+def test_check_json_shows_each_device_problem(tmp_path, capsys):
+    import json
+
+    from softplc.cli import main as softplc
+
+    prog, cfg = tmp_path / "p.il", tmp_path / "m.toml"
+    prog.write_text(PROG)
+    cfg.write_text('[devices.start]\ntype = "push_button"\ninput = "%Q0.0"\n'
+                   '[devices.stop]\ntype = "push_button"\ninput = "%I0.99"\n')
+    assert softplc(["check", str(prog), "--config", str(cfg), "--json"]) == 1
+    errors = json.loads(capsys.readouterr().out)["errors"]
+    assert {(e["text"], e["code"]) for e in errors} == {
+        ("devices.start.input", "address"), ("devices.stop.input", "address")}
+    assert all(e["file"] == str(cfg) for e in errors)

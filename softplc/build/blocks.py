@@ -160,12 +160,3 @@ def drums(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
             ctx.mem.use_io(r)
         return Drum(d.steps, [(ctx.mem.bits(r.kind), r.index) for r in outs])
     _each(ctx, fam, entries, make)
-
-
-def build_blocks(mem: Any, profile: Any, time_source: Any, scan_period: float, engine: Any,
-                 settings: Any, symbols: SymbolTable | None = None) -> BlockSetup:
-    """Every block `settings` configures, set up; the `BlockSetup` for the blocks the
-    program will use (`factory`) and for online changes (`configure(..., online=True)`)."""
-    setup = BlockSetup(mem, profile, time_source, scan_period, engine, symbols)
-    setup.configure(settings)
-    return setup

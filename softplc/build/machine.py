@@ -25,6 +25,7 @@ from ..runtime.rtc import Schedule
 from ..semantics import Ops
 from ..symbols import SymbolTable
 from . import hardware
+from .blocks import BlockSetup
 
 
 def _no_blocks(ref: Ref) -> str | None:
@@ -51,6 +52,8 @@ class Machine:
     program_state: ProgramState  # shared by the fast and the debug build
     rtc_start: datetime | None
     schedules: list[Schedule]
+    # what the builder found wrong so far (raised by `equip`, with the blocks' and devices')
+    problems: hardware.Problems
     # creates a block the program uses and the configuration does not name, or says what
     # to configure (the block set-up provides it)
     block_factory: Callable[[Ref], str | None] = _no_blocks
@@ -60,7 +63,8 @@ class Machine:
 def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "virtual"
              ) -> Machine:
     """Load and check `config`, then build the controller's parts (no function blocks, no
-    program, no devices yet). Raises ConfigError with every problem found."""
+    program, no devices yet). Raises ConfigError with every problem the schema finds; the
+    builder's are collected in `problems`, which `equip` raises with its own."""
     from ..devices import DEVICE_TYPES
 
     raw, config_dir, settings = load_config(config, DEVICE_TYPES)
@@ -68,12 +72,11 @@ def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "v
     table = symbols.from_config(raw, config_dir, profile)
     mem = MemoryImage(profile)
     clk = make_clock(clock)
-    problems = hardware.Problems()
+    problems = hardware.Problems(None if config_dir is None else str(config))
     discrete, analog_modules = hardware.modules(settings)
     mem.analog = hardware.analog_io(settings.analog, profile, mem, analog_modules, problems)
     hardware.constants(settings.constants, profile, mem, problems)
     found = hardware.schedules(settings, mem, problems)
-    problems.raise_any(None if config_dir is None else str(config))
     time_source = TimeSource()
     watchdog = settings.watchdog if settings.watchdog is not None else DEFAULT_WATCHDOG_S
     grafcet = Grafcet(mem.x, mem.s)
@@ -84,7 +87,23 @@ def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "v
         grafcet=grafcet,
         engine=Engine(mem, clk, settings.scan_period, watchdog, time_source),
         program_state=ProgramState(grafcet=grafcet), rtc_start=rtc_start(settings.rtc),
-        schedules=found)
+        schedules=found, problems=problems)
+
+
+def equip(m: Machine, devices: bool = True) -> BlockSetup:
+    """Set up the function blocks the configuration names and (`devices`) the simulated
+    machine, the devices once the blocks are (a stepper binds to its pulse output). Raises
+    one ConfigError with every problem of the build: the hardware's (`assemble`), the
+    blocks', the devices'. The `BlockSetup` makes the blocks the program uses."""
+    setup = BlockSetup(m.mem, m.profile, m.time_source, m.settings.scan_period, m.engine,
+                       m.symbols)
+    with m.problems.collecting():
+        setup.configure(m.settings)
+        if devices:
+            attach_devices(m)
+    m.problems.raise_any()
+    m.block_factory = setup.factory
+    return setup
 
 
 def attach_scan_hooks(m: Machine) -> None:

@@ -36,8 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.format or args.in_place:
         return _format(args)
-    try:
-        plc = load_plc(args, devices=False)
+    try:  # the devices too: a wrong device option is a configuration error like the rest
+        plc = load_plc(args)
     except ProgramError as e:
         if args.json:
             print(json.dumps({"ok": False, "errors": [asdict(d) for d in e.diagnostics]},

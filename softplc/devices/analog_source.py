@@ -19,7 +19,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..config import Address, FiniteFloat, Section
-from ..errors import ConfigError
+from ..errors import ConfigCode, ConfigError
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
 
@@ -38,15 +38,15 @@ class AnalogSource(Device):
         self.input = options.input
         self.initial = float(options.value)
         self.profile: list[tuple[float, float]] = []
-        for point in options.profile or []:
+        for k, point in enumerate(options.profile or []):
             if not (isinstance(point, list | tuple) and len(point) == 2 and
                     all(isinstance(x, int | float) and not isinstance(x, bool)
                         for x in point)):
-                raise ConfigError(f"device {name!r}: profile points are [time_s, value], "
-                                  f"not {point!r}")
+                raise self.problem(f"profile[{k}]", f"points are [time_s, value], not "
+                                   f"{point!r}", ConfigCode.TYPE)
             if self.profile and point[0] <= self.profile[-1][0]:
-                raise ConfigError(f"device {name!r}: profile times must increase "
-                                  f"({point[0]} after {self.profile[-1][0]})")
+                raise self.problem(f"profile[{k}]", f"times must increase ({point[0]} "
+                                   f"after {self.profile[-1][0]})")
             self.profile.append((float(point[0]), float(point[1])))
         self._mem: MemoryImage | None = None
         self.reset()
@@ -54,11 +54,11 @@ class AnalogSource(Device):
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         self._mem = mem
         if mem.analog is None:
-            raise ConfigError(f"device {self.name!r}: no analog channels")
+            raise self.problem("input", "no analog channels", ConfigCode.MODULE)
         try:
             mem.analog.channel(self.input, "IW")
         except ConfigError as e:
-            raise ConfigError(f"device {self.name!r}: input: {e}") from None
+            raise self.problem("input", str(e), ConfigCode.ADDRESS) from None
         self._write(0.0)
 
     def reset(self) -> None:
