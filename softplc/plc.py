@@ -17,7 +17,6 @@ from typing import Any
 
 from . import build
 from .address import BLOCK_FIELDS, Ref, parse_address
-from .config import symbol_table
 from .errors import (
     AddressError,
     ConfigError,
@@ -86,13 +85,13 @@ class PLC:
     @classmethod
     def from_file(cls, path: str | Path, config: str | Path | dict[str, Any] | None = None,
                   **kw: Any) -> PLC:
-        table = symbol_table(config)
+        table = build.symbol_table(config)  # the configuration is checked first
         return _checked(cls, lambda: parse_file(path, table), config, kw)
 
     @classmethod
     def from_source(cls, text: str, config: str | Path | dict[str, Any] | None = None,
                     *, file: str = "<string>", **kw: Any) -> PLC:
-        table = symbol_table(config)
+        table = build.symbol_table(config)
         return _checked(cls, lambda: parse(text, file, table), config, kw)
 
 

@@ -150,3 +150,28 @@ def test_check_json_shows_each_device_problem(tmp_path, capsys):
     assert {(e["text"], e["code"]) for e in errors} == {
         ("devices.start.input", "address"), ("devices.stop.input", "address")}
     assert all(e["file"] == str(cfg) for e in errors)
+
+
+def test_the_parser_gets_the_typed_symbols_of_a_checked_configuration(tmp_path):
+    # every wrong declaration at its key path, with its code: the schema's, then the table's
+    found = issues({"symbols": {"GO": "%I0.0", "Y": 5,
+                                "Z": {"address": "%M0", "colour": "red"}}})
+    assert {p: c for p, (c, _) in found.items()} == {
+        "symbols.Y": ConfigCode.VALUE, "symbols.Z.colour": ConfigCode.UNKNOWN_KEY}
+    found = issues({"symbols": {"GO": "%I0.0", "go": "%I0.1", "LD": "%I0.2", "X": "%MW0:4"}})
+    assert {p: c for p, (c, _) in found.items()} == {
+        "symbols.go": ConfigCode.CONFLICT, "symbols.LD": ConfigCode.VALUE,
+        "symbols.X": ConfigCode.ADDRESS}
+    # the configuration is checked before the program is parsed: its problems come first,
+    # named in the file, not a cascade of unknown names in the program
+    cfg = tmp_path / "m.toml"
+    cfg.write_text('scan_period = "1"\n[symbols]\nGO = "%I0.0"\n')
+    with pytest.raises(ConfigError) as e:
+        PLC.from_source("LD GO\nST MOTOR\n", cfg)
+    assert e.value.file == str(cfg) and [i.path for i in e.value.issues] == ["scan_period"]
+    cfg.write_text('[symbols]\nGO = "%I0.0"\nMOTOR = { address = "%Q0.0", comment = "K1" }\n')
+    plc = PLC.from_source("LD GO\nST MOTOR\n", cfg)
+    plc["GO"] = 1
+    plc.scan()
+    assert plc["%Q0.0"] == 1 and plc.symbols.comment_of(plc.symbols.ref("MOTOR")) == "K1"
+    plc.close()

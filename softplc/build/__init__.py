@@ -18,8 +18,10 @@ from .machine import (
     attach_devices,
     attach_scan_hooks,
     equip,
+    load,
     settle_exchange,
+    symbol_table,
 )
 
 __all__ = ["Machine", "assemble", "attach_devices", "attach_scan_hooks", "compile_onto", "equip",
-           "forced_bits", "load_program", "settle_exchange"]
+           "forced_bits", "load", "load_program", "settle_exchange", "symbol_table"]

@@ -13,6 +13,7 @@ from .. import symbols
 from ..address import Ref
 from ..config import Config, load_config
 from ..config_models import rtc_start
+from ..errors import ConfigError
 from ..profile import PROFILES, Profile
 from ..program import ProgramState
 from ..runtime.blocks import TimeSource
@@ -60,19 +61,39 @@ class Machine:
     devices: dict[str, Any] = field(default_factory=dict)
 
 
+def load(config: str | Path | dict[str, Any] | None
+         ) -> tuple[dict[str, Any], Path | None, Config]:
+    """(raw table, folder of its file, checked `Config`): `config.load_config` with the
+    devices' options checked too. Raises ConfigError with every problem the schema finds."""
+    from ..devices import DEVICE_TYPES
+
+    return load_config(config, DEVICE_TYPES)
+
+
+def symbol_table(config: str | Path | dict[str, Any] | None) -> SymbolTable:
+    """The symbols of `config`, for the parser, which needs them before the machine is
+    built: the whole configuration is checked first, so that a wrong one is reported
+    before the program's errors (every name of the program would be one without it)."""
+    _, config_dir, settings = load(config)
+    try:
+        return symbols.from_settings(settings, config_dir, PROFILES[settings.profile])
+    except ConfigError as e:
+        raise e.in_file(str(config)) if config_dir is not None else e from None
+
+
 def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "virtual"
              ) -> Machine:
     """Load and check `config`, then build the controller's parts (no function blocks, no
     program, no devices yet). Raises ConfigError with every problem the schema finds; the
     builder's are collected in `problems`, which `equip` raises with its own."""
-    from ..devices import DEVICE_TYPES
-
-    raw, config_dir, settings = load_config(config, DEVICE_TYPES)
+    raw, config_dir, settings = load(config)
     profile = PROFILES[settings.profile]
-    table = symbols.from_config(raw, config_dir, profile)
+    problems = hardware.Problems(None if config_dir is None else str(config))
+    table = SymbolTable(profile=profile)
+    with problems.collecting():
+        table = symbols.from_settings(settings, config_dir, profile)
     mem = MemoryImage(profile)
     clk = make_clock(clock)
-    problems = hardware.Problems(None if config_dir is None else str(config))
     discrete, analog_modules = hardware.modules(settings)
     mem.analog = hardware.analog_io(settings.analog, profile, mem, analog_modules, problems)
     hardware.constants(settings.constants, profile, mem, problems)

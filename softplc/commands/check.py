@@ -87,7 +87,7 @@ def _report(e: ProgramError) -> int:
 
 def _format(args: argparse.Namespace) -> int:
     """The formatter: the program on stdout (or rewritten), every message on stderr."""
-    from ..config import symbol_table
+    from ..build import symbol_table
     from ..il.formatter import format_source
 
     if args.rungs or args.python or args.json:
