@@ -175,3 +175,21 @@ def test_the_parser_gets_the_typed_symbols_of_a_checked_configuration(tmp_path):
     plc.scan()
     assert plc["%Q0.0"] == 1 and plc.symbols.comment_of(plc.symbols.ref("MOTOR")) == "K1"
     plc.close()
+
+
+def test_the_application_id_is_the_raw_tables_in_one_place():
+    """`softplc run` and an online change name the application the same way (the state
+    file's owner): the program and the configuration as written, less the daemon's."""
+    from softplc.access.program import ProgramAccess
+    from softplc.build import application_id
+    from softplc.runtime import retain
+
+    cfg = {"timers": {"%TM0": {"preset": 5}}, "modbus": {"port": 1502}}
+    plc = PLC.from_source(PROG, cfg)
+    app = application_id(plc.machine, PROG.encode())
+    assert app == retain.application_id(PROG.encode(), cfg)
+    assert app == ProgramAccess(plc, None).app_id(PROG, None)
+    moved = PLC.from_source(PROG, {**cfg, "modbus": {"port": 1503}})
+    assert application_id(moved.machine, PROG.encode()) == app
+    plc.close()
+    moved.close()

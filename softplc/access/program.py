@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .. import online
+from .. import build, online
 from ..runtime.retain import application_id
 from ..symbols import SymbolTable
 
@@ -68,7 +68,9 @@ class ProgramAccess:
     def app_id(self, text: str, raw: dict[str, Any] | None) -> bytes:
         """What `softplc run` would call this application (the configuration as written,
         not anchored): a restart with the new program finds its state file its own."""
-        return application_id(text.encode(), dict(self.plc.config if raw is None else raw))
+        if raw is None:
+            return build.application_id(self.plc.machine, text.encode())
+        return application_id(text.encode(), raw)
 
     def swap(self, plan: online.Plan, names: SymbolTable, version: int, *, confirm: bool,
              cold: bool, app: bytes) -> dict[str, Any]:

@@ -16,6 +16,7 @@ from ..config_models import rtc_start
 from ..errors import ConfigError
 from ..profile import PROFILES, Profile
 from ..program import ProgramState
+from ..runtime import retain
 from ..runtime.blocks import TimeSource
 from ..runtime.clock import Clock, make_clock
 from ..runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
@@ -125,6 +126,14 @@ def equip(m: Machine, devices: bool = True) -> BlockSetup:
     m.problems.raise_any()
     m.block_factory = setup.factory
     return setup
+
+
+def application_id(m: Machine, program: bytes) -> bytes:
+    """What the state file calls the application `program` makes on this machine: a hash
+    of the program and of the configuration as written (`retain.application_id`: the
+    daemon's, the server's and the devices' sections left out). The one reader of the raw
+    table besides online change, which keeps it for this."""
+    return retain.application_id(program, m.raw)
 
 
 def attach_scan_hooks(m: Machine) -> None:
