@@ -193,3 +193,15 @@ def test_the_application_id_is_the_raw_tables_in_one_place():
     assert application_id(moved.machine, PROG.encode()) == app
     plc.close()
     moved.close()
+
+
+def test_block_set_up_problems_are_all_reported():
+    found = issues({"timers": {"%TM0": {"preset": 5}, "%TM999": {}, "%C0": {}},
+                    "counters": {"%Q0.0": {}},
+                    "drums": {"%DR0": {"outputs": ["%MW0"]}},
+                    "pls": {"%PLS7": {"base": "10ms", "preset": 10}},
+                    "modbus": {"read_only": "%MW0"}})
+    assert {p: c for p, (c, _) in found.items()} == {
+        'timers."%TM999"': ConfigCode.ADDRESS, 'timers."%C0"': ConfigCode.ADDRESS,
+        'counters."%Q0.0"': ConfigCode.ADDRESS, 'drums."%DR0".outputs[0]': ConfigCode.ADDRESS,
+        'pls."%PLS7"': ConfigCode.ADDRESS}

@@ -18,7 +18,7 @@ from ..address import Ref, parse_address
 from ..catalog import Family
 from ..config import key_path
 from ..config_models import _bit, _word
-from ..errors import AddressError, ConfigCode, ConfigError, ConfigIssue
+from ..errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
 from ..runtime.blocks import Counter, Drum, Register, Timer
 from ..symbols import SymbolTable
 
@@ -43,18 +43,25 @@ class BlockSetup:
         """Create the blocks `settings` configures, family by family in catalog order, then
         run the finish hooks; `online`: only the sections an online change may alter
         (replacing the blocks of the same address); `symbols`: the table of `settings`,
-        when it replaces the one the set-up was made with."""
+        when it replaces the one the set-up was made with. One ConfigError with every
+        family's problems, each at its key path (the finish hooks run when there is none)."""
         if symbols is not None:
             self.symbols = symbols
         finish: list[str] = []
+        issues: list[ConfigIssue] = []
         for fam in catalog.FAMILIES.values():
             if not fam.setup or (online and not fam.online):
                 continue
             entries = getattr(settings, fam.section)
             if entries:
-                catalog.resolve(fam.setup)(self, fam, entries)
+                try:
+                    catalog.resolve(fam.setup)(self, fam, entries)
+                except ConfigError as e:  # a hook stops at its first: the next family's
+                    issues += [located(i, fam.section) for i in e.issues]
             if fam.finish and fam.finish not in finish:
                 finish.append(fam.finish)
+        if issues:
+            raise ConfigError(issues)
         for hook in finish:
             catalog.resolve(hook)(self)
 
@@ -82,13 +89,14 @@ class BlockSetup:
 
     def block_ref(self, text: str, fam: Family, noun: str = "object") -> Ref:
         """The block a configuration key names, of the family of its section."""
+        where = self.where(fam.section, text)
         try:
             ref = parse_address(text, self.profile)
         except AddressError as e:
-            raise ConfigError(f"{self.where(fam.section, text)}: {e}") from None
+            raise ConfigError(ConfigIssue(where, str(e), ConfigCode.ADDRESS)) from None
         if ref.kind != fam.kind or not ref.is_block:
-            raise ConfigError(f"{self.where(fam.section, text)}: {text!r} is not a "
-                              f"%{fam.kind} {noun}")
+            raise ConfigError(ConfigIssue(where, f"{text!r} is not a %{fam.kind} {noun}",
+                                          ConfigCode.ADDRESS))
         return ref
 
     def word(self, where: str, key: str, v: Any, writable: bool = False) -> Any:
@@ -109,12 +117,18 @@ class BlockSetup:
 
 # ---- the basic blocks (typed by `config.Config`): the catalog's set-up hooks ------------------
 def _each(ctx: BlockSetup, fam: Family, entries: dict[str, Any], make: Any) -> None:
+    """Each entry's block, made by `make(options, key)`; every entry's problems raised."""
+    issues: list[ConfigIssue] = []
     for text, o in entries.items():
-        ref = ctx.block_ref(text, fam)
         try:
+            ref = ctx.block_ref(text, fam)
             ctx.mem.blocks[fam.kind][ref.index] = make(o, text)
         except ValueError as e:
-            raise ConfigError(f"{fam.section}.{text}: {e}") from None
+            issues.append(ConfigIssue(ctx.where(fam.section, text), str(e), ConfigCode.VALUE))
+        except ConfigError as e:
+            issues += e.issues
+    if issues:
+        raise ConfigError(issues)
 
 
 def timers(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:

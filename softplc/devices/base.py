@@ -22,7 +22,7 @@ from typing import Any
 
 from ..address import parse_address
 from ..config import Section, validate_config
-from ..errors import AddressError, ConfigCode, ConfigError, ConfigIssue
+from ..errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
 from ..runtime.memory import MemoryImage
 
 
@@ -153,15 +153,6 @@ def register_device(type_name: str) -> Callable[[type[Device]], type[Device]]:
     return deco
 
 
-def _located(name: str, issue: ConfigIssue) -> ConfigIssue:
-    """An issue a device raised as text: at its `where()` path when the text starts with
-    one (`devices.NAME.option: ...`, the form `problem()` replaces), else at the device."""
-    path, sep, message = issue.message.partition(": ")
-    if sep and path.startswith(f"devices.{name}.") and " " not in path:
-        return ConfigIssue(path, message, issue.code)
-    return ConfigIssue(f"devices.{name}", issue.message, issue.code)
-
-
 def build_devices(config: dict[str, Any], mem: MemoryImage) -> dict[str, Device]:
     """Create and bind a machine's devices, in order. `config` maps a device name to its
     `[devices.NAME]` table (a dict with `type`), or to (type, validated Options). Raises
@@ -174,7 +165,7 @@ def build_devices(config: dict[str, Any], mem: MemoryImage) -> dict[str, Device]
         try:
             step()
         except ConfigError as e:
-            issues.extend(i if i.path else _located(name, i) for i in e.issues)
+            issues.extend(located(i, f"devices.{name}") for i in e.issues)
 
     def create(name: str, entry: Any) -> None:
         if isinstance(entry, tuple):
