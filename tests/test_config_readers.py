@@ -205,3 +205,20 @@ def test_block_set_up_problems_are_all_reported():
         'timers."%TM999"': ConfigCode.ADDRESS, 'timers."%C0"': ConfigCode.ADDRESS,
         'counters."%Q0.0"': ConfigCode.ADDRESS, 'drums."%DR0".outputs[0]': ConfigCode.ADDRESS,
         'pls."%PLS7"': ConfigCode.ADDRESS}
+
+
+def test_an_online_change_resolves_drum_outputs_with_its_own_symbols():
+    from softplc.online import apply, plan
+
+    plc = PLC.from_source(DRUM_PROG, drum_config(["LAMP_A"]))
+    plc.scan()
+    assert plc["%Q0.0"] == 1
+    new = drum_config(["LAMP_A"])
+    new["symbols"]["LAMP_A"] = "%Q0.3"  # the same name, another output
+    change = plan(plc, DRUM_PROG, new)
+    apply(plc, change, confirm=True)
+    plc["%Q0.0"] = 0
+    plc.scan()
+    assert (plc["%Q0.0"], plc["%Q0.3"]) == (0, 1)
+    assert str(plc.symbols.ref("LAMP_A")) == "%Q0.3"
+    plc.close()
