@@ -222,3 +222,24 @@ def test_an_online_change_resolves_drum_outputs_with_its_own_symbols():
     assert (plc["%Q0.0"], plc["%Q0.3"]) == (0, 1)
     assert str(plc.symbols.ref("LAMP_A")) == "%Q0.3"
     plc.close()
+
+
+def test_the_machining_centre_reads_its_machine_through_the_loader(tmp_path):
+    from pathlib import Path
+
+    from softplc.devices.machining import MACHINE_TOML, MachiningCentre, machine_devices
+
+    typed, tables = machine_devices()
+    assert typed["scope"].options.torque_per_bit == 0.01 and typed["X"].options.plant.K > 0
+    assert tables["scope"]["axis"] == "X"  # the tables as written, for the rig's overrides
+    text = Path(MACHINE_TOML).read_text(encoding="utf-8")
+    bad = tmp_path / "m.toml"
+    bad.write_text(text.replace("torque_per_bit = 0.01", "torque_per_bit = -1.0")
+                   .replace('axis = "X"', 'axis = "Y"', 1), encoding="utf-8")
+    with pytest.raises(ConfigError) as e:  # every wrong key, not a KeyError
+        MachiningCentre(tmp_path, 1000.0, config=bad)
+    assert [i.path for i in e.value.issues] == ["devices.scope.torque_per_bit"]
+    bad.write_text(text.replace('axis = "X"', 'axis = "Y"', 1), encoding="utf-8")
+    with pytest.raises(ConfigError, match="expected a scope device named scope and the "
+                                          "servo_axis its `axis` names"):
+        MachiningCentre(tmp_path, 1000.0, config=bad)
