@@ -100,7 +100,7 @@ def _format(args: argparse.Namespace) -> int:
         formatted = format_source(text, str(args.program), symbol_table(args.config)
                                   if args.config is not None else None)
         if args.config is not None:  # the full check too, blocks configured
-            load_plc(args, devices=False)
+            load_plc(args)
     except ProgramError as e:
         return _report(e)
     if not args.in_place:
