@@ -57,7 +57,7 @@ class PLC:
     """A soft Twido: the machine `softplc.build` assembles (`self.machine`), run (`scan`,
     `run`, `start`/`stop`...) and read or written by address (`plc["%MW3"]`, `force`)."""
 
-    def __init__(self, program: A.Program, config: str | Path | dict[str, Any] | None = None,
+    def __init__(self, program: A.Program, config: build.ConfigSource = None,
                  *, clock: str | Clock = "virtual", devices: bool = True):
         m = self.machine = build.assemble(config, clock)
         self.config_dir = m.config_dir
@@ -83,14 +83,16 @@ class PLC:
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
-    def from_file(cls, path: str | Path, config: str | Path | dict[str, Any] | None = None,
+    def from_file(cls, path: str | Path, config: build.ConfigSource = None,
                   **kw: Any) -> PLC:
-        table = build.symbol_table(config)  # the configuration is checked first
+        config = build.load(config)  # checked first, once: the parser needs its symbols
+        table = build.symbol_table(config)
         return _checked(cls, lambda: parse_file(path, table), config, kw)
 
     @classmethod
-    def from_source(cls, text: str, config: str | Path | dict[str, Any] | None = None,
+    def from_source(cls, text: str, config: build.ConfigSource = None,
                     *, file: str = "<string>", **kw: Any) -> PLC:
+        config = build.load(config)
         table = build.symbol_table(config)
         return _checked(cls, lambda: parse(text, file, table), config, kw)
 

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from .compile import compile_onto, forced_bits, load_program
 from .machine import (
+    ConfigSource,
+    Loaded,
     Machine,
     application_id,
     assemble,
@@ -24,6 +26,6 @@ from .machine import (
     symbol_table,
 )
 
-__all__ = ["Machine", "application_id", "assemble", "attach_devices", "attach_scan_hooks",
-           "compile_onto", "equip", "forced_bits", "load", "load_program", "settle_exchange",
-           "symbol_table"]
+__all__ = ["ConfigSource", "Loaded", "Machine", "application_id", "assemble", "attach_devices",
+           "attach_scan_hooks", "compile_onto", "equip", "forced_bits", "load", "load_program",
+           "settle_exchange", "symbol_table"]

@@ -7,7 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from .. import symbols
 from ..address import Ref
@@ -62,34 +62,48 @@ class Machine:
     devices: dict[str, Any] = field(default_factory=dict)
 
 
-def load(config: str | Path | dict[str, Any] | None
-         ) -> tuple[dict[str, Any], Path | None, Config]:
-    """(raw table, folder of its file, checked `Config`): `config.load_config` with the
-    devices' options checked too. Raises ConfigError with every problem the schema finds."""
+class Loaded(NamedTuple):
+    """A configuration read and checked by `load`: what `assemble` and `symbol_table` take
+    instead of reading it again."""
+
+    raw: dict[str, Any]  # as written
+    config_dir: Path | None  # the folder of its file (relative paths), None for a dict
+    settings: Config
+    file: str | None  # its file, for messages
+
+
+ConfigSource = str | Path | dict[str, Any] | Loaded | None
+
+
+def load(config: ConfigSource) -> Loaded:
+    """`config` read and checked (`config.load_config`, the devices' options too); a
+    `Loaded` is returned as it is. Raises ConfigError with every problem the schema finds."""
     from ..devices import DEVICE_TYPES
 
-    return load_config(config, DEVICE_TYPES)
+    if isinstance(config, Loaded):
+        return config
+    raw, config_dir, settings = load_config(config, DEVICE_TYPES)
+    return Loaded(raw, config_dir, settings, None if config_dir is None else str(config))
 
 
-def symbol_table(config: str | Path | dict[str, Any] | None) -> SymbolTable:
+def symbol_table(config: ConfigSource) -> SymbolTable:
     """The symbols of `config`, for the parser, which needs them before the machine is
     built: the whole configuration is checked first, so that a wrong one is reported
     before the program's errors (every name of the program would be one without it)."""
-    _, config_dir, settings = load(config)
+    c = load(config)
     try:
-        return symbols.from_settings(settings, config_dir, PROFILES[settings.profile])
+        return symbols.from_settings(c.settings, c.config_dir, PROFILES[c.settings.profile])
     except ConfigError as e:
-        raise e.in_file(str(config)) if config_dir is not None else e from None
+        raise e.in_file(c.file) if c.file is not None else e from None
 
 
-def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "virtual"
-             ) -> Machine:
+def assemble(config: ConfigSource, clock: str | Clock = "virtual") -> Machine:
     """Load and check `config`, then build the controller's parts (no function blocks, no
     program, no devices yet). Raises ConfigError with every problem the schema finds; the
     builder's are collected in `problems`, which `equip` raises with its own."""
-    raw, config_dir, settings = load(config)
+    raw, config_dir, settings, file = load(config)
     profile = PROFILES[settings.profile]
-    problems = hardware.Problems(None if config_dir is None else str(config))
+    problems = hardware.Problems(file)
     table = SymbolTable(profile=profile)
     with problems.collecting():
         table = symbols.from_settings(settings, config_dir, profile)

@@ -111,7 +111,7 @@ def _machine_axes(path: str) -> tuple[tuple[float, float], float]:
     from ..errors import ConfigError
 
     try:
-        devices = load(path)[2].devices
+        devices = load(path).settings.devices
     except ConfigError as e:
         raise CuttingError(f"--machine {e}") from None
     axes = [devices[n].options for n in ("X", "Y") if n in devices]

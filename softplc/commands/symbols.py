@@ -69,7 +69,7 @@ def run_import(args: argparse.Namespace) -> int:
     from ..profile import PROFILES
     from ..symbols import SymbolTable, read_csv_file
 
-    settings = load(args.config)[2] if args.config is not None else Config()
+    settings = load(args.config).settings if args.config is not None else Config()
     table = SymbolTable(read_csv_file(args.csv), PROFILES[settings.profile])  # checked
     section = table.to_toml()
     if args.config is None:

@@ -41,8 +41,8 @@ def machine_devices(path: str | Path = MACHINE_TOML
     rig to override). ConfigError naming the file and every wrong key."""
     from ..build import load  # the builder sits above the devices
 
-    raw, _, settings = load(path)
-    return settings.devices, copy.deepcopy(raw.get("devices", {}))
+    machine = load(path)
+    return machine.settings.devices, copy.deepcopy(machine.raw.get("devices", {}))
 
 
 def configured_mass(devices: dict[str, Any], ratio: float) -> float:
