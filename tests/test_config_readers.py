@@ -113,27 +113,36 @@ BAD_DEVICES = {
         "start": {"type": "push_button", "input": "%Q0.0"},      # not an input
         "stop": {"type": "push_button", "input": "%I0.99"},      # beyond the base
         "home": {"type": "limit_switch", "axis": "start", "input": "%I0.2"},  # not an axis
-        "feed": {"type": "analog_source", "input": "%IW0.0",
-                 "profile": [[0, 1], [2, 3], [1, 5]]},           # times go back
     },
 }
+PHASES = ["%Q0.4", "%Q0.5", "%Q0.6", "%Q0.7"]
 
 
 def test_device_problems_are_collected_with_the_builders():
-    found = issues({**BAD_DEVICES, "devices": {k: v for k, v in BAD_DEVICES["devices"].items()
-                                               if k != "feed"}})
+    found = issues(BAD_DEVICES)
     assert {p: c for p, (c, _) in found.items()} == {
         'constants."%MW0"': ConfigCode.ADDRESS,
         "devices.start.input": ConfigCode.ADDRESS,
         "devices.stop.input": ConfigCode.ADDRESS,
         "devices.home.axis": ConfigCode.DEVICE,
     }
-    # a device that cannot be made: the others are not bound (they may name it), every
-    # device made wrong is still reported
-    found = issues(BAD_DEVICES)
+    # what the devices' options models see is the schema's, reported with the rest of it
+    found = issues({"scan_period": "1",
+                    "devices": {"feed": {"type": "analog_source", "input": "%IW0.0",
+                                         "profile": [[0, 1], [2, 3], [1, 5]]},
+                                "oven": {"type": "oven", "sensor": "%IW0.0"}}})
     assert {p: c for p, (c, _) in found.items()} == {
-        'constants."%MW0"': ConfigCode.ADDRESS, "devices.feed.profile[2]": ConfigCode.VALUE}
-    assert "times must increase" in found["devices.feed.profile[2]"][1]
+        "scan_period": ConfigCode.VALUE, "devices.feed.profile": ConfigCode.VALUE,
+        "devices.oven": ConfigCode.VALUE}
+    assert "times must increase (1 s after 2 s)" in found["devices.feed.profile"][1]
+    # devices that cannot be made: each reported; the others are not bound (they may name
+    # one of them: this switch's axis)
+    found = issues({"devices": {
+        "x": {"type": "stepper", "phases": PHASES, "travel": 10.0, "start": 20.0},
+        "y": {"type": "stepper", "phases": PHASES, "travel": 10.0, "start": -5.0},
+        "home": {"type": "limit_switch", "axis": "x", "input": "%I0.2"}}})
+    assert {p: c for p, (c, _) in found.items()} == {
+        "devices.x.start": ConfigCode.VALUE, "devices.y.start": ConfigCode.VALUE}
 
 
 def test_check_json_shows_each_device_problem(tmp_path, capsys):

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from ..address import parse_address
 from ..errors import AddressError, ConfigCode, ConfigError
@@ -40,6 +40,17 @@ class DriveTuningOptions(BaseModel):
     error: str = "%MW497"
     reference: dict[str, float] = Field(default_factory=lambda: dict(REFERENCE))
 
+    @field_validator("reference")
+    @classmethod
+    def _known_mps(cls, v: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(v) - set(MP_NAMES))
+        if unknown:
+            raise ValueError(f"unknown parameter {unknown[0]!r}")
+        missing = [mp for mp in DRIVE_MPS if not v.get(mp, 0.0) > 0]
+        if missing:
+            raise ValueError(f"{', '.join(missing)} must be given, > 0")
+        return v
+
 
 REFUSED = 1
 
@@ -54,13 +65,6 @@ class DriveTuning(Device):
     def __init__(self, name: str, options: DriveTuningOptions):
         super().__init__(name, options)
         self.options: DriveTuningOptions = options
-        unknown = sorted(set(options.reference) - set(MP_NAMES))
-        if unknown:
-            raise self.problem("reference", f"unknown parameter {unknown[0]!r}",
-                               ConfigCode.UNKNOWN_KEY)
-        for mp in DRIVE_MPS:
-            if not options.reference.get(mp, 0.0) > 0:
-                raise self.problem("reference", f"{mp} must be given, > 0")
         self.axis: ServoAxis | None = None
         self.commissioned: Any = None  # the axis's configured I-variables
         self._mw: Any = None

@@ -26,7 +26,7 @@ import math
 from collections import deque
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from ..address import parse_address
 from ..config import Address, FiniteFloat, Section
@@ -55,12 +55,15 @@ class Oven(Device):
         ambient: FiniteFloat = Field(20.0, ge=-273.0, le=1e4)
         start: FiniteFloat | None = Field(None, ge=-273.0, le=1e4)
 
+        @model_validator(mode="after")
+        def _one_heater(self) -> Any:
+            if (self.heater is None) == (self.heater_bit is None):
+                raise ValueError("give one of heater (a %QW) or heater_bit (a %Q)")
+            return self
+
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
         o = options
-        if (o.heater is None) == (o.heater_bit is None):
-            raise self.problem("heater", "give one of heater (a %QW) or heater_bit (a %Q)",
-                               ConfigCode.MISSING_KEY)
         self.sensor, self.heater, self.heater_bit = o.sensor, o.heater, o.heater_bit
         self.gain, self.tau, self.dead_time = o.gain, o.tau, o.dead_time
         self.ambient = o.ambient
