@@ -20,10 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from ..config import load_config
 from ..errors import ConfigError
 from ..massest.synth import CAL_JOB, MEAS_JOB, Run, Scenario
 from .axis.options import Ctl, Mode, St, Word
 from .axis.rig import Rig
+from .base import DEVICE_TYPES
 from .drive_tuning import DriveTuning
 from .scope import SW, Scope
 
@@ -39,10 +41,8 @@ def machine_devices(path: str | Path = MACHINE_TOML
     """The machine's devices as the configuration loader checked them (name ->
     `config.DeviceSection`, options typed), and their tables as written (copies, for the
     rig to override). ConfigError naming the file and every wrong key."""
-    from ..build import load  # the builder sits above the devices
-
-    machine = load(path)
-    return machine.settings.devices, copy.deepcopy(machine.raw.get("devices", {}))
+    raw, _, settings = load_config(path, DEVICE_TYPES)
+    return settings.devices, copy.deepcopy(raw.get("devices", {}))
 
 
 def configured_mass(devices: dict[str, Any], ratio: float) -> float:
