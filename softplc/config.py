@@ -55,6 +55,7 @@ from pydantic import (
     create_model,
     field_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from . import catalog
 from .address import parse_address
@@ -91,11 +92,9 @@ from .config_models import (
     ScheduleConfig,
     ScheduleNumber,
 )
-from .errors import AddressError, ConfigCode, ConfigError, ConfigIssue, SoftPLCError
+from .errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from .profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES
 from .runtime.blocks import MAX_VALUE
-from .symbols import SymbolTable
-from .symbols import from_config as symbols_from_config
 
 
 class TimerConfig(Section):
@@ -137,12 +136,32 @@ def _memory_bit(text: str, info: ValidationInfo) -> str:
     return text
 
 
+def _read_only_entry(text: str, info: ValidationInfo) -> str:
+    # imported here: the Modbus package sits above the configuration (numpy, the server)
+    from .modbus.regmap import read_only_range
+
+    try:
+        read_only_range(text, profile_of(info))
+    except ValueError as e:  # AddressError included
+        raise PydanticCustomError("address", "{reason}", {"reason": str(e)}) from None
+    return text
+
+
+def _listed(v: Any) -> Any:
+    return [v] if isinstance(v, str) else v
+
+
+ReadOnlyEntry = Annotated[Address, AfterValidator(_read_only_entry)]
+
+
 class ModbusConfig(Section):
     """`[modbus]`: the daemon's server (softplc run)."""
 
     host: str = "127.0.0.1"
     port: int = Field(5020, ge=0, le=65535)
-    read_only: list[Address] | Address = Field(default_factory=list)
+    # ranges hosts may not write (softplc.modbus.regmap.read_only_of); one may be a string
+    read_only: Annotated[list[ReadOnlyEntry], BeforeValidator(_listed)] = \
+        Field(default_factory=list)
     # client addresses/networks (the daemon's --allow)
     allow: list[Annotated[str, AfterValidator(_network)]] | \
         Annotated[str, AfterValidator(_network)] | None = None
@@ -213,6 +232,14 @@ class SymbolEntry(Section):
     comment: str = ""
 
 
+def _symbol_entry(v: Any) -> Any:
+    if isinstance(v, str):
+        return {"address": v}
+    if not isinstance(v, dict):
+        raise ValueError('"ADDRESS" or { address = "ADDRESS", comment = "..." }')
+    return v
+
+
 def _none_if_empty(v: Any) -> Any:
     return None if v == {} else v  # `exch = {}`: no EXCH, as if absent
 
@@ -256,7 +283,8 @@ class Config(_BlockSections):  # type: ignore[misc, valid-type]
     # EXCH3 remote devices (issue 11 B)
     exch: Annotated[ExchConfig | None, BeforeValidator(_none_if_empty)] = None
     # names for addresses: softplc.symbols resolves them (the parser needs them first)
-    symbols: dict[str, Address | SymbolEntry] = Field(default_factory=dict)
+    symbols: dict[str, Annotated[SymbolEntry, BeforeValidator(_symbol_entry)]] = \
+        Field(default_factory=dict)
     symbols_file: str | None = Field(None, min_length=1)
 
     @field_validator("profile")
@@ -353,6 +381,8 @@ def _code(kind: str) -> ConfigCode:
     """The issue code of a pydantic error type."""
     if kind == "extra_forbidden":
         return ConfigCode.UNKNOWN_KEY
+    if kind == "address":  # a validator's PydanticCustomError("address", ...)
+        return ConfigCode.ADDRESS
     if kind in ("missing", "union_tag_not_found"):
         return ConfigCode.MISSING_KEY
     if kind.endswith("_type") or kind in ("is_instance_of", "model_attributes_type"):
@@ -508,20 +538,3 @@ def load_config(config: str | Path | dict[str, Any] | None,
             raise e.in_file(str(config)) from None
         raise
     return raw, base, cfg
-
-
-def symbol_table(config: str | Path | dict[str, Any] | None) -> SymbolTable | None:
-    """The configuration's symbols, for the parser (which runs before the PLC is built);
-    None if the configuration cannot be read (the PLC reports that after the program's own
-    errors). A wrong symbol declaration is a ConfigError naming the file: reported first,
-    since every name of the program would be an error without it."""
-    try:
-        raw, base = read_config(config)
-    except SoftPLCError:
-        return None
-    profile = PROFILES.get(str(raw.get("profile", DEFAULT_PROFILE.name)), DEFAULT_PROFILE)
-    try:
-        return symbols_from_config(raw, base, profile)
-    except ConfigError as e:
-        raise ConfigError(f"{config}: {e}" if isinstance(config, (str, Path)) else str(e)
-                          ) from None

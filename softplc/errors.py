@@ -141,6 +141,19 @@ class ConfigIssue:
         return f"{self.path}: {self.message}" if self.path else self.message
 
 
+def located(issue: ConfigIssue, root: str, code: ConfigCode = ConfigCode.VALUE) -> ConfigIssue:
+    """`issue` with a key path: one raised as text (`ConfigError(f"{where}: ...")`, no path
+    of its own) gets the key path its text starts with when that is `root` or below it, else
+    `root`; an issue of code OTHER gets `code`."""
+    if issue.path:
+        return issue
+    path, sep, message = issue.message.partition(": ")
+    code = code if issue.code == ConfigCode.OTHER else issue.code
+    if sep and " " not in path and (path == root or path.startswith((root + ".", root + "["))):
+        return ConfigIssue(path, message, code)
+    return ConfigIssue(root, issue.message, code)
+
+
 class ConfigError(SoftPLCError):
     """A configuration (dict or TOML) is wrong. Carries every problem found (`issues`), and
     the file they are in when there is one; its text is one `path: message` line each."""

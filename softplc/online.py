@@ -72,6 +72,7 @@ class Plan:
     program: A.Program
     settings: Any  # the new `Config`
     raw_config: dict[str, Any]
+    symbols: Any = None  # the new configuration's `SymbolTable`
     losses: list[str] = field(default_factory=list)  # what does not carry over, for humans
     reset: set[tuple[str, int]] = field(default_factory=set)  # blocks (kind, index) rebuilt
     removed: set[tuple[str, int]] = field(default_factory=set)  # blocks no longer used
@@ -129,7 +130,7 @@ def plan(plc: Any, program: A.Program | str | Path,
             "these configuration sections cannot change while the PLC runs (restart the "
             "daemon with the new configuration): " + ", ".join(restart))
     old_cfg, new_cfg = _block_configs(plc.settings), _block_configs(trial.settings)
-    result = Plan(program, trial.settings, trial.config)
+    result = Plan(program, trial.settings, trial.config, trial.symbols)
     running = {(k, i) for k, d in plc.mem.blocks.items() for i in d}
     kept = {(k, i) for k, d in trial.mem.blocks.items() for i in d}
     for kind, index in sorted(running - kept):
@@ -155,7 +156,7 @@ def apply(plc: Any, change: Plan, *, confirm: bool = False, cold: bool = False) 
     mem = plc.mem
     carried = {(k, i): b.state() for k, d in mem.blocks.items() for i, b in d.items()
                if (k, i) not in change.reset and (k, i) not in change.removed}
-    old_settings, old_raw = plc.settings, plc.config
+    old_settings, old_raw, old_symbols = plc.settings, plc.config, plc.symbols
     old_blocks = {k: dict(d) for k, d in mem.blocks.items()}
     old_cold = dict(plc.engine.cold_states)
     try:
@@ -163,14 +164,18 @@ def apply(plc: Any, change: Plan, *, confirm: bool = False, cold: bool = False) 
             mem.blocks[kind].pop(index, None)
             plc.engine.cold_states.pop((kind, index), None)
         plc.settings, plc.config = change.settings, change.raw_config
-        plc.block_setup.configure(change.settings, online=True)  # fresh configured blocks...
+        if change.symbols is not None:
+            plc.symbols = change.symbols
+        plc.block_setup.configure(change.settings, online=True,  # fresh configured blocks...
+                                  symbols=plc.symbols)
         for (kind, index), st in carried.items():  # ...given back the state they carry
             block = mem.blocks.get(kind, {}).get(index)
             if block is not None:
                 block.set_state(st)
         plc.replace_program(change.program)
     except SoftPLCError:  # not expected after a clean plan: put the PLC back as it was
-        plc.settings, plc.config = old_settings, old_raw
+        plc.settings, plc.config, plc.symbols = old_settings, old_raw, old_symbols
+        plc.block_setup.symbols = old_symbols
         for kind, blocks in mem.blocks.items():  # the old objects, with their state
             blocks.clear()
             blocks.update(old_blocks.get(kind, {}))

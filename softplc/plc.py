@@ -17,8 +17,6 @@ from typing import Any
 
 from . import build
 from .address import BLOCK_FIELDS, Ref, parse_address
-from .build.blocks import build_blocks
-from .config import symbol_table
 from .errors import (
     AddressError,
     ConfigError,
@@ -59,7 +57,7 @@ class PLC:
     """A soft Twido: the machine `softplc.build` assembles (`self.machine`), run (`scan`,
     `run`, `start`/`stop`...) and read or written by address (`plc["%MW3"]`, `force`)."""
 
-    def __init__(self, program: A.Program, config: str | Path | dict[str, Any] | None = None,
+    def __init__(self, program: A.Program, config: build.ConfigSource = None,
                  *, clock: str | Clock = "virtual", devices: bool = True):
         m = self.machine = build.assemble(config, clock)
         self.config_dir = m.config_dir
@@ -69,16 +67,15 @@ class PLC:
         self.scan_period = m.settings.scan_period
         self._refs: dict[str, Ref] = {}
         self._forced: dict[Ref, Any] = {}
-        # the function blocks, family by family from the catalog (softplc/build/blocks.py)
-        self.block_setup = build_blocks(self.mem, self.profile, self.time_source,
-                                        self.scan_period, self.engine, self.settings)
-        m.block_factory = self.block_setup.factory
+        # the function blocks, family by family from the catalog (softplc/build/blocks.py),
+        # and the devices: every configuration problem the build finds is raised here
+        self.block_setup = build.equip(m, devices)
+        self.devices: dict[str, Any] = m.devices
         build.attach_scan_hooks(m)
         self.ast = program
         self.program: CompiledProgram = build.load_program(m, program)
         self.program_version = 0  # bumped when the running code is rebuilt
         self.program_loaded_at = time.time()  # wall time of the last load (online change)
-        self.devices: dict[str, Any] = build.attach_devices(m) if devices else {}
         self.engine.cold_start()
 
     config = _machine_value("raw", "The configuration as written (a dict).")
@@ -86,15 +83,17 @@ class PLC:
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
-    def from_file(cls, path: str | Path, config: str | Path | dict[str, Any] | None = None,
+    def from_file(cls, path: str | Path, config: build.ConfigSource = None,
                   **kw: Any) -> PLC:
-        table = symbol_table(config)
+        config = build.load(config)  # checked first, once: the parser needs its symbols
+        table = build.symbol_table(config)
         return _checked(cls, lambda: parse_file(path, table), config, kw)
 
     @classmethod
-    def from_source(cls, text: str, config: str | Path | dict[str, Any] | None = None,
+    def from_source(cls, text: str, config: build.ConfigSource = None,
                     *, file: str = "<string>", **kw: Any) -> PLC:
-        table = symbol_table(config)
+        config = build.load(config)
+        table = build.symbol_table(config)
         return _checked(cls, lambda: parse(text, file, table), config, kw)
 
 

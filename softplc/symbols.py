@@ -32,7 +32,7 @@ from typing import Any
 
 from . import catalog
 from .address import Ref, parse_address
-from .errors import AddressError, ConfigError
+from .errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from .profile import DEFAULT_PROFILE, Profile
 
 NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,31}$")
@@ -57,37 +57,49 @@ class Symbol:
 class SymbolTable:
     """Names <-> addresses, checked once; lookups ignore the case of names."""
 
-    def __init__(self, symbols: Iterable[Symbol] = (), profile: Profile = DEFAULT_PROFILE):
+    def __init__(self, symbols: Iterable[Symbol] = (), profile: Profile = DEFAULT_PROFILE,
+                 paths: Mapping[str, str] | None = None):
+        """Every wrong declaration is reported (one ConfigError), each at `paths[name]`,
+        its key path in the configuration, or as `symbol NAME`."""
         self.profile = profile
         self._by_name: dict[str, Symbol] = {}
         self._by_address: dict[str, Symbol] = {}
+        issues: list[ConfigIssue] = []
         for s in symbols:
-            self._add(s)
+            problem = self._add(s)
+            if problem is not None:
+                where = (paths or {}).get(s.name, f"symbol {s.name}")
+                issues.append(ConfigIssue(where, *problem))
+        if issues:
+            raise ConfigError(issues)
 
-    def _add(self, s: Symbol) -> None:
+    def _add(self, s: Symbol) -> tuple[str, ConfigCode] | None:
+        """Declare `s`; what is wrong with it (message, code), if anything."""
         if not NAME.match(s.name):
-            raise ConfigError(f"symbol {s.name!r}: a letter or _ then letters, digits and _, "
-                              f"at most 32 characters")
+            return (f"{s.name!r}: a letter or _ then letters, digits and _, at most 32 "
+                    f"characters", ConfigCode.VALUE)
         if s.name.upper() in RESERVED or _NUMBERED_KEYWORD.match(s.name):
-            raise ConfigError(f"symbol {s.name!r} is an Instruction List keyword: "
-                              f"choose another name")
+            return (f"{s.name!r} is an Instruction List keyword: choose another name",
+                    ConfigCode.VALUE)
         try:
             ref = parse_address(s.address, self.profile)
         except AddressError as e:
-            raise ConfigError(f"symbol {s.name}: {e}") from None
+            return str(e), ConfigCode.ADDRESS
         if ref.length is not None or ref.offset is not None:
-            raise ConfigError(f"symbol {s.name}: {s.address!r} is a range or an indexed "
-                              f"word: a symbol names one object")
+            return (f"{s.address!r} is a range or an indexed word: a symbol names one "
+                    f"object", ConfigCode.ADDRESS)
         s = Symbol(s.name, str(ref), s.comment)
         old = self._by_name.get(s.name.upper())
         if old is not None:
-            raise ConfigError(f"symbol {s.name} declared twice ({old.address} and "
-                              f"{s.address})")
+            return f"{s.name} declared twice ({old.address} and {s.address})", \
+                ConfigCode.CONFLICT
         other = self._by_address.get(s.address)
         if other is not None:
-            raise ConfigError(f"{s.address} has two symbols: {other.name} and {s.name}")
+            return f"{s.address} has two symbols: {other.name} and {s.name}", \
+                ConfigCode.CONFLICT
         self._by_name[s.name.upper()] = s
         self._by_address[s.address] = s
+        return None
 
     def __len__(self) -> int:
         return len(self._by_name)
@@ -224,30 +236,16 @@ def read_csv_file(path: str | Path) -> list[Symbol]:
     return read_csv(text, str(p))
 
 
-def from_config(raw: Mapping[str, Any], base: Path | None,
-                profile: Profile = DEFAULT_PROFILE) -> SymbolTable:
-    """The table of a configuration (its raw dict; `base`: the folder of its file, for
-    `symbols_file`). An empty table when it declares none."""
+def from_settings(settings: Any, base: Path | None,
+                  profile: Profile = DEFAULT_PROFILE) -> SymbolTable:
+    """The table of a checked configuration (`softplc.config.Config`: its `symbols` and
+    `symbols_file`; `base`: the folder of its file, for `symbols_file`). An empty table
+    when it declares none; every wrong declaration at its key path (`symbols.NAME`)."""
     symbols: list[Symbol] = []
-    file = raw.get("symbols_file")
-    if file is not None:
-        if not isinstance(file, str) or not file:
-            raise ConfigError("symbols_file: the path of a CSV file (address, symbol, comment)")
-        path = Path(file)
+    if settings.symbols_file is not None:
+        path = Path(settings.symbols_file)
         if base is not None and not path.is_absolute():
             path = base / path
         symbols += read_csv_file(path)
-    table = raw.get("symbols", {})
-    if not isinstance(table, Mapping):
-        raise ConfigError('symbols: a table NAME = "ADDRESS" or NAME = { address = '
-                          '"ADDRESS", comment = "..." }')
-    for name, v in table.items():
-        if isinstance(v, str):
-            symbols.append(Symbol(str(name), v))
-        elif isinstance(v, Mapping) and isinstance(v.get("address"), str) \
-                and set(v) <= {"address", "comment"} and isinstance(v.get("comment", ""), str):
-            symbols.append(Symbol(str(name), v["address"], v.get("comment", "")))
-        else:
-            raise ConfigError(f'symbols.{name}: "ADDRESS" or {{ address = "ADDRESS", '
-                              f'comment = "..." }}')
-    return SymbolTable(symbols, profile)
+    symbols += [Symbol(name, v.address, v.comment) for name, v in settings.symbols.items()]
+    return SymbolTable(symbols, profile, {n: f"symbols.{n}" for n in settings.symbols})

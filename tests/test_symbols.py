@@ -70,7 +70,7 @@ def test_unknown_symbols_are_listed_with_line_column_and_a_guess():
     ({"A": "%MW0:4"}, "a range"),
     ({"A": "%Q0.99"}, "has 16 outputs"),
     ({"A": 5}, 'symbols.A: "ADDRESS"'),
-    ({"A": {"address": "%I0.0", "colour": "red"}}, 'symbols.A: "ADDRESS"'),
+    ({"A": {"address": "%I0.0", "colour": "red"}}, "symbols.A.colour: unknown key"),
 ])
 def test_bad_declarations_are_clear_errors(symbols, message):
     with pytest.raises(ConfigError, match=message.replace("(", r"\(").replace(".", r"\.")):

@@ -19,7 +19,7 @@ import pytest
 from softplc.access import AccessPort
 from softplc.cli import main as cli
 from softplc.commands.io import Client, IoError, parse_value
-from softplc.modbus import ModbusImage, ServerThread, parse_read_only
+from softplc.modbus import ModbusImage, ServerThread, read_only_of
 from softplc.modbus.rawclient import RawClient
 from softplc.plc import PLC
 from softplc.web import WebOptions, attach, is_loopback, web_token
@@ -36,7 +36,7 @@ class Stack:
 
     def __init__(self, program: Path, config: dict | Path | None = None, **web: object):
         self.plc = PLC.from_file(program, config=config)
-        self.image = ModbusImage(self.plc.mem, parse_read_only(self.plc.config))
+        self.image = ModbusImage(self.plc.mem, read_only_of(self.plc.settings.modbus.read_only))
         self.plc.before_scan.append(self.image.apply_writes)
         self.plc.after_scan.append(self.image.take_snapshot)
         self.boundaries = 0

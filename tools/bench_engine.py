@@ -122,7 +122,7 @@ def _time_file(il: Path, number: int, repeat: int) -> dict[str, Any]:
         plc = PLC.from_file(il, cfg, devices=False)
         entry.update(instructions=plc.program.instruction_count, rungs=len(plc.rungs),
                      **time_plc(plc, number, repeat))
-        if plc.config.get("devices"):
+        if plc.settings.devices:
             with PLC.from_file(il, cfg, devices=True) as dev:
                 entry["scan_devices_us"] = best_per_batch(dev.scan, number, repeat) * 1e6
     except (SoftPLCError, OSError, ValueError) as e:

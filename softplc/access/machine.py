@@ -86,9 +86,8 @@ class MachineInfo:
         prof = self.profile
         mods = [{"slot": 0, "name": prof.name, "inputs": prof.inputs_base,
                  "outputs": prof.outputs_base}]
-        for slot, name in sorted((int(k), str(v).upper())
-                                 for k, v in (self.plc.config.get("modules") or {}).items()):
-            n_in, n_out = MODULES.get(name, (0, 0))
+        for slot, name in sorted((self.plc.settings.modules or {}).items()):
+            n_in, n_out = MODULES.get(name, (0, 0))  # an analog module: no %I/%Q
             mods.append({"slot": slot, "name": name, "inputs": n_in, "outputs": n_out})
         return mods
 

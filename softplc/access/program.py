@@ -7,9 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .. import online
+from .. import build, online
 from ..runtime.retain import application_id
-from ..symbols import SymbolTable, from_config
+from ..symbols import SymbolTable
 
 
 def _anchored(raw: dict[str, Any], base: Path | None) -> dict[str, Any]:
@@ -63,12 +63,14 @@ class ProgramAccess:
         plc = self.plc
         config = _anchored(dict(plc.config if raw is None else raw), plc.config_dir)
         change = online.plan(plc, text, config, file=name)
-        return change, from_config(change.raw_config, plc.config_dir, plc.profile)
+        return change, change.symbols
 
     def app_id(self, text: str, raw: dict[str, Any] | None) -> bytes:
         """What `softplc run` would call this application (the configuration as written,
         not anchored): a restart with the new program finds its state file its own."""
-        return application_id(text.encode(), dict(self.plc.config if raw is None else raw))
+        if raw is None:
+            return build.application_id(self.plc.machine, text.encode())
+        return application_id(text.encode(), raw)
 
     def swap(self, plan: online.Plan, names: SymbolTable, version: int, *, confirm: bool,
              cold: bool, app: bytes) -> dict[str, Any]:

@@ -2,8 +2,9 @@
 
 `assemble(config, clock)` loads and checks the configuration and builds the controller's
 parts (memory image, expansion modules, analog channels, constants, EXCH port, engine);
-the block set-up adds the function blocks; `load_program` resolves, allocates, binds and
-compiles a program onto them; `attach_devices` builds the simulated machine. The result is
+`equip` adds the function blocks and the simulated machine (`attach_devices`), and raises
+every problem of the build at once; `load_program` resolves, allocates, binds and
+compiles a program onto them. The result is
 one typed record, `Machine`; `softplc.plc.PLC` is the facade over it (run control, item
 access).
 """
@@ -11,7 +12,20 @@ access).
 from __future__ import annotations
 
 from .compile import compile_onto, forced_bits, load_program
-from .machine import Machine, assemble, attach_devices, attach_scan_hooks, settle_exchange
+from .machine import (
+    ConfigSource,
+    Loaded,
+    Machine,
+    application_id,
+    assemble,
+    attach_devices,
+    attach_scan_hooks,
+    equip,
+    load,
+    settle_exchange,
+    symbol_table,
+)
 
-__all__ = ["Machine", "assemble", "attach_devices", "attach_scan_hooks", "compile_onto",
-           "forced_bits", "load_program", "settle_exchange"]
+__all__ = ["ConfigSource", "Loaded", "Machine", "application_id", "assemble", "attach_devices",
+           "attach_scan_hooks", "compile_onto", "equip", "forced_bits", "load", "load_program",
+           "settle_exchange", "symbol_table"]

@@ -4,7 +4,7 @@ blocks' below, the others' in their runtime module), then each distinct `finish`
 attaches what runs at scan time; a block the program uses but the configuration does not
 name gets its family's default, or a message saying what to configure.
 
-    setup = BlockSetup(mem, profile, time_source, scan_period, engine)
+    setup = BlockSetup(mem, profile, time_source, scan_period, engine, symbols)
     setup.configure(settings)           # every block section of a `config.Config`
     setup.factory(ref)                  # the program uses `ref`: None, or what is wrong
 """
@@ -18,8 +18,9 @@ from ..address import Ref, parse_address
 from ..catalog import Family
 from ..config import key_path
 from ..config_models import _bit, _word
-from ..errors import AddressError, ConfigError
+from ..errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
 from ..runtime.blocks import Counter, Drum, Register, Timer
+from ..symbols import SymbolTable
 
 
 class BlockSetup:
@@ -28,27 +29,39 @@ class BlockSetup:
     channel -> what uses it) and `shared` objects (the pulse outputs, the counting hub)."""
 
     def __init__(self, mem: Any, profile: Any, time_source: Any, scan_period: float,
-                 engine: Any = None):
+                 engine: Any = None, symbols: SymbolTable | None = None):
         self.mem, self.profile, self.time_source = mem, profile, time_source
         self.scan_period, self.engine = scan_period, engine
+        self.symbols = symbols  # the names an address of a section may be given by
         self.inputs: dict[int, str] = {}
         self.outputs: dict[int, str] = {}
         self.shared: dict[str, Any] = {}
 
     # ---- building ----------------------------------------------------------------------------
-    def configure(self, settings: Any, online: bool = False) -> None:
+    def configure(self, settings: Any, online: bool = False,
+                  symbols: SymbolTable | None = None) -> None:
         """Create the blocks `settings` configures, family by family in catalog order, then
         run the finish hooks; `online`: only the sections an online change may alter
-        (replacing the blocks of the same address)."""
+        (replacing the blocks of the same address); `symbols`: the table of `settings`,
+        when it replaces the one the set-up was made with. One ConfigError with every
+        family's problems, each at its key path (the finish hooks run when there is none)."""
+        if symbols is not None:
+            self.symbols = symbols
         finish: list[str] = []
+        issues: list[ConfigIssue] = []
         for fam in catalog.FAMILIES.values():
             if not fam.setup or (online and not fam.online):
                 continue
             entries = getattr(settings, fam.section)
             if entries:
-                catalog.resolve(fam.setup)(self, fam, entries)
+                try:
+                    catalog.resolve(fam.setup)(self, fam, entries)
+                except ConfigError as e:  # a hook stops at its first: the next family's
+                    issues += [located(i, fam.section) for i in e.issues]
             if fam.finish and fam.finish not in finish:
                 finish.append(fam.finish)
+        if issues:
+            raise ConfigError(issues)
         for hook in finish:
             catalog.resolve(hook)(self)
 
@@ -76,13 +89,14 @@ class BlockSetup:
 
     def block_ref(self, text: str, fam: Family, noun: str = "object") -> Ref:
         """The block a configuration key names, of the family of its section."""
+        where = self.where(fam.section, text)
         try:
             ref = parse_address(text, self.profile)
         except AddressError as e:
-            raise ConfigError(f"{self.where(fam.section, text)}: {e}") from None
+            raise ConfigError(ConfigIssue(where, str(e), ConfigCode.ADDRESS)) from None
         if ref.kind != fam.kind or not ref.is_block:
-            raise ConfigError(f"{self.where(fam.section, text)}: {text!r} is not a "
-                              f"%{fam.kind} {noun}")
+            raise ConfigError(ConfigIssue(where, f"{text!r} is not a %{fam.kind} {noun}",
+                                          ConfigCode.ADDRESS))
         return ref
 
     def word(self, where: str, key: str, v: Any, writable: bool = False) -> Any:
@@ -103,12 +117,18 @@ class BlockSetup:
 
 # ---- the basic blocks (typed by `config.Config`): the catalog's set-up hooks ------------------
 def _each(ctx: BlockSetup, fam: Family, entries: dict[str, Any], make: Any) -> None:
+    """Each entry's block, made by `make(options, key)`; every entry's problems raised."""
+    issues: list[ConfigIssue] = []
     for text, o in entries.items():
-        ref = ctx.block_ref(text, fam)
         try:
+            ref = ctx.block_ref(text, fam)
             ctx.mem.blocks[fam.kind][ref.index] = make(o, text)
         except ValueError as e:
-            raise ConfigError(f"{fam.section}.{text}: {e}") from None
+            issues.append(ConfigIssue(ctx.where(fam.section, text), str(e), ConfigCode.VALUE))
+        except ConfigError as e:
+            issues += e.issues
+    if issues:
+        raise ConfigError(issues)
 
 
 def timers(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
@@ -128,27 +148,29 @@ def default_register(profile: Any) -> Register:
     return Register("FIFO", profile.count("FIFO_DEPTH"))
 
 
+def drum_outputs(d: Any, where: str, profile: Any, symbols: SymbolTable | None) -> list[Ref]:
+    """The output bits of a `[drums]` entry `d` (at key path `where`), each an address or a
+    symbol of `symbols`: %Q or %M bits. The block set-up and the verifier read them here."""
+    outs, issues = [], []
+    for k, a in enumerate(d.outputs):
+        try:
+            r = symbols.ref(a) if symbols is not None else parse_address(a, profile)
+        except AddressError as e:
+            issues.append(ConfigIssue(f"{where}.outputs[{k}]", str(e), ConfigCode.ADDRESS))
+            continue
+        if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
+            issues.append(ConfigIssue(f"{where}.outputs[{k}]", f"%Q or %M bits, not {a!r}",
+                                      ConfigCode.ADDRESS))
+        outs.append(r)
+    if issues:
+        raise ConfigError(issues)
+    return outs
+
+
 def drums(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
     def make(d: Any, text: str) -> Drum:
-        outs = []
-        for k, a in enumerate(d.outputs):
-            try:
-                r = parse_address(a, ctx.profile)
-            except AddressError as e:
-                raise ConfigError(f"{fam.section}.{text}.outputs[{k}]: {e}") from None
-            if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
-                raise ConfigError(f"{fam.section}.{text}.outputs[{k}]: %Q or %M bits, "
-                                  f"not {a!r}")
+        outs = drum_outputs(d, ctx.where(fam.section, text), ctx.profile, ctx.symbols)
+        for r in outs:
             ctx.mem.use_io(r)
-            outs.append((ctx.mem.bits(r.kind), r.index))
-        return Drum(d.steps, outs)
+        return Drum(d.steps, [(ctx.mem.bits(r.kind), r.index) for r in outs])
     _each(ctx, fam, entries, make)
-
-
-def build_blocks(mem: Any, profile: Any, time_source: Any, scan_period: float, engine: Any,
-                 settings: Any) -> BlockSetup:
-    """Every block `settings` configures, set up; the `BlockSetup` for the blocks the
-    program will use (`factory`) and for online changes (`configure(..., online=True)`)."""
-    setup = BlockSetup(mem, profile, time_source, scan_period, engine)
-    setup.configure(settings)
-    return setup

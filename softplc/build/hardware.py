@@ -26,10 +26,12 @@ _INT_CONSTANT_RANGE = {"KW": (-(1 << 15), (1 << 16) - 1), "KD": (-(1 << 31), (1 
 
 
 class Problems:
-    """The configuration problems found while building, raised together at the end."""
+    """The configuration problems found while building, raised together at the end;
+    `file`: the configuration file they are in (None for a dict)."""
 
-    def __init__(self) -> None:
+    def __init__(self, file: str | None = None) -> None:
         self.issues: list[ConfigIssue] = []
+        self.file = file
 
     def add(self, path: tuple[Any, ...], message: str, code: ConfigCode) -> None:
         self.issues.append(ConfigIssue(key_path(path), message, code))
@@ -42,9 +44,9 @@ class Problems:
         except ConfigError as e:
             self.issues += e.issues
 
-    def raise_any(self, file: str | None = None) -> None:
+    def raise_any(self) -> None:
         if self.issues:
-            raise ConfigError(self.issues, file)
+            raise ConfigError(self.issues, self.file)
 
 
 Modules = dict[int, tuple[int, int]]  # slot -> (inputs, outputs) of a discrete module

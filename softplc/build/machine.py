@@ -7,14 +7,16 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from .. import symbols
 from ..address import Ref
 from ..config import Config, load_config
 from ..config_models import rtc_start
+from ..errors import ConfigError
 from ..profile import PROFILES, Profile
 from ..program import ProgramState
+from ..runtime import retain
 from ..runtime.blocks import TimeSource
 from ..runtime.clock import Clock, make_clock
 from ..runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
@@ -25,6 +27,7 @@ from ..runtime.rtc import Schedule
 from ..semantics import Ops
 from ..symbols import SymbolTable
 from . import hardware
+from .blocks import BlockSetup
 
 
 def _no_blocks(ref: Ref) -> str | None:
@@ -51,29 +54,65 @@ class Machine:
     program_state: ProgramState  # shared by the fast and the debug build
     rtc_start: datetime | None
     schedules: list[Schedule]
+    # what the builder found wrong so far (raised by `equip`, with the blocks' and devices')
+    problems: hardware.Problems
     # creates a block the program uses and the configuration does not name, or says what
     # to configure (the block set-up provides it)
     block_factory: Callable[[Ref], str | None] = _no_blocks
     devices: dict[str, Any] = field(default_factory=dict)
 
 
-def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "virtual"
-             ) -> Machine:
-    """Load and check `config`, then build the controller's parts (no function blocks, no
-    program, no devices yet). Raises ConfigError with every problem found."""
+class Loaded(NamedTuple):
+    """A configuration read and checked by `load`: what `assemble` and `symbol_table` take
+    instead of reading it again."""
+
+    raw: dict[str, Any]  # as written
+    config_dir: Path | None  # the folder of its file (relative paths), None for a dict
+    settings: Config
+    file: str | None  # its file, for messages
+
+
+ConfigSource = str | Path | dict[str, Any] | Loaded | None
+
+
+def load(config: ConfigSource) -> Loaded:
+    """`config` read and checked (`config.load_config`, the devices' options too); a
+    `Loaded` is returned as it is. Raises ConfigError with every problem the schema finds."""
     from ..devices import DEVICE_TYPES
 
+    if isinstance(config, Loaded):
+        return config
     raw, config_dir, settings = load_config(config, DEVICE_TYPES)
+    return Loaded(raw, config_dir, settings, None if config_dir is None else str(config))
+
+
+def symbol_table(config: ConfigSource) -> SymbolTable:
+    """The symbols of `config`, for the parser, which needs them before the machine is
+    built: the whole configuration is checked first, so that a wrong one is reported
+    before the program's errors (every name of the program would be one without it)."""
+    c = load(config)
+    try:
+        return symbols.from_settings(c.settings, c.config_dir, PROFILES[c.settings.profile])
+    except ConfigError as e:
+        raise e.in_file(c.file) if c.file is not None else e from None
+
+
+def assemble(config: ConfigSource, clock: str | Clock = "virtual") -> Machine:
+    """Load and check `config`, then build the controller's parts (no function blocks, no
+    program, no devices yet). Raises ConfigError with every problem the schema finds; the
+    builder's are collected in `problems`, which `equip` raises with its own."""
+    raw, config_dir, settings, file = load(config)
     profile = PROFILES[settings.profile]
-    table = symbols.from_config(raw, config_dir, profile)
+    problems = hardware.Problems(file)
+    table = SymbolTable(profile=profile)
+    with problems.collecting():
+        table = symbols.from_settings(settings, config_dir, profile)
     mem = MemoryImage(profile)
     clk = make_clock(clock)
-    problems = hardware.Problems()
     discrete, analog_modules = hardware.modules(settings)
     mem.analog = hardware.analog_io(settings.analog, profile, mem, analog_modules, problems)
     hardware.constants(settings.constants, profile, mem, problems)
     found = hardware.schedules(settings, mem, problems)
-    problems.raise_any(None if config_dir is None else str(config))
     time_source = TimeSource()
     watchdog = settings.watchdog if settings.watchdog is not None else DEFAULT_WATCHDOG_S
     grafcet = Grafcet(mem.x, mem.s)
@@ -84,7 +123,31 @@ def assemble(config: str | Path | dict[str, Any] | None, clock: str | Clock = "v
         grafcet=grafcet,
         engine=Engine(mem, clk, settings.scan_period, watchdog, time_source),
         program_state=ProgramState(grafcet=grafcet), rtc_start=rtc_start(settings.rtc),
-        schedules=found)
+        schedules=found, problems=problems)
+
+
+def equip(m: Machine, devices: bool = True) -> BlockSetup:
+    """Set up the function blocks the configuration names and (`devices`) the simulated
+    machine, the devices once the blocks are (a stepper binds to its pulse output). Raises
+    one ConfigError with every problem of the build: the hardware's (`assemble`), the
+    blocks', the devices'. The `BlockSetup` makes the blocks the program uses."""
+    setup = BlockSetup(m.mem, m.profile, m.time_source, m.settings.scan_period, m.engine,
+                       m.symbols)
+    with m.problems.collecting():
+        setup.configure(m.settings)
+        if devices:
+            attach_devices(m)
+    m.problems.raise_any()
+    m.block_factory = setup.factory
+    return setup
+
+
+def application_id(m: Machine, program: bytes) -> bytes:
+    """What the state file calls the application `program` makes on this machine: a hash
+    of the program and of the configuration as written (`retain.application_id`: the
+    daemon's, the server's and the devices' sections left out). The one reader of the raw
+    table besides online change, which keeps it for this."""
+    return retain.application_id(program, m.raw)
 
 
 def attach_scan_hooks(m: Machine) -> None:

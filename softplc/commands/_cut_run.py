@@ -107,12 +107,11 @@ def _machine_axes(path: str) -> tuple[tuple[float, float], float]:
     """The axes' `start` (true counts at power-up) and counts per mm from a machine TOML
     (read and checked by the configuration loader): what maps the trace's true positions
     onto work coordinates."""
-    from ..config import load_config
-    from ..devices import DEVICE_TYPES
+    from ..build import load
     from ..errors import ConfigError
 
     try:
-        devices = load_config(path, DEVICE_TYPES)[2].devices
+        devices = load(path).settings.devices
     except ConfigError as e:
         raise CuttingError(f"--machine {e}") from None
     axes = [devices[n].options for n in ("X", "Y") if n in devices]

@@ -36,8 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.format or args.in_place:
         return _format(args)
-    try:
-        plc = load_plc(args, devices=False)
+    try:  # the devices too: a wrong device option is a configuration error like the rest
+        plc = load_plc(args)
     except ProgramError as e:
         if args.json:
             print(json.dumps({"ok": False, "errors": [asdict(d) for d in e.diagnostics]},
@@ -87,7 +87,7 @@ def _report(e: ProgramError) -> int:
 
 def _format(args: argparse.Namespace) -> int:
     """The formatter: the program on stdout (or rewritten), every message on stderr."""
-    from ..config import symbol_table
+    from ..build import symbol_table
     from ..il.formatter import format_source
 
     if args.rungs or args.python or args.json:
@@ -100,7 +100,7 @@ def _format(args: argparse.Namespace) -> int:
         formatted = format_source(text, str(args.program), symbol_table(args.config)
                                   if args.config is not None else None)
         if args.config is not None:  # the full check too, blocks configured
-            load_plc(args, devices=False)
+            load_plc(args)
     except ProgramError as e:
         return _report(e)
     if not args.in_place:

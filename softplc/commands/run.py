@@ -205,8 +205,9 @@ def run(args: argparse.Namespace) -> int:
 
     logging.basicConfig(level=getattr(logging, args.log_level.upper()),
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    from ..build import application_id
     from ..modbus.server import parse_allow
-    from ..runtime.retain import application_id, open_locked
+    from ..runtime.retain import open_locked
 
     plc = load_plc(args, clock="real" if args.speed is None else "virtual")
     outputs = []
@@ -225,7 +226,6 @@ def run(args: argparse.Namespace) -> int:
             recorder.record_to(trace)
         outputs.append(open_trace)
         waits.append(recorder.flush)  # the host reads the file while the clock is held
-    cfg = plc.config
     mb, dm = plc.settings.modbus, plc.settings.daemon  # checked by the configuration schema
     period = _pick(args.period, plc.settings.scan_period)
     state = Path(dm.state) if args.state is None and dm.state is not None else args.state
@@ -260,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
         web=_web_options(args, plc.settings.web),
         gc_freeze=not args.no_gc_freeze,
     )
-    app = application_id(args.program.read_bytes(), cfg)
+    app = application_id(plc.machine, args.program.read_bytes())
     return Daemon(plc, opts, program_name=str(args.program), app=app).run()
 
 

@@ -48,18 +48,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     i.set_defaults(func=run_import)
 
 
-def _profile_of(raw: dict) -> object:
-    from ..profile import DEFAULT_PROFILE, PROFILES
-
-    return PROFILES.get(str(raw.get("profile", DEFAULT_PROFILE.name)), DEFAULT_PROFILE)
-
-
 def run_export(args: argparse.Namespace) -> int:
-    from ..config import read_config
-    from ..symbols import from_config
+    from ..build import symbol_table
 
-    raw, base = read_config(args.config)
-    table = from_config(raw, base, _profile_of(raw))
+    table = symbol_table(args.config)
     if not len(table):
         raise ConfigError(f"{args.config}: no symbols ([symbols] or symbols_file)")
     text = table.to_csv("\t" if args.delimiter == "tab" else args.delimiter)
@@ -72,16 +64,18 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_import(args: argparse.Namespace) -> int:
-    from ..config import read_config
+    from ..build import load
+    from ..config import Config, read_config
+    from ..profile import PROFILES
     from ..symbols import SymbolTable, read_csv_file
 
-    raw, _ = read_config(args.config) if args.config is not None else ({}, None)
-    table = SymbolTable(read_csv_file(args.csv), _profile_of(raw))  # checked
+    settings = load(args.config).settings if args.config is not None else Config()
+    table = SymbolTable(read_csv_file(args.csv), PROFILES[settings.profile])  # checked
     section = table.to_toml()
     if args.config is None:
         sys.stdout.write(section)
         return 0
-    if raw.get("symbols") or raw.get("symbols_file"):
+    if settings.symbols or settings.symbols_file:
         raise ConfigError(f"{args.config} already declares symbols: merge by hand, or "
                           f"point symbols_file at {args.csv}")
     text = args.config.read_text(encoding="utf-8")

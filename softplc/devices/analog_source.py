@@ -16,12 +16,16 @@ Attribute: `value` (the signal now). Tests may set `value` between scans.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
+
+from pydantic import Field, field_validator
 
 from ..config import Address, FiniteFloat, Section
-from ..errors import ConfigError
+from ..errors import ConfigCode, ConfigError
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
+
+Point = Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)]  # [time_s, value]
 
 
 @register_device("analog_source")
@@ -31,34 +35,34 @@ class AnalogSource(Device):
     class Options(Section):
         input: Address
         value: FiniteFloat = 0.0
-        profile: list[Any] | None = None  # [time_s, value] pairs, checked below
+        profile: list[Point] | None = None  # [time_s, value] pairs
+
+        @field_validator("profile")
+        @classmethod
+        def _increasing(cls, v: list[list[float]] | None) -> list[list[float]] | None:
+            times = [p[0] for p in v or []]
+            for k in range(1, len(times)):
+                if not times[k] > times[k - 1]:
+                    raise ValueError(f"times must increase ({times[k]:g} s after "
+                                     f"{times[k - 1]:g} s)")
+            return v
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
         self.input = options.input
         self.initial = float(options.value)
-        self.profile: list[tuple[float, float]] = []
-        for point in options.profile or []:
-            if not (isinstance(point, list | tuple) and len(point) == 2 and
-                    all(isinstance(x, int | float) and not isinstance(x, bool)
-                        for x in point)):
-                raise ConfigError(f"device {name!r}: profile points are [time_s, value], "
-                                  f"not {point!r}")
-            if self.profile and point[0] <= self.profile[-1][0]:
-                raise ConfigError(f"device {name!r}: profile times must increase "
-                                  f"({point[0]} after {self.profile[-1][0]})")
-            self.profile.append((float(point[0]), float(point[1])))
+        self.profile = [(t, x) for t, x in options.profile or []]
         self._mem: MemoryImage | None = None
         self.reset()
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         self._mem = mem
         if mem.analog is None:
-            raise ConfigError(f"device {self.name!r}: no analog channels")
+            raise self.problem("input", "no analog channels", ConfigCode.MODULE)
         try:
             mem.analog.channel(self.input, "IW")
         except ConfigError as e:
-            raise ConfigError(f"device {self.name!r}: input: {e}") from None
+            raise self.problem("input", str(e), ConfigCode.ADDRESS) from None
         self._write(0.0)
 
     def reset(self) -> None:

@@ -22,7 +22,7 @@ from typing import Any
 
 from ..address import parse_address
 from ..config import Section, validate_config
-from ..errors import AddressError, ConfigError
+from ..errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
 from ..runtime.memory import MemoryImage
 
 
@@ -85,16 +85,16 @@ class Device:
     def io_index(self, mem: MemoryImage, address: Any, kind: str, option: str) -> int:
         """Flat index of an `%I` or `%Q` (kind) bit, with a config error naming the option."""
         if not isinstance(address, str):
-            raise ConfigError(f"{self.where(option)}: expected an address string "
-                              f"(got {address!r})")
+            raise self.problem(option, f"expected an address string (got {address!r})",
+                               ConfigCode.TYPE)
         try:
             ref = parse_address(address, mem.profile)
         except AddressError as e:
-            raise ConfigError(f"{self.where(option)}: {e}") from None
+            raise self.problem(option, str(e), ConfigCode.ADDRESS) from None
         if ref.kind != kind or ref.bit is not None or ref.length is not None \
                 or ref.field is not None:
-            raise ConfigError(f"{self.where(option)}: expected a %{kind} bit address "
-                              f"(got {address!r})")
+            raise self.problem(option, f"expected a %{kind} bit address (got {address!r})",
+                               ConfigCode.ADDRESS)
         mem.use_io(ref)
         return ref.index
 
@@ -103,13 +103,19 @@ class Device:
         dev = devices.get(name) if isinstance(name, str) else None
         if not isinstance(dev, cls):
             kind = getattr(cls, "type_name", cls.__name__)
-            raise ConfigError(f"{self.where(option)}: {name!r} is not a {kind} device of "
-                              f"this machine")
+            raise self.problem(option, f"{name!r} is not a {kind} device of this machine",
+                               ConfigCode.DEVICE)
         return dev
 
     def where(self, option: str) -> str:
         """The key path of one of this device's options, for error messages."""
         return f"devices.{self.name}.{option}"
+
+    def problem(self, option: str, message: str,
+                code: ConfigCode = ConfigCode.VALUE) -> ConfigError:
+        """The error to raise for one of this device's options: one issue at its key path
+        (`build_devices` collects every device's)."""
+        return ConfigError(ConfigIssue(self.where(option), message, code))
 
 
 class AxisDevice(Device):
@@ -149,15 +155,31 @@ def register_device(type_name: str) -> Callable[[type[Device]], type[Device]]:
 
 def build_devices(config: dict[str, Any], mem: MemoryImage) -> dict[str, Device]:
     """Create and bind a machine's devices, in order. `config` maps a device name to its
-    `[devices.NAME]` table (a dict with `type`), or to (type, validated Options)."""
+    `[devices.NAME]` table (a dict with `type`), or to (type, validated Options). Raises
+    one ConfigError with every device's problems, each at its key path: those of creating
+    them, else those of binding them (binding needs every device made: a switch's axis)."""
     devices: dict[str, Device] = {}
-    for name, entry in config.items():
+    issues: list[ConfigIssue] = []
+
+    def collect(name: str, step: Callable[[], Any]) -> None:
+        try:
+            step()
+        except ConfigError as e:
+            issues.extend(located(i, f"devices.{name}") for i in e.issues)
+
+    def create(name: str, entry: Any) -> None:
         if isinstance(entry, tuple):
             type_name, options = entry
         else:  # a raw table: checked against the same schema as a whole configuration
             section = validate_config({"devices": {name: entry}}, DEVICE_TYPES).devices[name]
             type_name, options = section.type, section.options
         devices[name] = DEVICE_TYPES[type_name](name, options)
-    for dev in devices.values():
-        dev.bind(mem, devices)
+
+    for name, entry in config.items():
+        collect(name, lambda: create(name, entry))  # noqa: B023 (called at once)
+    if not issues:
+        for name, dev in devices.items():
+            collect(name, lambda: dev.bind(mem, devices))  # noqa: B023
+    if issues:
+        raise ConfigError(issues)
     return devices

@@ -19,10 +19,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from ..address import parse_address
-from ..errors import AddressError, ConfigError
+from ..errors import AddressError, ConfigCode, ConfigError
 from ..massest.params import MP_NAMES
 from ..massest.retune import DRIVE_MPS, REFERENCE, mp_dict, retuned
 from ..runtime.memory import MemoryImage
@@ -40,6 +40,17 @@ class DriveTuningOptions(BaseModel):
     error: str = "%MW497"
     reference: dict[str, float] = Field(default_factory=lambda: dict(REFERENCE))
 
+    @field_validator("reference")
+    @classmethod
+    def _known_mps(cls, v: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(v) - set(MP_NAMES))
+        if unknown:
+            raise ValueError(f"unknown parameter {unknown[0]!r}")
+        missing = [mp for mp in DRIVE_MPS if not v.get(mp, 0.0) > 0]
+        if missing:
+            raise ValueError(f"{', '.join(missing)} must be given, > 0")
+        return v
+
 
 REFUSED = 1
 
@@ -54,12 +65,6 @@ class DriveTuning(Device):
     def __init__(self, name: str, options: DriveTuningOptions):
         super().__init__(name, options)
         self.options: DriveTuningOptions = options
-        unknown = sorted(set(options.reference) - set(MP_NAMES))
-        if unknown:
-            raise ConfigError(f"{self.where('reference')}: unknown parameter {unknown[0]!r}")
-        for mp in DRIVE_MPS:
-            if not options.reference.get(mp, 0.0) > 0:
-                raise ConfigError(f"{self.where('reference')}: {mp} must be given, > 0")
         self.axis: ServoAxis | None = None
         self.commissioned: Any = None  # the axis's configured I-variables
         self._mw: Any = None
@@ -70,11 +75,11 @@ class DriveTuning(Device):
         try:
             ref = parse_address(address, mem.profile)
         except AddressError as e:
-            raise ConfigError(f"{self.where(option)}: {e}") from None
+            raise self.problem(option, str(e), ConfigCode.ADDRESS) from None
         if ref.kind != kind or ref.bit is not None or ref.length or \
                 ref.index + size > mem.mw.n:
-            raise ConfigError(f"{self.where(option)}: expected a %{kind} address with room "
-                              f"for {size} words (got {address!r})")
+            raise self.problem(option, f"expected a %{kind} address with room for {size} "
+                               f"words (got {address!r})", ConfigCode.ADDRESS)
         return ref.index
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:

@@ -13,17 +13,19 @@ the before/after comparison of `softplc tune --compare`.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..config import read_toml
+from ..config import load_config
 from ..errors import ConfigError
 from ..massest.synth import CAL_JOB, MEAS_JOB, Run, Scenario
 from .axis.options import Ctl, Mode, St, Word
 from .axis.rig import Rig
+from .base import DEVICE_TYPES
 from .drive_tuning import DriveTuning
 from .scope import SW, Scope
 
@@ -34,16 +36,22 @@ AXES = ("servo_axis", "feed_axis")
 APPROACH = 0.005  # m: fe_of_move's approach distance
 
 
-def machine_devices(path: str | Path = MACHINE_TOML) -> dict[str, dict[str, Any]]:
-    return read_toml(path).get("devices", {})  # ConfigError naming the file
+def machine_devices(path: str | Path = MACHINE_TOML
+                    ) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+    """The machine's devices as the configuration loader checked them (name ->
+    `config.DeviceSection`, options typed), and their tables as written (copies, for the
+    rig to override). ConfigError naming the file and every wrong key."""
+    raw, _, settings = load_config(path, DEVICE_TYPES)
+    return settings.devices, copy.deepcopy(raw.get("devices", {}))
 
 
-def configured_mass(devices: dict[str, dict[str, Any]], ratio: float) -> float:
+def configured_mass(devices: dict[str, Any], ratio: float) -> float:
     """The moving mass (kg) without the workpiece: one drive bit is torque_per_bit Nm,
-    ratio x that N at the table; K counts/s² per bit at counts_per_mm x 1000 counts/m."""
-    axis = devices[devices["scope"]["axis"]]
-    force = devices["scope"]["torque_per_bit"] * ratio
-    return force * axis.get("counts_per_mm", 409.6) * 1e3 / axis["plant"]["K"]
+    ratio x that N at the table; K counts/s² per bit at counts_per_mm x 1000 counts/m
+    (`devices`: the typed sections, `machine_devices`)."""
+    scope = devices["scope"].options
+    axis = devices[scope.axis].options
+    return scope.torque_per_bit * ratio * axis.counts_per_mm * 1e3 / axis.plant.K
 
 
 @dataclass(frozen=True)
@@ -69,13 +77,16 @@ class MachiningCentre:
     def __init__(self, directory: Path, mass: float, *, ratio: float = 523.5987756,
                  noise: bool = True, ideal: bool = False,
                  config: str | Path = MACHINE_TOML):
-        devs = machine_devices(config)
-        names = {d.get("type") for d in devs.values()}
-        if "scope" not in devs or not names & set(AXES):
-            raise ConfigError(f"{config}: expected a servo_axis and a scope device")
-        self.axis_name = devs["scope"]["axis"]
+        typed, devs = machine_devices(config)
+        scope = typed.get("scope")
+        scope = scope if scope is not None and scope.type == "scope" else None
+        axis = typed.get(scope.options.axis) if scope is not None else None
+        if scope is None or axis is None or axis.type not in AXES:
+            raise ConfigError(f"{config}: expected a scope device named scope and the "
+                              f"servo_axis its `axis` names")
+        self.axis_name = scope.options.axis
         ax = devs[self.axis_name]
-        self.m0 = configured_mass(devs, ratio)
+        self.m0 = configured_mass(typed, ratio)
         if not mass > 0:
             raise ConfigError(f"mass {mass!r} kg: expected a number > 0")
         ax["plant"]["load_mass_ratio"] = max(mass / self.m0 - 1, 0.0)

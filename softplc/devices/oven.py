@@ -26,11 +26,11 @@ import math
 from collections import deque
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from ..address import parse_address
 from ..config import Address, FiniteFloat, Section
-from ..errors import AddressError, ConfigError
+from ..errors import AddressError, ConfigCode
 from ..runtime.analog import SIGNAL_SPAN
 from ..runtime.memory import MemoryImage
 from .base import Device, register_device
@@ -55,12 +55,15 @@ class Oven(Device):
         ambient: FiniteFloat = Field(20.0, ge=-273.0, le=1e4)
         start: FiniteFloat | None = Field(None, ge=-273.0, le=1e4)
 
+        @model_validator(mode="after")
+        def _one_heater(self) -> Any:
+            if (self.heater is None) == (self.heater_bit is None):
+                raise ValueError("give one of heater (a %QW) or heater_bit (a %Q)")
+            return self
+
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
         o = options
-        if (o.heater is None) == (o.heater_bit is None):
-            raise ConfigError(f"device {name!r}: give one of heater (a %QW) or heater_bit "
-                              f"(a %Q)")
         self.sensor, self.heater, self.heater_bit = o.sensor, o.heater, o.heater_bit
         self.gain, self.tau, self.dead_time = o.gain, o.tau, o.dead_time
         self.ambient = o.ambient
@@ -77,10 +80,11 @@ class Oven(Device):
             try:
                 ref = parse_address(str(addr), mem.profile)
             except AddressError as e:
-                raise ConfigError(f"device {self.name!r}: {option}: {e}") from None
+                raise self.problem(option, str(e), ConfigCode.ADDRESS) from None
             if analog is None or ref not in analog.channels or ref.kind != kind:
-                raise ConfigError(f"device {self.name!r}: {option} = {addr!r} is not a "
-                                  f"configured analog {'input' if kind == 'IW' else 'output'}")
+                raise self.problem(option, f"{addr!r} is not a configured analog "
+                                   f"{'input' if kind == 'IW' else 'output'}",
+                                   ConfigCode.MODULE)
         self._pulse = None
         if self.heater_bit is not None:
             self._bit = self.io_index(mem, self.heater_bit, "Q", "heater_bit")

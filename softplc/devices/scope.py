@@ -38,7 +38,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..address import parse_address
-from ..errors import AddressError, ConfigError, SoftPLCError
+from ..errors import AddressError, ConfigCode, SoftPLCError
 from ..massest.recording import THESIS_CHANNELS, Recording, quantise, write_recording
 from ..massest.synth import CAL_JOB, MEAS_JOB
 from ..massest.tuning import CAL_FILE, MEAS_FILE
@@ -97,11 +97,11 @@ class Scope(Device):
         try:
             ref = parse_address(self.options.words, mem.profile)
         except AddressError as e:
-            raise ConfigError(f"device {self.name!r}: words: {e}") from None
+            raise self.problem("words", str(e), ConfigCode.ADDRESS) from None
         if ref.kind != "MW" or ref.bit is not None or ref.length or \
                 ref.index + SW.SIZE > mem.mw.n:
-            raise ConfigError(f"device {self.name!r}: words must be a %MW address with "
-                              f"{SW.SIZE} words after it, not {self.options.words!r}")
+            raise self.problem("words", f"a %MW address with {SW.SIZE} words after it, "
+                               f"not {self.options.words!r}", ConfigCode.ADDRESS)
         self._w, self._base = mem.mw.w, ref.index
         self._v_prev = self.axis.v
         self._write_status()

@@ -58,7 +58,7 @@ from pydantic import Field, field_validator, model_validator
 
 from .. import catalog
 from ..config import Address, InfFloat, Section
-from ..errors import ConfigError
+from ..errors import ConfigCode
 from ..runtime.memory import MemoryImage
 from .base import AxisDevice, Device, register_device
 
@@ -131,8 +131,8 @@ class Stepper(AxisDevice):
             self._hi_h = math.floor(2 * (self.travel + margin) * self.steps_per_unit)
         self._start_h = 2 * round(start * self.steps_per_unit)
         if not self._lo_h <= self._start_h <= self._hi_h:
-            raise ConfigError(f"{self.where('start')}: {start} is beyond the hard stops "
-                              f"(-{margin} .. {self.travel + margin} units)")
+            raise self.problem("start", f"{start} is beyond the hard stops "
+                               f"(-{margin} .. {self.travel + margin} units)")
         # Shortest time per half step, a hair shorter so that stepping exactly at the limit
         # survives float rounding of t.
         self._min_dt_h = 0.5 / self.max_step_rate * (1 - 1e-6)
@@ -149,8 +149,8 @@ class Stepper(AxisDevice):
             return
         idx = [self.io_index(mem, a, "Q", f"phases[{k}]") for k, a in enumerate(self.phases)]
         if len(set(idx)) != 4:
-            raise ConfigError(f"{self.where('phases')}: the four phases must be distinct "
-                              f"outputs (got {self.phases!r})")
+            raise self.problem("phases", f"the four phases must be distinct outputs (got "
+                               f"{self.phases!r})", ConfigCode.CONFLICT)
         self._get_phases = itemgetter(*idx)
 
     def _bind_pulses(self, mem: MemoryImage) -> None:
@@ -159,10 +159,11 @@ class Stepper(AxisDevice):
         self._gen = mem.pulses.source(i) if mem.pulses is not None else None
         if self._gen is None:
             pulse = [f for f in catalog.FAMILIES.values() if f.pulse_output]
-            raise ConfigError(
-                f"{self.where('step')}: {self.step} is not driven by a configured "
+            raise self.problem(
+                "step", f"{self.step} is not driven by a configured "
                 f"{' or '.join(f'%{f.kind}' for f in pulse)} ({pulse[0].section}."
-                f"\"%{pulse[0].kind}0\" drives %Q0.0, %{pulse[0].kind}1 %Q0.1)")
+                f"\"%{pulse[0].kind}0\" drives %Q0.0, %{pulse[0].kind}1 %Q0.1)",
+                ConfigCode.ADDRESS)
         self._dir = None if self.direction is None else \
             self.io_index(mem, self.direction, "Q", "direction")
         self.update = self._update_pulses  # type: ignore[method-assign]

@@ -25,7 +25,6 @@ from typing import Any, Literal, get_args
 from pydantic import Field
 
 from ..config import Address, Section
-from ..errors import ConfigError
 from ..runtime.memory import MemoryImage
 from .base import AxisDevice, Device, register_device
 
@@ -55,8 +54,8 @@ class LimitSwitch(Device):
 
     def _check_fault(self, fault: Any) -> None:
         if fault not in FAULTS:
-            raise ConfigError(f"{self.where('fault')}: expected one of "
-                              f"{', '.join(FAULTS)} (got {fault!r})")
+            raise self.problem("fault", f"expected one of {', '.join(FAULTS)} (got "
+                               f"{fault!r})")
 
     def set_fault(self, fault: str) -> None:
         """Break (or repair, with "none") the switch at run time."""

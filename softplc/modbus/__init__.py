@@ -2,8 +2,8 @@
 
 from .image import ModbusImage
 from .protocol import process_pdu
-from .regmap import FUNCTIONS, ExceptionCode, ReadOnly, parse_read_only
+from .regmap import FUNCTIONS, ExceptionCode, ReadOnly, read_only_of
 from .server import ModbusTcpServer, ServerThread
 
 __all__ = ["FUNCTIONS", "ExceptionCode", "ModbusImage", "ModbusTcpServer", "ReadOnly",
-           "ServerThread", "parse_read_only", "process_pdu"]
+           "ServerThread", "read_only_of", "process_pdu"]

@@ -13,12 +13,11 @@ two registers i (low word) and i+1 (high word) [sure].
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Any
 
-from ..address import parse_address
-from ..errors import AddressError, ConfigError
+from ..address import WIDTH, Ref, parse_address
 from ..profile import DEFAULT_PROFILE, Profile
 
 
@@ -97,38 +96,38 @@ class ReadOnly:
         return False
 
 
-def parse_read_only(config: dict[str, Any] | None, profile: Profile = DEFAULT_PROFILE) -> ReadOnly:
-    """Read `[modbus] read_only = ["%MW100:20", "%M0:8", "%MF40", ...]` from a machine config.
+def span(ref: Ref) -> tuple[str, int, int] | None:
+    """(table, first item, item count) of a %M/%MW/%MD/%MF object on the map; None for an
+    object no host reaches. %MD/%MF take two registers each."""
+    if ref.kind == "M":
+        return COILS, ref.index, ref.length or 1
+    if ref.kind in ("MW", "MD", "MF"):
+        return REGISTERS, ref.index, (ref.length or 1) * WIDTH[ref.kind]
+    return None
 
-    Entries are Twido addresses: %MWi, %MDi, %MFi (two registers), tables %MWi:L,
-    %MDi:L, %MFi:L, bits %Mi and bit strings %Mi:L.
-    """
-    modbus = (config or {}).get("modbus", {}) or {}
-    if not isinstance(modbus, dict):
-        raise ConfigError("[modbus] must be a table")
-    entries = modbus.get("read_only", [])
-    if isinstance(entries, str):
-        entries = [entries]
-    if not isinstance(entries, list):
-        raise ConfigError("[modbus] read_only must be a list of addresses like \"%MW100:20\"")
+
+def read_only_range(text: str, profile: Profile = DEFAULT_PROFILE) -> tuple[str, int, int]:
+    """(table, first item, item count) of one `[modbus] read_only` entry: %MWi, %MDi, %MFi
+    (two registers), tables %MWi:L, %MDi:L, %MFi:L, bits %Mi and bit strings %Mi:L.
+    ValueError (AddressError for a malformed address) saying what is wrong; the
+    configuration schema checks each entry with it (`softplc.config.ModbusConfig`)."""
+    ref = parse_address(text, profile)
+    if ref.bit is not None or ref.offset is not None or ref.field is not None:
+        raise ValueError("not a word or bit range (%MWi, %MWi:L, %Mi:L...)")
+    where = span(ref)
+    if where is None:
+        raise ValueError("only %M, %MW, %MD, %MF objects are reachable over Modbus")
+    return where
+
+
+def read_only_of(entries: Iterable[str] | str, profile: Profile = DEFAULT_PROFILE) -> ReadOnly:
+    """The ranges of `[modbus] read_only = ["%MW100:20", "%M0:8", "%MF40", ...]`, entries
+    as the configuration schema checked them (`plc.settings.modbus.read_only`)."""
     regs: list[tuple[int, int]] = []
     coils: list[tuple[int, int]] = []
-    for text in entries:
-        try:
-            ref = parse_address(str(text), profile)
-        except AddressError as e:
-            raise ConfigError(f"[modbus] read_only: {e}") from None
-        if ref.bit is not None or ref.offset is not None or ref.field is not None:
-            raise ConfigError(f"[modbus] read_only: {text!r} is not a word or bit range")
-        n = ref.length or 1
-        if ref.kind == "M":
-            coils.append((ref.index, ref.index + n))
-        elif ref.kind in ("MW", "MD", "MF"):
-            width = 1 if ref.kind == "MW" else 2
-            regs.append((ref.index, ref.index + n * width))
-        else:
-            raise ConfigError(f"[modbus] read_only: {text!r}: only %M, %MW, %MD, %MF objects "
-                              f"are reachable over Modbus")
+    for text in [entries] if isinstance(entries, str) else entries:
+        space, start, count = read_only_range(text, profile)
+        (coils if space == COILS else regs).append((start, start + count))
     return ReadOnly(tuple(regs), tuple(coils))
 
 

@@ -19,7 +19,7 @@ from typing import Any
 from ..address import BLOCK_FIELDS, Ref
 from ..compiler.resolve import object_uses
 from ..il import ast as A
-from .regmap import COILS, FUNCTIONS, REGISTERS, ReadOnly, parse_read_only
+from .regmap import COILS, FUNCTIONS, REGISTERS, ReadOnly, read_only_of, span
 
 #: The function codes that read / write each table (from the one map, regmap.FUNCTIONS);
 #: 32-bit objects span two registers, so only the multi-register writes reach them whole.
@@ -34,7 +34,6 @@ MULTI_REGISTER_WRITES = tuple(c for c in WRITE_FCS[REGISTERS] if FUNCTIONS[c].ma
 #: holding register n is 40001 + n.
 REFERENCE_BASE = {COILS: 1, REGISTERS: 40001}
 TYPES = {"M": "BOOL", "MW": "INT16", "MD": "INT32", "MF": "REAL"}
-WIDTH = {"M": 1, "MW": 1, "MD": 2, "MF": 2}
 #: Why an object is not on the map, and how a program shows it to a host.
 HIDDEN_WHY = {
     "I": "inputs have no Modbus address: copy to a %M bit (LD %I0.0 / ST %M100)",
@@ -102,15 +101,6 @@ class ProgramMap:
     hidden: list[Hidden]
 
 
-def _span(ref: Ref) -> tuple[str, int, int] | None:
-    """(table, first item, item count) of a %M/%MW/%MD/%MF object, None if not exposed."""
-    if ref.kind == "M":
-        return COILS, ref.index, ref.length or 1
-    if ref.kind in ("MW", "MD", "MF"):
-        return REGISTERS, ref.index, (ref.length or 1) * WIDTH[ref.kind]
-    return None
-
-
 def _block_name(ref: Ref) -> str:
     return f"%{ref.kind}{ref.index}"
 
@@ -132,8 +122,8 @@ def build(program: A.Program, read_only: ReadOnly | None = None,
     for ref, (role, pos) in object_uses(program).items():
         text = str(ref)
         sym, comment = symbols.get(text, ("", ""))
-        span = _span(ref)
-        if span is None:
+        where = span(ref)
+        if where is None:
             if ref.kind in BLOCK_FIELDS:  # one line per block, not per field
                 name = _block_name(ref)
                 if name in seen_blocks:
@@ -144,7 +134,7 @@ def build(program: A.Program, read_only: ReadOnly | None = None,
             elif ref.kind in HIDDEN_WHY:
                 hidden.append(Hidden(text, role, pos.line, HIDDEN_WHY[ref.kind], sym, comment))
             continue
-        space, start, count = span
+        space, start, count = where
         if limits is not None and start + count > limits.get(space, start + count):
             hidden.append(Hidden(text, role, pos.line,
                                  f"beyond the {space} of the image", sym, comment))
@@ -172,7 +162,8 @@ def host_read_only(plc: Any) -> tuple[ReadOnly, dict[str, list[tuple[int, int]]]
     """What hosts may not write on `plc`'s map: the configured `[modbus] read_only` ranges,
     and each device's status words (device name -> %MW ranges)."""
     devices = {name: list(d.read_only_words()) for name, d in plc.devices.items()}
-    return parse_read_only(plc.config, plc.mem.profile), {n: r for n, r in devices.items() if r}
+    ro = read_only_of(plc.settings.modbus.read_only, plc.mem.profile)
+    return ro, {n: r for n, r in devices.items() if r}
 
 
 def of_plc(plc: Any) -> ProgramMap:

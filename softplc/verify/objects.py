@@ -11,7 +11,8 @@ import z3
 
 from .. import catalog
 from ..address import INT16, INT32, REAL, Ref, parse_address
-from ..errors import AddressError, Code, Diagnostic
+from ..build.blocks import drum_outputs
+from ..errors import Code, Diagnostic
 from ..il import ast as A
 from ..runtime.blocks import (
     MAX_VALUE,
@@ -88,13 +89,11 @@ class ObjectModel(ExprModel):
 
     def drum_outputs(self, ref: Ref, pos: A.Pos | None) -> list[str]:
         """The state keys of a drum's configured output bits, in bit order."""
-        for text, d in self.plc.config.get("drums", {}).items():
-            try:
-                if parse_address(str(text), self.plc.profile).index != ref.index:
-                    continue
-                outs = [parse_address(str(a), self.plc.profile) for a in d.get("outputs", [])]
-            except AddressError:
+        plc = self.plc
+        for text, d in plc.settings.drums.items():  # checked when the PLC was built
+            if parse_address(text, plc.profile).index != ref.index:
                 continue
+            outs = drum_outputs(d, text, plc.profile, plc.symbols)  # addresses or symbols
             keys = [self.key_for(r) for r in outs]
             for k in keys:
                 self.mark_written(k, pos)
