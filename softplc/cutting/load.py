@@ -15,6 +15,7 @@ from .dxf import piece_from_dxf
 from .geometry import Point
 from .piece import Piece, PieceError, piece_from_dict, piece_from_gcode
 
+#: Options a caller (the command line) may impose on a piece, and their TOML keys.
 OPTION_KEYS = {"speed": "speed", "move_speed": "move_speed", "accel": "accel",
                "tolerance": "chord_tolerance", "work_area": "work_area"}
 

@@ -436,7 +436,6 @@ def piece_from_dict(data: dict, file: str = "<dict>") -> Piece:
     return _Builder(model, file).piece()
 
 
-#: Options a caller (the command line) may impose on a piece, and their TOML keys.
 def piece_from_gcode(path: str | Path, speed: float = DEFAULT_SPEED,
                      move_speed: float | None = None, accel: float = DEFAULT_ACCEL,
                      tolerance: float = DEFAULT_TOLERANCE,
