@@ -12,8 +12,11 @@ from typing import Any, Protocol
 
 from ..address import Ref
 from ..program import CompiledProgram
+from .blocks import TimeSource
 from .clock import Clock
 from .memory import MemoryImage
+from .pulse import PulseOutputs
+from .rtc import RTC
 from .runstate import RunState
 
 
@@ -39,9 +42,9 @@ class ScanHost(Protocol):
     program: CompiledProgram | None
     main: Callable[[], Any] | None
     state: RunState
-    time_source: Any  # runtime.clock time source of the timers, or None
-    rtc: Any  # runtime.rtc.RTC, or None
-    pulses: Any  # runtime.pulse.PulseOutputs, or None
+    time_source: TimeSource | None  # the scan's start time, for the timers
+    rtc: RTC | None
+    pulses: PulseOutputs | None  # %PLS/%PWM, when configured
     devices: dict[str, Any]
     forced: dict[Ref, Any]
     before_scan: list[Callable[[], None]]
