@@ -9,8 +9,8 @@ Prints, and exits 1 when a rule is broken (`--strict`), or always 0 (default):
   whole word in a string literal or an identifier, outside comments and docstrings
   (so a regex alternation, a dict key, a `kind == "PLS"` test or a `_configure_pid`
   all count; a sentence in a docstring does not);
-- import cycles between files (module-level imports; `if TYPE_CHECKING:` blocks and
-  imports inside functions are left out);
+- import cycles between files, every import statement counted (module level, inside
+  functions, under `if TYPE_CHECKING:`); `from . import sub` is an edge to `sub` only;
 - files of softplc/web/ that reach the PLC object (`.plc` attribute, `PLC` name, or
   an import of softplc.plc).
 
@@ -94,37 +94,28 @@ def _module_name(path: Path, root: Path = ROOT) -> str:
     return ".".join(parts)
 
 
-def _top_imports(tree: ast.Module, mod: str, is_pkg: bool, modules: set[str]) -> set[str]:
-    """Module-level imports of softplc modules (TYPE_CHECKING blocks left out)."""
+def _imports(tree: ast.Module, mod: str, is_pkg: bool, modules: set[str]) -> set[str]:
+    """Every import of a softplc module, wherever the statement is: module level, inside a
+    function, under `if TYPE_CHECKING:` (a reader of the code sees each one as a
+    dependency)."""
     out: set[str] = set()
-
-    def visit(stmts: list[ast.stmt]) -> None:
-        for st in stmts:
-            if isinstance(st, ast.If):
-                test = ast.unparse(st.test)
-                if "TYPE_CHECKING" in test:
-                    continue
-                visit(st.body)
-                visit(st.orelse)
-            elif isinstance(st, ast.Try):
-                visit(st.body)
-            elif isinstance(st, ast.Import):
-                out.update(a.name for a in st.names if a.name.startswith("softplc"))
-            elif isinstance(st, ast.ImportFrom):
-                if st.level:
-                    base = mod.split(".")
-                    base = base[: len(base) - st.level + (1 if is_pkg else 0)]
-                    target = ".".join(base + ([st.module] if st.module else []))
-                else:
-                    target = st.module or ""
-                if target.startswith("softplc"):
-                    # `from . import sub` imports the module sub (the package is
-                    # being initialised already); `from .m import x` imports m
-                    subs = {f"{target}.{a.name}" for a in st.names} & modules
-                    out.update(subs)
-                    if len(subs) < len(st.names):
-                        out.add(target)
-    visit(tree.body)
+    for st in ast.walk(tree):
+        if isinstance(st, ast.Import):
+            out.update(a.name for a in st.names if a.name.startswith("softplc"))
+        elif isinstance(st, ast.ImportFrom):
+            if st.level:
+                base = mod.split(".")
+                base = base[: len(base) - st.level + (1 if is_pkg else 0)]
+                target = ".".join(base + ([st.module] if st.module else []))
+            else:
+                target = st.module or ""
+            if target.startswith("softplc"):
+                # `from . import sub` imports the module sub (the package is
+                # being initialised already); `from .m import x` imports m
+                subs = {f"{target}.{a.name}" for a in st.names} & modules
+                out.update(subs)
+                if len(subs) < len(st.names):
+                    out.add(target)
     return out
 
 
@@ -202,7 +193,7 @@ def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
                 r"\.plc\b|\bPLC\b|softplc\.plc\b|from \.\.plc\b", text):
             rep.web_reach.append(rel)
     known = set(trees)
-    graph = {m: _top_imports(t, m, pkg, known) for m, (t, pkg) in trees.items()}
+    graph = {m: _imports(t, m, pkg, known) for m, (t, pkg) in trees.items()}
     rep.cycles = cycles({m: {t for t in deps if t in known and t != m}
                          for m, deps in graph.items()})
     return rep

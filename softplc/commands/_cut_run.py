@@ -21,7 +21,9 @@ from ..cutting.motion import simulate
 from ..cutting.piece import DWELL
 from ..cutting.regmap import FRAME_LEN, SEG_BASE
 from ..cutting.seed import run_trigger_chain, thesis_split
-from .cut import ACTIONS
+
+#: The operator's commands, given instead of a piece file (cut.py's help names them).
+ACTIONS = ("reset", "home", "jog")
 
 
 def _load(args: argparse.Namespace) -> Piece:

@@ -29,10 +29,6 @@ examples (after P=ladder_programs/pieces):
   softplc cut home --port 5020       (home again from READY)
 """
 
-#: The operator's commands, given instead of a piece file.
-ACTIONS = ("reset", "home", "jog")
-
-
 _area = size_arg("work area", "mm", "240x240")
 
 

@@ -9,7 +9,8 @@
 
 Geometry in `geometry.py` (line, arc, fillet, Newton curve, chord tolerance), the axis split
 in `motion.py`, the thesis's defective algorithms in `seed.py`, pieces from TOML / G-code in
-`piece.py`, the register words in `regmap.py`. See `../shared/reference/cutting-table.md`.
+`piece.py` (from DXF in `dxf.py`; `load.py` picks by suffix), the register words in
+`regmap.py`. See `../shared/reference/cutting-table.md`.
 """
 
 from .geometry import (
@@ -25,8 +26,9 @@ from .geometry import (
     ZeroRadiusError,
     fillet,
 )
+from .load import load_piece
 from .motion import LineSplit, Trapezoid, matlab_steps, split_line
-from .piece import Piece, PieceError, Segment, load_piece, piece_from_dict, piece_from_gcode
+from .piece import Piece, PieceError, Segment, piece_from_dict, piece_from_gcode
 from .preview import preview
 from .regmap import SegmentWords, piece_words, segment_words
 

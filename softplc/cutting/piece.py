@@ -1,8 +1,9 @@
 """Pieces: an ordered list of shapes -> numbered segments (cut or move) for the table.
 
-A piece comes from a small TOML file (`load_piece`, schema below) or from G-code through the
-drawing host's reader (`piece_from_gcode`: XY plane, mm, G00 = move, G01/G02/G03 = cut, no
-pen word). Coordinates are work coordinates in mm: (0, 0) is the homed corner, the work area
+A piece comes from a small TOML file (`piece_from_dict`, schema below), from G-code through
+the drawing host's reader (`piece_from_gcode`: XY plane, mm, G00 = move, G01/G02/G03 = cut,
+no pen word) or from a DXF drawing (dxf.py); `load.load_piece` picks one by the file's
+suffix. Coordinates are work coordinates in mm: (0, 0) is the homed corner, the work area
 is [0, W] x [0, H] (240 x 240 by default, reference D1); every point is checked against it.
 
 TOML (every key optional except the ops; unknown keys are errors)::
@@ -39,8 +40,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..config import error_lines, read_toml
-from ..errors import ConfigError
+from ..config import error_lines
 from . import seed as thesis
 from .geometry import (
     DEFAULT_TOLERANCE,
@@ -434,36 +434,6 @@ def piece_from_dict(data: dict, file: str = "<dict>") -> Piece:
         raise PieceError("\n".join(f"{file}: {line}"
                                     for line in error_lines(e, PieceModel))) from None
     return _Builder(model, file).piece()
-
-
-#: Options a caller (the command line) may impose on a piece, and their TOML keys.
-OPTION_KEYS = {"speed": "speed", "move_speed": "move_speed", "accel": "accel",
-               "tolerance": "chord_tolerance", "work_area": "work_area"}
-
-
-def load_piece(path: str | Path, **options: float | Point | None) -> Piece:
-    """A piece from a `.toml` file, a `.dxf` drawing (`dxf.py`), or G-code (any other
-    suffix).
-
-    `options` (speed, move_speed, accel, tolerance, work_area; None = not given) are the
-    G-code reading values, and override the TOML file's keys."""
-    p = Path(path)
-    given = {k: v for k, v in options.items() if v is not None}
-    unknown = set(given) - set(OPTION_KEYS)
-    if unknown:
-        raise TypeError(f"unknown piece options {sorted(unknown)}")
-    if p.suffix.lower() == ".dxf":
-        from .dxf import piece_from_dxf
-
-        return piece_from_dxf(p, **given)
-    if p.suffix.lower() != ".toml":
-        return piece_from_gcode(p, **given)
-    try:
-        data = read_toml(p)
-    except ConfigError as e:
-        raise PieceError(str(e)) from None
-    data.update({OPTION_KEYS[k]: v for k, v in given.items()})
-    return piece_from_dict(data, str(p))
 
 
 def piece_from_gcode(path: str | Path, speed: float = DEFAULT_SPEED,

@@ -28,7 +28,6 @@ from ..address import IO_KINDS, Ref, expand
 from ..display import format_value
 from ..errors import SoftPLCError
 from ..plc import PLC
-from . import cmd_breaks, cmd_data, cmd_run, cmd_views  # noqa: F401 (they fill COMMANDS)
 from .registry import COMMANDS
 from .stepper import HISTORY, DebugError, Stepper
 
@@ -41,7 +40,8 @@ FLOATS = ("MF", "KF")
 class Session:
     """A debugging session over one PLC: the command and format layer over a `Stepper`
     (`self.ctl`, which the web monitor can drive the same way). `execute(line)`
-    runs a command from the table `COMMANDS` and returns its text."""
+    runs a command from the table `COMMANDS` (filled when the package `softplc.debug` is
+    imported) and returns its text."""
 
     def __init__(self, plc: PLC, program_path: str | Path | None = None,
                  history: int = HISTORY):

@@ -22,7 +22,7 @@ from .clock import Clock, RealClock, VirtualClock
 from .runstate import RUN
 
 if TYPE_CHECKING:
-    from .engine import Engine
+    from .scanhost import ScanHost
 
 # %S4-%S7: 50 % clocks [manual]; bit -> period in us
 S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}
@@ -77,7 +77,7 @@ def _clock_code(clock: Clock) -> tuple[str, str]:
     return "now = clock.start_scan(P)", "clock.end_scan(P)"
 
 
-def _checks_watchdog(eng: Engine) -> bool:
+def _checks_watchdog(eng: ScanHost) -> bool:
     """Does the program read the watchdog deadline (a loop: a backward jump)? Only then
     does the scan set it."""
     program = eng.program
@@ -85,7 +85,7 @@ def _checks_watchdog(eng: Engine) -> bool:
         f"{Names.WATCHDOG}(" in program.source
 
 
-def _forced_code(eng: Engine, ns: dict[str, Any], inputs: bool = False) -> list[str]:
+def _forced_code(eng: ScanHost, ns: dict[str, Any], inputs: bool = False) -> list[str]:
     """Forced values re-asserted, one store per bit (`inputs`: the forced %I, after the
     latch), other objects through `Engine._apply_forced_other`."""
     prefix = "fi" if inputs else "fb"
@@ -97,7 +97,7 @@ def _forced_code(eng: Engine, ns: dict[str, Any], inputs: bool = False) -> list[
     return lines
 
 
-def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
+def source(eng: ScanHost, before: bool = True) -> tuple[str, dict[str, Any]]:
     """The text of `make()`, which returns (scan, begin, finish), and its namespace.
     `before=False` leaves out the before_scan hooks (a hook changed the configuration and
     the scan goes on with the new one)."""
@@ -213,7 +213,7 @@ HANDOVER = compile("def scan():\n    return eng.scan()\n", "<scan handover>", "e
                    ).co_consts[0]
 
 
-def build(eng: Engine, before: bool = True) -> tuple[Callable[[], None],
+def build(eng: ScanHost, before: bool = True) -> tuple[Callable[[], None],
                                                      Callable[[], bool],
                                                      Callable[[float], None]]:
     """(scan, begin, finish) for the engine as it is now."""

@@ -35,7 +35,7 @@ from ...errors import SoftPLCError
 from .law import IVARS, Coefficients, Gains, law_output
 
 if TYPE_CHECKING:
-    from .servo import ServoAxis
+    from .state import ServoState
 
 REFUSED, APPLIED, DISTURBANCE, FIRST = 0, 1, 2, 4
 SIZE = FIRST + 2 * len(IVARS)
@@ -79,7 +79,7 @@ def check(gains: Any, name: str, value: float) -> Any:
 
 
 class IVarTable:
-    def __init__(self, axis: ServoAxis):
+    def __init__(self, axis: ServoState):
         self.a = axis
         self._pending: Any = None  # gains checked, waiting for the next scan's tick
         self._at: int | None = None  # word index of the table

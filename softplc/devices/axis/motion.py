@@ -12,11 +12,11 @@ from . import trajectory as tj
 from .options import Ctl, Err, Mode, Word
 
 if TYPE_CHECKING:
-    from .servo import ServoAxis
+    from .state import ServoState
 
 
 class Motion:
-    def __init__(self, axis: ServoAxis):
+    def __init__(self, axis: ServoState):
         self.a = axis
 
     def kill(self, error: int, latch: bool = True) -> None:

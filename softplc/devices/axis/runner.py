@@ -15,11 +15,11 @@ from .options import Err
 from .plant import ZOH, step
 
 if TYPE_CHECKING:
-    from .servo import ServoAxis
+    from .state import ServoState
 
 
 class LoopRunner:
-    def __init__(self, axis: ServoAxis):
+    def __init__(self, axis: ServoState):
         self.a = axis
 
     def build(self) -> None:

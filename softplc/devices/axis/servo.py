@@ -42,6 +42,7 @@ from . import ivars as iv
 from .law import Coefficients
 from .motion import Motion
 from .options import Err, ServoAxisOptions, Word
+from .plant import ZOH
 from .runner import LoopRunner
 from .status import StatusWords
 
@@ -56,6 +57,14 @@ class ServoAxis(AxisDevice):
     read and written while running, their word table), `words` (the status words)."""
 
     Options = ServoAxisOptions
+    # set by the runner's build() and the generated loop (the jobs' ServoState names them)
+    K: float
+    a: float
+    zoh: ZOH
+    _ca: float
+    _av: float
+    _in_pos: float
+    _warn_lim: float
     MOTION: type[Motion] = Motion  # the jobs, replaceable by a variant (devices/feed_axis.py)
     RUNNER: type[LoopRunner] = LoopRunner
     # Everything a scan changes (Device.state); K, a and the loop constants follow from

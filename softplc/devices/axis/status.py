@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 from .options import Err, St, Word
 
 if TYPE_CHECKING:
-    from .servo import ServoAxis
+    from .state import ServoState
 
 # The status words in word order, (offset, struct code): one `pack_into` writes them all.
 _STATUS_WORDS = ((Word.ACTUAL, "i"), (Word.COMMANDED, "i"), (Word.FE, "f"), (Word.FE_MAX, "f"),
@@ -102,7 +102,7 @@ _bits, _write = _generic("bits", SOURCE), _generic("write", SOURCE + PACK)
 
 
 class StatusWords:
-    def __init__(self, axis: ServoAxis):
+    def __init__(self, axis: ServoState):
         self.a = axis
 
     def bits(self) -> int:

@@ -1,0 +1,144 @@
+"""The servo axis as its jobs see it: the state they read and change.
+
+`ServoAxis` (servo.py) holds the state and builds its jobs: `Motion` (motion.py),
+`LoopRunner` (runner.py), `IVarTable` (ivars.py) and `StatusWords` (status.py, whose
+generated code reads the state by name). They name the axis through this `Protocol`, so
+they sit below servo.py: the axis imports its jobs, never the reverse. Units: encoder
+counts, servo cycles (k), DAC bits (u, w).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol
+
+from ...runtime.memory import MemoryImage
+from .law import Coefficients
+from .options import ServoAxisOptions
+from .plant import ZOH
+
+
+class MotionJob(Protocol):
+    """What the loop runner asks of the motion job (motion.Motion)."""
+
+    def kill(self, error: int, latch: bool = True) -> None: ...
+
+    def home_trigger(self, capture: float) -> None: ...
+
+
+class LoopJob(Protocol):
+    """What the I-variable table asks of the loop runner (runner.LoopRunner)."""
+
+    def build(self) -> None: ...
+
+    def cycles(self, n: int, capture: bool = False) -> int: ...
+
+
+class ServoState(Protocol):
+    """The state of one servo axis shared by its jobs (ServoAxis.STATE and its constants)."""
+
+    # the plant and the loop: position, velocity, command, output; constants of build()
+    x: float
+    v: float
+    w: float
+    u: float
+    k: int
+    origin: int
+    T: float
+    loop_hz: float
+    K: float
+    a: float
+    zoh: ZOH
+    u_peak: float
+    load_mass_ratio: float
+    disturbance: float
+    gains: Any  # a law.Gains (made by create_model: no static type)
+    coef: Coefficients
+    # the loop's terms: commanded/actual positions and velocities, integrator
+    fe: float
+    fe_max: float
+    _cp: float
+    _cpp: float
+    _cvp: float
+    _app: float
+    _ie: float
+    _ca: float
+    _av: float
+    _vel: float
+    # motion: trajectory, open loop, coasting, homing, limits
+    closed: bool
+    open_loop: bool
+    done: bool
+    homed: bool
+    homing: int
+    latched: bool
+    warn: bool
+    error: int
+    _traj: tuple[float, ...]
+    _k0: int
+    _tail_v: float
+    _active: bool
+    _ol_u: float
+    _ol_end: int
+    _coast: bool
+    _limit_stop: bool
+    _ctl_prev: int
+    _ready: bool
+    _start: float
+    _enc0: int
+    _ideal: bool
+    _lp: float
+    _lm: float
+    _hp: float
+    _hm: float
+    _lo: float
+    _hi: float
+    _plo: float
+    _phi: float
+    _pmac_lim: bool
+    _in_pos: float
+    _warn_lim: float
+    # the fixed point, the DAC, the words and the memory image it is bound to
+    _fixed: bool
+    _creep: int
+    _clamped: bool
+    _dac_q: float
+    _cur_scale: float
+    _hz_us: float
+    _mem: MemoryImage | None
+    _buf: bytearray
+    _base: int
+    _ctl_i: int
+    _status_at: int
+    _st_slow: int
+    _mass_word: int | None
+    _wired: bool
+    _watch: bool
+    _ivars_clean: Callable[[], bool]
+    _scan: Callable[..., Any] | None  # the generated scan of the common case (loop.py)
+    # records: the servo-rate trace and a tuning gather
+    trace: list[tuple[int, float, float, float]]
+    gather: list[tuple[int, float, float, float, float]] | None
+    _rec: Callable[[tuple[int, float, float, float]], None] | None
+    _trim_at: int
+    _trace_dropped: int
+
+    @property
+    def opt(self) -> ServoAxisOptions: ...
+
+    @property
+    def fault(self) -> str: ...  # "none", "jammed", "estop", "amp_fault"
+
+    @property
+    def motion(self) -> MotionJob: ...
+
+    @property
+    def runner(self) -> LoopJob: ...
+
+    def _raw(self) -> float: ...
+
+    def amp_ready(self) -> bool: ...
+
+    def estop_active(self) -> bool: ...
+
+    def set_disturbance(self, bits: float) -> None: ...
