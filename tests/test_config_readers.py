@@ -252,3 +252,20 @@ def test_the_machining_centre_reads_its_machine_through_the_loader(tmp_path):
     with pytest.raises(ConfigError, match="expected a scope device named scope and the "
                                           "servo_axis its `axis` names"):
         MachiningCentre(tmp_path, 1000.0, config=bad)
+
+
+def test_every_device_option_model_is_strict():
+    """A string is not a number in any device's options (the scope's and the drive
+    tuning's models were plain pydantic models that turned "0.01" into 0.01)."""
+    from pydantic import ValidationError
+
+    from softplc.devices.drive_tuning import DriveTuningOptions
+    from softplc.devices.scope import ScopeOptions
+
+    with pytest.raises(ValidationError, match="valid number"):
+        ScopeOptions(axis="X", torque_per_bit="0.01")
+    with pytest.raises(ValidationError):
+        ScopeOptions(axis="X", torque_per_bit=0.01, noise=[0, 0, 0])  # four sds
+    with pytest.raises(ValidationError, match="valid string"):
+        DriveTuningOptions(axis=1)
+    assert ScopeOptions(axis="X", torque_per_bit=1).noise == [0.0] * 4

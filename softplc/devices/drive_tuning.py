@@ -19,9 +19,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import ConfigDict, Field, field_validator
 
 from ..address import parse_address
+from ..config import Section
 from ..errors import AddressError, ConfigCode, ConfigError
 from ..massest.params import MP_NAMES
 from ..massest.retune import DRIVE_MPS, REFERENCE, mp_dict, retuned
@@ -31,8 +32,8 @@ from .axis.servo import ServoAxis
 from .base import Device, register_device
 
 
-class DriveTuningOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+class DriveTuningOptions(Section):  # strict: "0.01" is not a number
+    model_config = ConfigDict(allow_inf_nan=False)
     axis: str
     mps: str = "%MF500"
     trigger: str = "%MW498"

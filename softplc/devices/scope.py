@@ -35,9 +35,10 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 
 from ..address import parse_address
+from ..config import Section
 from ..errors import AddressError, ConfigCode, SoftPLCError
 from ..massest.recording import THESIS_CHANNELS, Recording, quantise, write_recording
 from ..massest.synth import CAL_JOB, MEAS_JOB
@@ -50,8 +51,8 @@ FILES = {CAL_JOB: CAL_FILE, MEAS_JOB: MEAS_FILE}
 NonNegative = Annotated[float, Field(ge=0)]
 
 
-class ScopeOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+class ScopeOptions(Section):  # strict: "0.01" is not a number
+    model_config = ConfigDict(allow_inf_nan=False)
     axis: str
     words: str = "%MW320"
     directory: str = "."
@@ -59,7 +60,7 @@ class ScopeOptions(BaseModel):
     max_count: int = Field(8192, gt=0, le=1_000_000)
     torque_per_bit: float = Field(gt=0)
     # standard deviations (numpy refuses negative ones, and seeds, at STORE)
-    noise: tuple[NonNegative, NonNegative, NonNegative, NonNegative] = (0.0, 0.0, 0.0, 0.0)
+    noise: Annotated[list[NonNegative], Field(min_length=4, max_length=4)] = [0.0, 0.0, 0.0, 0.0]
     seed: int = Field(0, ge=0, le=2**32 - 1)
     axis_label: str = "A"  # AXISn in the files (the thesis's files say "A")
 
