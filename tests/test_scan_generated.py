@@ -103,7 +103,7 @@ def test_nothing_configured_means_no_hook_device_or_forcing_code():
     plc.scan()
     text, _ = source(plc.engine)
     assert "b0()" not in text and "a0()" not in text and "d0(" not in text
-    assert "forced" not in text and "clock.now_us = now + P" in text
+    assert "forced" not in text and "clock.now_us = exp = now + P" in text
 
 
 def test_a_loop_loaded_later_still_trips_the_watchdog():

@@ -31,8 +31,8 @@ from ..program import CompiledProgram
 from .clock import Clock
 from .memory import MemoryImage
 from .runstate import HALT, RUN, STOP, RunState
-from .scangen import HANDOVER, HookList, build
 from .scangen import S_CLOCKS as S_CLOCKS  # where verify/ and others look for them
+from .scangen import HookList, build, handover
 
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
 S_RUNNING = 12  # 1 in RUN, 0 in STOP/HALT [manual]; set on each change of state
@@ -97,7 +97,7 @@ class Engine:
                  time_source: Any = None):
         self.version = 0  # +1 on each change the generated scan depends on
         # the generated scan (a copy held by a caller after a change hands over to the new
-        # one: scangen.HANDOVER)
+        # one: scangen.handover)
         self.scan: Callable[[], None] = self._rebuild
         self.mem = mem
         self.time_source = time_source  # timers read the scan's start time from it
@@ -141,7 +141,7 @@ class Engine:
         self.version += 1
         stale, self.scan = self.scan, self._rebuild
         if isinstance(stale, FunctionType):
-            stale.__code__ = HANDOVER
+            handover(stale)
 
     def _rebuild(self) -> None:
         """Generate the scan for the configuration as it is now, and run it."""
@@ -152,7 +152,7 @@ class Engine:
             if self.version == v:
                 break
             self.scan = self._rebuild
-            scan.__code__ = HANDOVER
+            handover(scan)  # type: ignore[arg-type]
         scan()
 
     def _resume(self, part: int) -> Any:

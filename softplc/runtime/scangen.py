@@ -15,6 +15,7 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Callable, Iterable
+from types import CodeType, FunctionType
 from typing import TYPE_CHECKING, Any, SupportsIndex
 
 from ..program import Names, Watchdog
@@ -67,13 +68,48 @@ assert all(p % (2 * CLOCK_STEP) == 0 and 60_000_000 % p == 0 for p in S_CLOCKS.v
 assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
 
 
+# %S4-%S7 from a cache: looked up again only when the scan's start leaves the interval
+# [lo, nx) in which they cannot change (the values kept in make()'s cells; a new scan
+# function, made on any change: start, online change, restore, starts with an empty
+# interval). They are still stored every scan: a program or host write to them lasts until
+# the next scan (Twido re-asserts system bits), and tracking every writer would cost more.
+CLOCK_CELLS = "lo = nx = 0; exp = -1; c4 = c5 = c6 = c7 = 0"  # nx = 0: the first scan looks up
+CELLS_USED = "nonlocal lo, nx, exp, c4, c5, c6, c7"
+HALF_PERIODS = [p // 2 for p in S_CLOCKS.values()]  # each divides the next
+assert all(b % a == 0 for a, b in zip(HALF_PERIODS, HALF_PERIODS[1:], strict=False))
+# The cache costs two comparisons, the cells and a look-up on leaving the interval, about
+# as much as the plain look-up when it is left every fifth scan: used from 10 scans on
+MIN_SCANS_PER_INTERVAL = 10
+LOOKUP = f"clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]"
+
+
+def _clock_bits_code(clock: Clock, period_us: int) -> tuple[list[str], bool]:
+    """The lines that set %S4-%S7 at the scan's start (`now`), and whether they use the
+    cache. The virtual clock starts each scan P after the last one (`exp`, set at its
+    end): a bit whose period divides P is then the same at every scan start, so the
+    interval is a cell of the shortest other half period. A real clock only goes
+    forwards: cells of the shortest half period, one comparison. Any other clock: the
+    same, both ways."""
+    cell, test = HALF_PERIODS[0], "now >= nx or now < lo"
+    if type(clock) is VirtualClock:
+        cell = next((h for h in HALF_PERIODS if period_us % (2 * h)), 60_000_000)
+        test = "now >= nx or now != exp"
+        if cell < MIN_SCANS_PER_INTERVAL * period_us:
+            return [f"s[4], s[5], s[6], s[7] = {LOOKUP}"], False
+    elif type(clock) is RealClock:
+        test = "now >= nx"
+    return [f"if {test}:", f"    lo = now - now % {cell}", f"    nx = lo + {cell}",
+            f"    c4, c5, c6, c7 = {LOOKUP}",
+            "s[4] = c4", "s[5] = c5", "s[6] = c6", "s[7] = c7"], True
+
+
 def _clock_code(clock: Clock) -> tuple[str, str]:
     """(start, end) lines of the scan for this clock: the two clocks of clock.py inlined,
     any other through its methods."""
     if type(clock) is VirtualClock:  # {now}: see _make
-        return "now = clock.now_us", "clock.now_us = {now} + P"
-    if type(clock) is RealClock:
-        return "now = clock.now_us = (perf_counter_ns() - clock._t0) // 1000", ""
+        return "now = clock.now_us", "clock.now_us = exp = {now} + P"
+    if type(clock) is RealClock:  # t0: the program's timing starts from the same reading
+        return "now = clock.now_us = ((t0 := perf_counter_ns()) - clock._t0) // 1000", ""
     return "now = clock.start_scan(P)", "clock.end_scan(P)"
 
 
@@ -127,12 +163,15 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
         begin.append("ts.now_us = now")
     if eng.rtc is not None:
         begin.append("rtc.tick(now)")
-    begin.append(f"s[4], s[5], s[6], s[7] = clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]")
+    clock_bits, cached = _clock_bits_code(eng.clock, eng.period_us)
+    begin += clock_bits
     begin += [f"s[{bit}] = {v}" for bit, v in eng._first.items()]
     begin += eng.mem.copy_lines("I")  # the input latch, inlined
     forced = _forced_code(eng, ns)
     begin += _forced_code(eng, ns, inputs=True) + forced
-    run = ["t0 = perf_counter()"]  # step 4, scan() only
+    # step 4, scan() only. On the real clock the scan's time counts from the clock's
+    # reading (a perf_counter() call less; the latch and system bits are then in it)
+    run = ["t0 = t0 / 1e9" if type(eng.clock) is RealClock else "t0 = perf_counter()"]
     if _checks_watchdog(eng):
         run.append("eng._deadline = t0 + W")
     if eng._suspect:  # the last scan was late: measure this one's CPU time
@@ -181,14 +220,14 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
         finish += ["t = clock.now_us / 1e6",
                    *(f"d{k}(t, DTS)" for k in range(len(eng.devices)))]
     finish += hooks_a
-    return _make(pre, begin, run, finish, ["return True"], ns), ns
+    return _make(pre, begin, run, finish, ["return True"], ns, cached), ns
 
 
 _NAME = re.compile(r"(?<![.\w])[A-Za-z_]\w*")  # a name, not an attribute
 
 
 def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[str],
-          begun: list[str], ns: dict[str, Any]) -> str:
+          begun: list[str], ns: dict[str, Any], cells: bool = False) -> str:
     """make() -> (scan, begin, finish). `run` None: STOP or HALT, the scan is `pre` +
     `begin` and `finish` does nothing. The names of `ns` each function reads are its
     default arguments: LOAD_FAST rather than LOAD_GLOBAL, about 20 ns a scan."""
@@ -199,18 +238,33 @@ def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[
         text = "".join(f"        {x}\n".replace("{part}", str(part)).replace("{now}", now)
                        for x in lines) or "        pass\n"
         params = params + [f"{n}={n}" for n in sorted(set(_NAME.findall(text)) & ns.keys())]
+        # every function of a make() with cells declares them, used or not: handover()
+        # replaces their code, which needs the same number of free variables
+        text = f"        {CELLS_USED}\n{text}" if cells else text
         return f"    def {name}({', '.join(params)}):\n{text}"
 
     scan = [*pre, *begin,
             *(run + finish if run is not None else [])]
-    return ("def make():\n" + fn("scan", [], scan, 0) + fn("begin", [], pre + begin + begun, 1)
+    return ("def make():\n" + (f"    {CLOCK_CELLS}\n" if cells else "")
+            + fn("scan", [], scan, 0) + fn("begin", [], pre + begin + begun, 1)
             + fn("finish", ["dt"], finish, 0) + "    return scan, begin, finish\n")
 
 
 # What `Engine.invalidate` puts into a generated scan a caller may still hold (PLC.scan(n),
-# benchmarks): it hands over to the current one, so the scan itself checks nothing.
-HANDOVER = compile("def scan():\n    return eng.scan()\n", "<scan handover>", "exec"
-                   ).co_consts[0]
+# benchmarks): it hands over to the current one, so the scan itself checks nothing. One
+# code per number of free variables (with or without the clock-bit cells).
+_HANDOVER_TEXT = "def scan():\n    return eng.scan()\n"
+_HANDOVERS = {len(c.co_freevars): c for c in (
+    compile(_HANDOVER_TEXT, "<scan handover>", "exec").co_consts[0],
+    next(c for c in compile(
+        f"def make():\n    {CLOCK_CELLS}\n    def scan():\n        {CELLS_USED}\n"
+        "        return eng.scan()\n", "<scan handover>", "exec").co_consts[0].co_consts
+        if isinstance(c, CodeType)))}
+
+
+def handover(fn: FunctionType) -> None:
+    """Make a generated function `fn` hand over to the engine's current scan."""
+    fn.__code__ = _HANDOVERS[len(fn.__code__.co_freevars)]
 
 
 def build(eng: Engine, before: bool = True) -> tuple[Callable[[], None],
