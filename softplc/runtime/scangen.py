@@ -107,7 +107,7 @@ def _clock_code(clock: Clock) -> tuple[str, str]:
     """(start, end) lines of the scan for this clock: the two clocks of clock.py inlined,
     any other through its methods."""
     if type(clock) is VirtualClock:  # {now}: see _make
-        return "now = clock.now_us", "clock.now_us = exp = {now} + P"
+        return "now = clock.now_us", "clock.now_us = {exp}{now} + P"
     if type(clock) is RealClock:  # t0: the program's timing starts from the same reading
         return "now = clock.now_us = ((t0 := perf_counter_ns()) - clock._t0) // 1000", ""
     return "now = clock.start_scan(P)", "clock.end_scan(P)"
@@ -213,8 +213,8 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
                # the first scan's time is the minimum (regenerated after it: _first)
                "if dt < st.min" + (" or st.scans == 1:" if eng.stats.scans == 0 else ":"),
                "    st.min = dt", f"    sw[{SW_MIN}] = ms"]
-    if end:
-        finish.append(end)
+    if end:  # {exp}: the virtual clock's next start, for the %S4-%S7 cache
+        finish.append(end.replace("{exp}", "exp = " if cached else ""))
     if eng.devices:
         ns.update({f"d{k}": d.update for k, d in enumerate(eng.devices.values())})
         finish += ["t = clock.now_us / 1e6",
