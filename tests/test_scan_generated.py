@@ -261,3 +261,27 @@ def test_a_real_clock_scan_is_timed_from_the_clock_reading():
     st = plc.engine.stats
     assert st.scans == 5 and 0 < st.min <= st.last <= st.max < 0.1
     assert plc["%SW30"] == plc["%SW31"] == plc["%SW32"] == 0  # each under 0.5 ms
+
+
+def test_a_run_of_scans_after_a_change_generates_the_scan_once(monkeypatch):
+    """`plc.scan(n)` and a caller holding `engine.scan` from before a change: the scan is
+    generated once per change, not at every call (it was: the held bound method rebuilt)."""
+    from softplc.runtime import engine as engine_mod
+
+    builds: list[int] = []
+    real_build = engine_mod.build
+
+    def counting_build(eng, before=True):  # type: ignore[no-untyped-def]
+        builds.append(eng.version)
+        return real_build(eng, before)
+
+    monkeypatch.setattr(engine_mod, "build", counting_build)
+    plc = PLC.from_source(COPY)
+    plc.scan(200)  # the first scan's bits, then the steady scan: two generations
+    assert len(builds) == 2 and plc.scan_count == 200
+    plc.force("%M3", 1)
+    held = plc.engine.scan  # generates when first called
+    for _ in range(100):
+        held()
+    plc.scan(100)
+    assert len(builds) == 3 and plc.scan_count == 400 and plc["%M3"]

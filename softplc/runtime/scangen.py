@@ -267,6 +267,18 @@ def handover(fn: FunctionType) -> None:
     fn.__code__ = _HANDOVERS[len(fn.__code__.co_freevars)]
 
 
+# What `Engine.invalidate` puts in `engine.scan`: generates the scan when called. A
+# function rather than a bound method, so that `Engine._rebuild` can hand it over too: a
+# caller holding it (`PLC.scan(n)`, a benchmark's loop) would otherwise generate again at
+# every call (650 us a scan).
+REBUILD = compile("def scan():\n    return eng._rebuild()\n", "<scan rebuild>", "exec"
+                  ).co_consts[0]
+
+
+def rebuilder(eng: Engine) -> Callable[[], None]:
+    return FunctionType(REBUILD, {"eng": eng})
+
+
 def build(eng: Engine, before: bool = True) -> tuple[Callable[[], None],
                                                      Callable[[], bool],
                                                      Callable[[float], None]]:
