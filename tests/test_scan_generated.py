@@ -103,7 +103,7 @@ def test_nothing_configured_means_no_hook_device_or_forcing_code():
     plc.scan()
     text, _ = source(plc.engine)
     assert "b0()" not in text and "a0()" not in text and "d0(" not in text
-    assert "forced" not in text and "clock.now_us = now + P" in text
+    assert "forced" not in text and "clock.now_us = exp = now + P" in text
 
 
 def test_a_loop_loaded_later_still_trips_the_watchdog():
@@ -196,15 +196,19 @@ def _check_scans(plc: PLC, n: int) -> None:
 
 
 def test_clock_bits_follow_time_on_the_virtual_clock_for_any_period():
-    """Periods with and without the cache (10 scans per interval), bits aliased by the
-    period (10 ms: %S4 is the same at every scan start) and periods longer than a half
-    period of every clock but %S7."""
-    for period_us in (100, 300, 500, 1000, 3000, 7000, 10_000, 20_000, 250_000, 1_000_000,
-                      45_000_000):
+    """Periods with each cache and without (a ring for multiples of 5 ms, an interval of
+    10 scans or more), bits aliased by the period (10 ms: %S4 is the same at every scan
+    start) and periods longer than a half period of every clock but %S7."""
+    kinds = set()
+    for period_us in (100, 300, 500, 1000, 3000, 6000, 7000, 10_000, 20_000, 250_000,
+                      1_000_000, 45_000_000):
         plc = PLC.from_source(CLOCKS_SEEN, {"scan_period": f"{period_us}us"})
+        text = source(plc.engine)[0]
+        kinds.add("ring" if "clock_ring" in text else "interval" if "nx" in text else "plain")
         _check_scans(plc, 300)
         plc.engine.clock.now_us = 59_990_000 - period_us  # %S7 falls at 60 s
         _check_scans(plc, 30)
+    assert kinds == {"ring", "interval", "plain"}
 
 
 def test_clock_bits_after_the_virtual_clock_is_set_between_scans():

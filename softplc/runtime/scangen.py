@@ -12,6 +12,8 @@ scans cannot drift apart. What each step does is described in `engine.py`.
 
 from __future__ import annotations
 
+import functools
+import math
 import re
 import time
 from collections.abc import Callable, Iterable
@@ -68,39 +70,68 @@ assert all(p % (2 * CLOCK_STEP) == 0 and 60_000_000 % p == 0 for p in S_CLOCKS.v
 assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
 
 
-# %S4-%S7 from a cache: looked up again only when the scan's start leaves the interval
-# [lo, nx) in which they cannot change (the values kept in make()'s cells; a new scan
-# function, made on any change: start, online change, restore, starts with an empty
-# interval). They are still stored every scan: a program or host write to them lasts until
-# the next scan (Twido re-asserts system bits), and tracking every writer would cost more.
-CLOCK_CELLS = "lo = nx = 0; exp = -1; c4 = c5 = c6 = c7 = 0"  # nx = 0: the first scan looks up
-CELLS_USED = "nonlocal lo, nx, exp, c4, c5, c6, c7"
+# %S4-%S7 from a cache in make()'s cells, so that most scans do no arithmetic on the
+# (large) time: a new scan function, made on any change (start, online change, restore),
+# starts empty. The bits are still stored every scan: a program or host write to them lasts
+# until the next scan (Twido re-asserts system bits), and tracking every writer would cost
+# more. Two caches (cells set up, cells declared):
+CELLS = {
+    # the interval [lo, nx) in which they cannot change, looked up again on leaving it
+    "interval": ("lo = nx = 0; exp = -1; c4 = c5 = c6 = c7 = 0",
+                 "nonlocal lo, nx, exp, c4, c5, c6, c7"),
+    # the virtual clock's next scan start: a ring of the values at successive scan starts
+    "ring": ("node = None; exp = -1", "nonlocal node, exp")}
 HALF_PERIODS = [p // 2 for p in S_CLOCKS.values()]  # each divides the next
 assert all(b % a == 0 for a, b in zip(HALF_PERIODS, HALF_PERIODS[1:], strict=False))
-# The cache costs two comparisons, the cells and a look-up on leaving the interval, about
-# as much as the plain look-up when it is left every fifth scan: used from 10 scans on
+CYCLE_US = 60_000_000  # %S4-%S7 repeat every minute
+# The interval costs two comparisons, the cells and a look-up on leaving it, about as much
+# as the plain look-up when it is left every fifth scan: used from 10 scans on
 MIN_SCANS_PER_INTERVAL = 10
 LOOKUP = f"clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]"
 
 
-def _clock_bits_code(clock: Clock, period_us: int) -> tuple[list[str], bool]:
-    """The lines that set %S4-%S7 at the scan's start (`now`), and whether they use the
-    cache. The virtual clock starts each scan P after the last one (`exp`, set at its
-    end): a bit whose period divides P is then the same at every scan start, so the
-    interval is a cell of the shortest other half period. A real clock only goes
-    forwards: cells of the shortest half period, one comparison. Any other clock: the
+@functools.lru_cache(maxsize=8)
+def _ring(period_us: int, phase: int) -> list[list[Any]]:
+    """Node m: [%S4, %S5, %S6, %S7 at phase + m g (mod 1 min), the node P later], where g =
+    gcd(P, 1 min), a multiple of CLOCK_STEP, and 0 <= phase < g a multiple of it too: the
+    scan starts of a virtual clock with period P whose time is phase (mod g)."""
+    g = math.gcd(period_us, CYCLE_US)
+    n = CYCLE_US // g
+    nodes = [list(CLOCK_BITS[(phase + m * g) // CLOCK_STEP]) for m in range(n)]
+    for m, node in enumerate(nodes):
+        node.append(nodes[(m + period_us // g) % n])
+    return nodes
+
+
+def clock_ring(period_us: int, now: int) -> list[Any]:
+    """The ring node of the scan starting at `now` (the virtual clock, period P)."""
+    g = math.gcd(period_us, CYCLE_US)
+    t = now % CYCLE_US
+    return _ring(period_us, t % g // CLOCK_STEP * CLOCK_STEP)[t // g]
+
+
+def _clock_bits_code(clock: Clock, period_us: int) -> tuple[list[str], str | None]:
+    """The lines that set %S4-%S7 at the scan's start (`now`), and the cache they use.
+    The virtual clock starts each scan P after the last one (`exp`, set at its end) unless
+    set: a ring when it has at most 12,000 scan starts a minute (P a multiple of 5 ms),
+    else an interval, where a bit whose period divides P is the same at every scan start,
+    so the interval is one of the shortest other half period. A real clock only goes
+    forwards: intervals of the shortest half period, one comparison. Any other clock: the
     same, both ways."""
     cell, test = HALF_PERIODS[0], "now >= nx or now < lo"
     if type(clock) is VirtualClock:
-        cell = next((h for h in HALF_PERIODS if period_us % (2 * h)), 60_000_000)
+        if math.gcd(period_us, CYCLE_US) % CLOCK_STEP == 0:
+            return ["if now != exp:", "    node = clock_ring(P, now)",
+                    "s[4], s[5], s[6], s[7], node = node"], "ring"
+        cell = next((h for h in HALF_PERIODS if period_us % (2 * h)), CYCLE_US)
         test = "now >= nx or now != exp"
         if cell < MIN_SCANS_PER_INTERVAL * period_us:
-            return [f"s[4], s[5], s[6], s[7] = {LOOKUP}"], False
+            return [f"s[4], s[5], s[6], s[7] = {LOOKUP}"], None
     elif type(clock) is RealClock:
         test = "now >= nx"
     return [f"if {test}:", f"    lo = now - now % {cell}", f"    nx = lo + {cell}",
             f"    c4, c5, c6, c7 = {LOOKUP}",
-            "s[4] = c4", "s[5] = c5", "s[6] = c6", "s[7] = c7"], True
+            "s[4] = c4", "s[5] = c5", "s[6] = c6", "s[7] = c7"], "interval"
 
 
 def _clock_code(clock: Clock) -> tuple[str, str]:
@@ -145,7 +176,7 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
         "q": eng.mem.q, "q_field": eng.mem.q_field, "ts": eng.time_source, "rtc": eng.rtc,
         "pulses": eng.pulses, "perf_counter": time.perf_counter,
         "perf_counter_ns": time.perf_counter_ns, "thread_time": time.thread_time,
-        "Watchdog": Watchdog, "clock_bits": CLOCK_BITS,
+        "Watchdog": Watchdog, "clock_bits": CLOCK_BITS, "clock_ring": clock_ring,
         "apply_forced_other": eng._apply_forced_other}
     hooks_b = [f"b{k}()" for k in range(len(eng.before_scan))] if before else []
     hooks_a = [f"a{k}()" for k in range(len(eng.after_scan))]
@@ -163,7 +194,7 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
         begin.append("ts.now_us = now")
     if eng.rtc is not None:
         begin.append("rtc.tick(now)")
-    clock_bits, cached = _clock_bits_code(eng.clock, eng.period_us)
+    clock_bits, cells = _clock_bits_code(eng.clock, eng.period_us)
     begin += clock_bits
     begin += [f"s[{bit}] = {v}" for bit, v in eng._first.items()]
     begin += eng.mem.copy_lines("I")  # the input latch, inlined
@@ -214,20 +245,20 @@ def source(eng: Engine, before: bool = True) -> tuple[str, dict[str, Any]]:
                "if dt < st.min" + (" or st.scans == 1:" if eng.stats.scans == 0 else ":"),
                "    st.min = dt", f"    sw[{SW_MIN}] = ms"]
     if end:  # {exp}: the virtual clock's next start, for the %S4-%S7 cache
-        finish.append(end.replace("{exp}", "exp = " if cached else ""))
+        finish.append(end.replace("{exp}", "exp = " if cells else ""))
     if eng.devices:
         ns.update({f"d{k}": d.update for k, d in enumerate(eng.devices.values())})
         finish += ["t = clock.now_us / 1e6",
                    *(f"d{k}(t, DTS)" for k in range(len(eng.devices)))]
     finish += hooks_a
-    return _make(pre, begin, run, finish, ["return True"], ns, cached), ns
+    return _make(pre, begin, run, finish, ["return True"], ns, cells), ns
 
 
 _NAME = re.compile(r"(?<![.\w])[A-Za-z_]\w*")  # a name, not an attribute
 
 
 def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[str],
-          begun: list[str], ns: dict[str, Any], cells: bool = False) -> str:
+          begun: list[str], ns: dict[str, Any], cells: str | None = None) -> str:
     """make() -> (scan, begin, finish). `run` None: STOP or HALT, the scan is `pre` +
     `begin` and `finish` does nothing. The names of `ns` each function reads are its
     default arguments: LOAD_FAST rather than LOAD_GLOBAL, about 20 ns a scan."""
@@ -240,12 +271,12 @@ def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[
         params = params + [f"{n}={n}" for n in sorted(set(_NAME.findall(text)) & ns.keys())]
         # every function of a make() with cells declares them, used or not: handover()
         # replaces their code, which needs the same number of free variables
-        text = f"        {CELLS_USED}\n{text}" if cells else text
+        text = f"        {CELLS[cells][1]}\n{text}" if cells else text
         return f"    def {name}({', '.join(params)}):\n{text}"
 
     scan = [*pre, *begin,
             *(run + finish if run is not None else [])]
-    return ("def make():\n" + (f"    {CLOCK_CELLS}\n" if cells else "")
+    return ("def make():\n" + (f"    {CELLS[cells][0]}\n" if cells else "")
             + fn("scan", [], scan, 0) + fn("begin", [], pre + begin + begun, 1)
             + fn("finish", ["dt"], finish, 0) + "    return scan, begin, finish\n")
 
@@ -256,10 +287,11 @@ def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[
 _HANDOVER_TEXT = "def scan():\n    return eng.scan()\n"
 _HANDOVERS = {len(c.co_freevars): c for c in (
     compile(_HANDOVER_TEXT, "<scan handover>", "exec").co_consts[0],
-    next(c for c in compile(
-        f"def make():\n    {CLOCK_CELLS}\n    def scan():\n        {CELLS_USED}\n"
+    *(next(c for c in compile(
+        f"def make():\n    {setup}\n    def scan():\n        {declared}\n"
         "        return eng.scan()\n", "<scan handover>", "exec").co_consts[0].co_consts
-        if isinstance(c, CodeType)))}
+        if isinstance(c, CodeType)) for setup, declared in CELLS.values()))}
+assert len(_HANDOVERS) == 1 + len(CELLS)
 
 
 def handover(fn: FunctionType) -> None:
