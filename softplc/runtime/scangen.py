@@ -90,7 +90,7 @@ MIN_SCANS_PER_INTERVAL = 10
 LOOKUP = f"clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]"
 
 
-@functools.lru_cache(maxsize=8)
+@functools.lru_cache(maxsize=4)  # 1.5 MB and 4 ms at most each (P = 5 ms)
 def _ring(period_us: int, phase: int) -> list[list[Any]]:
     """Node m: [%S4, %S5, %S6, %S7 at phase + m g (mod 1 min), the node P later], where g =
     gcd(P, 1 min), a multiple of CLOCK_STEP, and 0 <= phase < g a multiple of it too: the
