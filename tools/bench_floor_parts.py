@@ -23,7 +23,7 @@ from softplc.runtime import scangen
 
 # part -> (text in the generated scan, what replaces it)
 PARTS: dict[str, list[tuple[str, str]]] = {
-    "%S4-%S7 (ring)": [("if now != exp:\n            node = clock_ring(P, now)", "pass"),
+    "%S4-%S7 (ring)": [("if now is not exp:\n            node = clock_ring(P, now)", "pass"),
                        ("s[4], s[5], s[6], s[7], node = node", "pass")],
     "both perf_counter() calls": [("t0 = perf_counter()", "t0 = 0.0"),
                                   ("dt = perf_counter() - t0", "dt = 0.0001")],
@@ -32,7 +32,7 @@ PARTS: dict[str, list[tuple[str, str]]] = {
     "%SW30-%SW32 stores": [("sw[30] = ms = 0", "ms = 0"), ("sw[31] = ms", "pass"),
                            ("sw[32] = ms", "pass")],
     "clock step (now + P)": [("clock.now_us = exp = now + P", "pass"),
-                             ("if now != exp:", "if node is None:")],
+                             ("if now is not exp:", "if node is None:")],
     "timers' time (ts.now_us)": [("ts.now_us = now", "pass")],
     "latch and publish": [("i[0] = i_field[0]", "pass"), ("q_field[0] = q[0]", "pass")],
     "watchdog test (dt > W)": [("if dt > W:", "if 0:")],

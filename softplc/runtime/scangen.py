@@ -120,11 +120,13 @@ def _clock_bits_code(clock: Clock, period_us: int) -> tuple[list[str], str | Non
     same, both ways."""
     cell, test = HALF_PERIODS[0], "now >= nx or now < lo"
     if type(clock) is VirtualClock:
+        # `is not`: the time the last scan stored, or any other value (a set clock) or
+        # the same value stored by someone else (looked up again, harmless)
         if math.gcd(period_us, CYCLE_US) % CLOCK_STEP == 0:
-            return ["if now != exp:", "    node = clock_ring(P, now)",
+            return ["if now is not exp:", "    node = clock_ring(P, now)",
                     "s[4], s[5], s[6], s[7], node = node"], "ring"
         cell = next((h for h in HALF_PERIODS if period_us % (2 * h)), CYCLE_US)
-        test = "now >= nx or now != exp"
+        test = "now >= nx or now is not exp"
         if cell < MIN_SCANS_PER_INTERVAL * period_us:
             return [f"s[4], s[5], s[6], s[7] = {LOOKUP}"], None
     elif type(clock) is RealClock:
