@@ -223,7 +223,7 @@ def test_clock_bits_after_the_virtual_clock_is_set_between_scans():
         _check_scans(plc, 3)
 
 
-def test_clock_bits_after_restore_and_online_change():
+def test_clock_bits_after_restore_online_change_restarts_and_stop():
     plc = PLC.from_source(CLOCKS_SEEN, {"scan_period": "1s"})
     _check_scans(plc, 3)
     snap = plc.engine.snapshot()
@@ -233,6 +233,12 @@ def test_clock_bits_after_restore_and_online_change():
     plc.replace_program(PLC.from_source(CLOCKS_SEEN + "LD %S5\nST %M9\n").ast)
     _check_scans(plc, 3)
     plc.engine.cold_start()
+    _check_scans(plc, 3)
+    plc.engine.warm_start()
+    _check_scans(plc, 3)
+    plc.engine.stop()
+    plc.scan(7)  # the clock runs in STOP, the bits are not asserted
+    plc.engine.start()
     _check_scans(plc, 3)
 
 
