@@ -115,9 +115,9 @@ class PLC:
     # -- running --------------------------------------------------------------------------------
     def scan(self, n: int = 1) -> None:
         """Run n scans (on the virtual clock each advances time by scan_period)."""
-        scan = self.engine.scan
+        eng = self.engine  # eng.scan each time: a change in a scan replaces it
         for _ in range(n):
-            scan()
+            eng.scan()
 
     def run(self, seconds: float) -> None:
         """Run for `seconds` of virtual time (whole scans)."""

@@ -149,3 +149,11 @@ def test_c_load_generator_against_the_server(tmp_path: Path, fc: int) -> None:
     assert r.returncode == 0 and words[0] == "replies" and words[2] == "errors"
     assert int(words[1]) > 0 and int(words[3]) == 0
     assert th.stats.requests >= int(words[1]) and th.stats.exceptions == 0
+
+
+def test_bench_floor_parts_removes_each_part_it_names() -> None:
+    """Every edit finds its text in the generated scan (else the tool exits), and each
+    variant still runs."""
+    import bench_floor_parts
+    res = bench_floor_parts.run(number=20, repeat=1)
+    assert set(res) == {"main", "full", *bench_floor_parts.PARTS}

@@ -31,7 +31,7 @@ from ..program import CompiledProgram
 from .clock import Clock
 from .memory import MemoryImage
 from .runstate import HALT, RUN, STOP, RunState
-from .scangen import HANDOVER, HookList, build
+from .scangen import REBUILD, HookList, build, handover, rebuilder
 from .scangen import S_CLOCKS as S_CLOCKS  # where verify/ and others look for them
 
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
@@ -97,8 +97,8 @@ class Engine:
                  time_source: Any = None):
         self.version = 0  # +1 on each change the generated scan depends on
         # the generated scan (a copy held by a caller after a change hands over to the new
-        # one: scangen.HANDOVER)
-        self.scan: Callable[[], None] = self._rebuild
+        # one: scangen.handover)
+        self.scan: Callable[[], None] = rebuilder(self)
         self.mem = mem
         self.time_source = time_source  # timers read the scan's start time from it
         self.clock = clock
@@ -139,26 +139,30 @@ class Engine:
         from another thread: the version is bumped first, so a scan being generated
         meanwhile is dropped (see `_rebuild`)."""
         self.version += 1
-        stale, self.scan = self.scan, self._rebuild
+        stale, self.scan = self.scan, rebuilder(self)
         if isinstance(stale, FunctionType):
-            stale.__code__ = HANDOVER
+            handover(stale)
 
     def _rebuild(self) -> None:
-        """Generate the scan for the configuration as it is now, and run it."""
+        """Generate the scan for the configuration as it is now, and run it (called by
+        the `rebuilder` in `self.scan`, which then hands over to the new scan)."""
+        caller = self.scan
         while True:
             v = self.version
             scan = build(self)[0]
             self.scan = scan
             if self.version == v:
                 break
-            self.scan = self._rebuild
-            scan.__code__ = HANDOVER
+            self.scan = rebuilder(self)
+            handover(scan)  # type: ignore[arg-type]
+        if isinstance(caller, FunctionType) and caller.__code__ is REBUILD:
+            handover(caller)
         scan()
 
     def _resume(self, part: int) -> Any:
         """A before_scan hook changed the configuration: the rest of this scan (0) or of
         this `begin` (1) with the new one."""
-        self.scan = self._rebuild
+        self.scan = rebuilder(self)
         return build(self, before=False)[part]()
 
     def watchdog_expired(self) -> bool:

@@ -12,9 +12,12 @@ scans cannot drift apart. What each step does is described in `engine.py`.
 
 from __future__ import annotations
 
+import functools
+import math
 import re
 import time
 from collections.abc import Callable, Iterable
+from types import CodeType, FunctionType
 from typing import TYPE_CHECKING, Any, SupportsIndex
 
 from ..program import Names, Watchdog
@@ -67,13 +70,79 @@ assert all(p % (2 * CLOCK_STEP) == 0 and 60_000_000 % p == 0 for p in S_CLOCKS.v
 assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
 
 
+# %S4-%S7 from a cache in make()'s cells, so that most scans do no arithmetic on the
+# (large) time: a new scan function, made on any change (start, online change, restore),
+# starts empty. The bits are still stored every scan: a program or host write to them lasts
+# until the next scan (Twido re-asserts system bits), and tracking every writer would cost
+# more. Two caches (cells set up, cells declared):
+CELLS = {
+    # the interval [lo, nx) in which they cannot change, looked up again on leaving it
+    "interval": ("lo = nx = 0; exp = -1; c4 = c5 = c6 = c7 = 0",
+                 "nonlocal lo, nx, exp, c4, c5, c6, c7"),
+    # the virtual clock's next scan start: a ring of the values at successive scan starts
+    "ring": ("node = None; exp = -1", "nonlocal node, exp")}
+HALF_PERIODS = [p // 2 for p in S_CLOCKS.values()]  # each divides the next
+assert all(b % a == 0 for a, b in zip(HALF_PERIODS, HALF_PERIODS[1:], strict=False))
+CYCLE_US = 60_000_000  # %S4-%S7 repeat every minute
+# The interval costs two comparisons, the cells and a look-up on leaving it, about as much
+# as the plain look-up when it is left every fifth scan: used from 10 scans on
+MIN_SCANS_PER_INTERVAL = 10
+LOOKUP = f"clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]"
+
+
+@functools.lru_cache(maxsize=4)  # 1.5 MB and 4 ms at most each (P = 5 ms)
+def _ring(period_us: int, phase: int) -> list[list[Any]]:
+    """Node m: [%S4, %S5, %S6, %S7 at phase + m g (mod 1 min), the node P later], where g =
+    gcd(P, 1 min), a multiple of CLOCK_STEP, and 0 <= phase < g a multiple of it too: the
+    scan starts of a virtual clock with period P whose time is phase (mod g)."""
+    g = math.gcd(period_us, CYCLE_US)
+    n = CYCLE_US // g
+    nodes = [list(CLOCK_BITS[(phase + m * g) // CLOCK_STEP]) for m in range(n)]
+    for m, node in enumerate(nodes):
+        node.append(nodes[(m + period_us // g) % n])
+    return nodes
+
+
+def clock_ring(period_us: int, now: int) -> list[Any]:
+    """The ring node of the scan starting at `now` (the virtual clock, period P)."""
+    g = math.gcd(period_us, CYCLE_US)
+    t = now % CYCLE_US
+    return _ring(period_us, t % g // CLOCK_STEP * CLOCK_STEP)[t // g]
+
+
+def _clock_bits_code(clock: Clock, period_us: int) -> tuple[list[str], str | None]:
+    """The lines that set %S4-%S7 at the scan's start (`now`), and the cache they use.
+    The virtual clock starts each scan P after the last one (`exp`, set at its end) unless
+    set: a ring when it has at most 12,000 scan starts a minute (P a multiple of 5 ms),
+    else an interval, where a bit whose period divides P is the same at every scan start,
+    so the interval is one of the shortest other half period. A real clock only goes
+    forwards: intervals of the shortest half period, one comparison. Any other clock: the
+    same, both ways."""
+    cell, test = HALF_PERIODS[0], "now >= nx or now < lo"
+    if type(clock) is VirtualClock:
+        # `is not`: the time the last scan stored, or any other value (a set clock) or
+        # the same value stored by someone else (looked up again, harmless)
+        if math.gcd(period_us, CYCLE_US) % CLOCK_STEP == 0:
+            return ["if now is not exp:", "    node = clock_ring(P, now)",
+                    "s[4], s[5], s[6], s[7], node = node"], "ring"
+        cell = next((h for h in HALF_PERIODS if period_us % (2 * h)), CYCLE_US)
+        test = "now >= nx or now is not exp"
+        if cell < MIN_SCANS_PER_INTERVAL * period_us:
+            return [f"s[4], s[5], s[6], s[7] = {LOOKUP}"], None
+    elif type(clock) is RealClock:
+        test = "now >= nx"
+    return [f"if {test}:", f"    lo = now - now % {cell}", f"    nx = lo + {cell}",
+            f"    c4, c5, c6, c7 = {LOOKUP}",
+            "s[4] = c4", "s[5] = c5", "s[6] = c6", "s[7] = c7"], "interval"
+
+
 def _clock_code(clock: Clock) -> tuple[str, str]:
     """(start, end) lines of the scan for this clock: the two clocks of clock.py inlined,
     any other through its methods."""
     if type(clock) is VirtualClock:  # {now}: see _make
-        return "now = clock.now_us", "clock.now_us = {now} + P"
-    if type(clock) is RealClock:
-        return "now = clock.now_us = (perf_counter_ns() - clock._t0) // 1000", ""
+        return "now = clock.now_us", "clock.now_us = {exp}{now} + P"
+    if type(clock) is RealClock:  # t0: the program's timing starts from the same reading
+        return "now = clock.now_us = ((t0 := perf_counter_ns()) - clock._t0) // 1000", ""
     return "now = clock.start_scan(P)", "clock.end_scan(P)"
 
 
@@ -109,7 +178,7 @@ def source(eng: ScanHost, before: bool = True) -> tuple[str, dict[str, Any]]:
         "q": eng.mem.q, "q_field": eng.mem.q_field, "ts": eng.time_source, "rtc": eng.rtc,
         "pulses": eng.pulses, "perf_counter": time.perf_counter,
         "perf_counter_ns": time.perf_counter_ns, "thread_time": time.thread_time,
-        "Watchdog": Watchdog, "clock_bits": CLOCK_BITS,
+        "Watchdog": Watchdog, "clock_bits": CLOCK_BITS, "clock_ring": clock_ring,
         "apply_forced_other": eng._apply_forced_other}
     hooks_b = [f"b{k}()" for k in range(len(eng.before_scan))] if before else []
     hooks_a = [f"a{k}()" for k in range(len(eng.after_scan))]
@@ -127,12 +196,15 @@ def source(eng: ScanHost, before: bool = True) -> tuple[str, dict[str, Any]]:
         begin.append("ts.now_us = now")
     if eng.rtc is not None:
         begin.append("rtc.tick(now)")
-    begin.append(f"s[4], s[5], s[6], s[7] = clock_bits[now // {CLOCK_STEP} % {len(CLOCK_BITS)}]")
+    clock_bits, cells = _clock_bits_code(eng.clock, eng.period_us)
+    begin += clock_bits
     begin += [f"s[{bit}] = {v}" for bit, v in eng._first.items()]
     begin += eng.mem.copy_lines("I")  # the input latch, inlined
     forced = _forced_code(eng, ns)
     begin += _forced_code(eng, ns, inputs=True) + forced
-    run = ["t0 = perf_counter()"]  # step 4, scan() only
+    # step 4, scan() only. On the real clock the scan's time counts from the clock's
+    # reading (a perf_counter() call less; the latch and system bits are then in it)
+    run = ["t0 = t0 / 1e9" if type(eng.clock) is RealClock else "t0 = perf_counter()"]
     if _checks_watchdog(eng):
         run.append("eng._deadline = t0 + W")
     if eng._suspect:  # the last scan was late: measure this one's CPU time
@@ -174,21 +246,21 @@ def source(eng: ScanHost, before: bool = True) -> tuple[str, dict[str, Any]]:
                # the first scan's time is the minimum (regenerated after it: _first)
                "if dt < st.min" + (" or st.scans == 1:" if eng.stats.scans == 0 else ":"),
                "    st.min = dt", f"    sw[{SW_MIN}] = ms"]
-    if end:
-        finish.append(end)
+    if end:  # {exp}: the virtual clock's next start, for the %S4-%S7 cache
+        finish.append(end.replace("{exp}", "exp = " if cells else ""))
     if eng.devices:
         ns.update({f"d{k}": d.update for k, d in enumerate(eng.devices.values())})
         finish += ["t = clock.now_us / 1e6",
                    *(f"d{k}(t, DTS)" for k in range(len(eng.devices)))]
     finish += hooks_a
-    return _make(pre, begin, run, finish, ["return True"], ns), ns
+    return _make(pre, begin, run, finish, ["return True"], ns, cells), ns
 
 
 _NAME = re.compile(r"(?<![.\w])[A-Za-z_]\w*")  # a name, not an attribute
 
 
 def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[str],
-          begun: list[str], ns: dict[str, Any]) -> str:
+          begun: list[str], ns: dict[str, Any], cells: str | None = None) -> str:
     """make() -> (scan, begin, finish). `run` None: STOP or HALT, the scan is `pre` +
     `begin` and `finish` does nothing. The names of `ns` each function reads are its
     default arguments: LOAD_FAST rather than LOAD_GLOBAL, about 20 ns a scan."""
@@ -199,18 +271,46 @@ def _make(pre: list[str], begin: list[str], run: list[str] | None, finish: list[
         text = "".join(f"        {x}\n".replace("{part}", str(part)).replace("{now}", now)
                        for x in lines) or "        pass\n"
         params = params + [f"{n}={n}" for n in sorted(set(_NAME.findall(text)) & ns.keys())]
+        # every function of a make() with cells declares them, used or not: handover()
+        # replaces their code, which needs the same number of free variables
+        text = f"        {CELLS[cells][1]}\n{text}" if cells else text
         return f"    def {name}({', '.join(params)}):\n{text}"
 
     scan = [*pre, *begin,
             *(run + finish if run is not None else [])]
-    return ("def make():\n" + fn("scan", [], scan, 0) + fn("begin", [], pre + begin + begun, 1)
+    return ("def make():\n" + (f"    {CELLS[cells][0]}\n" if cells else "")
+            + fn("scan", [], scan, 0) + fn("begin", [], pre + begin + begun, 1)
             + fn("finish", ["dt"], finish, 0) + "    return scan, begin, finish\n")
 
 
 # What `Engine.invalidate` puts into a generated scan a caller may still hold (PLC.scan(n),
-# benchmarks): it hands over to the current one, so the scan itself checks nothing.
-HANDOVER = compile("def scan():\n    return eng.scan()\n", "<scan handover>", "exec"
-                   ).co_consts[0]
+# benchmarks): it hands over to the current one, so the scan itself checks nothing. One
+# code per number of free variables (with or without the clock-bit cells).
+_HANDOVER_TEXT = "def scan():\n    return eng.scan()\n"
+_HANDOVERS = {len(c.co_freevars): c for c in (
+    compile(_HANDOVER_TEXT, "<scan handover>", "exec").co_consts[0],
+    *(next(c for c in compile(
+        f"def make():\n    {setup}\n    def scan():\n        {declared}\n"
+        "        return eng.scan()\n", "<scan handover>", "exec").co_consts[0].co_consts
+        if isinstance(c, CodeType)) for setup, declared in CELLS.values()))}
+assert len(_HANDOVERS) == 1 + len(CELLS)
+
+
+def handover(fn: FunctionType) -> None:
+    """Make a generated function `fn` hand over to the engine's current scan."""
+    fn.__code__ = _HANDOVERS[len(fn.__code__.co_freevars)]
+
+
+# What `Engine.invalidate` puts in `engine.scan`: generates the scan when called. A
+# function rather than a bound method, so that `Engine._rebuild` can hand it over too: a
+# caller holding it (`PLC.scan(n)`, a benchmark's loop) would otherwise generate again at
+# every call (650 us a scan).
+REBUILD = compile("def scan():\n    return eng._rebuild()\n", "<scan rebuild>", "exec"
+                  ).co_consts[0]
+
+
+def rebuilder(eng: Engine) -> Callable[[], None]:
+    return FunctionType(REBUILD, {"eng": eng})
 
 
 def build(eng: ScanHost, before: bool = True) -> tuple[Callable[[], None],
