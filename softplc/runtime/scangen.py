@@ -309,7 +309,7 @@ REBUILD = compile("def scan():\n    return eng._rebuild()\n", "<scan rebuild>", 
                   ).co_consts[0]
 
 
-def rebuilder(eng: Engine) -> Callable[[], None]:
+def rebuilder(eng: ScanHost) -> Callable[[], None]:
     return FunctionType(REBUILD, {"eng": eng})
 
 
