@@ -119,7 +119,7 @@ class ProgramState:
         self.edges[:] = [0] * len(self.edges)
         self.clear_transitions()
         for step in self.initial_steps:
-            x[step] = 1
+            x[step] = True
 
     def clear_transitions(self) -> None:
         """Forget the transitions of an abandoned scan (the debugger's stepping back)."""

@@ -137,7 +137,7 @@ class PushButton(Device):
         self.pressed = False
 
     def update(self, t: float, dt: float) -> None:
-        self._i[self._idx] = int(self.pressed ^ self.normally_closed)  # type: ignore[index]
+        self._i[self._idx] = bool(self.pressed ^ self.normally_closed)  # type: ignore[index]
 
     def status(self) -> dict[str, Any]:
         return {"pressed": self.pressed}

@@ -96,12 +96,13 @@ class PulseOutput(TimedBlock):
     def period_us(self) -> int:
         return self._P * self.base_us
 
-    def level(self, t_us: int) -> int:
-        """The output's level at time t (what %Q shows at the end of a scan)."""
+    def level(self, t_us: int) -> bool:
+        """The output's level at time t (what %Q shows at the end of a scan: a bool, as
+        the bit images hold)."""
         period = self._run_period()
         if not self._on or period == 0 or t_us < self._t0:
-            return 0
-        return 1 if (t_us - self._t0) % period < period * self.duty() else 0
+            return False
+        return (t_us - self._t0) % period < period * self.duty()
 
     def _run_period(self) -> int:
         """The period the running output has (a new .P may wait for the next pulse)."""
