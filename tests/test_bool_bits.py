@@ -87,6 +87,11 @@ LD 1
 [ %MW2 := SHL(%MW1, 1) ]
 LD %S17
 ST %M9
+LD 1
+[ %M30:4 := %MW0 ]
+[ %MW4 := %MW5 + 32767 ]
+LD %S18
+ST %M10
 """
 BLOCKS_CONFIG = {"timers": {"%TM0": {"type": "TON", "base": "1ms", "preset": 2}},
                  "counters": {"%C0": {"preset": 2}},
@@ -94,15 +99,18 @@ BLOCKS_CONFIG = {"timers": {"%TM0": {"type": "TON", "base": "1ms", "preset": 2}}
 
 
 def test_every_writer_of_the_generated_code_stores_bools() -> None:
-    """Constants, word bits, block outputs, S/R, edges, drum outputs, %S17, the shift
+    """Constants, word bits, block outputs, S/R, edges, drum outputs, %S17, %S18, bit
+    strings, the shift
     register and step counter bits: all land in the images as bools."""
     plc = PLC.from_source(BLOCKS_PROGRAM, BLOCKS_CONFIG)
     plc["%MW0"] = 8
     plc["%MW1"] = -1
+    plc["%MW5"] = 1
     exercise(plc, scans=12)
     assert not non_bools(plc.mem)
     assert plc["%M0"] == 1 and plc["%M1"] == 0 and plc["%M2"] == 1 and plc["%M9"] == 1
-    assert plc.mem.m[20] is True or plc.mem.m[20] is False
+    assert plc["%M10"] == 1 and plc.mem.m[30:34] == [False, False, False, True]
+    assert plc.mem.m[20] != plc.mem.m[21]  # the drum's step (5 or 2) went out
 
 
 def test_a_bit_read_by_the_user_is_0_or_1() -> None:
