@@ -114,7 +114,7 @@ class ProgramState:
         if len(self.edges) < n:
             self.edges.extend([0] * (n - len(self.edges)))
 
-    def cold_start(self, x: list[int]) -> None:
+    def cold_start(self, x: list[bool]) -> None:
         """Edges forgotten, no pending transition, the initial steps active."""
         self.edges[:] = [0] * len(self.edges)
         self.clear_transitions()

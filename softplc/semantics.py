@@ -70,7 +70,7 @@ def _tdiv(a: int, b: int) -> int:
 class Ops:
     """Helpers bound to one memory image's system bits (`s`)."""
 
-    def __init__(self, s: list[int], sw: Any = None):
+    def __init__(self, s: list[bool], sw: Any = None):
         self.s = s
         self.sw = sw if sw is not None else [0] * (SW_FLOAT + 1)  # system words
 
@@ -387,7 +387,7 @@ class Ops:
 
     # -- bit strings -------------------------------------------------------------------------
     @staticmethod
-    def _bits_value(bits: list[int], start: int, n: int) -> int:
+    def _bits_value(bits: list[bool], start: int, n: int) -> int:
         """%Mi:L as a number: bit i is bit 0 [manual]."""
         v = 0
         for k in range(n):
@@ -395,10 +395,10 @@ class Ops:
                 v |= 1 << k
         return v
 
-    def bitstr16(self, bits: list[int], start: int, n: int) -> int:
+    def bitstr16(self, bits: list[bool], start: int, n: int) -> int:
         return wrap16(self._bits_value(bits, start, n))
 
-    def bitstr32(self, bits: list[int], start: int, n: int) -> int:
+    def bitstr32(self, bits: list[bool], start: int, n: int) -> int:
         return wrap32(self._bits_value(bits, start, n))
 
     # -- stores ------------------------------------------------------------------------------

@@ -49,7 +49,7 @@ class LimitSwitch(Device):
         self.normally_closed = options.normally_closed
         self.fault = "none"
         self._axis: AxisDevice | None = None
-        self._i: list[int] | None = None
+        self._i: list[bool] | None = None
         self._idx = 0
 
     def _check_fault(self, fault: Any) -> None:
@@ -117,7 +117,7 @@ class PushButton(Device):
         self.input = options.input
         self.normally_closed = options.normally_closed
         self.pressed = options.pressed
-        self._i: list[int] | None = None
+        self._i: list[bool] | None = None
         self._idx = 0
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:

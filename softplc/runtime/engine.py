@@ -116,8 +116,8 @@ class Engine:
         self.rtc: Any = None  # runtime.rtc.RTC when the program or the config uses it
         self.pulses: Any = None  # runtime.pulse.PulseOutputs when %PLS/%PWM are configured
         self.forced: dict[Ref, Any] = {}
-        self._forced_bits: list[tuple[list[int], int, int]] = []
-        self._forced_inputs: list[tuple[list[int], int, int]] = []
+        self._forced_bits: list[tuple[list[bool], int, bool]] = []
+        self._forced_inputs: list[tuple[list[bool], int, bool]] = []
         self._forced_other: list[tuple[Ref, Any]] = []
         self._first = {S_COLD: True, S_FIRST: True, S_GRAFCET_INIT: True}  # to raise
         self._deadline = 0.0

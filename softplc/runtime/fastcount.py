@@ -284,7 +284,7 @@ class CountingInputs:
     the counter should read its direction input's level. Listeners on other inputs of the
     same counter (preset, catch) are sampled first."""
 
-    def __init__(self, i_field: list[int]):
+    def __init__(self, i_field: list[bool]):
         self.i_field = i_field
         self.by_input: dict[int, list[tuple[Any, int | None]]] = {}  # -> (counter, dir input)
         self.vfc: list[tuple[VeryFastCounter, int | None, int | None]] = []

@@ -279,7 +279,7 @@ class PulseOutputs:
     `end_of_scan` (generators advance, their level goes into the output image), devices
     call `source` (see the module docstring)."""
 
-    def __init__(self, q: list[int]):
+    def __init__(self, q: list[bool]):
         self._q = q
         self.by_output: dict[int, PulseOutput] = {}
         self.names: dict[int, str] = {}  # q index -> "%PLS0 on %Q0.0"
