@@ -114,12 +114,12 @@ class ProgramState:
         if len(self.edges) < n:
             self.edges.extend([0] * (n - len(self.edges)))
 
-    def cold_start(self, x: list[int]) -> None:
+    def cold_start(self, x: list[bool]) -> None:
         """Edges forgotten, no pending transition, the initial steps active."""
         self.edges[:] = [0] * len(self.edges)
         self.clear_transitions()
         for step in self.initial_steps:
-            x[step] = 1
+            x[step] = True
 
     def clear_transitions(self) -> None:
         """Forget the transitions of an abandoned scan (the debugger's stepping back)."""

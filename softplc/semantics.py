@@ -70,13 +70,13 @@ def _tdiv(a: int, b: int) -> int:
 class Ops:
     """Helpers bound to one memory image's system bits (`s`)."""
 
-    def __init__(self, s: list[int], sw: Any = None):
+    def __init__(self, s: list[bool], sw: Any = None):
         self.s = s
         self.sw = sw if sw is not None else [0] * (SW_FLOAT + 1)  # system words
 
     def _float_fault(self, kind: int) -> None:
         """A floating-point fault: %S18 and its kind in %SW17 [manual]."""
-        self.s[S_ARITH] = 1
+        self.s[S_ARITH] = True
         self.sw[SW_FLOAT] |= kind
 
     @classmethod
@@ -93,13 +93,13 @@ class Ops:
     def _chk16(self, v: int) -> int:
         if -32768 <= v <= 32767:
             return v
-        self.s[S_ARITH] = 1
+        self.s[S_ARITH] = True
         return wrap16(v)
 
     def _chk32(self, v: int) -> int:
         if -2147483648 <= v <= 2147483647:
             return v
-        self.s[S_ARITH] = 1
+        self.s[S_ARITH] = True
         return wrap32(v)
 
 
@@ -115,13 +115,13 @@ class Ops:
 
     def div16(self, a: int, b: int) -> int:
         if b == 0:  # divide by zero: %S18, result 0 [manual: "result not significant"]
-            self.s[S_ARITH] = 1
+            self.s[S_ARITH] = True
             return 0
         return self._chk16(_tdiv(a, b))  # -32768 / -1 overflows
 
     def rem16(self, a: int, b: int) -> int:
         if b == 0:
-            self.s[S_ARITH] = 1
+            self.s[S_ARITH] = True
             return 0
         return a - _tdiv(a, b) * b  # sign of the dividend
 
@@ -133,7 +133,7 @@ class Ops:
 
     def sqrt16(self, a: int) -> int:
         if a < 0:
-            self.s[S_ARITH] = 1
+            self.s[S_ARITH] = True
             return 0
         return math.isqrt(a)
 
@@ -153,7 +153,7 @@ class Ops:
 
     def div32(self, a: int, b: int) -> int:
         if b == 0:
-            self.s[S_ARITH] = 1
+            self.s[S_ARITH] = True
             return 0
         return self._chk32(_tdiv(a, b))
 
@@ -180,19 +180,19 @@ class Ops:
         if n == 0:
             return a
         if kind == "SHL":
-            self.s[S_CARRY] = (u >> (bits - n)) & 1 if n <= bits else 0
+            self.s[S_CARRY] = n <= bits and bool(u >> (bits - n) & 1)
             u = (u << n) & mask
         elif kind == "SHR":  # logical shift: zeros come in on the left [manual]
-            self.s[S_CARRY] = (u >> (n - 1)) & 1 if n <= bits else 0
+            self.s[S_CARRY] = n <= bits and bool(u >> (n - 1) & 1)
             u >>= n
         elif kind == "ROL":
             n %= bits
             u = ((u << n) | (u >> (bits - n))) & mask
-            self.s[S_CARRY] = u & 1
+            self.s[S_CARRY] = bool(u & 1)
         else:  # ROR
             n %= bits
             u = ((u >> n) | (u << (bits - n))) & mask
-            self.s[S_CARRY] = (u >> (bits - 1)) & 1
+            self.s[S_CARRY] = bool(u >> (bits - 1) & 1)
         return u - (1 << bits) if u >> (bits - 1) else u
 
     def shl16(self, a: int, n: int) -> int:
@@ -307,12 +307,12 @@ class Ops:
     def _round(self, x: float, lo: int, hi: int) -> int:
         """REAL_TO_INT/DINT round to nearest, halves away from zero [manual]; %S18 out of range."""
         if not math.isfinite(x):
-            self.s[S_ARITH] = 1
+            self.s[S_ARITH] = True
             return 0
         r = int(math.floor(abs(x) + 0.5)) * (1 if x >= 0 else -1)
         if lo <= r <= hi:
             return r
-        self.s[S_ARITH] = 1
+        self.s[S_ARITH] = True
         return 0
 
     def real_to_int(self, x: float) -> int:
@@ -326,7 +326,7 @@ class Ops:
         """A BCD word (#0000..#9999) to its value; a nibble above 9 is %S18, result 0."""
         v = bcd_decode(w)
         if v is None:
-            self.s[S_ARITH] = 1
+            self.s[S_ARITH] = True
             return 0
         return v
 
@@ -334,7 +334,7 @@ class Ops:
         """0..9999 to a BCD word; out of range is %S18, result 0."""
         u = bcd_encode(v)
         if u is None:
-            self.s[S_ARITH] = 1
+            self.s[S_ARITH] = True
             return 0
         return u
 
@@ -387,7 +387,7 @@ class Ops:
 
     # -- bit strings -------------------------------------------------------------------------
     @staticmethod
-    def _bits_value(bits: list[int], start: int, n: int) -> int:
+    def _bits_value(bits: list[bool], start: int, n: int) -> int:
         """%Mi:L as a number: bit i is bit 0 [manual]."""
         v = 0
         for k in range(n):
@@ -395,10 +395,10 @@ class Ops:
                 v |= 1 << k
         return v
 
-    def bitstr16(self, bits: list[int], start: int, n: int) -> int:
+    def bitstr16(self, bits: list[bool], start: int, n: int) -> int:
         return wrap16(self._bits_value(bits, start, n))
 
-    def bitstr32(self, bits: list[int], start: int, n: int) -> int:
+    def bitstr32(self, bits: list[bool], start: int, n: int) -> int:
         return wrap32(self._bits_value(bits, start, n))
 
     # -- stores ------------------------------------------------------------------------------
@@ -417,7 +417,7 @@ class Ops:
         i = base + offset
         if 0 <= i < count:
             return i
-        self.s[S_INDEX] = 1
+        self.s[S_INDEX] = True
         return base
 
 

@@ -21,14 +21,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import statistics
-import subprocess
 import sys
-import tempfile
 import time
 import tomllib
 from pathlib import Path
 
+from peers import ab
 from peers.common import speed_line
 
 from softplc import PLC
@@ -140,53 +138,15 @@ def report(r: dict) -> str:
     return text
 
 
-def _export(rev: str, into: Path) -> Path:
-    """`rev` of this repository as a plain tree (git archive), for the A/B runs."""
-    arch = subprocess.run(["git", "-C", str(ROOT), "archive", "--format=tar", rev],
-                          capture_output=True, check=False)
-    if arch.returncode:
-        raise SystemExit(f"git archive {rev}: {arch.stderr.decode(errors='replace').strip()}")
-    subprocess.run(["tar", "-x", "-C", str(into)], input=arch.stdout, check=True)
-    return into
-
-
-def _child(root: Path, speed: float) -> dict:
-    """This script in a process importing softplc from `root`, on `root`'s machine files."""
-    env = dict(os.environ, PYTHONPATH=str(root))
-    out = subprocess.run([sys.executable, __file__, "--speed", str(speed), "--json",
-                          "--root", str(root)],
-                         capture_output=True, text=True, env=env, cwd=root, check=False)
-    if out.returncode:
-        raise SystemExit(f"{root}: the benchmark failed:\n{out.stderr[-2000:]}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
-
-
 def against(rev: str, speed: float, rounds: int) -> str:
     """Side by side: `rev` (before) and this checkout (after), runs alternating."""
     keys = (("speedup_cpu", "x real time (CPU)", True), ("speedup", "x real time (wall)", True),
             ("update_moving_us", "us per update, jogging", False),
             ("update_rest_us", "us per update, at rest", False),
             ("update_in_run_us", "us per update, in the run", False))
-    with tempfile.TemporaryDirectory(prefix="bench_cutting_") as tmp:
-        sides = {rev: _export(rev, Path(tmp)), "this checkout": ROOT}
-        runs: dict[str, list[dict]] = {name: [] for name in sides}
-        for i in range(rounds):
-            for name, root in sides.items():
-                print(f"[bench] round {i + 1}/{rounds}: {name}", file=sys.stderr, flush=True)
-                runs[name].append(_child(root, speed))
-    lines = [f"Cutting table A/B, {rounds} alternating runs each (best / median), load "
-             f"average {os.getloadavg()[0]:.1f}:",
-             f"  {'figure':26} {rev[:20]:>22} {'this checkout':>22} {'ratio':>7}"]
-    for key, label, higher in keys:
-        cells, best = [], []
-        for name in sides:
-            vals = [r[key] for r in runs[name]]
-            b = max(vals) if higher else min(vals)
-            best.append(b)
-            cells.append(f"{b:9.2f} / {statistics.median(vals):9.2f}")
-        ratio = best[1] / best[0] if higher else best[0] / best[1]
-        lines.append(f"  {label:26} {cells[0]:>22} {cells[1]:>22} {ratio:6.2f}x")
-    return "\n".join(lines)
+    return ab.against(rev, rounds, lambda root: ab.child(
+        __file__, root, ["--speed", str(speed), "--json", "--root", str(root)]),
+        keys, "Cutting table A/B")
 
 
 def main(argv: list[str] | None = None) -> int:

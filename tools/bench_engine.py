@@ -12,19 +12,26 @@ Figures, best of `repeat` timed loops, warm-up excluded:
 Targets on the 2-core reference machine: <= 10 ns per boolean instruction, <= 20 us per
 scan of a 40-rung program; issue 26: <= 3.0 ns per instruction through plc.scan().
 
-    .venv/bin/python tools/bench_engine.py [--quick]
+    .venv/bin/python tools/bench_engine.py [--quick] [--cpu] [--against REV [--rounds 4]]
+
+`--cpu` times CPU time of the thread (`time.thread_time`: steadier on a shared machine)
+instead of wall time; `--against REV` runs the main figures (CPU time) for a git revision
+and this checkout alternating, and prints them side by side (tools/peers/ab.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from gen_programs import boolean_program
+from peers import ab
 from peers.common import best_interleaved, best_per_batch, loop, print_report, progress
 from peers.programs import mixed_program
 
@@ -36,12 +43,14 @@ ROOT = Path(__file__).resolve().parents[1]
 TARGET_NS_PER_BOOL = 10.0
 TARGET_US_PER_SCAN_40 = 20.0
 TARGET_NS_PER_LINE_26 = 3.0  # issue 26, through plc.scan()
+CLOCK = time.perf_counter  # --cpu: time.thread_time
 
 
 def time_plc(plc: PLC, number: int, repeat: int) -> dict[str, float]:
     """us per call of the compiled main() alone and of the full plc.scan() (timed runs
     alternating, so a burst of load from elsewhere hits both alike)."""
-    t = best_interleaved({"main": loop(plc.program.main), "scan": plc.scan}, number, repeat)
+    t = best_interleaved({"main": loop(plc.program.main), "scan": plc.scan}, number, repeat,
+                         clock=CLOCK)
     return {"main_us": t["main"] * 1e6, "scan_us": t["scan"] * 1e6}
 
 
@@ -55,7 +64,7 @@ def locals_floor(plc: PLC) -> Callable[[], None]:
     if src.count("\ndef ") or re.search(r"\b_[A-Z]", body):
         raise ValueError("locals_floor: a single function over %M bits only")
     ns: dict[str, Any] = {}
-    exec("def floor(" + ", ".join(f"m{n}=0" for n in bits) + "):\n" + body, ns)
+    exec("def floor(" + ", ".join(f"m{n}=False" for n in bits) + "):\n" + body, ns)
     return ns["floor"]
 
 
@@ -73,20 +82,14 @@ def run(quick: bool = False, tiny: bool = False,
     n_instr = 40 if tiny else 1000
     progress(f"engine: boolean program, {n_instr} instructions, {number} calls x {repeat}")
     plc = PLC.from_source(boolean_program(n_instr), file="<boolean>")
-    # the same program over bits held as True/False rather than 0/1: a jump on a bool
-    # skips the truth test of an int (a way in for issue 26, not how the memory is held)
-    bools = PLC.from_source(boolean_program(n_instr), file="<boolean>")
-    bools.mem.m[:] = [bool(v) for v in bools.mem.m]
     t = best_interleaved({"main": loop(plc.program.main), "scan": plc.scan,
-                          "floor": loop(locals_floor(plc)),
-                          "bools": loop(bools.program.main)}, number, repeat)
+                          "floor": loop(locals_floor(plc))}, number, repeat, clock=CLOCK)
     boolean = {
         "instructions": plc.program.instruction_count, "rungs": len(plc.rungs),
         "main_us": t["main"] * 1e6, "scan_us": t["scan"] * 1e6,
         "main_ns_per_instr": t["main"] * 1e9 / n_instr,
         "scan_ns_per_instr": t["scan"] * 1e9 / n_instr,
         "floor_ns_per_instr": t["floor"] * 1e9 / n_instr,
-        "bools_ns_per_instr": t["bools"] * 1e9 / n_instr,
     }
     progress("engine: 40-rung mixed program")
     text, cfg = mixed_program(40)
@@ -124,7 +127,8 @@ def _time_file(il: Path, number: int, repeat: int) -> dict[str, Any]:
                      **time_plc(plc, number, repeat))
         if plc.settings.devices:
             with PLC.from_file(il, cfg, devices=True) as dev:
-                entry["scan_devices_us"] = best_per_batch(dev.scan, number, repeat) * 1e6
+                entry["scan_devices_us"] = best_per_batch(dev.scan, number, repeat,
+                                                             clock=CLOCK) * 1e6
     except (SoftPLCError, OSError, ValueError) as e:
         entry["error"] = f"{type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}"
     return entry
@@ -154,8 +158,7 @@ def report(res: dict[str, Any]) -> str:
         f"main() {b['main_us']:.2f} us = {b['main_ns_per_instr']:.2f} ns/instr; "
         f"plc.scan() {b['scan_us']:.2f} us = {b['scan_ns_per_instr']:.2f} ns/instr",
         f"    main() with the bits as locals (the floor under it) "
-        f"{b['floor_ns_per_instr']:.2f} ns/instr, over bits held as bools "
-        f"{b['bools_ns_per_instr']:.2f}",
+        f"{b['floor_ns_per_instr']:.2f} ns/instr",
         f"  mixed program, {m['rungs']} rungs / {m['instructions']} instructions: "
         f"main() {m['main_us']:.2f} us; plc.scan() {m['scan_us']:.2f} us",
         f"  {'program':28}{'rungs':>6}{'instr':>7}{'main us':>10}{'scan us':>10}"
@@ -190,13 +193,50 @@ def profile(il: Path, scans: int = 50_000, top: int = 15) -> str:
     return buf.getvalue()
 
 
+# the figures an A/B run compares: (key, label, higher is better)
+AB_KEYS = (("bool_main_ns", "boolean main(), ns/line", False),
+           ("bool_scan_ns", "boolean plc.scan(), ns/line", False),
+           ("bool_floor_ns", "boolean floor (locals), ns/line", False),
+           ("mixed_scan_us", "mixed 40 rungs plc.scan(), us", False))
+
+
+def ab_figures(res: dict[str, Any]) -> dict[str, float]:
+    b = res["boolean"]
+    return {"bool_main_ns": b["main_ns_per_instr"], "bool_scan_ns": b["scan_ns_per_instr"],
+            "bool_floor_ns": b["floor_ns_per_instr"], "mixed_scan_us": res["mixed40"]["scan_us"]}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer calls and repeats")
     ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time CPU time of the thread, not wall time")
+    ap.add_argument("--against", metavar="REV",
+                    help="A/B: also run a git revision (e.g. main), alternating, CPU time")
+    ap.add_argument("--rounds", type=int, default=4,
+                    help="runs per side with --against (default 4)")
+    ap.add_argument("--ab-child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--profile", type=Path, metavar="PROGRAM.il",
                     help="instead: cProfile plc.scan() of this program, top functions")
     a = ap.parse_args(argv)
+    if a.rounds < 1:
+        ap.error("--rounds must be >= 1")
+    if a.cpu or a.against or a.ab_child:
+        global CLOCK
+        CLOCK = time.thread_time
+    if a.against:
+        args = ["--ab-child"] + (["--quick"] if a.quick else [])
+        print(ab.against(a.against, a.rounds, lambda root: ab.child(__file__, root, args),
+                         AB_KEYS, "Scan engine A/B (CPU time)"))
+        return 0
+    if a.ab_child:  # the boolean and mixed figures only, as one line of JSON
+        import softplc  # the side's tree (PYTHONPATH), which is the working directory
+
+        if not Path(softplc.__file__).resolve().is_relative_to(Path.cwd().resolve()):
+            raise SystemExit(f"softplc imported from {softplc.__file__}, not {Path.cwd()}")
+        print(json.dumps(ab_figures(run(quick=a.quick, programs_dir=Path("no-programs")))))
+        return 0
     if a.profile:
         print(profile(a.profile))
         return 0

@@ -54,9 +54,9 @@ class Compiler(ValueCompiler):
     # ---- boolean operands -----------------------------------------------------------------
     def operand(self, op: A.BoolOperand | None, blk: Ref | None, pos: A.Pos | None) -> str:
         if op is None:
-            return "1"
-        if isinstance(op, A.Const):
-            return str(op.value)
+            return "True"
+        if isinstance(op, A.Const):  # bits are held as bools: stores write True/False
+            return "True" if op.value else "False"
         if isinstance(op, A.Operand):
             return self.read_bit(op.ref, op.pos)
         if isinstance(op, A.BlockOutput):
@@ -69,7 +69,7 @@ class Compiler(ValueCompiler):
                 self.err(f"%{blk.kind} has no output {op.name}", op.pos, op.name,
                          ", ".join(outs) or "no output", code=Code.BLOCK)
                 return "0"
-            return f"{self.block_name(blk)}.{op.name}"
+            return f"({self.block_name(blk)}.{op.name} == 1)"  # a bool: see read_bit
         if isinstance(op, A.Compare):
             a, b = self.operand_pair(op.left, op.right, None)
             if self.unify(a, b, op.pos, "comparison") is None:
@@ -195,7 +195,7 @@ class Compiler(ValueCompiler):
                                  "a bit; a block's inputs are R / S / CU / CD / IN pins",
                                  code=Code.BLOCK)
                         continue
-                    value = "1" if instr.op == "S" else "0"
+                    value = "True" if instr.op == "S" else "False"
                     if a.code in ("1", "True"):
                         self.write_bit(instr.target, value, pos)
                     elif a.code not in ("0", "False"):
@@ -356,12 +356,12 @@ class Compiler(ValueCompiler):
                          "LD before it (or JMP, unconditional)", code=Code.NEEDS_LOAD)
                 return
             cond = acc.code if instr.op == "JMPC" else f"not ({acc.code})"
-        if cond != "1":
+        if cond not in ("1", "True"):
             self.emit(f"if {cond}:")
             self.indent += 1
         for s in stmts:
             self.emit(s)
-        if cond != "1":
+        if cond not in ("1", "True"):
             self.indent -= 1
 
     # ---- functions ------------------------------------------------------------------------

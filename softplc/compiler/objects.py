@@ -153,12 +153,13 @@ class ObjectCompiler:
         if ref.bit is not None and ref.kind in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
-            return f"({buf}[{ref.index}] >> {ref.bit} & 1)"
+            return f"({buf}[{ref.index}] & {1 << ref.bit} != 0)"  # a bool, as bits are
         if ref.type == BOOL and ref.kind in BLOCK_OUTPUTS or ref.field == "J":
             b = self.block_name(Ref(ref.kind, ref.index))
             if ref.field == "J":
                 return f"{b}.bit({ref.bit})"
-            return f"{b}.{ref.field}"
+            # a block holds its outputs as 0/1: compared, they store bools in the images
+            return f"({b}.{ref.field} == 1)"
         self.err(f"{ref} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
                  f"a bit (%I, %Q, %M, %S, %MWi:Xk, block output) or a comparison block "
                  f"such as [ {ref} <> 0 ]", code=Code.BLOCK)

@@ -92,12 +92,12 @@ class Encoder(Device):
 
     def _levels(self, direction: int) -> None:
         frac = self.position - math.floor(self.position)
-        self._i[self._a] = 1 if frac < 0.5 else 0
+        self._i[self._a] = frac < 0.5
         if self._b is not None:
             if self.options.signal == "quadrature":  # B a quarter period behind A going up
-                self._i[self._b] = 1 if (frac - 0.25) % 1.0 < 0.5 else 0
+                self._i[self._b] = (frac - 0.25) % 1.0 < 0.5
             else:
-                self._i[self._b] = 1 if direction > 0 else 0
+                self._i[self._b] = direction > 0
 
     def update(self, t: float, dt: float) -> None:
         o = self.options

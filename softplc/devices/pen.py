@@ -35,7 +35,7 @@ class Pen(Device):
         self.output = options.output
         self.lower_delay = options.lower_delay
         self.lift_delay = options.lift_delay
-        self._q: list[int] | None = None
+        self._q: list[bool] | None = None
         self._idx = 0
         self.reset()
 

@@ -138,7 +138,7 @@ class Stepper(AxisDevice):
         self._min_dt_h = 0.5 / self.max_step_rate * (1 - 1e-6)
         self.events: deque[tuple[float, str, int | float]] = deque(maxlen=100)
         self._get_phases: Any = None
-        self._q: list[int] | None = None
+        self._q: list[bool] | None = None
         self.reset()
 
     # -- contract ---------------------------------------------------------------------------

@@ -49,7 +49,7 @@ class LimitSwitch(Device):
         self.normally_closed = options.normally_closed
         self.fault = "none"
         self._axis: AxisDevice | None = None
-        self._i: list[int] | None = None
+        self._i: list[bool] | None = None
         self._idx = 0
 
     def _check_fault(self, fault: Any) -> None:
@@ -117,7 +117,7 @@ class PushButton(Device):
         self.input = options.input
         self.normally_closed = options.normally_closed
         self.pressed = options.pressed
-        self._i: list[int] | None = None
+        self._i: list[bool] | None = None
         self._idx = 0
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
@@ -137,7 +137,7 @@ class PushButton(Device):
         self.pressed = False
 
     def update(self, t: float, dt: float) -> None:
-        self._i[self._idx] = int(self.pressed ^ self.normally_closed)  # type: ignore[index]
+        self._i[self._idx] = bool(self.pressed ^ self.normally_closed)  # type: ignore[index]
 
     def status(self) -> dict[str, Any]:
         return {"pressed": self.pressed}

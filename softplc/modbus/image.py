@@ -151,7 +151,7 @@ class ModbusImage:
                 lo, hi = self._clo, self._chi
                 m = self.mem.m
                 for i in np.flatnonzero(self._pend_cmask[lo:hi]).tolist():
-                    m[lo + i] = int(self._pend_coils[lo + i])
+                    m[lo + i] = bool(self._pend_coils[lo + i])
                 self._pend_cmask[lo:hi] = False
             n, self._pending = self._pending, 0
             self._rlo, self._rhi, self._clo, self._chi = self.n_registers, 0, self.n_coils, 0

@@ -284,7 +284,7 @@ class Drum(Block):
             self._written = self.S
             bits = self.steps[self.S]
             for k, (buf, idx) in enumerate(self.outputs):
-                buf[idx] = (bits >> k) & 1
+                buf[idx] = bits >> k & 1 == 1  # a bit image: bools
         self.F = 1 if self.S == len(self.steps) - 1 else 0
 
     def run(self, R: Any = 0, U: Any = 0) -> None:
@@ -319,8 +319,8 @@ class ShiftRegister(_UpDownBlock):
     def __init__(self) -> None:
         self.W, self._cu, self._cd = 0, 0, 0
 
-    def bit(self, k: int) -> int:
-        return (self.W >> k) & 1
+    def bit(self, k: int) -> bool:  # read as a bit: a bool, as the bit images hold
+        return self.W >> k & 1 == 1
 
     def set_bit(self, k: int, v: Any) -> None:
         self.W = (self.W | (1 << k)) if v else (self.W & ~(1 << k))
@@ -349,8 +349,8 @@ class StepCounter(_UpDownBlock):
     def __init__(self) -> None:
         self.V, self.W, self._cu, self._cd = 0, 1, 0, 0
 
-    def bit(self, k: int) -> int:
-        return (self.W >> k) & 1
+    def bit(self, k: int) -> bool:  # read as a bit: a bool, as the bit images hold
+        return self.W >> k & 1 == 1
 
     def set_bit(self, k: int, v: Any) -> None:
         if v:

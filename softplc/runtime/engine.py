@@ -116,15 +116,15 @@ class Engine:
         self.rtc: Any = None  # runtime.rtc.RTC when the program or the config uses it
         self.pulses: Any = None  # runtime.pulse.PulseOutputs when %PLS/%PWM are configured
         self.forced: dict[Ref, Any] = {}
-        self._forced_bits: list[tuple[list[int], int, int]] = []
-        self._forced_inputs: list[tuple[list[int], int, int]] = []
+        self._forced_bits: list[tuple[list[bool], int, bool]] = []
+        self._forced_inputs: list[tuple[list[bool], int, bool]] = []
         self._forced_other: list[tuple[Ref, Any]] = []
-        self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}  # first-scan bits to raise
+        self._first = {S_COLD: True, S_FIRST: True, S_GRAFCET_INIT: True}  # to raise
         self._deadline = 0.0
         self._cpu0: float | None = None  # thread CPU time at the scan's start, when measured
         self._suspect = False  # the last scan was late on the wall clock: measure CPU time
         mem.on_copiers = self.invalidate
-        mem.s[S_RUNNING] = 1
+        mem.s[S_RUNNING] = True
         mem.sw.w[SW_PERIOD] = min(32767, round(period_s * 1000))
         mem.sw.w[SW_WATCHDOG] = min(32767, round(watchdog_s * 1000))
 
@@ -210,51 +210,51 @@ class Engine:
         """Reset %M, %MW, %Q, timers, counters, Grafcet; %S0 and %S13 on the next scan."""
         m = self.mem
         for buf in (m.m, m.q, m.q_field, m.x):
-            buf[:] = [0] * len(buf)
+            buf[:] = [False] * len(buf)
         m.mw.buf[:] = bytes(len(m.mw.buf))
         for (kind, i), st in self.cold_states.items():
             m.blocks[kind][i].set_state(st)
         if self.program is not None:
             self.program.state.cold_start(m.x)
-        self._first = {S_COLD: 1, S_FIRST: 1, S_GRAFCET_INIT: 1}
+        self._first = {S_COLD: True, S_FIRST: True, S_GRAFCET_INIT: True}
         if self.rtc is not None:
             self.rtc.cold_start()
         self.state, self.fault = RUN, ""
-        self.mem.s[S_WATCHDOG] = 0
-        self.mem.s[S_RUNNING] = 1
+        self.mem.s[S_WATCHDOG] = False
+        self.mem.s[S_RUNNING] = True
         self.invalidate()
 
     def warm_start(self) -> None:
         """Keep data; %S1 and %S13 on the next scan."""
-        self._first = {S_WARM: 1, S_FIRST: 1}
+        self._first = {S_WARM: True, S_FIRST: True}
         self.state, self.fault = RUN, ""
-        self.mem.s[S_WATCHDOG] = 0
-        self.mem.s[S_RUNNING] = 1
+        self.mem.s[S_WATCHDOG] = False
+        self.mem.s[S_RUNNING] = True
         self.invalidate()
 
     def stop(self) -> None:
         self.state = STOP
-        self.mem.s[S_RUNNING] = 0
+        self.mem.s[S_RUNNING] = False
         self.invalidate()
 
     def start(self) -> None:
         """STOP -> RUN (%S13 on the first scan). A HALT needs cold_start/warm_start."""
         if self.state == STOP:
             self.state = RUN
-            self._first = {S_FIRST: 1}
-            self.mem.s[S_RUNNING] = 1
+            self._first = {S_FIRST: True}
+            self.mem.s[S_RUNNING] = True
             self.invalidate()
 
     def halt(self, reason: str) -> None:
         self.state, self.fault = HALT, reason
-        self.mem.s[S_RUNNING] = 0
+        self.mem.s[S_RUNNING] = False
         self.stop_outputs()
         self.invalidate()
 
     def stop_outputs(self) -> None:
         """Outputs to their fallback value 0, image and field."""
-        self.mem.q[:] = [0] * len(self.mem.q)
-        self.mem.q_field[:] = [0] * len(self.mem.q_field)
+        self.mem.q[:] = [False] * len(self.mem.q)
+        self.mem.q_field[:] = [False] * len(self.mem.q_field)
 
     # -- snapshots ----------------------------------------------------------------------------
     def snapshot(self) -> dict[str, Any]:
@@ -290,7 +290,7 @@ class Engine:
         self._forced_bits, self._forced_inputs, self._forced_other = [], [], []
         for ref, v in forced.items():
             if ref.kind in ("I", "Q", "M", "S", "X") and ref.offset is None:
-                entry = (self.mem.bits(ref.kind), ref.index, 1 if v else 0)
+                entry = (self.mem.bits(ref.kind), ref.index, bool(v))
                 (self._forced_inputs if ref.kind == "I" else self._forced_bits).append(entry)
             else:
                 self._forced_other.append((ref, v))
@@ -334,7 +334,7 @@ class Engine:
             self.halt(f"runtime fault: {type(e).__name__}: {e}")
 
     def _watchdog_trip(self, dt: float) -> None:
-        self.mem.s[S_WATCHDOG] = 1
+        self.mem.s[S_WATCHDOG] = True
         self.halt(f"watchdog: scan took {dt * 1000:.1f} ms > {self.watchdog_s * 1000:.0f} ms")
 
     def note_overrun(self, late: bool = False, skipped: int = 0) -> None:
@@ -344,7 +344,7 @@ class Engine:
         st.overruns += 1
         st.late_starts += late
         st.skipped_starts += skipped
-        self.mem.s[S_OVERRUN] = 1
+        self.mem.s[S_OVERRUN] = True
         sw = self.mem.sw.w
         sw[SW_LATE] = min(32767, sw[SW_LATE] + late)
         sw[SW_SKIPPED] = min(32767, sw[SW_SKIPPED] + skipped)

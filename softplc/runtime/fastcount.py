@@ -176,7 +176,9 @@ class VeryFastCounter(_PulseCounter):
         self.S0, self.S1 = word(int(s0)), word(int(s1))
         self.R = self.S = 0  # reflex outputs enabled by the program [manual, from memory]
         self.T = time_base_ms
-        self.zones, self.outputs = zones, outputs
+        # the reflex outputs are bit images: their levels as bools
+        self.zones = tuple(None if z is None else tuple(map(bool, z)) for z in zones)
+        self.outputs = outputs
         self.log = log  # (t, label, output index, value) appended on each reflex change
         self.label = label
         self._zone = -1
@@ -282,7 +284,7 @@ class CountingInputs:
     the counter should read its direction input's level. Listeners on other inputs of the
     same counter (preset, catch) are sampled first."""
 
-    def __init__(self, i_field: list[int]):
+    def __init__(self, i_field: list[bool]):
         self.i_field = i_field
         self.by_input: dict[int, list[tuple[Any, int | None]]] = {}  # -> (counter, dir input)
         self.vfc: list[tuple[VeryFastCounter, int | None, int | None]] = []

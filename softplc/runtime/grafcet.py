@@ -26,7 +26,7 @@ class Grafcet:
     """Step bits `x`, system bits `s`; `ga`/`gd` collect the steps a scan's transitions
     activate / deactivate, applied together by `post()`."""
 
-    def __init__(self, x: list[int], s: list[int]):
+    def __init__(self, x: list[bool], s: list[bool]):
         self.x, self.s = x, s
         self.ga: list[int] = []
         self.gd: list[int] = []
@@ -38,12 +38,12 @@ class Grafcet:
         s = self.s
         if s[S_GRAFCET_INIT] or s[S_GRAFCET_RESET]:
             x = self.x
-            x[:] = [0] * len(x)
+            x[:] = [False] * len(x)
             if s[S_GRAFCET_INIT]:
                 for k in self.initial:
-                    x[k] = 1
+                    x[k] = True
         self.frozen = s[S_GRAFCET_FREEZE]
-        s[S_GRAFCET_INIT] = s[S_GRAFCET_RESET] = s[S_GRAFCET_FREEZE] = 0
+        s[S_GRAFCET_INIT] = s[S_GRAFCET_RESET] = s[S_GRAFCET_FREEZE] = False
 
     def post(self) -> None:
         """End of the sequential part: apply the transitions (none while frozen)."""
@@ -54,8 +54,8 @@ class Grafcet:
         else:
             x = self.x
             for k in self.gd:
-                x[k] = 0
+                x[k] = False
             for k in self.ga:
-                x[k] = 1
+                x[k] = True
         self.ga.clear()
         self.gd.clear()

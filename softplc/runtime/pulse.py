@@ -96,12 +96,13 @@ class PulseOutput(TimedBlock):
     def period_us(self) -> int:
         return self._P * self.base_us
 
-    def level(self, t_us: int) -> int:
-        """The output's level at time t (what %Q shows at the end of a scan)."""
+    def level(self, t_us: int) -> bool:
+        """The output's level at time t (what %Q shows at the end of a scan: a bool, as
+        the bit images hold)."""
         period = self._run_period()
         if not self._on or period == 0 or t_us < self._t0:
-            return 0
-        return 1 if (t_us - self._t0) % period < period * self.duty() else 0
+            return False
+        return (t_us - self._t0) % period < period * self.duty()
 
     def _run_period(self) -> int:
         """The period the running output has (a new .P may wait for the next pulse)."""
@@ -278,7 +279,7 @@ class PulseOutputs:
     `end_of_scan` (generators advance, their level goes into the output image), devices
     call `source` (see the module docstring)."""
 
-    def __init__(self, q: list[int]):
+    def __init__(self, q: list[bool]):
         self._q = q
         self.by_output: dict[int, PulseOutput] = {}
         self.names: dict[int, str] = {}  # q index -> "%PLS0 on %Q0.0"

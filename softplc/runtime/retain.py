@@ -145,7 +145,7 @@ def capture(mem: MemoryImage, app: bytes = b"") -> RetainedState:
 def apply(mem: MemoryImage, state: RetainedState) -> None:
     """Put a retained state back into the image. Blocks no longer configured are skipped."""
     mem.mw.buf[:] = state.mw
-    mem.m[:] = list(state.m)
+    mem.m[:] = map(bool, state.m)  # the bit image holds bools
     for kind, d in state.blocks.items():
         present = mem.blocks.get(kind, {})
         for i, st in d.items():

@@ -105,7 +105,7 @@ class RTC:
                            bcd_encode(t.month * 100 + t.day), bcd_encode(t.year))
             self._active = [sch.active(t) for sch in self.schedules]
         s, sw = self.mem.s, self.mem.sw.w
-        s[S_RTC_UNSET] = 0
+        s[S_RTC_UNSET] = False
         if not s[S_RTC_WRITE]:
             sw[SW_DOW], sw[SW_HHMM], sw[SW_MMDD], sw[SW_CCYY] = self._words
             sw[SW_SEC] = _BCD_SECONDS[second]

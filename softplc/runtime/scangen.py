@@ -64,7 +64,7 @@ class HookList(list):
 # Every half period is a multiple of 5 ms and they all divide 60 s: %S4-%S7 at time t are
 # CLOCK_BITS[t // 5000 % 12000], one table look-up per scan instead of four modulos.
 CLOCK_STEP = 5000
-CLOCK_BITS = [tuple(1 if (k * CLOCK_STEP) % p < p // 2 else 0 for p in S_CLOCKS.values())
+CLOCK_BITS = [tuple((k * CLOCK_STEP) % p < p // 2 for p in S_CLOCKS.values())  # bools
               for k in range(60_000_000 // CLOCK_STEP)]
 assert all(p % (2 * CLOCK_STEP) == 0 and 60_000_000 % p == 0 for p in S_CLOCKS.values())
 assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
@@ -225,7 +225,7 @@ def source(eng: ScanHost, before: bool = True) -> tuple[str, dict[str, Any]]:
     if eng.pulses is not None:
         finish.append("pulses.end_of_scan(clock.now_us)")
     if eng._first:
-        finish += [*(f"s[{bit}] = 0" for bit in eng._first), "eng._first = {}",
+        finish += [*(f"s[{bit}] = False" for bit in eng._first), "eng._first = {}",
                    "eng.invalidate()"]
     finish += forced
     publish = [f"    {x}" for x in eng.mem.copy_lines("Q")] or ["    pass"]

@@ -51,8 +51,8 @@ class ScanHost(Protocol):
     after_scan: list[Callable[[], None]]
     scan: Callable[[], None]
     # the engine's scan state, read and set by the generated code
-    _forced_bits: list[tuple[list[int], int, int]]
-    _forced_inputs: list[tuple[list[int], int, int]]
+    _forced_bits: list[tuple[list[bool], int, bool]]
+    _forced_inputs: list[tuple[list[bool], int, bool]]
     _forced_other: list[tuple[Ref, Any]]
     _first: dict[int, int]
     _deadline: float

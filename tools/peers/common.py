@@ -35,12 +35,13 @@ def best_per_call(fn: Callable[[], Any], number: int, repeat: int = 5,
 
 
 def best_per_batch(batch: Callable[[int], Any], number: int, repeat: int = 5,
-                   warmup: int | None = None) -> float:
-    """Like best_per_call for an API that runs n iterations itself (`plc.scan(n)`)."""
+                   warmup: int | None = None,
+                   clock: Callable[[], float] = time.perf_counter) -> float:
+    """Like best_per_call for an API that runs n iterations itself (`plc.scan(n)`);
+    `clock` as in best_interleaved."""
     w = max(1, number // 10) if warmup is None else warmup
     if w:
         batch(w)
-    clock = time.perf_counter
     best = float("inf")
     for _ in range(repeat):
         t0 = clock()

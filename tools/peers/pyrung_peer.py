@@ -62,7 +62,7 @@ def crosscheck_chain(il: str, trials: int = 3) -> bool:
                 if i < 200:
                     v = rnd.random() < 0.5
                     tag.value = v
-                    plc.mem.m[i] = int(v)
+                    plc.mem.m[i] = bool(v)
             plc.scan()
             py.step()
             ok &= all(bool(plc.mem.m[i]) == bool(tag.value) for i, tag in tags.items()
@@ -86,7 +86,7 @@ def run(scans: int = 200, repeat: int = 3, warmup: int = 20,
     pattern = {i: rnd.random() < 0.5 for i in tags if i < 200}
     plc = PLC.from_source(il)
     for i, v in pattern.items():
-        plc.mem.m[i] = int(v)
+        plc.mem.m[i] = bool(v)
 
     def set_inputs(py: Any) -> None:
         for i, v in pattern.items():

@@ -141,8 +141,8 @@ class ServoAxis(AxisDevice):
         self._estop_idx: int | None = None
         self._wired = False  # the drive's READY depends on an input or an output
         self._power_idx: int | None = None
-        self._i: list[int] = []
-        self._q: list[int] = []
+        self._i: list[bool] = []
+        self._q: list[bool] = []
         self.reset()
 
     def set_load_mass_ratio(self, ratio: float) -> None:
