@@ -490,3 +490,36 @@ def test_expansion_module_outputs(plc_from_source):
     plc = plc_from_source("LD %M0\nST %Q1.7\n", {"modules": {"1": "TM2DDO8TT"}})
     run(plc, M0=1)
     assert plc["%Q1.7"]
+
+
+@pytest.mark.parametrize("a,b,c", BITS3)
+def test_negated_operands_anded_are_one_negation(plc_from_source, a, b, c):
+    """`LDN a ANDN b ANDN c` (and negations by N or inside parentheses) are compiled as
+    `not (a or b or c)` (De Morgan): the same truth table as the instruction list says."""
+    plc = plc_from_source("""
+LDN  %M0
+ANDN %M1
+ANDN %M2
+ST   %M10
+LD   %M0
+OR   %M1
+N
+ANDN %M2
+ST   %M11
+LDN  %M0
+AND( %M1
+N
+)
+ANDN %M2
+ST   %M12
+LDN  %M0
+ANDN %M1
+AND  %M2
+ST   %M13
+""")
+    run(plc, M0=a, M1=b, M2=c)
+    assert plc["%M10"] == ((not a) and (not b) and (not c))
+    assert plc["%M11"] == ((not (a or b)) and (not c))
+    assert plc["%M12"] == ((not a) and (not b) and (not c))
+    assert plc["%M13"] == ((not a) and (not b) and bool(c))
+    assert "(not (_M[0] or _M[1] or _M[2]))" in plc.program.source

@@ -86,7 +86,7 @@ class Compiler(ValueCompiler):
 
     def modified(self, code: str, mod: str) -> _Acc:
         if mod == "N":
-            return _Acc(f"(not {code})")
+            return _Acc(f"(not {code})", neg=code)
         if mod in ("R", "F"):
             edge = Names.EDGE
             self.use(edge)
@@ -104,6 +104,9 @@ class Compiler(ValueCompiler):
             lc = f"({left.code})" if left.kind != "atom" else left.code
             rc = f"({right.code})" if right.kind != "atom" else right.code
             return _Acc(f"({lc} != {rc})")
+        if op == "AND" and left.neg is not None and right.neg is not None:
+            either = f"{left.neg} or {right.neg}"
+            return _Acc(f"(not ({either}))", neg=either)
         if op == "AND":
             lc = f"({left.code})" if left.kind == "or" else left.code
             rc = f"({right.code})" if right.kind == "or" else right.code
@@ -175,7 +178,8 @@ class Compiler(ValueCompiler):
                                    if inner.kind != "atom" else inner)
             elif isinstance(instr, A.Negate):
                 a = need()
-                acc = _Acc(f"(not ({a.code}))" if a.kind != "atom" else f"(not {a.code})")
+                acc = _Acc(f"(not ({a.code}))" if a.kind != "atom" else f"(not {a.code})",
+                           neg=a.code)
             elif isinstance(instr, A.Stack):
                 if instr.op == "MPS":
                     acc = saved[k] = self.materialize(need())

@@ -40,6 +40,9 @@ _PURE = re.compile(r"-?[\w\[\]]+")
 class _Acc:
     code: str
     kind: str = "atom"  # atom | and | or
+    # this value is `(not X)`: X, so that `(not A) and (not B)` can be written
+    # `not (A or B)` (De Morgan: one negation fewer per ANDN; a chain of them, one in all)
+    neg: str | None = None
 
     @property
     def simple(self) -> bool:  # safe to evaluate again after memory changed
