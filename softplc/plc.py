@@ -116,9 +116,6 @@ class PLC:
     def scan(self, n: int = 1) -> None:
         """Run n scans (on the virtual clock each advances time by scan_period)."""
         eng = self.engine  # eng.scan each time: a change in a scan replaces it
-        if n == 1:  # the common call: no range object
-            eng.scan()
-            return
         for _ in range(n):
             eng.scan()
 
