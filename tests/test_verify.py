@@ -290,3 +290,73 @@ def test_assumptions_and_analog_spans(tmp_path):
                           '[[requirement]]\ncheck = "never %Q0.0"\n')
     spec = load_spec(req, [], plc.profile)
     assert verify(Checker(model, spec, spec.requirements[0]), 3, 2, 20, []).status == "PROVEN"
+
+
+# ---- loops (backward jumps) and system objects -----------------------------------------------
+LOOP_PROG = """LD 1
+[ %MW5 := 0 ]
+%L2:
+LD 1
+[ INC %MW5 ]
+LDR %I0.0
+[ INC %MW6 ]
+LD [ %MW5 < %MW0 ]
+JMPC %L2
+LD [ %MW5 > 5 ]
+ST %Q0.0
+"""
+
+
+def loop_checker(tmp: Path, check: str, assume: str | None, bound: int) -> Checker:
+    plc = PLC.from_source(LOOP_PROG, {"scan_period": "10ms"}, devices=False)
+    req = tmp / "loop.req.toml"
+    req.write_text(f'[environment]\nhost = ["%MW0"]\nassume = {[assume] if assume else []}\n'
+                   f'[[requirement]]\ncheck = "{check}"\n')
+    spec = load_spec(req, [], plc.profile)
+    model = Model(plc, spec.reads, spec.host, None, loop_bound=bound)
+    return Checker(model, spec, spec.requirements[0])
+
+
+def test_backward_jump_unrolled_within_its_bound_and_unknown_beyond(tmp_path):
+    """A loop runs %MW0 passes in a scan (the engine's `_pc` dispatch): modelled exactly
+    up to the bound (its edge instruction updated on every pass, as the engine's one slot),
+    a run needing more passes is UNKNOWN with the jump's line:col, never a violation."""
+    ck = loop_checker(tmp_path, "always %MW5 <= 8", "%MW0 <= 8", 8)
+    assert verify(ck, 6, 4, 20, [], use_spacer=False).status == "PROVEN"
+    res = verify(loop_checker(tmp_path, "never %Q0.0", "%MW0 <= 8", 8), 6, 4, 20, ["%Q0.0"])
+    assert res.status == "VIOLATED" and res.depth == 1
+    plc = PLC.from_source(LOOP_PROG, {"scan_period": "10ms"}, devices=False)
+    assert replay(plc, res.trace) == []
+    assert plc["%MW5"] == res.trace[0]["inputs"]["%MW0"] > 5
+    ck = loop_checker(tmp_path, "always %MW6 <= 1", None, 3)
+    res = verify(ck, 4, 2, 20, [], use_spacer=False)
+    assert res.status == "UNKNOWN" and "<string>:9:1" in res.note and "3 passes" in res.note
+
+
+def test_backward_jump_in_a_grafcet_program_is_refused():
+    plc = PLC.from_source("=*= 0\n%L1:\nLD %I0.0\nJMPC %L1\nLD %I0.1\n# 1\n-*- 1\n",
+                          devices=False)
+    with pytest.raises(VerifyError, match="backward jump in a Grafcet"):
+        Model(plc)
+
+
+def test_system_words_definite_or_free_and_replayed(capsys):
+    """%S1/%S11 0 and %S12 1 after a cold start, %SW0 the configured period: proven; the
+    analog status word and the real-time clock's words are free, named in the output, and
+    their counterexamples replay (the clock held at the counterexample's values)."""
+    prog = "LD %I0.0\nST %Q0.0\n"
+    assert status(prog, "always %S12 AND NOT %S1 AND NOT %S11 AND %SW0 = 10",
+                  {"scan_period": "10ms"})[0] == "PROVEN"
+    therm = [str(LP / "analog_thermostat.il"), "--config", str(LP / "analog_thermostat.toml")]
+    assert main(["verify", *therm, "--require-expr", "never %Q0.0 AND %Q0.1",
+                 "--require-expr", "never %Q0.1", "-q"]) == 2
+    out = capsys.readouterr().out
+    assert "free in every scan" in out and "%SW82 (an analog module" in out
+    assert "PROVEN    never %Q0.0 AND %Q0.1" in out and "same values in every scan" in out
+    rtc = [str(LP / "rtc_schedule.il"), "--config", str(LP / "rtc_schedule.toml")]
+    assert main(["verify", *rtc, "--require-expr", "never %Q0.1", "-q"]) == 2
+    out = capsys.readouterr().out
+    assert "%SW51 (the real-time clock)" in out and "same values in every scan" in out
+    plc = PLC.from_source("LD 1\n[ %SW30 := 0 ]\n", devices=False)
+    with pytest.raises(VerifyError, match="rewrites after the program"):
+        Model(plc)

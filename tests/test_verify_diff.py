@@ -4,7 +4,8 @@ by scan (booleans, edges, MPS, 16/32-bit words with overflow and %S18, compariso
 timers (also when a jump or a subroutine leaves them out), counters, shift registers,
 drums (outputs shared with rungs), step counters (bits also written), forward jumps,
 %R FIFO/LIFO registers (at depths 1-4), word functions (shifts and rotations with %S17,
-BCD, Gray, LW/HW/CONCATW, SQRT), subroutines with conditional returns, ENDC)."""
+BCD, Gray, LW/HW/CONCATW, SQRT), subroutines with conditional returns, ENDC, loops
+(backward jumps))."""
 
 from __future__ import annotations
 
@@ -104,6 +105,12 @@ def program(seed: int) -> tuple[str, dict]:
     lines: list[str] = []
     for _ in range(r.randrange(2, 8)):
         lines += rung(r, label)
+    if r.random() < 0.3:  # a loop: a backward jump, 1-5 passes (edges, blocks inside)
+        lines += ["LD 1", "[ %MW5 := 0 ]", "%L2:"]
+        for _ in range(r.randrange(1, 4)):
+            lines += rung(r, label)
+        lines += ["LD 1", "[ INC %MW5 ]", f"LD [ %MW5 < {r.randrange(1, 6)} ]",
+                  r.choice(["JMPC %L2", "AND 1\nJMPC %L2"])]
     if label:
         lines += ["%L1:", "LD 1", "ST %M5"]
     if r.random() < 0.4:  # a subroutine called on a condition, with a conditional return

@@ -36,6 +36,7 @@ class Result:
     depth: int = 0  # scans searched (VIOLATED: the counterexample's length)
     seconds: float = 0.0
     trace: list[dict[str, dict[str, int]]] = field(default_factory=list)  # per scan
+    note: str = ""  # why UNKNOWN, when it is not the time
 
 
 class _Unroll:
@@ -105,8 +106,12 @@ def bmc(ck: Checker, depth: int, deadline: float, watch: list[str],
         s.set("timeout", max(1, int(left * 1000)))
         r = s.check(bad)
         if r == z3.sat:
+            m = s.model()
+            if "_loop" in post and z3.is_true(m.eval(post["_loop"], model_completion=True)):
+                return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
+                              note=ck.model.loop_note(d + 1))
             return Result("VIOLATED", "BMC", d + 1, time.monotonic() - t0,
-                          _trace(ck, u, s.model(), watch))
+                          _trace(ck, u, m, watch))
         if r == z3.unknown:
             return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
         s.add(ck.holds(post))  # the first failure is at a later scan
@@ -200,7 +205,7 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str]
     k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress)
     base = bmc(ck, k if k is not None else depth, deadline, watch, progress)
     base.seconds = time.monotonic() - t0
-    if base.status == "VIOLATED":
+    if base.status == "VIOLATED" or base.note:
         return base
     if k is not None and base.depth >= k:
         return Result("PROVEN", f"k-induction (k={k})", base.depth, time.monotonic() - t0)

@@ -27,6 +27,7 @@ from .blocks import (
 )
 from .exprs import ExprModel
 from .symbolic import as_bool, narrow, wide
+from .system import AFTER_PROGRAM
 
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
 BLOCK_KEY = re.compile(r"%(TM|C|SBR|DR|SC|R)(\d+)\.(\w+)$")  # a modelled block's field
@@ -161,8 +162,8 @@ class ObjectModel(ExprModel):
         if ref.kind in ("I", "Q", "M", "S", "X"):
             key = self.key_for(ref)
             return self.inp[key] if ref.kind == "I" else self.st[key]
-        if ref.bit is not None and ref.kind == "MW":
-            w = self.st[self.key_for(Ref("MW", ref.index))]
+        if ref.bit is not None and ref.kind in ("MW", "SW"):
+            w = self.st[self.key_for(Ref(ref.kind, ref.index))]
             return z3.Extract(ref.bit, ref.bit, w) == 1
         if ref.bit is not None and ref.kind == "KW":
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
@@ -180,8 +181,8 @@ class ObjectModel(ExprModel):
             key = self.key_for(ref)
             self.mark_written(key, pos)
             self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
-        elif ref.kind in ("MW", "SBR") and ref.bit is not None and ref.offset is None:
-            key = self.key_for(Ref("MW", ref.index) if ref.kind == "MW"
+        elif ref.kind in ("MW", "SW", "SBR") and ref.bit is not None and ref.offset is None:
+            key = self.key_for(Ref(ref.kind, ref.index) if ref.kind != "SBR"
                                else Ref("SBR", ref.index, field="W"))
             self.mark_written(key, pos)
             w = self.st[key]
@@ -205,7 +206,7 @@ class ObjectModel(ExprModel):
             return wide(int(self.plc.mem.kw.w[ref.index])), INT16
         if k == "KD":
             return wide(int(self.plc.mem.read(ref))), INT32
-        if k in ("MW", "QW"):
+        if k in ("MW", "QW", "SW"):
             return wide(self.st[self.key_for(ref)]), INT16
         if k == "IW":
             return wide(self.inp[self.key_for(ref)]), INT16
@@ -226,7 +227,7 @@ class ObjectModel(ExprModel):
         k = ref.kind
         if ref.offset is not None or ref.length is not None:
             self.unsupported("an indexed object or table", pos, str(ref))
-        elif k in ("MW", "QW"):
+        elif k in ("MW", "QW", "SW"):
             self._put(self.key_for(ref), g, narrow(v, 16), pos)
         elif k == "MD":
             v32 = narrow(v, 32)
@@ -241,6 +242,9 @@ class ObjectModel(ExprModel):
             self.unsupported(f"writing {ref}", pos, str(ref))
 
     def _put(self, key: str, g: Any, v: Any, pos: A.Pos | None) -> None:
+        if key in AFTER_PROGRAM:
+            self.unsupported(f"writing {key}, which the system rewrites after the program",
+                             pos, key)
         self.mark_written(key, pos)
         self.st[key] = z3.simplify(z3.If(g, v, self.st[key]))
 
