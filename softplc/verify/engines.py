@@ -15,9 +15,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import z3
@@ -27,6 +29,7 @@ from .model import is_object, sort_of
 from .symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
+Stop = Callable[[], bool]  # polled between solver calls: a proof came from elsewhere
 
 
 @dataclass
@@ -92,12 +95,15 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
 
 
 def bmc(ck: Checker, depth: int, deadline: float, watch: list[str],
-        progress: Progress | None = None) -> Result:
-    """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth)."""
+        progress: Progress | None = None, stop: Stop | None = None) -> Result:
+    """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth;
+    also when `stop()` says a proof came from elsewhere)."""
     t0 = time.monotonic()
     s = z3.Solver()
     u = _Unroll(ck, s, ck.init(), "b")
     for d in range(depth):
+        if stop is not None and stop():
+            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
         post = u.extend()
         bad = z3.Not(ck.holds(post))
         left = deadline - time.monotonic()
@@ -133,13 +139,16 @@ def invariants_inductive(ck: Checker) -> bool:
 
 
 def k_induction(ck: Checker, max_k: int, deadline: float,
-                progress: Progress | None = None) -> tuple[int | None, float]:
+                progress: Progress | None = None, stop: Stop | None = None
+                ) -> tuple[int | None, float]:
     """The smallest k <= max_k for which the requirement is k-inductive (None: none found
-    in time). The caller checks the base case (BMC clean to depth k)."""
+    in time, or `stop()`). The caller checks the base case (BMC clean to depth k)."""
     t0 = time.monotonic()
     s = z3.Solver()
     u = _Unroll(ck, s, None, "k")
     for k in range(1, max_k + 1):
+        if stop is not None and stop():
+            return None, time.monotonic() - t0
         post = u.extend()
         s.add(*ck.lemma_terms(post))  # proven invariants hold after every scan
         left = deadline - time.monotonic()
@@ -159,6 +168,16 @@ def k_induction(ck: Checker, max_k: int, deadline: float,
 
 def spacer(ck: Checker, seconds: float) -> str:
     """z3 Spacer on the Horn clauses of the system: "PROVEN", "VIOLATED" or "UNKNOWN"."""
+    child = Spacer(ck)
+    try:
+        return child.wait(seconds)
+    finally:
+        child.kill()
+
+
+def horn_clauses(ck: Checker) -> str:
+    """The system as constrained Horn clauses (SMT-LIB): an inductive `Inv` exists (sat)
+    exactly when the requirement holds in every reachable state."""
     keys = ck.state_keys()
     names = list(keys)
     sorts = [sort_of(keys[k]) for k in names]
@@ -173,25 +192,55 @@ def spacer(ck: Checker, seconds: float) -> str:
     body = z3.And(inv(*[cur[k] for k in names]), *ck.assumed(post, inp))
     s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
     s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
-    # Spacer honours neither its timeout nor an interrupt promptly: it runs in a child
-    # process, killed at the deadline
-    return _solve_in_child(s.sexpr(), seconds)
+    return s.sexpr()
 
 
 _CHILD = ("import sys, z3\n"
           "s = z3.SolverFor('HORN')\n"
-          "s.from_string(sys.stdin.read())\n"
+          "s.from_file(sys.argv[1])\n"
           "print(s.check())\n")
 
 
-def _solve_in_child(smt2: str, seconds: float) -> str:
-    try:
-        r = subprocess.run([sys.executable, "-c", _CHILD], input=smt2, capture_output=True,
-                           text=True, timeout=max(0.5, seconds))
-    except subprocess.TimeoutExpired:
-        return "UNKNOWN"
-    out = r.stdout.strip()
-    return "PROVEN" if out == "sat" else "VIOLATED" if out == "unsat" else "UNKNOWN"
+class Spacer:
+    """Spacer on a requirement in a child process, started at once so that it runs beside
+    k-induction and BMC: it honours neither z3's timeout nor an interrupt promptly, so it
+    is killed at the deadline (`kill`)."""
+
+    def __init__(self, ck: Checker):
+        self.file = tempfile.NamedTemporaryFile("w", suffix=".smt2", delete=False)
+        with self.file as f:
+            f.write(horn_clauses(ck))
+        self.proc = subprocess.Popen([sys.executable, "-c", _CHILD, self.file.name],
+                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                     text=True)
+        self.result: str | None = None
+
+    def done(self) -> str | None:
+        """The answer if the child has finished, else None (never blocks)."""
+        if self.result is None and self.proc.poll() is not None:
+            out = self.proc.stdout.read().strip() if self.proc.stdout else ""
+            self.result = {"sat": "PROVEN", "unsat": "VIOLATED"}.get(out, "UNKNOWN")
+        return self.result
+
+    def proven(self) -> bool:
+        return self.done() == "PROVEN"
+
+    def wait(self, seconds: float) -> str:
+        try:
+            self.proc.wait(timeout=max(0.5, seconds))
+        except subprocess.TimeoutExpired:
+            self.kill()
+            return "UNKNOWN"
+        return self.done() or "UNKNOWN"
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        self.done()  # reads and closes nothing twice: the answer, if any, is kept
+        if self.proc.stdout:
+            self.proc.stdout.close()
+        Path(self.file.name).unlink(missing_ok=True)
 
 
 def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str],
@@ -202,21 +251,29 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str]
     inv_ok = invariants_inductive(ck)
     if not inv_ok:  # pragma: no cover - would be a modelling bug: prove without them
         ck.invariants = lambda st: []  # type: ignore[method-assign]
-    k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress)
-    base = bmc(ck, k if k is not None else depth, deadline, watch, progress)
-    base.seconds = time.monotonic() - t0
-    if base.status == "VIOLATED" or base.note:
-        return base
-    if k is not None and base.depth >= k:
-        return Result("PROVEN", f"k-induction (k={k})", base.depth, time.monotonic() - t0)
-    left = deadline - time.monotonic()
-    if use_spacer and left > 0.5:
-        if progress:
+    # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum)
+    child = Spacer(ck) if use_spacer else None
+    stop = child.proven if child is not None else None
+    try:
+        k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress, stop)
+        base = bmc(ck, k if k is not None else depth, deadline, watch, progress, stop)
+        base.seconds = time.monotonic() - t0
+        if base.status == "VIOLATED" or base.note:
+            return base
+        if k is not None and base.depth >= k:
+            return Result("PROVEN", f"k-induction (k={k})", base.depth,
+                          time.monotonic() - t0)
+        if child is None:
+            return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)
+        if progress and child.done() is None:
             progress("Spacer", base.depth, time.monotonic() - t0)
-        found = spacer(ck, left)
-        if found == "PROVEN":
-            return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
-        if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
-            return Result("UNKNOWN", "Spacer: fails after more scans than searched",
-                          base.depth, time.monotonic() - t0)
+        found = child.wait(deadline - time.monotonic())
+    finally:
+        if child is not None:
+            child.kill()
+    if found == "PROVEN":
+        return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
+    if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
+        return Result("UNKNOWN", "Spacer: fails after more scans than searched",
+                      base.depth, time.monotonic() - t0)
     return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)
