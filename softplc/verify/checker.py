@@ -11,7 +11,7 @@ import z3
 
 from ..address import BOOL, Ref
 from ..semantics import IntDomain
-from .model import Model
+from .model import Model, sort_of
 from .requirements import Node, Requirement, Spec
 from .symbolic import Z3Domain, as_bool, wide
 
@@ -72,6 +72,34 @@ class Checker:
         period_us = model.period_us
         self.n = req.within if req.within >= 0 else (-req.within * 1000) // period_us
         self.monitor = req.kind == "response"
+        self.keys = {k: v.sort for k, v in model.vars.items()}
+        if self.monitor:
+            self.keys.update({"_mon": "w16", "_prev": "bool"})
+        self.filler: dict[str, Any] = {}  # state outside the cone: its cold-start value
+        self.kept: list[int] | None = None  # the model's invariants within the cone
+        self._slice()
+
+    def _slice(self) -> None:
+        """Keep only the cone of influence: the state the requirement, the assumptions and
+        the lemmas read, and what that state's next values read, to a fixpoint. The rest
+        never influences them: its value is left at the cold start's (the engines' terms
+        and Spacer's `Inv` get smaller)."""
+        pre = {k: z3.Const(f"{k}@cone", sort_of(s)) for k, s in self.keys.items()}
+        names = {f"{k}@cone": k for k in pre}
+        _, inp = self.model.fresh("cone")
+        post = self.step(dict(pre), inp)
+        need = _reads(z3.And(self.holds(post), *self.assumed(post, inp),
+                             *self.lemma_terms(post)), names)
+        work = list(need)
+        while work:
+            for d in _reads(post[work.pop()], names) - need:
+                need.add(d)
+                work.append(d)
+        init = self.init()
+        invs = self.model.invariants(pre)
+        self.kept = [i for i, t in enumerate(invs) if _reads(t, names) <= need]
+        self.filler = {k: init[k] for k in self.keys if k not in need}
+        self.keys = {k: s for k, s in self.keys.items() if k in need}
 
     def read(self, st: dict[str, Any]) -> Callable[[Ref], Any]:
         m = self.model
@@ -103,19 +131,17 @@ class Checker:
         return [as_bool(evaluate(Z3Domain, n, self.read(post))) for n in self.lemmas]
 
     def state_keys(self) -> dict[str, str]:
-        keys = {k: v.sort for k, v in self.model.vars.items()}
-        if self.monitor:
-            keys.update({"_mon": "w16", "_prev": "bool"})
-        return keys
+        """The state in the cone of influence (`_slice`): key -> sort."""
+        return dict(self.keys)
 
     def init(self) -> dict[str, Any]:
         st = self.model.init_state()
         if self.monitor:
             st.update({"_mon": z3.BitVecVal(0, 16), "_prev": z3.BoolVal(False)})
-        return st
+        return {k: v for k, v in st.items() if k in self.keys}
 
     def step(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
-        post = self.model.scan(pre, inp)
+        post = self.model.scan({**self.filler, **pre}, inp)
         if self.monitor:
             rd = self.read(post)
             x = as_bool(evaluate(Z3Domain, self.req.cond, rd))
@@ -126,7 +152,29 @@ class Checker:
         return post
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
-        out = self.model.invariants(st)
+        out = self.model.invariants({**self.filler, **st})
+        if self.kept is not None:
+            out = [out[i] for i in self.kept]
         if self.monitor:
             out.append(z3.ULE(st["_mon"], self.n + 1))
         return out
+
+
+def _reads(term: Any, names: dict[str, str]) -> set[str]:
+    """The state keys whose variables (named in `names`) occur in `term`."""
+    out: set[str] = set()
+    seen: set[int] = set()
+    todo = [term]
+    while todo:
+        t = todo.pop()
+        i = t.get_id()
+        if i in seen:
+            continue
+        seen.add(i)
+        if z3.is_const(t):
+            k = names.get(t.decl().name())
+            if k is not None:
+                out.add(k)
+        else:
+            todo.extend(t.children())
+    return out

@@ -25,7 +25,7 @@ from typing import Any
 import z3
 
 from .checker import Checker
-from .model import is_object, sort_of
+from .model import run_concrete, sort_of
 from .symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
@@ -75,17 +75,20 @@ class _Unroll:
 
 
 def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> list[dict]:
+    """The counterexample's rows: inputs, the values the requirement reads, and every
+    object the model has, from the whole model run on the inputs (the solver saw only the
+    requirement's cone of influence)."""
+    from ..address import parse_address
+    given = [{k: value_of(model, v) for k, v in inp.items()} for inp in u.inputs]
+    every = run_concrete(ck.model, given)
     rows = []
-    for inp, post in zip(u.inputs, u.posts, strict=True):
+    for raw, post, objects in zip(given, u.posts, every, strict=True):
         rd = ck.read(post)
-        from ..address import parse_address
         values = {}
         for a in watch:
             ref = parse_address(a, ck.model.plc.profile)
             values[a] = value_of(model, rd(ref))
-        objects = {k: value_of(model, post[k]) for k in ck.model.vars
-                   if is_object(k)}
-        ins = {k: value_of(model, v) for k, v in inp.items()}
+        ins = dict(raw)
         if "_dt" in ins:  # a variable period: this scan's, in ms
             p = ins.pop("_dt") * ck.model.period_us / 1000
             ins["period_ms"] = int(p) if p == int(p) else p
