@@ -360,3 +360,18 @@ def test_system_words_definite_or_free_and_replayed(capsys):
     plc = PLC.from_source("LD 1\n[ %SW30 := 0 ]\n", devices=False)
     with pytest.raises(VerifyError, match="rewrites after the program"):
         Model(plc)
+
+
+def test_tables_and_bit_strings_modelled_and_replayed():
+    """`%MWi:n := %MWj:n`, `%MWi:n := value`, `%Mi:n := value` and `%Mi:L` read as a
+    number: a counterexample through them replays; a requirement on a double word reads
+    its two words (no separate variable)."""
+    prog = ("LD %I0.0\n[ %MW0:3 := %MW10:3 ]\nLD %I0.1\n[ %MW10:3 := %MW0 + 1 ]\n"
+            "LD %I0.2\n[ %M0:20 := %MW1 ]\nLD 1\n[ %MD30 := %M0:20 ]\n"
+            "LD [ %M0:4 > 2 ]\nST %Q0.0\n")
+    st, res = status(prog, "never %Q0.0", depth=12)
+    assert st == "VIOLATED" and res.depth == 4  # %MW10 and %MW1 climb 1, 2, 3 together
+    plc = PLC.from_source(prog, devices=False)
+    assert replay(plc, res.trace) == [] and plc["%MD30"] == 3
+    model = checker(prog, "always %MD30 >= 0").model
+    assert "%MD30" not in model.vars and {"%MW30", "%MW31"} <= set(model.vars)

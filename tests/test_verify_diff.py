@@ -5,7 +5,7 @@ timers (also when a jump or a subroutine leaves them out), counters, shift regis
 drums (outputs shared with rungs), step counters (bits also written), forward jumps,
 %R FIFO/LIFO registers (at depths 1-4), word functions (shifts and rotations with %S17,
 BCD, Gray, LW/HW/CONCATW, SQRT), subroutines with conditional returns, ENDC, loops
-(backward jumps))."""
+(backward jumps), tables and bit strings)."""
 
 from __future__ import annotations
 
@@ -76,7 +76,11 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
                          f"%MD4 := {r.choice(SHIFTS)}(%MD0, {r.choice(COUNTS)})",
                          f"{r.choice(TARGETS)} := {r.choice(['LW', 'HW'])}(%MD4)",
                          f"%MD4 := SQRT(%MD{r.choice([0, 4])})",
-                         f"%MD4 := CONCATW({r.choice(WORDS)}, {r.choice(WORDS)})"])
+                         f"%MD4 := CONCATW({r.choice(WORDS)}, {r.choice(WORDS)})",
+                         # tables and bit strings
+                         "%MW1:3 := %MW0:3", f"%MW2:2 := {r.choice(WORDS)}",
+                         "%M0:3 := %M1:3", f"%M0:{r.choice([3, 18])} := {r.choice(WORDS)}",
+                         f"{r.choice(TARGETS)} := %M0:{r.choice([3, 16, 18])}"])
         return [load, f"[ {stmt} ]"]
     if kind == 3:  # timer
         return ["BLK %TM0", load, "IN", "OUT_BLK", "LD Q", f"ST {r.choice(OUTS)}", "END_BLK"]
@@ -96,7 +100,8 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
     if kind == 5 and not label:  # a forward jump over the next rungs
         label.append(1)
         return [load, r.choice(["JMPC %L1", "JMPCN %L1"])]
-    return [f"LD [ {r.choice(WORDS)} <= {r.choice(WORDS)} ]", f"ST {r.choice(OUTS)}"]
+    return [f"LD [ {r.choice(WORDS + ['%M0:3'])} <= {r.choice(WORDS)} ]",
+            f"ST {r.choice(OUTS)}"]
 
 
 def program(seed: int) -> tuple[str, dict]:

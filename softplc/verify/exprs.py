@@ -55,6 +55,7 @@ class ExprModel:
     def carry(self, g: Any, c: Any) -> None: ...
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None: ...
     def key_for(self, ref: Ref) -> str: ...
+    def write_bit(self, ref: Ref, g: Any, value: Any, pos: A.Pos | None) -> None: ...
 
     def operand(self, op: Any, blk: Ref | None, g: Any) -> Any:
         if op is None:
@@ -173,6 +174,9 @@ class ExprModel:
             self.unsupported(f"{what} (its effect is outside the program)", stmt.pos, what)
             return
         ref = stmt.target
+        if ref.length is not None and ref.offset is None:
+            self.table_assign(ref, stmt.expr, g, stmt.pos)
+            return
         if ref.length is not None or ref.type == REAL:
             self.unsupported("tables and floats", stmt.pos, str(ref))
             return
@@ -182,3 +186,33 @@ class ExprModel:
             v, f = checked(Z3Domain, v, 16)  # `narrow16`
             self.fault(g, f)
         self.store_word(ref, g, v, tt, stmt.pos)
+
+    def table_assign(self, ref: Ref, e: A.Expr, g: Any, pos: A.Pos | None) -> None:
+        """As `ValueCompiler.table_assign`: `%MWi:n := %MWj:n` (all read, then all
+        written), `%MWi:n := value` (each word), `%Mi:n := value` (bit k of the value)."""
+        n = ref.length or 0
+        if isinstance(e, A.Addr) and e.ref.length is not None:
+            src = e.ref
+            if src.kind == ref.kind and src.length == n and src.offset is None \
+                    and ref.kind in ("MW", "M"):
+                get = (lambda r: self.read_bit(r, pos)) if ref.kind == "M" else \
+                    (lambda r: self.read_word(r, pos)[0])
+                vals = [get(Ref(src.kind, src.index + k)) for k in range(n)]
+                for k, v in enumerate(vals):
+                    self.put_element(Ref(ref.kind, ref.index + k), g, v, pos)
+                return
+        elif ref.kind in ("MW", "M"):
+            v, t = self.expr(e, INT16, g)
+            if t == INT16:  # bit k of the value: of its sign extension beyond 16
+                vals = [wide(v) if ref.kind == "MW" else z3.Extract(k, k, wide(v)) == 1
+                        for k in range(n)]
+                for k, x in enumerate(vals):
+                    self.put_element(Ref(ref.kind, ref.index + k), g, x, pos)
+                return
+        self.unsupported("this table assignment", pos, str(ref))
+
+    def put_element(self, ref: Ref, g: Any, v: Any, pos: A.Pos | None) -> None:
+        if ref.kind == "M":
+            self.write_bit(ref, g, v, pos)
+        else:
+            self.store_word(ref, g, v, INT16, pos)

@@ -19,7 +19,7 @@ from typing import Any
 
 import z3
 
-from ..address import Ref
+from ..address import BOOL, Ref
 from ..errors import VerifyError
 from ..il import ast as A
 from ..il import rungtree
@@ -115,8 +115,11 @@ class Model(ObjectModel):
             for k in list(self.vars):
                 pre[k] = self.declare(k)
             self.st, self.inp = pre, _LazyInputs(self)
-            for ref in reads:
-                self.key_for(ref)
+            for ref in reads:  # as a requirement reads it (%MD: two words, %Mi:L: bits)
+                if ref.type == BOOL:
+                    self.read_bit(ref, None)
+                else:
+                    self.read_word(ref, None)
             self.scan(pre, self.inp)
             if self.problems:
                 raise VerifyError(sorted(set(self.problems), key=lambda d: (d.line, d.column)))

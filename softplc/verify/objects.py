@@ -199,6 +199,13 @@ class ObjectModel(ExprModel):
 
     def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]:
         k = ref.kind
+        if k == "M" and ref.length is not None and ref.offset is None and ref.length <= 32:
+            bits = [self.read_bit(Ref("M", ref.index + i), pos) for i in range(ref.length)]
+            width = 16 if ref.length <= 16 else 32  # %Mi:L as a number, bit i is bit 0
+            v = z3.Concat(*[z3.If(b, z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
+                            for b in reversed(bits)]) if len(bits) > 1 else \
+                z3.If(bits[0], z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
+            return wide(z3.ZeroExt(width - ref.length, v)), INT16 if width == 16 else INT32
         if ref.offset is not None or ref.length is not None or ref.bit is not None:
             self.unsupported("an indexed object, table or bit string", pos, str(ref))
             return wide(0), INT16
