@@ -81,20 +81,22 @@ class Checker:
 
     def _slice(self) -> None:
         """Keep only the cone of influence: the state the requirement, the assumptions and
-        the lemmas read, and what that state's next values read, to a fixpoint. The rest
-        never influences them: its value is left at the cold start's (the engines' terms
-        and Spacer's `Inv` get smaller)."""
+        what that state's next values read, to a fixpoint (lemmas reading only that state
+        are kept). The rest never influences them: its value is left at the cold start's
+        (the engines' terms and Spacer's `Inv` get smaller)."""
         pre = {k: z3.Const(f"{k}@cone", sort_of(s)) for k, s in self.keys.items()}
         names = {f"{k}@cone": k for k in pre}
         _, inp = self.model.fresh("cone")
         post = self.step(dict(pre), inp)
-        need = _reads(z3.And(self.holds(post), *self.assumed(post, inp),
-                             *self.lemma_terms(post)), names)
+        need = _reads(z3.And(self.holds(post), *self.assumed(post, inp)), names)
         work = list(need)
         while work:
             for d in _reads(post[work.pop()], names) - need:
                 need.add(d)
                 work.append(d)
+        # a lemma on other state would only widen the cone (and Spacer's `Inv`)
+        self.lemmas = [n for n, t in zip(self.lemmas, self.lemma_terms(post), strict=True)
+                       if _reads(t, names) <= need]
         init = self.init()
         invs = self.model.invariants(pre)
         self.kept = [i for i, t in enumerate(invs) if _reads(t, names) <= need]

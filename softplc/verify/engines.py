@@ -192,7 +192,10 @@ def horn_clauses(ck: Checker) -> str:
     xs = [cur[k] for k in names] + list(inp.values())
     s = z3.SolverFor("HORN")
     s.add(inv(*[init[k] for k in names]))
-    body = z3.And(inv(*[cur[k] for k in names]), *ck.assumed(post, inp))
+    # the range invariants (checked inductive) and the proven lemmas hold in every
+    # reachable state: given, Spacer need not find them
+    body = z3.And(inv(*[cur[k] for k in names]), *ck.invariants(cur), *ck.assumed(post, inp),
+                  *ck.lemma_terms(post))
     s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
     s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
     return s.sexpr()
