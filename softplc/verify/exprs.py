@@ -178,7 +178,8 @@ class ExprModel:
             self.table_assign(ref, stmt.expr, g, stmt.pos)
             return
         if ref.length is not None or ref.type == REAL:
-            self.unsupported("tables and floats", stmt.pos, str(ref))
+            self.unsupported("floating-point values" if ref.type == REAL else
+                             "an indexed table", stmt.pos, str(ref))
             return
         tt = INT32 if ref.kind in ("MD", "KD") else INT16
         v, t = self.expr(stmt.expr, tt, g)
