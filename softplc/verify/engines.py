@@ -208,9 +208,9 @@ _CHILD = ("import sys, z3\n"
 
 
 class Spacer:
-    """Spacer on a requirement in a child process, started at once so that it runs beside
-    k-induction and BMC: it honours neither z3's timeout nor an interrupt promptly, so it
-    is killed at the deadline (`kill`)."""
+    """Spacer on a requirement in a child process, so that it runs beside k-induction and
+    BMC: it honours neither z3's timeout nor an interrupt promptly, so it is killed at the
+    deadline (`kill`)."""
 
     def __init__(self, ck: Checker):
         self.file = tempfile.NamedTemporaryFile("w", suffix=".smt2", delete=False)
@@ -257,26 +257,40 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str]
     inv_ok = invariants_inductive(ck)
     if not inv_ok:  # pragma: no cover - would be a modelling bug: prove without them
         ck.invariants = lambda st: []  # type: ignore[method-assign]
-    # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum)
-    child = Spacer(ck) if use_spacer else None
-    stop = child.proven if child is not None else None
+    # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),
+    # started once 1-induction has failed: most simple requirements end there
+    child: list[Spacer] = []
+    polls = [0]
+
+    def stop() -> bool:
+        if not child:
+            child.append(Spacer(ck))
+        return child[0].proven()
+
+    def stop_from_k2() -> bool:
+        polls[0] += 1
+        return polls[0] > 1 and stop()
+
     try:
-        k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress, stop)
-        base = bmc(ck, k if k is not None else depth, deadline, watch, progress, stop)
+        k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress,
+                           stop_from_k2 if use_spacer else None)
+        base = bmc(ck, k if k is not None else depth, deadline, watch, progress,
+                   stop if use_spacer and k is None else None)
         base.seconds = time.monotonic() - t0
         if base.status == "VIOLATED" or base.note:
             return base
         if k is not None and base.depth >= k:
             return Result("PROVEN", f"k-induction (k={k})", base.depth,
                           time.monotonic() - t0)
-        if child is None:
+        if not use_spacer:
             return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)
-        if progress and child.done() is None:
+        stop()  # started if not yet
+        if progress and child[0].done() is None:
             progress("Spacer", base.depth, time.monotonic() - t0)
-        found = child.wait(deadline - time.monotonic())
+        found = child[0].wait(deadline - time.monotonic())
     finally:
-        if child is not None:
-            child.kill()
+        if child:
+            child[0].kill()
     if found == "PROVEN":
         return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
     if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
