@@ -75,6 +75,7 @@ class Checker:
         self.keys = {k: v.sort for k, v in model.vars.items()}
         if self.monitor:
             self.keys.update({"_mon": "w16", "_prev": "bool"})
+        self.order = list(self.keys)  # the model's invariants are listed in this order
         self.filler: dict[str, Any] = {}  # state outside the cone: its cold-start value
         self.kept: list[int] | None = None  # the model's invariants within the cone
         self._slice()
@@ -154,7 +155,8 @@ class Checker:
         return post
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
-        out = self.model.invariants({**self.filler, **st})
+        out = self.model.invariants({k: st[k] if k in st else self.filler[k]
+                                     for k in self.order})
         if self.kept is not None:
             out = [out[i] for i in self.kept]
         if self.monitor:
