@@ -375,3 +375,22 @@ def test_tables_and_bit_strings_modelled_and_replayed():
     assert replay(plc, res.trace) == [] and plc["%MD30"] == 3
     model = checker(prog, "always %MD30 >= 0").model
     assert "%MD30" not in model.vars and {"%MW30", "%MW31"} <= set(model.vars)
+
+
+def test_spacer_restarts_on_another_order_of_its_clauses(monkeypatch):
+    """Two counters kept equal: not k-inductive (any state may have them differ), Spacer
+    proves it; with a tiny first budget it is restarted on shuffled clauses and still
+    answers, each restart a new order of `Inv`'s arguments."""
+    from softplc.verify.engines import Spacer, horn_clauses
+    prog = ("LDR %I0.0\n[ INC %MW0 ]\n[ INC %MW1 ]\nLD [ %MW0 >= 5 ]\n[ %MW0 := 0 ]\n"
+            "[ %MW1 := 0 ]\n")
+    ck = checker(prog, "always %MW1 < 5")
+    assert horn_clauses(ck, 1) != horn_clauses(ck, 0)
+    monkeypatch.setattr(Spacer, "FIRST", 0.1)
+    child = Spacer(ck)
+    try:
+        assert child.wait(30) == "PROVEN" and child.attempt >= 1
+    finally:
+        child.kill()
+    res = verify(ck, 5, 3, 30, [])
+    assert res.status == "PROVEN" and res.method.startswith("Spacer")
