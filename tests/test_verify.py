@@ -152,12 +152,12 @@ def test_free_input_written_by_the_program_is_an_error(tmp_path):
 
 
 def test_unsupported_constructs_are_reported_with_position():
-    plc = PLC.from_source("LD 1\n[ %MF0 := %MF2 * 2.0 ]\nLD 1\n[ %MW0 := %MW1[%MW2] ]\n",
+    plc = PLC.from_source("LD 1\n[ %MF0 := %MF2 * 2.0 ]\nLD %M10[%MW2]\nST %Q0.0\n",
                           devices=False)
     with pytest.raises(VerifyError) as e:
         Model(plc)
     lines = sorted({d.line for d in e.value.diagnostics})
-    assert lines == [2, 4]
+    assert lines == [2, 3]
     assert "cannot model" in str(e.value)
 
 
@@ -394,3 +394,21 @@ def test_spacer_restarts_on_another_order_of_its_clauses(monkeypatch):
         child.kill()
     res = verify(ck, 5, 3, 30, [])
     assert res.status == "PROVEN" and res.method.startswith("Spacer")
+
+
+def test_indexed_words_as_an_array_with_s20_out_of_range():
+    """`%MW10[%MW0] := ...` and `... := %MW10[%MW2]` with host-written indexes: the %MW
+    words become one solver array; an index out of range sets %S20 and uses the word
+    itself, as the engine (`Ops.ix`): both counterexamples replay."""
+    prog = ("LD 1\n[ %MW10[%MW0] := %MW1 ]\nLD [ %MW12 = 7 ]\nST %Q0.0\nLD %S20\nST %Q0.1\n"
+            "LD 1\n[ %MW3 := %MW10[%MW2] ]\n")
+    host = [Ref("MW", 0), Ref("MW", 1), Ref("MW", 2)]
+    st, res = status(prog, "never %Q0.0", host=host)
+    assert st == "VIOLATED" and res.trace[0]["inputs"]["%MW0"] == 2
+    assert replay(PLC.from_source(prog, devices=False), res.trace) == []
+    st, res = status(prog, "never %Q0.1", host=host)
+    ins = res.trace[0]["inputs"]
+    assert st == "VIOLATED" and not (0 <= 10 + ins["%MW0"] < 3000 and 0 <= 10 + ins["%MW2"] < 3000)
+    assert replay(PLC.from_source(prog, devices=False), res.trace) == []
+    # what %MW0 selects is written with %MW1 in the same scan: read back through %MW2
+    assert status(prog, "always %MW3 <> 5", host=host)[0] == "VIOLATED"

@@ -5,7 +5,7 @@ timers (also when a jump or a subroutine leaves them out), counters, shift regis
 drums (outputs shared with rungs), step counters (bits also written), forward jumps,
 %R FIFO/LIFO registers (at depths 1-4), word functions (shifts and rotations with %S17,
 BCD, Gray, LW/HW/CONCATW, SQRT), subroutines with conditional returns, ENDC, loops
-(backward jumps), tables and bit strings)."""
+(backward jumps), tables and bit strings, indexed words with %S20)."""
 
 from __future__ import annotations
 
@@ -34,8 +34,8 @@ from softplc.semantics import (
 from softplc.verify.model import Model, run_concrete
 from softplc.verify.replay import set_inputs
 
-BITS = ["%S17", "%S18", "%I0.0", "%I0.1", "%I0.2", "%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%TM0.Q",
-        "%C0.D", "%MW1:X15", "%SBR0.2", "%DR0.F", "%SC0.1", "%SC0.255", "%R0.E",
+BITS = ["%S17", "%S18", "%S20", "%I0.0", "%I0.1", "%I0.2", "%M0", "%M1", "%M2", "%Q0.0",
+        "%Q0.1", "%TM0.Q", "%C0.D", "%MW1:X15", "%SBR0.2", "%DR0.F", "%SC0.1", "%SC0.255", "%R0.E",
         "%R0.F"]
 OUTS = ["%M0", "%M1", "%M2", "%Q0.0", "%Q0.1", "%MW2:X3", "%SBR0.0", "%SC0.2"]
 WORDS = ["%MW0", "%MW1", "%MW2", "%MW3", "%C0.V", "%TM0.V", "%DR0.S", "%R0.O", "100", "-7",
@@ -80,7 +80,11 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
                          # tables and bit strings
                          "%MW1:3 := %MW0:3", f"%MW2:2 := {r.choice(WORDS)}",
                          "%M0:3 := %M1:3", f"%M0:{r.choice([3, 18])} := {r.choice(WORDS)}",
-                         f"{r.choice(TARGETS)} := %M0:{r.choice([3, 16, 18])}"])
+                         f"{r.choice(TARGETS)} := %M0:{r.choice([3, 16, 18])}",
+                         # indexed words: %MW0 / %MW1 from the host, often out of range
+                         f"%MW10[%MW{r.choice([0, 1])}] := {r.choice(WORDS)}",
+                         f"{r.choice(TARGETS)} := %MW10[%MW{r.choice([0, 1])}] + 1",
+                         "%MD20[%MW0] := %MD4 + %MD20[%MW1]", "INC %MW11[%MW1]"])
         return [load, f"[ {stmt} ]"]
     if kind == 3:  # timer
         return ["BLK %TM0", load, "IN", "OUT_BLK", "LD Q", f"ST {r.choice(OUTS)}", "END_BLK"]

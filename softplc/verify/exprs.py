@@ -49,7 +49,7 @@ class ExprModel:
 
     # provided by Model
     def read_bit(self, ref: Ref, pos: A.Pos | None) -> Any: ...
-    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]: ...
+    def read_word(self, ref: Ref, pos: A.Pos | None, g: Any = None) -> tuple[Any, str]: ...
     def store_word(self, ref: Ref, g: Any, v: Any, t: str, pos: A.Pos | None) -> None: ...
     def fault(self, g: Any, f: Any) -> None: ...
     def carry(self, g: Any, c: Any) -> None: ...
@@ -89,7 +89,7 @@ class ExprModel:
             t = INT32 if want == INT32 or not -32768 <= v <= 32767 else INT16
             return wide(v), t
         if isinstance(e, A.Addr):
-            return self.read_word(e.ref, e.pos)
+            return self.read_word(e.ref, e.pos, g)
         if isinstance(e, A.Neg):
             v, t = self.expr(e.operand, want, g)
             r, f = negate(Z3Domain, v, 16 if t == INT16 else 32)
@@ -163,7 +163,7 @@ class ExprModel:
     def statement(self, stmt: A.Statement, g: Any) -> None:
         """An operation block, run where g holds."""
         if isinstance(stmt, A.IncDec):
-            v, t = self.read_word(stmt.target, stmt.pos)
+            v, t = self.read_word(stmt.target, stmt.pos, g)
             r, f = arith(Z3Domain, "add" if stmt.op == "INC" else "sub", v, wide(1),
                          16 if t == INT16 else 32)
             self.fault(g, f)

@@ -26,7 +26,7 @@ from ..il import rungtree
 from ..runtime.blocks import Timer
 from ..runtime.engine import S_CLOCKS
 from .blocks import advance_timer, el_bits, run_timer
-from .objects import BLOCK_KEY, CLOCK_WRAP_US, ObjectModel
+from .objects import BLOCK_KEY, CLOCK_WRAP_US, MW_ARRAY, ObjectModel
 from .system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
 LOOP_BOUND = 32  # passes of a loop (backward jump) unrolled per scan by default
@@ -40,6 +40,8 @@ class Var:
 
 
 def sort_of(sort: str) -> Any:
+    if sort == "arr":  # the %MW words, by word number
+        return z3.ArraySort(z3.BitVecSort(16), z3.BitVecSort(16))
     if sort.startswith("bv"):
         return z3.BitVecSort(int(sort[2:]))
     return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "t": z3.BitVecSort(32)}[sort]
@@ -106,6 +108,9 @@ class Model(ObjectModel):
                                or isinstance(i, A.End) and i.op != "END"
                                for r in plc.ast.rungs for i in r.instructions)
         self.initial_steps = tuple(plc.grafcet.initial)
+        self.mw_array = any(r.offset is not None and r.kind in ("MW", "MD")
+                            for r in _refs(plc.ast.rungs))
+        self.mw_named: set[int] = set()
         # discovery: run the scan on lazily created variables until no new key appears
         self.discovering = True
         n = -1
@@ -133,6 +138,8 @@ class Model(ObjectModel):
         return z3.Const(f"{key}@{suffix}" if suffix else key, sort_of(self.vars[key].sort))
 
     def _sort(self, key: str) -> str:
+        if key == MW_ARRAY:
+            return "arr"
         if key.endswith("._el"):
             return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us, self.longest_us)}"
         if key == "_tmod":
@@ -188,6 +195,8 @@ class Model(ObjectModel):
 
     @staticmethod
     def const(sort: str, v: int) -> Any:
+        if sort == "arr":  # every word 0 after a cold start
+            return z3.K(z3.BitVecSort(16), z3.BitVecVal(v, 16))
         return z3.BoolVal(bool(v)) if sort == "bool" else z3.BitVecVal(v, sort_of(sort).size())
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
@@ -233,6 +242,11 @@ class Model(ObjectModel):
         for k in [*self.host, *free]:  # words a host writes between scans, free bits
             if self.discovering:
                 self.add_input(k, "bool" if self.is_bit_key(k) else "w16", -32768, 32767)
+            if self.mw_array and k.startswith("%MW"):
+                self.mw_named.add(int(k[3:]))
+                st[MW_ARRAY] = z3.Store(st[MW_ARRAY], z3.BitVecVal(int(k[3:]), 16), inp[k])
+                continue
+            if self.discovering:
                 _ = st[k]
             st[k] = inp[k]
         self.live: Any = z3.BoolVal(True)
@@ -492,7 +506,7 @@ __all__ = ["Model", "Var", "is_object", "run_concrete"]
 
 def is_object(key: str) -> bool:
     """A state key that is an object address (not a block's internal state)."""
-    return key.startswith("%") and "._" not in key and not key.endswith(".W") and \
+    return key.startswith("%") and "._" not in key and not key.endswith((".W", "[]")) and \
         not key.startswith("%SC") and key not in AFTER_PROGRAM  # a step counter's
     # step has no address; scan times are rewritten after the program
 
@@ -512,6 +526,20 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
         s = z3.Solver()
         s.check()
         m = s.model()
-        out.append({k: value_of(m, v) for k, v in post.items()
-                    if is_object(k)})
+        values = {k: value_of(m, v) for k, v in post.items() if is_object(k)}
+        if model.mw_array:  # the words named, read from the array
+            for i in sorted(model.mw_named):
+                values[f"%MW{i}"] = value_of(m, z3.Select(post[MW_ARRAY], i))
+        out.append(values)
     return out
+
+
+def _refs(node: Any) -> list[Ref]:
+    """Every address in an AST node (instructions, expressions, their offsets)."""
+    if isinstance(node, Ref):
+        return [node] + (_refs(node.offset) if node.offset is not None else [])
+    if isinstance(node, (list, tuple)):
+        return [r for x in node for r in _refs(x)]
+    if hasattr(node, "__dataclass_fields__"):
+        return [r for f in node.__dataclass_fields__ for r in _refs(getattr(node, f))]
+    return []
