@@ -181,8 +181,9 @@ def test_model_and_engine_agree_scan_by_scan(seed, scans, grafcet):
     plc = PLC.from_source(text, config, devices=False)
     plc.mem.blocks["R"][0].depth = 1 + seed % 4  # shallow: full within a few scans
     model = Model(plc, [Ref("MW", 0), Ref("MW", 1)], HOST)
-    want = run_concrete(model, scans)
-    for n, (inputs, values) in enumerate(zip(scans, want, strict=True), 1):
+    want = run_concrete(model, scans)  # shorter only if a loop outran the passes modelled
+    assert len(want) == len(scans) or "%L2" in text
+    for n, (inputs, values) in enumerate(zip(scans, want, strict=False), 1):
         set_inputs(plc, inputs)
         plc.scan()
         for k, v in values.items():

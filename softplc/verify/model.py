@@ -513,7 +513,8 @@ def is_object(key: str) -> bool:
 
 def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:
     """The model's values scan by scan for concrete inputs (missing inputs are 0): every
-    object it models after each scan, for comparison with the engine."""
+    object it models after each scan, for comparison with the engine; it stops before a
+    scan in which a loop ran past the passes modelled (that scan is not modelled)."""
     from .symbolic import value_of
     st = model.init_state()
     out = []
@@ -522,6 +523,8 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
                for k, (sort, lo, _hi) in model.inputs.items()}
         post = model.scan(st, inp)
         post = {k: z3.simplify(v) for k, v in post.items()}
+        if z3.is_true(post.get("_loop", False)):
+            break
         st = {k: post[k] for k in model.vars}
         s = z3.Solver()
         s.check()
