@@ -46,7 +46,10 @@ COUNTS = ["%MW0", "%MW3", "0", "1", "5", "16", "17", "31", "33", "-2"]
 FUNCS1 = ["NOT", "SQRT", "BCD_TO_INT", "INT_TO_BCD", "GRAY_TO_INT", "BTI", "ITB"]
 
 
-def rung(r: random.Random, label: list[int]) -> list[str]:
+def rung(r: random.Random, label: list[int], indexed: bool = True) -> list[str]:
+    """A random rung; `indexed`: may write words through an index (not in a program with a
+    loop: the symbolic index could reach the loop counter, and a loop whose passes are
+    unbounded grows the model's terms without bound)."""
     kind = r.randrange(8)
     a = r.choice(BITS)
     load = r.choice(["LD", "LDN", "LDR", "LDF"]) + f" {a}"
@@ -80,11 +83,12 @@ def rung(r: random.Random, label: list[int]) -> list[str]:
                          # tables and bit strings
                          "%MW1:3 := %MW0:3", f"%MW2:2 := {r.choice(WORDS)}",
                          "%M0:3 := %M1:3", f"%M0:{r.choice([3, 18])} := {r.choice(WORDS)}",
-                         f"{r.choice(TARGETS)} := %M0:{r.choice([3, 16, 18])}",
-                         # indexed words: %MW0 / %MW1 from the host, often out of range
-                         f"%MW10[%MW{r.choice([0, 1])}] := {r.choice(WORDS)}",
-                         f"{r.choice(TARGETS)} := %MW10[%MW{r.choice([0, 1])}] + 1",
-                         "%MD20[%MW0] := %MD4 + %MD20[%MW1]", "INC %MW11[%MW1]"])
+                         f"{r.choice(TARGETS)} := %M0:{r.choice([3, 16, 18])}"]
+                        # indexed words: %MW0 / %MW1 from the host, often out of range
+                        + [f"%MW10[%MW{r.choice([0, 1])}] := {r.choice(WORDS)}",
+                           f"{r.choice(TARGETS)} := %MW10[%MW{r.choice([0, 1])}] + 1",
+                           "%MD20[%MW0] := %MD4 + %MD20[%MW1]",
+                           "INC %MW11[%MW1]"] * indexed)
         return [load, f"[ {stmt} ]"]
     if kind == 3:  # timer
         return ["BLK %TM0", load, "IN", "OUT_BLK", "LD Q", f"ST {r.choice(OUTS)}", "END_BLK"]
@@ -112,13 +116,14 @@ def program(seed: int) -> tuple[str, dict]:
     r = random.Random(seed)
     label: list[int] = []
     lines: list[str] = []
+    loop = r.random() < 0.3  # a backward jump, 1-5 passes (edges, blocks inside)
     for _ in range(r.randrange(2, 8)):
-        lines += rung(r, label)
-    if r.random() < 0.3:  # a loop: a backward jump, 1-5 passes (edges, blocks inside)
-        lines += ["LD 1", "[ %MW5 := 0 ]", "%L2:"]
+        lines += rung(r, label, not loop)
+    if loop:  # its counter %MW7: no other statement writes it
+        lines += ["LD 1", "[ %MW7 := 0 ]", "%L2:"]
         for _ in range(r.randrange(1, 4)):
-            lines += rung(r, label)
-        lines += ["LD 1", "[ INC %MW5 ]", f"LD [ %MW5 < {r.randrange(1, 6)} ]",
+            lines += rung(r, label, False)
+        lines += ["LD 1", "[ INC %MW7 ]", f"LD [ %MW7 < {r.randrange(1, 6)} ]",
                   r.choice(["JMPC %L2", "AND 1\nJMPC %L2"])]
     if label:
         lines += ["%L1:", "LD 1", "ST %M5"]
