@@ -152,12 +152,12 @@ def test_free_input_written_by_the_program_is_an_error(tmp_path):
 
 
 def test_unsupported_constructs_are_reported_with_position():
-    plc = PLC.from_source("LD 1\n[ %MF0 := %MF2 * 2.0 ]\nLD 1\n[ %MW0 := %MW1[%MW2] ]\n",
+    plc = PLC.from_source("LD 1\n[ %MF0 := %MF2 * 2.0 ]\nLD %M10[%MW2]\nST %Q0.0\n",
                           devices=False)
     with pytest.raises(VerifyError) as e:
         Model(plc)
     lines = sorted({d.line for d in e.value.diagnostics})
-    assert lines == [2, 4]
+    assert lines == [2, 3]
     assert "cannot model" in str(e.value)
 
 
@@ -290,3 +290,125 @@ def test_assumptions_and_analog_spans(tmp_path):
                           '[[requirement]]\ncheck = "never %Q0.0"\n')
     spec = load_spec(req, [], plc.profile)
     assert verify(Checker(model, spec, spec.requirements[0]), 3, 2, 20, []).status == "PROVEN"
+
+
+# ---- loops (backward jumps) and system objects -----------------------------------------------
+LOOP_PROG = """LD 1
+[ %MW5 := 0 ]
+%L2:
+LD 1
+[ INC %MW5 ]
+LDR %I0.0
+[ INC %MW6 ]
+LD [ %MW5 < %MW0 ]
+JMPC %L2
+LD [ %MW5 > 5 ]
+ST %Q0.0
+"""
+
+
+def loop_checker(tmp: Path, check: str, assume: str | None, bound: int) -> Checker:
+    plc = PLC.from_source(LOOP_PROG, {"scan_period": "10ms"}, devices=False)
+    req = tmp / "loop.req.toml"
+    req.write_text(f'[environment]\nhost = ["%MW0"]\nassume = {[assume] if assume else []}\n'
+                   f'[[requirement]]\ncheck = "{check}"\n')
+    spec = load_spec(req, [], plc.profile)
+    model = Model(plc, spec.reads, spec.host, None, loop_bound=bound)
+    return Checker(model, spec, spec.requirements[0])
+
+
+def test_backward_jump_unrolled_within_its_bound_and_unknown_beyond(tmp_path):
+    """A loop runs %MW0 passes in a scan (the engine's `_pc` dispatch): modelled exactly
+    up to the bound (its edge instruction updated on every pass, as the engine's one slot),
+    a run needing more passes is UNKNOWN with the jump's line:col, never a violation."""
+    ck = loop_checker(tmp_path, "always %MW5 <= 8", "%MW0 <= 8", 8)
+    assert verify(ck, 6, 4, 20, [], use_spacer=False).status == "PROVEN"
+    res = verify(loop_checker(tmp_path, "never %Q0.0", "%MW0 <= 8", 8), 6, 4, 20, ["%Q0.0"])
+    assert res.status == "VIOLATED" and res.depth == 1
+    plc = PLC.from_source(LOOP_PROG, {"scan_period": "10ms"}, devices=False)
+    assert replay(plc, res.trace) == []
+    assert plc["%MW5"] == res.trace[0]["inputs"]["%MW0"] > 5
+    ck = loop_checker(tmp_path, "always %MW6 <= 1", None, 3)
+    res = verify(ck, 4, 2, 20, [], use_spacer=False)
+    assert res.status == "UNKNOWN" and "<string>:9:1" in res.note and "3 passes" in res.note
+
+
+def test_backward_jump_in_a_grafcet_program_is_refused():
+    plc = PLC.from_source("=*= 0\n%L1:\nLD %I0.0\nJMPC %L1\nLD %I0.1\n# 1\n-*- 1\n",
+                          devices=False)
+    with pytest.raises(VerifyError, match="backward jump in a Grafcet"):
+        Model(plc)
+
+
+def test_system_words_definite_or_free_and_replayed(capsys):
+    """%S1/%S11 0 and %S12 1 after a cold start, %SW0 the configured period: proven; the
+    analog status word and the real-time clock's words are free, named in the output, and
+    their counterexamples replay (the clock held at the counterexample's values)."""
+    prog = "LD %I0.0\nST %Q0.0\n"
+    assert status(prog, "always %S12 AND NOT %S1 AND NOT %S11 AND %SW0 = 10",
+                  {"scan_period": "10ms"})[0] == "PROVEN"
+    therm = [str(LP / "analog_thermostat.il"), "--config", str(LP / "analog_thermostat.toml")]
+    assert main(["verify", *therm, "--require-expr", "never %Q0.0 AND %Q0.1",
+                 "--require-expr", "never %Q0.1", "-q"]) == 2
+    out = capsys.readouterr().out
+    assert "free in every scan" in out and "%SW82 (an analog module" in out
+    assert "PROVEN    never %Q0.0 AND %Q0.1" in out and "same values in every scan" in out
+    rtc = [str(LP / "rtc_schedule.il"), "--config", str(LP / "rtc_schedule.toml")]
+    assert main(["verify", *rtc, "--require-expr", "never %Q0.1", "-q"]) == 2
+    out = capsys.readouterr().out
+    assert "%SW51 (the real-time clock)" in out and "same values in every scan" in out
+    plc = PLC.from_source("LD 1\n[ %SW30 := 0 ]\n", devices=False)
+    with pytest.raises(VerifyError, match="rewrites after the program"):
+        Model(plc)
+
+
+def test_tables_and_bit_strings_modelled_and_replayed():
+    """`%MWi:n := %MWj:n`, `%MWi:n := value`, `%Mi:n := value` and `%Mi:L` read as a
+    number: a counterexample through them replays; a requirement on a double word reads
+    its two words (no separate variable)."""
+    prog = ("LD %I0.0\n[ %MW0:3 := %MW10:3 ]\nLD %I0.1\n[ %MW10:3 := %MW0 + 1 ]\n"
+            "LD %I0.2\n[ %M0:20 := %MW1 ]\nLD 1\n[ %MD30 := %M0:20 ]\n"
+            "LD [ %M0:4 > 2 ]\nST %Q0.0\n")
+    st, res = status(prog, "never %Q0.0", depth=12)
+    assert st == "VIOLATED" and res.depth == 4  # %MW10 and %MW1 climb 1, 2, 3 together
+    plc = PLC.from_source(prog, devices=False)
+    assert replay(plc, res.trace) == [] and plc["%MD30"] == 3
+    model = checker(prog, "always %MD30 >= 0").model
+    assert "%MD30" not in model.vars and {"%MW30", "%MW31"} <= set(model.vars)
+
+
+def test_spacer_restarts_on_another_order_of_its_clauses(monkeypatch):
+    """Two counters kept equal: not k-inductive (any state may have them differ), Spacer
+    proves it; with a tiny first budget it is restarted on shuffled clauses and still
+    answers, each restart a new order of `Inv`'s arguments."""
+    from softplc.verify.engines import Spacer, horn_clauses
+    prog = ("LDR %I0.0\n[ INC %MW0 ]\n[ INC %MW1 ]\nLD [ %MW0 >= 5 ]\n[ %MW0 := 0 ]\n"
+            "[ %MW1 := 0 ]\n")
+    ck = checker(prog, "always %MW1 < 5")
+    assert horn_clauses(ck, 1) != horn_clauses(ck, 0)
+    monkeypatch.setattr(Spacer, "FIRST", 0.1)
+    child = Spacer(ck)
+    try:
+        assert child.wait(30) == "PROVEN" and child.attempt >= 1
+    finally:
+        child.kill()
+    res = verify(ck, 5, 3, 30, [])
+    assert res.status == "PROVEN" and res.method.startswith("Spacer")
+
+
+def test_indexed_words_as_an_array_with_s20_out_of_range():
+    """`%MW10[%MW0] := ...` and `... := %MW10[%MW2]` with host-written indexes: the %MW
+    words become one solver array; an index out of range sets %S20 and uses the word
+    itself, as the engine (`Ops.ix`): both counterexamples replay."""
+    prog = ("LD 1\n[ %MW10[%MW0] := %MW1 ]\nLD [ %MW12 = 7 ]\nST %Q0.0\nLD %S20\nST %Q0.1\n"
+            "LD 1\n[ %MW3 := %MW10[%MW2] ]\n")
+    host = [Ref("MW", 0), Ref("MW", 1), Ref("MW", 2)]
+    st, res = status(prog, "never %Q0.0", host=host)
+    assert st == "VIOLATED" and res.trace[0]["inputs"]["%MW0"] == 2
+    assert replay(PLC.from_source(prog, devices=False), res.trace) == []
+    st, res = status(prog, "never %Q0.1", host=host)
+    ins = res.trace[0]["inputs"]
+    assert st == "VIOLATED" and not (0 <= 10 + ins["%MW0"] < 3000 and 0 <= 10 + ins["%MW2"] < 3000)
+    assert replay(PLC.from_source(prog, devices=False), res.trace) == []
+    # what %MW0 selects is written with %MW1 in the same scan: read back through %MW2
+    assert status(prog, "always %MW3 <> 5", host=host)[0] == "VIOLATED"

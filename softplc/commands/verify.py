@@ -13,6 +13,8 @@ from ..errors import SoftPLCError
 from ._args import add_program_arguments, existing_file, load_plc
 
 EXIT_UNPROVEN, EXIT_VIOLATED, EXIT_DISAGREE = 1, 2, 3
+Z3_MEMORY_MB = 3000
+LOOP_BOUND = 32  # = verify.model.LOOP_BOUND (not imported: `softplc --help` stays light)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -38,6 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--scan-period", metavar="MIN:MAX",
                    help="any scan period from MIN to MAX in each scan (e.g. 10ms:1s; cyclic "
                         "mode), instead of the configured fixed one")
+    p.add_argument("--loop-bound", type=int, default=LOOP_BOUND, metavar="N",
+                   help="passes of a loop (backward jump) modelled in one scan; a run "
+                        "needing more is reported unknown (default %(default)s)")
     p.add_argument("--bounded", action="store_true",
                    help="exit 0 when no requirement is violated within --depth scans")
     p.add_argument("--no-spacer", action="store_true",
@@ -78,6 +83,19 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    import z3
+    z3.set_param("memory_max_size", Z3_MEMORY_MB)  # a clear error, not a machine out of memory
+    try:
+        return _run(args)
+    except z3.Z3Exception as e:
+        if "memory" not in str(e):
+            raise
+        raise SoftPLCError(f"softplc verify: the solver's terms outgrew {Z3_MEMORY_MB} MB "
+                           "(a loop whose passes depend on inputs, unrolled --loop-bound "
+                           "times, is the usual cause: lower --loop-bound)") from None
+
+
+def _run(args: argparse.Namespace) -> int:
     from ..verify.checker import Checker
     from ..verify.engines import verify
     from ..verify.model import Model
@@ -99,12 +117,16 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as e:
             raise SoftPLCError(f"--scan-period {args.scan_period}: {e}") from None
     model = Model(plc, spec.reads + [r for r, _ in spec.free],
-                  spec.host + [r for r, _ in spec.free], spec.periods)
+                  spec.host + [r for r, _ in spec.free], spec.periods, args.loop_bound)
     check_environment(spec, model.written, str(args.program))
     period = f"{model.period_us / 1000:g} ms" + (
         f" to {model.longest_us / 1000:g} ms" if model.variable else "")
     print(f"{args.program}: {len(plc.ast.rungs)} rungs, {len(model.vars)} state "
           f"variables, {len(model.inputs)} inputs, scan period {period}")
+    free = [f"{k} ({why})" for k, why in model.sys_free.items() if k in model.vars]
+    if free:  # say what the proofs take as any value
+        print("free in every scan (set by the system from what is not modelled): "
+              + ", ".join(free))
     worst, cexs, lemmas = 0, [], []
     for req in spec.requirements:
         ck = Checker(model, spec, req, lemmas)
@@ -123,6 +145,8 @@ def run(args: argparse.Namespace) -> int:
                 "range)" if res.method.startswith("Spacer") else ""
             print(f"UNKNOWN   {req.name}: no violation within {res.depth} scans, no proof "
                   f"({res.seconds:.1f} s){note}")
+            if res.note:
+                print(f"    {res.note}")
             ok = args.bounded and res.depth >= args.depth
             worst = max(worst, 0 if ok else EXIT_UNPROVEN)
             continue

@@ -11,7 +11,7 @@ import z3
 
 from ..address import BOOL, Ref
 from ..semantics import IntDomain
-from .model import Model
+from .model import Model, sort_of
 from .requirements import Node, Requirement, Spec
 from .symbolic import Z3Domain, as_bool, wide
 
@@ -72,6 +72,37 @@ class Checker:
         period_us = model.period_us
         self.n = req.within if req.within >= 0 else (-req.within * 1000) // period_us
         self.monitor = req.kind == "response"
+        self.keys = {k: v.sort for k, v in model.vars.items()}
+        if self.monitor:
+            self.keys.update({"_mon": "w16", "_prev": "bool"})
+        self.order = list(self.keys)  # the model's invariants are listed in this order
+        self.filler: dict[str, Any] = {}  # state outside the cone: its cold-start value
+        self.kept: list[int] | None = None  # the model's invariants within the cone
+        self._slice()
+
+    def _slice(self) -> None:
+        """Keep only the cone of influence: the state the requirement, the assumptions and
+        what that state's next values read, to a fixpoint (lemmas reading only that state
+        are kept). The rest never influences them: its value is left at the cold start's
+        (the engines' terms and Spacer's `Inv` get smaller)."""
+        pre = {k: z3.Const(f"{k}@cone", sort_of(s)) for k, s in self.keys.items()}
+        names = {f"{k}@cone": k for k in pre}
+        _, inp = self.model.fresh("cone")
+        post = self.step(dict(pre), inp)
+        need = _reads(z3.And(self.holds(post), *self.assumed(post, inp)), names)
+        work = list(need)
+        while work:
+            for d in _reads(post[work.pop()], names) - need:
+                need.add(d)
+                work.append(d)
+        # a lemma on other state would only widen the cone (and Spacer's `Inv`)
+        self.lemmas = [n for n, t in zip(self.lemmas, self.lemma_terms(post), strict=True)
+                       if _reads(t, names) <= need]
+        init = self.init()
+        invs = self.model.invariants(pre)
+        self.kept = [i for i, t in enumerate(invs) if _reads(t, names) <= need]
+        self.filler = {k: init[k] for k in self.keys if k not in need}
+        self.keys = {k: s for k, s in self.keys.items() if k in need}
 
     def read(self, st: dict[str, Any]) -> Callable[[Ref], Any]:
         m = self.model
@@ -84,10 +115,14 @@ class Checker:
         return read
 
     def holds(self, post: dict[str, Any]) -> Any:
-        """What the requirement needs of the state after a scan."""
+        """What the requirement needs of the state after a scan; with loops, also that
+        none ran past the passes unrolled (such a scan is not modelled: `bmc` reports it
+        as unknown, never as a violation)."""
         if self.monitor:
-            return z3.ULE(post["_mon"], self.n)
-        return as_bool(evaluate(Z3Domain, self.req.cond, self.read(post)))
+            ok = z3.ULE(post["_mon"], self.n)
+        else:
+            ok = as_bool(evaluate(Z3Domain, self.req.cond, self.read(post)))
+        return z3.And(ok, z3.Not(post["_loop"])) if "_loop" in post else ok
 
     def assumed(self, post: dict[str, Any], inp: dict[str, Any]) -> list[Any]:
         out = self.model.input_constraints(inp)
@@ -99,19 +134,17 @@ class Checker:
         return [as_bool(evaluate(Z3Domain, n, self.read(post))) for n in self.lemmas]
 
     def state_keys(self) -> dict[str, str]:
-        keys = {k: v.sort for k, v in self.model.vars.items()}
-        if self.monitor:
-            keys.update({"_mon": "w16", "_prev": "bool"})
-        return keys
+        """The state in the cone of influence (`_slice`): key -> sort."""
+        return dict(self.keys)
 
     def init(self) -> dict[str, Any]:
         st = self.model.init_state()
         if self.monitor:
             st.update({"_mon": z3.BitVecVal(0, 16), "_prev": z3.BoolVal(False)})
-        return st
+        return {k: v for k, v in st.items() if k in self.keys}
 
     def step(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
-        post = self.model.scan(pre, inp)
+        post = self.model.scan({**self.filler, **pre}, inp)
         if self.monitor:
             rd = self.read(post)
             x = as_bool(evaluate(Z3Domain, self.req.cond, rd))
@@ -122,7 +155,30 @@ class Checker:
         return post
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
-        out = self.model.invariants(st)
+        out = self.model.invariants({k: st[k] if k in st else self.filler[k]
+                                     for k in self.order})
+        if self.kept is not None:
+            out = [out[i] for i in self.kept]
         if self.monitor:
             out.append(z3.ULE(st["_mon"], self.n + 1))
         return out
+
+
+def _reads(term: Any, names: dict[str, str]) -> set[str]:
+    """The state keys whose variables (named in `names`) occur in `term`."""
+    out: set[str] = set()
+    seen: set[int] = set()
+    todo = [term]
+    while todo:
+        t = todo.pop()
+        i = t.get_id()
+        if i in seen:
+            continue
+        seen.add(i)
+        if z3.is_const(t):
+            k = names.get(t.decl().name())
+            if k is not None:
+                out.add(k)
+        else:
+            todo.extend(t.children())
+    return out

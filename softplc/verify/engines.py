@@ -13,20 +13,24 @@ depth k that proves it for every run.
 
 from __future__ import annotations
 
+import random
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import z3
 
 from .checker import Checker
-from .model import is_object, sort_of
+from .model import run_concrete, sort_of
 from .symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
+Stop = Callable[[], bool]  # polled between solver calls: a proof came from elsewhere
 
 
 @dataclass
@@ -36,6 +40,7 @@ class Result:
     depth: int = 0  # scans searched (VIOLATED: the counterexample's length)
     seconds: float = 0.0
     trace: list[dict[str, dict[str, int]]] = field(default_factory=list)  # per scan
+    note: str = ""  # why UNKNOWN, when it is not the time
 
 
 class _Unroll:
@@ -71,17 +76,20 @@ class _Unroll:
 
 
 def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> list[dict]:
+    """The counterexample's rows: inputs, the values the requirement reads, and every
+    object the model has, from the whole model run on the inputs (the solver saw only the
+    requirement's cone of influence)."""
+    from ..address import parse_address
+    given = [{k: value_of(model, v) for k, v in inp.items()} for inp in u.inputs]
+    every = run_concrete(ck.model, given)
     rows = []
-    for inp, post in zip(u.inputs, u.posts, strict=True):
+    for raw, post, objects in zip(given, u.posts, every, strict=True):
         rd = ck.read(post)
-        from ..address import parse_address
         values = {}
         for a in watch:
             ref = parse_address(a, ck.model.plc.profile)
             values[a] = value_of(model, rd(ref))
-        objects = {k: value_of(model, post[k]) for k in ck.model.vars
-                   if is_object(k)}
-        ins = {k: value_of(model, v) for k, v in inp.items()}
+        ins = dict(raw)
         if "_dt" in ins:  # a variable period: this scan's, in ms
             p = ins.pop("_dt") * ck.model.period_us / 1000
             ins["period_ms"] = int(p) if p == int(p) else p
@@ -91,12 +99,15 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
 
 
 def bmc(ck: Checker, depth: int, deadline: float, watch: list[str],
-        progress: Progress | None = None) -> Result:
-    """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth)."""
+        progress: Progress | None = None, stop: Stop | None = None) -> Result:
+    """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth;
+    also when `stop()` says a proof came from elsewhere)."""
     t0 = time.monotonic()
     s = z3.Solver()
     u = _Unroll(ck, s, ck.init(), "b")
     for d in range(depth):
+        if stop is not None and stop():
+            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
         post = u.extend()
         bad = z3.Not(ck.holds(post))
         left = deadline - time.monotonic()
@@ -105,8 +116,12 @@ def bmc(ck: Checker, depth: int, deadline: float, watch: list[str],
         s.set("timeout", max(1, int(left * 1000)))
         r = s.check(bad)
         if r == z3.sat:
+            m = s.model()
+            if "_loop" in post and z3.is_true(m.eval(post["_loop"], model_completion=True)):
+                return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
+                              note=ck.model.loop_note(d + 1))
             return Result("VIOLATED", "BMC", d + 1, time.monotonic() - t0,
-                          _trace(ck, u, s.model(), watch))
+                          _trace(ck, u, m, watch))
         if r == z3.unknown:
             return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
         s.add(ck.holds(post))  # the first failure is at a later scan
@@ -128,13 +143,16 @@ def invariants_inductive(ck: Checker) -> bool:
 
 
 def k_induction(ck: Checker, max_k: int, deadline: float,
-                progress: Progress | None = None) -> tuple[int | None, float]:
+                progress: Progress | None = None, stop: Stop | None = None
+                ) -> tuple[int | None, float]:
     """The smallest k <= max_k for which the requirement is k-inductive (None: none found
-    in time). The caller checks the base case (BMC clean to depth k)."""
+    in time, or `stop()`). The caller checks the base case (BMC clean to depth k)."""
     t0 = time.monotonic()
     s = z3.Solver()
     u = _Unroll(ck, s, None, "k")
     for k in range(1, max_k + 1):
+        if stop is not None and stop():
+            return None, time.monotonic() - t0
         post = u.extend()
         s.add(*ck.lemma_terms(post))  # proven invariants hold after every scan
         left = deadline - time.monotonic()
@@ -154,8 +172,21 @@ def k_induction(ck: Checker, max_k: int, deadline: float,
 
 def spacer(ck: Checker, seconds: float) -> str:
     """z3 Spacer on the Horn clauses of the system: "PROVEN", "VIOLATED" or "UNKNOWN"."""
+    child = Spacer(ck)
+    try:
+        return child.wait(seconds)
+    finally:
+        child.kill()
+
+
+def horn_clauses(ck: Checker, shuffle: int = 0) -> str:
+    """The system as constrained Horn clauses (SMT-LIB): an inductive `Inv` exists (sat)
+    exactly when the requirement holds in every reachable state. `shuffle` > 0: `Inv`'s
+    arguments in another order (Spacer's time depends much on the order of the text)."""
     keys = ck.state_keys()
     names = list(keys)
+    if shuffle:
+        random.Random(shuffle).shuffle(names)
     sorts = [sort_of(keys[k]) for k in names]
     inv = z3.Function("Inv", *sorts, z3.BoolSort())
     cur = {k: z3.Const(f"{k}@h", sort_of(keys[k])) for k in names}
@@ -165,28 +196,84 @@ def spacer(ck: Checker, seconds: float) -> str:
     xs = [cur[k] for k in names] + list(inp.values())
     s = z3.SolverFor("HORN")
     s.add(inv(*[init[k] for k in names]))
-    body = z3.And(inv(*[cur[k] for k in names]), *ck.assumed(post, inp))
+    # the range invariants (checked inductive) and the proven lemmas hold in every
+    # reachable state: given, Spacer need not find them
+    body = z3.And(inv(*[cur[k] for k in names]), *ck.invariants(cur), *ck.assumed(post, inp),
+                  *ck.lemma_terms(post))
     s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
     s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
-    # Spacer honours neither its timeout nor an interrupt promptly: it runs in a child
-    # process, killed at the deadline
-    return _solve_in_child(s.sexpr(), seconds)
+    return s.sexpr()
 
 
 _CHILD = ("import sys, z3\n"
           "s = z3.SolverFor('HORN')\n"
-          "s.from_string(sys.stdin.read())\n"
+          "s.from_file(sys.argv[1])\n"
           "print(s.check())\n")
 
 
-def _solve_in_child(smt2: str, seconds: float) -> str:
-    try:
-        r = subprocess.run([sys.executable, "-c", _CHILD], input=smt2, capture_output=True,
-                           text=True, timeout=max(0.5, seconds))
-    except subprocess.TimeoutExpired:
-        return "UNKNOWN"
-    out = r.stdout.strip()
-    return "PROVEN" if out == "sat" else "VIOLATED" if out == "unsat" else "UNKNOWN"
+class Spacer:
+    """Spacer on a requirement in a child process, so that it runs beside k-induction and
+    BMC: it honours neither z3's timeout nor an interrupt promptly, so it is killed at the
+    deadline (`kill`). Its time depends much on the order of the clauses' text (on the
+    drawing table, one order answers in 0.6 s, another not in 20 s): an attempt that
+    outlives its budget is restarted on another order (`horn_clauses`' shuffle), each
+    budget twice the last."""
+
+    FIRST = 4.0  # s, the first attempt's budget
+
+    def __init__(self, ck: Checker):
+        self.ck = ck
+        self.attempt = 0
+        self.result: str | None = None
+        self._start()
+
+    def _start(self) -> None:
+        with tempfile.NamedTemporaryFile("w", suffix=".smt2", delete=False) as f:
+            f.write(horn_clauses(self.ck, self.attempt))
+        self.path = Path(f.name)
+        self.proc = subprocess.Popen([sys.executable, "-c", _CHILD, f.name],
+                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                     text=True)
+        self.until = time.monotonic() + self.FIRST * 2 ** self.attempt
+
+    def _stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        if self.proc.stdout:
+            self.proc.stdout.close()
+        self.path.unlink(missing_ok=True)
+
+    def _restart(self) -> None:
+        self._stop()
+        self.attempt += 1
+        self._start()
+
+    def done(self) -> str | None:
+        """The answer if there is one, else None (never blocks; restarts when due)."""
+        if self.result is None and self.proc.poll() is not None:
+            out = self.proc.stdout.read().strip() if self.proc.stdout else ""
+            self.result = {"sat": "PROVEN", "unsat": "VIOLATED"}.get(out, "UNKNOWN")
+        elif self.result is None and time.monotonic() > self.until:
+            self._restart()
+        return self.result
+
+    def proven(self) -> bool:
+        return self.done() == "PROVEN"
+
+    def wait(self, seconds: float) -> str:
+        end = time.monotonic() + max(0.5, seconds)
+        while self.done() is None:
+            try:
+                self.proc.wait(timeout=max(0.01, min(end, self.until) - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                if time.monotonic() >= end:
+                    self.kill()
+                    return "UNKNOWN"
+        return self.result or "UNKNOWN"
+
+    def kill(self) -> None:
+        self._stop()
 
 
 def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str],
@@ -197,21 +284,43 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str]
     inv_ok = invariants_inductive(ck)
     if not inv_ok:  # pragma: no cover - would be a modelling bug: prove without them
         ck.invariants = lambda st: []  # type: ignore[method-assign]
-    k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress)
-    base = bmc(ck, k if k is not None else depth, deadline, watch, progress)
-    base.seconds = time.monotonic() - t0
-    if base.status == "VIOLATED":
-        return base
-    if k is not None and base.depth >= k:
-        return Result("PROVEN", f"k-induction (k={k})", base.depth, time.monotonic() - t0)
-    left = deadline - time.monotonic()
-    if use_spacer and left > 0.5:
-        if progress:
+    # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),
+    # started once 1-induction has failed: most simple requirements end there
+    child: list[Spacer] = []
+    polls = [0]
+
+    def stop() -> bool:
+        if not child:
+            child.append(Spacer(ck))
+        return child[0].proven()
+
+    def stop_from_k2() -> bool:
+        polls[0] += 1
+        return polls[0] > 1 and stop()
+
+    try:
+        k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress,
+                           stop_from_k2 if use_spacer else None)
+        base = bmc(ck, k if k is not None else depth, deadline, watch, progress,
+                   stop if use_spacer and k is None else None)
+        base.seconds = time.monotonic() - t0
+        if base.status == "VIOLATED" or base.note:
+            return base
+        if k is not None and base.depth >= k:
+            return Result("PROVEN", f"k-induction (k={k})", base.depth,
+                          time.monotonic() - t0)
+        if not use_spacer:
+            return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)
+        stop()  # started if not yet
+        if progress and child[0].done() is None:
             progress("Spacer", base.depth, time.monotonic() - t0)
-        found = spacer(ck, left)
-        if found == "PROVEN":
-            return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
-        if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
-            return Result("UNKNOWN", "Spacer: fails after more scans than searched",
-                          base.depth, time.monotonic() - t0)
+        found = child[0].wait(deadline - time.monotonic())
+    finally:
+        if child:
+            child[0].kill()
+    if found == "PROVEN":
+        return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
+    if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
+        return Result("UNKNOWN", "Spacer: fails after more scans than searched",
+                      base.depth, time.monotonic() - t0)
     return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)

@@ -49,12 +49,13 @@ class ExprModel:
 
     # provided by Model
     def read_bit(self, ref: Ref, pos: A.Pos | None) -> Any: ...
-    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]: ...
+    def read_word(self, ref: Ref, pos: A.Pos | None, g: Any = None) -> tuple[Any, str]: ...
     def store_word(self, ref: Ref, g: Any, v: Any, t: str, pos: A.Pos | None) -> None: ...
     def fault(self, g: Any, f: Any) -> None: ...
     def carry(self, g: Any, c: Any) -> None: ...
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None: ...
     def key_for(self, ref: Ref) -> str: ...
+    def write_bit(self, ref: Ref, g: Any, value: Any, pos: A.Pos | None) -> None: ...
 
     def operand(self, op: Any, blk: Ref | None, g: Any) -> Any:
         if op is None:
@@ -88,7 +89,7 @@ class ExprModel:
             t = INT32 if want == INT32 or not -32768 <= v <= 32767 else INT16
             return wide(v), t
         if isinstance(e, A.Addr):
-            return self.read_word(e.ref, e.pos)
+            return self.read_word(e.ref, e.pos, g)
         if isinstance(e, A.Neg):
             v, t = self.expr(e.operand, want, g)
             r, f = negate(Z3Domain, v, 16 if t == INT16 else 32)
@@ -162,7 +163,7 @@ class ExprModel:
     def statement(self, stmt: A.Statement, g: Any) -> None:
         """An operation block, run where g holds."""
         if isinstance(stmt, A.IncDec):
-            v, t = self.read_word(stmt.target, stmt.pos)
+            v, t = self.read_word(stmt.target, stmt.pos, g)
             r, f = arith(Z3Domain, "add" if stmt.op == "INC" else "sub", v, wide(1),
                          16 if t == INT16 else 32)
             self.fault(g, f)
@@ -173,8 +174,12 @@ class ExprModel:
             self.unsupported(f"{what} (its effect is outside the program)", stmt.pos, what)
             return
         ref = stmt.target
+        if ref.length is not None and ref.offset is None:
+            self.table_assign(ref, stmt.expr, g, stmt.pos)
+            return
         if ref.length is not None or ref.type == REAL:
-            self.unsupported("tables and floats", stmt.pos, str(ref))
+            self.unsupported("floating-point values" if ref.type == REAL else
+                             "an indexed table", stmt.pos, str(ref))
             return
         tt = INT32 if ref.kind in ("MD", "KD") else INT16
         v, t = self.expr(stmt.expr, tt, g)
@@ -182,3 +187,33 @@ class ExprModel:
             v, f = checked(Z3Domain, v, 16)  # `narrow16`
             self.fault(g, f)
         self.store_word(ref, g, v, tt, stmt.pos)
+
+    def table_assign(self, ref: Ref, e: A.Expr, g: Any, pos: A.Pos | None) -> None:
+        """As `ValueCompiler.table_assign`: `%MWi:n := %MWj:n` (all read, then all
+        written), `%MWi:n := value` (each word), `%Mi:n := value` (bit k of the value)."""
+        n = ref.length or 0
+        if isinstance(e, A.Addr) and e.ref.length is not None:
+            src = e.ref
+            if src.kind == ref.kind and src.length == n and src.offset is None \
+                    and ref.kind in ("MW", "M"):
+                get = (lambda r: self.read_bit(r, pos)) if ref.kind == "M" else \
+                    (lambda r: self.read_word(r, pos)[0])
+                vals = [get(Ref(src.kind, src.index + k)) for k in range(n)]
+                for k, v in enumerate(vals):
+                    self.put_element(Ref(ref.kind, ref.index + k), g, v, pos)
+                return
+        elif ref.kind in ("MW", "M"):
+            v, t = self.expr(e, INT16, g)
+            if t == INT16:  # bit k of the value: of its sign extension beyond 16
+                vals = [wide(v) if ref.kind == "MW" else z3.Extract(k, k, wide(v)) == 1
+                        for k in range(n)]
+                for k, x in enumerate(vals):
+                    self.put_element(Ref(ref.kind, ref.index + k), g, x, pos)
+                return
+        self.unsupported("this table assignment", pos, str(ref))
+
+    def put_element(self, ref: Ref, g: Any, v: Any, pos: A.Pos | None) -> None:
+        if ref.kind == "M":
+            self.write_bit(ref, g, v, pos)
+        else:
+            self.store_word(ref, g, v, INT16, pos)

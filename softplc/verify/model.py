@@ -19,17 +19,17 @@ from typing import Any
 
 import z3
 
-from ..address import Ref
+from ..address import BOOL, Ref
 from ..errors import VerifyError
 from ..il import ast as A
 from ..il import rungtree
 from ..runtime.blocks import Timer
 from ..runtime.engine import S_CLOCKS
 from .blocks import advance_timer, el_bits, run_timer
-from .objects import BLOCK_KEY, CLOCK_WRAP_US, ObjectModel
+from .objects import BLOCK_KEY, CLOCK_WRAP_US, MW_ARRAY, ObjectModel
+from .system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
-FIRST_SCAN_BITS = (0, 13, 21)  # %S0 cold start, %S13 first scan, %S21 Grafcet init
-KEEP_BITS = {12: 1}  # %S12 is 1 in RUN
+LOOP_BOUND = 32  # passes of a loop (backward jump) unrolled per scan by default
 
 
 @dataclass
@@ -40,6 +40,8 @@ class Var:
 
 
 def sort_of(sort: str) -> Any:
+    if sort == "arr":  # the %MW words, by word number
+        return z3.ArraySort(z3.BitVecSort(16), z3.BitVecSort(16))
     if sort.startswith("bv"):
         return z3.BitVecSort(int(sort[2:]))
     return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "t": z3.BitVecSort(32)}[sort]
@@ -74,12 +76,17 @@ class Model(ObjectModel):
     """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
 
     def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = (),
-                 periods: tuple[int, int] | None = None):
+                 periods: tuple[int, int] | None = None, loop_bound: int = LOOP_BOUND):
         """`reads`: objects requirements read (modelled even if the program does not use
         them); `host`: objects the environment sets at the start of every scan;
         `periods`: (shortest, longest) scan period in us when any period in between (a
-        multiple of the shortest) may occur in each scan, as in cyclic mode."""
+        multiple of the shortest) may occur in each scan, as in cyclic mode;
+        `loop_bound`: passes of a backward jump (a loop) unrolled in one scan (beyond it
+        the key `_loop` is true after the scan: checkers treat it as unknown)."""
         super().__init__(plc)
+        self.loop_bound = loop_bound
+        self.loop_sites: dict[int, A.Pos] = {}  # label -> its first backward jump
+        self.edge_keys: dict[int, str] = {}  # id of an edge instruction -> its key
         self.period_us = round(plc.scan_period * 1e6) if periods is None else periods[0]
         self.longest_us = self.period_us if periods is None else periods[1]
         self.variable = periods is not None and periods[1] > periods[0]
@@ -87,6 +94,8 @@ class Model(ObjectModel):
         self.vars: dict[str, Var] = {}
         self.inputs: dict[str, tuple[str, int, int]] = {}  # key -> (sort, lo, hi)
         self.host = {str(r) for r in host}
+        # system objects set from what is not modelled (wall time, the calendar): free
+        self.sys_free = free_objects(plc, self.variable)
         if self.variable:  # the input "_dt": this scan lasts _dt x the shortest period
             self.add_input("_dt", "w16", 1, self.longest_us // self.period_us)
         self.timers: dict[str, Timer] = {}
@@ -99,6 +108,9 @@ class Model(ObjectModel):
                                or isinstance(i, A.End) and i.op != "END"
                                for r in plc.ast.rungs for i in r.instructions)
         self.initial_steps = tuple(plc.grafcet.initial)
+        self.mw_array = any(r.offset is not None and r.kind in ("MW", "MD")
+                            for r in _refs(plc.ast.rungs))
+        self.mw_named: set[int] = set()
         # discovery: run the scan on lazily created variables until no new key appears
         self.discovering = True
         n = -1
@@ -108,8 +120,11 @@ class Model(ObjectModel):
             for k in list(self.vars):
                 pre[k] = self.declare(k)
             self.st, self.inp = pre, _LazyInputs(self)
-            for ref in reads:
-                self.key_for(ref)
+            for ref in reads:  # as a requirement reads it (%MD: two words, %Mi:L: bits)
+                if ref.type == BOOL:
+                    self.read_bit(ref, None)
+                else:
+                    self.read_word(ref, None)
             self.scan(pre, self.inp)
             if self.problems:
                 raise VerifyError(sorted(set(self.problems), key=lambda d: (d.line, d.column)))
@@ -123,6 +138,8 @@ class Model(ObjectModel):
         return z3.Const(f"{key}@{suffix}" if suffix else key, sort_of(self.vars[key].sort))
 
     def _sort(self, key: str) -> str:
+        if key == MW_ARRAY:
+            return "arr"
         if key.endswith("._el"):
             return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us, self.longest_us)}"
         if key == "_tmod":
@@ -150,8 +167,8 @@ class Model(ObjectModel):
             if blk[1] == "R" and f.startswith(("_n", "_d")):  # a register's stored words
                 return len(b._data) if f == "_n" else (b._data + [0] * b.depth)[int(f[2:])]
             return 0 if f == "_el" else int(getattr(b, f))
-        if key.startswith("%S") and int(key[2:]) in KEEP_BITS:
-            return KEEP_BITS[int(key[2:])]
+        if key.startswith("%S"):
+            return cold_value(self.plc, key)
         if key.startswith("%X"):  # the initial steps are active from the cold start
             return 1 if int(key[2:]) in self.initial_steps else 0
         return 0
@@ -178,6 +195,8 @@ class Model(ObjectModel):
 
     @staticmethod
     def const(sort: str, v: int) -> Any:
+        if sort == "arr":  # every word 0 after a cold start
+            return z3.K(z3.BitVecSort(16), z3.BitVecVal(v, 16))
         return z3.BoolVal(bool(v)) if sort == "bool" else z3.BitVecVal(v, sort_of(sort).size())
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
@@ -196,6 +215,14 @@ class Model(ObjectModel):
             out.append(z3.ULT(st["_tmod"], self.clock_wrap))
         return out
 
+    def loop_note(self, scan: int) -> str:
+        """Why a run is not modelled past `scan`: a loop ran more passes than unrolled."""
+        sites = ", ".join(f"{self.plc.ast.file}:{p.line}:{p.column}"
+                          for p in self.loop_sites.values())
+        return (f"a loop (backward jump at {sites}) can run more than {self.loop_bound} "
+                f"passes in scan {scan}: verify cannot model it past there (raise "
+                f"--loop-bound)")
+
     # ---- the scan -----------------------------------------------------------------------
     def scan(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
         """The state after one scan from `pre` with inputs `inp`; the result also holds
@@ -211,9 +238,15 @@ class Model(ObjectModel):
             for b, p in S_CLOCKS.items():
                 if f"%S{b}" in self.vars:
                     st[f"%S{b}"] = z3.ULT(z3.URem(now, p), p // 2)
-        for k in self.host:  # words a host writes between scans, free bits
+        free = [k for k in self.sys_free if k in self.vars and k not in self.host]
+        for k in [*self.host, *free]:  # words a host writes between scans, free bits
             if self.discovering:
                 self.add_input(k, "bool" if self.is_bit_key(k) else "w16", -32768, 32767)
+            if self.mw_array and k.startswith("%MW"):
+                self.mw_named.add(int(k[3:]))
+                st[MW_ARRAY] = z3.Store(st[MW_ARRAY], z3.BitVecVal(int(k[3:]), 16), inp[k])
+                continue
+            if self.discovering:
                 _ = st[k]
             st[k] = inp[k]
         self.live: Any = z3.BoolVal(True)
@@ -222,8 +255,8 @@ class Model(ObjectModel):
         self.gd: dict[int, Any] = {}
         self.steps_at_start: dict[int, Any] = {}
         self.frozen: Any = z3.BoolVal(False)
-        self.edge_n = 0
         self.calls: list[int] = []
+        self.overflow: Any = z3.BoolVal(False)
         self.post_done = False
         self.function(self.plc.ast.main, main=True)
         if self.grafcet and not self.post_done:
@@ -245,18 +278,53 @@ class Model(ObjectModel):
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
+        if self.loop_sites:  # a loop ran past the unrolled passes in this scan
+            out["_loop"] = z3.simplify(self.overflow)
         out.update({k: v for k, v in inp.items() if k not in st})  # %I, %IW: as latched
         return out
 
     # ---- program structure ----------------------------------------------------------------
     def function(self, rungs: list[A.Rung], main: bool) -> None:
+        """The rungs of main or a subroutine. A backward jump (a loop, as the engine's
+        `_pc` dispatch runs it) starts another pass over the rungs, entered only at the
+        labels jumped to; after `loop_bound` passes a loop still running sets `overflow`."""
+        back: dict[int, Any] = {}  # label -> a backward jump to it was taken
+        end_live: Any = z3.BoolVal(False)
+        for n in range(self.loop_bound + 1):
+            nxt: dict[int, Any] = {}
+            self.one_pass(rungs, main, back, nxt)
+            end_live = z3.Or(end_live, self.live)
+            back = {k: c for k, c in nxt.items() if not self.never(c)}
+            if not back:
+                break
+            if n == self.loop_bound:
+                self.overflow = z3.Or(self.overflow, *back.values())
+            self.live = z3.BoolVal(False)
+        self.live = z3.simplify(end_live)
+
+    @staticmethod
+    def never(c: Any) -> bool:
+        """`c` is false in every state (a loop's last pass): the state's terms are in `c`,
+        so a plain simplification does not see that the loop counter reached its end."""
+        c = z3.simplify(c)
+        if z3.is_false(c) or z3.is_true(c):
+            return z3.is_false(c)
+        s = z3.Solver()
+        s.set("timeout", 2000)
+        return s.check(c) == z3.unsat
+
+    def one_pass(self, rungs: list[A.Rung], main: bool, back: dict[int, Any],
+                 nxt: dict[int, Any]) -> None:
+        """One pass over `rungs`: entered at the top (the first pass: `self.live`) and at
+        the labels of `back`; backward jumps taken go to `nxt`."""
         pending: dict[int, Any] = {}
         seen: set[int] = set()
         step: int | None = None
         for r in rungs:
             if r.label is not None:
                 seen.add(r.label)
-                self.live = z3.simplify(z3.Or(self.live, pending.pop(r.label, False)))
+                self.live = z3.simplify(z3.Or(self.live, pending.pop(r.label, False),
+                                              back.get(r.label, False)))
             marker = next((i for i in r.instructions if isinstance(i, A.Grafcet)
                            and i.op in ("=*=", "-*-", "POST")), None)
             if marker is not None:
@@ -269,7 +337,7 @@ class Model(ObjectModel):
                 else:
                     step = marker.step
                 continue
-            self.rung(r, step, pending, seen, main)
+            self.rung(r, step, (pending, seen, nxt), main)
 
     def grafcet_pre(self) -> None:
         """End of preprocessing: %S21 (initial steps on), %S22 (all off), %S23 (freeze)."""
@@ -309,8 +377,11 @@ class Model(ObjectModel):
             st[key] = z3.simplify(z3.If(g, new, st[key]))
 
     # ---- one rung -------------------------------------------------------------------------
-    def rung(self, rung: A.Rung, step: int | None, pending: dict[int, Any], seen: set[int],
-             main: bool) -> None:
+    def rung(self, rung: A.Rung, step: int | None,
+             flow: tuple[dict[int, Any], set[int], dict[int, Any]], main: bool) -> None:
+        """`flow`: the forward jumps pending per label, the labels passed, the backward
+        jumps taken per label (see `function`)."""
+        pending, seen, back = flow
         counts = self.plc.profile.counts
         tree = rungtree.build(rung, counts["PAREN"], counts["STACK"])
         guard0 = self.steps_at_start.get(step, z3.BoolVal(False)) if step is not None \
@@ -327,12 +398,12 @@ class Model(ObjectModel):
             if not s.ok:
                 continue
             if isinstance(ins, A.BoolInstr):
-                v = self.modified(self.operand(ins.operand, blk, g()), ins.modifier, g())
+                v = self.modified(self.operand(ins.operand, blk, g()), ins, g())
                 acc = v if ins.op == "LD" else self.combine(ins.op, acc, v)
             elif isinstance(ins, A.ParenOpen):
                 saved[s.k] = acc
                 acc = self.modified(self.operand(ins.operand, blk, g()) if ins.operand
-                                    else z3.BoolVal(False), ins.modifier, g())
+                                    else z3.BoolVal(False), ins, g())
             elif isinstance(ins, A.ParenClose):
                 acc = self.combine(tree.steps[s.opener].instr.op, saved[s.opener], acc)
             elif isinstance(ins, A.Negate):
@@ -351,12 +422,16 @@ class Model(ObjectModel):
             elif isinstance(ins, A.Jump):
                 c = z3.BoolVal(True) if ins.op == "JMP" else acc if ins.op == "JMPC" \
                     else z3.Not(acc)
-                if ins.label in seen:
-                    self.unsupported("a backward jump (a loop)", ins.pos, f"{ins.op} %L"
-                                     f"{ins.label}")
-                    continue
                 take = z3.And(self.live, guard0, c)
-                pending[ins.label] = z3.Or(pending.get(ins.label, False), take)
+                if ins.label in seen:  # backward: a loop (see `function`)
+                    if self.grafcet:
+                        self.unsupported("a backward jump in a Grafcet program", ins.pos,
+                                         f"{ins.op} %L{ins.label}")
+                        continue
+                    self.loop_sites.setdefault(ins.label, ins.pos)
+                    back[ins.label] = z3.Or(back.get(ins.label, False), take)
+                else:
+                    pending[ins.label] = z3.Or(pending.get(ins.label, False), take)
                 self.live = z3.simplify(z3.And(self.live, z3.Not(take)))
             elif isinstance(ins, A.SRCall):
                 self.call_sr(ins, z3.And(g(), acc))
@@ -389,12 +464,12 @@ class Model(ObjectModel):
         a = a if a is not None else z3.BoolVal(False)
         return z3.And(a, b) if op == "AND" else z3.Or(a, b) if op == "OR" else z3.Xor(a, b)
 
-    def modified(self, v: Any, mod: str, g: Any) -> Any:
+    def modified(self, v: Any, ins: Any, g: Any) -> Any:
+        mod = ins.modifier
         if mod == "N":
             return z3.Not(v)
-        if mod in ("R", "F"):
-            key = f"edge{self.edge_n}"
-            self.edge_n += 1
+        if mod in ("R", "F"):  # one memory per instruction, as the compiler's edge slots
+            key = self.edge_keys.setdefault(id(ins), f"edge{len(self.edge_keys)}")
             old = self.st[key]
             r = z3.And(v, z3.Not(old)) if mod == "R" else z3.And(z3.Not(v), old)
             self.st[key] = z3.simplify(z3.If(g, v, old))
@@ -431,13 +506,15 @@ __all__ = ["Model", "Var", "is_object", "run_concrete"]
 
 def is_object(key: str) -> bool:
     """A state key that is an object address (not a block's internal state)."""
-    return key.startswith("%") and "._" not in key and not key.endswith(".W") and \
-        not key.startswith("%SC")  # a step counter's step has no address
+    return key.startswith("%") and "._" not in key and not key.endswith((".W", "[]")) and \
+        not key.startswith("%SC") and key not in AFTER_PROGRAM  # a step counter's
+    # step has no address; scan times are rewritten after the program
 
 
 def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:
     """The model's values scan by scan for concrete inputs (missing inputs are 0): every
-    object it models after each scan, for comparison with the engine."""
+    object it models after each scan, for comparison with the engine; it stops before a
+    scan in which a loop ran past the passes modelled (that scan is not modelled)."""
     from .symbolic import value_of
     st = model.init_state()
     out = []
@@ -446,10 +523,26 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
                for k, (sort, lo, _hi) in model.inputs.items()}
         post = model.scan(st, inp)
         post = {k: z3.simplify(v) for k, v in post.items()}
+        if z3.is_true(post.get("_loop", False)):
+            break
         st = {k: post[k] for k in model.vars}
         s = z3.Solver()
         s.check()
         m = s.model()
-        out.append({k: value_of(m, v) for k, v in post.items()
-                    if is_object(k)})
+        values = {k: value_of(m, v) for k, v in post.items() if is_object(k)}
+        if model.mw_array:  # the words named, read from the array
+            for i in sorted(model.mw_named):
+                values[f"%MW{i}"] = value_of(m, z3.Select(post[MW_ARRAY], i))
+        out.append(values)
     return out
+
+
+def _refs(node: Any) -> list[Ref]:
+    """Every address in an AST node (instructions, expressions, their offsets)."""
+    if isinstance(node, Ref):
+        return [node] + (_refs(node.offset) if node.offset is not None else [])
+    if isinstance(node, (list, tuple)):
+        return [r for x in node for r in _refs(x)]
+    if hasattr(node, "__dataclass_fields__"):
+        return [r for f in node.__dataclass_fields__ for r in _refs(getattr(node, f))]
+    return []

@@ -36,7 +36,9 @@ from .blocks import (
 )
 from .exprs import ExprModel
 from .symbolic import as_bool, narrow, wide
+from .system import AFTER_PROGRAM
 
+MW_ARRAY = "%MW[]"  # the state key of the %MW words when the program indexes them
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
 # the modelled families, named by their runtime class (their kinds are the catalog's)
 TM, C, DR, SBR, SC, R = map(catalog.of_class, (Timer, Counter, Drum, ShiftRegister,
@@ -59,6 +61,8 @@ class ObjectModel(ExprModel):
     written: dict[str, A.Pos]
     executed: dict[str, Any]
     period_us: int
+    mw_array: bool = False  # the %MW words as one array (`word`, `put_word`)
+    mw_named: set[int]  # with it, the words named: compared with the engine
 
     def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None: ...
 
@@ -171,8 +175,8 @@ class ObjectModel(ExprModel):
         if ref.kind in ("I", "Q", "M", "S", "X"):
             key = self.key_for(ref)
             return self.inp[key] if ref.kind == "I" else self.st[key]
-        if ref.bit is not None and ref.kind == "MW":
-            w = self.st[self.key_for(Ref("MW", ref.index))]
+        if ref.bit is not None and ref.kind in ("MW", "SW"):
+            w = self.word(Ref(ref.kind, ref.index))
             return z3.Extract(ref.bit, ref.bit, w) == 1
         if ref.bit is not None and ref.kind == "KW":
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
@@ -190,14 +194,12 @@ class ObjectModel(ExprModel):
             key = self.key_for(ref)
             self.mark_written(key, pos)
             self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
-        elif ref.kind in ("MW", SBR) and ref.bit is not None and ref.offset is None:
-            key = self.key_for(Ref("MW", ref.index) if ref.kind == "MW"
-                               else Ref(SBR, ref.index, field="W"))
-            self.mark_written(key, pos)
-            w = self.st[key]
+        elif ref.kind in ("MW", "SW", SBR) and ref.bit is not None and ref.offset is None:
+            word = Ref(ref.kind, ref.index) if ref.kind != SBR else \
+                Ref(SBR, ref.index, field="W")
+            w = self.word(word)
             mask = z3.BitVecVal(1 << ref.bit, 16)
-            new = z3.If(value, w | mask, w & ~mask)
-            self.st[key] = z3.simplify(z3.If(g, new, w))
+            self.put_word(word, g, z3.If(value, w | mask, w & ~mask), pos)
         elif ref.kind == SC and ref.bit is not None and ref.offset is None:
             name = self.use_block(Ref(SC, ref.index), pos)
             if name is not None:
@@ -206,8 +208,23 @@ class ObjectModel(ExprModel):
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 
-    def read_word(self, ref: Ref, pos: A.Pos | None) -> tuple[Any, str]:
+    def read_word(self, ref: Ref, pos: A.Pos | None, g: Any = None) -> tuple[Any, str]:
+        """(wide term, type); `g`: where the read runs (an index out of range: %S20)."""
         k = ref.kind
+        if self.mw_array and k in ("MW", "MD") and ref.offset is not None \
+                and ref.length is None and ref.bit is None:
+            i = self.mw_index(ref, g)
+            if k == "MW":
+                return wide(z3.Select(self.st[MW_ARRAY], i)), INT16
+            return wide(z3.Concat(z3.Select(self.st[MW_ARRAY], i + 1),
+                                  z3.Select(self.st[MW_ARRAY], i))), INT32
+        if k == "M" and ref.length is not None and ref.offset is None and ref.length <= 32:
+            bits = [self.read_bit(Ref("M", ref.index + i), pos) for i in range(ref.length)]
+            width = 16 if ref.length <= 16 else 32  # %Mi:L as a number, bit i is bit 0
+            v = z3.Concat(*[z3.If(b, z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
+                            for b in reversed(bits)]) if len(bits) > 1 else \
+                z3.If(bits[0], z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
+            return wide(z3.ZeroExt(width - ref.length, v)), INT16 if width == 16 else INT32
         if ref.offset is not None or ref.length is not None or ref.bit is not None:
             self.unsupported("an indexed object, table or bit string", pos, str(ref))
             return wide(0), INT16
@@ -215,13 +232,13 @@ class ObjectModel(ExprModel):
             return wide(int(self.plc.mem.kw.w[ref.index])), INT16
         if k == "KD":
             return wide(int(self.plc.mem.read(ref))), INT32
-        if k in ("MW", "QW"):
-            return wide(self.st[self.key_for(ref)]), INT16
+        if k in ("MW", "QW", "SW"):
+            return wide(self.word(ref)), INT16
         if k == "IW":
             return wide(self.inp[self.key_for(ref)]), INT16
         if k == "MD":
-            lo = self.st[self.key_for(Ref("MW", ref.index))]
-            hi = self.st[self.key_for(Ref("MW", ref.index + 1))]
+            lo = self.word(Ref("MW", ref.index))
+            hi = self.word(Ref("MW", ref.index + 1))
             return wide(z3.Concat(hi, lo)), INT32
         if k in (TM, C) and ref.field in ("V", "P") or k == DR and ref.field == "S" \
                 or k == R and ref.field in ("I", "O"):
@@ -234,14 +251,25 @@ class ObjectModel(ExprModel):
 
     def store_word(self, ref: Ref, g: Any, v: Any, t: str, pos: A.Pos | None) -> None:
         k = ref.kind
+        if self.mw_array and k in ("MW", "MD") and ref.offset is not None \
+                and ref.length is None:
+            i = self.mw_index(ref, g)
+            v = narrow(v, 16 if k == "MW" else 32)
+            parts = [(i, v)] if k == "MW" else [(i, z3.Extract(15, 0, v)),
+                                                 (i + 1, z3.Extract(31, 16, v))]
+            for at, x in parts:
+                arr = self.st[MW_ARRAY]
+                self.st[MW_ARRAY] = z3.If(g, z3.Store(arr, at, x), arr)
+            self.mark_written(MW_ARRAY, pos)
+            return
         if ref.offset is not None or ref.length is not None:
             self.unsupported("an indexed object or table", pos, str(ref))
-        elif k in ("MW", "QW"):
-            self._put(self.key_for(ref), g, narrow(v, 16), pos)
+        elif k in ("MW", "QW", "SW"):
+            self.put_word(ref, g, narrow(v, 16), pos)
         elif k == "MD":
             v32 = narrow(v, 32)
-            self._put(self.key_for(Ref("MW", ref.index)), g, z3.Extract(15, 0, v32), pos)
-            self._put(self.key_for(Ref("MW", ref.index + 1)), g, z3.Extract(31, 16, v32), pos)
+            self.put_word(Ref("MW", ref.index), g, z3.Extract(15, 0, v32), pos)
+            self.put_word(Ref("MW", ref.index + 1), g, z3.Extract(31, 16, v32), pos)
         elif k in (TM, C) and ref.field == "P":
             clamped = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
             self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
@@ -250,7 +278,42 @@ class ObjectModel(ExprModel):
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 
+    # ---- words: one state key each, or with indexed objects the %MW words as one array --
+    def word(self, ref: Ref) -> Any:
+        """The 16-bit term of a word (%MW, %QW, %SW) or a block's word field."""
+        if self.mw_array and ref.kind == "MW":
+            self.mw_named.add(ref.index)
+            return z3.Select(self.st[MW_ARRAY], z3.BitVecVal(ref.index, 16))
+        return self.st[self.key_for(ref)]
+
+    def put_word(self, ref: Ref, g: Any, v: Any, pos: A.Pos | None) -> None:
+        if self.mw_array and ref.kind == "MW":
+            self.mw_named.add(ref.index)
+            self.mark_written(f"%MW{ref.index}", pos)
+            arr = self.st[MW_ARRAY]
+            new = z3.Store(arr, z3.BitVecVal(ref.index, 16), v)
+            self.st[MW_ARRAY] = new if z3.is_true(g) else z3.If(g, new, arr)
+            return
+        self._put(self.key_for(ref), g, v, pos)
+
+    def mw_index(self, ref: Ref, g: Any) -> Any:
+        """The word number of `%MWi[%MWj]` / `%MDi[%MWj]` (16-bit), as `Ops.ix`: out of the
+        family's range, %S20 and the object is processed as if the index were 0."""
+        assert ref.offset is not None
+        count = self.plc.profile.counts["MW"] - (1 if ref.kind == "MD" else 0)
+        at = z3.BitVecVal(ref.index, 16)
+        i = wide(ref.index) + wide(self.word(ref.offset))
+        ok = z3.And(i >= 0, i < count)
+        if g is not None:
+            key = self.key_for(Ref("S", 20))
+            self.mark_written(key, None)
+            self.st[key] = z3.simplify(z3.Or(self.st[key], z3.And(g, z3.Not(ok))))
+        return z3.If(ok, z3.Extract(15, 0, i), at)
+
     def _put(self, key: str, g: Any, v: Any, pos: A.Pos | None) -> None:
+        if key in AFTER_PROGRAM:
+            self.unsupported(f"writing {key}, which the system rewrites after the program",
+                             pos, key)
         self.mark_written(key, pos)
         self.st[key] = z3.simplify(z3.If(g, v, self.st[key]))
 

@@ -24,6 +24,12 @@ CEX_FORMAT = "softplc-cex/1"
 
 
 def set_inputs(plc: Any, inputs: dict[str, int]) -> None:
+    """Set a scan's inputs, system words the model leaves free included: the clock
+    words and schedule outputs come from the counterexample, so the real-time clock
+    stops rewriting them (`verify.system`)."""
+    rtc = plc.engine.rtc
+    if rtc is not None and "tick" not in vars(rtc):
+        rtc.tick = _clock_held
     for k, v in inputs.items():
         if k == "period_ms":  # this scan's length (a variable period)
             plc.set_scan_period(v / 1000)
@@ -31,6 +37,10 @@ def set_inputs(plc: Any, inputs: dict[str, int]) -> None:
             plc.mem.write(k, v)
         else:
             plc[k] = v
+
+
+def _clock_held(now_us: int) -> None:
+    """The real-time clock's tick while a counterexample sets its words."""
 
 
 def replay(plc: Any, trace: list[dict[str, Any]]) -> list[str]:
