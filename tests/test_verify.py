@@ -412,3 +412,16 @@ def test_indexed_words_as_an_array_with_s20_out_of_range():
     assert replay(PLC.from_source(prog, devices=False), res.trace) == []
     # what %MW0 selects is written with %MW1 in the same scan: read back through %MW2
     assert status(prog, "always %MW3 <> 5", host=host)[0] == "VIOLATED"
+
+
+def test_a_free_word_the_program_may_write_through_an_index_is_an_error(tmp_path):
+    """The index is the program's: any %MW word may be the one written, a free one too."""
+    p = write(tmp_path, '[environment]\nfree = ["%MW3"]\n\n[[requirement]]\n'
+                        'check = "never %Q0.0"\n')
+    plc = PLC.from_source("LD 1\n[ %MW10[%MW0] := 5 ]\nLD [%MW3 > 2]\nST %Q0.0\n",
+                          devices=False)
+    spec = load_spec(p, [], plc.profile)
+    model = Model(plc, spec.reads, [r for r, _ in spec.free])
+    with pytest.raises(VerifyError, match="through an index") as e:
+        check_environment(spec, model.written, "prog.il")
+    assert "prog.il:2:" in e.value.diagnostics[0].message

@@ -35,10 +35,11 @@ from .blocks import (
     set_step_bit,
 )
 from .exprs import ExprModel
+from .requirements import INDEXED_WORDS
 from .symbolic import as_bool, narrow, wide
 from .system import AFTER_PROGRAM
 
-MW_ARRAY = "%MW[]"  # the state key of the %MW words when the program indexes them
+MW_ARRAY = INDEXED_WORDS  # the state key of the %MW words when the program indexes them
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
 # the modelled families, named by their runtime class (their kinds are the catalog's)
 TM, C, DR, SBR, SC, R = map(catalog.of_class, (Timer, Counter, Drum, ShiftRegister,

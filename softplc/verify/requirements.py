@@ -393,11 +393,20 @@ def _key(where: _Where, key: str) -> tuple[int, int]:
     return 0, 0
 
 
+INDEXED_WORDS = "%MW[]"  # the model's key of the %MW words when the program indexes them
+
+
 def check_environment(spec: Spec, written: dict[str, Any], program_file: str) -> None:
     """A free input the program writes is an error (with where the program writes it)."""
     bad = []
+    indexed = written.get(INDEXED_WORDS)  # `%MWi[%MWj] := ...`: any word may be the one
     for ref, d in spec.free:
         pos = written.get(str(ref))
+        if pos is None and indexed is not None and ref.kind in ("MW", "MD"):
+            pos = indexed
+            d = Diagnostic(f"{d.message}: the program writes %MW words through an index, "
+                           "which may reach it", d.file, d.line, d.column, d.text,
+                           d.expected, d.code)
         if pos is not None:
             bad.append(Diagnostic(f"{d.message} (at {program_file}:{pos.line}:{pos.column})",
                                   d.file, d.line, d.column, d.text, d.expected, d.code))
