@@ -4,6 +4,7 @@ every input sequence, or show the scans that break one (replayed in the engine).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -13,7 +14,7 @@ from ..errors import SoftPLCError
 from ._args import add_program_arguments, existing_file, load_plc
 
 EXIT_UNPROVEN, EXIT_VIOLATED, EXIT_DISAGREE = 1, 2, 3
-Z3_MEMORY_MB = 3000
+Z3_MEMORY_MB = 3000  # SOFTPLC_Z3_MEMORY_MB overrides (tests give a small one)
 LOOP_BOUND = 32  # = verify.model.LOOP_BOUND (not imported: `softplc --help` stays light)
 
 
@@ -84,13 +85,14 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     import z3
-    z3.set_param("memory_max_size", Z3_MEMORY_MB)  # a clear error, not a machine out of memory
+    cap = int(os.environ.get("SOFTPLC_Z3_MEMORY_MB", Z3_MEMORY_MB))
+    z3.set_param("memory_max_size", cap)  # a clear error, not a machine out of memory
     try:
         return _run(args)
     except z3.Z3Exception as e:
         if "memory" not in str(e):
             raise
-        raise SoftPLCError(f"softplc verify: the solver's terms outgrew {Z3_MEMORY_MB} MB "
+        raise SoftPLCError(f"softplc verify: the solver's terms outgrew {cap} MB "
                            "(a loop whose passes depend on inputs, unrolled --loop-bound "
                            "times, is the usual cause: lower --loop-bound)") from None
 
