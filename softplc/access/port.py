@@ -47,16 +47,6 @@ class WordLane(Protocol):
     Modbus image's pending writes (`softplc.modbus.image.ModbusImage`), coalesced and
     applied at the scan boundary before the command queue."""
 
-    def call(self, fn: Callable[[], None]) -> None:
-        """Queue `fn` in the control lane: run in the scan thread at the next boundary (the
-        online change's swap); it handles its own errors."""
-        self.queue.put([Call(fn)])
-
-    def apply_now(self) -> None:
-        """Apply the queued commands at once: for a caller that owns the scan thread and
-        stands between two scans or instructions (the debugger)."""
-        self.queue.apply()
-
     @property
     def pending(self) -> int: ...
 
