@@ -116,6 +116,9 @@ class PLC:
     def scan(self, n: int = 1) -> None:
         """Run n scans (on the virtual clock each advances time by scan_period)."""
         eng = self.engine  # eng.scan each time: a change in a scan replaces it
+        if n == 1:  # the common call: no range object (80 ns of a 3.1 us scan)
+            eng.scan()
+            return
         for _ in range(n):
             eng.scan()
 
