@@ -426,3 +426,17 @@ def test_a_free_word_the_program_may_write_through_an_index_is_an_error(tmp_path
         check_environment(spec, model.written, "prog.il")
     assert "prog.il:2:" in e.value.diagnostics[0].message
 
+
+
+def test_a_loop_the_solver_cannot_decide_is_cut_and_unknown(tmp_path, monkeypatch):
+    """Deciding whether a loop's next pass can run has a time budget over its passes (a
+    pass count that depends on inputs, products of them, grew the solver's memory until
+    z3 crashed): past it the passes are not unrolled, and a run that needs them is
+    UNKNOWN with the jump and the reason, never a violation."""
+    import softplc.verify.model as M
+
+    monkeypatch.setattr(M, "LOOP_SOLVER_BUDGET_S", 0.0)  # cut at the first pass
+    ck = loop_checker(tmp_path, "always %MW6 <= 1", None, 8)
+    res = verify(ck, 4, 2, 20, [], use_spacer=False)
+    assert res.status == "UNKNOWN" and "<string>:9:1" in res.note
+    assert "more than 1 passes" in res.note and "outgrew 0 s of the solver" in res.note

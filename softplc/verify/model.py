@@ -14,6 +14,7 @@ its line:col (`VerifyError`), never approximated.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -72,6 +73,10 @@ class _LazyInputs(dict):
         return v
 
 
+# s the solver may spend, over a loop's passes, deciding whether another pass can run;
+# past it the remaining passes are not unrolled and the scans needing them are UNKNOWN
+LOOP_SOLVER_BUDGET_S = 10.0
+
 class Model(ObjectModel):
     """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
 
@@ -85,6 +90,7 @@ class Model(ObjectModel):
         the key `_loop` is true after the scan: checkers treat it as unknown)."""
         super().__init__(plc)
         self.loop_bound = loop_bound
+        self.loop_cut = loop_bound + 1  # passes unrolled when the solver's budget ran out
         self.loop_sites: dict[int, A.Pos] = {}  # label -> its first backward jump
         self.edge_keys: dict[int, str] = {}  # id of an edge instruction -> its key
         self.period_us = round(plc.scan_period * 1e6) if periods is None else periods[0]
@@ -219,6 +225,11 @@ class Model(ObjectModel):
         """Why a run is not modelled past `scan`: a loop ran more passes than unrolled."""
         sites = ", ".join(f"{self.plc.ast.file}:{p.line}:{p.column}"
                           for p in self.loop_sites.values())
+        if self.loop_cut <= self.loop_bound:
+            return (f"a loop (backward jump at {sites}) can run more than {self.loop_cut} "
+                    f"passes in scan {scan}, and deciding whether each pass runs outgrew "
+                    f"{LOOP_SOLVER_BUDGET_S:g} s of the solver at pass {self.loop_cut}: "
+                    "verify cannot model it past there (its pass count depends on inputs)")
         return (f"a loop (backward jump at {sites}) can run more than {self.loop_bound} "
                 f"passes in scan {scan}: verify cannot model it past there (raise "
                 f"--loop-bound)")
@@ -290,12 +301,22 @@ class Model(ObjectModel):
         labels jumped to; after `loop_bound` passes a loop still running sets `overflow`."""
         back: dict[int, Any] = {}  # label -> a backward jump to it was taken
         end_live: Any = z3.BoolVal(False)
+        spent = 0.0  # s the solver took deciding whether another pass can run
         for n in range(self.loop_bound + 1):
             nxt: dict[int, Any] = {}
             self.one_pass(rungs, main, back, nxt)
             end_live = z3.Or(end_live, self.live)
+            t0 = time.perf_counter()
             back = {k: c for k, c in nxt.items() if not self.never(c)}
+            spent += time.perf_counter() - t0
             if not back:
+                break
+            if n < self.loop_bound and spent > LOOP_SOLVER_BUDGET_S:
+                # the passes' terms have outgrown the solver (a pass count that depends
+                # on inputs, products of them: memory and time grow with each pass):
+                # stop here, as past the bound
+                self.loop_cut = min(self.loop_cut, n + 1)
+                self.overflow = z3.Or(self.overflow, *back.values())
                 break
             if n == self.loop_bound:
                 self.overflow = z3.Or(self.overflow, *back.values())
