@@ -118,6 +118,7 @@ def test_warm_restart_keeps_data_and_cold_resets(daemons, tmp_path):
     state = tmp_path / "plc.state"
     d = start(daemons, tmp_path, "--state", str(state), "--save-interval", "0")
     with d.client() as c:
+        wait_scans(c, 1)  # the cold start's scan ran (it counts itself in %MW30)
         c.write_registers(5, [77, 0xFFFF])
         c.call(struct.pack(">BHH", 5, 7, 0xFF00))  # %M7 := 1
         # Acknowledged writes survive even if the shutdown comes before the next scan.
