@@ -466,6 +466,10 @@ def checked(D: Any, v: Any, bits: int) -> tuple[Any, Any]:
     return D.ite(ok, v, D.wrap(v, bits)), D.not_(ok)
 
 
+# IL operator -> the operation names `arith` and `Ops` use (compiler and verifier read it)
+ARITH_OPS = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
+
+
 def arith(D: Any, op: str, a: Any, b: Any, bits: int) -> tuple[Any, Any]:
     """(value, fault) of `a op b` (op: add sub mul div rem) on `bits`-bit words."""
     if op in ("add", "sub", "mul"):

@@ -15,7 +15,7 @@ from ..errors import Code
 from ..il import ast as A
 from ..program import Names
 from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
-from ..semantics import FUNCTIONS
+from ..semantics import ARITH_OPS, FUNCTIONS
 from .objects import (  # noqa: F401  (the compiler's tables, also read by the ladder view)
     BLOCK_KIND_PINS,
     BLOCK_OUTPUTS,
@@ -25,7 +25,6 @@ from .objects import (  # noqa: F401  (the compiler's tables, also read by the l
     _Fn,
 )
 
-ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 # Float functions: the helper is "f" + the function name in lower case (semantics.Ops.fsqrt)
 FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SIN", "COS",
                          "TAN", "ASIN", "ACOS", "ATAN", "DEG_TO_RAD", "RAD_TO_DEG"})
@@ -103,7 +102,7 @@ class ValueCompiler(ObjectCompiler):
                 return self.poison(want)
             py = {"AND": "&", "OR": "|", "XOR": "^"}[e.op]
             return f"({a[0]} {py} {b[0]})", t
-        if e.op not in ARITH:
+        if e.op not in ARITH_OPS:
             self.err(f"unknown operator {e.op}", e.pos, e.op, "+ - * / REM AND OR XOR",
                      code=Code.FUNCTION)
             return "0", t
@@ -116,7 +115,7 @@ class ValueCompiler(ObjectCompiler):
             return f"({a[0]} {e.op} {b[0]})", REAL
         if e.op == "REM":
             return f"{self.helper(f'rem{16 if t == INT16 else 32}')}({a[0]}, {b[0]})", t
-        return self.checked(ARITH[e.op], t, a[0], b[0]), t
+        return self.checked(ARITH_OPS[e.op], t, a[0], b[0]), t
 
     @staticmethod
     def poison(want: str | None) -> tuple[str, str]:

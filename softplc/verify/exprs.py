@@ -15,6 +15,7 @@ from ..address import INT16, INT32, REAL, Ref
 from ..errors import Diagnostic
 from ..il import ast as A
 from ..semantics import (
+    ARITH_OPS,
     FUNCTIONS,
     absolute,
     arith,
@@ -31,7 +32,6 @@ from ..semantics import (
 )
 from .symbolic import Z3Domain, wide
 
-ARITH = {"+": "add", "-": "sub", "*": "mul", "/": "div", "REM": "rem"}
 # the integer functions modelled exactly (each a rule in `semantics`)
 INT_FUNCS = frozenset({"ABS", "SQRT", "NOT", "SHL", "SHR", "ROL", "ROR", "BCD_TO_INT", "BTI",
                        "INT_TO_BCD", "ITB", "GRAY_TO_INT", "LW", "HW", "CONCATW"})
@@ -103,7 +103,7 @@ class ExprModel:
                 return wide(0), REAL
             if e.op in ("AND", "OR", "XOR"):
                 return (a & b if e.op == "AND" else a | b if e.op == "OR" else a ^ b), t
-            r, f = arith(Z3Domain, ARITH[e.op], a, b, 16 if t == INT16 else 32)
+            r, f = arith(Z3Domain, ARITH_OPS[e.op], a, b, 16 if t == INT16 else 32)
             self.fault(g, f)
             return r, t
         if isinstance(e, A.Call):
