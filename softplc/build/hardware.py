@@ -36,6 +36,14 @@ class Problems:
     def add(self, path: tuple[Any, ...], message: str, code: ConfigCode) -> None:
         self.issues.append(ConfigIssue(key_path(path), message, code))
 
+    def address(self, path: tuple[Any, ...], text: str, profile: Profile) -> Ref | None:
+        """The address `text` at key `path`, or None with the problem noted."""
+        try:
+            return parse_address(text, profile)
+        except AddressError as e:
+            self.add(path, str(e), ConfigCode.ADDRESS)
+            return None
+
     @contextmanager
     def collecting(self) -> Iterator[None]:
         """Run a step that raises ConfigError at its first problem; keep its issues."""
@@ -89,10 +97,8 @@ def analog_io(section: dict[str, AnalogChannelConfig], profile: Profile, mem: Me
                 allowed[ref] = types
     for text, o in section.items():
         where = ("analog", text)
-        try:
-            ref = parse_address(text, profile)
-        except AddressError as e:
-            problems.add(where, str(e), ConfigCode.ADDRESS)
+        ref = problems.address(where, text, profile)
+        if ref is None:
             continue
         ch = chans.get(ref)
         if ch is None:
@@ -114,10 +120,8 @@ def constants(consts: dict[str, int | float], profile: Profile, mem: MemoryImage
     """Write [constants] into %KW/%KD/%KF."""
     for text, v in consts.items():
         where = ("constants", text)
-        try:
-            ref = parse_address(text, profile)
-        except AddressError as e:
-            problems.add(where, str(e), ConfigCode.ADDRESS)
+        ref = problems.address(where, text, profile)
+        if ref is None:
             continue
         if ref.kind not in ("KW", "KD", "KF") or ref.length is not None or ref.bit is not None:
             problems.add(where, f"{text!r} is not a %KW/%KD/%KF constant", ConfigCode.ADDRESS)
