@@ -13,6 +13,7 @@ from softplc.access import commands as C
 from softplc.address import parse_address
 from softplc.modbus import ModbusImage, ReadOnly
 from softplc.plc import PLC
+from softplc.runtime.blocks import MAX_VALUE
 
 # a comparison stores a Python bool into the bit list; plain contacts store ints
 COMPARE = """\
@@ -105,7 +106,7 @@ def test_checks_refuse_with_a_clear_error_and_queue_nothing():
     for obj, value, status, text in [
             ("%KW0", 1, 403, "constant"), ("%TM0.V", 1, 403, "read-only"),
             ("%MW1", 70000, 400, "out of range"), ("%M1", 2, 400, "0 or 1"),
-            ("%TM0.P", 40000, 400, "out of range 0..32767"),  # a preset a store clamps
+            ("%TM0.P", 10000, 400, "out of range 0..9999"),  # a preset a store clamps
             ("%ZZ1", 1, 400, "unknown object")]:
         with pytest.raises(AccessError, match=text) as e:
             port.write_many([("%MW2", 1), (obj, value)])
@@ -178,9 +179,39 @@ def test_bench_access_reports_its_figures():
 
 def test_a_block_word_that_is_not_a_clamped_preset_takes_a_whole_word():
     """%VFCi.S0 is an unsigned threshold word: 40000 is a value, not out of range (only
-    the presets a store clamps, %TMi.P and %Ci.P, stop at 32767)."""
+    the presets a store clamps, %TMi.P and %Ci.P, stop at MAX_VALUE, 9999)."""
     port = AccessPort(plc_of())
     assert port.check_value(parse_address("%VFC0.S0"), 40000) == 40000
-    assert port.check_value(parse_address("%TM0.P"), 32767) == 32767
-    with pytest.raises(AccessError, match="0..32767"):
-        port.check_value(parse_address("%C0.P"), 32768)
+    assert port.check_value(parse_address("%TM0.P"), MAX_VALUE) == MAX_VALUE
+    for ref, value in (("%C0.P", MAX_VALUE + 1), ("%TM0.P", 32767), ("%C0.P", -1)):
+        with pytest.raises(AccessError, match=f"out of range 0..{MAX_VALUE}"):
+            port.check_value(parse_address(ref), value)
+
+
+def test_a_host_cannot_write_a_preset_the_program_could_never_store():
+    """One range for %Ci.P: the program's store clamps to MAX_VALUE (twido.md: presets
+    0-9999), so the port (web, `softplc io`) and the REPL's `set` refuse what is above it,
+    and a Modbus host, which can only reach %MW, gets its word clamped by the store."""
+    from softplc.debug.session import Session
+
+    src = "LD 1\n[ %C0.P := %MW10 ]\nLD %M0\nCU %C0\n"
+    plc = PLC.from_source(src)
+    image = ModbusImage(plc.mem)
+    plc.before_scan.insert(0, image.apply_writes)
+    port = AccessPort(plc, image)
+    with pytest.raises(AccessError, match=f"out of range 0..{MAX_VALUE}"):
+        port.write_many([("%C0.P", MAX_VALUE + 1)])
+    image.queue_registers(10, (20000).to_bytes(2, "big"))  # FC 6/16 on %MW10
+    plc.scan()
+    assert plc["%MW10"] == 20000 and plc["%C0.P"] == MAX_VALUE
+    image.queue_registers(10, (40000).to_bytes(2, "big"))  # a signed word: -25536
+    plc.scan()
+    assert plc["%C0.P"] == 0
+    port.write_many([("%C0.P", MAX_VALUE)])
+    plc.scan()
+    assert plc["%C0.P"] == 0  # the program's store in the same scan wins, as on the PLC
+    session = Session(PLC.from_source(src), None)
+    refused = session.execute(f"set %C0.P {MAX_VALUE + 1}")
+    assert refused == f"error: %C0.P: {MAX_VALUE + 1} is out of range 0..{MAX_VALUE} " \
+        "(a preset the program can hold)"
+    assert "queued" in session.execute(f"set %C0.P {MAX_VALUE}")

@@ -194,7 +194,7 @@ def test_write_applied_at_scan_boundary_push_button_seen(star):
     ("%KW0", 1, 403, "constant"),
     ("%TM0.V", 3, 403, "read-only"),
     ("%TM0", 3, 403, "function block"),
-    ("%TM0.P", 40000, 400, "out of range"),
+    ("%TM0.P", 10000, 400, "out of range 0..9999"),
 ])
 def test_bad_write_is_refused_and_nothing_applied(star, obj, value, status, message):
     before = star.plc.mem.snapshot()

@@ -26,6 +26,7 @@ from .. import catalog
 from ..address import BLOCK_FIELDS, Ref
 from ..numeric import F32_MAX
 from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
+from ..runtime.blocks import MAX_VALUE
 from ..runtime.runstate import RunState
 from .commands import ACTIONS, Action, Analog, Call, CommandQueue, Control, Force, Unforce, Write
 from .errors import AccessError
@@ -37,7 +38,9 @@ from .reading import Reading
 # Value ranges the port accepts, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
 INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-BLOCK_RANGE = (0, 32767)  # the presets a store clamps (%TMi.P, %Ci.P) [manual]
+# %TMi.P / %Ci.P: what the program's store clamps to (twido.md: presets 0-9999), so a host
+# cannot write a preset the program could never hold.
+PRESET_RANGE = (0, MAX_VALUE)
 CONSTANT_KINDS = ("KW", "KD", "KF")
 IMAGE_KINDS = ("MW", "MD", "MF", "M")  # written through the Modbus image when there is one
 
@@ -162,11 +165,13 @@ class AccessPort:
             if not value.is_integer():
                 raise AccessError(f"{ref} is an integer object: {value!r} is not whole")
             value = int(value)
-        lo, hi = INT32_RANGE if ref.type == "int32" else INT16_RANGE
-        if ref.kind in BLOCK_FIELDS and ref.field == "P" and catalog.family(ref.kind).clamp_preset:
-            lo, hi = BLOCK_RANGE  # other block words are words (%VFCi.S0 up to 65535)
+        # other block words are plain words (%VFCi.S0 up to 65535)
+        preset = ref.kind in BLOCK_FIELDS and ref.field == "P" \
+            and catalog.family(ref.kind).clamp_preset
+        lo, hi = PRESET_RANGE if preset else INT32_RANGE if ref.type == "int32" else INT16_RANGE
         if not lo <= value <= hi:
-            raise AccessError(f"{ref}: {value} is out of range {lo}..{hi} (does not fit)")
+            why = "a preset the program can hold" if preset else "does not fit"
+            raise AccessError(f"{ref}: {value} is out of range {lo}..{hi} ({why})")
         return value
 
     def _deny(self) -> None:
