@@ -130,23 +130,24 @@ def table(sides: Sequence[Side], runs: Sequence[Sequence[dict[str, Any]]],
           keys: Sequence[Key], title: str) -> str:
     """Each key's best / median per side and the ratio of the bests, B over A for a
     figure where higher is better, A over B otherwise (> 1: B is better)."""
-    a, b = (s.label[:22] for s in sides)
-    lines = [f"{title}, {len(runs[0])} alternating runs each (best / median), load average "
-             f"{os.getloadavg()[0]:.1f} at the end:",
-             f"  {'figure':32} {'A: ' + a:>25} {'B: ' + b:>25} {'B vs A':>7}"]
+    a, b = (s.label for s in sides)
+    w = max(30, *(len(k[1]) for k in keys))
+    lines = [f"{title}, {len(runs[0])} alternating runs each",
+             f"  A: {a}; B: {b}; load average {os.getloadavg()[0]:.1f} at the end",
+             f"  {'figure':{w}} {'A best / median':>19} {'B best / median':>19} {'B vs A':>7}"]
     for key, label, higher in keys:
         cells, best = [], []
         for side_runs in runs:
             vals = [r[key] for r in side_runs if key in r]
             if not vals:
-                cells.append(f"{'-':>22}")
+                cells.append(f"{'-':>19}")
                 continue
             best.append(max(vals) if higher else min(vals))
-            cells.append(f"{best[-1]:10.2f} / {statistics.median(vals):9.2f}")
+            cells.append(f"{best[-1]:8.2f} / {statistics.median(vals):8.2f}")
         ratio = "-"
         if len(best) == 2 and min(best) > 0:
             ratio = f"{best[1] / best[0] if higher else best[0] / best[1]:.3f}x"
-        lines.append(f"  {label:32} {cells[0]:>25} {cells[1]:>25} {ratio:>7}")
+        lines.append(f"  {label:{w}} {cells[0]:>19} {cells[1]:>19} {ratio:>7}")
     return "\n".join(lines)
 
 
@@ -204,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--rounds and --scans must be >= 1")
     run = lambda side: child(side, ["-c", SCAN_CHILD, str(side.root), str(args.scans)])  # noqa: E731
     print(compare(args.a, args.rounds, run, SCAN_KEYS,
-                  "plc.scan() A/B (CPU us per scan, best of 5 timings a run)", args.b))
+                  "plc.scan() A/B, CPU us per scan (best of 5 timings a run)", args.b))
     return 0
 
 
