@@ -91,6 +91,8 @@ def test_a_failing_or_silent_child_names_its_side() -> None:
     ["bench_cpu_ab.py", "no-such-rev"],
     ["bench_engine.py", "--quick", "--against", "no-such-rev"],
     ["bench_sim_ab.py", "no-such-rev", "--benches", "mass"],
+    ["bench_build.py", "--tree", "no-such-rev"],
+    ["bench_modbus_c.py", "--baseline", "no-such-rev"],
 ])
 def test_tools_report_a_bad_revision_without_traceback(argv: list[str]) -> None:
     r = subprocess.run([sys.executable, str(TOOLS / argv[0]), *argv[1:]],
