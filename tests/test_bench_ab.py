@@ -42,7 +42,7 @@ def test_runner_against_head_alternates_and_prints_best_median_ratio() -> None:
     text = ab.compare("HEAD", 2, run, KEYS, "Probe A/B")
     head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short=7", "HEAD"],
                           capture_output=True, text=True, check=True).stdout.strip()
-    assert order == [f"HEAD ({head})", ab.THIS] * 2  # A, B, A, B
+    assert order == [f"HEAD ({head})", ab.THIS, ab.THIS, f"HEAD ({head})"]  # A B, B A
     lines = text.splitlines()
     assert lines[0] == "Probe A/B, 2 alternating runs each"
     assert lines[1].startswith(f"  A: HEAD ({head}); B: this checkout; load average ")
