@@ -75,8 +75,9 @@ def _export(rev: str, into: Path) -> Side:
 def _copy(checkout: Path, into: Path) -> None:
     """The files of a checkout as they are (uncommitted changes and new files git does not
     ignore included) into `into`: every side then runs from the same temporary folder,
-    under a path of the same length. (From /work/h-ab, star_delta.il's scan measured 3-5 %
-    slower than the same code exported under /tmp, five alternating runs each.)"""
+    under a path of the same length. (Run from /work/h-ab, star_delta.il's scan measured
+    3-5 % slower than the same code exported under /tmp: three A/B runs of 5-6 rounds,
+    whichever side it was.)"""
     listed = _git("ls-files", "-z", "--cached", "--others", "--exclude-standard",
                   repo=checkout)
     if listed.returncode:  # not a git checkout: all but caches and environments
@@ -106,7 +107,8 @@ def resolve(spec: str, tmp: Path) -> Side:
 
 @contextmanager
 def sides(specs: Sequence[str]) -> Iterator[list[Side]]:
-    """The sides named by `specs`, revisions exported for the duration of the block."""
+    """The sides named by `specs`, revisions exported and checkouts copied for the
+    duration of the block."""
     with tempfile.TemporaryDirectory(prefix="bench_ab_") as tmp:
         yield [resolve(s, Path(tmp)) for s in specs]
 
