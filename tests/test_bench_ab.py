@@ -100,3 +100,19 @@ def test_tools_report_a_bad_revision_without_traceback(argv: list[str]) -> None:
     assert r.returncode == 1 and r.stdout == ""
     assert "'no-such-rev': neither a checkout directory nor a git revision" in r.stderr
     assert "Traceback" not in r.stderr
+
+
+def test_a_checkout_path_runs_from_a_copy_of_its_files(tmp_path: Path) -> None:
+    """A side given as a directory (here not a git checkout) runs from a copy of its files
+    as they are, environments and caches left out."""
+    co = tmp_path / "co"
+    (co / "softplc").mkdir(parents=True)
+    (co / "softplc" / "__init__.py").write_text("MARK = 7.0\n")
+    (co / ".venv").mkdir()
+    (co / ".venv" / "big").write_text("x")
+    probe = ("import json, os, softplc; print(json.dumps({'mark': softplc.MARK, "
+             "'venv': float(os.path.exists('.venv'))}))")
+    with ab.sides([str(co)]) as (side,):
+        assert side.label == str(co) and side.root != co
+        assert ab.child(side, ["-c", probe]) == {"mark": 7.0, "venv": 0.0}
+    assert not side.root.exists()  # the copy goes with the block
