@@ -19,6 +19,7 @@ E2E = {
     "test_program_contract", "test_runtime_attacks", "test_web_security",
     "test_web_api", "test_web_browser", "test_web_program", "test_web_program_browser",
     "test_web_views",
+    "test_bench_ab",  # (the A/B runner's child processes and git)
 }
 
 INTEGRATION = {

@@ -10,8 +10,9 @@ axes inside a second run of the piece (each update timed). Target (issue 13): >=
 real time.
 
 `--against REV` runs the same figures for a git revision of this repository (exported to
-a temporary directory) and this checkout alternately, `--rounds` times each, each run in
-its own process, and prints them side by side (best and median of the rounds).
+a temporary directory) or a checkout path and this checkout alternately, `--rounds` times
+each, each run in its own process, and prints them side by side (best and median of the
+rounds; tools/bench_cpu_ab.py).
 
     python tools/bench_cutting.py [--speed 2] [--against HEAD~3 [--rounds 3]]
 """
@@ -26,7 +27,7 @@ import time
 import tomllib
 from pathlib import Path
 
-from peers import ab
+import bench_cpu_ab as ab
 from peers.common import speed_line
 
 from softplc import PLC
@@ -144,8 +145,8 @@ def against(rev: str, speed: float, rounds: int) -> str:
             ("update_moving_us", "us per update, jogging", False),
             ("update_rest_us", "us per update, at rest", False),
             ("update_in_run_us", "us per update, in the run", False))
-    return ab.against(rev, rounds, lambda root: ab.child(
-        __file__, root, ["--speed", str(speed), "--json", "--root", str(root)]),
+    return ab.compare(rev, rounds, ab.script_run(
+        __file__, ["--speed", str(speed), "--json", "--root", "{root}"]),
         keys, "Cutting table A/B")
 
 
@@ -154,7 +155,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--speed", type=float, default=2.0,
                     help="cutting speed, mm/s (default 2: the thesis's v)")
     ap.add_argument("--against", metavar="REV",
-                    help="also run a git revision (e.g. HEAD~3), alternating")
+                    help="also run a git revision (e.g. HEAD~3) or a checkout path, "
+                         "alternating")
     ap.add_argument("--rounds", type=int, default=3,
                     help="runs per side with --against (default 3)")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")

@@ -16,7 +16,8 @@ scan of a 40-rung program; issue 26: <= 3.0 ns per instruction through plc.scan(
 
 `--cpu` times CPU time of the thread (`time.thread_time`: steadier on a shared machine)
 instead of wall time; `--against REV` runs the main figures (CPU time) for a git revision
-and this checkout alternating, and prints them side by side (tools/peers/ab.py).
+(or a checkout path) and this checkout alternating, and prints them side by side
+(tools/bench_cpu_ab.py).
 """
 
 from __future__ import annotations
@@ -30,8 +31,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import bench_cpu_ab as ab
 from gen_programs import boolean_program
-from peers import ab
 from peers.common import best_interleaved, best_per_batch, loop, print_report, progress
 from peers.programs import mixed_program
 
@@ -213,7 +214,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cpu", action="store_true",
                     help="time CPU time of the thread, not wall time")
     ap.add_argument("--against", metavar="REV",
-                    help="A/B: also run a git revision (e.g. main), alternating, CPU time")
+                    help="A/B: also run a git revision (e.g. main) or a checkout path, "
+                         "alternating, CPU time")
     ap.add_argument("--rounds", type=int, default=4,
                     help="runs per side with --against (default 4)")
     ap.add_argument("--ab-child", action="store_true", help=argparse.SUPPRESS)
@@ -227,8 +229,8 @@ def main(argv: list[str] | None = None) -> int:
         CLOCK = time.thread_time
     if a.against:
         args = ["--ab-child"] + (["--quick"] if a.quick else [])
-        print(ab.against(a.against, a.rounds, lambda root: ab.child(__file__, root, args),
-                         AB_KEYS, "Scan engine A/B (CPU time)"))
+        print(ab.compare(a.against, a.rounds, ab.script_run(__file__, args), AB_KEYS,
+                         "Scan engine A/B (CPU time)"))
         return 0
     if a.ab_child:  # the boolean and mixed figures only, as one line of JSON
         import softplc  # the side's tree (PYTHONPATH), which is the working directory

@@ -10,8 +10,9 @@ one C process (a Python client saturates before the server does). Cases: FC 3 re
 registers, FC 16 writing 100. The servers take turns each round; the best round is kept.
 Printed per case: requests/s, server CPU per request (us, from /proc: the whole process,
 the scan thread included) and softplc's ratio to libmodbus (goals: FC 3 >= 1.0x,
-FC 16 >= 0.9x, issue 26). `--baseline CHECKOUT` adds a server run from another checkout
-(before/after in one run). Needs gcc and libmodbus-dev.
+FC 16 >= 0.9x, issue 26). `--baseline REV_OR_PATH` adds a server run from a git revision
+or another checkout (before/after in one run; the side resolved by tools/bench_cpu_ab.py).
+Needs gcc and libmodbus-dev.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import bench_cpu_ab as ab
 from bench_modbus import DEFAULT_PROGRAM
 from peers.libmodbus_peer import LibmodbusServer
 from peers.modbus_peer import ServerProcess
@@ -85,18 +87,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=2.0, help="seconds per run (2)")
     ap.add_argument("--rounds", type=int, default=3, help="turns per server, best kept (3)")
     ap.add_argument("--clients", type=int, default=8, help="connections (8)")
-    ap.add_argument("--baseline", type=Path, metavar="CHECKOUT",
-                    help="also serve from this checkout (e.g. a git worktree of main)")
+    ap.add_argument("--baseline", metavar="REV_OR_PATH",
+                    help="also serve from this git revision or checkout (e.g. main)")
     a = ap.parse_args(argv)
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, \
+            ab.sides([a.baseline] if a.baseline else []) as baseline:
         exe = build_load(Path(tmp))
         program = Path(tmp) / "bench.il"
         program.write_text(DEFAULT_PROGRAM)
         servers = {"softplc": softplc(program, "default"),
                    "softplc asyncio": softplc(program, "asyncio"),
                    "libmodbus": LibmodbusServer()}
-        if a.baseline is not None:
-            servers["baseline"] = softplc(program, "default", a.baseline.resolve())
+        if baseline:
+            servers["baseline"] = softplc(program, "default", baseline[0].root)
         best: dict[tuple[str, str], tuple[float, float]] = {}
         try:
             time.sleep(1.0)

@@ -1,5 +1,5 @@
 """A/B comparison of the simulation benchmarks (bench_servo, bench_mass, bench_cutting)
-between two checkouts, robust to a loaded machine.
+between two versions (git revisions or checkout paths), robust to a loaded machine.
 
 On a shared machine even CPU-time figures swing by 30 % and more (other processes evict
 the caches, share the core's pipeline). Here each checkout runs each benchmark `--rounds`
@@ -8,19 +8,19 @@ runs are deterministic, so chunk i is the same work in every run), and the figur
 simulated time of the full chunks over the sum of the per-chunk minima: a disturbance has
 to hit the same chunk in every round to count.
 
-    .venv/bin/python tools/bench_sim_ab.py /path/to/checkout_a /path/to/checkout_b
-                                          [--benches servo_device,servo_machine,mass,cutting]
-                                          [--rounds 3]
+    .venv/bin/python tools/bench_sim_ab.py A [B]
+                           [--benches servo_device,servo_machine,mass,cutting] [--rounds 3]
+
+A and B: a revision or a checkout directory (B: this checkout by default); the runs go
+through tools/bench_cpu_ab.py (alternating, progress and ETA, clear errors).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
 import sys
-import time
-from pathlib import Path
+
+import bench_cpu_ab as ab
 
 BENCHES = ("servo_device", "servo_machine", "mass", "cutting")
 CHUNK = 250  # scans
@@ -75,14 +75,6 @@ print(json.dumps({"sim": sim, "chunks": [b - a for a, b in zip(marks, marks[1:])
 """
 
 
-def run_child(root: Path, bench: str) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(root), bench, str(CHUNK)],
-                         capture_output=True, text=True, check=False)
-    if out.returncode:
-        raise SystemExit(f"{root} {bench}: the benchmark failed:\n{out.stderr[-2000:]}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
-
-
 def speed(runs: list[dict]) -> tuple[float, float]:
     """(simulated s of the full chunks, speed-up over the summed per-chunk minima)."""
     n = min(len(r["chunks"]) for r in runs)
@@ -93,32 +85,29 @@ def speed(runs: list[dict]) -> tuple[float, float]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("a", type=Path, help="first checkout (e.g. /work/main)")
-    ap.add_argument("b", type=Path, help="second checkout")
+    ap.add_argument("a", help="side A: revision (e.g. main) or checkout path")
+    ap.add_argument("b", nargs="?", default=str(ab.ROOT),
+                    help="side B (default: this checkout)")
     ap.add_argument("--benches", default=",".join(BENCHES),
                     help=f"comma-separated, from {', '.join(BENCHES)}")
-    ap.add_argument("--rounds", type=int, default=3, help="runs per checkout and benchmark")
+    ap.add_argument("--rounds", type=int, default=3, help="runs per side and benchmark")
     a = ap.parse_args(argv)
     benches = [b for b in a.benches.split(",") if b]
     unknown = set(benches) - set(BENCHES)
     if unknown:
         ap.error(f"unknown benchmark(s) {', '.join(sorted(unknown))}; known: "
                  f"{', '.join(BENCHES)}")
-    print(f"{'benchmark':14} {'checkout':30} {'chunks':>9} {'speed-up (CPU, chunk minima)':>29}")
-    t0 = time.monotonic()
-    total = len(benches) * a.rounds * 2
-    done = 0
-    for bench in benches:
-        runs: dict[Path, list[dict]] = {a.a: [], a.b: []}
-        for _ in range(a.rounds):
-            for root in (a.a, a.b):
-                runs[root].append(run_child(root, bench))
-                done += 1
-                eta = (time.monotonic() - t0) / done * (total - done)
-                print(f"  ... {done}/{total} runs, ETA {eta:.0f} s", file=sys.stderr)
-        for root in (a.a, a.b):
-            sim, x = speed(runs[root])
-            print(f"{bench:14} {str(root):30} {sim:7.1f} s {x:28.1f}x", flush=True)
+    if a.rounds < 1:
+        ap.error("--rounds must be >= 1")
+    with ab.sides([a.a, a.b]) as sides:
+        print(f"{'benchmark':14} {'side':30} {'chunks':>9} "
+              f"{'speed-up (CPU, chunk minima)':>29}")
+        for bench in benches:
+            runs = ab.alternate(sides, a.rounds, lambda side, bench=bench: ab.child(
+                side, ["-c", CHILD, str(side.root), bench, str(CHUNK)]), bench)
+            for side, side_runs in zip(sides, runs, strict=True):
+                sim, x = speed(side_runs)
+                print(f"{bench:14} {side.label:30} {sim:7.1f} s {x:28.1f}x", flush=True)
     return 0
 
 
