@@ -273,6 +273,38 @@ def test_estop_brakes_then_kills_through_the_amplifier_fault():
     assert rig.word("X", Word.STATUS) & St.ENABLED
 
 
+@pytest.mark.parametrize("toml, start, speed", [
+    ("servo_table.toml", -100_000.0, 69_632),  # Coulomb 31 bits, current limit 516
+    ("cutting_table.toml", 12_340_000.0, 200_000)])  # frictionless, no current limit
+@pytest.mark.parametrize("sign", [1, -1])
+def test_estop_brakes_to_rest_without_sliding_back(toml, start, speed, sign):
+    """The E-stop's braking ends where the velocity reaches 0: no servo tick carries the
+    carriage back against its travel (a drive's quick stop, as PMAC's abort: decelerate
+    to a stop, never reverse). With a = 0 the braking is a constant deceleration
+    K (brake + Coulomb), so the rest position is known in closed form."""
+    rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
+                        require_home=False)
+    dev = rig.axes["X"]
+    rig.command("X", Ctl.ENABLE)
+    rig.step()
+    rig.pulse("X", Ctl.EXECUTE, target=sign * 400_000, speed=speed)  # (from the start)
+    rig.run(0.3)
+    x0, v0 = dev.x, dev.v
+    assert sign * v0 > 0.9 * speed
+    rig.scan_us = 100  # (a scan shorter than the servo period: one sample per tick)
+    dev.set_fault("estop")
+    seen = [x0]
+    for _ in range(400):
+        rig.step()
+        seen.append(dev.x)
+    assert all(sign * (b - a) >= 0 for a, b in zip(seen, seen[1:], strict=False)), "slid back"
+    assert dev.v == 0.0 and seen[-100:] == [seen[-1]] * 100  # at rest, and stays
+    p = dev.opt.plant
+    brake = dev.u_peak if math.isfinite(dev.u_peak) else 32767.0
+    assert seen[-1] == pytest.approx(x0 + sign * v0 * v0 / (2 * dev.K * (brake + p.coulomb)),
+                                     abs=1e-6)
+
+
 def test_limit_switch_blocks_the_drive_and_the_error_becomes_fatal():
     rig = homed("X", start=0.0)
     dev = rig.axes["X"]

@@ -261,10 +261,12 @@ class LoopRunner:
         if a.fault == "jammed":
             return x, 0.0
         brake = a.u_peak if math.isfinite(a.u_peak) else 32767.0
-        if a.estop_active():  # the drive brakes at its current limit, then lets go
+        if a.estop_active():
+            # The drive brakes at its current limit and lets go once the carriage is at
+            # rest (`hold`: the tick ends where the velocity reaches 0, never beyond: a
+            # braking that reversed would carry it back against its travel).
             w = -brake if v > 0 else (brake if v < 0 else 0.0)
-            x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
-            return x1, (0.0 if v1 * v <= 0 else v1)
+            return step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh, hold=True)
         stopping = False
         if not a._pmac_lim and (x >= a._lp and w > 0 or x <= a._lm and w < 0):
             # END switch: no torque further that way; quick stop if still moving that way
