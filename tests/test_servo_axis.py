@@ -703,3 +703,67 @@ def test_the_loops_folded_constants_change_no_bit(toml, start):
         ax._scan = r.scan_function()
 
     assert scenario(toml, start) == scenario(toml, start, unfolded)
+
+
+# -- the generated scan's caches: an assignment from outside shows at once -------------------
+CHANGES = {  # attribute -> its new value from the present one
+    "homed": lambda v: not v, "done": lambda v: not v, "latched": lambda v: not v,
+    "origin": lambda v: v + 1234, "error": lambda v: Err.BAD_COMMAND,
+    "fe_max": lambda v: v + 99.0, "warn": lambda v: not v, "fe": lambda v: v + 3.0,
+    "u": lambda v: v + 5.0, "w": lambda v: v + 7.0, "x": lambda v: v + 10.0,
+    "closed": lambda v: not v, "fault": lambda v: "amp_fault"}
+
+
+def _cut_axis() -> tuple[Rig, object]:
+    rig = Rig.from_toml(ROOT / "ladder_programs" / "cutting_table.toml", "X")
+    rig.command("X", Ctl.ENABLE)
+    rig.step()
+    return rig, rig.axes["X"]
+
+
+def _words_are_the_state(rig: Rig, dev) -> None:
+    """The status words the scan wrote are those the state gives, written in full."""
+    b = rig.base("X")
+    seen = bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)])
+    dev.words.write()
+    assert seen == bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)])
+
+
+@pytest.mark.parametrize("name", CHANGES)
+def test_an_assignment_at_rest_shows_in_the_next_scans_words(name):
+    """At a fixed point the generated scan writes the words it kept; an attribute
+    assigned from outside the device's methods shows in the very next scan."""
+    rig, dev = _cut_axis()
+    rig.run(0.05)
+    assert dev._fixed and dev._rest_words is not None  # (the cached words are in use)
+    setattr(dev, name, CHANGES[name](getattr(dev, name)))
+    for _ in range(3):
+        rig.step()
+        _words_are_the_state(rig, dev)
+
+
+@pytest.mark.parametrize("name", CHANGES)
+def test_an_assignment_while_moving_shows_in_the_next_scans_words(name):
+    """A moving axis's generated scan starts from the status bits kept by the last full
+    write (`_st_slow`): an assignment from outside shows in the next scan too."""
+    rig, dev = _cut_axis()
+    rig.pulse("X", Ctl.EXECUTE, target=400_000, speed=200_000)
+    rig.run(0.2)
+    assert dev.v > 0 and dev._st_slow >= 0
+    setattr(dev, name, CHANGES[name](getattr(dev, name)))
+    for _ in range(3):
+        rig.step()
+        _words_are_the_state(rig, dev)
+
+
+@pytest.mark.parametrize("name, value", [("v", 5000.0), ("u", 40.0), ("x", 12_340_500.0)])
+def test_an_assignment_to_the_loop_state_at_rest_ends_the_fixed_point(name, value):
+    """The fixed point skips the servo cycles while the loop's state is unchanged: a
+    state set from outside runs them again (the carriage moves, then settles)."""
+    rig, dev = _cut_axis()
+    rig.run(0.05)
+    assert dev._fixed
+    setattr(dev, name, value)
+    x0, k0 = dev.x, dev.k
+    rig.step()
+    assert dev.k > k0 and dev.x != x0 and not dev._fixed

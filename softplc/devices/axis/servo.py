@@ -44,10 +44,12 @@ from .motion import Motion
 from .options import Err, ServoAxisOptions, Word
 from .plant import ZOH
 from .runner import LoopRunner
+from .state import guard
 from .status import StatusWords
 
 TRACE_HEADER = "t,commanded,actual,fe,output"
 @register_device("servo_axis")
+@guard  # (the state the generated scan's caches are made from: properties, state.guard)
 class ServoAxis(AxisDevice):
     """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts.
 
@@ -295,10 +297,10 @@ class ServoAxis(AxisDevice):
                 self._mass_f = r
                 r += self.opt.plant.load_mass_ratio
                 self.set_load_mass_ratio(r if math.isfinite(r) and r >= 0 else 0.0)
-        fault = self.fault
+        fault = self.fault_  # (the fields: _finish writes the status words in full)
         # (amp_ready() inlined for the common case: no fault, drive not wired to inputs)
-        self._ready = ready = True if fault == "none" and not self._wired else self.amp_ready()
-        if self._w[self._ctl_i] != self._ctl_prev or not self.closed or fault != "none" or \
+        self._ready_ = ready = True if fault == "none" and not self._wired else self.amp_ready()
+        if self._w[self._ctl_i] != self._ctl_prev or not self.closed_ or fault != "none" or \
                 not ready:
             self.motion.commands()
         due = floor(round(t * 1e6) * self._hz_us + 1e-9)
@@ -306,7 +308,7 @@ class ServoAxis(AxisDevice):
             self.ivars.poll(due)
         n = due - self.k
         if n > 0:
-            if self._fixed or self.v == 0.0 or not self.closed:
+            if self._fixed or self.v_ == 0.0 or not self.closed_:
                 self._run(due)  # at rest, at a fixed point or open: the runner decides
             else:  # (the common case inline: moving, loop closed, no fixed point)
                 cycles = self._cycles
@@ -324,7 +326,7 @@ class ServoAxis(AxisDevice):
         if not self._plo < x < self._phi:  # on a limit wired to the PMAC
             self.motion.limit_stop()
         if dt > 0:
-            self._vel = (x - self._x_prev_scan) / dt
+            self._vel_ = (x - self._x_prev_scan) / dt  # (the field: written in full below)
         self._x_prev_scan = x
         if self._active and not self._tail_v and self.k - self._k0 + 1 >= len(self._traj):
             self.motion.after_ticks()  # (it does nothing before the trajectory's end)
