@@ -244,7 +244,7 @@ class ServoAxis(AxisDevice):
         self._tail_v = 0.0  # counts per cycle after the trajectory's end
         self._ctl_prev = 0
         self._vel = 0.0
-        self._x_prev_scan = self.x
+        self._x_prev_scan = self.x_
         self._fixed = False  # the loop's state is a fixed point: see LoopRunner
         self._creep = 0  # ... or a creep for that many cycles
         self._limit_stop = False  # the trajectory is a "pmac" limit's abort
@@ -263,16 +263,16 @@ class ServoAxis(AxisDevice):
     # -- positions (the interface limit switches and tools use) ----------------------------
     def _raw(self) -> float:
         if self._ideal:
-            return self.x - self._start
-        return floor(self.x) - self._enc0
+            return self.x_ - self._start
+        return floor(self.x_) - self._enc0
 
     @property
     def position(self) -> float:
         """True carriage position, counts from the home index mark."""
-        return self.x
+        return self.x_
 
     def axis_position(self) -> float:
-        return self.x
+        return self.x_
 
     def axis_end(self) -> float:
         return self._lp
@@ -280,11 +280,11 @@ class ServoAxis(AxisDevice):
     @property
     def actual(self) -> float:
         """Actual position as the controller sees it (encoder, user coordinates)."""
-        return self._raw() - self.origin
+        return self._raw() - self.origin_
 
     @property
     def commanded(self) -> float:
-        return self._cp - self.origin
+        return self._cp_ - self.origin_
 
     # -- per scan ---------------------------------------------------------------------------
     def update(self, t: float, dt: float) -> None:
@@ -322,15 +322,15 @@ class ServoAxis(AxisDevice):
         """The scan after its servo cycles: limits wired to the PMAC, the velocity word,
         the sequencing at a trajectory's end, the status words."""
         self._rest_words = None
-        x = self.x
+        x = self.x_
         if not self._plo < x < self._phi:  # on a limit wired to the PMAC
             self.motion.limit_stop()
         if dt > 0:
             self._vel_ = (x - self._x_prev_scan) / dt  # (the field: written in full below)
         self._x_prev_scan = x
-        if self._active and not self._tail_v and self.k - self._k0 + 1 >= len(self._traj):
+        if self._active and not self._tail_v_ and self.k - self._k0 + 1 >= len(self._traj_):
             self.motion.after_ticks()  # (it does nothing before the trajectory's end)
-        if self._coast and self.v == 0.0:  # after an open-loop output: close the loop here
+        if self._coast_ and self.v_ == 0.0:  # after an open-loop output: close the loop here
             self._coast = False
             if self.open_loop:
                 self.motion.close_loop()
@@ -339,20 +339,20 @@ class ServoAxis(AxisDevice):
 
     # -- drive state ------------------------------------------------------------------------
     def amp_ready(self) -> bool:
-        if self.fault in ("estop", "amp_fault"):
+        if self.fault_ in ("estop", "amp_fault"):
             return False
         if self._estop_idx is not None and self._i[self._estop_idx]:
             return False
         return self._power_idx is None or bool(self._q[self._power_idx])
 
     def estop_active(self) -> bool:
-        return self.fault == "estop" or (self._estop_idx is not None
+        return self.fault_ == "estop" or (self._estop_idx is not None
                                          and bool(self._i[self._estop_idx]))
 
     # -- status -----------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        return {"pos": round(self.actual), "fe": round(self.fe, 2), "homed": self.homed,
-                "error": Err.TEXT[self.error]}
+        return {"pos": round(self.actual), "fe": round(self.fe_, 2), "homed": self.homed_,
+                "error": Err.TEXT[self.error_]}
 
     # -- snapshots --------------------------------------------------------------------------
     def state(self) -> dict[str, Any]:

@@ -124,6 +124,26 @@ class ServoState(Protocol):
     _trim_at: int
     _trace_dropped: int
 
+    # The fields behind the properties of LOOP_STATE and SHOWN (below): read where speed
+    # counts; assign the property, whose setter drops the caches made from it.
+    x_: float
+    v_: float
+    u_: float
+    w_: float
+    fe_: float
+    fe_max_: float
+    _cp_: float
+    closed_: bool
+    open_loop_: bool
+    homing_: int
+    fault_: str
+    origin_: int
+    _traj_: tuple[float, ...]
+    _tail_v_: float
+    _ready_: bool
+    _coast_: bool
+    _vel_: float
+
     @property
     def opt(self) -> ServoAxisOptions: ...
 
@@ -167,14 +187,17 @@ def field(name: str) -> str:
 
 def _property(name: str, loop: bool) -> property:
     at = field(name)
+    # (setattr, not self.__dict__[at]: measured, writing through __dict__ from reset()
+    # made every later attribute access of the generated scan slower, 2.09 -> 2.57 us per
+    # jogging update of the cutting table's axis)
     if loop:
         def set_(self: Any, value: Any) -> None:
-            d = self.__dict__
-            d[at], d["_rest_words"], d["_st_slow"], d["_fixed"] = value, None, -1, False
+            setattr(self, at, value)
+            self._rest_words, self._st_slow, self._fixed = None, -1, False
     else:
         def set_(self: Any, value: Any) -> None:
-            d = self.__dict__
-            d[at], d["_rest_words"], d["_st_slow"] = value, None, -1
+            setattr(self, at, value)
+            self._rest_words, self._st_slow = None, -1
     return property(attrgetter(at), set_, doc=f"(the field {at}; setting it drops the "
                     "caches made from it)")
 
