@@ -756,7 +756,8 @@ def test_an_assignment_while_moving_shows_in_the_next_scans_words(name):
         _words_are_the_state(rig, dev)
 
 
-@pytest.mark.parametrize("name, value", [("v", 5000.0), ("u", 40.0), ("x", 12_340_500.0)])
+@pytest.mark.parametrize("name, value", [("v", 5000.0), ("u", 40.0), ("x", 12_340_500.0),
+                                         ("_cp", 500.0)])
 def test_an_assignment_to_the_loop_state_at_rest_ends_the_fixed_point(name, value):
     """The fixed point skips the servo cycles while the loop's state is unchanged: a
     state set from outside runs them again (the carriage moves, then settles)."""

@@ -101,7 +101,7 @@ class LoopRunner:
             n, a.k = 0, due  # killed and stuck: nothing moves, nothing to record
         elif a.v_ == 0.0 and self._fixed_candidate():
             # (with FE != 0 and no clamp the integrator moves: a creep, not a fixed point)
-            if a.fe_ == 0.0 or a._clamped:
+            if a.fe_ == 0.0 or a._clamped_:
                 n = self._probe_fixed(n)
             else:
                 a._creep = self._creep_ticks()
@@ -146,7 +146,7 @@ class LoopRunner:
 
     def _loop_state(self) -> bytes:
         a = self.a
-        return self._PACK(a.x_, a.v_, a._cp_, a._cpp, a._cvp, a._app, a._ie, a._clamped, a.u_)
+        return self._PACK(a.x_, a.v_, a._cp_, a._cpp_, a._cvp_, a._app_, a._ie_, a._clamped_, a.u_)
 
     def _fixed_candidate(self) -> bool:
         """The conditions under which the cycle map is the same for every cycle."""
@@ -171,23 +171,25 @@ class LoopRunner:
         o = a.origin_
         if a._creep:
             n, left = min(n, a._creep), n - min(n, a._creep)
-            ie, fe = a._ie, a.fe_
+            ie, fe = a._ie_, a.fe_
             for _ in range(n):  # the loop's own additions, in its order: bit for bit
                 ie += fe
-            a._ie = ie
+            # (the fields: a creep is the fixed point's own advance, run only by the
+            # device's generic update, which then writes the status words in full)
+            a._ie_ = ie
             a._creep -= n
             a._fixed = a._creep > 0
             c = self._values  # the drive's command over the last period: the held output's
-            a.w = max(c["nup"], min(c["up"], a.u_ + c["uoff"]))
+            a.w_ = max(c["nup"], min(c["up"], a.u_ + c["uoff"]))
         else:
             left = 0
         if a._rec is not None:
             a.trace.extend(zip(range(k + 1, k + n + 1), repeat(a._cp_ - o),
-                               repeat(a._app - o), repeat(a.u_), strict=False))
+                               repeat(a._app_ - o), repeat(a.u_), strict=False))
         if a.gather is not None:
             a.gather.extend(zip(range(k + 1, k + n + 1), repeat(a._cp_ - o),
-                                repeat(a._app - o), repeat(a.u_),
-                                repeat(self._values["cie"] * a._ie), strict=False))
+                                repeat(a._app_ - o), repeat(a.u_),
+                                repeat(self._values["cie"] * a._ie_), strict=False))
         a.k = k + n
         return left
 
@@ -200,8 +202,8 @@ class LoopRunner:
         under `_fixed_candidate`."""
         a = self.a
         fe, q = a.fe_, a._dac_q
-        if (a._clamped or not q or a.gather is not None or a._cp_ != a._cpp
-                or a._cvp != 0.0 or a.opt.plant.load_table):
+        if (a._clamped_ or not q or a.gather is not None or a._cp_ != a._cpp_
+                or a._cvp_ != 0.0 or a.opt.plant.load_table):
             return 0
         c = self._values
         if abs(fe) > c["check"]:
@@ -211,7 +213,7 @@ class LoopRunner:
         if not -c["fc"] <= w <= c["fc"]:
             return 0
         # the law's output as the loop computes it (CV = CA = AV = 0), in the DAC step of u
-        u = c["cfe"] * fe + c["ccv"] * 0.0 + c["cca"] * 0.0 + c["cie"] * a._ie \
+        u = c["cfe"] * fe + c["ccv"] * 0.0 + c["cca"] * 0.0 + c["cie"] * a._ie_ \
             - c["cav"] * 0 + c["off"]
         lo = q * math.floor(u / q)
         if lo != a.u_ or not -c["lim"] <= lo < lo + q <= c["lim"]:
@@ -221,7 +223,7 @@ class LoopRunner:
             return 0
         m = math.floor((lo + q - u) / d if d > 0 else (u - lo) / -d) - 2  # (2: a margin)
         if c["ilim"] != math.inf:
-            m = min(m, math.floor((c["ilim"] - abs(a._ie)) / abs(fe)) - 2)
+            m = min(m, math.floor((c["ilim"] - abs(a._ie_)) / abs(fe)) - 2)
         return max(m, 0)
     def cycles(self, n: int, capture: bool = False) -> int:
         """Run up to n loop cycles; returns how many are left when an event interrupts.

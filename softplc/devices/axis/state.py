@@ -133,6 +133,11 @@ class ServoState(Protocol):
     fe_: float
     fe_max_: float
     _cp_: float
+    _cpp_: float
+    _cvp_: float
+    _app_: float
+    _ie_: float
+    _clamped_: bool
     closed_: bool
     open_loop_: bool
     homing_: int
@@ -174,8 +179,9 @@ class ServoState(Protocol):
 # test, a REPL user), the next scan computes them again. The generated code reads and
 # writes the fields (no property's cost); so does the device's own per-scan code where it
 # writes the full status words anyway.
-LOOP_STATE = ("x", "v", "u", "fe", "_cp", "closed", "open_loop", "homing", "fault", "_traj",
-              "_tail_v", "_ready")  # the loop's state and drive state: the fixed point's
+LOOP_STATE = ("x", "v", "u", "fe", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped",
+              "closed", "open_loop", "homing", "fault", "_traj", "_tail_v",
+              "_ready")  # the loop's state and drive state: the fixed point's
 SHOWN = ("w", "fe_max", "warn", "done", "homed", "error", "latched", "origin", "_vel",
          "_coast")  # shown by the status words only
 
