@@ -768,3 +768,22 @@ def test_an_assignment_to_the_loop_state_at_rest_ends_the_fixed_point(name, valu
     x0, k0 = dev.x, dev.k
     rig.step()
     assert dev.k > k0 and dev.x != x0 and not dev._fixed
+
+
+def test_a_snapshot_restores_the_caches_after_the_state_they_are_made_from():
+    """set_state assigns STATE in order: the properties' setters drop the caches, so the
+    caches must come after every property, or a restore would lose them (or keep stale
+    ones)."""
+    from softplc.devices.axis.servo import ServoAxis
+    from softplc.devices.axis.state import LOOP_STATE, SHOWN
+
+    at = ServoAxis.STATE.index
+    assert set(LOOP_STATE + SHOWN) <= set(ServoAxis.STATE)
+    assert max(map(at, LOOP_STATE + SHOWN)) < min(map(at, ("_fixed", "_creep", "_rest_words",
+                                                           "_st_slow")))
+    rig, dev = _cut_axis()
+    rig.run(0.05)
+    st = dev.state()
+    assert st["_fixed"] and st["_rest_words"] is not None
+    dev.set_state(st)
+    assert dev._fixed and dev._rest_words == st["_rest_words"]

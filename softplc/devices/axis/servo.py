@@ -71,8 +71,9 @@ class ServoAxis(AxisDevice):
     RUNNER: type[LoopRunner] = LoopRunner
     # Everything a scan changes (Device.state); K, a and the loop constants follow from
     # load_mass_ratio, gains and disturbance and are rebuilt by set_state. The trace is a
-    # record: see state(). (_rest_words, _st_slow: what the last status write left, for the
-    # generated scan; the memory image is restored with the state.)
+    # record: see state(). (_fixed, _creep, _rest_words, _st_slow: what the generated scan
+    # kept, listed after the properties whose setters drop them, so set_state restores
+    # them last; the memory image is restored with the state.)
     STATE = ("x", "v", "k", "origin", "fault", "closed", "open_loop", "_ol_u", "_ol_end",
              "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
              "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped",
