@@ -273,6 +273,38 @@ def test_estop_brakes_then_kills_through_the_amplifier_fault():
     assert rig.word("X", Word.STATUS) & St.ENABLED
 
 
+@pytest.mark.parametrize("toml, start, speed", [
+    ("servo_table.toml", -100_000.0, 69_632),  # Coulomb 31 bits, current limit 516
+    ("cutting_table.toml", 12_340_000.0, 200_000)])  # frictionless, no current limit
+@pytest.mark.parametrize("sign", [1, -1])
+def test_estop_brakes_to_rest_without_sliding_back(toml, start, speed, sign):
+    """The E-stop's braking ends where the velocity reaches 0: no servo tick carries the
+    carriage back against its travel (a drive's quick stop, as PMAC's abort: decelerate
+    to a stop, never reverse). With a = 0 the braking is a constant deceleration
+    K (brake + Coulomb), so the rest position is known in closed form."""
+    rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
+                        require_home=False)
+    dev = rig.axes["X"]
+    rig.command("X", Ctl.ENABLE)
+    rig.step()
+    rig.pulse("X", Ctl.EXECUTE, target=sign * 400_000, speed=speed)  # (from the start)
+    rig.run(0.3)
+    x0, v0 = dev.x, dev.v
+    assert sign * v0 > 0.9 * speed
+    rig.scan_us = 100  # (a scan shorter than the servo period: one sample per tick)
+    dev.set_fault("estop")
+    seen = [x0]
+    for _ in range(400):
+        rig.step()
+        seen.append(dev.x)
+    assert all(sign * (b - a) >= 0 for a, b in zip(seen, seen[1:], strict=False)), "slid back"
+    assert dev.v == 0.0 and seen[-100:] == [seen[-1]] * 100  # at rest, and stays
+    p = dev.opt.plant
+    brake = dev.u_peak if math.isfinite(dev.u_peak) else 32767.0
+    assert seen[-1] == pytest.approx(x0 + sign * v0 * v0 / (2 * dev.K * (brake + p.coulomb)),
+                                     abs=1e-6)
+
+
 def test_limit_switch_blocks_the_drive_and_the_error_becomes_fatal():
     rig = homed("X", start=0.0)
     dev = rig.axes["X"]
@@ -671,3 +703,87 @@ def test_the_loops_folded_constants_change_no_bit(toml, start):
         ax._scan = r.scan_function()
 
     assert scenario(toml, start) == scenario(toml, start, unfolded)
+
+
+# -- the generated scan's caches: an assignment from outside shows at once -------------------
+CHANGES = {  # attribute -> its new value from the present one
+    "homed": lambda v: not v, "done": lambda v: not v, "latched": lambda v: not v,
+    "origin": lambda v: v + 1234, "error": lambda v: Err.BAD_COMMAND,
+    "fe_max": lambda v: v + 99.0, "warn": lambda v: not v, "fe": lambda v: v + 3.0,
+    "u": lambda v: v + 5.0, "w": lambda v: v + 7.0, "x": lambda v: v + 10.0,
+    "closed": lambda v: not v, "fault": lambda v: "amp_fault"}
+
+
+def _cut_axis() -> tuple[Rig, object]:
+    rig = Rig.from_toml(ROOT / "ladder_programs" / "cutting_table.toml", "X")
+    rig.command("X", Ctl.ENABLE)
+    rig.step()
+    return rig, rig.axes["X"]
+
+
+def _words_are_the_state(rig: Rig, dev) -> None:
+    """The status words the scan wrote are those the state gives, written in full."""
+    b = rig.base("X")
+    seen = bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)])
+    dev.words.write()
+    assert seen == bytes(rig.mem.mw.buf[2 * b:2 * (b + Word.SIZE)])
+
+
+@pytest.mark.parametrize("name", CHANGES)
+def test_an_assignment_at_rest_shows_in_the_next_scans_words(name):
+    """At a fixed point the generated scan writes the words it kept; an attribute
+    assigned from outside the device's methods shows in the very next scan."""
+    rig, dev = _cut_axis()
+    rig.run(0.05)
+    assert dev._fixed and dev._rest_words is not None  # (the cached words are in use)
+    setattr(dev, name, CHANGES[name](getattr(dev, name)))
+    for _ in range(3):
+        rig.step()
+        _words_are_the_state(rig, dev)
+
+
+@pytest.mark.parametrize("name", CHANGES)
+def test_an_assignment_while_moving_shows_in_the_next_scans_words(name):
+    """A moving axis's generated scan starts from the status bits kept by the last full
+    write (`_st_slow`): an assignment from outside shows in the next scan too."""
+    rig, dev = _cut_axis()
+    rig.pulse("X", Ctl.EXECUTE, target=400_000, speed=200_000)
+    rig.run(0.2)
+    assert dev.v > 0 and dev._st_slow >= 0
+    setattr(dev, name, CHANGES[name](getattr(dev, name)))
+    for _ in range(3):
+        rig.step()
+        _words_are_the_state(rig, dev)
+
+
+@pytest.mark.parametrize("name, value", [("v", 5000.0), ("u", 40.0), ("x", 12_340_500.0),
+                                         ("_cp", 500.0)])
+def test_an_assignment_to_the_loop_state_at_rest_ends_the_fixed_point(name, value):
+    """The fixed point skips the servo cycles while the loop's state is unchanged: a
+    state set from outside runs them again (the carriage moves, then settles)."""
+    rig, dev = _cut_axis()
+    rig.run(0.05)
+    assert dev._fixed
+    setattr(dev, name, value)
+    x0, k0 = dev.x, dev.k
+    rig.step()
+    assert dev.k > k0 and dev.x != x0 and not dev._fixed
+
+
+def test_a_snapshot_restores_the_caches_after_the_state_they_are_made_from():
+    """set_state assigns STATE in order: the properties' setters drop the caches, so the
+    caches must come after every property, or a restore would lose them (or keep stale
+    ones)."""
+    from softplc.devices.axis.servo import ServoAxis
+    from softplc.devices.axis.state import LOOP_STATE, SHOWN
+
+    at = ServoAxis.STATE.index
+    assert set(LOOP_STATE + SHOWN) <= set(ServoAxis.STATE)
+    assert max(map(at, LOOP_STATE + SHOWN)) < min(map(at, ("_fixed", "_creep", "_rest_words",
+                                                           "_st_slow")))
+    rig, dev = _cut_axis()
+    rig.run(0.05)
+    st = dev.state()
+    assert st["_fixed"] and st["_rest_words"] is not None
+    dev.set_state(st)
+    assert dev._fixed and dev._rest_words == st["_rest_words"]

@@ -34,26 +34,26 @@ from typing import Any
 from . import status
 
 _HEAD = """\
-    x = dev.x
-    v = dev.v
+    x = dev.x_
+    v = dev.v_
     k = dev.k
-    cp = dev._cp
-    cpp = dev._cpp
-    cvp = dev._cvp
-    app = dev._app
-    ie = dev._ie
-    clamped = dev._clamped
-    u = dev.u
-    w = dev.w
-    fe = dev.fe
-    fe_max = dev.fe_max
-?closed    traj = dev._traj
+    cp = dev._cp_
+    cpp = dev._cpp_
+    cvp = dev._cvp_
+    app = dev._app_
+    ie = dev._ie_
+    clamped = dev._clamped_
+    u = dev.u_
+    w = dev.w_
+    fe = dev.fe_
+    fe_max = dev.fe_max_
+?closed    traj = dev._traj_
 ?closed    k0 = dev._k0
-?closed    tail_v = dev._tail_v
+?closed    tail_v = dev._tail_v_
 ?closed    ntraj = len(traj)
 ?trace    rec = dev._rec
 ?gather    gat = dev.gather.append
-?trace|gather    origin = dev.origin
+?trace|gather    origin = dev.origin_
 ?open_loop    ol_u = dev._ol_u
 ?open_loop    ol_end = dev._ol_end
 ?special    special = dev.runner.special
@@ -159,24 +159,24 @@ _LOOP = """\
             break
 """
 _STORE = """\
-    dev.x = x
-    dev.v = v
+    dev.x_ = x
+    dev.v_ = v
     dev.k = k
-    dev._cp = cp
-    dev._cpp = cpp
-    dev._cvp = cvp
-    dev._app = app
-    dev._ie = ie
-    dev._clamped = clamped
+    dev._cp_ = cp
+    dev._cpp_ = cpp
+    dev._cvp_ = cvp
+    dev._app_ = app
+    dev._ie_ = ie
+    dev._clamped_ = clamped
 ?closed&capture    dev._ca = ca
 ?closed&capture    dev._av = av
-    dev.u = u
-    dev.w = w
-    dev.fe = fe
-    dev.fe_max = fe_max
+    dev.u_ = u
+    dev.w_ = w
+    dev.fe_ = fe
+    dev.fe_max_ = fe_max
 ?closed&warn_on    warn = warn or (fe if fe >= 0 else -fe) > $warn_lim
 !closed|!warn_on    warn = False
-    dev.warn = warn
+    dev.warn_ = warn
 """
 _SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
     if event is not None:
@@ -188,22 +188,22 @@ _SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
 # moving (rendered with the flags of that state only), or held at a fixed point of the
 # loop (LoopRunner): the update's checks, the cycles above, the status words
 # (status.SOURCE) from the locals; at the fixed point the words of the last scan again,
-# with the new servo cycle count (so a state changed by assignment from outside the
-# device's methods shows in the words at its next change: a command, a move, a fault).
+# with the new servo cycle count. It reads and writes the state's fields (`x_`...): the
+# properties over them drop these caches when anyone else assigns them (state.guard).
 # It returns False, having done nothing, when the case
 # does not hold (a command word changed, a fault, an I-variable change waiting...);
 # whatever is rarer after the cycles (an event, the end of a trajectory, a limit wired
 # to the PMAC) goes to the device's own code.
 _SCAN = """\
 def scan(dev, t, dt):
-    if dev._w[$ctl_i] != dev._ctl_prev or not dev.closed or dev.fault != "none" \\
-            or dev.homing == 1 or dev._watch and not dev._ivars_clean():
+    if dev._w[$ctl_i] != dev._ctl_prev or not dev.closed_ or dev.fault_ != "none" \\
+            or dev.homing_ == 1 or dev._watch and not dev._ivars_clean():
         return False
     n = floor(round(t * 1e6) * $hz_us + 1e-9) - dev.k
     if n <= 0:
         return False
     if dev._fixed:  # at the fixed point, still since the last scan: only the count moves
-        x = dev.x
+        x = dev.x_
         if dev._creep or dev._active or x != dev._x_prev_scan \\
                 or not $plim_lo < x < $plim_hi or not dt > 0:
             return False
@@ -221,7 +221,7 @@ def scan(dev, t, dt):
             buf[$status_at:$status_end] = words
             _pack_ticks(buf, $ticks_at, k & 0x7FFFFFFF)
         return True
-    if dev.v == 0.0:
+    if dev.v_ == 0.0:
         return False
 """ + _HEAD + _LOOP + _STORE + """\
     if event is not None:
@@ -241,13 +241,13 @@ def scan(dev, t, dt):
         dev._finish(dt)
         return True
     if dt > 0:
-        vel = dev._vel = (x - dev._x_prev_scan) / dt
+        vel = dev._vel_ = (x - dev._x_prev_scan) / dt
     else:
-        vel = dev._vel
+        vel = dev._vel_
     dev._x_prev_scan = x
     closed = True
-    err = dev.error
-    origin = dev.origin
+    err = dev.error_
+    origin = dev.origin_
     in_pos, lp, lm, cur_scale, buf, at = $in_pos, $lp, $lm, $cur_scale, dev._buf, $status_at
 $status
     return True

@@ -97,11 +97,11 @@ class LoopRunner:
             return
         if a._fixed:
             n = self._repeat(n)  # (a creep may end within the scan: the rest computed)
-        elif not a.closed and self._at_rest_open():
+        elif not a.closed_ and self._at_rest_open():
             n, a.k = 0, due  # killed and stuck: nothing moves, nothing to record
-        elif a.v == 0.0 and self._fixed_candidate():
+        elif a.v_ == 0.0 and self._fixed_candidate():
             # (with FE != 0 and no clamp the integrator moves: a creep, not a fixed point)
-            if a.fe == 0.0 or a._clamped:
+            if a.fe_ == 0.0 or a._clamped_:
                 n = self._probe_fixed(n)
             else:
                 a._creep = self._creep_ticks()
@@ -125,11 +125,11 @@ class LoopRunner:
         """Loop open, carriage still and held by friction against the drive's offset and
         the load: the cycles would change nothing."""
         a = self.a
-        if a.closed or a.open_loop or a.v != 0.0 or a.fault != "none":
+        if a.closed_ or a.open_loop_ or a.v_ != 0.0 or a.fault_ != "none":
             return False
         p = a.opt.plant
         w = (p.amp_offset if a.amp_ready() else 0.0) - p.load - a.disturbance
-        return not p.load_table and abs(w) <= p.coulomb and a._lm < a.x < a._lp
+        return not p.load_table and abs(w) <= p.coulomb and a._lm < a.x_ < a._lp
 
     # -- the fixed point ----------------------------------------------------------------------
     # A servo cycle maps the loop state L = (x, v, CP, CP', CV', AP', IE, clamped, u) to the
@@ -146,14 +146,14 @@ class LoopRunner:
 
     def _loop_state(self) -> bytes:
         a = self.a
-        return self._PACK(a.x, a.v, a._cp, a._cpp, a._cvp, a._app, a._ie, a._clamped, a.u)
+        return self._PACK(a.x_, a.v_, a._cp_, a._cpp_, a._cvp_, a._app_, a._ie_, a._clamped_, a.u_)
 
     def _fixed_candidate(self) -> bool:
         """The conditions under which the cycle map is the same for every cycle."""
         a = self.a
-        return (a.closed and not a.open_loop and not a._tail_v
-                and a.k + 1 - a._k0 >= len(a._traj) and a.homing != 1
-                and a._ready and a.fault == "none" and a._lo < a.x < a._hi)
+        return (a.closed_ and not a.open_loop_ and not a._tail_v_
+                and a.k + 1 - a._k0 >= len(a._traj_) and a.homing_ != 1
+                and a._ready_ and a.fault_ == "none" and a._lo < a.x_ < a._hi)
 
     def _probe_fixed(self, n: int) -> int:
         """Run one of the n due cycles; note a fixed point. Returns the cycles left."""
@@ -168,26 +168,28 @@ class LoopRunner:
         up to n of a creep's (the integrator moves too). Returns the cycles left."""
         a = self.a
         k = a.k
-        o = a.origin
+        o = a.origin_
         if a._creep:
             n, left = min(n, a._creep), n - min(n, a._creep)
-            ie, fe = a._ie, a.fe
+            ie, fe = a._ie_, a.fe_
             for _ in range(n):  # the loop's own additions, in its order: bit for bit
                 ie += fe
-            a._ie = ie
+            # (the fields: a creep is the fixed point's own advance, run only by the
+            # device's generic update, which then writes the status words in full)
+            a._ie_ = ie
             a._creep -= n
             a._fixed = a._creep > 0
             c = self._values  # the drive's command over the last period: the held output's
-            a.w = max(c["nup"], min(c["up"], a.u + c["uoff"]))
+            a.w_ = max(c["nup"], min(c["up"], a.u_ + c["uoff"]))
         else:
             left = 0
         if a._rec is not None:
-            a.trace.extend(zip(range(k + 1, k + n + 1), repeat(a._cp - o),
-                               repeat(a._app - o), repeat(a.u), strict=False))
+            a.trace.extend(zip(range(k + 1, k + n + 1), repeat(a._cp_ - o),
+                               repeat(a._app_ - o), repeat(a.u_), strict=False))
         if a.gather is not None:
-            a.gather.extend(zip(range(k + 1, k + n + 1), repeat(a._cp - o),
-                                repeat(a._app - o), repeat(a.u),
-                                repeat(self._values["cie"] * a._ie), strict=False))
+            a.gather.extend(zip(range(k + 1, k + n + 1), repeat(a._cp_ - o),
+                                repeat(a._app_ - o), repeat(a.u_),
+                                repeat(self._values["cie"] * a._ie_), strict=False))
         a.k = k + n
         return left
 
@@ -199,37 +201,37 @@ class LoopRunner:
         """Cycles that are certainly a creep from now (0: none). Called at rest (v = 0)
         under `_fixed_candidate`."""
         a = self.a
-        fe, q = a.fe, a._dac_q
-        if (a._clamped or not q or a.gather is not None or a._cp != a._cpp
-                or a._cvp != 0.0 or a.opt.plant.load_table):
+        fe, q = a.fe_, a._dac_q
+        if (a._clamped_ or not q or a.gather is not None or a._cp_ != a._cpp_
+                or a._cvp_ != 0.0 or a.opt.plant.load_table):
             return 0
         c = self._values
         if abs(fe) > c["check"]:
             return 0
-        w = a.u + c["uoff"]  # the drive's command the output gives, then stiction?
+        w = a.u_ + c["uoff"]  # the drive's command the output gives, then stiction?
         w = max(-c["up"], min(c["up"], w)) - c["load"]
         if not -c["fc"] <= w <= c["fc"]:
             return 0
         # the law's output as the loop computes it (CV = CA = AV = 0), in the DAC step of u
-        u = c["cfe"] * fe + c["ccv"] * 0.0 + c["cca"] * 0.0 + c["cie"] * a._ie \
+        u = c["cfe"] * fe + c["ccv"] * 0.0 + c["cca"] * 0.0 + c["cie"] * a._ie_ \
             - c["cav"] * 0 + c["off"]
         lo = q * math.floor(u / q)
-        if lo != a.u or not -c["lim"] <= lo < lo + q <= c["lim"]:
+        if lo != a.u_ or not -c["lim"] <= lo < lo + q <= c["lim"]:
             return 0
         d = c["cie"] * fe  # the output's change per cycle
         if d == 0.0:
             return 0
         m = math.floor((lo + q - u) / d if d > 0 else (u - lo) / -d) - 2  # (2: a margin)
         if c["ilim"] != math.inf:
-            m = min(m, math.floor((c["ilim"] - abs(a._ie)) / abs(fe)) - 2)
+            m = min(m, math.floor((c["ilim"] - abs(a._ie_)) / abs(fe)) - 2)
         return max(m, 0)
     def cycles(self, n: int, capture: bool = False) -> int:
         """Run up to n loop cycles; returns how many are left when an event interrupts.
         `capture`: also keep the last cycle's CA and AV (`_ca`, `_av`; IVarTable.apply)."""
         a = self.a
-        closed, open_loop = a.closed, a.open_loop
-        ready = a._ready
-        key = (closed, open_loop, a.homing == 1, ready, a.fault != "none", capture)
+        closed, open_loop = a.closed_, a.open_loop_
+        ready = a._ready_
+        key = (closed, open_loop, a.homing_ == 1, ready, a.fault_ != "none", capture)
         fn = self._loops.get(key)
         if fn is None:
             flags = dict(self._flags, closed=closed, open_loop=open_loop,
@@ -245,7 +247,7 @@ class LoopRunner:
         """What interrupted the cycles (called by the loop with its state written back)."""
         a = self.a
         if event == "fatal":
-            x = a.x
+            x = a.x_
             a.motion.kill(Err.LIMIT if x >= a._lp or x <= a._lm else Err.FATAL_FE)
         elif event == "open loop end":  # output 0: the carriage coasts to a stop
             a._ol_u = 0.0
@@ -258,13 +260,15 @@ class LoopRunner:
         """The drive's and the mechanics' exceptional states, one cycle."""
         a = self.a
         p = a.opt.plant
-        if a.fault == "jammed":
+        if a.fault_ == "jammed":
             return x, 0.0
         brake = a.u_peak if math.isfinite(a.u_peak) else 32767.0
-        if a.estop_active():  # the drive brakes at its current limit, then lets go
+        if a.estop_active():
+            # The drive brakes at its current limit and lets go once the carriage is at
+            # rest (`hold`: the tick ends where the velocity reaches 0, never beyond: a
+            # braking that reversed would carry it back against its travel).
             w = -brake if v > 0 else (brake if v < 0 else 0.0)
-            x1, v1 = step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh)
-            return x1, (0.0 if v1 * v <= 0 else v1)
+            return step(x, v, w, a.K, a.a, p.coulomb, a.T, a.zoh, hold=True)
         stopping = False
         if not a._pmac_lim and (x >= a._lp and w > 0 or x <= a._lm and w < 0):
             # END switch: no torque further that way; quick stop if still moving that way

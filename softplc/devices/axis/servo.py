@@ -44,10 +44,12 @@ from .motion import Motion
 from .options import Err, ServoAxisOptions, Word
 from .plant import ZOH
 from .runner import LoopRunner
+from .state import guard
 from .status import StatusWords
 
 TRACE_HEADER = "t,commanded,actual,fe,output"
 @register_device("servo_axis")
+@guard  # (the state the generated scan's caches are made from: properties, state.guard)
 class ServoAxis(AxisDevice):
     """One motor: PMAC servo loop + amplifier + table axis. Positions in encoder counts.
 
@@ -69,8 +71,9 @@ class ServoAxis(AxisDevice):
     RUNNER: type[LoopRunner] = LoopRunner
     # Everything a scan changes (Device.state); K, a and the loop constants follow from
     # load_mass_ratio, gains and disturbance and are rebuilt by set_state. The trace is a
-    # record: see state(). (_rest_words, _st_slow: what the last status write left, for the
-    # generated scan; the memory image is restored with the state.)
+    # record: see state(). (_fixed, _creep, _rest_words, _st_slow: what the generated scan
+    # kept, listed after the properties whose setters drop them, so set_state restores
+    # them last; the memory image is restored with the state.)
     STATE = ("x", "v", "k", "origin", "fault", "closed", "open_loop", "_ol_u", "_ol_end",
              "_coast", "latched", "error", "homed", "homing", "done", "warn", "fe", "fe_max",
              "u", "w", "_cp", "_cpp", "_cvp", "_app", "_ie", "_clamped",
@@ -242,7 +245,7 @@ class ServoAxis(AxisDevice):
         self._tail_v = 0.0  # counts per cycle after the trajectory's end
         self._ctl_prev = 0
         self._vel = 0.0
-        self._x_prev_scan = self.x
+        self._x_prev_scan = self.x_
         self._fixed = False  # the loop's state is a fixed point: see LoopRunner
         self._creep = 0  # ... or a creep for that many cycles
         self._limit_stop = False  # the trajectory is a "pmac" limit's abort
@@ -261,16 +264,16 @@ class ServoAxis(AxisDevice):
     # -- positions (the interface limit switches and tools use) ----------------------------
     def _raw(self) -> float:
         if self._ideal:
-            return self.x - self._start
-        return floor(self.x) - self._enc0
+            return self.x_ - self._start
+        return floor(self.x_) - self._enc0
 
     @property
     def position(self) -> float:
         """True carriage position, counts from the home index mark."""
-        return self.x
+        return self.x_
 
     def axis_position(self) -> float:
-        return self.x
+        return self.x_
 
     def axis_end(self) -> float:
         return self._lp
@@ -278,11 +281,11 @@ class ServoAxis(AxisDevice):
     @property
     def actual(self) -> float:
         """Actual position as the controller sees it (encoder, user coordinates)."""
-        return self._raw() - self.origin
+        return self._raw() - self.origin_
 
     @property
     def commanded(self) -> float:
-        return self._cp - self.origin
+        return self._cp_ - self.origin_
 
     # -- per scan ---------------------------------------------------------------------------
     def update(self, t: float, dt: float) -> None:
@@ -295,10 +298,10 @@ class ServoAxis(AxisDevice):
                 self._mass_f = r
                 r += self.opt.plant.load_mass_ratio
                 self.set_load_mass_ratio(r if math.isfinite(r) and r >= 0 else 0.0)
-        fault = self.fault
+        fault = self.fault_  # (the fields: _finish writes the status words in full)
         # (amp_ready() inlined for the common case: no fault, drive not wired to inputs)
-        self._ready = ready = True if fault == "none" and not self._wired else self.amp_ready()
-        if self._w[self._ctl_i] != self._ctl_prev or not self.closed or fault != "none" or \
+        self._ready_ = ready = True if fault == "none" and not self._wired else self.amp_ready()
+        if self._w[self._ctl_i] != self._ctl_prev or not self.closed_ or fault != "none" or \
                 not ready:
             self.motion.commands()
         due = floor(round(t * 1e6) * self._hz_us + 1e-9)
@@ -306,7 +309,7 @@ class ServoAxis(AxisDevice):
             self.ivars.poll(due)
         n = due - self.k
         if n > 0:
-            if self._fixed or self.v == 0.0 or not self.closed:
+            if self._fixed or self.v_ == 0.0 or not self.closed_:
                 self._run(due)  # at rest, at a fixed point or open: the runner decides
             else:  # (the common case inline: moving, loop closed, no fixed point)
                 cycles = self._cycles
@@ -320,15 +323,15 @@ class ServoAxis(AxisDevice):
         """The scan after its servo cycles: limits wired to the PMAC, the velocity word,
         the sequencing at a trajectory's end, the status words."""
         self._rest_words = None
-        x = self.x
+        x = self.x_
         if not self._plo < x < self._phi:  # on a limit wired to the PMAC
             self.motion.limit_stop()
         if dt > 0:
-            self._vel = (x - self._x_prev_scan) / dt
+            self._vel_ = (x - self._x_prev_scan) / dt  # (the field: written in full below)
         self._x_prev_scan = x
-        if self._active and not self._tail_v and self.k - self._k0 + 1 >= len(self._traj):
+        if self._active and not self._tail_v_ and self.k - self._k0 + 1 >= len(self._traj_):
             self.motion.after_ticks()  # (it does nothing before the trajectory's end)
-        if self._coast and self.v == 0.0:  # after an open-loop output: close the loop here
+        if self._coast_ and self.v_ == 0.0:  # after an open-loop output: close the loop here
             self._coast = False
             if self.open_loop:
                 self.motion.close_loop()
@@ -337,20 +340,20 @@ class ServoAxis(AxisDevice):
 
     # -- drive state ------------------------------------------------------------------------
     def amp_ready(self) -> bool:
-        if self.fault in ("estop", "amp_fault"):
+        if self.fault_ in ("estop", "amp_fault"):
             return False
         if self._estop_idx is not None and self._i[self._estop_idx]:
             return False
         return self._power_idx is None or bool(self._q[self._power_idx])
 
     def estop_active(self) -> bool:
-        return self.fault == "estop" or (self._estop_idx is not None
+        return self.fault_ == "estop" or (self._estop_idx is not None
                                          and bool(self._i[self._estop_idx]))
 
     # -- status -----------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        return {"pos": round(self.actual), "fe": round(self.fe, 2), "homed": self.homed,
-                "error": Err.TEXT[self.error]}
+        return {"pos": round(self.actual), "fe": round(self.fe_, 2), "homed": self.homed_,
+                "error": Err.TEXT[self.error_]}
 
     # -- snapshots --------------------------------------------------------------------------
     def state(self) -> dict[str, Any]:

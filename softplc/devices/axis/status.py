@@ -75,11 +75,11 @@ _pack(buf, at, round(ap - origin), round(cp - origin), fe if closed else 0.0, fe
 """
 
 _PROLOGUE = """\
-    closed, open_loop, coast, homing = dev.closed, dev.open_loop, dev._coast, dev.homing
-    ntraj, tail_v, done, homed, warn = len(dev._traj), dev._tail_v, dev.done, dev.homed, \\
-        dev.warn
-    fe, fe_max, err, latched, ready = dev.fe, dev.fe_max, dev.error, dev.latched, dev._ready
-    x, cp, origin, k, u, w, vel = dev.x, dev._cp, dev.origin, dev.k, dev.u, dev.w, dev._vel
+    closed, open_loop, coast, homing = dev.closed_, dev.open_loop_, dev._coast_, dev.homing_
+    ntraj, tail_v, done, homed, warn = len(dev._traj_), dev._tail_v_, dev.done_, dev.homed_, \\
+        dev.warn_
+    fe, fe_max, err, latched, ready = dev.fe_, dev.fe_max_, dev.error_, dev.latched_, dev._ready_
+    x, cp, origin, k, u, w, vel = dev.x_, dev._cp_, dev.origin_, dev.k, dev.u_, dev.w_, dev._vel_
     ap = x - dev._start if dev._ideal else floor(x) - dev._enc0  # (_raw() inlined)
     in_pos, lp, lm, cur_scale = dev._in_pos, dev._lp, dev._lm, dev._cur_scale
     buf, at = dev._buf, dev._status_at
