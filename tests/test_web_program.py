@@ -26,13 +26,6 @@ CONFIG = STAR.with_suffix(".toml").read_text()
 NO_COUNTER_CONFIG = CONFIG.replace('[counters."%C0"]\npreset = 9999\n', "")
 
 
-@pytest.fixture
-def star():
-    s = Stack(STAR, STAR.with_suffix(".toml"))
-    yield s
-    s.close()
-
-
 def counted(s: Stack, n: int) -> None:
     """%C0 (starts) set to n through the API, as if the motor had started n times."""
     s.client().set("%C0.P", 9999)

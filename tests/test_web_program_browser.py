@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import re
 
-import pytest
 from test_web_api import STAR, Stack
 from test_web_browser import browser, open_page, shot, sync_api  # noqa: F401 (fixture)
 
@@ -16,13 +15,6 @@ NO_COUNTER = SOURCE.replace("BLK   %C0\nLD    %Q0.0\nCU\nEND_BLK\n", "").replace
     "[ %MW10 := %C0.V ]", "[ %MW10 := 0 ]")
 NO_COUNTER_CONFIG = STAR.with_suffix(".toml").read_text().replace(
     '[counters."%C0"]\npreset = 9999\n', "")
-
-
-@pytest.fixture
-def star():
-    s = Stack(STAR, STAR.with_suffix(".toml"))
-    yield s
-    s.close()
 
 
 def url(s: Stack) -> str:
