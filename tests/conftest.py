@@ -44,3 +44,13 @@ def _unit_tier_guard(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(socket.socket, "bind", refuse)
     monkeypatch.setattr(subprocess.Popen, "__init__", refuse)
     yield
+
+
+@pytest.fixture
+def star():
+    """The star-delta example on the daemon's stack in one process (test_web_api.Stack)."""
+    from test_web_api import STAR, Stack  # (aiohttp and the web monitor: only when asked)
+
+    s = Stack(STAR, STAR.with_suffix(".toml"))
+    yield s
+    s.close()

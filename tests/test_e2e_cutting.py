@@ -20,8 +20,8 @@ from pathlib import Path
 import pytest
 from daemon_util import ROOT, Daemon
 
-from softplc.cutting import load_piece
-from softplc.cutting.client import CutClient, trace_deviation
+from softplc.cutting import Piece, load_piece
+from softplc.cutting.client import CutClient, CutResult, TraceReport, trace_deviation
 from softplc.cutting.regmap import SegmentWords
 from softplc.errors import HostError
 
@@ -76,9 +76,19 @@ def cut(daemon: Daemon, trace: Path, piece_file: str, poll: float = 0.01,
     running = trace.read_bytes()
     assert daemon.stop() == 0
     assert trace.read_bytes() == running
+    return piece, res, frames, deviation(piece, trace, res)
+
+
+def deviation(piece: Piece, trace: Path, res: CutResult) -> TraceReport:
+    """The trace against the ideal piece, in the work frame the host homed to (`res`)."""
     start = START_MM * COUNTS_PER_MM
     origin = (start + res.origin_counts[0], start + res.origin_counts[1])
-    return piece, res, frames, trace_deviation(piece, trace, origin, COUNTS_PER_MM)
+    return trace_deviation(piece, trace, origin, COUNTS_PER_MM)
+
+
+def assert_follows_the_piece(piece: Piece, rep: TraceReport) -> None:
+    assert rep.worst <= piece.tolerance + UM
+    assert math.dist(rep.end, piece.end) <= UM
 
 
 def check_run(piece, res, frames, rep) -> None:
@@ -86,8 +96,7 @@ def check_run(piece, res, frames, rep) -> None:
     assert not res.interrupted and res.last_number == total and res.done == total
     assert frames == total  # no segment missed or repeated (it starts at the origin)
     assert rep.samples > 1000
-    assert rep.worst <= piece.tolerance + UM
-    assert math.dist(rep.end, piece.end) <= UM
+    assert_follows_the_piece(piece, rep)
     for origin in res.origin_counts:  # homing through the daemon: zero at the switch stop,
         # 30 mm retract: the work origin's true distance from the min trip point (E8)
         assert 29.47 <= (START_MM * COUNTS_PER_MM + origin) / COUNTS_PER_MM <= 29.50
@@ -230,11 +239,8 @@ def test_ctrl_c_stops_with_the_torch_off_and_the_piece_resumes(table):
         res2 = client.stream(piece, start_at=res.next_number)
     assert not res2.interrupted and res2.last_number == len(piece.segments())
     assert daemon.stop() == 0
-    start = START_MM * COUNTS_PER_MM
-    origin = (start + res2.origin_counts[0], start + res2.origin_counts[1])
-    rep = trace_deviation(piece, trace, origin, COUNTS_PER_MM)
-    assert rep.worst <= piece.tolerance + UM  # the torch was off back to segment n's start
-    assert math.dist(rep.end, piece.end) <= UM
+    # the torch was off back to segment n's start
+    assert_follows_the_piece(piece, deviation(piece, trace, res2))
 
 
 def force_when(web: int, port: int, obj: str, value: int, ready) -> threading.Thread:
@@ -319,8 +325,4 @@ def test_a_fault_mid_piece_resumes_after_reset_from_the_faulted_segment(table):
         res2 = client.stream(piece, start_at=res.next_number)
     assert not res2.fault and res2.last_number == len(piece.segments())
     assert daemon.stop() == 0
-    start = START_MM * COUNTS_PER_MM
-    origin = (start + res2.origin_counts[0], start + res2.origin_counts[1])
-    rep = trace_deviation(piece, trace, origin, COUNTS_PER_MM)
-    assert rep.worst <= piece.tolerance + UM
-    assert math.dist(rep.end, piece.end) <= UM
+    assert_follows_the_piece(piece, deviation(piece, trace, res2))

@@ -78,6 +78,18 @@ def run_table(plc: PLC, words: list[int], n: int, scans: int = 1) -> None:
     plc.scan(scans)
 
 
+# remote 1, FC03: read the word at address 0 (Tx 6 bytes, Rx offset 3)
+READ_WORD_0 = [0x0106, 0x0300, 0x0103, 0, 1]
+
+
+def finish(plc: PLC) -> tuple[int, float]:
+    """Scan until the exchange in progress is done (%MSG3.D): the scans and PLC seconds."""
+    first, t0 = plc.scan_count, plc.time
+    while not plc["%MSG3.D"]:
+        plc.scan()
+    return plc.scan_count - first, plc.time - t0
+
+
 def u(plc: PLC, a: int) -> int:
     return plc.mem.mw.w[a] & 0xFFFF
 
@@ -118,18 +130,16 @@ def test_timeout_counts_in_virtual_time(silent_port):
     # a server that accepts and never answers: %SW65 = 5 [manual] once the configured
     # timeout has passed in PLC time, not earlier, whatever the machine's speed
     plc = PLC.from_source(ONE_SHOT.format(n=10), config(silent_port, timeout="100ms"))
-    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
-    t0 = plc.time
-    while not plc["%MSG3.D"]:
-        plc.scan()
+    run_table(plc, READ_WORD_0, 10, scans=0)
+    _, seconds = finish(plc)
     assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TIMEOUT
-    assert plc.time - t0 == pytest.approx(0.100, abs=0.011)
+    assert seconds == pytest.approx(0.100, abs=0.011)
     plc.close()
 
 
 def test_nothing_listening():
     plc = PLC.from_source(ONE_SHOT.format(n=10), config(free_port()))
-    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10)
+    run_table(plc, READ_WORD_0, 10)
     assert plc["%MSG3.D"] and plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TX
     assert plc.state == "RUN"
 
@@ -171,7 +181,7 @@ def test_malformed_reply():
         t = threading.Thread(target=answer, daemon=True)
         t.start()
         plc = PLC.from_source(ONE_SHOT.format(n=10), config(srv.getsockname()[1]))
-        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10)
+        run_table(plc, READ_WORD_0, 10)
         assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_RX
         t.join(5)
         plc.close()
@@ -198,7 +208,7 @@ def test_one_exchange_at_a_time_and_reset(silent_port):
 
 def test_stop_ends_the_exchange(silent_port):
     plc = PLC.from_source(ONE_SHOT.format(n=10), config(silent_port))
-    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
+    run_table(plc, READ_WORD_0, 10, scans=0)
     plc.stop()
     plc.scan()
     assert plc["%MSG3.D"] and plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_STOPPED
@@ -278,18 +288,15 @@ def test_real_clock_never_blocks_the_scan(silent_port):
     # the silent server keeps the exchange pending, and the timeout ends it
     plc = PLC.from_source(ONE_SHOT.format(n=10),
                           config(silent_port, timeout="100ms"), clock="real")
-    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
-    first = plc.scan_count
-    while not plc["%MSG3.D"]:
-        plc.scan()
-    assert plc.scan_count - first > 3  # 10 ms scans during a 100 ms wait
+    run_table(plc, READ_WORD_0, 10, scans=0)
+    scans, _ = finish(plc)
+    assert scans > 3  # 10 ms scans during a 100 ms wait
     assert plc["%SW65"] == exch.ERR_TIMEOUT
     plc.close()
     with PymodbusServer() as srv:  # and a reply lands at a later scan boundary
         plc = PLC.from_source(ONE_SHOT.format(n=10), config(srv.port), clock="real")
         run_table(plc, [0x0106, 0x0300, 0x0103, 4, 1], 10, scans=0)
-        while not plc["%MSG3.D"]:
-            plc.scan()
+        finish(plc)
         assert not plc["%MSG3.E"] and u(plc, 7) == 104
         plc.close()
 
@@ -302,7 +309,7 @@ def test_repl_prints_the_block(tmp_path):
     plc = PLC.from_file(prog, config(free_port()))
     s = Session(plc, prog)
     assert s.execute("print %MSG3") == "%MSG3 = D=1 E=0"
-    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10)  # nothing listening: error 6
+    run_table(plc, READ_WORD_0, 10)  # nothing listening: error 6
     assert s.execute("print %MSG3.E %SW65") == "%MSG3.E = 1\n%SW65 = 6"
     plc.close()
 
@@ -382,12 +389,10 @@ def test_dripping_remote_fails_at_the_deadline_in_virtual_time(dripper):
     # (300 ms after the request) ends it, delivered at that PLC time, and scans go on
     plc = PLC.from_source(ONE_SHOT.format(n=10) + "LD 1\n[%MW30 := %MW30 + 1]\n",
                           config(dripper.port, timeout="300ms"))
-    run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
-    t0 = plc.time
-    while not plc["%MSG3.D"]:
-        plc.scan()
+    run_table(plc, READ_WORD_0, 10, scans=0)
+    _, seconds = finish(plc)
     assert plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TIMEOUT
-    assert plc.time - t0 == pytest.approx(0.300, abs=0.011)
+    assert seconds == pytest.approx(0.300, abs=0.011)
     before = plc["%MW30"]
     plc.scan(50)
     assert plc["%MW30"] == before + 50
@@ -401,14 +406,11 @@ def test_dripping_remote_does_not_hold_the_next_exchange(dripper):
         cfg = config(dripper.port, timeout="300ms")
         cfg["exch"]["remote"]["2"] = {"host": "127.0.0.1", "port": srv.port, "unit_id": 1}
         plc = PLC.from_source(ONE_SHOT.format(n=10), cfg, clock="real")
-        run_table(plc, [0x0106, 0x0300, 0x0103, 0, 1], 10, scans=0)
-        first = plc.scan_count
-        while not plc["%MSG3.D"]:
-            plc.scan()
-        assert plc["%SW65"] == exch.ERR_TIMEOUT and plc.scan_count - first > 3
+        run_table(plc, READ_WORD_0, 10, scans=0)
+        scans, _ = finish(plc)
+        assert plc["%SW65"] == exch.ERR_TIMEOUT and scans > 3
         run_table(plc, [0x0106, 0x0300, 0x0203, 4, 1], 10, scans=0)
-        while not plc["%MSG3.D"]:
-            plc.scan()
+        finish(plc)
         assert not plc["%MSG3.E"] and u(plc, 7) == 104
         plc.close()
 

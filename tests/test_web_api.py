@@ -79,13 +79,6 @@ class Stack:
         self.modbus.stop()
 
 
-@pytest.fixture
-def star():
-    s = Stack(STAR, STAR.with_suffix(".toml"))
-    yield s
-    s.close()
-
-
 def _release_and_reset(s: Stack, c: Client) -> None:
     """Stop (NC) and overload (NC) closed, fault reset pulsed: ready to start."""
     c.set("%I0.1", 1)

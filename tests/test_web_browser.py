@@ -12,7 +12,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from daemon_util import ROOT, Daemon
+from daemon_util import ROOT, Daemon, started
 
 from softplc.commands.io import Client
 
@@ -42,6 +42,16 @@ def browser():
 def web_url(d: Daemon) -> str:
     line = next(x for x in d.out if "web monitor on" in x)
     return re.search(r"(http://\S+/)", line)[1]
+
+
+def start(daemons: list[Daemon], tmp_path: Path, name: str,
+          *args: str) -> tuple[Daemon, str, Client]:
+    """The example ladder_programs/`name`.il with its .toml under a daemon, its web monitor
+    on a free port: the daemon, the page's URL and an API client (`daemons` kills it)."""
+    d = started(daemons, tmp_path, "--config", str(PROGRAMS / f"{name}.toml"), "--web", "0",
+                "--stats-interval", "0", *args, program=PROGRAMS / f"{name}.il")
+    url = web_url(d)
+    return d, url, Client("127.0.0.1", int(re.search(r":(\d+)/$", url)[1]))
 
 
 def open_page(browser, url: str):
@@ -158,69 +168,57 @@ def test_animation_table_write_read_back_with_mbpoll(browser, star_daemon):
     page.close()
 
 
-def test_drawing_table_machine_view(browser, tmp_path):
-    d = Daemon(tmp_path, "--config", str(PROGRAMS / "drawing_table.toml"), "--web", "0",
-               "--speed", "4", "--stats-interval", "0", program=PROGRAMS / "drawing_table.il")
-    try:
-        url = web_url(d)
-        page = open_page(browser, url)
-        page.click("#tabs button[data-tab=machine]")
-        sync_api.expect(page.locator("#table-outline")).to_be_visible()
-        api = Client("127.0.0.1", int(re.search(r":(\d+)/$", url)[1]))
-        for _ in range(200):  # homing done: both axes at 0
-            if api.get("%MW3")["%MW3"] == 0 and page.locator("#pen-path").count() == 0 and \
-                    api.request("machine?since=0")["devices"]["X"]["pos"] == 0 and \
-                    api.request("machine?since=0")["devices"]["Z"]["pos"] == 0:
-                break
-            page.wait_for_timeout(50)
-        api.request("write", {"writes": [{"object": "%MW0", "value": 600},
-                                         {"object": "%MW1", "value": 400},
-                                         {"object": "%MW5", "value": 1}]})
-        api.set("%MW3", 120)  # start the segment, as the host does
-        path = page.locator("#pen-path")
-        sync_api.expect(path).to_have_count(1, timeout=15000)
-        page.wait_for_function(
-            "() => { const p = document.querySelector('#pen-path');"
-            " return p && p.getTotalLength() > 100; }", timeout=15000)
-        shot(page, "machine")
-        page.close()
-    finally:
-        d.kill()
+def test_drawing_table_machine_view(browser, tmp_path, daemons):
+    _, url, api = start(daemons, tmp_path, "drawing_table", "--speed", "4")
+    page = open_page(browser, url)
+    page.click("#tabs button[data-tab=machine]")
+    sync_api.expect(page.locator("#table-outline")).to_be_visible()
+    for _ in range(200):  # homing done: both axes at 0
+        if api.get("%MW3")["%MW3"] == 0 and page.locator("#pen-path").count() == 0 and \
+                api.request("machine?since=0")["devices"]["X"]["pos"] == 0 and \
+                api.request("machine?since=0")["devices"]["Z"]["pos"] == 0:
+            break
+        page.wait_for_timeout(50)
+    api.request("write", {"writes": [{"object": "%MW0", "value": 600},
+                                     {"object": "%MW1", "value": 400},
+                                     {"object": "%MW5", "value": 1}]})
+    api.set("%MW3", 120)  # start the segment, as the host does
+    path = page.locator("#pen-path")
+    sync_api.expect(path).to_have_count(1, timeout=15000)
+    page.wait_for_function(
+        "() => { const p = document.querySelector('#pen-path');"
+        " return p && p.getTotalLength() > 100; }", timeout=15000)
+    shot(page, "machine")
+    page.close()
 
 
-def test_analog_slider_reaches_the_plc(browser, tmp_path):
+def test_analog_slider_reaches_the_plc(browser, tmp_path, daemons):
     """analog_thermostat: the base's potentiometer %IW0.0 is a slider; the program copies it
     to %MW0 (/4). The PT100 %IW2.0 follows the oven (slider locked), %QW2.0 is a value."""
-    d = Daemon(tmp_path, "--config", str(PROGRAMS / "analog_thermostat.toml"), "--web", "0",
-               "--stats-interval", "0", program=PROGRAMS / "analog_thermostat.il")
-    try:
-        url = web_url(d)
-        page = open_page(browser, url)
-        pot = page.locator('#analog .aio[data-addr="%IW0.0"]')
-        assert pot.locator(".lo").inner_text() == "0" and pot.locator(".hi").inner_text() == "1"
-        pot.locator("input[type=range]").fill("0.5")  # input + change, as a drag released
-        api = Client("127.0.0.1", int(re.search(r":(\d+)/$", url)[1]))
-        for _ in range(100):
-            if api.get("%MW0")["%MW0"] == 128:
-                break
-            page.wait_for_timeout(50)
-        assert api.get("%IW0.0", "%MW0") == {"%IW0.0": 512, "%MW0": 128}  # 0.5 * 1023, / 4
-        sync_api.expect(pot.locator(".aword")).to_have_text("(%IW0.0 = 512)")
-        sync_api.expect(pot.locator(".aval")).to_have_text("0.5")
-        pt100 = page.locator('#analog .aio[data-addr="%IW2.0"]')
-        assert pt100.locator("input[type=range]").is_disabled()  # the oven drives it
-        assert "°C" in pt100.locator(".aval").inner_text()
-        spare = page.locator('#analog .aio[data-addr="%IW2.1"]')  # not in [analog]
-        sync_api.expect(spare.locator(".aval")).to_have_text("no signal")
-        sync_api.expect(spare.locator(".aword")).to_have_text("(%IW2.1 = 0)")
-        assert spare.locator("input[type=range]").is_disabled()
-        heater = page.locator('#analog .aio.out[data-addr="%QW2.0"]')
-        sync_api.expect(heater.locator(".aval")).to_have_text(re.compile(r"^(10|0) V$"))
-        assert heater.locator("input").count() == 0
-        shot(page, "analog")
-        page.close()
-    finally:
-        d.kill()
+    _, url, api = start(daemons, tmp_path, "analog_thermostat")
+    page = open_page(browser, url)
+    pot = page.locator('#analog .aio[data-addr="%IW0.0"]')
+    assert pot.locator(".lo").inner_text() == "0" and pot.locator(".hi").inner_text() == "1"
+    pot.locator("input[type=range]").fill("0.5")  # input + change, as a drag released
+    for _ in range(100):
+        if api.get("%MW0")["%MW0"] == 128:
+            break
+        page.wait_for_timeout(50)
+    assert api.get("%IW0.0", "%MW0") == {"%IW0.0": 512, "%MW0": 128}  # 0.5 * 1023, / 4
+    sync_api.expect(pot.locator(".aword")).to_have_text("(%IW0.0 = 512)")
+    sync_api.expect(pot.locator(".aval")).to_have_text("0.5")
+    pt100 = page.locator('#analog .aio[data-addr="%IW2.0"]')
+    assert pt100.locator("input[type=range]").is_disabled()  # the oven drives it
+    assert "°C" in pt100.locator(".aval").inner_text()
+    spare = page.locator('#analog .aio[data-addr="%IW2.1"]')  # not in [analog]
+    sync_api.expect(spare.locator(".aval")).to_have_text("no signal")
+    sync_api.expect(spare.locator(".aword")).to_have_text("(%IW2.1 = 0)")
+    assert spare.locator("input[type=range]").is_disabled()
+    heater = page.locator('#analog .aio.out[data-addr="%QW2.0"]')
+    sync_api.expect(heater.locator(".aval")).to_have_text(re.compile(r"^(10|0) V$"))
+    assert heater.locator("input").count() == 0
+    shot(page, "analog")
+    page.close()
 
 
 def test_animation_table_of_output_bits_survives_any_value_and_resets(browser, star_daemon):

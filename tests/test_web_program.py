@@ -4,10 +4,13 @@ the Modbus map routes, and `softplc load` (issue 24), on the daemon's stack in p
 from __future__ import annotations
 
 import json
+import re
 import time
 import urllib.request
+from pathlib import Path
 
 import pytest
+from daemon_util import Daemon, started
 from test_web_api import STAR, Stack
 
 from softplc.cli import main as cli
@@ -21,13 +24,6 @@ NO_COUNTER = SOURCE.replace("BLK   %C0\nLD    %Q0.0\nCU\nEND_BLK\n", "").replace
     "[ %MW10 := %C0.V ]", "[ %MW10 := 0 ]")
 CONFIG = STAR.with_suffix(".toml").read_text()
 NO_COUNTER_CONFIG = CONFIG.replace('[counters."%C0"]\npreset = 9999\n', "")
-
-
-@pytest.fixture
-def star():
-    s = Stack(STAR, STAR.with_suffix(".toml"))
-    yield s
-    s.close()
 
 
 def counted(s: Stack, n: int) -> None:
@@ -204,43 +200,36 @@ def until(ok, timeout: float = 5.0) -> None:
         time.sleep(0.02)
 
 
-def test_load_into_a_running_daemon(tmp_path, capsys):
+def web_port(d: Daemon) -> str:
+    """The port of a daemon's web monitor, from its banner."""
+    return re.search(r":(\d+)/", next(x for x in d.out if "web monitor on" in x))[1]
+
+
+def test_load_into_a_running_daemon(tmp_path, capsys, daemons):
     """`softplc load` against a real `softplc run`: the counter counted by the old program
     survives the change, and the new program runs."""
-    import re
-
-    from daemon_util import Daemon
-
-    d = Daemon(tmp_path, "--config", str(STAR.with_suffix(".toml")), "--web", "0",
-               "--stats-interval", "0", program=STAR)
-    try:
-        line = next(x for x in d.out if "web monitor on" in x)
-        port = re.search(r":(\d+)/", line)[1]
-        c = Client("127.0.0.1", int(port))
-        c.set("%I0.1", 1)  # stop (NC) and overload relay (NC) closed, fault reset pulsed
-        c.set("%I0.2", 1)
-        c.set("%I0.3", 1)
-        c.set("%I0.3", 0)
-        c.set("%I0.0", 1)  # start: KM1 latches, %C0 counts one start
-        until(lambda: c.get("%C0.V")["%C0.V"] == 1)
-        prog = tmp_path / "steady.il"
-        prog.write_text(STEADY.replace("[ %MW11 := 0 ]", "[ %MW11 := 0 ]\n[ %MW12 := 77 ]"))
-        assert cli(["load", str(prog), "--port", port]) == 0
-        assert "version 1" in capsys.readouterr().out
-        until(lambda: c.get("%MW12")["%MW12"] == 77)
-        assert c.get("%C0.V", "%MW12", "%Q0.0") == {"%C0.V": 1, "%MW12": 77, "%Q0.0": 1}
-    finally:
-        d.kill()
+    d = started(daemons, tmp_path, "--config", str(STAR.with_suffix(".toml")), "--web", "0",
+                "--stats-interval", "0", program=STAR)
+    port = web_port(d)
+    c = Client("127.0.0.1", int(port))
+    c.set("%I0.1", 1)  # stop (NC) and overload relay (NC) closed, fault reset pulsed
+    c.set("%I0.2", 1)
+    c.set("%I0.3", 1)
+    c.set("%I0.3", 0)
+    c.set("%I0.0", 1)  # start: KM1 latches, %C0 counts one start
+    until(lambda: c.get("%C0.V")["%C0.V"] == 1)
+    prog = tmp_path / "steady.il"
+    prog.write_text(STEADY.replace("[ %MW11 := 0 ]", "[ %MW11 := 0 ]\n[ %MW12 := 77 ]"))
+    assert cli(["load", str(prog), "--port", port]) == 0
+    assert "version 1" in capsys.readouterr().out
+    until(lambda: c.get("%MW12")["%MW12"] == 77)
+    assert c.get("%C0.V", "%MW12", "%Q0.0") == {"%C0.V": 1, "%MW12": 77, "%Q0.0": 1}
 
 
-def test_the_state_file_follows_the_loaded_program(tmp_path, capsys):
+def test_the_state_file_follows_the_loaded_program(tmp_path, capsys, daemons):
     """After `softplc load`, the --state file belongs to the new program: a restart with
     the new program file warm-starts (the counter kept); one with the old file cold-starts
     (its state is not laid into a program it does not belong to)."""
-    import re
-
-    from daemon_util import Daemon
-
     cfg, state = str(STAR.with_suffix(".toml")), str(tmp_path / "plc.state")
     (tmp_path / "star_delta_symbols.csv").write_bytes(
         (STAR.parent / "star_delta_symbols.csv").read_bytes())
@@ -249,30 +238,20 @@ def test_the_state_file_follows_the_loaded_program(tmp_path, capsys):
     new = tmp_path / "steady.il"
     new.write_text(STEADY)
 
-    def start(program):
-        d = Daemon(tmp_path, "--config", cfg, "--state", state, "--web", "0",
-                   "--stats-interval", "0", program=program)
-        line = next(x for x in d.out if "web monitor on" in x)
-        return d, re.search(r":(\d+)/", line)[1]
+    def start(program: Path) -> tuple[Daemon, str]:
+        d = started(daemons, tmp_path, "--config", cfg, "--state", state, "--web", "0",
+                    "--stats-interval", "0", program=program)
+        return d, web_port(d)
 
     d, port = start(old)
-    try:
-        c = Client("127.0.0.1", int(port))
-        c.set("%MW100", 123)  # a retained word no program writes
-        until(lambda: c.get("%MW100")["%MW100"] == 123)
-        assert cli(["load", str(new), "--port", port, "--yes"]) == 0
-        assert d.stop() == 0
-    finally:
-        d.kill()
+    c = Client("127.0.0.1", int(port))
+    c.set("%MW100", 123)  # a retained word no program writes
+    until(lambda: c.get("%MW100")["%MW100"] == 123)
+    assert cli(["load", str(new), "--port", port, "--yes"]) == 0
+    assert d.stop() == 0
     d, port = start(new)
-    try:
-        assert "warm start" in d.out[0], d.out[0]
-        assert Client("127.0.0.1", int(port)).get("%MW100")["%MW100"] == 123
-        assert d.stop() == 0
-    finally:
-        d.kill()
+    assert "warm start" in d.out[0], d.out[0]
+    assert Client("127.0.0.1", int(port)).get("%MW100")["%MW100"] == 123
+    assert d.stop() == 0
     d, _ = start(old)
-    try:
-        assert "cold start (the program or configuration changed" in d.out[0], d.out[0]
-    finally:
-        d.kill()
+    assert "cold start (the program or configuration changed" in d.out[0], d.out[0]

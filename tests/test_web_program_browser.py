@@ -6,23 +6,9 @@ from __future__ import annotations
 
 import re
 
-import pytest
-from test_web_api import STAR, Stack
+from test_web_api import Stack
 from test_web_browser import browser, open_page, shot, sync_api  # noqa: F401 (fixture)
-
-SOURCE = STAR.read_text()
-STEADY = SOURCE.replace("LD    %M1\nAND   %S6\nST    %Q0.3", "LD    %M1\nST    %Q0.3")
-NO_COUNTER = SOURCE.replace("BLK   %C0\nLD    %Q0.0\nCU\nEND_BLK\n", "").replace(
-    "[ %MW10 := %C0.V ]", "[ %MW10 := 0 ]")
-NO_COUNTER_CONFIG = STAR.with_suffix(".toml").read_text().replace(
-    '[counters."%C0"]\npreset = 9999\n', "")
-
-
-@pytest.fixture
-def star():
-    s = Stack(STAR, STAR.with_suffix(".toml"))
-    yield s
-    s.close()
+from test_web_program import NO_COUNTER, NO_COUNTER_CONFIG, SOURCE, STEADY
 
 
 def url(s: Stack) -> str:

@@ -21,13 +21,6 @@ from softplc.web import pages
 aiohttp = pytest.importorskip("aiohttp")
 
 
-@pytest.fixture
-def star():
-    s = Stack(STAR, STAR.with_suffix(".toml"))
-    yield s
-    s.close()
-
-
 async def _http(port: int, method: str, path: str, body: bytes | None = None,
                 headers: dict[str, str] | None = None) -> tuple[int, str, dict[str, str]]:
     hdrs = {"Content-Type": "application/json"} if body is not None else {}

@@ -35,6 +35,7 @@ import importlib
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -48,9 +49,6 @@ import bench_wordops
 from peers.common import describe_machine, machine_info, progress
 
 ROOT = Path(__file__).resolve().parents[1]
-
-SECTIONS = ("engine", "wordops", "peers", "modbus", "drawing", "servo", "cutting", "mass")
-
 
 def run_modbus_section(quick: bool) -> dict[str, Any]:
     """bench_modbus.run(...) if another part of the project provides it."""
@@ -79,6 +77,30 @@ def modbus_report(res: dict[str, Any]) -> str:
             f"{r[n].get(k, float('nan')):>14.3f}" if isinstance(r[n].get(k), float)
             else f"{r[n].get(k, '-'):>14}" for n in r))
     return "\n".join(lines)
+
+
+def drawing_report(r: dict[str, Any]) -> str:
+    return (f"Simulated drawing: {r['segments']} segments at a 1 ms scan, "
+            f"{r['simulated_s']:.1f} simulated s in {r['wall_s']:.2f} wall s = "
+            f"{r['speedup']:.0f}x real time ({r['us_per_scan']:.2f} us per scan with the "
+            f"machine and the host loop; {r['missed_steps']} missed steps)  "
+            f"target >= 50x  {'met' if r['speedup'] >= 50 else 'MISSED'}")
+
+
+# section -> (run it, given --quick; its report), in the order they run
+SECTION_RUNS: dict[str, tuple[Callable[[bool], Any], Callable[[Any], str]]] = {
+    "engine": (lambda quick: bench_engine.run(quick=quick), bench_engine.report),
+    "wordops": (lambda quick: bench_wordops.run(200, 500 if quick else 2000, 3 if quick else 7),
+                bench_wordops.report),
+    "peers": (lambda quick: bench_peers.run(quick=quick), bench_peers.report),
+    "modbus": (run_modbus_section, modbus_report),
+    "drawing": (lambda quick: bench_drawing.run(segments=30 if quick else 100), drawing_report),
+    "servo": (lambda quick: bench_servo.run(seconds=2.0 if quick else 5.0), bench_servo.report),
+    "cutting": (lambda quick: bench_cutting.run(speed=10.0 if quick else 2.0),
+                bench_cutting.report),
+    "mass": (lambda quick: bench_mass.run(), bench_mass.report),
+}
+SECTIONS = tuple(SECTION_RUNS)
 
 
 def plot(res: dict[str, Any], path: Path) -> None:
@@ -167,42 +189,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"softplc {info['softplc']}, pymodbus {info['pymodbus']}"
           + (" (quick run)" if a.quick else ""))
     t0 = time.monotonic()
-    if "engine" in sections:
-        progress("section engine")
-        res["engine"] = bench_engine.run(quick=a.quick)
-        print("\n" + bench_engine.report(res["engine"]))
-    if "wordops" in sections:
-        progress("section wordops")
-        res["wordops"] = bench_wordops.run(200, 500 if a.quick else 2000, 3 if a.quick else 7)
-        print("\n" + bench_wordops.report(res["wordops"]))
-    if "peers" in sections:
-        progress("section peers")
-        res["peers"] = bench_peers.run(quick=a.quick)
-        print("\n" + bench_peers.report(res["peers"]))
-    if "modbus" in sections:
-        progress("section modbus")
-        res["modbus"] = run_modbus_section(a.quick)
-        print("\n" + modbus_report(res["modbus"]))
-    if "drawing" in sections:
-        progress("section drawing")
-        r = res["drawing"] = bench_drawing.run(segments=30 if a.quick else 100)
-        print(f"\nSimulated drawing: {r['segments']} segments at a 1 ms scan, "
-              f"{r['simulated_s']:.1f} simulated s in {r['wall_s']:.2f} wall s = "
-              f"{r['speedup']:.0f}x real time ({r['us_per_scan']:.2f} us per scan with the "
-              f"machine and the host loop; {r['missed_steps']} missed steps)  "
-              f"target >= 50x  {'met' if r['speedup'] >= 50 else 'MISSED'}")
-    if "servo" in sections:
-        progress("section servo")
-        res["servo"] = bench_servo.run(seconds=2.0 if a.quick else 5.0)
-        print("\n" + bench_servo.report(res["servo"]))
-    if "cutting" in sections:
-        progress("section cutting")
-        res["cutting"] = bench_cutting.run(speed=10.0 if a.quick else 2.0)
-        print("\n" + bench_cutting.report(res["cutting"]))
-    if "mass" in sections:
-        progress("section mass")
-        res["mass"] = bench_mass.run()
-        print("\n" + bench_mass.report(res["mass"]))
+    for name, (run, report) in SECTION_RUNS.items():
+        if name in sections:
+            progress(f"section {name}")
+            res[name] = run(a.quick)
+            print("\n" + report(res[name]))
     res["seconds"] = time.monotonic() - t0
     res["load_average_end"] = __import__("os").getloadavg()
     if a.json:

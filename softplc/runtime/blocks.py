@@ -157,10 +157,8 @@ class Timer(TimedBlock):
             self.V, self.Q, self._on = 0, 1, 0
         else:
             if self._in:  # falling edge: start counting
-                self._t0, self._on = now, 1
-                if self.clock.track:
-                    self.clock.running.add(self)
-            if self._on:
+                self._start(now)
+            if self._on:  # (as in _tp, written out: a call costs ~20 ns a timer a scan)
                 v = (now - self._t0) // self.base_us
                 if v >= self.P:
                     self.V, self.Q, self._on = self.P, 0, 0
@@ -171,9 +169,8 @@ class Timer(TimedBlock):
     def _tp(self, IN: Any) -> None:
         now = self._seen = self.clock.now_us
         if IN and not self._in and not self._on:
-            self._t0, self._on, self.Q = now, 1, 1
-            if self.clock.track:
-                self.clock.running.add(self)
+            self._start(now)
+            self.Q = 1
         if self._on:
             v = (now - self._t0) // self.base_us
             if v >= self.P:
@@ -183,6 +180,12 @@ class Timer(TimedBlock):
         if not self._on and not IN:
             self.V = 0
         self._in = 1 if IN else 0
+
+    def _start(self, now: int) -> None:
+        """TOF and TP start timing (V follows the time from now until P, then Q drops)."""
+        self._t0, self._on = now, 1
+        if self.clock.track:
+            self.clock.running.add(self)
 
 
 class Counter(Block):
