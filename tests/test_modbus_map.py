@@ -157,3 +157,9 @@ def test_the_configuration_s_symbols_name_the_tags(capsys):
     named = {s.address: s.name for s in plc.symbols}
     tagged = [r for r in rows if r["address"] in named]
     assert tagged and all(r["tag"] == named[r["address"]] for r in tagged)
+
+
+def test_a_hidden_block_is_shown_with_its_own_word_field():
+    assert "%C0.V ]" in tags.block_why("%C0", "C")
+    assert "%DR1.S ]" in tags.block_why("%DR1", "DR")
+    assert "%TM0.V ]" in {h.address: h for h in program_map().hidden}["%TM0"].why

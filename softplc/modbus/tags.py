@@ -47,7 +47,13 @@ HIDDEN_WHY = {
     "KF": "constants have no Modbus address: copy to two %MW words (%MF)",
     "X": "Grafcet steps: copy to a %M bit",
 }
-BLOCK_WHY = "function block: copy its fields to %M/%MW ([ %MW102 := %TM0.V ])"
+
+
+def block_why(name: str, kind: str) -> str:
+    """How a program shows block `name` (%C0) to a host: its own word field in the hint."""
+    words = [f for f, (typ, _) in BLOCK_FIELDS[kind].items() if typ != "bool"]
+    example = f" ([ %MW102 := {name}.{words[0]} ])" if words else ""
+    return f"function block: copy its fields to %M/%MW{example}"
 
 
 @dataclass(frozen=True)
@@ -130,7 +136,8 @@ def build(program: A.Program, read_only: ReadOnly | None = None,
                     continue
                 seen_blocks.add(name)
                 sym, comment = symbols.get(name, (sym, comment))
-                hidden.append(Hidden(name, "uses", pos.line, BLOCK_WHY, sym, comment))
+                hidden.append(Hidden(name, "uses", pos.line, block_why(name, ref.kind), sym,
+                                      comment))
             elif ref.kind in HIDDEN_WHY:
                 hidden.append(Hidden(text, role, pos.line, HIDDEN_WHY[ref.kind], sym, comment))
             continue
