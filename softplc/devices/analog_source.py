@@ -23,7 +23,7 @@ from pydantic import Field, field_validator
 from ..config import Address, FiniteFloat, Section
 from ..errors import ConfigCode, ConfigError
 from ..runtime.memory import MemoryImage
-from .base import Device, register_device
+from .base import Device, interp, register_device
 
 Point = Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)]  # [time_s, value]
 
@@ -70,15 +70,7 @@ class AnalogSource(Device):
 
     def at(self, t: float) -> float:
         """The profile's value at time t."""
-        pts = self.profile
-        if not pts:
-            return self.value
-        if t <= pts[0][0]:
-            return pts[0][1]
-        for (t0, v0), (t1, v1) in zip(pts, pts[1:], strict=False):
-            if t <= t1:
-                return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
-        return pts[-1][1]
+        return interp(self.profile, t) if self.profile else self.value
 
     def _write(self, t: float) -> None:
         self.value = self.at(t)

@@ -144,6 +144,18 @@ class AxisDevice(Device):
 DEVICE_TYPES: dict[str, type[Device]] = {}
 
 
+def interp(table: list[tuple[float, float]], x: float) -> float:
+    """Piecewise-linear value of a table of (x, y) points at x, constant beyond its ends
+    (an analog profile over time, a load over position). A loop rather than numpy.interp:
+    called on scalars every scan, where numpy's call costs more than the search."""
+    if x <= table[0][0]:
+        return table[0][1]
+    for (x0, y0), (x1, y1) in zip(table, table[1:], strict=False):
+        if x <= x1:
+            return y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+    return table[-1][1]
+
+
 def register_device(type_name: str) -> Callable[[type[Device]], type[Device]]:
     def deco(cls: type[Device]) -> type[Device]:
         cls.type_name = type_name

@@ -10,6 +10,7 @@ import struct
 from itertools import repeat
 from typing import TYPE_CHECKING, Any
 
+from ..base import interp as _interp
 from . import loop, status
 from .options import Err
 from .plant import ZOH, step
@@ -281,13 +282,3 @@ class LoopRunner:
         if x1 < a._hm:
             return a._hm, 0.0
         return x1, v1
-
-
-def _interp(table: list[tuple[float, float]], x: float) -> float:
-    """Piecewise-linear load at x, constant beyond the table's ends."""
-    if x <= table[0][0]:
-        return table[0][1]
-    for (x0, y0), (x1, y1) in zip(table, table[1:], strict=False):
-        if x <= x1:
-            return y0 + (y1 - y0) * (x - x0) / (x1 - x0)
-    return table[-1][1]
