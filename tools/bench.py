@@ -103,8 +103,9 @@ SECTION_RUNS: dict[str, tuple[Callable[[bool], Any], Callable[[Any], str]]] = {
 SECTIONS = tuple(SECTION_RUNS)
 
 
-def plot(res: dict[str, Any], path: Path) -> None:
-    """Bar charts: softplc vs peer scan time (log scale), Modbus requests/s per server."""
+def plot(res: dict[str, Any], path: Path) -> bool:
+    """Bar charts: softplc vs peer scan time (log scale), Modbus requests/s per server.
+    False when no section run has a chart (nothing written)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -117,7 +118,7 @@ def plot(res: dict[str, Any], path: Path) -> None:
     eng = res.get("engine")
     panels = [p for p, ok in (("scan", scans), ("modbus", servers), ("engine", eng)) if ok]
     if not panels:
-        return
+        return False
     fig, axes = plt.subplots(len(panels), 1, figsize=(10, 3.6 * len(panels)), squeeze=False)
     for ax, panel in zip(axes[:, 0], panels, strict=True):
         if panel == "scan":
@@ -163,6 +164,7 @@ def plot(res: dict[str, Any], path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return True
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -201,8 +203,8 @@ def main(argv: list[str] | None = None) -> int:
         a.json.write_text(json.dumps(res, indent=2, default=str))
         progress(f"wrote {a.json}")
     if a.png:
-        plot(res, a.png)
-        progress(f"wrote {a.png}")
+        progress(f"wrote {a.png}" if plot(res, a.png) else
+                 "no chart: none of the sections run (engine, peers, modbus) has one")
     return 0
 
 
