@@ -286,8 +286,14 @@ class Model(ObjectModel):
             nxt: dict[int, Any] = {}
             self.one_pass(rungs, main, back, nxt)
             end_live = z3.Or(end_live, self.live)
-            if self.discovering:  # every pass reads and writes the same keys: no solver
-                break
+            if self.discovering:  # no solver: one more pass, from any state, reads and
+                if n or not nxt:  # writes what any later pass does (values a first pass
+                    break  # has concrete may skip a key: INC's %S18)
+                back = {k: z3.Bool(f"back{k}@discovery") for k in nxt}
+                for k in list(self.st):
+                    self.st[k] = self.declare(k)
+                self.live = z3.BoolVal(False)
+                continue
             back, past, spent = self.loops.after_pass(n, nxt, spent)
             if past is not None:
                 self.overflow = z3.Or(self.overflow, past)
