@@ -19,7 +19,7 @@ from softplc.address import Ref
 from softplc.plc import PLC
 from softplc.verify import guard
 from softplc.verify.checker import Checker
-from softplc.verify.engines import Limits, Result, requirement, verify
+from softplc.verify.engines import FOUND, Limits, Result, requirement, verify
 from softplc.verify.loops import Loops
 from softplc.verify.model import Model
 from softplc.verify.requirements import load_spec
@@ -173,3 +173,15 @@ def test_a_child_that_crashes_or_fails(how):
 def test_a_child_answers_with_its_result():
     res = guard.isolated(lambda report: Result("PROVEN", "k-induction (k=1)", 1, 0.1), 5)
     assert res == Result("PROVEN", "k-induction (k=1)", 1, 0.1)
+
+
+def test_a_counterexample_found_in_time_is_waited_for(monkeypatch):
+    """Once BMC reports one, its trace (concrete scans of the model) is off the clock: the
+    parent waits for it past the requirement's time."""
+    monkeypatch.setattr(guard, "MARGIN_S", 0.1)
+
+    def work(report):
+        report(FOUND, 5, 0.1)
+        time.sleep(0.6)
+        return Result("VIOLATED", "BMC", 5, 0.7)
+    assert guard.isolated(work, 0.1).status == "VIOLATED"

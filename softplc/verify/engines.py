@@ -32,6 +32,7 @@ from .requirements import Node, Requirement, Spec
 from .symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
+FOUND = "counterexample"  # progress: BMC found one at that depth (its trace comes next)
 Stop = Callable[[], bool]  # polled between solver calls: a proof came from elsewhere
 
 
@@ -120,6 +121,9 @@ def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
             if "_loop" in post and z3.is_true(m.eval(post["_loop"], model_completion=True)):
                 return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
                               note=ck.model.loops.note(d + 1))
+            if progress:  # the verdict is in (`guard` waits for its trace, off the clock)
+                progress(FOUND, d + 1, time.monotonic() - t0)
+            ck.model.loops.clock = None  # the trace's scans are concrete: no time out
             return Result("VIOLATED", "BMC", d + 1, time.monotonic() - t0,
                           _trace(ck, u, m, watch))
         if r == z3.unknown:

@@ -23,9 +23,10 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any
 
-from .engines import Limits, Progress, Result, requirement
+from .engines import FOUND, Limits, Progress, Result, requirement
 
 MARGIN_S = 2.0  # s the parent waits past the requirement's time before killing its child
+TRACE_S = 120.0  # s it waits for a counterexample's trace (concrete scans) once found
 
 
 def check(model: Any, spec: Any, req: Any, lemmas: list[Any], limits: Limits,
@@ -93,6 +94,9 @@ def _wait(recv: Connection, end: float, progress: Progress | None,
             return msg
         engine, depth, secs = msg[1:]
         last[0] = f"after {engine} reached depth {depth}"
+        if engine == FOUND:  # the solver's part is done: the trace is concrete scans
+            end = max(end, time.monotonic() + TRACE_S)
+            last[0] = f"building the trace of a counterexample of {depth} scans"
         if progress:
             progress(engine, depth, secs)
 
