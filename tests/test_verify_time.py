@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -115,13 +116,15 @@ def test_a_requirement_in_process_ends_unknown_at_its_time():
 
 def test_a_child_that_overruns_is_killed_with_its_own_children(tmp_path, monkeypatch):
     """A z3 call deaf to its timeout: the child (and what it started, as Spacer) is
-    killed MARGIN_S after the requirement's time, naming the last progress reported."""
+    killed MARGIN_S after the requirement's time, naming the last progress reported; its
+    temporary files are removed."""
     monkeypatch.setattr(guard, "MARGIN_S", 0.3)
     pid_file = tmp_path / "pid"
 
     def work(report):
         p = subprocess.Popen(["sleep", "60"])
-        pid_file.write_text(str(p.pid))
+        with tempfile.NamedTemporaryFile(delete=False) as f:  # as Spacer's clauses
+            pid_file.write_text(f"{p.pid} {f.name}")
         report("BMC", 3, 0.1)
         time.sleep(60)
     seen = []
@@ -129,7 +132,8 @@ def test_a_child_that_overruns_is_killed_with_its_own_children(tmp_path, monkeyp
     assert res.status == "UNKNOWN" and seen == [("BMC", 3, 0.1)]
     assert res.note == ("the solver did not stop at the requirement's 0.2 s (after BMC "
                         "reached depth 3): its process was killed 0.3 s later")
-    assert gone(int(pid_file.read_text()))
+    pid, left = pid_file.read_text().split()
+    assert gone(int(pid)) and not Path(left).exists()
 
 
 def gone(pid: int) -> bool:

@@ -47,8 +47,10 @@ def isolated(work: Callable[[Progress | None], Result], seconds: float,
         f.flush()
     ctx = multiprocessing.get_context("fork")
     recv, send = ctx.Pipe(duplex=False)
-    with tempfile.TemporaryFile() as err:
-        proc = ctx.Process(target=_child, args=(work, send, err.fileno()), daemon=True)
+    # the child's temporary files (Spacer's clauses) and stderr: removed when it is killed
+    with tempfile.TemporaryDirectory(prefix="softplc-verify-") as tmp, \
+            open(os.path.join(tmp, "stderr"), "w+b") as err:
+        proc = ctx.Process(target=_child, args=(work, send, err.fileno(), tmp), daemon=True)
         t0 = time.monotonic()
         proc.start()
         send.close()
@@ -101,9 +103,11 @@ def _wait(recv: Connection, end: float, progress: Progress | None,
             progress(engine, depth, secs)
 
 
-def _child(work: Callable[[Progress | None], Result], send: Connection, err: int) -> None:
+def _child(work: Callable[[Progress | None], Result], send: Connection, err: int,
+           tmp: str) -> None:
     os.setpgid(0, 0)  # its own group: killed with what it starts (Spacer)
     os.dup2(err, 2)  # what z3 prints before it aborts, for the parent's message
+    tempfile.tempdir = tmp
     import z3
 
     def report(engine: str, depth: int, secs: float) -> None:
