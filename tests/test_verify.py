@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -15,6 +14,7 @@ from softplc.cli import main
 from softplc.errors import VerifyError
 from softplc.plc import PLC
 from softplc.verify.checker import Checker
+from softplc.verify.clock import Clock
 from softplc.verify.engines import bmc, verify
 from softplc.verify.model import Model
 from softplc.verify.replay import first_failure, replay
@@ -91,10 +91,10 @@ def test_variable_scan_period_reaches_long_timers_quickly():
     config = {"scan_period": "10ms", "timers": {"%TM0": {"type": "TON", "base": "1s",
                                                           "preset": 10}}}
     prog = "LD %I0.0\nIN %TM0\nLD %TM0.Q\nST %Q0.0\n"
-    fixed = bmc(checker(prog, "never %Q0.0", config), 6, time.monotonic() + 60, [])
+    fixed = bmc(checker(prog, "never %Q0.0", config), 6, Clock(60), [])
     assert fixed.status == "UNKNOWN"  # 10 s are 1000 scans of 10 ms
     res = bmc(checker(prog, "never %Q0.0", config, periods=(10_000, 5_000_000)), 6,
-              time.monotonic() + 60, [])
+              Clock(60), [])
     assert res.status == "VIOLATED" and res.depth == 3  # 0, 5 s, 10 s
     assert all("period_ms" in r["inputs"] for r in res.trace)
     plc = PLC.from_source(prog, config, devices=False)
@@ -109,7 +109,7 @@ def test_grafcet_traffic_light_requirements():
     walk = Checker(model, spec, by_name["walk only while cars have red"])
     assert verify(walk, 10, 4, 30, []).status == "PROVEN"
     press = Checker(model, spec, by_name["every press lights the wait lamp at once"])
-    res = bmc(press, 30, time.monotonic() + 60, ["%I0.0", "%Q0.5"])
+    res = bmc(press, 30, Clock(60), ["%I0.0", "%Q0.5"])
     assert res.status == "VIOLATED"
     assert res.trace[-1]["values"] == {"%I0.0": 1, "%Q0.5": 0}
     again = PLC.from_file(LP / "traffic_light.il", LP / "traffic_light.toml", devices=False)
@@ -187,7 +187,7 @@ def test_drum_interlock_proven_and_register_counterexample_replays():
     retrieved from a LIFO, are counterexamples the engine reproduces."""
     from softplc.verify.engines import invariants_inductive
     ck = checker(DRUM_PROG, "never %Q0.0 AND %Q0.2", DRUM_CFG, host=[Ref("MW", 4)])
-    assert invariants_inductive(ck)
+    assert invariants_inductive(ck, Clock(60))
     assert status(DRUM_PROG, "never %Q0.0 AND %Q0.2", DRUM_CFG)[0] == "PROVEN"
     st, res = status(DRUM_PROG, "never %M3", DRUM_CFG)
     assert st == "VIOLATED" and res.depth == 3  # two rising edges of %I0.1: 1, 0, 1
@@ -433,9 +433,9 @@ def test_a_loop_the_solver_cannot_decide_is_cut_and_unknown(tmp_path, monkeypatc
     pass count that depends on inputs, products of them, grew the solver's memory until
     z3 crashed): past it the passes are not unrolled, and a run that needs them is
     UNKNOWN with the jump and the reason, never a violation."""
-    import softplc.verify.model as M
+    import softplc.verify.loops as L
 
-    monkeypatch.setattr(M, "LOOP_SOLVER_BUDGET_S", 0.0)  # cut at the first pass
+    monkeypatch.setattr(L, "LOOP_SOLVER_BUDGET_S", 0.0)  # cut at the first pass
     ck = loop_checker(tmp_path, "always %MW6 <= 1", None, 8)
     res = verify(ck, 4, 2, 20, [], use_spacer=False)
     assert res.status == "UNKNOWN" and "<string>:9:1" in res.note

@@ -28,6 +28,7 @@ INTEGRATION = {
     "test_mass_tuning", "test_mass_tuning_program", "test_pytest_plugin", "test_readme",
     "test_servo_snapshots", "test_servo_table", "test_snapshots", "test_twidosuite_export",
     "test_verify", "test_verify_diff",  # (Spacer runs in a child process it can kill)
+    "test_verify_time",  # (each requirement in a forked child, killed at its time)
     "test_config_readers",  # (a drum by symbol verified: the verifier's Spacer child)
     "test_web_machineview",
 }

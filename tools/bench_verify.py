@@ -26,8 +26,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from softplc.plc import PLC  # noqa: E402
-from softplc.verify.checker import Checker  # noqa: E402
-from softplc.verify.engines import verify  # noqa: E402
+from softplc.verify.engines import Limits  # noqa: E402
+from softplc.verify.guard import check  # noqa: E402
 from softplc.verify.model import Model  # noqa: E402
 from softplc.verify.requirements import load_spec  # noqa: E402
 
@@ -63,7 +63,7 @@ def run(plc: PLC, spec, timeout: float, depth: int) -> list[tuple[str, str, str,
     out, lemmas = [], []
     for req in spec.requirements:
         t0 = time.perf_counter()
-        res = verify(Checker(model, spec, req, lemmas), depth, 10, timeout, [])
+        res = check(model, spec, req, lemmas, Limits(depth, 10, timeout), [])  # as the command
         if res.status == "PROVEN" and req.kind == "always":
             lemmas.append(req.cond)  # as softplc verify does
         out.append((req.name, res.status, res.method, time.perf_counter() - t0))
@@ -110,8 +110,7 @@ def deep() -> None:
     spec = load_spec(None, ["never %Q0.0 AND %Q0.1"], plc.profile)
     model = Model(plc, spec.reads, spec.host, spec.periods)
     t0 = time.perf_counter()
-    res = verify(Checker(model, spec, spec.requirements[0]), 600, 10, 300, [],
-                 use_spacer=False)
+    res = check(model, spec, spec.requirements[0], [], Limits(600, 10, 300, False), [])
     print(f"deep counterexample (5 s timer, 10 ms scan): {res.status} in {res.depth} "
           f"scans, {time.perf_counter() - t0:.1f} s")
 

@@ -15,7 +15,7 @@ from ._args import add_program_arguments, existing_file, load_plc
 
 EXIT_UNPROVEN, EXIT_VIOLATED, EXIT_DISAGREE = 1, 2, 3
 Z3_MEMORY_MB = 3000  # SOFTPLC_Z3_MEMORY_MB overrides (tests give a small one)
-LOOP_BOUND = 32  # = verify.model.LOOP_BOUND (not imported: `softplc --help` stays light)
+LOOP_BOUND = 32  # = verify.loops.LOOP_BOUND (not imported: `softplc --help` stays light)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,7 +37,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--max-k", type=int, default=10,
                    help="largest k tried by k-induction (default %(default)s)")
     p.add_argument("--timeout", type=float, default=60.0,
-                   help="seconds per requirement (default %(default)s)")
+                   help="seconds per requirement, all of it (model, engines); it ends "
+                        "UNKNOWN then (killed 2 s later if a solver call overran) "
+                        "(default %(default)s)")
     p.add_argument("--scan-period", metavar="MIN:MAX",
                    help="any scan period from MIN to MAX in each scan (e.g. 10ms:1s; cyclic "
                         "mode), instead of the configured fixed one")
@@ -98,8 +100,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..verify.checker import Checker
-    from ..verify.engines import verify
+    from ..verify.engines import Limits
+    from ..verify.guard import check
     from ..verify.model import Model
     from ..verify.replay import emit_test, replay, write_cex
     from ..verify.requirements import check_environment, load_spec
@@ -130,11 +132,10 @@ def _run(args: argparse.Namespace) -> int:
         print("free in every scan (set by the system from what is not modelled): "
               + ", ".join(free))
     worst, cexs, lemmas = 0, [], []
+    limits = Limits(args.depth, args.max_k, args.timeout, not args.no_spacer)
     for req in spec.requirements:
-        ck = Checker(model, spec, req, lemmas)
         watch = list(dict.fromkeys(str(r) for r in req.reads))
-        res = verify(ck, args.depth, args.max_k, args.timeout, watch,
-                     not args.no_spacer, _progress(args.quiet))
+        res = check(model, spec, req, lemmas, limits, watch, _progress(args.quiet))
         if not args.quiet and sys.stderr.isatty():
             print(" " * 50, end="\r", file=sys.stderr)
         if res.status == "PROVEN":

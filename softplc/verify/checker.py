@@ -78,6 +78,10 @@ class Checker:
         self.order = list(self.keys)  # the model's invariants are listed in this order
         self.filler: dict[str, Any] = {}  # state outside the cone: its cold-start value
         self.kept: list[int] | None = None  # the model's invariants within the cone
+        # a scan from variables (the cone's; with loops, substituted into after: `_scan`)
+        self.pre = {k: z3.Const(f"{k}@cone", sort_of(s)) for k, s in self.keys.items()}
+        self.inp = self.model.fresh("cone")[1]
+        self.post: dict[str, Any] | None = None
         self._slice()
 
     def _slice(self) -> None:
@@ -85,10 +89,9 @@ class Checker:
         what that state's next values read, to a fixpoint (lemmas reading only that state
         are kept). The rest never influences them: its value is left at the cold start's
         (the engines' terms and Spacer's `Inv` get smaller)."""
-        pre = {k: z3.Const(f"{k}@cone", sort_of(s)) for k, s in self.keys.items()}
+        pre, inp = self.pre, self.inp
         names = {f"{k}@cone": k for k in pre}
-        _, inp = self.model.fresh("cone")
-        post = self.step(dict(pre), inp)
+        post = self.step(pre, inp)
         need = _reads(z3.And(self.holds(post), *self.assumed(post, inp)), names)
         work = list(need)
         while work:
@@ -103,6 +106,9 @@ class Checker:
         self.kept = [i for i, t in enumerate(invs) if _reads(t, names) <= need]
         self.filler = {k: init[k] for k in self.keys if k not in need}
         self.keys = {k: s for k, s in self.keys.items() if k in need}
+        if self.post is not None and self.filler:  # the state outside the cone put in
+            self.post = _put(self.post, [(self.pre[k], v) for k, v in self.filler.items()])
+        self.pre = {k: v for k, v in self.pre.items() if k in need}
 
     def read(self, st: dict[str, Any]) -> Callable[[Ref], Any]:
         m = self.model
@@ -144,7 +150,7 @@ class Checker:
         return {k: v for k, v in st.items() if k in self.keys}
 
     def step(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
-        post = self.model.scan({**self.filler, **pre}, inp)
+        post = self._scan(pre, inp)
         if self.monitor:
             rd = self.read(post)
             x = as_bool(evaluate(Z3Domain, self.req.cond, rd))
@@ -154,6 +160,20 @@ class Checker:
             post["_prev"] = x
         return post
 
+    def _scan(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
+        """The model's scan from `pre` with inputs `inp`: its scan from variables with
+        these put in. With a loop, whose passes the solver decides (seconds each), that
+        scan is built once per requirement; without, a scan is cheap, and built afresh
+        its terms are the ones the engines were tuned on (BMC's time depends on them)."""
+        if not self.model.loops.sites:
+            return self.model.scan({**self.filler, **pre}, inp)
+        if self.post is None:
+            self.post = self.model.scan(dict(self.pre), self.inp)
+        if pre is self.pre and inp is self.inp:
+            return dict(self.post)
+        return _put(self.post, [(v, pre[k]) for k, v in self.pre.items()]
+                    + [(v, inp[k]) for k, v in self.inp.items()])
+
     def invariants(self, st: dict[str, Any]) -> list[Any]:
         out = self.model.invariants({k: st[k] if k in st else self.filler[k]
                                      for k in self.order})
@@ -162,6 +182,18 @@ class Checker:
         if self.monitor:
             out.append(z3.ULE(st["_mon"], self.n + 1))
         return out
+
+
+def _put(terms: dict[str, Any], pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
+    """`terms` with each pair's variable replaced by its term, in one substitution (what
+    the terms share is done once); simplified where a value, not a variable, went in."""
+    keys = list(terms)
+    pack = z3.Function("scan@", *[terms[k].sort() for k in keys], z3.BoolSort())
+    out = z3.substitute(pack(*[terms[k] for k in keys]), *pairs).children()
+    if not all(z3.is_const(t) and t.decl().kind() == z3.Z3_OP_UNINTERPRETED
+               for _, t in pairs):
+        out = [z3.simplify(t) for t in out]
+    return dict(zip(keys, out, strict=True))
 
 
 def _reads(term: Any, names: dict[str, str]) -> set[str]:

@@ -26,10 +26,13 @@ from typing import Any
 import z3
 
 from .checker import Checker
-from .model import run_concrete, sort_of
+from .clock import Clock, TimeUp
+from .model import Model, run_concrete, sort_of
+from .requirements import Node, Requirement, Spec
 from .symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
+FOUND = "counterexample"  # progress: BMC found one at that depth (its trace comes next)
 Stop = Callable[[], bool]  # polled between solver calls: a proof came from elsewhere
 
 
@@ -98,68 +101,74 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
     return rows
 
 
-def bmc(ck: Checker, depth: int, deadline: float, watch: list[str],
+def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
         progress: Progress | None = None, stop: Stop | None = None) -> Result:
     """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth;
-    also when `stop()` says a proof came from elsewhere)."""
+    also when `stop()` says a proof came from elsewhere). TimeUp when `clock` runs out
+    (`clock.clean`: the scans searched clean)."""
     t0 = time.monotonic()
     s = z3.Solver()
     u = _Unroll(ck, s, ck.init(), "b")
     for d in range(depth):
         if stop is not None and stop():
             return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
+        clock.doing = f"BMC at scan {d + 1}"
         post = u.extend()
         bad = z3.Not(ck.holds(post))
-        left = deadline - time.monotonic()
-        if left <= 0:
-            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
-        s.set("timeout", max(1, int(left * 1000)))
-        r = s.check(bad)
+        r = clock.check(s, bad, what="")
         if r == z3.sat:
             m = s.model()
             if "_loop" in post and z3.is_true(m.eval(post["_loop"], model_completion=True)):
                 return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
-                              note=ck.model.loop_note(d + 1))
+                              note=ck.model.loops.note(d + 1))
+            if progress:  # the verdict is in (`guard` waits for its trace, off the clock)
+                progress(FOUND, d + 1, time.monotonic() - t0)
+            ck.model.loops.clock = None  # the trace's scans are concrete: no time out
             return Result("VIOLATED", "BMC", d + 1, time.monotonic() - t0,
                           _trace(ck, u, m, watch))
         if r == z3.unknown:
-            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
+            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
+                          note=f"the solver gave up at scan {d + 1}: {s.reason_unknown()}")
         s.add(ck.holds(post))  # the first failure is at a later scan
+        clock.clean = d + 1
         if progress:
             progress("BMC", d + 1, time.monotonic() - t0)
     return Result("UNKNOWN", "BMC", depth, time.monotonic() - t0)
 
 
-def invariants_inductive(ck: Checker) -> bool:
+def invariants_inductive(ck: Checker, clock: Clock) -> bool:
     """The range invariants hold initially and are kept by every scan."""
+    clock.doing = "checking the range invariants"
     s = z3.Solver()
-    s.set("timeout", 20000)
     init = ck.init()
-    if s.check(z3.Not(z3.And(*ck.invariants(init)))) != z3.unsat:
+    if clock.check(s, z3.Not(z3.And(*ck.invariants(init))), what="at the cold start",
+                   cap=20) != z3.unsat:
         return False
     u = _Unroll(ck, s, None, "i")
     u.extend()
-    return s.check(z3.Not(z3.And(*ck.invariants(u.states[-1])))) == z3.unsat
+    return clock.check(s, z3.Not(z3.And(*ck.invariants(u.states[-1]))),
+                       what="after a scan", cap=20) == z3.unsat
 
 
-def k_induction(ck: Checker, max_k: int, deadline: float,
+def k_induction(ck: Checker, max_k: int, until: float, clock: Clock,
                 progress: Progress | None = None, stop: Stop | None = None
                 ) -> tuple[int | None, float]:
     """The smallest k <= max_k for which the requirement is k-inductive (None: none found
-    in time, or `stop()`). The caller checks the base case (BMC clean to depth k)."""
+    by the time `until`, or `stop()`). The caller checks the base case (BMC clean to
+    depth k). TimeUp when `clock` runs out."""
     t0 = time.monotonic()
     s = z3.Solver()
     u = _Unroll(ck, s, None, "k")
     for k in range(1, max_k + 1):
         if stop is not None and stop():
             return None, time.monotonic() - t0
+        clock.doing = f"k-induction at k={k}"
         post = u.extend()
         s.add(*ck.lemma_terms(post))  # proven invariants hold after every scan
-        left = deadline - time.monotonic()
+        left = until - time.monotonic()
         if left <= 0:
             return None, time.monotonic() - t0
-        s.set("timeout", max(1, int(left * 1000)))
-        r = s.check(z3.Not(ck.holds(post)))
+        r = clock.check(s, z3.Not(ck.holds(post)), what="", cap=left)
         if r == z3.unsat:
             return k, time.monotonic() - t0
         if r == z3.unknown:
@@ -168,15 +177,6 @@ def k_induction(ck: Checker, max_k: int, deadline: float,
         if progress:
             progress("k-induction", k, time.monotonic() - t0)
     return None, time.monotonic() - t0
-
-
-def spacer(ck: Checker, seconds: float) -> str:
-    """z3 Spacer on the Horn clauses of the system: "PROVEN", "VIOLATED" or "UNKNOWN"."""
-    child = Spacer(ck)
-    try:
-        return child.wait(seconds)
-    finally:
-        child.kill()
 
 
 def horn_clauses(ck: Checker, shuffle: int = 0) -> str:
@@ -262,7 +262,7 @@ class Spacer:
         return self.done() == "PROVEN"
 
     def wait(self, seconds: float) -> str:
-        end = time.monotonic() + max(0.5, seconds)
+        end = time.monotonic() + max(0.0, seconds)
         while self.done() is None:
             try:
                 self.proc.wait(timeout=max(0.01, min(end, self.until) - time.monotonic()))
@@ -276,14 +276,51 @@ class Spacer:
         self._stop()
 
 
-def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str],
+@dataclass
+class Limits:
+    """How far `requirement` searches: scans, k, seconds (the whole requirement), Spacer."""
+
+    depth: int = 30
+    max_k: int = 10
+    seconds: float = 60.0
+    spacer: bool = True
+
+
+def requirement(model: Model, spec: Spec, req: Requirement, lemmas: list[Node],
+                limits: Limits, watch: list[str], progress: Progress | None = None
+                ) -> Result:
+    """`req` checked from start to end on one clock of `limits.seconds`: its cone of
+    influence (`Checker`: a scan of the model, loops decided by the solver) and `verify`."""
+    clock = Clock(limits.seconds)
+    model.loops.clock = clock
+    try:
+        ck = Checker(model, spec, req, lemmas)
+    except TimeUp as e:
+        return Result("UNKNOWN", "", 0, clock.elapsed(), note=str(e))
+    finally:
+        model.loops.clock = None
+    return verify(ck, limits.depth, limits.max_k, clock, watch, limits.spacer, progress)
+
+
+def verify(ck: Checker, depth: int, max_k: int, seconds: float | Clock, watch: list[str],
            use_spacer: bool = True, progress: Progress | None = None) -> Result:
-    """BMC for a counterexample, k-induction (then Spacer) for a proof, within `seconds`."""
-    t0 = time.monotonic()
-    deadline = t0 + seconds
-    inv_ok = invariants_inductive(ck)
-    if not inv_ok:  # pragma: no cover - would be a modelling bug: prove without them
-        ck.invariants = lambda st: []  # type: ignore[method-assign]
+    """BMC for a counterexample, k-induction (then Spacer) for a proof, within `seconds`
+    (or what is left of a requirement's clock): every solver call, the model's included,
+    gets the time left; when it runs out, UNKNOWN saying what was running."""
+    clock = seconds if isinstance(seconds, Clock) else Clock(seconds)
+    ck.model.loops.clock = clock
+    try:
+        return _verify(ck, depth, max_k, clock, watch, use_spacer, progress)
+    except TimeUp as e:
+        return Result("UNKNOWN", "BMC", clock.clean, clock.elapsed(), note=str(e))
+    finally:
+        ck.model.loops.clock = None
+
+
+def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],
+            use_spacer: bool, progress: Progress | None) -> Result:
+    if not invariants_inductive(ck, clock):  # pragma: no cover - a modelling bug
+        ck.invariants = lambda st: []  # type: ignore[method-assign]  # prove without them
     # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),
     # started once 1-induction has failed: most simple requirements end there
     child: list[Spacer] = []
@@ -299,28 +336,29 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float, watch: list[str]
         return polls[0] > 1 and stop()
 
     try:
-        k, _ = k_induction(ck, max_k, t0 + seconds / 2, progress,
+        k, _ = k_induction(ck, max_k, clock.start + clock.seconds / 2, clock, progress,
                            stop_from_k2 if use_spacer else None)
-        base = bmc(ck, k if k is not None else depth, deadline, watch, progress,
+        base = bmc(ck, k if k is not None else depth, clock, watch, progress,
                    stop if use_spacer and k is None else None)
-        base.seconds = time.monotonic() - t0
+        base.seconds = clock.elapsed()
         if base.status == "VIOLATED" or base.note:
             return base
         if k is not None and base.depth >= k:
-            return Result("PROVEN", f"k-induction (k={k})", base.depth,
-                          time.monotonic() - t0)
+            return Result("PROVEN", f"k-induction (k={k})", base.depth, clock.elapsed())
         if not use_spacer:
-            return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)
+            return Result("UNKNOWN", "BMC", base.depth, clock.elapsed())
         stop()  # started if not yet
+        clock.doing = f"waiting for Spacer, BMC clean to {base.depth} scans"
         if progress and child[0].done() is None:
-            progress("Spacer", base.depth, time.monotonic() - t0)
-        found = child[0].wait(deadline - time.monotonic())
+            progress("Spacer", base.depth, clock.elapsed())
+        found = child[0].wait(clock.left())
     finally:
         if child:
             child[0].kill()
     if found == "PROVEN":
-        return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, time.monotonic() - t0)
+        return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, clock.elapsed())
     if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
         return Result("UNKNOWN", "Spacer: fails after more scans than searched",
-                      base.depth, time.monotonic() - t0)
-    return Result("UNKNOWN", "BMC", base.depth, time.monotonic() - t0)
+                      base.depth, clock.elapsed())
+    note = str(clock.up()) if clock.left() <= 0 else "Spacer gave up (unknown)"
+    return Result("UNKNOWN", "BMC", base.depth, clock.elapsed(), note=note)

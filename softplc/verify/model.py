@@ -14,7 +14,6 @@ its line:col (`VerifyError`), never approximated.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,10 +26,9 @@ from ..il import rungtree
 from ..runtime.blocks import Timer
 from ..runtime.engine import S_CLOCKS
 from .blocks import advance_timer, el_bits, run_timer
+from .loops import LOOP_BOUND, Loops
 from .objects import BLOCK_KEY, CLOCK_WRAP_US, MW_ARRAY, ObjectModel
 from .system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
-
-LOOP_BOUND = 32  # passes of a loop (backward jump) unrolled per scan by default
 
 
 @dataclass
@@ -73,10 +71,6 @@ class _LazyInputs(dict):
         return v
 
 
-# s the solver may spend, over a loop's passes, deciding whether another pass can run;
-# past it the remaining passes are not unrolled and the scans needing them are UNKNOWN
-LOOP_SOLVER_BUDGET_S = 10.0
-
 class Model(ObjectModel):
     """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
 
@@ -89,9 +83,7 @@ class Model(ObjectModel):
         `loop_bound`: passes of a backward jump (a loop) unrolled in one scan (beyond it
         the key `_loop` is true after the scan: checkers treat it as unknown)."""
         super().__init__(plc)
-        self.loop_bound = loop_bound
-        self.loop_cut = loop_bound + 1  # passes unrolled when the solver's budget ran out
-        self.loop_sites: dict[int, A.Pos] = {}  # label -> its first backward jump
+        self.loops = Loops(loop_bound, plc.ast.file)
         self.edge_keys: dict[int, str] = {}  # id of an edge instruction -> its key
         self.period_us = round(plc.scan_period * 1e6) if periods is None else periods[0]
         self.longest_us = self.period_us if periods is None else periods[1]
@@ -221,19 +213,6 @@ class Model(ObjectModel):
             out.append(z3.ULT(st["_tmod"], self.clock_wrap))
         return out
 
-    def loop_note(self, scan: int) -> str:
-        """Why a run is not modelled past `scan`: a loop ran more passes than unrolled."""
-        sites = ", ".join(f"{self.plc.ast.file}:{p.line}:{p.column}"
-                          for p in self.loop_sites.values())
-        if self.loop_cut <= self.loop_bound:
-            return (f"a loop (backward jump at {sites}) can run more than {self.loop_cut} "
-                    f"passes in scan {scan}, and deciding whether each pass runs outgrew "
-                    f"{LOOP_SOLVER_BUDGET_S:g} s of the solver at pass {self.loop_cut}: "
-                    "verify cannot model it past there (its pass count depends on inputs)")
-        return (f"a loop (backward jump at {sites}) can run more than {self.loop_bound} "
-                f"passes in scan {scan}: verify cannot model it past there (raise "
-                f"--loop-bound)")
-
     # ---- the scan -----------------------------------------------------------------------
     def scan(self, pre: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
         """The state after one scan from `pre` with inputs `inp`; the result also holds
@@ -289,7 +268,7 @@ class Model(ObjectModel):
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
-        if self.loop_sites:  # a loop ran past the unrolled passes in this scan
+        if self.loops.sites:  # a loop ran past the unrolled passes in this scan
             out["_loop"] = z3.simplify(self.overflow)
         out.update({k: v for k, v in inp.items() if k not in st})  # %I, %IW: as latched
         return out
@@ -298,41 +277,30 @@ class Model(ObjectModel):
     def function(self, rungs: list[A.Rung], main: bool) -> None:
         """The rungs of main or a subroutine. A backward jump (a loop, as the engine's
         `_pc` dispatch runs it) starts another pass over the rungs, entered only at the
-        labels jumped to; after `loop_bound` passes a loop still running sets `overflow`."""
+        labels jumped to, while the solver cannot rule one out (`Loops.after_pass`); a
+        loop still running after the passes unrolled sets `overflow`."""
         back: dict[int, Any] = {}  # label -> a backward jump to it was taken
         end_live: Any = z3.BoolVal(False)
         spent = 0.0  # s the solver took deciding whether another pass can run
-        for n in range(self.loop_bound + 1):
+        for n in range(self.loops.bound + 1):
             nxt: dict[int, Any] = {}
             self.one_pass(rungs, main, back, nxt)
             end_live = z3.Or(end_live, self.live)
-            t0 = time.perf_counter()
-            back = {k: c for k, c in nxt.items() if not self.never(c)}
-            spent += time.perf_counter() - t0
-            if not back:
+            if self.discovering:  # no solver: one more pass, from any state, reads and
+                if n or not nxt:  # writes what any later pass does (values a first pass
+                    break  # has concrete may skip a key: INC's %S18)
+                back = {k: z3.Bool(f"back{k}@discovery") for k in nxt}
+                for k in list(self.st):
+                    self.st[k] = self.declare(k)
+                self.live = z3.BoolVal(False)
+                continue
+            back, past, spent = self.loops.after_pass(n, nxt, spent)
+            if past is not None:
+                self.overflow = z3.Or(self.overflow, past)
+            if not back or past is not None:
                 break
-            if n < self.loop_bound and spent > LOOP_SOLVER_BUDGET_S:
-                # the passes' terms have outgrown the solver (a pass count that depends
-                # on inputs, products of them: memory and time grow with each pass):
-                # stop here, as past the bound
-                self.loop_cut = min(self.loop_cut, n + 1)
-                self.overflow = z3.Or(self.overflow, *back.values())
-                break
-            if n == self.loop_bound:
-                self.overflow = z3.Or(self.overflow, *back.values())
             self.live = z3.BoolVal(False)
         self.live = z3.simplify(end_live)
-
-    @staticmethod
-    def never(c: Any) -> bool:
-        """`c` is false in every state (a loop's last pass): the state's terms are in `c`,
-        so a plain simplification does not see that the loop counter reached its end."""
-        c = z3.simplify(c)
-        if z3.is_false(c) or z3.is_true(c):
-            return z3.is_false(c)
-        s = z3.Solver()
-        s.set("timeout", 2000)
-        return s.check(c) == z3.unsat
 
     def one_pass(self, rungs: list[A.Rung], main: bool, back: dict[int, Any],
                  nxt: dict[int, Any]) -> None:
@@ -449,7 +417,7 @@ class Model(ObjectModel):
                         self.unsupported("a backward jump in a Grafcet program", ins.pos,
                                          f"{ins.op} %L{ins.label}")
                         continue
-                    self.loop_sites.setdefault(ins.label, ins.pos)
+                    self.loops.sites.setdefault(ins.label, ins.pos)
                     back[ins.label] = z3.Or(back.get(ins.label, False), take)
                 else:
                     pending[ins.label] = z3.Or(pending.get(ins.label, False), take)
