@@ -22,11 +22,8 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
-from .. import catalog
 from ..address import BLOCK_FIELDS, Ref
-from ..numeric import F32_MAX
 from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
-from ..runtime.blocks import MAX_VALUE
 from ..runtime.runstate import RunState
 from .commands import ACTIONS, Action, Analog, Call, CommandQueue, Control, Force, Unforce, Write
 from .errors import AccessError
@@ -34,13 +31,8 @@ from .machine import MachineInfo
 from .objects import Objects
 from .program import ProgramAccess
 from .reading import Reading
+from .values import check_value
 
-# Value ranges the port accepts, per value type.
-INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
-INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-# %TMi.P / %Ci.P: what the program's store clamps to (twido.md: presets 0-9999), so a host
-# cannot write a preset the program could never hold.
-PRESET_RANGE = (0, MAX_VALUE)
 CONSTANT_KINDS = ("KW", "KD", "KF")
 IMAGE_KINDS = ("MW", "MD", "MF", "M")  # written through the Modbus image when there is one
 
@@ -143,36 +135,7 @@ class AccessPort:
             return f"{ref} is read-only ([modbus] read_only in the configuration)"
         return None
 
-    @staticmethod
-    def check_value(ref: Ref, value: Any) -> int | float:
-        """A value for `ref` of its type, or an AccessError saying what fits."""
-        if isinstance(value, str):
-            try:
-                value = float(value) if ref.type == "real" else int(value, 0)
-            except ValueError:
-                raise AccessError(f"{ref}: {value!r} is not a number") from None
-        if ref.type == "bool":
-            if value in (0, 1) and not isinstance(value, float):
-                return int(value)
-            raise AccessError(f"{ref} is a bit: value 0 or 1, not {value!r}")
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise AccessError(f"{ref}: expected a number, not {value!r}")
-        if ref.type == "real":
-            if not (math.isfinite(value) and abs(value) <= F32_MAX):
-                raise AccessError(f"{ref}: {value!r} does not fit a 32-bit float")
-            return float(value)
-        if isinstance(value, float):
-            if not value.is_integer():
-                raise AccessError(f"{ref} is an integer object: {value!r} is not whole")
-            value = int(value)
-        # other block words are plain words (%VFCi.S0 up to 65535)
-        preset = ref.kind in BLOCK_FIELDS and ref.field == "P" \
-            and catalog.family(ref.kind).clamp_preset
-        lo, hi = PRESET_RANGE if preset else INT32_RANGE if ref.type == "int32" else INT16_RANGE
-        if not lo <= value <= hi:
-            why = "a preset the program can hold" if preset else "does not fit"
-            raise AccessError(f"{ref}: {value} is out of range {lo}..{hi} ({why})")
-        return value
+    check_value = staticmethod(check_value)
 
     def _deny(self) -> None:
         if self.refuse_changes:
