@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from . import build
-from .access.values import check_value
 from .address import BLOCK_FIELDS, Ref, parse_address
 from .errors import (
     AddressError,
@@ -149,8 +148,6 @@ class PLC:
         if ref.kind in BLOCK_FIELDS and (ref.field is None or
                                          not BLOCK_FIELDS[ref.kind].get(ref.field, ("", 0))[1]):
             raise AddressError(f"{address} is read-only")
-        if ref.kind in BLOCK_FIELDS:  # a preset the program can hold, as from a host
-            value = check_value(ref, value)
         self.mem.write(ref, value)
 
     def _ref(self, address: str | Ref) -> Ref:
