@@ -95,6 +95,8 @@ def test_equidistant_forward_form_is_the_same_polynomial(x0, h, ys):
 # An axis with a vanishing share of the line: v_i*v_i underflowed to 0 and its profile
 # was taken as a trapezoid (arrival 17 ms late) before Trapezoid compared ratios.
 @example(a=(0.0, 0.0), b=(1.0, 2.6707883194420036e-258), v=4.0, acc=10.0)
+# A subnormal share (found by CI): its profile's ratios lost precision, arrival 1e-7 s early.
+@example(a=(0.0, 0.0), b=(105.88309459413672, 2.2250738585e-313), v=1.0, acc=10.0)
 def test_split_line_axes_arrive_together_on_the_line(a, b, v, acc):
     assume(distance(a, b) > 1e-3)
     s = split_line(a, b, v, acc)

@@ -11,6 +11,7 @@ and the Matlab stepping the thesis plots with.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Protocol
@@ -157,12 +158,15 @@ def split_line(start: Point, end: Point, speed: float = DEFAULT_SPEED,
     L = distance(start, end)
     moves = []
     for i in (0, 1):
-        u = abs(end[i] - start[i]) / L if L > 0 else 0.0
-        if u > 0:
+        d = abs(end[i] - start[i])
+        u = d / L if L > 0 else 0.0
+        if min(d, u, speed * u, accel * u) >= sys.float_info.min:
             moves.append(axis_move(start[i], end[i], speed * u, accel * u))
         else:
-            # No share of the line, or one that underflows to 0 (a 5e-324 mm offset): the
-            # axis does not move; a direction with a zero-speed profile would arrive at t=0.
+            # No share of the line, or one so small that it or its speed is a subnormal
+            # double (a 1e-313 mm offset): the axis does not move. A direction with a zero-
+            # speed profile would arrive at t=0, and subnormals have too few significant
+            # bits for the profile's ratios (the arrival came 1e-7 s early).
             moves.append(AxisMove(end[i], speed, accel, Trapezoid(0.0, speed, accel), 0))
     return LineSplit(start, end, moves[0], moves[1])
 
