@@ -216,6 +216,26 @@ SCAN_KEYS: tuple[Key, ...] = (
     ("star_delta", "star_delta.il, us", False))
 
 
+def positive(text: str) -> int:
+    """argparse type: a whole number >= 1 (rounds, scans)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{n} must be >= 1")
+    return n
+
+
+def add_against(ap: argparse.ArgumentParser, rounds: int, note: str = "") -> None:
+    """The --against REV and --rounds N options of a benchmark that can A/B itself."""
+    ap.add_argument("--against", metavar="REV",
+                    help="A/B: also run a git revision (e.g. main) or a checkout path, "
+                         f"alternating{note}")
+    ap.add_argument("--rounds", type=positive, default=rounds,
+                    help=f"runs per side with --against (default {rounds})")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         description="A/B of plc.scan() cost in CPU time; each side a git revision or a "
@@ -223,11 +243,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("a", help="side A: revision (e.g. main, HEAD~1) or checkout path")
     ap.add_argument("b", nargs="?", default=str(ROOT),
                     help="side B (default: this checkout)")
-    ap.add_argument("--rounds", type=int, default=3, help="runs per side (default 3)")
-    ap.add_argument("--scans", type=int, default=5000, help="scans per timing (default 5000)")
+    ap.add_argument("--rounds", type=positive, default=3, help="runs per side (default 3)")
+    ap.add_argument("--scans", type=positive, default=5000,
+                    help="scans per timing (default 5000)")
     args = ap.parse_args(argv)
-    if args.rounds < 1 or args.scans < 1:
-        ap.error("--rounds and --scans must be >= 1")
     run = lambda side: child(side, ["-c", SCAN_CHILD, str(side.root), str(args.scans)])  # noqa: E731
     print(compare(args.a, args.rounds, run, SCAN_KEYS,
                   "plc.scan() A/B, CPU us per scan (best of 5 timings a run)", args.b))

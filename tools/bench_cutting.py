@@ -154,16 +154,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--speed", type=float, default=2.0,
                     help="cutting speed, mm/s (default 2: the thesis's v)")
-    ap.add_argument("--against", metavar="REV",
-                    help="also run a git revision (e.g. HEAD~3) or a checkout path, "
-                         "alternating")
-    ap.add_argument("--rounds", type=int, default=3,
-                    help="runs per side with --against (default 3)")
+    ab.add_against(ap, rounds=3)
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     ap.add_argument("--root", type=Path, help=argparse.SUPPRESS)  # (--against's children)
     a = ap.parse_args(argv)
-    if a.rounds < 1:
-        ap.error("--rounds must be >= 1")
     if a.against:
         print(against(a.against, a.speed, a.rounds))
         return 0

@@ -216,17 +216,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
     ap.add_argument("--cpu", action="store_true",
                     help="time CPU time of the thread, not wall time")
-    ap.add_argument("--against", metavar="REV",
-                    help="A/B: also run a git revision (e.g. main) or a checkout path, "
-                         "alternating, CPU time")
-    ap.add_argument("--rounds", type=int, default=4,
-                    help="runs per side with --against (default 4)")
+    ab.add_against(ap, rounds=4, note=", CPU time")
     ap.add_argument("--ab-child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--profile", type=Path, metavar="PROGRAM.il",
                     help="instead: cProfile plc.scan() of this program, top functions")
     a = ap.parse_args(argv)
-    if a.rounds < 1:
-        ap.error("--rounds must be >= 1")
     if a.cpu or a.against or a.ab_child:
         global CLOCK
         CLOCK = time.thread_time

@@ -90,15 +90,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="side B (default: this checkout)")
     ap.add_argument("--benches", default=",".join(BENCHES),
                     help=f"comma-separated, from {', '.join(BENCHES)}")
-    ap.add_argument("--rounds", type=int, default=3, help="runs per side and benchmark")
+    ap.add_argument("--rounds", type=ab.positive, default=3,
+                    help="runs per side and benchmark")
     a = ap.parse_args(argv)
     benches = [b for b in a.benches.split(",") if b]
     unknown = set(benches) - set(BENCHES)
     if unknown:
         ap.error(f"unknown benchmark(s) {', '.join(sorted(unknown))}; known: "
                  f"{', '.join(BENCHES)}")
-    if a.rounds < 1:
-        ap.error("--rounds must be >= 1")
     with ab.sides([a.a, a.b]) as sides:
         print(f"{'benchmark':14} {'side':30} {'chunks':>9} "
               f"{'speed-up (CPU, chunk minima)':>29}")
