@@ -292,13 +292,11 @@ def requirement(model: Model, spec: Spec, req: Requirement, lemmas: list[Node],
     """`req` checked from start to end on one clock of `limits.seconds`: its cone of
     influence (`Checker`: a scan of the model, loops decided by the solver) and `verify`."""
     clock = Clock(limits.seconds)
-    model.loops.clock = clock
     try:
-        ck = Checker(model, spec, req, lemmas)
+        with model.loops.timed(clock):
+            ck = Checker(model, spec, req, lemmas)
     except TimeUp as e:
         return Result("UNKNOWN", "", 0, clock.elapsed(), note=str(e))
-    finally:
-        model.loops.clock = None
     return verify(ck, limits.depth, limits.max_k, clock, watch, limits.spacer, progress)
 
 
@@ -308,13 +306,11 @@ def verify(ck: Checker, depth: int, max_k: int, seconds: float | Clock, watch: l
     (or what is left of a requirement's clock): every solver call, the model's included,
     gets the time left; when it runs out, UNKNOWN saying what was running."""
     clock = seconds if isinstance(seconds, Clock) else Clock(seconds)
-    ck.model.loops.clock = clock
     try:
-        return _verify(ck, depth, max_k, clock, watch, use_spacer, progress)
+        with ck.model.loops.timed(clock):
+            return _verify(ck, depth, max_k, clock, watch, use_spacer, progress)
     except TimeUp as e:
         return Result("UNKNOWN", "BMC", clock.clean, clock.elapsed(), note=str(e))
-    finally:
-        ck.model.loops.clock = None
 
 
 def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],

@@ -5,6 +5,8 @@ engine's `_pc` dispatch runs it, while the solver cannot rule out another pass, 
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import z3
@@ -28,6 +30,15 @@ class Loops:
         self.sites: dict[int, A.Pos] = {}  # label -> its first backward jump
         self.file = file
         self.clock: Clock | None = None  # the requirement's, while one is checked
+
+    @contextmanager
+    def timed(self, clock: Clock) -> Iterator[None]:
+        """Decide passes on the requirement's `clock` within this block."""
+        self.clock = clock
+        try:
+            yield
+        finally:
+            self.clock = None
 
     def where(self) -> str:
         return ", ".join(f"{self.file}:{p.line}:{p.column}" for p in self.sites.values())
