@@ -11,11 +11,11 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import SoftPLCError
+from ..verify.defaults import DEPTH, LOOP_BOUND, MARGIN_S, MAX_K, TIMEOUT_S
 from ._args import add_program_arguments, existing_file, load_plc
 
 EXIT_UNPROVEN, EXIT_VIOLATED, EXIT_DISAGREE = 1, 2, 3
 Z3_MEMORY_MB = 3000  # SOFTPLC_Z3_MEMORY_MB overrides (tests give a small one)
-LOOP_BOUND = 32  # = verify.loops.LOOP_BOUND (not imported: `softplc --help` stays light)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -32,14 +32,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--require-expr", action="append", default=[], metavar="TEXT",
                    help="a requirement on the command line, e.g. 'never %%Q0.1 AND %%Q0.2' "
                         "(repeatable)")
-    p.add_argument("--depth", type=int, default=30,
+    p.add_argument("--depth", type=int, default=DEPTH,
                    help="scans searched for a counterexample (default %(default)s)")
-    p.add_argument("--max-k", type=int, default=10,
+    p.add_argument("--max-k", type=int, default=MAX_K,
                    help="largest k tried by k-induction (default %(default)s)")
-    p.add_argument("--timeout", type=float, default=60.0,
+    p.add_argument("--timeout", type=float, default=TIMEOUT_S,
                    help="seconds per requirement, all of it (model, engines); it ends "
-                        "UNKNOWN then (killed 2 s later if a solver call overran) "
-                        "(default %(default)s)")
+                        f"UNKNOWN then (killed {MARGIN_S:g} s later if a solver call "
+                        "overran) (default %(default)s)")
     p.add_argument("--scan-period", metavar="MIN:MAX",
                    help="any scan period from MIN to MAX in each scan (e.g. 10ms:1s; cyclic "
                         "mode), instead of the configured fixed one")

@@ -27,6 +27,7 @@ import z3
 
 from .checker import Checker
 from .clock import Clock, TimeUp
+from .defaults import DEPTH, MAX_K, TIMEOUT_S
 from .model import Model, run_concrete, sort_of
 from .requirements import Node, Requirement, Spec
 from .symbolic import value_of
@@ -280,9 +281,9 @@ class Spacer:
 class Limits:
     """How far `requirement` searches: scans, k, seconds (the whole requirement), Spacer."""
 
-    depth: int = 30
-    max_k: int = 10
-    seconds: float = 60.0
+    depth: int = DEPTH
+    max_k: int = MAX_K
+    seconds: float = TIMEOUT_S
     spacer: bool = True
 
 

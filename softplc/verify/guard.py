@@ -23,9 +23,9 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any
 
+from .defaults import MARGIN_S
 from .engines import FOUND, Limits, Progress, Result, requirement
 
-MARGIN_S = 2.0  # s the parent waits past the requirement's time before killing its child
 TRACE_S = 120.0  # s it waits for a counterexample's trace (concrete scans) once found
 
 

@@ -14,7 +14,6 @@ import z3
 from ..il import ast as A
 from .clock import Clock
 
-LOOP_BOUND = 32  # passes of a loop (backward jump) unrolled per scan by default
 # s the solver may spend, over a loop's passes, deciding whether another pass can run;
 # past it the remaining passes are not unrolled and the scans needing them are UNKNOWN
 LOOP_SOLVER_BUDGET_S = 10.0

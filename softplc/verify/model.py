@@ -26,7 +26,8 @@ from ..il import rungtree
 from ..runtime.blocks import Timer
 from ..runtime.engine import S_CLOCKS
 from .blocks import advance_timer, el_bits, run_timer
-from .loops import LOOP_BOUND, Loops
+from .defaults import LOOP_BOUND
+from .loops import Loops
 from .objects import BLOCK_KEY, CLOCK_WRAP_US, MW_ARRAY, ObjectModel
 from .system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
