@@ -33,11 +33,12 @@ draw: $(STAMP)
 	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png
 
 # Unit and integration tiers on every core (pytest-xdist); the end-to-end tier alone after
-# them, as its daemons keep real time and would compete with the workers (tests/tiers.py).
+# them, as its daemons keep real time and would compete with the workers (the folders
+# tests/unit, tests/integration, tests/e2e are the tiers).
 test: $(STAMP) sysdeps
 	$(BIN)/ruff check softplc tests tools
-	$(BIN)/python -m pytest -q -n auto -m "not e2e"
-	$(BIN)/python -m pytest -q -m e2e
+	$(BIN)/python -m pytest -q -n auto tests/unit tests/integration
+	$(BIN)/python -m pytest -q tests/e2e
 
 # libmodbus-dev (Debian): the C library the benchmark's "C ceiling" row compiles against.
 bench: $(STAMP)
@@ -63,5 +64,5 @@ clean:
 # quarter: tests/fuzz_budget.py), then the mutation fuzzers at full size with a progress
 # line: 4,000 mutated programs and 1,559 mutated configs, 0 tracebacks and 0 crashes expected.
 fuzz: $(STAMP)
-	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/test_fuzz.py tests/test_properties.py tests/test_config_fuzz.py tests/test_il_recovery.py tests/test_examples.py
+	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/unit/test_fuzz.py tests/unit/test_properties.py tests/unit/test_config_fuzz.py tests/unit/test_il_recovery.py tests/integration/test_examples.py
 	$(BIN)/python tools/fuzz_mutations.py --programs 4000 --configs 1559

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from .errors import (
+from softplc.errors import (
     AddressError,
     CompileError,
     ConfigError,
@@ -15,7 +15,7 @@ from .errors import (
 )
 
 if TYPE_CHECKING:
-    from .plc import PLC
+    from softplc.plc import PLC
 
 __all__ = ["PLC", "ProgramError", "ParseError", "CompileError", "ConfigError", "AddressError",
            "Diagnostic", "SoftPLCError"]
@@ -26,7 +26,7 @@ def __getattr__(name: str) -> Any:
     """`softplc.PLC` imported on first use (PEP 562): it pulls in the compiler and pydantic,
     which `softplc --help` and the light commands do not need."""
     if name == "PLC":
-        from .plc import PLC
+        from softplc.plc import PLC
 
         return PLC
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

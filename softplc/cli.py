@@ -10,24 +10,25 @@ import argparse
 import importlib
 import sys
 
-from .errors import SoftPLCError
+from softplc.errors import SoftPLCError
 
-# module path -> registered subcommands. Order is the order shown in --help.
-COMMAND_MODULES = [
-    "softplc.commands.check",
-    "softplc.commands.run",
-    "softplc.commands.repl",
-    "softplc.commands.ladder",
-    "softplc.commands.draw",
-    "softplc.commands.io",
-    "softplc.commands.load",
-    "softplc.commands.map",
-    "softplc.commands.symbols",
-    "softplc.commands.cut",
-    "softplc.commands.servo",
-    "softplc.commands.tune",
-    "softplc.commands.verify",
-]
+# command -> the module that registers it. Order is the order shown in --help. A machine's
+# commands live in its package (softplc/machines/NAME/command.py).
+COMMAND_MODULES = {
+    "check": "softplc.commands.check",
+    "run": "softplc.commands.run",
+    "repl": "softplc.commands.repl",
+    "ladder": "softplc.commands.ladder",
+    "draw": "softplc.machines.drawing.command",
+    "io": "softplc.commands.io",
+    "load": "softplc.commands.load",
+    "map": "softplc.commands.map",
+    "symbols": "softplc.commands.symbols",
+    "cut": "softplc.machines.cutting.command",
+    "servo": "softplc.machines.servo.command",
+    "tune": "softplc.machines.machining.command",
+    "verify": "softplc.commands.verify",
+}
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -38,13 +39,13 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         prog="softplc",
         description="A soft-PLC for Telemecanique Twido Instruction List programs.",
     )
-    from . import __version__
+    from softplc import __version__
 
     parser.add_argument("--version", action="version", version=f"softplc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    only = f"softplc.commands.{command}"
-    for modname in [only] if only in COMMAND_MODULES else COMMAND_MODULES:
-        importlib.import_module(modname).register(sub)
+    names = [command] if command in COMMAND_MODULES else list(COMMAND_MODULES)
+    for name in names:
+        importlib.import_module(COMMAND_MODULES[name]).register(sub)
     return parser
 
 

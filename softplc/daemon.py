@@ -47,15 +47,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from . import build
-from .errors import SoftPLCError
-from .modbus import ModbusImage, ReadOnly, ServerThread
-from .modbus.regmap import describe
-from .modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
-from .modbus.tags import host_read_only
-from .runtime import retain
-from .runtime.engine import HALT, RUN
-from .runtime.keeper import StateKeeper
+from softplc import assembly as build
+from softplc.errors import SoftPLCError
+from softplc.modbus import ModbusImage, ReadOnly, ServerThread
+from softplc.modbus.regmap import describe
+from softplc.modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
+from softplc.modbus.tags import host_read_only
+from softplc.persist import retain
+from softplc.persist.keeper import StateKeeper
+from softplc.runtime.engine import HALT, RUN
 
 log = logging.getLogger("softplc.daemon")
 
@@ -274,8 +274,8 @@ class Daemon:
             self._server = server
             # web monitor hook: served on the Modbus server's event loop (softplc.web)
             if opt.web is not None and opt.web.port is not None:
-                from .access import AccessPort
-                from .web import attach
+                from softplc.access import AccessPort
+                from softplc.web import attach
 
                 self.web = attach(self, server, AccessPort(plc, image), opt.web)
             for hook in opt.on_serving:

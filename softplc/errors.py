@@ -18,7 +18,7 @@ class Code(StrEnum):
     UNKNOWN_INSTRUCTION = "unknown-instruction"
     NESTING = "nesting"  # an expression nested deeper than the parser takes
     ADDRESS = "address"  # malformed address or outside the profile
-    SYMBOL = "symbol"  # a name that is no declared symbol (softplc.symbols)
+    SYMBOL = "symbol"  # a name that is no declared symbol (softplc.twido.symbols)
     CONSTANT = "constant"  # a literal out of range
     CANNOT_READ = "cannot-read"  # the program file
     # rung structure: an opening instruction missing before, or a closing one after

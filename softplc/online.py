@@ -27,10 +27,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from . import catalog
-from .address import parse_address
-from .errors import SoftPLCError
-from .il import ast as A
+from softplc.errors import SoftPLCError
+from softplc.il import ast as A
+from softplc.twido import catalog
+from softplc.twido.address import parse_address
 
 #: Configuration sections an online change may alter: the blocks' (applied block by block)
 #: and the descriptive ones. Any other section (scan period, devices, Modbus, analog, PID,
@@ -112,7 +112,7 @@ def plan(plc: Any, program: A.Program | str | Path,
     """Check and compile `program` (an AST, IL text or a file) against `config` (default:
     the running configuration) without touching `plc`; what will not carry over. `file`:
     the name IL text goes by in the messages."""
-    from .plc import PLC
+    from softplc.plc import PLC
 
     if config is None:
         config = plc.config

@@ -3,7 +3,7 @@
     plc = PLC.from_file("ladder_programs/x.il", config="x.toml")
     plc.scan(); plc.run(seconds=1.5); plc["%MW3"] = 120; plc["%Q0.14"]
 
-The machine builder (`softplc.build`) assembles the parts; the facade keeps run control and
+The machine builder (`softplc.assembly`) assembles the parts; the facade keeps run control and
 item access, and gives the parts' usual names (`plc.mem`, `plc.engine`, `plc.settings`).
 """
 
@@ -15,21 +15,21 @@ from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
-from . import build
-from .address import BLOCK_FIELDS, Ref, parse_address
-from .errors import (
+from softplc import assembly as build
+from softplc.errors import (
     AddressError,
     ConfigError,
     ParseError,
     ProgramError,
     SoftPLCError,
 )
-from .il import ast as A
-from .il.parser import parse, parse_file
-from .il.rungtree import syntax_follow_ups
-from .program import CompiledProgram
-from .runtime.clock import Clock
-from .runtime.engine import Engine
+from softplc.il import ast as A
+from softplc.il.parser import parse, parse_file
+from softplc.il.rungtree import syntax_follow_ups
+from softplc.program import CompiledProgram
+from softplc.runtime.clock import Clock
+from softplc.runtime.engine import Engine
+from softplc.twido.address import BLOCK_FIELDS, Ref, parse_address
 
 
 def _engine(name: str) -> Callable[..., Any]:
@@ -54,7 +54,7 @@ def _engine_value(name: str, doc: str) -> property:
 
 
 class PLC:
-    """A soft Twido: the machine `softplc.build` assembles (`self.machine`), run (`scan`,
+    """A soft Twido: the machine `softplc.assembly` assembles (`self.machine`), run (`scan`,
     `run`, `start`/`stop`...) and read or written by address (`plc["%MW3"]`, `force`)."""
 
     def __init__(self, program: A.Program, config: build.ConfigSource = None,
@@ -67,7 +67,7 @@ class PLC:
         self.scan_period = m.settings.scan_period
         self._refs: dict[str, Ref] = {}
         self._forced: dict[Ref, Any] = {}
-        # the function blocks, family by family from the catalog (softplc/build/blocks.py),
+        # the function blocks, family by family from the catalog (softplc/assembly/blocks.py),
         # and the devices: every configuration problem the build finds is raised here
         self.block_setup = build.equip(m, devices)
         self.devices: dict[str, Any] = m.devices

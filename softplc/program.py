@@ -22,9 +22,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from . import catalog
-from .il import ast as A
-from .semantics import Ops
+from softplc.il import ast as A
+from softplc.twido import catalog
+from softplc.twido.semantics import Ops
 
 
 class Watchdog(Exception):

@@ -25,7 +25,7 @@ from typing import Any
 
 import pytest
 
-from .plc import PLC
+from softplc.plc import PLC
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -3,11 +3,17 @@
 import os
 import socket
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 from daemon_util import daemons  # noqa: F401 (the `daemons` fixture)
-from tiers import tier_of
+from tiers import TIERS, tier_of
+
+# Test modules import each other's helpers across tiers (an e2e web test the unit tier's
+# program generator): every tier folder is importable whichever tier runs.
+for _tier in TIERS:
+    sys.path.insert(0, str(Path(__file__).resolve().parent / _tier))
 
 # The tests start about 60 daemons and `softplc` commands as subprocesses: with
 # PYTHONDONTWRITEBYTECODE=1 in the environment each of them would compile every softplc
@@ -17,11 +23,13 @@ os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark every test with its tier (`-m unit`, `-m "not e2e"`, ...)."""
+    """Mark every test with its folder's tier (`-m unit`, `-m "not e2e"`, ...)."""
     for item in items:
-        function = getattr(item, "originalname", item.name)
-        tier = tier_of(Path(str(item.path)).stem, function,
-                       list(getattr(item, "fixturenames", ())))
+        path = Path(str(item.path))
+        tier = tier_of(path)
+        if "daemons" in getattr(item, "fixturenames", ()) and tier != "e2e":
+            raise pytest.UsageError(f"{item.nodeid} uses the daemons fixture: it belongs in "
+                                    "tests/e2e")
         item.add_marker(getattr(pytest.mark, tier))
 
 
@@ -31,14 +39,14 @@ class TierViolation(AssertionError):
 
 @pytest.fixture(autouse=True)
 def _unit_tier_guard(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch):
-    """Unit tests run without sockets or subprocesses (classify the module in tiers.py)."""
+    """Unit tests run without sockets or subprocesses (tests/tiers.py)."""
     if request.node.get_closest_marker("unit") is None:
         yield
         return
 
     def refuse(*_a, **_k):
         raise TierViolation(f"{request.node.nodeid} is marked unit but opens a socket or "
-                            "starts a process: list its module in tests/tiers.py")
+                            "starts a process: move it to tests/integration or tests/e2e")
 
     monkeypatch.setattr(socket.socket, "connect", refuse)
     monkeypatch.setattr(socket.socket, "bind", refuse)

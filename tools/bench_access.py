@@ -17,8 +17,8 @@ from typing import Any
 
 from softplc.access import AccessPort
 from softplc.access.commands import MAX_PENDING
-from softplc.address import parse_address
 from softplc.plc import PLC
+from softplc.twido.address import parse_address
 
 PROGRAM = "LD [%MW0 > 3]\nST %M5\nLD %I0.0\nST %Q0.0\n"
 

@@ -1,5 +1,5 @@
 """Building a machine: the CPU time of `PLC.from_file` for each example machine, and of its
-first step, `softplc.build.assemble` (configuration checked, memory image, modules, analog
+first step, `softplc.assembly.assemble` (configuration checked, memory image, modules, analog
 channels, constants, EXCH port, engine), best of `--repeat` rounds. Figures only; nothing
 is asserted. `--tree` measures another checkout or a git revision (exported by
 tools/bench_cpu_ab.py; an older one has no `assemble`: "-").
@@ -56,7 +56,7 @@ def measure(tree: Path, repeat: int, machines: list[str]) -> int:
     sys.path.insert(0, str(tree))
     plc_class = importlib.import_module("softplc.plc").PLC
     try:
-        assemble = importlib.import_module("softplc.build").assemble
+        assemble = importlib.import_module("softplc.assembly").assemble
     except ImportError:
         assemble = None
     print(f"softplc from {Path(importlib.import_module('softplc').__file__).parent}; "

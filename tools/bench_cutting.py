@@ -1,7 +1,7 @@
 """Cutting-table simulation speed: the rounded rectangle (E3, ladder_programs/pieces/
 achaflanado.toml) cut by cutting_table.il on its two servo axes (2.26 kHz servo clock) at
 1 ms scans, the segments fed in-process through the PLC's words (the Modbus host's
-handshake without the network: `softplc.cutting.client.feed_plc`). Homing is done before
+handshake without the network: `softplc.machines.cutting.client.feed_plc`). Homing is done before
 the clock starts. Prints simulated seconds per wall second and per CPU second of the
 simulating thread (the machine is shared: under load the wall figure falls while the CPU
 figure holds), and the servo device: CPU microseconds per `update` of one axis of the
@@ -31,8 +31,8 @@ import bench_cpu_ab as ab
 from peers.common import speed_line
 
 from softplc import PLC
-from softplc.cutting import load_piece
-from softplc.cutting.client import feed_plc
+from softplc.machines.cutting import load_piece
+from softplc.machines.cutting.client import feed_plc
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -22,7 +22,7 @@ from bench_servo import _calib, _timed
 from peers.common import speed_line
 
 from softplc import PLC
-from softplc.massest import handshake, tuning
+from softplc.machines.machining import handshake, tuning
 
 ROOT = Path(__file__).resolve().parent.parent
 

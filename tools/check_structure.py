@@ -12,7 +12,11 @@ Prints, and exits 1 when a rule is broken (`--strict`), or always 0 (default):
 - import cycles between files, every import statement counted (module level, inside
   functions, under `if TYPE_CHECKING:`); `from . import sub` is an edge to `sub` only;
 - files of softplc/web/ that reach the PLC object (`.plc` attribute, `PLC` name, or
-  an import of softplc.plc).
+  an import of softplc.plc);
+- imports that run up the layers (LAYERS: a module imports its own layer or lower ones;
+  the data path from program text to the front-ends, the machines above the core, the
+  command line on top), and imports from one machine into another (only the shared
+  G-code reader, `softplc.machines.gcode`, serves two machines).
 
     python tools/check_structure.py [--strict] [--kinds VFC,PLS,...]
 """
@@ -33,6 +37,31 @@ MAX_KIND_FILES = 3
 KINDS = ("VFC", "PLS", "PWM", "DR", "FC", "PID")
 # Tables of one method per instruction or grammar rule (DEVELOPERS.md excepts them).
 CLASS_ALLOW = {"Ops", "_ToAST"}
+# The layers, lowest first: a module imports from its own layer and lower ones only. A
+# module's layer is that of the longest prefix naming it.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("softplc.errors",),
+    ("softplc.twido",),                       # the Twido object model
+    ("softplc.il",),                          # program text -> typed AST
+    ("softplc.program",),                     # the compiled code's contract
+    ("softplc.runtime",),                     # memory image, blocks, scan engine
+    ("softplc.compiler", "softplc.ladder"),   # AST -> code; AST -> ladder
+    ("softplc.persist",),                     # retained state
+    ("softplc.modbus",),                      # the Modbus codec, map and server
+    ("softplc.config",),                      # the typed configuration
+    ("softplc.devices",),                     # generic simulated devices
+    ("softplc.assembly",),                    # configuration + program -> a machine
+    ("softplc.plc", "softplc.testing"),       # the PLC facade, the pytest plugin
+    ("softplc.online",),                      # online program change
+    ("softplc.access", "softplc.verify"),     # the access port; the verifier
+    ("softplc.debug", "softplc.web"),         # the front-ends
+    ("softplc.daemon",),
+    ("softplc.commands",),
+    ("softplc.machines",),                    # the machines' wing, above the core
+    ("softplc", "softplc.cli", "softplc.__main__"),
+)
+MACHINES = "softplc.machines."
+SHARED_MACHINE_LIBS = ("softplc.machines.gcode",)
 
 
 def _docstring_nodes(tree: ast.AST) -> set[int]:
@@ -166,11 +195,43 @@ class Report:
     per_kind: dict[str, list[str]] = field(default_factory=dict)
     cycles: list[list[str]] = field(default_factory=list)
     web_reach: list[str] = field(default_factory=list)
+    upward: list[str] = field(default_factory=list)
 
     @property
     def broken(self) -> int:
         return len(self.long_files) + len(self.big_classes) + len(self.cycles) + len(
-            self.web_reach) + sum(len(v) > MAX_KIND_FILES for v in self.per_kind.values())
+            self.web_reach) + len(self.upward) + sum(
+            len(v) > MAX_KIND_FILES for v in self.per_kind.values())
+
+
+def layer_of(module: str) -> int:
+    """The index in LAYERS of `module` (the longest prefix that names it)."""
+    best, depth = len(LAYERS) - 1, -1
+    for i, prefixes in enumerate(LAYERS):
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and len(p) > depth:
+                best, depth = i, len(p)
+    return best
+
+
+def machine_of(module: str) -> str | None:
+    """The machine package of `module` (softplc.machines.NAME), None for the core."""
+    if not module.startswith(MACHINES):
+        return None
+    return ".".join(module.split(".")[:3])
+
+
+def upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    """`a -> b` for each import that runs up the layers or from one machine to another."""
+    out = []
+    for m, deps in sorted(graph.items()):
+        for d in sorted(deps):
+            mm, md = machine_of(m), machine_of(d)
+            across = mm and md and mm != md and md not in SHARED_MACHINE_LIBS \
+                and m != MACHINES.rstrip(".")
+            if layer_of(d) > layer_of(m) or across:
+                out.append(f"{m} -> {d}")
+    return out
 
 
 def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
@@ -194,8 +255,9 @@ def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
             rep.web_reach.append(rel)
     known = set(trees)
     graph = {m: _imports(t, m, pkg, known) for m, (t, pkg) in trees.items()}
-    rep.cycles = cycles({m: {t for t in deps if t in known and t != m}
-                         for m, deps in graph.items()})
+    inner = {m: {t for t in deps if t in known and t != m} for m, deps in graph.items()}
+    rep.cycles = cycles(inner)
+    rep.upward = upward_imports(inner) if root == ROOT else []
     return rep
 
 
@@ -218,6 +280,9 @@ def main(argv: list[str] | None = None) -> int:
     for c in rep.cycles:
         print("   ", " <-> ".join(c))
     print(f"web/ files reaching the PLC object: {len(rep.web_reach)} {' '.join(rep.web_reach)}")
+    print(f"imports up the layers or across machines: {len(rep.upward)}")
+    for x in rep.upward:
+        print("   ", x)
     print(f"rules broken: {rep.broken}")
     return 1 if (rep.broken and args.strict) else 0
 

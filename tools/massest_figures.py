@@ -9,8 +9,8 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
-from softplc.massest import estimator, synth, thesis
-from softplc.massest.settings import thesis_settings
+from softplc.machines.machining import estimator, synth, thesis
+from softplc.machines.machining.settings import thesis_settings
 
 
 def err(sc: synth.Scenario, s=None, calibrate: bool = True) -> float:

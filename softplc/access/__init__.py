@@ -16,11 +16,11 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # what the names are, for type checkers
-    from ..runtime.runstate import RunState
-    from .commands import ACTIONS, Action
-    from .errors import AccessError
-    from .machine import DeviceEntry
-    from .port import AccessPort, Status
+    from softplc.access.commands import ACTIONS, Action
+    from softplc.access.errors import AccessError
+    from softplc.access.machine import DeviceEntry
+    from softplc.access.port import AccessPort, Status
+    from softplc.runtime.runstate import RunState
 
 _WHERE = {"ACTIONS": "commands", "Action": "commands", "AccessError": "errors",
           "DeviceEntry": "machine", "AccessPort": "port", "Status": "port",

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from ..address import Ref
-from ..errors import SoftPLCError
-from .errors import AccessError
+from softplc.access.errors import AccessError
+from softplc.errors import SoftPLCError
+from softplc.twido.address import Ref
 
 MAX_PENDING = 256  # data changes (writes, forcing) queued at once; past it: 503
 MAX_URGENT = 64  # RUN/STOP/restart and unforce queued at once

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..errors import SoftPLCError
+from softplc.errors import SoftPLCError
 
 
 class AccessError(SoftPLCError):

@@ -8,11 +8,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from ..address import Ref, parse_address
-from ..errors import AddressError
-from ..profile import MODULES
-from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
-from .errors import AccessError
+from softplc.access.errors import AccessError
+from softplc.errors import AddressError
+from softplc.runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
+from softplc.twido.address import Ref, parse_address
+from softplc.twido.profile import MODULES
 
 IO_PREFIXES = ("%I", "%Q")  # %I/%Q bits and %IW/%QW analog words
 

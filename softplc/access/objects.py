@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..address import BLOCK_FIELDS, Ref, expand, parse_address
-from ..errors import AddressError
-from .errors import AccessError
+from softplc.access.errors import AccessError
+from softplc.errors import AddressError
+from softplc.twido.address import BLOCK_FIELDS, Ref, expand, parse_address
 
 MAX_OBJECTS = 2000  # objects one read or page may name (counted before expanding ranges)
 REF_CACHE = 20000  # single objects kept by the address cache (over all its keys)
@@ -29,7 +29,7 @@ class Objects:
         key = text.strip().upper()
         refs = self._refs.get(key)
         if refs is None:
-            try:  # an address, or a symbol of the configuration (softplc.symbols)
+            try:  # an address, or a symbol of the configuration (softplc.twido.symbols)
                 refs = expand(self.plc.symbols.address_of(key), self.profile)
             except AddressError as e:
                 raise AccessError(f"unknown object {text!r}: {e}") from None

@@ -22,16 +22,26 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
-from ..address import BLOCK_FIELDS, Ref
-from ..runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
-from ..runtime.runstate import RunState
-from .commands import ACTIONS, Action, Analog, Call, CommandQueue, Control, Force, Unforce, Write
-from .errors import AccessError
-from .machine import MachineInfo
-from .objects import Objects
-from .program import ProgramAccess
-from .reading import Reading
-from .values import check_value
+from softplc.access.commands import (
+    ACTIONS,
+    Action,
+    Analog,
+    Call,
+    CommandQueue,
+    Control,
+    Force,
+    Unforce,
+    Write,
+)
+from softplc.access.errors import AccessError
+from softplc.access.machine import MachineInfo
+from softplc.access.objects import Objects
+from softplc.access.program import ProgramAccess
+from softplc.access.reading import Reading
+from softplc.access.values import check_value
+from softplc.runtime.analog import SIGNAL_SPAN, SIGNAL_UNIT
+from softplc.runtime.runstate import RunState
+from softplc.twido.address import BLOCK_FIELDS, Ref
 
 CONSTANT_KINDS = ("KW", "KD", "KF")
 IMAGE_KINDS = ("MW", "MD", "MF", "M")  # written through the Modbus image when there is one

@@ -7,9 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .. import build, online
-from ..runtime.retain import application_id
-from ..symbols import SymbolTable
+from softplc import assembly as build
+from softplc import online
+from softplc.persist.retain import application_id
+from softplc.twido.symbols import SymbolTable
 
 
 def _anchored(raw: dict[str, Any], base: Path | None) -> dict[str, Any]:
@@ -50,7 +51,7 @@ class ProgramAccess:
     def modbus_map(self) -> Any:
         """The Modbus map of the running program (`softplc.modbus.tags.ProgramMap`), kept
         until the program changes."""
-        from ..modbus import tags  # above this package: imported when a map is asked for
+        from softplc.modbus import tags  # above this package: imported when a map is asked for
 
         if self._map is None or self._map[0] != self.version:
             self._map = (self.version, tags.of_plc(self.plc))

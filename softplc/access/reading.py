@@ -18,9 +18,9 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-from ..address import Ref
-from ..display import block_fields
-from ..errors import SoftPLCError
+from softplc.errors import SoftPLCError
+from softplc.twido.address import Ref
+from softplc.twido.display import block_fields
 
 SAMPLE_WAIT = 0.25  # s: longer than that without a scan (long period, stopped loop): read now
 

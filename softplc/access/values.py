@@ -6,11 +6,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .. import catalog
-from ..address import BLOCK_FIELDS, Ref
-from ..numeric import F32_MAX
-from ..runtime.blocks import MAX_VALUE
-from .errors import AccessError
+from softplc.access.errors import AccessError
+from softplc.runtime.blocks import MAX_VALUE
+from softplc.twido import catalog
+from softplc.twido.address import BLOCK_FIELDS, Ref
+from softplc.twido.numeric import F32_MAX
 
 # Value ranges accepted, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it

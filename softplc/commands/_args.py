@@ -12,7 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, SoftPLCError
+from softplc.errors import ConfigError, SoftPLCError
 
 
 def size_arg(what: str, unit: str, example: str) -> Callable[[str], tuple[float, float]]:
@@ -30,7 +30,7 @@ def size_arg(what: str, unit: str, example: str) -> Callable[[str], tuple[float,
 
 
 # = softplc.modbus.regmap.DEFAULT_PORT, not imported from there: importing softplc.modbus
-# takes ~0.7 s, which every `softplc --help` would pay (tests/test_check_command.py checks it)
+# takes ~0.7 s, which every `softplc --help` would pay (tests/e2e/test_check_command.py checks it)
 DEFAULT_MODBUS_PORT = 5020
 
 
@@ -83,7 +83,7 @@ def check_files(args: argparse.Namespace) -> None:
 
 def load_plc(args: argparse.Namespace, **kw: Any) -> Any:
     """The PLC of `args.program` with `args.config` (keyword arguments go to `PLC`)."""
-    from ..plc import PLC
+    from softplc.plc import PLC
 
     check_files(args)
     return PLC.from_file(args.program, config=args.config, **kw)

@@ -8,8 +8,8 @@ import sys
 from collections import Counter
 from dataclasses import asdict
 
-from ..errors import ConfigError, Diagnostic, ProgramError, SoftPLCError
-from ._args import add_program_arguments, check_files, load_plc
+from softplc.commands._args import add_program_arguments, check_files, load_plc
+from softplc.errors import ConfigError, Diagnostic, ProgramError, SoftPLCError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -87,8 +87,8 @@ def _report(e: ProgramError) -> int:
 
 def _format(args: argparse.Namespace) -> int:
     """The formatter: the program on stdout (or rewritten), every message on stderr."""
-    from ..build import symbol_table
-    from ..il.formatter import format_source
+    from softplc.assembly import symbol_table
+    from softplc.il.formatter import format_source
 
     if args.rungs or args.python or args.json:
         raise SoftPLCError("--format prints the program only: leave out --rungs, --python "

@@ -18,9 +18,9 @@ import urllib.error
 import urllib.request
 from typing import Any
 
-from ..access.commands import ACTIONS
-from ..errors import SoftPLCError
-from ._args import port
+from softplc.access.commands import ACTIONS
+from softplc.commands._args import port
+from softplc.errors import SoftPLCError
 
 DEFAULT_PORT = 8020  # softplc.web.DEFAULT_WEB_PORT, without importing aiohttp here
 TIMEOUT = 5.0
@@ -129,9 +129,9 @@ def _pairs(args: list[str], what: str) -> list[tuple[str, int | float]]:
 
 
 def _show(name: str, value: Any) -> str:
-    """A value of the API's answer as `softplc repl` prints it (softplc.display)."""
-    from ..address import parse_address
-    from ..display import format_value
+    """A value of the API's answer as `softplc repl` prints it (softplc.twido.display)."""
+    from softplc.twido.address import parse_address
+    from softplc.twido.display import format_value
 
     try:
         ref = parse_address(name)

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._args import add_program_arguments, check_files, load_plc
+from softplc.commands._args import add_program_arguments, check_files, load_plc
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,10 +30,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import ladder
-    from ..errors import SoftPLCError
-    from ..il import ast as A
-    from ..il.parser import parse_file
+    from softplc import ladder
+    from softplc.errors import SoftPLCError
+    from softplc.il import ast as A
+    from softplc.il.parser import parse_file
 
     blocks = None
     if args.config is not None:  # the configured blocks, for their boxes

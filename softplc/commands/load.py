@@ -14,9 +14,9 @@ import os
 import sys
 from pathlib import Path
 
-from ..errors import SoftPLCError
-from ._args import CONFIG_HELP, existing_file, port
-from .io import DEFAULT_PORT, Client
+from softplc.commands._args import CONFIG_HELP, existing_file, port
+from softplc.commands.io import DEFAULT_PORT, Client
+from softplc.errors import SoftPLCError
 
 LOAD_TIMEOUT = 120.0  # s: checking a ~1 MB program takes a while
 

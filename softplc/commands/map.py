@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._args import add_program_arguments, check_files, load_plc
+from softplc.commands._args import add_program_arguments, check_files, load_plc
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -28,8 +28,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..il.parser import parse_file
-    from ..modbus import tags
+    from softplc.il.parser import parse_file
+    from softplc.modbus import tags
 
     if args.config is None:  # the program alone: no read-only ranges, no devices
         check_files(args)

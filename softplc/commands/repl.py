@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._args import add_program_arguments, load_plc
+from softplc.commands._args import add_program_arguments, load_plc
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,12 +30,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..debug.repl import run_repl
-    from ..debug.session import Session
+    from softplc.debug.repl import run_repl
+    from softplc.debug.session import Session
     plc = load_plc(args, clock="virtual")
     replaying = ""
     if args.replay is not None:
-        from ..verify.replay import read_cex, replay_hook
+        from softplc.verify.replay import read_cex, replay_hook
         cex = read_cex(args.replay)["counterexamples"][0]
         plc.before_scan.append(replay_hook(plc, cex))
         replaying = (f"\nreplaying {args.replay}: {cex['requirement']} breaks within "

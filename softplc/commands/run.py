@@ -21,14 +21,16 @@ import re
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError
-from ._args import add_program_arguments, load_plc, port
+from softplc.commands._args import add_program_arguments, load_plc, port
+from softplc.errors import ConfigError
 
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
 
 
 def _duration(text: str, bare_unit: str = "s") -> float:
-    from ..config import duration  # pydantic: imported when a duration is given, not for --help
+    from softplc.config import (
+        duration,  # pydantic: imported when a duration is given, not for --help
+    )
 
     if _BARE_NUMBER.match(text):
         text += bare_unit
@@ -42,7 +44,7 @@ def _checked(check_name: str) -> Any:
     """An argparse type: a duration (bare number = seconds) passed through the config's
     bound check `check_name` (softplc.config), so the flag and the key take the same values."""
     def parse(text: str) -> float:
-        from .. import config
+        from softplc import config
 
         v = _duration(text)
         try:
@@ -62,14 +64,14 @@ def _whole(lo: int, hi: int) -> Any:
 
 
 def _max_clients(text: str) -> int:
-    from ..config import MAX_CLIENTS
+    from softplc.config import MAX_CLIENTS
 
     return _whole(1, MAX_CLIENTS)(text)
 
 
 def _interval(text: str) -> float:
     """--save-interval, --stats-interval: a duration, 0 (off) or at least 10 ms."""
-    from ..config import check_interval
+    from softplc.config import check_interval
 
     try:
         return check_interval(_duration(text))
@@ -201,13 +203,13 @@ _LOCKED: list[int] = []  # descriptors held open (and locked) until the process 
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..daemon import Daemon, DaemonOptions
+    from softplc.daemon import Daemon, DaemonOptions
 
     logging.basicConfig(level=getattr(logging, args.log_level.upper()),
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
-    from ..build import application_id
-    from ..modbus.server import parse_allow
-    from ..runtime.retain import open_locked
+    from softplc.assembly import application_id
+    from softplc.modbus.server import parse_allow
+    from softplc.persist.retain import open_locked
 
     plc = load_plc(args, clock="real" if args.speed is None else "virtual")
     outputs = []
@@ -267,7 +269,7 @@ def run(args: argparse.Namespace) -> int:
 def _web_options(args: argparse.Namespace, configured: Any) -> Any:
     """The web monitor's options (softplc.web), from the --web-* options, else the
     configuration's [web] (`configured`, validated)."""
-    from ..web import DEFAULT_WEB_PORT, WebOptions
+    from softplc.web import DEFAULT_WEB_PORT, WebOptions
 
     if args.web == _WEB_OFF:
         return None

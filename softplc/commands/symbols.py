@@ -1,5 +1,5 @@
 """`softplc symbols import|export`: the symbol table between a configuration and a CSV file
-in TwidoSuite's symbol layout (address, symbol, comment; softplc.symbols).
+in TwidoSuite's symbol layout (address, symbol, comment; softplc.twido.symbols).
 
     softplc symbols export --config motor.toml -o motor.csv   # [symbols] -> CSV
     softplc symbols import motor.csv                          # CSV -> [symbols] (stdout)
@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..errors import ConfigError
+from softplc.errors import ConfigError
 
 _EXAMPLES = """\
 examples:
@@ -49,7 +49,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from ..build import symbol_table
+    from softplc.assembly import symbol_table
 
     table = symbol_table(args.config)
     if not len(table):
@@ -64,10 +64,10 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_import(args: argparse.Namespace) -> int:
-    from ..build import load
-    from ..config import Config, read_config
-    from ..profile import PROFILES
-    from ..symbols import SymbolTable, read_csv_file
+    from softplc.assembly import load
+    from softplc.config import Config, read_config
+    from softplc.twido.profile import PROFILES
+    from softplc.twido.symbols import SymbolTable, read_csv_file
 
     settings = load(args.config).settings if args.config is not None else Config()
     table = SymbolTable(read_csv_file(args.csv), PROFILES[settings.profile])  # checked

@@ -10,9 +10,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..errors import SoftPLCError
-from ..verify.defaults import DEPTH, LOOP_BOUND, MARGIN_S, MAX_K, TIMEOUT_S
-from ._args import add_program_arguments, existing_file, load_plc
+from softplc.commands._args import add_program_arguments, existing_file, load_plc
+from softplc.errors import SoftPLCError
+from softplc.verify.defaults import DEPTH, LOOP_BOUND, MARGIN_S, MAX_K, TIMEOUT_S
 
 EXIT_UNPROVEN, EXIT_VIOLATED, EXIT_DISAGREE = 1, 2, 3
 Z3_MEMORY_MB = 3000  # SOFTPLC_Z3_MEMORY_MB overrides (tests give a small one)
@@ -100,11 +100,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..verify.engines import Limits
-    from ..verify.guard import check
-    from ..verify.model import Model
-    from ..verify.replay import emit_test, replay, write_cex
-    from ..verify.requirements import check_environment, load_spec
+    from softplc.verify.engines import Limits
+    from softplc.verify.guard import check
+    from softplc.verify.model import Model
+    from softplc.verify.replay import emit_test, replay, write_cex
+    from softplc.verify.requirements import check_environment, load_spec
 
     if args.require is None and not args.require_expr:
         print("softplc verify: give --require REQ.toml or --require-expr TEXT",
@@ -115,7 +115,7 @@ def _run(args: argparse.Namespace) -> int:
     plc = load_plc(args, devices=False)
     spec = load_spec(args.require, args.require_expr, plc.profile)
     if args.scan_period:
-        from ..verify.requirements import parse_periods
+        from softplc.verify.requirements import parse_periods
         try:
             spec.periods = parse_periods(args.scan_period)
         except ValueError as e:

@@ -1,6 +1,6 @@
 """Rungs (AST) -> resolve pass -> Python source -> callable scan functions."""
 
-from .codegen import CompiledProgram, compile_program
-from .resolve import Resolved, resolve
+from softplc.compiler.codegen import CompiledProgram, compile_program
+from softplc.compiler.resolve import Resolved, resolve
 
 __all__ = ["CompiledProgram", "Resolved", "compile_program", "resolve"]

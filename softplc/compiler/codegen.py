@@ -14,15 +14,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..address import Ref
-from ..errors import Code, CompileError, Diagnostic
-from ..il import ast as A
-from ..il import rungtree
-from ..program import CompiledProgram, Names, ProgramState, Watchdog
-from ..runtime.grafcet import GRAFCET_BITS
-from ..semantics import COMPARE_PY
-from .resolve import Resolved
-from .values import (
+from softplc.compiler.resolve import Resolved
+from softplc.compiler.values import (
     BLOCK_KIND_PINS,
     BLOCK_OUTPUTS,
     BLOCK_PIN_METHODS,
@@ -30,6 +23,13 @@ from .values import (
     _Acc,
     _Fn,
 )
+from softplc.errors import Code, CompileError, Diagnostic
+from softplc.il import ast as A
+from softplc.il import rungtree
+from softplc.program import CompiledProgram, Names, ProgramState, Watchdog
+from softplc.runtime.grafcet import GRAFCET_BITS
+from softplc.twido.address import Ref
+from softplc.twido.semantics import COMPARE_PY
 
 MAX_EXPR = 2000  # characters of a fused expression before it is materialised
 # CPython compiles one very long function more slowly per line than several shorter ones

@@ -12,13 +12,13 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-from .. import catalog
-from ..address import BOOL, INT16, INT32, REAL, Ref
-from ..errors import Code, Diagnostic
-from ..il import ast as A
-from ..program import Names
-from ..runtime.blocks import MAX_VALUE
-from ..semantics import INLINE_EXACT, INLINE_QUOTIENT, inline_checked
+from softplc.errors import Code, Diagnostic
+from softplc.il import ast as A
+from softplc.program import Names
+from softplc.runtime.blocks import MAX_VALUE
+from softplc.twido import catalog
+from softplc.twido.address import BOOL, INT16, INT32, REAL, Ref
+from softplc.twido.semantics import INLINE_EXACT, INLINE_QUOTIENT, inline_checked
 
 BIT_BUFFERS, WORD_BUFFERS, PAIR_VIEWS, FAMILY = Names.BIT, Names.WORD, Names.PAIR, Names.FAMILY
 # Short form (`CU %C0`): the block method of each input pin (see blocks.Block: `run` for a

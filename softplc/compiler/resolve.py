@@ -13,9 +13,9 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from ..address import ANALOG_KINDS, BLOCK_FIELDS, IO_KINDS, Ref
-from ..errors import Code, Diagnostic
-from ..il import ast as A
+from softplc.errors import Code, Diagnostic
+from softplc.il import ast as A
+from softplc.twido.address import ANALOG_KINDS, BLOCK_FIELDS, IO_KINDS, Ref
 
 EDGE_MODIFIERS = ("R", "F")
 

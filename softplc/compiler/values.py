@@ -9,14 +9,7 @@ builds on it for the boolean accumulator and program control.
 
 from __future__ import annotations
 
-from .. import catalog
-from ..address import BOOL, INT16, INT32, REAL, Ref
-from ..errors import Code
-from ..il import ast as A
-from ..program import Names
-from ..runtime.exch import ETHERNET_PORT, SERIAL_PORTS
-from ..semantics import ARITH_OPS, FUNCTIONS
-from .objects import (  # noqa: F401  (the compiler's tables, also read by the ladder view)
+from softplc.compiler.objects import (  # noqa: F401  (the compiler's tables, also read by the ladder view)
     BLOCK_KIND_PINS,
     BLOCK_OUTPUTS,
     BLOCK_PIN_METHODS,
@@ -24,6 +17,13 @@ from .objects import (  # noqa: F401  (the compiler's tables, also read by the l
     _Acc,
     _Fn,
 )
+from softplc.errors import Code
+from softplc.il import ast as A
+from softplc.program import Names
+from softplc.runtime.exch import ETHERNET_PORT, SERIAL_PORTS
+from softplc.twido import catalog
+from softplc.twido.address import BOOL, INT16, INT32, REAL, Ref
+from softplc.twido.semantics import ARITH_OPS, FUNCTIONS
 
 # Float functions: the helper is "f" + the function name in lower case (semantics.Ops.fsqrt)
 FLOAT_FUNCS = frozenset({"SQRT", "ABS", "TRUNC", "LOG", "LN", "EXP", "EXPT", "SIN", "COS",

@@ -4,4 +4,4 @@ The command modules fill that table when this package is imported (here rather t
 session.py: they name `Session` in their type hints, so they sit above it).
 """
 
-from . import cmd_breaks, cmd_data, cmd_run, cmd_views  # noqa: F401 (they fill COMMANDS)
+from softplc.debug import cmd_breaks, cmd_data, cmd_run, cmd_views  # noqa: F401 (they fill COMMANDS)

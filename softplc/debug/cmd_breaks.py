@@ -6,13 +6,13 @@ from __future__ import annotations
 import re
 from typing import TYPE_CHECKING, Any
 
-from ..display import format_value
-from .registry import CMP_OPS, COND, command, parse_value
-from .report import executed_text
-from .stepper import BreakKind, Breakpoint, DebugError, resolve_rung
+from softplc.debug.registry import CMP_OPS, COND, command, parse_value
+from softplc.debug.report import executed_text
+from softplc.debug.stepper import BreakKind, Breakpoint, DebugError, resolve_rung
+from softplc.twido.display import format_value
 
 if TYPE_CHECKING:
-    from .session import Session
+    from softplc.debug.session import Session
 
 
 @command("break", "b")

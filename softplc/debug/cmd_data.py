@@ -14,13 +14,13 @@ import re
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
-from ..access import AccessError, AccessPort
-from ..address import Ref
-from .registry import command, parse_value
-from .stepper import DebugError
+from softplc.access import AccessError, AccessPort
+from softplc.debug.registry import command, parse_value
+from softplc.debug.stepper import DebugError
+from softplc.twido.address import Ref
 
 if TYPE_CHECKING:
-    from .session import Session
+    from softplc.debug.session import Session
 
 _PORTS: WeakKeyDictionary[Any, AccessPort] = WeakKeyDictionary()  # one per PLC
 

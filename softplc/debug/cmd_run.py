@@ -6,14 +6,14 @@ import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from ..config import duration
-from ..errors import ConfigError
-from .registry import command
-from .report import position_text, run_text
-from .stepper import STOPS_A_COMMAND, DebugError, Ran
+from softplc.config import duration
+from softplc.debug.registry import command
+from softplc.debug.report import position_text, run_text
+from softplc.debug.stepper import STOPS_A_COMMAND, DebugError, Ran
+from softplc.errors import ConfigError
 
 if TYPE_CHECKING:
-    from .session import Session
+    from softplc.debug.session import Session
 
 
 @command("scan")

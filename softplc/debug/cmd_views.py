@@ -7,15 +7,16 @@ import difflib
 import textwrap
 from typing import TYPE_CHECKING, Any
 
-from .. import catalog, ladder
-from ..il import ast as A
-from ..il.parser import parse_file
-from .registry import command, first_sentence
-from .report import position_text, reload_text
-from .stepper import BreakKind, DebugError, resolve_rung
+from softplc import ladder
+from softplc.debug.registry import command, first_sentence
+from softplc.debug.report import position_text, reload_text
+from softplc.debug.stepper import BreakKind, DebugError, resolve_rung
+from softplc.il import ast as A
+from softplc.il.parser import parse_file
+from softplc.twido import catalog
 
 if TYPE_CHECKING:
-    from .session import Session
+    from softplc.debug.session import Session
 
 
 @command("timers")

@@ -12,8 +12,8 @@ import math
 import re
 from collections.abc import Callable
 
-from ..semantics import COMPARE, COMPARE_PY
-from .stepper import DebugError
+from softplc.debug.stepper import DebugError
+from softplc.twido.semantics import COMPARE, COMPARE_PY
 
 # the Twido operators and their Python spellings (== !=), as users also type them
 CMP_OPS = {**COMPARE, **{COMPARE_PY[op]: fn for op, fn in COMPARE.items()}}

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .session import Session
+from softplc.debug.session import Session
 
 try:  # readline is missing on some platforms: the REPL then works without it
     import readline

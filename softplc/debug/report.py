@@ -4,10 +4,10 @@ the hits, the PLC's state, where it stands) is built here, from the typed data o
 
 from __future__ import annotations
 
-from ..display import format_value
-from ..il import ast as A
-from ..il.printer import format_instruction
-from .stepper import CondHit, Executed, Hit, Position, Ran, Reloaded, RungHit, StopKind
+from softplc.debug.stepper import CondHit, Executed, Hit, Position, Ran, Reloaded, RungHit, StopKind
+from softplc.il import ast as A
+from softplc.il.printer import format_instruction
+from softplc.twido.display import format_value
 
 
 def executed_text(e: Executed) -> str:

@@ -23,13 +23,13 @@ import struct
 from pathlib import Path
 from typing import Any
 
-from .. import catalog
-from ..address import IO_KINDS, Ref, expand
-from ..display import format_value
-from ..errors import SoftPLCError
-from ..plc import PLC
-from .registry import COMMANDS
-from .stepper import HISTORY, DebugError, Stepper
+from softplc.debug.registry import COMMANDS
+from softplc.debug.stepper import HISTORY, DebugError, Stepper
+from softplc.errors import SoftPLCError
+from softplc.plc import PLC
+from softplc.twido import catalog
+from softplc.twido.address import IO_KINDS, Ref, expand
+from softplc.twido.display import format_value
 
 CONTINUE_LIMIT = 100_000  # scans `continue` runs before giving up
 WORDS = ("MW", "KW", "SW")

@@ -15,11 +15,11 @@ from collections.abc import Callable, Iterator
 from enum import Enum
 from typing import Any
 
-from ..address import Ref
-from ..errors import SoftPLCError
-from ..il import ast as A
-from ..plc import PLC
-from ..runtime.runstate import RUN
+from softplc.errors import SoftPLCError
+from softplc.il import ast as A
+from softplc.plc import PLC
+from softplc.runtime.runstate import RUN
+from softplc.twido.address import Ref
 
 HISTORY = 1000  # scans kept for `back`
 

@@ -20,10 +20,10 @@ from typing import Annotated, Any
 
 from pydantic import Field, field_validator
 
-from ..config import Address, FiniteFloat, Section
-from ..errors import ConfigCode, ConfigError
-from ..runtime.memory import MemoryImage
-from .base import Device, interp, register_device
+from softplc.config import Address, FiniteFloat, Section
+from softplc.devices.base import Device, interp, register_device
+from softplc.errors import ConfigCode, ConfigError
+from softplc.runtime.memory import MemoryImage
 
 Point = Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)]  # [time_s, value]
 

@@ -17,13 +17,15 @@ in `bind`, as a ConfigError naming `devices.NAME.option`.
 
 from __future__ import annotations
 
+import importlib
+import math
 from collections.abc import Callable
 from typing import Any
 
-from ..address import parse_address
-from ..config import Section, validate_config
-from ..errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
-from ..runtime.memory import MemoryImage
+from softplc.config import Section, validate_config
+from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
+from softplc.runtime.memory import MemoryImage
+from softplc.twido.address import parse_address
 
 
 class Device:
@@ -71,6 +73,17 @@ class Device:
 
     def status(self) -> dict[str, Any]:
         """A short state summary for the daemon's statistics line and the debugger."""
+        return {}
+
+    def view(self, since_t: float) -> dict[str, Any] | None:
+        """What the web monitor's Machine tab needs to draw this device (None: no drawing),
+        with `since_t` the machine time of the page's last sample. Called in the scan thread,
+        between two scans: plain attribute and memory reads only."""
+        return None
+
+    def panels(self) -> dict[str, Any]:
+        """Panels of the Machine tab that this device describes beside its drawing, by name
+        (the mass estimator's words for a machine's scope). Same thread rule as `view`."""
         return {}
 
     def close(self) -> None:
@@ -143,6 +156,23 @@ class AxisDevice(Device):
 
 DEVICE_TYPES: dict[str, type[Device]] = {}
 
+#: The package that registers the machines' own device types when imported (a plug-in: the
+#: core names it, never imports from it).
+MACHINE_PLUGINS = "softplc.machines"
+
+
+def device_types() -> dict[str, type[Device]]:
+    """Every registered device type, the machines' included (their package is imported on
+    the first call: the core depends on no machine, and a PLC without machines pays no
+    import)."""
+    importlib.import_module(MACHINE_PLUGINS)
+    return DEVICE_TYPES
+
+
+def finite_or_none(v: float | None) -> float | None:
+    """`v` for a view sent as JSON, None where it is missing, infinite or NaN."""
+    return v if v is not None and math.isfinite(v) else None
+
 
 def interp(table: list[tuple[float, float]], x: float) -> float:
     """Piecewise-linear value of a table of (x, y) points at x, constant beyond its ends
@@ -183,9 +213,9 @@ def build_devices(config: dict[str, Any], mem: MemoryImage) -> dict[str, Device]
         if isinstance(entry, tuple):
             type_name, options = entry
         else:  # a raw table: checked against the same schema as a whole configuration
-            section = validate_config({"devices": {name: entry}}, DEVICE_TYPES).devices[name]
+            section = validate_config({"devices": {name: entry}}, device_types()).devices[name]
             type_name, options = section.type, section.options
-        devices[name] = DEVICE_TYPES[type_name](name, options)
+        devices[name] = device_types()[type_name](name, options)
 
     for name, entry in config.items():
         collect(name, lambda: create(name, entry))  # noqa: B023 (called at once)

@@ -29,9 +29,9 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from ..config import Address, Duration, FiniteFloat, Section
-from ..runtime.memory import MemoryImage
-from .base import AxisDevice, Device, register_device
+from softplc.config import Address, Duration, FiniteFloat, Section
+from softplc.devices.base import AxisDevice, Device, register_device
+from softplc.runtime.memory import MemoryImage
 
 
 @register_device("encoder")

@@ -28,12 +28,12 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
-from ..address import parse_address
-from ..config import Address, FiniteFloat, Section
-from ..errors import AddressError, ConfigCode
-from ..runtime.analog import SIGNAL_SPAN
-from ..runtime.memory import MemoryImage
-from .base import Device, register_device
+from softplc.config import Address, FiniteFloat, Section
+from softplc.devices.base import Device, register_device
+from softplc.errors import AddressError, ConfigCode
+from softplc.runtime.analog import SIGNAL_SPAN
+from softplc.runtime.memory import MemoryImage
+from softplc.twido.address import parse_address
 
 MAX_DEAD_TIME_S = 600.0  # ten minutes: 600,000 values at a 1 ms scan
 

@@ -56,11 +56,11 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from .. import catalog
-from ..config import Address, InfFloat, Section
-from ..errors import ConfigCode
-from ..runtime.memory import MemoryImage
-from .base import AxisDevice, Device, register_device
+from softplc.config import Address, InfFloat, Section
+from softplc.devices.base import AxisDevice, Device, register_device
+from softplc.errors import ConfigCode
+from softplc.runtime.memory import MemoryImage
+from softplc.twido import catalog
 
 log = logging.getLogger(__name__)
 
@@ -215,6 +215,9 @@ class Stepper(AxisDevice):
             {"phases": self.pattern_name(self._last)}
         return {"pos": self.position, "units": round(self.position_units, 3),
                 "missed": self.missed_steps, **drive}
+
+    def view(self, since_t: float) -> dict[str, Any] | None:
+        return {"steps_per_unit": self.steps_per_unit, "travel": self.travel}
 
     # -- physics ----------------------------------------------------------------------------
     def _change(self, t: float, cur: tuple[int, ...]) -> None:

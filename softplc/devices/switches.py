@@ -24,9 +24,9 @@ from typing import Any, Literal, get_args
 
 from pydantic import Field
 
-from ..config import Address, Section
-from ..runtime.memory import MemoryImage
-from .base import AxisDevice, Device, register_device
+from softplc.config import Address, Section
+from softplc.devices.base import AxisDevice, Device, register_device
+from softplc.runtime.memory import MemoryImage
 
 Fault = Literal["none", "stuck_open", "stuck_closed"]
 FAULTS: tuple[str, ...] = get_args(Fault)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..address import Ref
+from softplc.twido.address import Ref
 
 
 @dataclass(frozen=True, slots=True)

@@ -7,7 +7,7 @@ program. Lark's lexer and tree builder cost ~50 us a line (~85 for a block); a r
 match and building the nodes a few. The regex is assembled from the grammar's terminals,
 so what it matches the grammar's rules accept; references and the nodes of rules with
 logic of their own come from the transformer (`SHARED`); any other line (comments,
-other expressions, labels, symbols, errors) goes to Lark. tests/test_il_fastpath.py
+other expressions, labels, symbols, errors) goes to Lark. tests/unit/test_il_fastpath.py
 checks that both paths give the same AST, positions and diagnostics.
 """
 
@@ -19,7 +19,7 @@ from typing import Any
 
 from lark import Lark
 
-from . import ast as A
+from softplc.il import ast as A
 
 # regex group -> its keyword terminals: `KEYWORD ADDRESS` lines (bool_instr, store,
 # set_reset)

@@ -14,12 +14,12 @@ import itertools
 import re
 from collections import defaultdict
 
-from ..address import Ref
-from ..errors import ParseError
-from ..symbols import SymbolTable
-from . import ast as A
-from .parser import _COMMENT, _Section, _SRDef, parse_lines
-from .printer import format_instruction
+from softplc.errors import ParseError
+from softplc.il import ast as A
+from softplc.il.parser import _COMMENT, _Section, _SRDef, parse_lines
+from softplc.il.printer import format_instruction
+from softplc.twido.address import Ref
+from softplc.twido.symbols import SymbolTable
 
 _WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 

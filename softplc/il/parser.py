@@ -24,14 +24,14 @@ from pathlib import Path
 from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 
-from .. import catalog
-from ..address import Ref, parse_address
-from ..errors import AddressError, Code, Diagnostic, ParseError
-from ..profile import DEFAULT_PROFILE
-from ..symbols import SymbolTable
-from . import ast as A
-from . import fastlines
-from .fastlines import FastLines
+from softplc.errors import AddressError, Code, Diagnostic, ParseError
+from softplc.il import ast as A
+from softplc.il import fastlines
+from softplc.il.fastlines import FastLines
+from softplc.twido import catalog
+from softplc.twido.address import Ref, parse_address
+from softplc.twido.profile import DEFAULT_PROFILE
+from softplc.twido.symbols import SymbolTable
 
 GRAMMAR = Path(__file__).with_name("twido_il.lark")
 
@@ -679,7 +679,7 @@ def parse(text: str, file: str = "<string>", symbols: SymbolTable | None = None
           ) -> A.Program:
     """Parse a whole program. Raises ParseError listing every syntax problem; the error's
     `program` holds what parsed (bad lines left out) so later checks can still run.
-    `symbols`: the names the program may use for addresses (softplc.symbols)."""
+    `symbols`: the names the program may use for addresses (softplc.twido.symbols)."""
     items, comments, diags = parse_lines(text, file, symbols)
     if diags:
         err = ParseError(diags)

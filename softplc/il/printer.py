@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..address import Ref
-from . import ast as A
+from softplc.il import ast as A
+from softplc.twido.address import Ref
 
 # How an object is written: its address by default; the formatter passes one that keeps
 # the symbols a line was written with.

@@ -19,10 +19,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .. import catalog
-from ..address import Ref
-from ..errors import Code
-from . import ast as A
+from softplc.errors import Code
+from softplc.il import ast as A
+from softplc.twido import catalog
+from softplc.twido.address import Ref
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,11 @@ Modules by job: `tree` (IL rung -> tree), `live` (values for the live view), `la
 
 from __future__ import annotations
 
-from .layout import BoxRow, Cell, Grid, layout
-from .live import Live, block_summary, reads
-from .svg import CH, PAD, POWER_COLOUR, ROW_H, render_program_svg, render_rung_svg
-from .text import render_program_text, render_text
-from .tree import (
+from softplc.ladder.layout import BoxRow, Cell, Grid, layout
+from softplc.ladder.live import Live, block_summary, reads
+from softplc.ladder.svg import CH, PAD, POWER_COLOUR, ROW_H, render_program_svg, render_rung_svg
+from softplc.ladder.text import render_program_text, render_text
+from softplc.ladder.tree import (
     ASCII,
     BOX_PINS,
     COIL,

@@ -6,10 +6,21 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..address import Ref
-from ..il import ast as A
-from .live import Live
-from .tree import BOX_PINS, Block, Branch, Elem, Junction, Leaf, Merge, Par, Ser, build
+from softplc.il import ast as A
+from softplc.ladder.live import Live
+from softplc.ladder.tree import (
+    BOX_PINS,
+    Block,
+    Branch,
+    Elem,
+    Junction,
+    Leaf,
+    Merge,
+    Par,
+    Ser,
+    build,
+)
+from softplc.twido.address import Ref
 
 
 @dataclass

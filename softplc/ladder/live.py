@@ -5,13 +5,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..address import Ref
-from ..display import format_value
-from ..il import ast as A
-from ..il import rungtree
-from ..il.printer import format_expr
-from ..semantics import COMPARE
-from .tree import BOX_PINS, Elem, element
+from softplc.il import ast as A
+from softplc.il import rungtree
+from softplc.il.printer import format_expr
+from softplc.ladder.tree import BOX_PINS, Elem, element
+from softplc.twido.address import Ref
+from softplc.twido.display import format_value
+from softplc.twido.semantics import COMPARE
 
 
 class Live:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import html
 
-from ..il import ast as A
-from ..il.printer import format_instruction
-from .layout import BlockReader, Cell, layout
-from .live import Live
-from .text import box_inner_width, program_sections
+from softplc.il import ast as A
+from softplc.il.printer import format_instruction
+from softplc.ladder.layout import BlockReader, Cell, layout
+from softplc.ladder.live import Live
+from softplc.ladder.text import box_inner_width, program_sections
 
 CH, ROW_H, PAD = 7.2, 48, 20  # pixels per character, per row, margin
 SYMBOL_H = 13  # the symbols' line above the addresses

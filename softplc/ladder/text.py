@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..il import ast as A
-from ..il.printer import format_instruction
-from .layout import BlockReader, Cell, layout
-from .live import Live
-from .tree import ASCII
+from softplc.il import ast as A
+from softplc.il.printer import format_instruction
+from softplc.ladder.layout import BlockReader, Cell, layout
+from softplc.ladder.live import Live
+from softplc.ladder.tree import ASCII
 
 _GLYPH = {  # (up, down, left, right) -> box-drawing character
     (0, 0, 1, 1): "─", (0, 0, 1, 0): "─", (0, 0, 0, 1): "─", (1, 1, 0, 0): "│",

@@ -5,11 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..address import Ref
-from ..compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
-from ..il import ast as A
-from ..il import rungtree
-from ..il.printer import format_expr, format_instruction, format_statement
+from softplc.compiler.values import BLOCK_KIND_PINS, BLOCK_OUTPUTS
+from softplc.il import ast as A
+from softplc.il import rungtree
+from softplc.il.printer import format_expr, format_instruction, format_statement
+from softplc.twido.address import Ref
 
 CONTACT = {"": "┤ ├", "N": "┤/├", "R": "┤P├", "F": "┤N├"}
 COIL = {"ST": "( )", "STN": "(/)", "S": "(S)", "R": "(R)"}
@@ -30,7 +30,7 @@ class Elem:
 
     @property
     def name(self) -> str:
-        """The symbol drawn above a contact's or coil's address (softplc.symbols)."""
+        """The symbol drawn above a contact's or coil's address (softplc.twido.symbols)."""
         if self.ref is None or self.kind not in ("contact", "coil"):
             return ""
         return self.ref.symbol or ""

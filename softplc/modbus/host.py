@@ -9,8 +9,8 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, Self, TextIO
 
-from ..errors import HostError
-from .regmap import float_to_registers, registers_to_float
+from softplc.errors import HostError
+from softplc.modbus.regmap import float_to_registers, registers_to_float
 
 # pymodbus logs failed connects itself; without a handler Python would print them raw to
 # stderr next to our own message. Records still reach handlers an application installs.

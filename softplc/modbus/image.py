@@ -16,7 +16,7 @@ half-finished scan):
 
 With a retained-state store (`--state`), every write is journaled into it before the
 caller acknowledges it, and every snapshot is committed to it: a process that dies loses
-nothing it acknowledged (see `softplc.runtime.retain`).
+nothing it acknowledged (see `softplc.persist.retain`).
 
 Front-ends call `write_words` / `write_bits`, which refuse with `WriteRefused` (carrying
 the Modbus exception code that fits); the Modbus protocol code checks the same rules
@@ -41,14 +41,14 @@ from struct import pack
 
 import numpy as np
 
-from ..address import WIDTH
-from ..errors import SoftPLCError
-from ..numeric import wrap16
-from ..runtime.memory import MemoryImage, WordFamily
-from ..runtime.retain import COILS as J_COILS
-from ..runtime.retain import REGISTERS as J_REGISTERS
-from ..runtime.retain import StateStore, be_to_words, words_to_be
-from .regmap import COILS, REGISTERS, ExceptionCode, ReadOnly
+from softplc.errors import SoftPLCError
+from softplc.modbus.regmap import COILS, REGISTERS, ExceptionCode, ReadOnly
+from softplc.persist.retain import COILS as J_COILS
+from softplc.persist.retain import REGISTERS as J_REGISTERS
+from softplc.persist.retain import StateStore, be_to_words, words_to_be
+from softplc.runtime.memory import MemoryImage, WordFamily
+from softplc.twido.address import WIDTH
+from softplc.twido.numeric import wrap16
 
 # Modbus registers are big-endian on the wire
 words_to_wire = words_to_be

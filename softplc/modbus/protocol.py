@@ -18,8 +18,8 @@ from struct import pack, unpack_from
 
 import numpy as np
 
-from .image import ModbusImage
-from .regmap import (
+from softplc.modbus.image import ModbusImage
+from softplc.modbus.regmap import (
     COILS,
     DEVICE_ID_CONFORMITY,
     DEVICE_IDENTIFICATION,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import socket
 from struct import pack, unpack
 
-from .protocol import pack_mbap
+from softplc.modbus.protocol import pack_mbap
 
 
 class ModbusExceptionReply(Exception):

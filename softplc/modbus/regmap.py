@@ -17,8 +17,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import IntEnum
 
-from ..address import WIDTH, Ref, parse_address
-from ..profile import DEFAULT_PROFILE, Profile
+from softplc.twido.address import WIDTH, Ref, parse_address
+from softplc.twido.profile import DEFAULT_PROFILE, Profile
 
 
 class ExceptionCode(IntEnum):

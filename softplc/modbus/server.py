@@ -48,9 +48,9 @@ from collections.abc import Callable, Iterable
 from struct import pack, unpack_from
 from typing import Any, cast
 
-from ..errors import SoftPLCError
-from .image import ModbusImage
-from .protocol import ExceptionCode, exception, pack_mbap, process_pdu
+from softplc.errors import SoftPLCError
+from softplc.modbus.image import ModbusImage
+from softplc.modbus.protocol import ExceptionCode, exception, pack_mbap, process_pdu
 
 log = logging.getLogger("softplc.modbus")
 

@@ -16,10 +16,10 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..address import BLOCK_FIELDS, Ref
-from ..compiler.resolve import object_uses
-from ..il import ast as A
-from .regmap import COILS, FUNCTIONS, REGISTERS, ReadOnly, read_only_of, span
+from softplc.compiler.resolve import object_uses
+from softplc.il import ast as A
+from softplc.modbus.regmap import COILS, FUNCTIONS, REGISTERS, ReadOnly, read_only_of, span
+from softplc.twido.address import BLOCK_FIELDS, Ref
 
 #: The function codes that read / write each table (from the one map, regmap.FUNCTIONS);
 #: 32-bit objects span two registers, so only the multi-register writes reach them whole.

@@ -19,8 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..address import Ref, parse_address
-from ..errors import AddressError, ConfigError
+from softplc.errors import AddressError, ConfigError
+from softplc.twido.address import Ref, parse_address
 
 # Physical span of each signal type (V, mA, degrees C, potentiometer fraction) [manual].
 SIGNAL_SPAN: dict[str, tuple[float, float]] = {

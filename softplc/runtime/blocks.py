@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..errors import BlockError
+from softplc.errors import BlockError
 
 MAX_VALUE = 9999  # %TMi.P/.V, %Ci.P/.V range [manual]
 
@@ -227,7 +227,7 @@ class Counter(Block):
 
     # The short form (`CU %C0`, `CD %C0`): `run` with that input, R = S = 0 and the other
     # edge input held (no edge), written out: one call instead of three, the rising edge
-    # the only branch that counts (tests/test_block_fastpath.py checks them against `run`).
+    # the only branch that counts (tests/unit/test_block_fastpath.py checks them against `run`).
     def cu(self, v: Any) -> None:
         if v and not self._cu:
             self._cu, self.E, self.F = 1, 0, 0

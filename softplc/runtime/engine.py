@@ -26,13 +26,13 @@ from dataclasses import dataclass
 from types import FunctionType
 from typing import Any
 
-from ..address import Ref
-from ..program import CompiledProgram
-from .clock import Clock
-from .memory import MemoryImage
-from .runstate import HALT, RUN, STOP, RunState
-from .scangen import REBUILD, HookList, build, handover, rebuilder
-from .scangen import S_CLOCKS as S_CLOCKS  # where verify/ and others look for them
+from softplc.program import CompiledProgram
+from softplc.runtime.clock import Clock
+from softplc.runtime.memory import MemoryImage
+from softplc.runtime.runstate import HALT, RUN, STOP, RunState
+from softplc.runtime.scangen import REBUILD, HookList, build, handover, rebuilder
+from softplc.runtime.scangen import S_CLOCKS as S_CLOCKS  # where verify/ and others look for them
+from softplc.twido.address import Ref
 
 S_COLD, S_WARM, S_FIRST = 0, 1, 13  # [manual; %S13 sure]
 S_RUNNING = 12  # 1 in RUN, 0 in STOP/HALT [manual]; set on each change of state

@@ -40,8 +40,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from ..numeric import wrap16
-from .blocks import Block
+from softplc.runtime.blocks import Block
+from softplc.twido.numeric import wrap16
 
 MAX_COUNT = 65535  # 16-bit values [manual]
 SPAN = MAX_COUNT + 1
@@ -322,7 +322,7 @@ class CountingInputs:
             counter.pulses(edges, d, t, dt)
 
 
-# ---- set-up (the catalog's hooks, run by softplc.build.blocks) ---------------------------------
+# ---- set-up (the catalog's hooks, run by softplc.assembly.blocks) --------------------------------
 def setup_counters(ctx: Any, family: Any, entries: dict[str, Any]) -> None:
     """A counter family's configured blocks on the profile's inputs (an input used by two
     counters is an error), fed through one `CountingInputs` (`mem.counting`)."""

@@ -17,11 +17,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from .. import catalog
-from ..address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
-from ..errors import AddressError
-from ..numeric import to_f32, wrap16, wrap32
-from ..profile import DEFAULT_PROFILE, Profile
+from softplc.errors import AddressError
+from softplc.twido import catalog
+from softplc.twido.address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
+from softplc.twido.numeric import to_f32, wrap16, wrap32
+from softplc.twido.profile import DEFAULT_PROFILE, Profile
 
 
 class WordFamily:

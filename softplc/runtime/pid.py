@@ -36,8 +36,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from ..address import Ref
-from ..errors import ConfigError
+from softplc.errors import ConfigError
+from softplc.twido.address import Ref
 
 OUT_MAX = 10000  # the PID output range 0..10000 [manual, from memory]
 # diagnostic word bits (our layout; the Twido's own bits are unverified)
@@ -115,7 +115,7 @@ class PidConfig(BaseModel):
 
 def params(where: str, o: PidConfig, ctx: Any) -> PidParams:
     """A validated `[pid.n]` table resolved against the memory image (`ctx`: the block
-    set-up, `softplc.build.blocks.BlockSetup`)."""
+    set-up, `softplc.assembly.blocks.BlockSetup`)."""
     word = ctx.word
     return PidParams(
         measure=word(where, "measure", o.measure), setpoint=word(where, "setpoint", o.setpoint),

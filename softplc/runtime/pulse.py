@@ -40,9 +40,9 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from ..address import parse_address
-from ..errors import BlockError, ConfigError
-from .blocks import TimedBlock
+from softplc.errors import BlockError, ConfigError
+from softplc.runtime.blocks import TimedBlock
+from softplc.twido.address import parse_address
 
 # Time bases of %PLS / %PWM [manual, from memory] (microseconds: 0.142 ms = 142 us).
 TIME_BASES_US = {"0.142ms": 142, "0.57ms": 570, "10ms": 10_000, "1s": 1_000_000}
@@ -298,7 +298,7 @@ class PulseOutputs:
             q[i] = g.level(now_us)
 
 
-# ---- set-up (the catalog's hooks, run by softplc.build.blocks) ---------------------------------
+# ---- set-up (the catalog's hooks, run by softplc.assembly.blocks) --------------------------------
 def setup_pulses(ctx: Any, family: Any, entries: dict[str, Any]) -> None:
     """A pulse family's configured blocks on the profile's transistor outputs (an output is
     one pulse block or none: `ctx.outputs` holds who has each)."""

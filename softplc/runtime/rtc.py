@@ -26,8 +26,8 @@ from dataclasses import dataclass
 from datetime import date, datetime, timedelta
 from typing import Any
 
-from ..address import Ref
-from ..numeric import bcd_decode, bcd_encode
+from softplc.twido.address import Ref
+from softplc.twido.numeric import bcd_decode, bcd_encode
 
 SW_DOW, SW_SEC, SW_HHMM, SW_MMDD, SW_CCYY = 49, 50, 51, 52, 53
 S_RTC_WRITE, S_RTC_UNSET = 50, 51

@@ -20,12 +20,12 @@ from collections.abc import Callable, Iterable
 from types import CodeType, FunctionType
 from typing import TYPE_CHECKING, Any, SupportsIndex
 
-from ..program import Names, Watchdog
-from .clock import Clock, RealClock, VirtualClock
-from .runstate import RUN
+from softplc.program import Names, Watchdog
+from softplc.runtime.clock import Clock, RealClock, VirtualClock
+from softplc.runtime.runstate import RUN
 
 if TYPE_CHECKING:
-    from .scanhost import ScanHost
+    from softplc.runtime.scanhost import ScanHost
 
 # %S4-%S7: 50 % clocks [manual]; bit -> period in us
 S_CLOCKS = {4: 10_000, 5: 100_000, 6: 1_000_000, 7: 60_000_000}

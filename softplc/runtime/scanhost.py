@@ -10,14 +10,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from ..address import Ref
-from ..program import CompiledProgram
-from .blocks import TimeSource
-from .clock import Clock
-from .memory import MemoryImage
-from .pulse import PulseOutputs
-from .rtc import RTC
-from .runstate import RunState
+from softplc.program import CompiledProgram
+from softplc.runtime.blocks import TimeSource
+from softplc.runtime.clock import Clock
+from softplc.runtime.memory import MemoryImage
+from softplc.runtime.pulse import PulseOutputs
+from softplc.runtime.rtc import RTC
+from softplc.runtime.runstate import RunState
+from softplc.twido.address import Ref
 
 
 class ScanCounters(Protocol):

@@ -13,8 +13,8 @@ from typing import Any
 
 import z3
 
-from ..runtime.blocks import MAX_VALUE, Counter, Timer
-from .symbolic import WIDE, as_bool, wide
+from softplc.runtime.blocks import MAX_VALUE, Counter, Timer
+from softplc.verify.symbolic import WIDE, as_bool, wide
 
 
 def time_unit(t: Timer, period_us: int) -> int:

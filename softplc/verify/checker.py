@@ -9,11 +9,11 @@ from typing import Any
 
 import z3
 
-from ..address import BOOL, Ref
-from ..semantics import IntDomain
-from .model import Model, sort_of
-from .requirements import Node, Requirement, Spec
-from .symbolic import Z3Domain, as_bool, wide
+from softplc.twido.address import BOOL, Ref
+from softplc.twido.semantics import IntDomain
+from softplc.verify.model import Model, sort_of
+from softplc.verify.requirements import Node, Requirement, Spec
+from softplc.verify.symbolic import Z3Domain, as_bool, wide
 
 CMP: dict[str, Callable[[Any, Any], Any]] = {
     "=": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,

@@ -25,12 +25,12 @@ from typing import Any
 
 import z3
 
-from .checker import Checker
-from .clock import Clock, TimeUp
-from .defaults import DEPTH, MAX_K, TIMEOUT_S
-from .model import Model, run_concrete, sort_of
-from .requirements import Node, Requirement, Spec
-from .symbolic import value_of
+from softplc.verify.checker import Checker
+from softplc.verify.clock import Clock, TimeUp
+from softplc.verify.defaults import DEPTH, MAX_K, TIMEOUT_S
+from softplc.verify.model import Model, run_concrete, sort_of
+from softplc.verify.requirements import Node, Requirement, Spec
+from softplc.verify.symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
 FOUND = "counterexample"  # progress: BMC found one at that depth (its trace comes next)
@@ -83,7 +83,7 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
     """The counterexample's rows: inputs, the values the requirement reads, and every
     object the model has, from the whole model run on the inputs (the solver saw only the
     requirement's cone of influence)."""
-    from ..address import parse_address
+    from softplc.twido.address import parse_address
     given = [{k: value_of(model, v) for k, v in inp.items()} for inp in u.inputs]
     every = run_concrete(ck.model, given)
     rows = []

@@ -11,10 +11,10 @@ from typing import Any
 
 import z3
 
-from ..address import INT16, INT32, REAL, Ref
-from ..errors import Diagnostic
-from ..il import ast as A
-from ..semantics import (
+from softplc.errors import Diagnostic
+from softplc.il import ast as A
+from softplc.twido.address import INT16, INT32, REAL, Ref
+from softplc.twido.semantics import (
     ARITH_OPS,
     FUNCTIONS,
     absolute,
@@ -30,7 +30,7 @@ from ..semantics import (
     negate,
     shift,
 )
-from .symbolic import Z3Domain, wide
+from softplc.verify.symbolic import Z3Domain, wide
 
 # the integer functions modelled exactly (each a rule in `semantics`)
 INT_FUNCS = frozenset({"ABS", "SQRT", "NOT", "SHL", "SHR", "ROL", "ROR", "BCD_TO_INT", "BTI",

@@ -23,8 +23,8 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any
 
-from .defaults import MARGIN_S
-from .engines import FOUND, Limits, Progress, Result, requirement
+from softplc.verify.defaults import MARGIN_S
+from softplc.verify.engines import FOUND, Limits, Progress, Result, requirement
 
 TRACE_S = 120.0  # s it waits for a counterexample's trace (concrete scans) once found
 

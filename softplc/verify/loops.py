@@ -11,8 +11,8 @@ from typing import Any
 
 import z3
 
-from ..il import ast as A
-from .clock import Clock
+from softplc.il import ast as A
+from softplc.verify.clock import Clock
 
 # s the solver may spend, over a loop's passes, deciding whether another pass can run;
 # past it the remaining passes are not unrolled and the scans needing them are UNKNOWN

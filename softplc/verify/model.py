@@ -19,17 +19,17 @@ from typing import Any
 
 import z3
 
-from ..address import BOOL, Ref
-from ..errors import VerifyError
-from ..il import ast as A
-from ..il import rungtree
-from ..runtime.blocks import Timer
-from ..runtime.engine import S_CLOCKS
-from .blocks import advance_timer, el_bits, run_timer
-from .defaults import LOOP_BOUND
-from .loops import Loops
-from .objects import BLOCK_KEY, CLOCK_WRAP_US, MW_ARRAY, ObjectModel
-from .system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
+from softplc.errors import VerifyError
+from softplc.il import ast as A
+from softplc.il import rungtree
+from softplc.runtime.blocks import Timer
+from softplc.runtime.engine import S_CLOCKS
+from softplc.twido.address import BOOL, Ref
+from softplc.verify.blocks import advance_timer, el_bits, run_timer
+from softplc.verify.defaults import LOOP_BOUND
+from softplc.verify.loops import Loops
+from softplc.verify.objects import BLOCK_KEY, CLOCK_WRAP_US, MW_ARRAY, ObjectModel
+from softplc.verify.system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
 
 @dataclass
@@ -200,7 +200,7 @@ class Model(ObjectModel):
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
         """Range facts true by construction in every reachable state (see `blocks`)."""
-        from .blocks import block_invariants
+        from softplc.verify.blocks import block_invariants
         out = block_invariants(st, {n: (t, self.period_us, self.longest_us)
                                     for n, t in self.timers.items()}, self.counters)
         for name in self.drums:
@@ -505,7 +505,7 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
     """The model's values scan by scan for concrete inputs (missing inputs are 0): every
     object it models after each scan, for comparison with the engine; it stops before a
     scan in which a loop ran past the passes modelled (that scan is not modelled)."""
-    from .symbolic import value_of
+    from softplc.verify.symbolic import value_of
     st = model.init_state()
     out = []
     for given in scans:

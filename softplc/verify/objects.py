@@ -9,12 +9,10 @@ from typing import Any
 
 import z3
 
-from .. import catalog
-from ..address import INT16, INT32, REAL, Ref, parse_address
-from ..build.blocks import drum_outputs
-from ..errors import Code, Diagnostic
-from ..il import ast as A
-from ..runtime.blocks import (
+from softplc.assembly.blocks import drum_outputs
+from softplc.errors import Code, Diagnostic
+from softplc.il import ast as A
+from softplc.runtime.blocks import (
     MAX_VALUE,
     Counter,
     Drum,
@@ -23,8 +21,10 @@ from ..runtime.blocks import (
     StepCounter,
     Timer,
 )
-from ..runtime.engine import S_CLOCKS
-from .blocks import (
+from softplc.runtime.engine import S_CLOCKS
+from softplc.twido import catalog
+from softplc.twido.address import INT16, INT32, REAL, Ref, parse_address
+from softplc.verify.blocks import (
     register_fields,
     run_counter,
     run_drum,
@@ -34,10 +34,10 @@ from .blocks import (
     run_timer,
     set_step_bit,
 )
-from .exprs import ExprModel
-from .requirements import INDEXED_WORDS
-from .symbolic import as_bool, narrow, wide
-from .system import AFTER_PROGRAM
+from softplc.verify.exprs import ExprModel
+from softplc.verify.requirements import INDEXED_WORDS
+from softplc.verify.symbolic import as_bool, narrow, wide
+from softplc.verify.system import AFTER_PROGRAM
 
 MW_ARRAY = INDEXED_WORDS  # the state key of the %MW words when the program indexes them
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute

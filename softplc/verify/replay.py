@@ -15,10 +15,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..errors import SoftPLCError
-from ..semantics import IntDomain
-from .checker import evaluate, response_step
-from .requirements import parse_check
+from softplc.errors import SoftPLCError
+from softplc.twido.semantics import IntDomain
+from softplc.verify.checker import evaluate, response_step
+from softplc.verify.requirements import parse_check
 
 CEX_FORMAT = "softplc-cex/1"
 

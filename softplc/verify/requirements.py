@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..address import BOOL, Ref, expand, parse_address
-from ..errors import AddressError, Code, Diagnostic, VerifyError
+from softplc.errors import AddressError, Code, Diagnostic, VerifyError
+from softplc.twido.address import BOOL, Ref, expand, parse_address
 
 _TOKEN = re.compile(r"""\s*(?:
     (?P<addr>%[A-Za-z]+[0-9][0-9A-Za-z.:\[\]%]*) |
@@ -373,7 +373,7 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
 def parse_periods(value: Any) -> tuple[int, int]:
     """["10ms", "1s"] (or "10ms:1s") -> (10000, 1000000) us: any period from the shortest
     to the longest, in steps of the shortest, may occur in each scan."""
-    from ..config import _parse_duration
+    from softplc.config import _parse_duration
     if isinstance(value, str):
         value = value.split(":")
     if not isinstance(value, list) or len(value) != 2:

@@ -24,10 +24,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..address import Ref
-from ..runtime.analog import SW_ANALOG_STATUS
-from ..runtime.engine import SW_LAST, SW_MAX, SW_MIN, SW_PERIOD
-from ..runtime.rtc import S_RTC_UNSET, SW_CCYY, SW_DOW
+from softplc.runtime.analog import SW_ANALOG_STATUS
+from softplc.runtime.engine import SW_LAST, SW_MAX, SW_MIN, SW_PERIOD
+from softplc.runtime.rtc import S_RTC_UNSET, SW_CCYY, SW_DOW
+from softplc.twido.address import Ref
 
 FIRST_SCAN_BITS = (0, 13, 21)  # %S0 cold start, %S13 first scan, %S21 Grafcet init
 FIXED_BITS = {1: 0, 11: 0, 12: 1}  # warm restart, watchdog trip: 0; %S12 RUN: 1

@@ -13,10 +13,10 @@ import secrets
 from dataclasses import dataclass
 from typing import Any
 
-from ..access import AccessPort
-from ..errors import SoftPLCError
-from .control import MAX_PAGES, ApiError, Controller
-from .security import is_loopback
+from softplc.access import AccessPort
+from softplc.errors import SoftPLCError
+from softplc.web.control import MAX_PAGES, ApiError, Controller
+from softplc.web.security import is_loopback
 
 DEFAULT_WEB_PORT = 8020  # beside Modbus' 5020; 0 = any free port
 
@@ -80,7 +80,7 @@ def attach(daemon: Any, modbus: Any, port: AccessPort,
     if opt is None or opt.port is None:
         port.close()
         return None
-    from .server import WebServer
+    from softplc.web.server import WebServer
 
     token = web_token(opt)
     ctl = Controller(port, read_only=opt.read_only,

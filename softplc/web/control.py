@@ -10,9 +10,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..access import ACTIONS, AccessPort
-from ..il.printer import format_instruction
-from .errors import ApiError
+from softplc.access import ACTIONS, AccessPort
+from softplc.il.printer import format_instruction
+from softplc.web.errors import ApiError
 
 MAX_PAGES = 32  # websocket pages open at once (--web-max-pages; [web] max_pages default)
 READ_ONLY = "the web monitor is read-only (--web-read-only)"

@@ -3,7 +3,7 @@ whose `status` is already an HTTP status)."""
 
 from __future__ import annotations
 
-from ..access.errors import AccessError
+from softplc.access.errors import AccessError
 
 ApiError = AccessError
 

@@ -13,9 +13,9 @@ from __future__ import annotations
 from types import SimpleNamespace
 from typing import Any
 
-from .. import ladder
-from ..address import Ref
-from ..il import ast as A
+from softplc import ladder
+from softplc.il import ast as A
+from softplc.twido.address import Ref
 
 
 def refs(rung: A.Rung) -> list[Ref]:

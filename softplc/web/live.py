@@ -7,10 +7,10 @@ import json
 import math
 from typing import Any
 
-from ..address import Ref
-from . import ladderview, machineview
-from .control import ApiError, Controller
-from .machineview import FE_WINDOW_MAX
+from softplc.twido.address import Ref
+from softplc.web import ladderview, machineview
+from softplc.web.control import ApiError, Controller
+from softplc.web.machineview import FE_WINDOW_MAX
 
 TRACE_CHUNK = 5000  # trace samples per update at most: a new page catches up over a few
 SVG_CACHE = 256  # rendered rungs kept (by program version, rung, values, forced objects)
@@ -72,7 +72,7 @@ class LiveViews:
     def devices_now(self) -> dict[str, Any]:
         """The machine's state of one scan (called in the scan thread): each device's status
         with, under "view", what its drawing needs (machineview); the active Grafcet steps;
-        the estimator's words on a machine with a scope."""
+        the panels its devices describe (the estimator's words beside a scope)."""
         m, port = self.ctl.machine, self.ctl.port
         now = m.time
         since = self._fe_since if 0 <= now - self._fe_since <= FE_WINDOW_MAX \
@@ -86,8 +86,7 @@ class LiveViews:
             active = port.read_now([Ref("X", n) for n in steps])
             snap["steps"] = {"active": [n for n, on in zip(steps, active, strict=True) if on],
                              "titles": {str(n): t for n, t in titles.items()}}
-        if any(d.kind == "scope" for d in m.devices):
-            snap["estimate"] = machineview.estimate(port.read_now, port.profile)
+        snap |= machineview.panels(m.devices)
         return snap
 
     def _step_titles(self) -> dict[int, str]:

@@ -22,11 +22,11 @@ from typing import Any
 
 from aiohttp import WSMsgType, web
 
-from ..address import Ref
-from ..modbus.server import RateLimitedLog
-from . import ladderview
-from .control import MAX_PAGES, ApiError, Controller
-from .live import LiveViews, clean, dumps
+from softplc.modbus.server import RateLimitedLog
+from softplc.twido.address import Ref
+from softplc.web import ladderview
+from softplc.web.control import MAX_PAGES, ApiError, Controller
+from softplc.web.live import LiveViews, clean, dumps
 
 log = logging.getLogger("softplc.web")
 

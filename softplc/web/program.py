@@ -17,14 +17,14 @@ import tomllib
 from dataclasses import asdict
 from typing import Any
 
-from .. import online
-from ..access.program import ProgramAccess
-from ..errors import ConfigError, ProgramError, SoftPLCError
-from ..modbus import tags
-from ..modbus.regmap import COILS
-from ..symbols import SymbolTable
-from .control import Controller
-from .errors import ApiError
+from softplc import online
+from softplc.access.program import ProgramAccess
+from softplc.errors import ConfigError, ProgramError, SoftPLCError
+from softplc.modbus import tags
+from softplc.modbus.regmap import COILS
+from softplc.twido.symbols import SymbolTable
+from softplc.web.control import Controller
+from softplc.web.errors import ApiError
 
 MAX_PROGRAM_BODY = 4 * 1024 * 1024  # POST /api/program: a ~1 MB program, JSON-escaped
 APPLY_TIMEOUT = 10.0  # s waiting for the scan thread to make the swap

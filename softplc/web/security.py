@@ -23,7 +23,7 @@ from collections.abc import Iterable
 from typing import Any
 from urllib.parse import urlsplit
 
-from .errors import ApiError
+from softplc.web.errors import ApiError
 
 COOKIE = "softplc_token"
 

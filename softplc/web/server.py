@@ -35,12 +35,12 @@ from typing import Any
 
 from aiohttp import web
 
-from ..modbus.server import RateLimitedLog
-from .control import ApiError, Controller
-from .live import LiveViews, dumps
-from .pages import MAX_PAGES, UPDATE_HZ, Pages
-from .program import MAX_PROGRAM_BODY, ProgramChanges
-from .security import COOKIE, Guard
+from softplc.modbus.server import RateLimitedLog
+from softplc.web.control import ApiError, Controller
+from softplc.web.live import LiveViews, dumps
+from softplc.web.pages import MAX_PAGES, UPDATE_HZ, Pages
+from softplc.web.program import MAX_PROGRAM_BODY, ProgramChanges
+from softplc.web.security import COOKIE, Guard
 
 log = logging.getLogger("softplc.web")
 

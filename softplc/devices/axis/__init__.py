@@ -7,7 +7,7 @@ trajectories, homing), `runner` with `loop` (the generated servo loop, the fixed
 events), `ivars` (I-variables read and written while running, their word table),
 `status` (the status words); `rig` runs axes without a PLC program."""
 
-from .options import Ctl, Err, Mode, St, Word
-from .servo import ServoAxis
+from softplc.devices.axis.options import Ctl, Err, Mode, St, Word
+from softplc.devices.axis.servo import ServoAxis
 
 __all__ = ["Ctl", "Err", "Mode", "ServoAxis", "St", "Word"]

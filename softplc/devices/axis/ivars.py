@@ -31,11 +31,11 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
-from ...errors import SoftPLCError
-from .law import IVARS, Coefficients, Gains, law_output
+from softplc.devices.axis.law import IVARS, Coefficients, Gains, law_output
+from softplc.errors import SoftPLCError
 
 if TYPE_CHECKING:
-    from .state import ServoState
+    from softplc.devices.axis.state import ServoState
 
 REFUSED, APPLIED, DISTURBANCE, FIRST = 0, 1, 2, 4
 SIZE = FIRST + 2 * len(IVARS)

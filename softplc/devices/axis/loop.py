@@ -20,7 +20,7 @@ search, faulted), or `- 0.0` and `1.0 *` (exact identities), and where u can nev
 last `+ Ixx29` cannot tell from nothing), the friction's branches with no friction.
 What remains is the same operations in the same order, so the results are bit for bit
 those of one generic loop (checked against the previous generic implementation: identical
-traces and words; tests/test_servo_axis.py compares the generated scan with the generic
+traces and words; tests/unit/test_servo_axis.py compares the generated scan with the generic
 update). A function is compiled once per distinct source and cached.
 """
 
@@ -31,7 +31,7 @@ from collections.abc import Callable
 from string import Template
 from typing import Any
 
-from . import status
+from softplc.devices.axis import status
 
 _HEAD = """\
     x = dev.x_

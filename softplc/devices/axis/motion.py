@@ -8,11 +8,11 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
-from . import trajectory as tj
-from .options import Ctl, Err, Mode, Word
+from softplc.devices.axis import trajectory as tj
+from softplc.devices.axis.options import Ctl, Err, Mode, Word
 
 if TYPE_CHECKING:
-    from .state import ServoState
+    from softplc.devices.axis.state import ServoState
 
 
 class Motion:

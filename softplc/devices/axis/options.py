@@ -52,7 +52,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from .law import Gains
+from softplc.devices.axis.law import Gains
 
 DEFAULT_SERVO_CLOCK_HZ = 9034.6 / 4  # Turbo PMAC2 default phase clock / 4 [manual]
 FAULTS = ("none", "jammed", "estop", "amp_fault")

@@ -12,12 +12,12 @@ import copy
 from pathlib import Path
 from typing import Any
 
-from ...config import read_toml
-from ...errors import ConfigError
-from ...runtime.memory import MemoryImage
-from ..base import build_devices
-from .options import Ctl, Mode, Word
-from .servo import ServoAxis
+from softplc.config import read_toml
+from softplc.devices.axis.options import Ctl, Mode, Word
+from softplc.devices.axis.servo import ServoAxis
+from softplc.devices.base import build_devices
+from softplc.errors import ConfigError
+from softplc.runtime.memory import MemoryImage
 
 
 def load_axes(path: str | Path, *names: str) -> dict[str, dict[str, Any]]:

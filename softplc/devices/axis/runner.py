@@ -10,13 +10,13 @@ import struct
 from itertools import repeat
 from typing import TYPE_CHECKING, Any
 
-from ..base import interp as _interp
-from . import loop, status
-from .options import Err
-from .plant import ZOH, step
+from softplc.devices.axis import loop, status
+from softplc.devices.axis.options import Err
+from softplc.devices.axis.plant import ZOH, step
+from softplc.devices.base import interp as _interp
 
 if TYPE_CHECKING:
-    from .state import ServoState
+    from softplc.devices.axis.state import ServoState
 
 
 class LoopRunner:

@@ -34,20 +34,23 @@ from math import floor
 from pathlib import Path
 from typing import Any
 
-from ...address import parse_address
-from ...errors import AddressError, ConfigError
-from ...runtime.memory import MemoryImage
-from ..base import AxisDevice, Device, register_device
-from . import ivars as iv
-from .law import Coefficients
-from .motion import Motion
-from .options import Err, ServoAxisOptions, Word
-from .plant import ZOH
-from .runner import LoopRunner
-from .state import guard
-from .status import StatusWords
+from softplc.devices.axis import ivars as iv
+from softplc.devices.axis.law import Coefficients
+from softplc.devices.axis.motion import Motion
+from softplc.devices.axis.options import Err, ServoAxisOptions, Word
+from softplc.devices.axis.plant import ZOH
+from softplc.devices.axis.runner import LoopRunner
+from softplc.devices.axis.state import guard
+from softplc.devices.axis.status import StatusWords
+from softplc.devices.base import AxisDevice, Device, finite_or_none, register_device
+from softplc.errors import AddressError, ConfigError
+from softplc.runtime.memory import MemoryImage
+from softplc.twido.address import parse_address
 
 TRACE_HEADER = "t,commanded,actual,fe,output"
+FE_ENVELOPE_ROWS = 20000  # servo-rate rows an FE envelope scans at most (a page's first)
+
+
 @register_device("servo_axis")
 @guard  # (the state the generated scan's caches are made from: properties, state.guard)
 class ServoAxis(AxisDevice):
@@ -384,15 +387,45 @@ class ServoAxis(AxisDevice):
         return [(k * T, cp, ap, cp - ap, u)
                 for k, cp, ap, u in self.trace[-self.opt.trace_max:]]
 
-    def trace_to_csv(self, path: str | Path) -> None:
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(TRACE_HEADER + "\n")
-            for r in self.samples():
-                f.write(f"{r[0]:.7f},{r[1]:.4f},{r[2]:.4f},{r[3]:.4f},{r[4]:.2f}\n")
-
     def close(self) -> None:
         if self.opt.trace_csv:
-            self.trace_to_csv(self.opt.trace_csv)
+            write_trace_csv(self.samples(), self.opt.trace_csv)
+
+    def view(self, since_t: float) -> dict[str, Any] | None:
+        """The axis in its true frame (counts from the home index mark, as the trace
+        recorder and the limit switches use): position, commanded position, travel, FE and
+        its envelope over the servo-rate trace since `since_t` (machine time)."""
+        g = self.opt.geometry
+        lo = g.limit_minus if g.limit_minus is not None else g.hard_stop_minus
+        hi = g.limit_plus if g.limit_plus is not None else g.hard_stop_plus
+        x = float(self.axis_position())
+        fe = float(self.fe) if self.closed else 0.0
+        fe_lo = fe_hi = fe
+        trace = self.trace
+        if trace:  # rows (tick, commanded, actual, output); ticks of self.T seconds
+            first = math.ceil(since_t / self.T)
+            n = 0
+            for k, cp, ap, _u in reversed(trace):
+                if k < first or n >= FE_ENVELOPE_ROWS:
+                    break
+                e = cp - ap
+                fe_lo, fe_hi = min(fe_lo, e), max(fe_hi, e)
+                n += 1
+        return {"counts_per_mm": self.opt.counts_per_mm, "x": x, "cmd": x + fe,
+                "lo": finite_or_none(lo),
+                "hi": finite_or_none(hi),
+                "fe": fe, "fe_lo": fe_lo, "fe_hi": fe_hi, "fe_max": float(self.fe_max),
+                "v": float(self.v), "enabled": bool(self.closed),
+                "load_mass_ratio": float(self.load_mass_ratio)}
+
+
+def write_trace_csv(samples: list[tuple[float, float, float, float, float]],
+                    path: str | Path) -> None:
+    """A servo axis's `samples()` as the CSV of its `trace_csv` option."""
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(TRACE_HEADER + "\n")
+        for r in samples:
+            f.write(f"{r[0]:.7f},{r[1]:.4f},{r[2]:.4f},{r[3]:.4f},{r[4]:.2f}\n")
 
 
 def _word_block(dev: Device, mem: MemoryImage, address: str, size: int, option: str) -> int:

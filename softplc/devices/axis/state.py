@@ -13,10 +13,10 @@ from collections.abc import Callable
 from operator import attrgetter
 from typing import Any, Protocol
 
-from ...runtime.memory import MemoryImage
-from .law import Coefficients
-from .options import ServoAxisOptions
-from .plant import ZOH
+from softplc.devices.axis.law import Coefficients
+from softplc.devices.axis.options import ServoAxisOptions
+from softplc.devices.axis.plant import ZOH
+from softplc.runtime.memory import MemoryImage
 
 
 class MotionJob(Protocol):

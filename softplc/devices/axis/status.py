@@ -11,10 +11,10 @@ import struct
 from math import floor
 from typing import TYPE_CHECKING, Any
 
-from .options import Err, St, Word
+from softplc.devices.axis.options import Err, St, Word
 
 if TYPE_CHECKING:
-    from .state import ServoState
+    from softplc.devices.axis.state import ServoState
 
 # The status words in word order, (offset, struct code): one `pack_into` writes them all.
 _STATUS_WORDS = ((Word.ACTUAL, "i"), (Word.COMMANDED, "i"), (Word.FE, "f"), (Word.FE_MAX, "f"),

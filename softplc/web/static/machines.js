@@ -1,6 +1,6 @@
 // softplc web monitor: the Machine tab. One view per device family, not per program: the
 // first view whose fits(devices) holds draws. The daemon sends each device's status with,
-// under "view", the geometry a drawing needs (softplc/web/machineview.py), the active
+// under "view", the geometry a drawing needs (each device's view()), the active
 // Grafcet steps ("steps") and, on a machine with a scope, the estimator's words ("estimate").
 // Loaded before app.js; uses its helpers ($, h, state) only when called.
 "use strict";
@@ -70,7 +70,7 @@ function showSequence(mc) {
 
 // an axis as a drawing sees it: unit name, axis units per unit, travel [lo, hi] in units
 function axisGeometry(d) {
-  if (d.type === "stepper") return { unit: "cm", per: d.steps_per_unit, lo: 0, hi: d.travel, pos: d.pos / d.steps_per_unit };
+  if (d.type === "stepper") return { unit: "cm", per: d.view.steps_per_unit, lo: 0, hi: d.view.travel, pos: d.pos / d.view.steps_per_unit };
   const v = d.view, per = v.counts_per_mm;
   return { unit: "mm", per, lo: (v.lo ?? v.x) / per, hi: (v.hi ?? v.x) / per, pos: v.x / per };
 }

@@ -1,0 +1,185 @@
+"""`Machine`: the assembled parts of one soft Twido, and `assemble`, which builds them from a
+configuration (a dict, a TOML file or None)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from softplc.assembly import hardware
+from softplc.assembly.blocks import BlockSetup
+from softplc.config import Config, load_config
+from softplc.config.models import rtc_start
+from softplc.errors import ConfigError
+from softplc.persist import retain
+from softplc.program import ProgramState
+from softplc.runtime.blocks import TimeSource
+from softplc.runtime.clock import Clock, make_clock
+from softplc.runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
+from softplc.runtime.exch import ExchPort
+from softplc.runtime.grafcet import Grafcet
+from softplc.runtime.memory import MemoryImage
+from softplc.runtime.rtc import Schedule
+from softplc.twido import symbols
+from softplc.twido.address import Ref
+from softplc.twido.profile import PROFILES, Profile
+from softplc.twido.semantics import Ops
+from softplc.twido.symbols import SymbolTable
+
+
+def _no_blocks(ref: Ref) -> str | None:
+    return f"{ref}: no function blocks on this machine"
+
+
+@dataclass(eq=False)
+class Machine:
+    """What the builder returns: the checked configuration and the parts built from it."""
+
+    raw: dict[str, Any]  # the configuration as written
+    config_dir: Path | None  # the folder of its file (relative paths), None for a dict
+    settings: Config  # the same, checked and typed
+    profile: Profile
+    symbols: SymbolTable
+    mem: MemoryImage
+    time_source: TimeSource
+    clock: Clock
+    modules: hardware.Modules | None  # None: [modules] not given (I/O not checked)
+    exch: ExchPort | None
+    ops: Ops
+    grafcet: Grafcet
+    engine: Engine
+    program_state: ProgramState  # shared by the fast and the debug build
+    rtc_start: datetime | None
+    schedules: list[Schedule]
+    # what the builder found wrong so far (raised by `equip`, with the blocks' and devices')
+    problems: hardware.Problems
+    # creates a block the program uses and the configuration does not name, or says what
+    # to configure (the block set-up provides it)
+    block_factory: Callable[[Ref], str | None] = _no_blocks
+    devices: dict[str, Any] = field(default_factory=dict)
+
+
+class Loaded(NamedTuple):
+    """A configuration read and checked by `load`: what `assemble` and `symbol_table` take
+    instead of reading it again."""
+
+    raw: dict[str, Any]  # as written
+    config_dir: Path | None  # the folder of its file (relative paths), None for a dict
+    settings: Config
+    file: str | None  # its file, for messages
+
+
+ConfigSource = str | Path | dict[str, Any] | Loaded | None
+
+
+def load(config: ConfigSource) -> Loaded:
+    """`config` read and checked (`config.load_config`, the devices' options too); a
+    `Loaded` is returned as it is. Raises ConfigError with every problem the schema finds."""
+    from softplc.devices import device_types
+
+    if isinstance(config, Loaded):
+        return config
+    raw, config_dir, settings = load_config(config, device_types())
+    return Loaded(raw, config_dir, settings, None if config_dir is None else str(config))
+
+
+def symbol_table(config: ConfigSource) -> SymbolTable:
+    """The symbols of `config`, for the parser, which needs them before the machine is
+    built: the whole configuration is checked first, so that a wrong one is reported
+    before the program's errors (every name of the program would be one without it)."""
+    c = load(config)
+    try:
+        return symbols.from_settings(c.settings, c.config_dir, PROFILES[c.settings.profile])
+    except ConfigError as e:
+        raise e.in_file(c.file) if c.file is not None else e from None
+
+
+def assemble(config: ConfigSource, clock: str | Clock = "virtual") -> Machine:
+    """Load and check `config`, then build the controller's parts (no function blocks, no
+    program, no devices yet). Raises ConfigError with every problem the schema finds; the
+    builder's are collected in `problems`, which `equip` raises with its own."""
+    raw, config_dir, settings, file = load(config)
+    profile = PROFILES[settings.profile]
+    problems = hardware.Problems(file)
+    table = SymbolTable(profile=profile)
+    with problems.collecting():
+        table = symbols.from_settings(settings, config_dir, profile)
+    mem = MemoryImage(profile)
+    clk = make_clock(clock)
+    discrete, analog_modules = hardware.modules(settings)
+    mem.analog = hardware.analog_io(settings.analog, profile, mem, analog_modules, problems)
+    hardware.constants(settings.constants, profile, mem, problems)
+    found = hardware.schedules(settings, mem, problems)
+    time_source = TimeSource()
+    watchdog = settings.watchdog if settings.watchdog is not None else DEFAULT_WATCHDOG_S
+    grafcet = Grafcet(mem.x, mem.s)
+    return Machine(
+        raw=raw, config_dir=config_dir, settings=settings, profile=profile, symbols=table,
+        mem=mem, time_source=time_source, clock=clk, modules=discrete,
+        exch=hardware.exch_port(settings.exch, mem, clk), ops=Ops(mem.s, mem.sw.w),
+        grafcet=grafcet,
+        engine=Engine(mem, clk, settings.scan_period, watchdog, time_source),
+        program_state=ProgramState(grafcet=grafcet), rtc_start=rtc_start(settings.rtc),
+        schedules=found, problems=problems)
+
+
+def equip(m: Machine, devices: bool = True) -> BlockSetup:
+    """Set up the function blocks the configuration names and (`devices`) the simulated
+    machine, the devices once the blocks are (a stepper binds to its pulse output). Raises
+    one ConfigError with every problem of the build: the hardware's (`assemble`), the
+    blocks', the devices'. The `BlockSetup` makes the blocks the program uses."""
+    setup = BlockSetup(m.mem, m.profile, m.time_source, m.settings.scan_period, m.engine,
+                       m.symbols)
+    with m.problems.collecting():
+        setup.configure(m.settings)
+        if devices:
+            attach_devices(m)
+    m.problems.raise_any()
+    m.block_factory = setup.factory
+    return setup
+
+
+def application_id(m: Machine, program: bytes) -> bytes:
+    """What the state file calls the application `program` makes on this machine: a hash
+    of the program and of the configuration as written (`retain.application_id`: the
+    daemon's, the server's and the devices' sections left out). The one reader of the raw
+    table besides online change, which keeps it for this."""
+    return retain.application_id(program, m.raw)
+
+
+def attach_scan_hooks(m: Machine) -> None:
+    """The scan-boundary work of the configured functions once the blocks are set up (the
+    blocks' own, such as the very fast counters' poll, their catalog `finish` hooks attach):
+    the EXCH port. Programs without it pay nothing."""
+    if m.exch is not None:
+        m.engine.before_scan.append(
+            hardware.exch_boundary(m.exch, lambda: m.engine.state, RUN))
+
+
+def settle_exchange(m: Machine, timeout: float) -> bool:
+    """Virtual clock: wait up to `timeout` s for the EXCH exchange in progress (the next
+    scan would, up to its deadline); True when the next scan will not wait."""
+    port = m.exch
+    return port is None or not port.wait or m.engine.state != RUN or port.settle(timeout)
+
+
+def attach_devices(m: Machine) -> dict[str, Any]:
+    """Build the simulated machine of [devices] on the memory image (relative files made
+    relative to the config file's folder)."""
+    if not m.settings.devices:
+        return {}
+    from softplc.devices import build_devices
+
+    config = {}
+    for name, section in m.settings.devices.items():
+        opts = section.options
+        csv = getattr(opts, "csv", None)
+        if m.config_dir is not None and isinstance(csv, str) and not Path(csv).is_absolute():
+            opts = opts.model_copy(update={"csv": str(m.config_dir / csv)})
+        config[name] = (section.type, opts)
+    m.devices = build_devices(config, m.mem)
+    m.engine.devices = m.devices
+    return m.devices

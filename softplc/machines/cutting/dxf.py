@@ -1,0 +1,159 @@
+"""Pieces from DXF drawings (`softplc cut PART.dxf`), read with ezdxf.
+
+Cut: the modelspace's LINE, ARC, CIRCLE and LWPOLYLINE entities (with bulges: a bulge b
+between two vertices is an arc of included angle 4·atan(b), CCW for b > 0 [AutoCAD's
+GetBulge]; the closing segment of a closed polyline too). An ARC runs CCW from its start to
+its end angle about the extrusion (0, 0, 1) [ezdxf Arc]; an entity with the inverted
+extrusion (0, 0, -1), as mirrored drawings have, is turned upright first (ezdxf.upright);
+any other extrusion is not in the XY plane and refused. Other entity types (TEXT, SPLINE,
+HATCH...) are not cut and listed in a warning.
+
+Order: the entities in the file's order; each is cut from whichever of its ends the torch
+already stands on (a contour drawn as separate LINEs in either direction is cut in one
+pass), else from its start after a move with the torch off.
+Units from $INSUNITS (0 unitless and 4 mm: mm; 1 in, 5 cm, 6 m converted); the work area
+check, speeds and chord tolerance as for G-code (`piece.piece_from_gcode`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from pathlib import Path
+
+from softplc.machines.cutting.geometry import SAME_POINT, Arc, GeometryError, Line, Point, distance
+from softplc.machines.cutting.motion import DEFAULT_ACCEL, DEFAULT_SPEED
+from softplc.machines.cutting.piece import WORK_AREA, Element, Piece, PieceError
+
+#: $INSUNITS code -> mm per drawing unit (0: unitless, taken as mm).
+MM_PER_UNIT = {0: 1.0, 4: 1.0, 1: 25.4, 5: 10.0, 6: 1000.0}
+CUT_TYPES = ("LINE", "ARC", "CIRCLE", "LWPOLYLINE")
+
+Shape = Line | Arc
+
+
+def bulge_arc(p1: Point, p2: Point, bulge: float) -> Arc:
+    """The arc from p1 to p2 of a polyline segment with this (nonzero) bulge: included
+    angle θ = 4·atan(b), centre on the chord's perpendicular bisector at c/(2·tan(θ/2))
+    to the left of p1 -> p2 (to the right when θ < 0 or |θ| > π, by the sign of tan)."""
+    theta = 4.0 * math.atan(bulge)
+    c = distance(p1, p2)
+    ux, uy = (p2[0] - p1[0]) / c, (p2[1] - p1[1]) / c
+    h = c / (2.0 * math.tan(theta / 2.0))
+    centre = ((p1[0] + p2[0]) / 2 - uy * h, (p1[1] + p2[1]) / 2 + ux * h)
+    return Arc(centre, p1, theta, p2)
+
+
+def reverse(shapes: list[Shape]) -> list[Shape]:
+    """The same path run from its end."""
+    out: list[Shape] = []
+    for s in reversed(shapes):
+        if isinstance(s, Line):
+            out.append(Line(s.end, s.start))
+        else:
+            out.append(Arc(s.centre, s.end, -s.sweep, None if s.full_circle else s.start))
+    return out
+
+
+def _shapes(e: object, scale: float) -> list[Shape]:
+    """The entity's path in mm (WCS), start to end, in the drawing's direction."""
+    kind = e.dxftype()  # type: ignore[attr-defined]
+    dxf = e.dxf  # type: ignore[attr-defined]
+
+    def mm(v: object) -> Point:
+        return (float(v[0]) * scale, float(v[1]) * scale)  # type: ignore[index]
+
+    if kind == "LINE":
+        a, b = mm(dxf.start), mm(dxf.end)
+        return [] if distance(a, b) <= SAME_POINT else [Line(a, b)]
+    if kind in ("ARC", "CIRCLE"):
+        c, r = mm(dxf.center), float(dxf.radius) * scale
+        a0 = math.radians(dxf.start_angle) if kind == "ARC" else 0.0
+        sweep = math.radians((dxf.end_angle - dxf.start_angle) % 360.0) if kind == "ARC" \
+            else 0.0
+        start = (c[0] + r * math.cos(a0), c[1] + r * math.sin(a0))
+        if sweep == 0.0:  # a CIRCLE, or an ARC from an angle to itself: the whole circle
+            return [Arc(c, start, 2 * math.pi)]
+        end = (c[0] + r * math.cos(a0 + sweep), c[1] + r * math.sin(a0 + sweep))
+        return [Arc(c, start, sweep, end)]
+    pts = [(float(x) * scale, float(y) * scale, float(b))  # (ezdxf gives numpy floats)
+           for x, y, b in e.get_points("xyb")]  # type: ignore[attr-defined]
+    if e.closed and pts:  # type: ignore[attr-defined]
+        pts.append(pts[0])
+    out: list[Shape] = []
+    for (x1, y1, b), (x2, y2, _) in zip(pts, pts[1:], strict=False):
+        p1, p2 = (x1, y1), (x2, y2)
+        if distance(p1, p2) <= SAME_POINT:
+            continue
+        out.append(bulge_arc(p1, p2, b) if b else Line(p1, p2))
+    return out
+
+
+def _upright(e: object, where: str) -> None:
+    """Entities drawn with the extrusion (0, 0, -1) turned to (0, 0, 1), same curve."""
+    ext = getattr(e.dxf, "extrusion", None)  # type: ignore[attr-defined]
+    if ext is None or (abs(ext[0]) < 1e-9 and abs(ext[1]) < 1e-9 and ext[2] > 0):
+        return
+    if abs(ext[0]) < 1e-9 and abs(ext[1]) < 1e-9:
+        from ezdxf.upright import upright
+
+        upright(e)  # type: ignore[arg-type]
+        return
+    raise PieceError(f"{where}: extrusion {tuple(ext)} is not the XY plane")
+
+
+def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
+                   move_speed: float | None = None, accel: float = DEFAULT_ACCEL,
+                   tolerance: float = 0.01, work_area: Point = WORK_AREA) -> Piece:
+    """A piece from the LINE, ARC, CIRCLE and LWPOLYLINE entities of a DXF file."""
+    import ezdxf
+    from ezdxf.lldxf.const import DXFError
+
+    file = str(path)
+    for name, v in (("speed", speed), ("accel", accel), ("tolerance", tolerance),
+                    ("move_speed", move_speed or speed)):
+        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+            raise PieceError(f"{file}: {name} must be a positive number, not {v!r}")
+    try:
+        doc = ezdxf.readfile(file)
+    except OSError as e:
+        raise PieceError(f"{file}: cannot read the file: {e.strerror or e}") from None
+    except (DXFError, ValueError, UnicodeDecodeError) as e:
+        raise PieceError(f"{file}: not a readable DXF file: {e}") from None
+    units = int(doc.header.get("$INSUNITS", 0))
+    if units not in MM_PER_UNIT:
+        raise PieceError(f"{file}: $INSUNITS = {units}: only unitless, mm, cm, m and inch "
+                         "drawings are read")
+    scale = MM_PER_UNIT[units]
+    elements: list[Element] = []
+    skipped: Counter[str] = Counter()
+    pos: Point = (0.0, 0.0)
+    for e in doc.modelspace():
+        kind = e.dxftype()
+        if kind not in CUT_TYPES:
+            skipped[kind] += 1
+            continue
+        where = f"{kind} #{e.dxf.handle}"
+        _upright(e, f"{file}: {where}")
+        try:
+            shapes = _shapes(e, scale)
+        except GeometryError as err:
+            raise PieceError(f"{file}: {where}: {err}") from None
+        if not shapes:
+            continue
+        if distance(pos, shapes[0].start) > SAME_POINT >= distance(pos, shapes[-1].end):
+            shapes = reverse(shapes)  # drawn the other way: cut on from where the torch is
+        if distance(pos, shapes[0].start) > SAME_POINT:
+            elements.append(Element(Line(pos, shapes[0].start, cut=False), False,
+                                    move_speed or speed, where))
+        elements.extend(Element(s, True, speed, where) for s in shapes)
+        pos = shapes[-1].end
+    warnings = [f"{file}: not cut (only {', '.join(CUT_TYPES)} are): "
+                + ", ".join(f"{n} {k}" for k, n in sorted(skipped.items()))] if skipped else []
+    if not any(el.cut for el in elements):
+        raise PieceError(f"{file}: nothing to cut (no {', '.join(CUT_TYPES)} in the "
+                         "modelspace)")
+    piece = Piece(Path(file).stem, elements, (0.0, 0.0), accel, tolerance, work_area, file,
+                  warnings)
+    piece.check()
+    return piece

@@ -1,0 +1,86 @@
+"""The debugger as a person uses it: `python -m softplc repl` in a pseudo-terminal."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pexpect
+import pytest
+
+from softplc.cli import main
+
+HERE = Path(__file__).parents[1]  # tests/
+ROOT = HERE.parent
+TABLE = ROOT / "ladder_programs" / "drawing_table.il"
+PROMPT = r"\(softplc\) "
+
+
+def spawn(tmp_path: Path, *args: str) -> pexpect.spawn:
+    env = dict(os.environ, SOFTPLC_HISTORY=str(tmp_path / "hist"), TERM="dumb",
+               PYTHONIOENCODING="utf-8")
+    child = pexpect.spawn(sys.executable, ["-m", "softplc", "repl", *args], cwd=str(ROOT),
+                          env=env, encoding="utf-8", timeout=20, dimensions=(60, 200))
+    child.expect(PROMPT)
+    return child
+
+
+def cmd(child: pexpect.spawn, line: str) -> str:
+    child.sendline(line)
+    child.expect(PROMPT)
+    return child.before
+
+
+@pytest.mark.skipif(not TABLE.exists(), reason="drawing table program not there")
+def test_drawing_table_session_in_a_terminal(tmp_path: Path) -> None:
+    child = spawn(tmp_path, str(TABLE.relative_to(ROOT)), "--config",
+                  str(TABLE.with_suffix(".toml").relative_to(ROOT)))
+    try:
+        assert "breakpoint #1 at rung" in cmd(child, "break X home switch")
+        out = cmd(child, "continue")
+        assert "breakpoint #1" in out and "before rung 4" in out
+        assert "before rung 5" in cmd(child, "step")
+        assert "watch #2 %MW32 (now 32000)" in cmd(child, "watch %MW32")
+        assert "%I0.12 forced to 1" in cmd(child, "force %I0.12 1")
+        assert "breakpoint #1" in cmd(child, "continue")  # the next scan, rung 4 again
+        assert "watch #2 %MW32: 32000 -> 0 (in rung 4 instr 3)" in cmd(child, "step")
+        screen = cmd(child, "rung 4")
+        assert "%I0.12" in screen and "1F" in screen and "═" in screen
+        assert "[scan 1," in cmd(child, "back")
+        assert "%MW32 = 32000" in cmd(child, "print %MW32")
+        assert "%I0.12 = 1  [forced]" in cmd(child, "print %I0.12")
+        # tab completes a command name, then an address
+        child.send("prin\t%TM1.\t")
+        child.sendline("")
+        child.expect(PROMPT)
+        assert "%TM1.Q = " in child.before
+        assert "error: malformed address" in cmd(child, "print %ZZ")  # still alive
+        child.sendline("quit")
+        child.expect(pexpect.EOF)
+    finally:
+        child.close(force=True)
+    assert "print %MW32" in (tmp_path / "hist").read_text()  # readline history saved
+
+
+def test_small_program_session_and_ctrl_d(tmp_path: Path) -> None:
+    child = spawn(tmp_path, "tests/debug_sample.il", "--config", "tests/debug_sample.toml")
+    try:
+        assert "queued" in cmd(child, "set %I0.0 1")
+        assert "[scan 3, t = 0.030 s]" in cmd(child, "run 3")
+        assert "%MW0 = 1" in cmd(child, "print %MW0")
+        assert "rung 2  branches" in cmd(child, "rung 2")
+        assert "unknown command" in cmd(child, "frobnicate")
+        child.sendeof()
+        child.expect(pexpect.EOF)
+    finally:
+        child.close(force=True)
+
+
+def test_batch_commands(capsys: pytest.CaptureFixture[str]) -> None:
+    rc = main(["repl", str(HERE / "debug_sample.il"), "--config", str(HERE / "debug_sample.toml"),
+               "-x", "set %MW0 5", "-x", "scan",
+               "-x", "print/x %MW0", "-x", "quit"])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "(softplc) print/x %MW0\n%MW0 = 16#0005" in out and out.rstrip().endswith("bye")

@@ -1,0 +1,400 @@
+"""The servo XY table machine end to end: ladder_programs/servo_table.il commanding the two
+servo axes (PLC API), and the same over Modbus TCP on loopback with the daemon."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+from daemon_util import ROOT, Daemon
+
+from softplc.devices.axis import Err, St
+from softplc.modbus.rawclient import ModbusExceptionReply
+from softplc.plc import PLC
+
+IL = ROOT / "ladder_programs" / "servo_table.il"
+TOML = ROOT / "ladder_programs" / "servo_table.toml"
+ESTOP, START, RESET = "%I0.0", "%I0.1", "%I0.2"
+AMBER, GREEN, RED, CONTACTOR = "%Q0.0", "%Q0.1", "%Q0.2", "%Q0.3"
+X_ST, Y_ST = "%MW218", "%MW248"
+REPLY, CELL = "%MW110", "%MW111"
+NOT_HOMED, NOT_READY, OUTSIDE, BUSY = -1, -2, -3, -5
+HOMING, READY, FAULT, STOPPED = 1, 2, 3, 4
+
+
+def config(**constants: int) -> dict:
+    cfg = tomllib.loads(TOML.read_text())
+    cfg["constants"].update(constants)
+    return cfg
+
+
+@pytest.fixture
+def cell():
+    plc = PLC.from_file(IL, config())
+    plc.scan()
+    yield plc
+    plc.close()
+
+
+def press(plc: PLC, button: str) -> None:
+    plc[button] = 1
+    plc.scan(2)
+    plc[button] = 0
+    plc.scan()
+
+
+def request(plc: PLC, req: int, axis: int = 0, target: int = 0, speed: int = 0,
+            mode: int = 0) -> int:
+    plc["%MW101"], plc["%MD102"], plc["%MD104"] = axis, target, speed
+    plc["%MW106"] = plc["%MW107"] = plc["%MW109"] = 0
+    plc["%MW108"] = mode
+    plc["%MW100"] = req
+    plc.scan()
+    assert plc["%MW100"] == 0  # handled in one scan
+    return plc[REPLY]
+
+
+def started(plc: PLC) -> None:
+    press(plc, START)
+    assert plc.run_until(lambda p: p[CELL] == READY, 30.0)
+
+
+def test_start_homes_x_then_y(cell):
+    assert cell[AMBER] and not cell[GREEN] and not cell[CONTACTOR]
+    press(cell, START)
+    assert cell[CONTACTOR] and cell[GREEN] and not cell[AMBER]
+    x, y = cell.devices["X"], cell.devices["Y"]
+    order = []
+    for _ in range(30000):
+        cell.scan()
+        for name, st in (("X", X_ST), ("Y", Y_ST)):
+            if cell[st] & St.HOMING and name not in order:
+                order.append(name)
+        if cell[CELL] == READY:
+            break
+    assert order == ["X", "Y"]
+    assert not y.homing and y.homed and x.homed
+    assert abs(x.position) <= 10 and abs(y.position) <= 10  # at the index marks
+    assert abs(cell["%MD210"]) <= 10 and abs(cell["%MD240"]) <= 10
+    # Y started only after X had finished (homed and settled)
+    assert cell[X_ST] & St.IN_POSITION and cell[Y_ST] & St.IN_POSITION
+
+
+def test_moves_refused_before_start_and_homing(cell):
+    assert request(cell, 1, 0, -1000) == NOT_READY
+    press(cell, START)
+    assert cell[CELL] == HOMING
+    assert request(cell, 1, 0, -1000) == NOT_HOMED
+    assert not cell.devices["X"].error  # refused by the program, the axis never saw it
+
+
+def test_host_move_with_target_checks(cell):
+    started(cell)
+    assert request(cell, 1, 0, 1000) == OUTSIDE  # beyond X max (0)
+    assert request(cell, 1, 1, -300000) == OUTSIDE  # beyond Y min
+    assert request(cell, 1, 2, -1000) == -4  # no axis 2
+    assert request(cell, 1, 1, -20000, 69632) == 1
+    assert cell[Y_ST] & St.BUSY
+    assert request(cell, 1, 1, -10000) == BUSY
+    assert cell.run_until(lambda p: p[Y_ST] & St.DONE, 5.0)
+    cell.run(0.3)
+    assert abs(cell["%MD240"] + 20000) <= 10
+    assert cell["%MW114"] == 5  # requests handled
+
+
+def test_jammed_axis_fatal_following_error_latches_and_resets(cell):
+    started(cell)
+    cell.devices["X"].set_fault("jammed")
+    assert request(cell, 1, 0, -100000, 69632) == 1
+    assert cell.run_until(lambda p: p[CELL] == FAULT, 2.0)
+    assert cell["%MW112"] == Err.FATAL_FE
+    assert cell[X_ST] & St.FE_FATAL and not cell[X_ST] & St.ENABLED
+    assert not cell[GREEN]
+    assert request(cell, 1, 1, -1000) == NOT_READY  # refused while in fault
+    cell.devices["X"].set_fault("none")
+    assert request(cell, 3) == 1
+    cell.scan(3)
+    assert cell[CELL] == READY and cell["%MW112"] == 0 and cell[GREEN]
+    assert cell[X_ST] & St.HOMED  # homing stays valid
+
+
+def test_estop_stops_and_recovery_needs_start_and_reset(cell):
+    started(cell)
+    assert request(cell, 1, 0, -150000, 69632) == 1
+    cell.run(0.5)
+    x = cell.devices["X"]
+    assert x.v < -60000
+    cell[ESTOP] = 1
+    cell.scan()
+    assert cell[RED] and not cell[CONTACTOR] and cell[CELL] == STOPPED
+    assert cell.run_until(lambda p: x.v == 0.0, 0.05)  # drives brake at the current limit
+    cell.scan(2)
+    assert cell[X_ST] & St.AMP_FAULT and not cell[X_ST] & St.ENABLED
+    assert not cell[GREEN]
+    cell[ESTOP] = 0
+    cell.scan(2)
+    assert not cell[RED] and cell[AMBER] and cell[CELL] == FAULT
+    press(cell, START)
+    assert not cell[GREEN]  # amplifier fault still latched
+    press(cell, RESET)
+    cell.scan(2)
+    assert cell[GREEN] and cell[CELL] == READY
+    assert request(cell, 1, 0, -1000, 69632) == 1  # no re-homing needed
+
+
+def test_limit_switch_ends_in_a_fatal_error_with_the_limit_code():
+    """A wrong travel constant lets a move run into END-1: the drive refuses torque, the
+    PMAC keeps commanding, the warning and then the fatal error follow (spec section 5)."""
+    plc = PLC.from_file(IL, config(**{"%KD2": 20000}))
+    plc.scan()
+    started(plc)
+    assert request(plc, 1, 0, 20000, 20000) == 1
+    assert plc.run_until(lambda p: p[X_ST] & St.LIMIT_PLUS, 2.0)
+    assert plc.run_until(lambda p: p[CELL] == FAULT, 3.0)
+    assert plc["%MW112"] == Err.LIMIT
+    assert 4096 <= plc.devices["X"].position < 6144
+    assert request(plc, 3) == 1
+    plc.scan(3)
+    assert request(plc, 1, 0, -5000, 20000) == 1  # the way back is allowed
+    assert plc.run_until(lambda p: p[X_ST] & St.DONE, 3.0)
+    plc.close()
+
+
+# -- over Modbus, with the daemon ---------------------------------------------------------
+def near_home_toml(tmp_path) -> str:
+    """The machine with both carriages powered up near home: short homing, quicker tests."""
+    text = TOML.read_text()
+    for old in ("start = -8000.0", "start = -12000.0"):
+        assert old in text
+        text = text.replace(old, "start = -2500.0")
+    path = tmp_path / "servo_table.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def wait(c, pred, reg: int, count: int, timeout: float = 60.0) -> list[int]:
+    import time
+
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        regs = c.read_registers(reg, count)
+        if pred(regs):
+            return regs
+        time.sleep(0.01)
+    raise AssertionError(f"timeout waiting at %MW{reg}: {regs}")
+
+
+def s16(v: int) -> int:
+    return v - 65536 if v >= 32768 else v
+
+
+def s32(lo: int, hi: int) -> int:
+    v = lo | hi << 16
+    return v - (1 << 32) if v >= 1 << 31 else v
+
+
+def max_fe_counts(out: str) -> float:
+    """The max |FE| in counts that `softplc servo` prints."""
+    return float(out.split("max |FE| ")[1].split(" counts")[0])
+
+
+def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp_path,
+                                                                            capsys):
+    from softplc.cli import main as softplc
+
+    d = Daemon(tmp_path, "--config", near_home_toml(tmp_path), "--speed", "max",
+               "--stats-interval", "0", program=IL)
+    try:
+        with d.client() as c:
+            # status words and the program's replies are read-only for hosts: exception 02
+            for addr in (210, 218, 248, 110):
+                with pytest.raises(ModbusExceptionReply) as e:
+                    c.write_registers(addr, [1])
+                assert e.value.code == 2
+            # a move before start is refused
+            c.write_registers(101, [0, (-1000) & 0xFFFF, 0xFFFF, 0, 0])
+            c.write_registers(100, [1])
+            wait(c, lambda r: r[0] == 0, 100, 1)
+            assert s16(c.read_registers(110, 1)[0]) == NOT_READY
+            c.write_registers(100, [5])  # remote start: homes X then Y
+            saw_y_before_x_homed = False
+            regs = wait(c, lambda r: r[0] & St.HOMING or r[0] & St.HOMED, 218, 1)
+            while True:
+                x_st, y_st = c.read_registers(218, 1)[0], c.read_registers(248, 1)[0]
+                if y_st & St.HOMING and not x_st & St.HOMED:
+                    saw_y_before_x_homed = True
+                if c.read_registers(111, 1)[0] == READY:
+                    break
+            assert not saw_y_before_x_homed
+            regs = c.read_registers(210, 2) + c.read_registers(240, 2)
+            assert abs(s32(*regs[:2])) <= 10 and abs(s32(*regs[2:])) <= 10
+            # a move in the travel is accepted and ends in position
+            c.write_registers(101, [0, (-20000) & 0xFFFF, 0xFFFF, 69632 & 0xFFFF, 1, 0, 0,
+                                    0])
+            c.write_registers(100, [1])
+            wait(c, lambda r: r[0] == 0, 100, 1)
+            assert s16(c.read_registers(110, 1)[0]) == 1
+            wait(c, lambda r: r[0] & St.DONE, 218, 1)
+            wait(c, lambda r: r[0] & St.IN_POSITION, 218, 1)
+            assert abs(s32(*c.read_registers(210, 2)) + 20000) <= 10
+            del regs
+        # the host command: the thesis's S-curve test on Y, then a refused move
+        plot = tmp_path / "scurve.png"
+        assert softplc(["servo", "scurve", "--axis", "Y", "--port", str(d.port), "--start",
+                        "--from", "-128000", "--plot", str(plot), "--poll", "0.01",
+                        "--settle", "0.3"]) == 0
+        out = capsys.readouterr().out
+        fe = max_fe_counts(out)
+        # TABLA 4-3, Y: 11.8 counts. After the approach moves and a rest, the 12-bit DAC,
+        # the friction and the integrator hunt at standstill and the stored integral adds
+        # to the peak (docs/NOTES.md "Servo axis"). How long the axis rests depends on the
+        # host's polling against the PLC's speed (--speed max): 14.54 counts for a host
+        # that answers at once, up to 21.39 for a rest of 1 s or more
+        # (test_scurve_fe_depends_on_the_rest_before_the_move), so the band is wider than
+        # the device test's (loop closed fresh at rest: 10.2, +-40 %).
+        assert 0.6 * 11.8 <= fe <= 1.85 * 11.8
+        # the command prints FE to 2 decimals and um (409.6 counts/mm) from the unrounded
+        # value: compare within the rounding of both figures
+        um = float(out.split("max |FE| ")[1].split(" um")[0].split()[-1].lstrip("("))
+        assert abs(um - fe / 409.6 * 1000) <= 0.05 + 0.005 / 409.6 * 1000
+        assert " um" in out and plot.stat().st_size > 10_000
+        # a move beyond the travel is refused by the program: a clear error, exit 1
+        assert softplc(["servo", "step", "--axis", "Y", "--port", str(d.port),
+                        "--distance", "500000"]) == 1
+        assert "target outside the travel" in capsys.readouterr().err
+        assert d.stop() == 0
+    finally:
+        d.kill()
+
+
+class _WordsClient:
+    """A RawClient stand-in on a PLC's words (the holding registers, unsigned on the wire),
+    for running the host commands in-process on the virtual clock."""
+
+    def __init__(self, plc: PLC):
+        self.uw = plc.mem.mw.uw  # the words' unsigned view (what the Modbus server serves)
+
+    def read_registers(self, addr: int, n: int) -> list[int]:
+        return list(self.uw[addr:addr + n])
+
+    def write_registers(self, addr: int, values: list[int]) -> None:
+        for i, v in enumerate(values):
+            self.uw[addr + i] = v
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("poll_ms,low,high", [(0, 14.0, 15.0), (100, 17.0, 18.0),
+                                              (1000, 21.0, 21.8), (3000, 21.0, 21.8)])
+def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, capsys,
+                                                       poll_ms, low, high):
+    """`softplc servo scurve --from ... --settle 0.3` in-process: each host poll lasts
+    `poll_ms` of PLC time (0: one scan), so the axis rests 0.3 s rounded up to a poll
+    before the S-curve starts. At standstill the 12-bit DAC, the friction and the
+    integrator hunt, and the integral stored at the start adds to the peak FE: 14.54
+    counts for a host that answers at once, 21.39 (its limit) after 1 s or more. Over
+    Modbus at --speed max a 0.01 s wall poll is anywhere in between, hence the wide band
+    of test_over_modbus_homing_order_refusal_read_only_status_and_servo_command."""
+    import time
+    from types import SimpleNamespace
+
+    import softplc.machines.servo.client as servo_client
+    from softplc.cli import main as softplc
+
+    plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
+    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    # the client's own `time` only: its sleeps run the PLC, its timeouts stay wall time
+    monkeypatch.setattr(servo_client, "time", SimpleNamespace(
+        sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
+        monotonic=time.monotonic))
+    assert softplc(["servo", "scurve", "--axis", "Y", "--port", "1", "--start", "--from",
+                    "-128000", "--poll", "0.01", "--settle", "0.3"]) == 0
+    out = capsys.readouterr().out
+    fe = max_fe_counts(out)
+    assert low <= fe <= high
+
+
+def test_ivar_words_read_and_write_while_running(cell):
+    """servo_table.toml maps X's I-variables at %MW300 (Y %MW350): Ixx30 is the %MF at +28
+    (the 13th row of IVARS); a write applies at the next scan, a refused one reverts and
+    names the I-variable in +0."""
+    from softplc.devices.axis import ivars as iv
+    from softplc.devices.axis.law import IVARS
+
+    row = [i for i, *_ in IVARS].index("Ixx30")
+    kp = f"%MF{300 + iv.FIRST + 2 * row}"
+    started(cell)
+    assert cell[kp] == 7990 and cell["%MW300"] == 0
+    cell[kp] = 8000.0
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW301"] == 1
+    cell[kp] = -5.0  # out of range: refused, the value in force written back
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW300"] == 30
+    cell["%MF352"] = 120.0  # Y's load disturbance, DAC bits
+    cell.scan()
+    assert cell.devices["Y"].disturbance == 120.0
+
+
+def in_process(tmp_path, monkeypatch, poll_ms: float = 0) -> PLC:
+    """The servo host commands on a PLC in this process, on its virtual clock."""
+    import time
+    from types import SimpleNamespace
+
+    import softplc.machines.servo.client as servo_client
+
+    plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
+    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    monkeypatch.setattr(servo_client, "time", SimpleNamespace(
+        sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
+        monotonic=time.monotonic))
+    return plc
+
+
+def test_servo_set_and_get_ivars_while_running(tmp_path, monkeypatch, capsys):
+    from softplc.cli import main as softplc
+
+    plc = in_process(tmp_path, monkeypatch)
+    plc.scan()
+    assert softplc(["servo", "get", "I130", "I233", "--port", "1"]) == 0
+    assert capsys.readouterr().out.split("\n")[:2] == ["I130 = 7990", "I233 = 13454"]
+    assert softplc(["servo", "set", "I130=8000", "I233=12000", "--port", "1"]) == 0
+    assert plc.devices["X"].gains.kp == 8000 and plc.devices["Y"].gains.ki == 12000
+    for bad, why in [("I130=-1", "greater than or equal to 0"), ("I160=1", "configuration"),
+                     ("I330=1", "I1xx (motor 1, X) or I2xx"), ("I134=0.5", "integer")]:
+        assert softplc(["servo", "set", bad, "--port", "1"]) == 1
+        assert why in capsys.readouterr().err
+    assert plc.devices["X"].gains.kp == 8000
+    assert softplc(["servo", "disturb", "--axis", "Y", "--load", "40", "--port", "1"]) == 0
+    plc.scan()
+    assert plc.devices["Y"].disturbance == 40.0
+
+
+def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
+    """The README's `softplc servo` lines, then the command's own --help examples (their
+    daemon replaced by the in-process PLC): none refused."""
+    import re
+    import shlex
+
+    from softplc.cli import main as softplc
+    from softplc.machines.servo.command import _EXAMPLES
+
+    plc = in_process(tmp_path, monkeypatch)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme.split("## The servo XY table")[1].split("\n## ")[0]
+    lines = [ln.split("#")[0].strip() for ln in re.findall(r"^softplc servo .*$", section,
+                                                           re.M)]
+    helps = [ln.strip() for ln in re.findall(r"^  softplc servo .*$", _EXAMPLES, re.M)]
+    assert len(lines) >= 6 and len(helps) >= 10
+    for line in lines + helps:
+        argv = shlex.split(line)[1:]
+        if "--plot" in argv:  # (the plots are checked elsewhere: time)
+            del argv[argv.index("--plot"):argv.index("--plot") + 2]
+        sim = "--sim" in argv or argv[1] == "compare"
+        assert softplc(argv + ([] if sim else ["--port", "1"])) == 0, line
+        out = capsys.readouterr()
+        assert "refused" not in out.err, line
+        if argv[1] == "scurve" and "--start" in argv:  # the README's figure
+            assert 14 <= max_fe_counts(out.out) <= 22
+    assert plc.devices["X"].gains.kp == 8000  # the README's `set` reached the axis
