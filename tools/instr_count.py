@@ -3,13 +3,15 @@ the machine or its load (issue 32 item 6). Two machines of the same kind timed t
 code 1.5-1.8x apart; the count of x86 instructions it executes is the same on both.
 
 `count(child, n_small, n_large)` runs `python -c CHILD N` under
-`valgrind --tool=callgrind` twice, the child's measured loop run N = n_small then
-n_large times; the difference of the two totals over (n_large - n_small) is the count
-per iteration, without the interpreter's start-up, the imports and the set-up (which
-the two runs share). The clock calls (`clock_gettime` and what it calls, e.g. the
-statistics' `time.perf_counter`) are counted apart: their inclusive cost from
-`callgrind_annotate`, differenced the same way, so a change in how often the engine
-reads the clock shows as such. PYTHONHASHSEED is fixed so that two runs of the same
+`valgrind --tool=callgrind --instr-atstart=no` twice, the child's measured loop run
+N = n_small then n_large times. The child calls `start()` before its loop, which turns
+the instrumentation on (`callgrind_control -i on`): the start-up, imports and set-up run
+uninstrumented (several times faster). The difference of the two totals over
+(n_large - n_small) is the count per iteration, without what both runs share (the
+switch itself, the loop's first and last steps). The clock calls (`clock_gettime` and
+what it calls, e.g. under the statistics' `time.perf_counter`) are counted apart: their
+inclusive cost from `callgrind_annotate`, differenced the same way, so a change in how
+often the engine reads the clock shows as such. PYTHONHASHSEED is fixed so that two runs of the same
 code execute the same instructions.
 
 Where valgrind is missing (`available()` False) the benchmarks say so and skip the
@@ -30,7 +32,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 VALGRIND = "valgrind"
 ANNOTATE = "callgrind_annotate"
+CONTROL = "callgrind_control"
 HASH_SEED = "0"  # the same dict and set orders in every run
+UNDER = "SOFTPLC_CALLGRIND"  # set in the child's environment by `_run`
 # Functions whose inclusive cost is "the clock" (glibc's entry point and its vDSO or
 # syscall path below it; the largest inclusive figure is the outermost, all of them).
 CLOCK_FUNC = re.compile(r"clock_gettime")
@@ -56,15 +60,22 @@ class Count:
 
 
 def available() -> bool:
-    return shutil.which(VALGRIND) is not None and shutil.which(ANNOTATE) is not None
+    return all(shutil.which(t) is not None for t in (VALGRIND, ANNOTATE, CONTROL))
 
 
-def _run(child: str, n: int, out: Path) -> tuple[int, int]:
+def start() -> None:
+    """In a child run by `count`: instrument from here on (elsewhere: nothing)."""
+    if os.environ.get(UNDER):
+        subprocess.run([CONTROL, "-i", "on", str(os.getpid())], capture_output=True,
+                       check=True)
+
+
+def _run(child: str, n: int, out: Path, args: tuple[str, ...]) -> tuple[int, int]:
     """(total Ir, inclusive Ir of the clock calls) of one run of the child."""
-    env = dict(os.environ, PYTHONHASHSEED=HASH_SEED,
+    env = dict(os.environ, PYTHONHASHSEED=HASH_SEED, **{UNDER: "1"},
                PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "tools")]))
-    cmd = [VALGRIND, "--tool=callgrind", f"--callgrind-out-file={out}",
-           sys.executable, "-c", child, str(n)]
+    cmd = [VALGRIND, "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={out}",
+           sys.executable, "-c", child, str(n), *args]
     r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env, check=False)
     if r.returncode:
         raise RuntimeError(f"callgrind run failed ({r.returncode}):\n{r.stderr[-2000:]}")
@@ -78,12 +89,13 @@ def _run(child: str, n: int, out: Path) -> tuple[int, int]:
     return int(m.group(1)), max(clock, default=0)
 
 
-def count(child: str, n_small: int, n_large: int) -> Count:
-    """Instructions per iteration of the child's loop (see the module's docstring)."""
+def count(child: str, n_small: int, n_large: int, *args: str) -> Count:
+    """Instructions per iteration of the child's loop (see the module's docstring); the
+    child gets its loop count as argv[1], then `args`."""
     if not 0 <= n_small < n_large:
         raise ValueError("expected 0 <= n_small < n_large")
     with tempfile.TemporaryDirectory() as tmp:
-        a = _run(child, n_small, Path(tmp) / "small.out")
-        b = _run(child, n_large, Path(tmp) / "large.out")
+        a = _run(child, n_small, Path(tmp) / "small.out", args)
+        b = _run(child, n_large, Path(tmp) / "large.out", args)
     n = n_large - n_small
     return Count(total=(b[0] - a[0]) / n, clock=(b[1] - a[1]) / n)
