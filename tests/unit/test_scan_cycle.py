@@ -490,3 +490,29 @@ def test_cold_start_after_forcing_resets_blocks(plc_from_source):
     plc.force("%M5", True)
     plc.cold_start()
     assert plc["%C0.V"] == 0
+
+
+# ---- outputs in STOP and %S9 [docs/twido.md "Outputs in STOP", from memory] -----------------
+def test_stop_puts_the_physical_outputs_at_0_and_keeps_the_image(plc_from_source):
+    plc = plc_from_source(COPY)
+    plc["%I0.0"] = 1
+    plc.scan(2)
+    assert plc["%Q0.0"] and plc.mem.q_field[0]
+    plc.stop()
+    plc.scan(3)
+    assert plc["%Q0.0"]  # the %Q image is kept...
+    assert not plc.mem.q_field[0]  # ...the output itself is at its fallback value 0
+    plc.start()
+    plc.scan()
+    assert plc.mem.q_field[0]  # back in RUN the image is written to the outputs again
+
+
+def test_s9_holds_the_outputs_at_0_while_the_program_runs(plc_from_source):
+    plc = plc_from_source(COPY + "LD %I0.1\nST %S9\n")
+    plc["%I0.0"] = 1
+    plc["%I0.1"] = 1
+    plc.scan(2)
+    assert plc["%Q0.0"] and not plc.mem.q_field[0]  # the program runs; the output is 0
+    plc["%I0.1"] = 0
+    plc.scan()
+    assert plc.mem.q_field[0]
