@@ -250,19 +250,19 @@ def test_forcing_recompiles_only_when_the_forced_bits_change(plc_from_source):
     """Stores to forced bits are compiled out; words are re-asserted by the engine, so
     forcing a word, re-forcing a bit or releasing nothing costs no recompilation."""
     plc = plc_from_source("LD 1\n[ %MW0 := 5 ]\nLD 1\nST %Q0.0\n")
-    v = plc.program_version
+    v = plc.code_version
     plc.force("%MW0", 42)
     plc.unforce("%MW1")  # not forced
-    assert plc.program_version == v
+    assert plc.code_version == v
     plc.force("%Q0.0", 0)
-    assert plc.program_version == v + 1
+    assert plc.code_version == v + 1
     plc.force("%Q0.0", 1)  # the same bit, another value
     plc.unforce("%MW0")
-    assert plc.program_version == v + 1
+    assert plc.code_version == v + 1
     plc.scan()
     assert plc["%Q0.0"] == 1 and plc["%MW0"] == 5
     plc.unforce()
-    assert plc.program_version == v + 2 and plc.forced == {}
+    assert plc.code_version == v + 2 and plc.forced == {}
 
 
 # ---- HALT -----------------------------------------------------------------------------------
@@ -516,3 +516,13 @@ def test_s9_holds_the_outputs_at_0_while_the_program_runs(plc_from_source):
     plc["%I0.1"] = 0
     plc.scan()
     assert plc.mem.q_field[0]
+
+
+def test_forcing_a_bit_rebuilds_the_code_but_is_not_a_new_program_version(plc_from_source):
+    plc = plc_from_source(COPY)
+    version, code = plc.program_version, plc.code_version
+    plc.force("%Q0.0", 1)  # a forced bit: the program's stores to it compiled out
+    assert plc.code_version == code + 1
+    assert plc.program_version == version  # what the Program tab shows does not move
+    plc.unforce()
+    assert plc.program_version == version
