@@ -97,6 +97,9 @@ class DaemonOptions:
     on_serving: list[Callable[[ServerThread, ModbusImage], None]] = field(
         default_factory=list)
     web: Any = None  # softplc.web.WebOptions; None = no web monitor
+    # the folder an online change's configuration may name files in (--config-dir);
+    # None: only the files the request carries (softplc.config.files)
+    config_dir: Path | None = None
     gc_freeze: bool = True  # freeze what start-up made (see Daemon.run); False: comparisons
 
 
@@ -277,7 +280,9 @@ class Daemon:
                 from softplc.access import AccessPort
                 from softplc.web import attach
 
-                self.web = attach(self, server, AccessPort(plc, image), opt.web)
+                port = AccessPort(plc, image)
+                port.program.files_root = opt.config_dir
+                self.web = attach(self, server, port, opt.web)
             for hook in opt.on_serving:
                 hook(server, image)
         except BaseException:

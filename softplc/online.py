@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from softplc.config.files import Carried
 from softplc.errors import SoftPLCError
 from softplc.il import ast as A
 from softplc.twido import catalog
@@ -73,6 +74,7 @@ class Plan:
     settings: Any  # the new `Config`
     raw_config: dict[str, Any]
     symbols: Any = None  # the new configuration's `SymbolTable`
+    files: dict[str, bytes] = field(default_factory=dict)  # the files it named, as read
     losses: list[str] = field(default_factory=list)  # what does not carry over, for humans
     reset: set[tuple[str, int]] = field(default_factory=set)  # blocks (kind, index) rebuilt
     removed: set[tuple[str, int]] = field(default_factory=set)  # blocks no longer used
@@ -108,14 +110,18 @@ def _describe(options: Any) -> str:
 
 def plan(plc: Any, program: A.Program | str | Path,
          config: str | Path | dict[str, Any] | None = None, *,
-         file: str = "<online change>") -> Plan:
+         file: str = "<online change>", files: Any = None) -> Plan:
     """Check and compile `program` (an AST, IL text or a file) against `config` (default:
     the running configuration) without touching `plc`; what will not carry over. `file`:
-    the name IL text goes by in the messages."""
+    the name IL text goes by in the messages; `files`: where the files the configuration
+    names may come from (`softplc.config.files.FilePolicy`; None: anywhere, the caller's
+    own configuration)."""
+    from softplc import assembly as build
     from softplc.plc import PLC
 
     if config is None:
         config = plc.config
+    config = build.load(config, files)
     # raises ProgramError (every syntax and semantic error, with line:col) / ConfigError
     if isinstance(program, Path):
         trial = PLC.from_file(program, config, devices=False)
@@ -130,7 +136,8 @@ def plan(plc: Any, program: A.Program | str | Path,
             "these configuration sections cannot change while the PLC runs (restart the "
             "daemon with the new configuration): " + ", ".join(restart))
     old_cfg, new_cfg = _block_configs(plc.settings), _block_configs(trial.settings)
-    result = Plan(program, trial.settings, trial.config, trial.symbols)
+    result = Plan(program, trial.settings, trial.config, trial.symbols,
+                  dict(trial.machine.files.served))
     running = {(k, i) for k, d in plc.mem.blocks.items() for i in d}
     kept = {(k, i) for k, d in trial.mem.blocks.items() for i in d}
     for kind, index in sorted(running - kept):
@@ -173,6 +180,9 @@ def apply(plc: Any, change: Plan, *, confirm: bool = False, cold: bool = False) 
             if block is not None:
                 block.set_state(st)
         plc.replace_program(change.program)
+        # the files the running configuration named, as read: the next change's (and the
+        # state file's) copy, never read from disk again
+        plc.machine.files = Carried.holding(change.files)
     except SoftPLCError:  # not expected after a clean plan: put the PLC back as it was
         plc.settings, plc.config, plc.symbols = old_settings, old_raw, old_symbols
         plc.block_setup.symbols = old_symbols

@@ -167,6 +167,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--trace", type=Path, metavar="FILE.csv",
                    help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
                         "this CSV file (flushed every simulated second and at shutdown)")
+    p.add_argument("--config-dir", type=Path, metavar="DIR",
+                   help="an online change's configuration may name files (symbols_file) "
+                        "under DIR, regular files only (default: none; the files go with "
+                        "the request, as `softplc load` sends them)")
     # web monitor options (softplc.web)
     p.add_argument("--web", type=_web_port, default=None, metavar="PORT|off",
                    help="web monitor port (default 8020, on 127.0.0.1; 0 = any free port; "
@@ -261,9 +265,19 @@ def run(args: argparse.Namespace) -> int:
         on_host_wait=waits,
         web=_web_options(args, plc.settings.web),
         gc_freeze=not args.no_gc_freeze,
+        config_dir=_folder(args.config_dir),
     )
     app = application_id(plc.machine, args.program.read_bytes())
     return Daemon(plc, opts, program_name=str(args.program), app=app).run()
+
+
+def _folder(path: Path | None) -> Path | None:
+    """--config-dir checked: an existing folder, resolved (links included) once, here."""
+    if path is None:
+        return None
+    if not path.is_dir():
+        raise ConfigError(f"--config-dir {path}: not a folder")
+    return path.resolve()
 
 
 def _web_options(args: argparse.Namespace, configured: Any) -> Any:
