@@ -10,6 +10,7 @@ from typing import Any
 from softplc import assembly as build
 from softplc import online
 from softplc.config.files import Carried
+from softplc.persist.kept import KeptProgram, ProgramKeeper
 from softplc.persist.retain import application_id
 from softplc.twido.symbols import SymbolTable
 
@@ -21,6 +22,9 @@ class ProgramAccess:
         # the folder an online change's configuration may name files in (`softplc run
         # --config-dir`); None: only the files the request carries
         self.files_root = files_root
+        # the programs kept with the state file (the daemon's, with --state): an online
+        # change is written there before its swap
+        self.keeper: ProgramKeeper | None = None
         self._map: tuple[int, Any] | None = None
 
     @property
@@ -71,8 +75,20 @@ class ProgramAccess:
             return build.application_id(self.plc.machine, text.encode())
         return application_id(text.encode(), raw)
 
+    def keep(self, plan: online.Plan, text: str, name: str, app: bytes) -> KeptProgram | None:
+        """Before the swap (not in the scan thread): write what the change will run beside
+        the state file, so that a restart runs it with its data. StateFileError if it
+        cannot be written: then the change is not made."""
+        if self.keeper is None:
+            return None
+        running = self.keeper.running
+        record = online.kept_record(self.plc, app, app if running is None else running.origin,
+                                    plan, name, text)
+        self.keeper.keep(record)
+        return record
+
     def swap(self, plan: online.Plan, names: SymbolTable, version: int, *, confirm: bool,
-             cold: bool, app: bytes) -> dict[str, Any]:
+             cold: bool, app: bytes, kept: KeptProgram | None = None) -> dict[str, Any]:
         """In the scan thread, between two scans: make the change planned against
         `version`; what runs then. ChangeRefused if another change came meanwhile."""
         plc = self.plc
@@ -83,7 +99,9 @@ class ProgramAccess:
         plc.symbols = names
         store = getattr(self.image, "store", None)
         if store is not None:  # the state file now belongs to the new program: a restart
-            store.app = app  # with it warm-starts, with the old one not
+            store.app = app  # runs it (kept beside the file) with its data
+        if kept is not None and self.keeper is not None:
+            self.keeper.running = kept
         return self.info()
 
 

@@ -20,7 +20,7 @@ from typing import Any
 
 from softplc.commands._args import CONFIG_HELP, existing_file, port
 from softplc.commands.io import DEFAULT_PORT, Client
-from softplc.errors import SoftPLCError
+from softplc.errors import ConfigCode, ConfigError, SoftPLCError
 
 LOAD_TIMEOUT = 120.0  # s: checking a ~1 MB program takes a while
 PENDING_POLL_S = 0.2  # s between two looks at a swap the daemon is still making
@@ -83,8 +83,15 @@ def _files(config: Path, text: str) -> dict[str, str]:
     files, policy = {}, Local()
     for key in FILE_KEYS:
         name = raw.get(key)
-        if isinstance(name, str) and name:
-            files[name] = decode_csv(policy.read(name, config.parent, key, "symbol file"), name)
+        if not isinstance(name, str) or not name:
+            continue
+        try:
+            data = policy.read(name, config.parent, key, "symbol file")
+        except ConfigError as e:
+            if e.issues[0].code == ConfigCode.FILE and not (config.parent / name).exists():
+                continue  # not here: the daemon's running copy of that name, if it has one
+            raise
+        files[name] = decode_csv(data, name)
     return files
 
 

@@ -129,8 +129,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--cold", action="store_true",
                    help="cold start even if the state file holds data (or is damaged)")
     p.add_argument("--keep-state", action="store_true",
-                   help="warm restart even if the program or configuration changed since the "
-                        "state was saved (default: a new application cold-starts)")
+                   help="run PROGRAM.il warm with the state file's data even if that data "
+                        "belongs to another program or configuration (default: the start "
+                        "stops and says what differs)")
+    p.add_argument("--program-from-state", action="store_true",
+                   help="run the program kept with the state file's data (the last one "
+                        "loaded online, or run), whatever PROGRAM.il holds; by default it "
+                        "runs when PROGRAM.il is the program it replaced, and a PROGRAM.il "
+                        "that differs otherwise stops the start until you choose")
     p.add_argument("--save-interval", type=_interval,
                    help="how often to flush the state file to disk, for power loss (default "
                         "5s; 0 = only at shutdown); a killed process loses nothing anyway")
@@ -251,6 +257,7 @@ def run(args: argparse.Namespace) -> int:
         state_symlink=args.state_symlink,
         cold=args.cold,
         keep_state=args.keep_state,
+        program_from_state=args.program_from_state,
         save_interval=_pick(args.save_interval, dm.save_interval),
         speed=args.speed,
         stats_interval=_pick(args.stats_interval, dm.stats_interval),

@@ -13,22 +13,20 @@ anything else is refused, and it writes no file at all.
 
 Every file read from disk, by either policy, is opened without blocking (a FIFO or a
 device does not wedge the reader), must be a regular file, is size-capped before it is read
-and read against a deadline; an error says what is wrong with the file, never what is in it.
+and read against a deadline (`softplc.persist.bounded`); an error says what is wrong with
+the file, never what is in it.
 The files a policy served are recorded (`served`): an online change keeps them with its
 program (`softplc.persist.kept`), so a restart rebuilds it without reading them again.
 """
 
 from __future__ import annotations
 
-import errno
-import os
 import posixpath
-import stat
-import time
 from collections.abc import Mapping
 from pathlib import Path
 
 from softplc.errors import ConfigCode, ConfigError, ConfigIssue
+from softplc.persist.bounded import FileRefused, read_regular
 
 #: The largest file a configuration may name: a TwidoSuite symbol table of every object
 #: of a TWDLCAE40DRF (3,000 %MW, 256 %M, ... with 200-character comments) is under 1 MiB.
@@ -36,7 +34,6 @@ MAX_FILE_BYTES = 4 * 1024 * 1024
 #: Seconds a file may take to read (a regular file on a local disk takes milliseconds;
 #: this bounds a stalled network mount, not a normal read).
 READ_DEADLINE_S = 5.0
-READ_CHUNK = 64 * 1024  # bytes read at a time between two deadline checks
 #: Files one request may carry (a configuration names one symbol file today).
 MAX_CARRIED_FILES = 16
 MAX_NAME_LENGTH = 255  # characters of a carried file's name (a POSIX file name's bytes)
@@ -48,46 +45,15 @@ def _refused(key: str, message: str) -> ConfigError:
 
 def read_bounded(path: Path, key: str, what: str, limit: int = MAX_FILE_BYTES,
                  deadline_s: float = READ_DEADLINE_S, follow: bool = True) -> bytes:
-    """The bytes of the regular file `path`: opened without blocking (a FIFO, a device,
-    a socket is refused, never waited on), at most `limit` bytes (checked before reading,
-    and while reading: a file that grows is cut off), within `deadline_s` seconds.
-    `follow`: False refuses a symbolic link as the last component. ConfigError at `key`
-    (code `file` or `path`), naming the file, never quoting it."""
-    flags = os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | (0 if follow else os.O_NOFOLLOW)
+    """The bytes of the regular file `path` (`softplc.persist.bounded.read_regular`: not
+    blocking, size-capped, with a deadline); ConfigError at `key` (code `path` for a file
+    that may not be read, `file` for one that cannot be), naming the file, never quoting
+    it."""
     try:
-        fd = os.open(path, flags)
-    except FileNotFoundError:
-        raise ConfigError(ConfigIssue(key, f"{path}: no such {what}", ConfigCode.FILE)) \
-            from None
-    except OSError as e:
-        if e.errno == errno.ELOOP:
-            raise _refused(key, f"{path}: a symbolic link, refused") from None
-        raise ConfigError(ConfigIssue(key, f"{path}: cannot read the {what}: "
-                                      f"{e.strerror or e}", ConfigCode.FILE)) from None
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise _refused(key, f"{path}: not a regular file (a FIFO, a device, a folder or "
-                                f"a socket), refused")
-        if st.st_size > limit:
-            raise _refused(key, f"{path}: {st.st_size} bytes, over the {limit} a {what} "
-                                f"may have")
-        end = time.monotonic() + deadline_s
-        parts: list[bytes] = []
-        size = 0
-        while chunk := os.read(fd, READ_CHUNK):
-            size += len(chunk)
-            if size > limit:
-                raise _refused(key, f"{path}: grew past the {limit} bytes a {what} may have")
-            if time.monotonic() > end:
-                raise _refused(key, f"{path}: not read within {deadline_s:g} s")
-            parts.append(chunk)
-        return b"".join(parts)
-    except OSError as e:
-        raise ConfigError(ConfigIssue(key, f"{path}: cannot read the {what}: "
-                                      f"{e.strerror or e}", ConfigCode.FILE)) from None
-    finally:
-        os.close(fd)
+        return read_regular(path, what, limit, deadline_s, follow)
+    except FileRefused as e:
+        raise ConfigError(ConfigIssue(key, str(e), ConfigCode.PATH if e.refused
+                                      else ConfigCode.FILE)) from None
 
 
 class FilePolicy:

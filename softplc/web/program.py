@@ -141,8 +141,13 @@ class ProgramChanges:
             if plan.needs_confirmation and not (confirm or cold):
                 return 200, {"applied": False, "losses": plan.losses,
                              "needs_confirmation": True, "info": program.info()}
-            info = await self._swap(plan, names, version, confirm, cold,
-                                    program.app_id(text, raw))
+            app = program.app_id(text, raw)
+            try:  # kept with the state file before it runs: a restart runs it too
+                kept = await loop.run_in_executor(None, program.keep, plan, text, name, app)
+            except SoftPLCError as e:
+                return 500, {"error": f"not loaded, nothing changed: {e}", "errors": [],
+                             "applied": False}
+            info = await self._swap(plan, names, version, confirm, cold, app, kept)
             self.ctl.objects.forget()
             if info is None:  # still being made: say so, and what to look for
                 return 202, {"applied": None, "pending": True, "version": version + 1,
@@ -154,7 +159,8 @@ class ProgramChanges:
             self._busy = False
 
     async def _swap(self, plan: online.Plan, names: SymbolTable, version: int,
-                    confirm: bool, cold: bool, app: bytes) -> dict[str, Any] | None:
+                    confirm: bool, cold: bool, app: bytes,
+                    kept: Any = None) -> dict[str, Any] | None:
         """Queue the swap in the control lane; wait for the scan thread to make it: what
         runs then, or None if it is still being made after two deadlines."""
         done: concurrent.futures.Future[dict[str, Any]] = concurrent.futures.Future()
@@ -164,7 +170,7 @@ class ProgramChanges:
                 return  # withdrawn at the deadline: it was answered "not changed"
             try:
                 done.set_result(self.program.swap(plan, names, version, confirm=confirm,
-                                                  cold=cold, app=app))
+                                                  cold=cold, app=app, kept=kept))
             except SoftPLCError as e:
                 done.set_exception(e)
             except BaseException as e:  # the answer must not wait for nothing

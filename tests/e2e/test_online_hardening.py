@@ -114,3 +114,16 @@ def test_a_swap_not_begun_at_the_deadline_never_applies(star, slow_swap):
     t.join()
     star.scans(10)
     assert star.plc.program_version == 0 and star.plc.ast.source == SOURCE
+
+
+def test_softplc_load_sends_the_files_its_configuration_names(star, tmp_path):
+    from softplc.cli import main as cli
+
+    (tmp_path / "mine.csv").write_bytes("%MW20;VITESSE;vitesse du tapis é\n".encode("cp1252"))
+    cfg = tmp_path / "new.toml"
+    cfg.write_text(naming("mine.csv"))
+    prog = tmp_path / "p.il"
+    prog.write_text(SOURCE)
+    assert cli(["load", str(prog), "--port", str(star.port), "--config", str(cfg)]) == 0
+    assert star.client().request("info")["symbols"]["%MW20"] == ["VITESSE",
+                                                                 "vitesse du tapis é"]
