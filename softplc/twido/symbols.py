@@ -243,12 +243,14 @@ def decode_csv(data: bytes, source: str) -> str:
 def read_csv_file(path: str | Path) -> list[Symbol]:
     p = Path(path)
     try:
-        data = p.read_bytes()
+        text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise ConfigError(f"{p}: no such symbol file") from None
+    except UnicodeDecodeError:
+        text = p.read_text(encoding="cp1252")  # TwidoSuite on Windows writes ANSI
     except OSError as e:
         raise ConfigError(f"cannot read symbol file {p}: {e.strerror}") from None
-    return read_csv(decode_csv(data, str(p)), str(p))
+    return read_csv(text, str(p))
 
 
 def from_settings(settings: Any, base: Path | None, profile: Profile = DEFAULT_PROFILE,
