@@ -264,7 +264,11 @@ def choose_program(plc: Any, state_app: bytes, app: bytes, keeper: ProgramKeeper
     if keep_state and not from_state:
         return app, "program or configuration changed, data kept (--keep-state)"
     if kept is not None and (from_state or kept.origin == app):
-        restore(plc, kept)
+        try:
+            restore(plc, kept)
+        except SoftPLCError as e:  # e.g. --program-from-state with another scan period
+            raise StateFileError(f"{where}: the kept program {kept.describe()} cannot run "
+                                 f"with this command line's configuration: {e}") from None
         reason = "--program-from-state" if from_state else (
             "the command line's program is the one it replaced; --keep-state runs the file "
             "instead, with this data")
