@@ -25,6 +25,8 @@ PROTOCOL_MODBUS = 0
 MAX_PDU = 253  # bytes [MB application protocol v1.1b3, 4.1]
 MIN_LENGTH = 2  # the length field: unit id + at least a function code
 MAX_LENGTH = MAX_PDU + 1  # unit id + the longest PDU
+# the length fields of a well-formed frame (a set: the server tests each request inline)
+GOOD_LENGTHS = frozenset(range(MIN_LENGTH, MAX_LENGTH + 1))
 
 # (bound methods: the server parses every request with them)
 header = MBAP.unpack_from  # header(buf, pos=0) -> (tid, protocol, length, unit)
@@ -38,7 +40,7 @@ def frame(tid: int, unit: int, pdu: bytes) -> bytes:
 
 def bad_header(protocol: int, length: int) -> str | None:
     """Why a header is not a Modbus one (protocol id, length out of range), or None."""
-    if protocol != PROTOCOL_MODBUS or not MIN_LENGTH <= length <= MAX_LENGTH:
+    if protocol != PROTOCOL_MODBUS or length not in GOOD_LENGTHS:
         return f"bad MBAP header (protocol id {protocol}, length {length})"
     return None
 

@@ -49,7 +49,7 @@ from struct import pack, unpack_from
 from typing import Any, cast
 
 from softplc.errors import SoftPLCError
-from softplc.modbus.codec import MBAP_SIZE, bad_header, frame, header
+from softplc.modbus.codec import GOOD_LENGTHS, MBAP_SIZE, PROTOCOL_MODBUS, bad_header, frame, header
 from softplc.modbus.image import ModbusImage
 from softplc.modbus.protocol import ExceptionCode, exception, process_pdu
 
@@ -317,9 +317,9 @@ class _Connection(asyncio.Protocol):
         size = len(buf)
         while size - pos >= MBAP_SIZE and not self.paused:
             tid, pid, length, unit = header(buf, pos)
-            why = bad_header(pid, length)
-            if why is not None:
-                self.drop("header", "clients closed for a bad MBAP header", why)
+            if pid != PROTOCOL_MODBUS or length not in GOOD_LENGTHS:  # (bad_header, inline)
+                self.drop("header", "clients closed for a bad MBAP header",
+                          str(bad_header(pid, length)))
                 return size
             end = pos + MBAP_SIZE - 1 + length
             if size < end:
