@@ -40,6 +40,9 @@ HIDDEN_WHY = {
     "Q": "outputs have no Modbus address: copy to a %M bit (LD %Q0.0 / ST %M101)",
     "IW": "analog inputs: copy to a %MW word ([ %MW100 := %IW1.0 ])",
     "QW": "analog outputs: copy to a %MW word ([ %MW101 := %QW1.0 ])",
+    # the Modbus map is %M / %MW only [manual, TWD USE 10AE]: the Remote Link words too
+    "INW": "Remote Link words received: copy to a %MW word ([ %MW100 := %INW1.0 ])",
+    "QNW": "Remote Link words sent: copy to a %MW word ([ %MW101 := %QNW1.0 ])",
     "S": "system bits: copy to a %M bit",
     "SW": "system words: copy to a %MW word",
     "KW": "constants have no Modbus address: copy to a %MW word",

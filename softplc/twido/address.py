@@ -28,11 +28,17 @@ IO_KINDS = {"I": BOOL, "Q": BOOL}
 # Analog I/O words %IWm.c / %QWm.c (module m, channel c) [manual].
 ANALOG_KINDS = {"IW": INT16, "QW": INT16}
 ANALOG_STRIDE = 8  # word channels per module in the flat index (the widest analog module)
+# Remote Link network words %INWi.j / %QNWi.j (issue 35): i the station (0 the master, 1-7
+# the remotes), j = 0..3 [src S1 of shared/reference/remote-link.md: 4 words each way; the
+# names, the indexes and the range 1-7: manual, from memory]. Flat index i * LINK_WORDS + j.
+NETWORK_KINDS = {"INW": INT16, "QNW": INT16}
+LINK_WORDS = 4  # words each way between the master and one peer [src S1]
+LINK_STATIONS = 8  # address 0 (the master) and 1-7 (the remotes) [src S1, range from memory]
 # Function-block objects: kind -> {field: (type, writable by the program)} (the catalog's).
 BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     f.kind: dict(f.fields or {}) for f in catalog.addressable()}
 # Objects the program may never write.
-READ_ONLY_KINDS = {"I", "IW", "KW", "KD", "KF"}
+READ_ONLY_KINDS = {"I", "IW", "INW", "KW", "KD", "KF"}
 # Word-backed kinds: the 16-bit family a 32-bit or float object overlays.
 WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF": "KW",
                "SW": "SW"}
@@ -50,8 +56,8 @@ def _alternation(words: Iterable[str]) -> str:
 _LONG_FIELDS = {f.rstrip("0123456789") for fields in BLOCK_FIELDS.values() for f in fields
                 if len(f.rstrip("0123456789")) > 1}
 _ADDR = re.compile(
-    rf"""%(?P<kind>{_alternation([*SIMPLE_KINDS, *IO_KINDS, *ANALOG_KINDS, *BLOCK_FIELDS,
-                                  "L"])})
+    rf"""%(?P<kind>{_alternation([*SIMPLE_KINDS, *IO_KINDS, *ANALOG_KINDS, *NETWORK_KINDS,
+                                  *BLOCK_FIELDS, "L"])})
         (?P<a>\d+)
         (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
         (?:\.(?P<field>{_alternation(_LONG_FIELDS)}|[A-Z])(?P<fbit>\d+)?)?  # %TM0.Q, .TH1
@@ -91,7 +97,7 @@ class Ref:
             return BLOCK_FIELDS[self.kind][self.field][0]
         if self.kind in IO_KINDS:
             return BOOL
-        if self.kind in ANALOG_KINDS:
+        if self.kind in ANALOG_KINDS or self.kind in NETWORK_KINDS:
             return INT16
         return SIMPLE_KINDS[self.kind]
 
@@ -111,7 +117,7 @@ class Ref:
         return self.kind in BLOCK_FIELDS and self.field is None
 
     def __str__(self) -> str:
-        if self.kind in IO_KINDS or self.kind in ANALOG_KINDS:
+        if self.kind in IO_KINDS or self.kind in ANALOG_KINDS or self.kind in NETWORK_KINDS:
             s = f"%{self.kind}{self.module}.{self.channel}"
         else:
             s = f"%{self.kind}{self.index}"
@@ -154,6 +160,19 @@ def _module_channel(kind: str, a: int, b: str | None, text: str,
     return a, int(b)
 
 
+def _network_word(kind: str, station: int, word: str | None, text: str,
+                  suffix: bool) -> Ref:
+    """%INWi.j / %QNWi.j: station i 0..7, word j 0..3."""
+    if word is None or suffix:
+        raise AddressError(f"{text!r}: Remote Link words are %{kind}i.j (i the station "
+                           f"0..{LINK_STATIONS - 1}, j the word 0..{LINK_WORDS - 1})")
+    j = int(word)
+    if station >= LINK_STATIONS or j >= LINK_WORDS:
+        raise AddressError(f"{text!r}: Remote Link words are %{kind}0.0 .. "
+                           f"%{kind}{LINK_STATIONS - 1}.{LINK_WORDS - 1}")
+    return Ref(kind, station * LINK_WORDS + j, station, j)
+
+
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     """Parse and range-check an address. Raises AddressError with a readable message."""
     t = text.strip().replace(" ", "")
@@ -174,6 +193,9 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         if field or bit is not None or offset or length is not None:
             raise AddressError(f"{text!r}: analog I/O words take no suffix")
         return Ref(kind, module * ANALOG_STRIDE + channel, module, channel)
+    if kind in NETWORK_KINDS:
+        return _network_word(kind, a, m["b"], text, bool(field or bit is not None or offset
+                                                         or length is not None))
     if kind == "L":
         raise AddressError(f"{text!r} is a label, not an object")
 
