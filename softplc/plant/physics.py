@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator
 
 from softplc.config import FiniteFloat, PositiveDuration, Section
 
@@ -75,15 +75,16 @@ class Conveyor(SharedDevice):
         stations: dict[str, FiniteFloat] = Field(default_factory=dict, max_length=MAX_STATIONS)
         sensors: dict[str, FiniteFloat] = Field(default_factory=dict, max_length=MAX_STATIONS)
 
-        @model_validator(mode="after")
-        def _on_the_belt(self) -> Conveyor.Options:
-            for key, pos in {**self.stations, **self.sensors}.items():
-                if not 0 <= pos <= self.length:
-                    raise ValueError(f"{key} at {pos} m is off the belt (0 .. "
-                                     f"{self.length} m)")
-            if set(self.stations) & set(self.sensors):
+        @field_validator("stations", "sensors")
+        @classmethod
+        def _on_the_belt(cls, v: dict[str, float], info: ValidationInfo) -> dict[str, float]:
+            length = info.data.get("length")
+            for key, pos in v.items():
+                if length is not None and not 0 <= pos <= length:
+                    raise ValueError(f"{key} at {pos} m is off the belt (0 .. {length} m)")
+            if set(v) & set(info.data.get("stations", {})):
                 raise ValueError("a name is either a station or a sensor")
-            return self
+            return v
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
