@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from softplc.cli import main
 from softplc.debug.session import Session
 from softplc.plc import PLC
@@ -59,3 +61,15 @@ def test_verify_takes_link_words_and_status_as_free() -> None:
     ok = "LD [ %INW1.0 > 100 ]\nANDN [ %INW1.0 > 50 ]\nST %Q0.0\n"
     assert verify(checker(ok, "never %Q0.0", MASTER), 8, 4, 20, [],
                   use_spacer=True).status == "PROVEN"
+
+
+@pytest.mark.parametrize(("program", "config", "proven"), [
+    ("station.il", "filler.toml", 2), ("station.il", "capper.toml", 2),
+    ("master.il", "master.toml", 3)])
+def test_the_example_plants_requirements_are_proven(program, config, proven, capsys) -> None:
+    d = Path(__file__).resolve().parents[2] / "ladder_programs" / "plant"
+    req = d / ("station.req.toml" if program == "station.il" else "master.req.toml")
+    assert main(["verify", str(d / program), "--config", str(d / config),
+                 "--require", str(req)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("PROVEN") == proven and "%SW111 (the Remote Link" in out
