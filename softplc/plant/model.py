@@ -282,7 +282,9 @@ def _link_sections(data: PlantFile, raws: dict[str, Any], problem: Any) -> None:
             problem((*where, "type"), f"unknown link type {link.type!r}; known: remote_link")
             continue
         addresses: dict[int, str] = {}
+        complete = True  # every member resolved: only then compare the master's remotes
         for role, name in [("master", link.master)] + [("peers", n) for n in link.peers]:
+            complete = complete and name in data.controllers
             if name not in data.controllers:
                 problem((*where, role), f"{name!r} is not a controller of this plant",
                         ConfigCode.MISSING_KEY)
@@ -327,7 +329,7 @@ def _link_sections(data: PlantFile, raws: dict[str, Any], problem: Any) -> None:
                 if link.cycle is not None:
                     section["cycle"] = f"{link.cycle * 1e6:.0f}us"
                 master[0]["remote_link"] = section
-            elif isinstance(own, dict) and {str(k): v for k, v in
+            elif complete and isinstance(own, dict) and {str(k): v for k, v in
                                             own.get("remotes", {}).items()} != want:
                 problem((*where, "peers"), f"the master's [remote_link] remotes "
                         f"{own.get('remotes')} are not this link's peers {want}",
