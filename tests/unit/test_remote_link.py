@@ -90,7 +90,7 @@ def test_program_network_word_errors(source, config, message):
 def test_modbus_map_lists_network_words_as_hidden():
     plc = PLC.from_source("LD 1\n[ %MW0 := %INW1.0 ]\n[ %QNW1.1 := %MW0 ]\n", MASTER_CFG)
     hidden = {h.address: h.why for h in build_tags(plc.ast).hidden}
-    assert "copy to a %MW word" in hidden["%INW1.0"] and "%QNW1.1" in hidden
+    assert "copy it ([ %MW1 := %INW1.0 ])" in hidden["%INW1.0"] and "%QNW1.1" in hidden
 
 
 # ---- the exchange ----------------------------------------------------------------------------
