@@ -164,7 +164,10 @@ class Plant:
 
     def step(self) -> None:
         """Move to the next instant anything is due and run it (the module's order)."""
-        t = self.now_us = self.next_time()
+        t = self.next_time()
+        if t >= NEVER:
+            raise PlantStateError("nothing left to run: every controller is off")
+        self.now_us = t
         for src, k, dst, j in self._into_devices:
             dst[j] = src[k]
         if t >= self._next_dev:

@@ -153,6 +153,19 @@ def test_plant_access_errors_name_what_exists(line: Plant):
     with pytest.raises(PlantStateError, match="set by wires"):
         line["belt:run"] = 1
     assert line["belt:run"] is True
+    for name in line.controllers:
+        line.faults.kill(name)
+    line.run(1.0)  # the belt alone goes on
+    assert not line["belt:run"]
+
+
+def test_a_plant_with_nothing_left_to_run_says_so(plant_from_file, tmp_path):
+    (tmp_path / "p.il").write_text("LD 1\nST %Q0.0\n")
+    (tmp_path / "plant.toml").write_text('[controllers.a]\nprogram = "p.il"\n')
+    p = plant_from_file(tmp_path / "plant.toml")
+    p.faults.kill("a")
+    with pytest.raises(PlantStateError, match="nothing left to run"):
+        p.scan()
 
 
 @pytest.mark.plant_file("../../ladder_programs/plant/plant.toml")
@@ -165,6 +178,10 @@ def test_plant_run_command(capsys):
                  "--set", "master:%I0.0=1", "--print", "master:%MW0", "--json"]) == 0
     out = capsys.readouterr().out
     assert '"time": 10.0' in out and '"master:%MW0": 1' in out and '"scans": 1000' in out
+    # paced at 50x real time: the same plant time and result, only slower
+    assert main(["plant", "run", str(PLANT), "--speed", "50", "--for", "1s",
+                 "--print", "belt:run"]) == 0
+    assert "t=1.000s" in capsys.readouterr().out
     assert main(["plant", "check", str(PLANT)]) == 0
     assert "3 controllers" in capsys.readouterr().out
     assert main(["plant", "run", str(PLANT), "--speed", "max", "--for", "1s",

@@ -10,6 +10,7 @@ from softplc.errors import AddressError, ConfigError, ProgramError
 from softplc.modbus.tags import build as build_tags
 from softplc.plc import PLC
 from softplc.runtime.remotelink import (
+    ERR_MISMATCH,
     ERR_NONE,
     ERR_TIMEOUT,
     MISSES,
@@ -177,3 +178,11 @@ def test_a_cut_line_is_an_absent_remote():
     t.mend(1)
     _cycle(master, t)
     assert master.machine.link.present(1) and master["%INW1.0"] == 6
+
+
+def test_a_remote_of_another_type_is_a_configuration_mismatch():
+    master, peer, t = _line()
+    t.attach(LinkRemote(peer.mem, 1, role="remote_io"))  # declared a peer by the master
+    _cycle(master, t)
+    assert not master.machine.link.present(1)
+    assert master.mem.sw.uw[SW_LINK_ERROR] == ERR_MISMATCH
