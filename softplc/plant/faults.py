@@ -38,6 +38,7 @@ class Faults:
         if c.link is not None:
             self.plant._join(self.plant.links[c.link], name)
         self.plant._wire()
+        self.plant.serve_exchanges()
 
     def stop(self, name: str) -> None:
         """Controller `name` to STOP (it still answers on the link)."""

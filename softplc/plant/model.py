@@ -33,16 +33,34 @@ import ipaddress
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
 
 from softplc.assembly import Loaded
-from softplc.config import PositiveDuration, Section, error_issues, read_toml, validate_config
+from softplc.config import (
+    ModbusConfig,
+    PositiveDuration,
+    Section,
+    error_issues,
+    numbered,
+    read_toml,
+    validate_config,
+)
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.plant.physics import SHARED_DEVICES
 from softplc.twido.address import LINK_STATIONS, parse_address
 
+# EXCH remote device indexes: the first byte of the EXCH table (config.models.RemoteIndex)
+ExchIndex = numbered(1, 255, "the remote device index is {lo} .. {hi}")
 NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,31}$")  # a controller's or a device's name
 MAX_CONTROLLERS = 64  # one process; the fleet (issue 35, 7) serves more
 MAX_WIRES = 4096
@@ -52,6 +70,10 @@ def _name(v: str) -> str:
     if not NAME.match(v):
         raise ValueError("a name is a letter then letters, digits, _ or - (32 at most)")
     return v
+
+
+def _str_keys(v: Any) -> Any:
+    return {str(k): x for k, x in v.items()} if isinstance(v, dict) else v
 
 
 def _host(v: str) -> str:
@@ -75,12 +97,32 @@ class ControllerEntry(Section):
 
 
 class LinkEntry(Section):
-    """`[links.NAME]`: a Remote Link, its master and its peers, by controller name."""
+    """`[links.NAME]`: a Remote Link (`type = "remote_link"`, the default: its `master`
+    and `peers`, by controller name), or EXCH (`type = "exch"`: the `client` controller's
+    EXCH3 remote devices, `remotes = { 1 = "filler" }`, named by controller)."""
 
-    type: str = "remote_link"
-    master: Name
-    peers: list[Name] = Field(min_length=1, max_length=LINK_STATIONS - 1)
+    type: Literal["remote_link", "exch"] = "remote_link"
+    master: Name | None = None
+    peers: list[Name] = Field(default_factory=list, max_length=LINK_STATIONS - 1)
     cycle: PositiveDuration | None = None
+    client: Name | None = None
+    remotes: Annotated[dict[ExchIndex, Name], BeforeValidator(_str_keys)] = \
+        Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _of_its_type(self) -> LinkEntry:
+        if self.type == "remote_link":
+            if self.master is None or not self.peers:
+                raise ValueError("a Remote Link names its master and its peers")
+            if self.client is not None or self.remotes:
+                raise ValueError("client and remotes are an EXCH link's (type = \"exch\")")
+        else:
+            if self.client is None or not self.remotes:
+                raise ValueError("an EXCH link names its client and its remotes, e.g. "
+                                 "remotes = { 1 = \"filler\" }")
+            if self.master is not None or self.peers or self.cycle is not None:
+                raise ValueError("master, peers and cycle are a Remote Link's")
+        return self
 
 
 class WireEntry(Section):
@@ -278,9 +320,10 @@ def _link_sections(data: PlantFile, raws: dict[str, Any], problem: Any) -> None:
     member: dict[str, str] = {}
     for lname, link in data.links.items():
         where = ("links", lname)
-        if link.type != "remote_link":
-            problem((*where, "type"), f"unknown link type {link.type!r}; known: remote_link")
+        if link.type == "exch":
+            _exch_section(data, raws, lname, link, problem)
             continue
+        assert link.master is not None
         addresses: dict[int, str] = {}
         complete = True  # every member resolved: only then compare the master's remotes
         for role, name in [("master", link.master)] + [("peers", n) for n in link.peers]:
@@ -334,6 +377,38 @@ def _link_sections(data: PlantFile, raws: dict[str, Any], problem: Any) -> None:
                 problem((*where, "peers"), f"the master's [remote_link] remotes "
                         f"{own.get('remotes')} are not this link's peers {want}",
                         ConfigCode.CONFLICT)
+
+
+DEFAULT_MODBUS_HOST = "127.0.0.1"  # a remote controller without its own `host`
+
+
+def _exch_section(data: PlantFile, raws: dict[str, Any], lname: str, link: LinkEntry,
+                  problem: Any) -> None:
+    """Give the client's `[exch]` the remote devices the link names (the controller's
+    host and Modbus port, for the plant across processes; in one process the plant serves
+    them in memory), or check the ones it has."""
+    where = ("links", lname)
+    for role, name in [("client", link.client)] + [("remotes", n)
+                                                    for n in link.remotes.values()]:
+        if name not in data.controllers:
+            problem((*where, role), f"{name!r} is not a controller of this plant",
+                    ConfigCode.MISSING_KEY)
+    if link.client not in raws or any(n not in data.controllers for n in link.remotes.values()):
+        return
+    exch = raws[link.client][0].setdefault("exch", {})
+    if not isinstance(exch, dict):
+        return  # the client's configuration reports it
+    table = exch.setdefault("remote", {})
+    for index, name in link.remotes.items():
+        if name == link.client:
+            problem((*where, "remotes"), f"{name!r} cannot be its own remote device",
+                    ConfigCode.CONFLICT)
+            continue
+        server = raws.get(name, ({}, None, None))[0].get("modbus", {})
+        port = server.get("port", ModbusConfig.model_fields["port"].default) \
+            if isinstance(server, dict) else None
+        table.setdefault(str(index), {"host": data.controllers[name].host
+                                      or DEFAULT_MODBUS_HOST, "port": port})
 
 
 def _devices(data: PlantFile, problem: Any) -> dict[str, Any]:

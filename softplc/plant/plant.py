@@ -30,12 +30,15 @@ from pathlib import Path
 from typing import Any
 
 from softplc.errors import PlantStateError
+from softplc.modbus.image import ModbusImage
+from softplc.modbus.protocol import process_pdu
 from softplc.plant.faults import Faults
 from softplc.plant.model import Endpoint, PlantSpec, load_plant
 from softplc.plant.physics import SHARED_DEVICES, SharedDevice
 from softplc.plc import PLC
 from softplc.runtime.clock import VirtualClock
 from softplc.runtime.engine import SW_LAST, SW_MAX, SW_MIN
+from softplc.runtime.exch import ERR_TIMEOUT, ExchError
 from softplc.runtime.remotelink import InMemoryTransport, LinkMaster, LinkRemote
 from softplc.twido.address import parse_address
 
@@ -92,6 +95,9 @@ class Plant:
             for name, opts in spec.device_options.items()}
         self.links: dict[str, Link] = {}
         for lname, entry in spec.data.links.items():
+            if entry.type != "remote_link":
+                continue
+            assert entry.master is not None
             link = self.links[lname] = Link(lname, entry.master, list(entry.peers))
             for member in [entry.master, *entry.peers]:
                 self.controllers[member].link = lname
@@ -106,6 +112,8 @@ class Plant:
         self._next_dev = 0 if self.devices else NEVER
         self.wires = [Wire(n, s, t) for n, s, t in spec.wires]
         self._wire()
+        self._images: dict[str, ModbusImage] = {}
+        self.serve_exchanges()
         self.faults = Faults(self)
 
     @classmethod
@@ -128,6 +136,32 @@ class Plant:
             station.transport = link.transport
         elif isinstance(station, LinkRemote):
             link.transport.attach(station)
+
+    def serve_exchanges(self) -> None:
+        """The EXCH links: each client's remote devices served in memory by the named
+        controllers' Modbus maps (a killed one does not answer: the client's EXCH times
+        out). Called again when a controller restarts (a new memory image)."""
+        for entry in self.spec.data.links.values():
+            if entry.type != "exch":
+                continue
+            port = self.controllers[entry.client].plc.machine.exch
+            assert port is not None  # the plant gave the client its [exch] remotes
+            for index, name in entry.remotes.items():
+                port.local[index] = self._server(name)
+
+    def _server(self, name: str) -> Callable[[bytes], bytes]:
+        c = self.controllers[name]
+        img = self._images.get(name)
+        if img is None or img.mem is not c.plc.mem:
+            img = self._images[name] = ModbusImage(c.plc.mem)
+            c.plc.before_scan.append(img.apply_writes)  # as the daemon's server does
+            c.plc.after_scan.append(img.take_snapshot)
+
+        def serve(pdu: bytes) -> bytes:
+            if not self.controllers[name].alive:
+                raise ExchError(ERR_TIMEOUT, f"{name} does not answer")
+            return process_pdu(img, pdu)
+        return serve
 
     def _wire(self) -> None:
         """The wires as (source container, key, target container, key) copies, those into

@@ -10,7 +10,8 @@ import pytest
 
 from softplc.cli import main
 from softplc.errors import PlantStateError
-from softplc.plant import Plant
+from softplc.plant import Plant, PlantError
+from softplc.runtime.exch import ERR_TIMEOUT as ERR_EXCH_TIMEOUT
 from softplc.runtime.remotelink import ERR_NONE, ERR_TIMEOUT, MISSES
 
 PLANT = Path(__file__).resolve().parents[2] / "ladder_programs" / "plant" / "plant.toml"
@@ -186,3 +187,71 @@ def test_plant_run_command(capsys):
     assert "3 controllers" in capsys.readouterr().out
     assert main(["plant", "run", str(PLANT), "--speed", "max", "--for", "1s",
                  "--set", "nobody:%MW0=1"]) == 1
+
+
+# ---- EXCH between controllers, named in the plant file ------------------------------------------
+CLIENT = """\
+LD 1
+[ %MW0 := 16#0106 ]
+[ %MW1 := 16#0300 ]
+[ %MW2 := 16#0103 ]
+[ %MW3 := 0 ]
+[ %MW4 := 2 ]
+LD %MSG3.D
+AND %M1
+ANDN %MSG3.E
+[ %MW20 := %MW7 ]
+[ %MW21 := %MW8 ]
+[ INC %MW22 ]
+LD %MSG3.D
+AND %M1
+R %M1
+LD %MSG3.D
+EXCH3 %MW0:9
+S %M1
+"""
+EXCH_PLANT = """\
+[controllers.hmi]
+program = "client.il"
+
+[controllers.press]
+program = "server.il"
+host = "10.0.35.9"
+
+[links.reads]
+type = "exch"
+client = "hmi"
+remotes = { 1 = "press" }
+"""
+
+
+def test_an_exch_link_reads_another_controller_by_name(plant_from_file, tmp_path):
+    (tmp_path / "client.il").write_text(CLIENT)
+    (tmp_path / "server.il").write_text("LD 1\n[ %MW0 := 1234 ]\n[ %MW1 := 5678 ]\n")
+    (tmp_path / "plant.toml").write_text(EXCH_PLANT)
+    p = plant_from_file(tmp_path / "plant.toml")
+    remote = p.plc("hmi").settings.exch.remote[1]  # what `plant up` would reach
+    assert (remote.host, remote.port) == ("10.0.35.9", 5020)
+    p.run(1.0)
+    assert (p["hmi:%MW20"], p["hmi:%MW21"]) == (1234, 5678) and p["hmi:%MW22"] > 10
+    p.faults.kill("press")
+    p.run(0.5)
+    assert p["hmi:%SW65"] == 0  # no answer yet: the exchange's 1 s timeout runs
+    p.run(1.0)
+    assert p["hmi:%SW65"] == ERR_EXCH_TIMEOUT  # EXCH3's status word
+    done = p["hmi:%MW22"]
+    p.faults.restart("press")
+    p.run(2.0)
+    assert p["hmi:%SW65"] == 0 and p["hmi:%MW22"] > done
+
+
+def test_an_exch_link_names_controllers(tmp_path):
+    (tmp_path / "client.il").write_text(CLIENT)
+    (tmp_path / "server.il").write_text("LD 1\nST %Q0.0\n")
+    (tmp_path / "plant.toml").write_text(EXCH_PLANT.replace('{ 1 = "press" }',
+                                                            '{ 1 = "pres" }'))
+    with pytest.raises(PlantError, match=r"plant.toml:11: links.reads.remotes: 'pres' is not"):
+        Plant.from_file(tmp_path / "plant.toml")
+    (tmp_path / "plant.toml").write_text(EXCH_PLANT.replace('client = "hmi"\n', ""))
+    with pytest.raises(PlantError, match="an EXCH link names its client and its remotes"):
+        Plant.from_file(tmp_path / "plant.toml")
