@@ -64,6 +64,8 @@ ExchIndex = numbered(1, 255, "the remote device index is {lo} .. {hi}")
 NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,31}$")  # a controller's or a device's name
 MAX_CONTROLLERS = 64  # one process; the fleet (issue 35, 7) serves more
 MAX_WIRES = 4096
+MAX_PLANT_BYTES = 1 << 20  # a plant file of a megabyte is not written by hand
+MAX_ENDPOINT = 64  # characters of a wire's end: a 32-character name, ':' and an address
 
 
 def _name(v: str) -> str:
@@ -131,8 +133,9 @@ class WireEntry(Section):
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True,
                               populate_by_name=True)
-    source: str = Field(alias="from", min_length=3)
-    to: list[str] | str
+    source: str = Field(alias="from", min_length=3, max_length=MAX_ENDPOINT)
+    to: list[Annotated[str, Field(max_length=MAX_ENDPOINT)]] | \
+        Annotated[str, Field(max_length=MAX_ENDPOINT)] = Field(min_length=1)
     name: str = ""
 
     @property
@@ -273,9 +276,16 @@ def load_plant(path: str | Path) -> PlantSpec:
     from softplc.devices import device_types
 
     p = Path(path)
+    file = str(p)
+    try:
+        size = p.stat().st_size
+    except OSError:
+        size = 0  # read_toml says what is wrong with the file
+    if size > MAX_PLANT_BYTES:
+        raise PlantError([PlantIssue(file, 1, "(file)", f"{size} bytes: a plant file has at "
+                                     f"most {MAX_PLANT_BYTES}", ConfigCode.FILE)])
     raw = read_toml(p)
     text = p.read_text(encoding="utf-8")
-    file = str(p)
     data = _validate(file, text, raw)
     issues: list[tuple[tuple[Any, ...], str, ConfigCode]] = []
     here = p.parent
