@@ -15,17 +15,19 @@ import argparse
 import json
 import math
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from softplc.commands.run import _speed
-from softplc.config.fields import _parse_duration
-from softplc.debug.registry import parse_value
-from softplc.plant import Plant
+
+if TYPE_CHECKING:  # imported when the command runs: `softplc --help` stays light
+    from softplc.plant import Plant
 
 PACE_SLICE_S = 0.05  # longest sleep while pacing: Ctrl-C stays prompt
 
 
 def _duration(text: str) -> float:
+    from softplc.config.fields import _parse_duration
+
     try:
         return _parse_duration(text)
     except ValueError as e:
@@ -33,6 +35,8 @@ def _duration(text: str) -> float:
 
 
 def _assignment(text: str) -> tuple[str, int | float]:
+    from softplc.debug.registry import parse_value
+
     key, sep, value = text.partition("=")
     if not sep or ":" not in key:
         raise argparse.ArgumentTypeError(f"{text!r}: write CONTROLLER:%ADDRESS=VALUE")
@@ -68,6 +72,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _check(args: argparse.Namespace) -> int:
+    from softplc.plant import Plant
+
     plant = Plant.from_file(args.plant)
     links = ", ".join(f"{n} ({lk.master} + {', '.join(lk.peers)})"
                       for n, lk in plant.links.items()) or "none"
@@ -101,6 +107,8 @@ def _print(plant: Plant, args: argparse.Namespace) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from softplc.plant import Plant
+
     plant = Plant.from_file(args.plant)
     try:
         for key, value in args.set:
