@@ -35,7 +35,7 @@ def forced_bits(forced: dict[Ref, Any]) -> frozenset[Ref]:
 def _io_check(m: Machine, ref: Ref) -> str | None:
     """What is wrong with an I/O channel the program uses (None: it exists)."""
     mem, profile = m.mem, m.profile
-    if ref.kind in NETWORK_KINDS:
+    if ref.kind in NETWORK_KINDS or ref.station is not None:
         return hardware.link_word_check(m.settings.remote_link, ref)
     if ref.kind in ("IW", "QW"):
         if mem.analog is not None and ref in mem.analog.channels:
@@ -73,8 +73,9 @@ def _allocate(m: Machine, program: A.Program, resolved: Resolved) -> list[Diagno
             m.mem.use_io(ref)
         msg = _io_check(m, ref)
         if msg:
-            problem(msg, ref, pos, "a word of a station of [remote_link]"
-                    if ref.kind in NETWORK_KINDS else "an I/O channel of a configured module",
+            problem(msg, ref, pos, "a station of [remote_link]"
+                    if ref.kind in NETWORK_KINDS or ref.station is not None
+                    else "an I/O channel of a configured module",
                     Code.IO)
     pulses = m.mem.pulses
     if pulses is not None:  # [our choice] a pulse block owns its output: no coil on it

@@ -186,17 +186,23 @@ def remote_link(cfg: RemoteLinkConfig | None, mem: MemoryImage) -> LinkMaster | 
 
 
 def link_word_check(cfg: RemoteLinkConfig | None, ref: Ref) -> str | None:
-    """What is wrong with a %INWi.j / %QNWi.j the program uses (None: the link has it): a
-    master reaches the peers it declares, a peer only the master (station 0)."""
+    """What is wrong with a %INWi.j / %QNWi.j or a remote I/O channel %Ix.0.z the program
+    uses (None: the link has it): a master reaches the peers' words and the remote I/O
+    controllers' channels it declares, a peer only the master's words (station 0)."""
     if cfg is None:
         return f"{ref}: the Remote Link is not configured ([remote_link] address = ...)"
-    station = ref.module
+    remote_io = ref.station is not None
+    station = ref.station if remote_io else ref.module
+    want = "remote_io" if remote_io else "peer"
     if cfg.kind == "master":
-        if cfg.remotes.get(station) != "peer":
-            declared = ", ".join(str(a) for a, t in cfg.remotes.items() if t == "peer")
-            return (f"{ref}: station {station} is not a peer of this master "
+        if cfg.remotes.get(station) != want:
+            declared = ", ".join(str(a) for a, t in cfg.remotes.items() if t == want)
+            what = "remote I/O" if remote_io else "peer"
+            return (f"{ref}: station {station} is not a {what} of this master "
                     f"([remote_link] remotes: {declared or 'none'})")
         return None
+    if remote_io:
+        return f"{ref}: only the master reaches a remote I/O controller's channels"
     if station != 0:
         return (f"{ref}: a peer exchanges words with the master only "
                 f"(%{ref.kind}0.0 .. %{ref.kind}0.3)")

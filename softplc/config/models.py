@@ -228,11 +228,9 @@ def exch_remotes(cfg: ExchConfig) -> dict[int, Remote]:
 
 # ---- the Twido Remote Link (issue 35) -----------------------------------------------------
 RemoteAddress = numbered(1, LINK_STATIONS - 1, "a remote's address is {lo} .. {hi}")
-# remote I/O controllers (no program, the master's %Ix.y.z): not emulated yet, refused
-# with a clear message rather than accepted and ignored
+# a peer (its own program, 4 words each way) or a remote I/O controller (no program: the
+# master's %Ix.0.z / %Qx.0.z are its base I/O) [remote-link.md A1, A2]
 RemoteType = Literal["peer", "remote_io"]
-_NO_REMOTE_IO = ("remote I/O controllers are not emulated yet (their %Ix.0.z addressing "
-                 "on the master is unconfirmed, see docs/plant.md); use a peer")
 
 
 class RemoteLinkConfig(BaseModel):
@@ -254,8 +252,6 @@ class RemoteLinkConfig(BaseModel):
         if self.role is not None and (self.role == "master") != master:
             raise ValueError(f"role {self.role!r} does not go with address {self.address} "
                              f"(the master is address 0, remotes 1 .. {LINK_STATIONS - 1})")
-        if self.role == "remote_io" or "remote_io" in self.remotes.values():
-            raise ValueError(_NO_REMOTE_IO)
         if master and not self.remotes:
             raise ValueError("the master declares its remotes, e.g. remotes = { 1 = \"peer\" }")
         if not master and (self.remotes or self.cycle is not None):

@@ -90,12 +90,21 @@ Name = Annotated[str, AfterValidator(_name)]
 
 
 class ControllerEntry(Section):
-    """`[controllers.NAME]`: one soft Twido of the plant."""
+    """`[controllers.NAME]`: one soft Twido of the plant; a remote I/O controller
+    (`role = "remote_io"`) has no program."""
 
-    program: str = Field(min_length=1)
+    program: str | None = Field(None, min_length=1)
     config: str | None = Field(None, min_length=1)
     address: int | None = Field(None, ge=0, le=LINK_STATIONS - 1)
+    role: Literal["peer", "remote_io"] | None = None
     host: Annotated[str, AfterValidator(_host)] | None = None
+
+    @model_validator(mode="after")
+    def _program_or_remote_io(self) -> ControllerEntry:
+        if (self.program is None) != (self.role == "remote_io"):
+            raise ValueError("a controller has a program, a remote I/O controller "
+                             "(role = \"remote_io\") none")
+        return self
 
 
 class LinkEntry(Section):
@@ -252,7 +261,7 @@ class PlantSpec:
     file: Path
     data: PlantFile
     configs: dict[str, Loaded]  # controller -> its configuration, with the link's section
-    programs: dict[str, Path]
+    programs: dict[str, Path]  # a remote I/O controller has none
     device_options: dict[str, Any]  # device -> its validated Options
     wires: list[tuple[str, Endpoint, list[Endpoint]]]  # (name, source, targets)
 
@@ -299,10 +308,12 @@ def load_plant(path: str | Path) -> PlantSpec:
     programs: dict[str, Path] = {}
     raws: dict[str, tuple[dict[str, Any], Path | None, str | None]] = {}
     for name, c in data.controllers.items():
-        prog = here / c.program
-        if not prog.is_file():
-            problem(("controllers", name, "program"), f"no such file {prog}", ConfigCode.FILE)
-        programs[name] = prog
+        if c.program is not None:
+            prog = here / c.program
+            if not prog.is_file():
+                problem(("controllers", name, "program"), f"no such file {prog}",
+                        ConfigCode.FILE)
+            programs[name] = prog
         if c.config is None:
             raws[name] = ({}, None, None)
             continue
@@ -335,6 +346,7 @@ def _link_sections(data: PlantFile, raws: dict[str, Any], problem: Any) -> None:
             continue
         assert link.master is not None
         addresses: dict[int, str] = {}
+        kinds: dict[int, str] = {}  # address -> "peer" or "remote_io"
         complete = True  # every member resolved: only then compare the master's remotes
         for role, name in [("master", link.master)] + [("peers", n) for n in link.peers]:
             complete = complete and name in data.controllers
@@ -355,6 +367,10 @@ def _link_sections(data: PlantFile, raws: dict[str, Any], problem: Any) -> None:
                 (own.get("address") if isinstance(own, dict) else None)
             if role == "master":
                 addr = 0 if addr is None else addr
+                if data.controllers[name].role is not None:
+                    problem(("controllers", name, "role"), f"{name!r} is the master of link "
+                            f"{lname!r}: it has no remote's role", ConfigCode.CONFLICT)
+                    continue
             if not isinstance(addr, int) or (addr == 0) != (role == "master"):
                 problem(("controllers", name, "address"),
                         f"{name!r} needs a Remote Link address: 0 for the master, 1 .. "
@@ -371,12 +387,15 @@ def _link_sections(data: PlantFile, raws: dict[str, Any], problem: Any) -> None:
                     problem((*where, "peers"), f"{name!r} and {addresses[addr]!r} both have "
                             f"address {addr}", ConfigCode.CONFLICT)
                 addresses[addr] = name
+                kind = data.controllers[name].role or (
+                    own.get("role") if isinstance(own, dict) else None) or "peer"
+                kinds[addr] = kind
                 if own is None:
-                    raws[name][0]["remote_link"] = {"address": addr}
+                    raws[name][0]["remote_link"] = {"address": addr, "role": kind}
         master = raws.get(link.master)
         if master is not None and link.master in data.controllers:
             own = master[0].get("remote_link")
-            want = {str(a): "peer" for a in sorted(addresses)}
+            want = {str(a): kinds[a] for a in sorted(addresses)}
             if own is None:
                 section: dict[str, Any] = {"address": 0, "remotes": want}
                 if link.cycle is not None:

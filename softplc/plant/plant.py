@@ -51,7 +51,7 @@ class Controller:
     """One soft Twido of the plant and its place on the link."""
 
     name: str
-    program: Path
+    program: Path | None  # None: a remote I/O controller
     config: Any  # assembly.Loaded
     plc: PLC
     alive: bool = True
@@ -88,8 +88,8 @@ class Plant:
         self.now_us = 0
         self.controllers: dict[str, Controller] = {}
         for name in spec.data.controllers:
-            self.controllers[name] = Controller(name, spec.programs[name], spec.configs[name],
-                                                self._build(name, 0))
+            self.controllers[name] = Controller(name, spec.programs.get(name),
+                                                spec.configs[name], self._build(name, 0))
         self.devices: dict[str, SharedDevice] = {
             name: SHARED_DEVICES[spec.data.devices[name].type](name, opts)
             for name, opts in spec.device_options.items()}
@@ -123,8 +123,11 @@ class Plant:
 
     # -- building --------------------------------------------------------------------------
     def _build(self, name: str, start_us: int) -> PLC:
-        return PLC.from_file(self.spec.programs[name], self.spec.configs[name],
-                             clock=VirtualClock(start_us))
+        program = self.spec.programs.get(name)
+        if program is None:  # a remote I/O controller: no program, its I/O the master's
+            return PLC.from_source("", self.spec.configs[name], file=f"<remote I/O {name}>",
+                                   clock=VirtualClock(start_us))
+        return PLC.from_file(program, self.spec.configs[name], clock=VirtualClock(start_us))
 
     def _station(self, name: str) -> LinkMaster | LinkRemote | None:
         return self.controllers[name].plc.machine.link

@@ -70,7 +70,9 @@ class MemoryImage:
         self.profile = profile
         c = profile.count
         self.stride = profile.channels_per_module
-        n_io = (profile.expansion_slots + 1) * self.stride
+        # the base, the expansion slots, then the base I/O of the remote I/O controllers
+        # on the Remote Link (%Ix.0.z, address.remote_io_slot)
+        n_io = (profile.expansion_slots + LINK_STATIONS) * self.stride
         # Input/output images and what the field (devices, API) sees. Inputs are copied
         # field -> image at the start of a scan, outputs image -> field at its end.
         self.i = [False] * n_io

@@ -3,7 +3,9 @@ a cycle of its own, not inside a scan [shared/reference/remote-link.md A1, A4].
 
 A peer controller exchanges 4 words each way with the master: the master's `%QNWi.j`
 arrive as peer i's `%INW0.j`, peer i's `%QNW0.j` as the master's `%INWi.j` [A3; names and
-indexes manual, from memory]. Peers do not talk to each other.
+indexes manual, from memory]. Peers do not talk to each other. A remote I/O controller runs
+no program: the master's outputs `%Qi.0.z` are its base outputs, its base inputs the
+master's `%Ii.0.z` [A2; the addressing manual, from memory, low-medium].
 
 The exchange is behind one interface, `Transport.poll(address, request) -> reply | None`,
 so that the same master and remotes run in one process over `InMemoryTransport` (the
@@ -30,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from softplc.runtime.memory import MemoryImage
-from softplc.twido.address import LINK_STATIONS, LINK_WORDS
+from softplc.twido.address import LINK_STATIONS, LINK_WORDS, remote_io_slot
 
 SW_LINK_STATUS, SW_LINK_ERROR, SW_LINK_CONFIG = 111, 112, 113  # [manual, from memory: low]
 ERR_NONE, ERR_TIMEOUT, ERR_MISMATCH = 0, 1, 2  # [softplc choice: codes unverified]
@@ -42,7 +44,7 @@ MISSES = 2
 # default and lets a program tell "absent" from "sent 0" only by %SW111.
 HOLD_LAST_VALUES = True
 MASTER = 0
-PEER = "peer"
+PEER, REMOTE_IO = "peer", "remote_io"
 # Bytes of one poll each way and the line's fixed speed, for the default link cycle: a
 # slot per remote of (request + reply) bytes x 10 bits at 38,400 bit/s [speed: manual, from
 # memory, remote-link.md A4; frame size: a softplc estimate], rounded up to whole ms.
@@ -58,18 +60,22 @@ def default_cycle_us(remotes: int) -> int:
 
 @dataclass(frozen=True)
 class Request:
-    """One poll of the master: the words it sends to the remote (its %QNWi.0-3)."""
+    """One poll of the master: the words it sends to a peer (its %QNWi.0-3), or the
+    outputs it sets on a remote I/O controller (its %Qi.0.z)."""
 
-    words: tuple[int, ...]
+    words: tuple[int, ...] = ()
+    outputs: tuple[bool, ...] = ()
 
 
 @dataclass(frozen=True)
 class Reply:
-    """A remote's answer: its type and the words it sends (its %QNW0.0-3); None: no fresh
-    words this cycle (a slowed link still filling), the master keeps what it had."""
+    """A remote's answer: its type and the words a peer sends (its %QNW0.0-3) or the
+    inputs of a remote I/O controller (its base %I0.z); None: nothing fresh this cycle (a
+    slowed link still filling), the master keeps what it had."""
 
     role: str
-    words: tuple[int, ...] | None
+    words: tuple[int, ...] | None = None
+    inputs: tuple[bool, ...] | None = None
 
 
 class Transport(Protocol):
@@ -128,7 +134,7 @@ class LinkMaster(LinkStation):
         error = ERR_NONE
         for a, role in self.remotes.items():
             reply = None if self.transport is None else \
-                self.transport.poll(a, Request(self._words("qnw", a)))
+                self.transport.poll(a, self._request(a, role))
             if reply is not None and reply.role != role:
                 error = ERR_MISMATCH
                 reply = None
@@ -144,7 +150,18 @@ class LinkMaster(LinkStation):
             self._set_status_bit(a, True)
             if reply.words is not None:
                 self._put("inw", a, reply.words)
+            if reply.inputs is not None:  # latched by the next scan, as local inputs are
+                first = remote_io_slot(self.mem.profile, a)
+                n = min(len(reply.inputs), self.mem.profile.inputs_base)
+                self.mem.i_field[first:first + n] = reply.inputs[:n]
         self.mem.sw.uw[SW_LINK_ERROR] = error
+
+    def _request(self, a: int, role: str) -> Request:
+        if role == REMOTE_IO:  # the outputs the last scan published
+            first = remote_io_slot(self.mem.profile, a)
+            return Request(outputs=tuple(
+                self.mem.q_field[first:first + self.mem.profile.outputs_base]))
+        return Request(self._words("qnw", a))
 
     def present(self, address: int) -> bool:
         return bool(self.mem.sw.uw[SW_LINK_STATUS] >> (address - 1) & 1)
@@ -166,6 +183,12 @@ class LinkRemote(LinkStation):
     def answer(self, request: Request | None) -> Reply:
         """The master's poll (None: a poll whose words are still on their way)."""
         self.polled = True
+        mem = self.mem
+        if self.role == REMOTE_IO:  # no program: the master's outputs are its outputs
+            if request is not None:
+                n = min(len(request.outputs), mem.profile.outputs_base)
+                mem.q[:n] = mem.q_field[:n] = request.outputs[:n]
+            return Reply(self.role, inputs=tuple(mem.i_field[:mem.profile.inputs_base]))
         if request is not None:
             self._put("inw", MASTER, request.words)
         return Reply(self.role, self._words("qnw", MASTER))
@@ -236,4 +259,4 @@ class InMemoryTransport:
         line.to_master.append(reply)
         if len(line.to_master) > line.delay:
             return line.to_master.popleft()
-        return Reply(reply.role, None)
+        return Reply(reply.role)

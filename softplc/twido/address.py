@@ -60,6 +60,7 @@ _ADDR = re.compile(
                                   *BLOCK_FIELDS, "L"])})
         (?P<a>\d+)
         (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
+        (?:\.(?P<c>\d+))?                       # %I1.0.3 a remote I/O's station.0.channel
         (?:\.(?P<field>{_alternation(_LONG_FIELDS)}|[A-Z])(?P<fbit>\d+)?)?  # %TM0.Q, .TH1
         (?::X(?P<bit>\d+))?                     # %MW3:X5
         (?::(?P<length>\d+))?                   # %MW0:10 table / bit string
@@ -81,6 +82,9 @@ class Ref:
     bit: int | None = None  # %MWi:Xk or %SBRi.Jk
     length: int | None = None  # %MWi:L tables, %Mi:L bit strings
     offset: Ref | None = None  # %MWi[%MWj]
+    # %Ix.0.z / %Qx.0.z: the Remote Link station x of a remote I/O controller (its base I/O
+    # on the master; the flat index as if it were module expansion_slots + x)
+    station: int | None = None
     # the object's symbol (softplc.twido.symbols), for the views; not part of its identity
     symbol: str | None = dc_field(default=None, compare=False, repr=False)
 
@@ -117,7 +121,9 @@ class Ref:
         return self.kind in BLOCK_FIELDS and self.field is None
 
     def __str__(self) -> str:
-        if self.kind in IO_KINDS or self.kind in ANALOG_KINDS or self.kind in NETWORK_KINDS:
+        if self.station is not None:
+            s = f"%{self.kind}{self.station}.{self.module}.{self.channel}"
+        elif self.kind in IO_KINDS or self.kind in ANALOG_KINDS or self.kind in NETWORK_KINDS:
             s = f"%{self.kind}{self.module}.{self.channel}"
         else:
             s = f"%{self.kind}{self.index}"
@@ -173,6 +179,27 @@ def _network_word(kind: str, station: int, word: str | None, text: str,
     return Ref(kind, station * LINK_WORDS + j, station, j)
 
 
+def _remote_io(kind: str, station: int, base: int, channel: int, text: str,
+               profile: Profile, suffix: bool) -> Ref:
+    """%Ix.0.z / %Qx.0.z: channel z of the base I/O of the remote I/O controller at Remote
+    Link address x [manual, from memory, low-medium: shared/reference/remote-link.md A2;
+    only the base is reachable, its size taken as this profile's base]."""
+    limit = profile.inputs_base if kind == "I" else profile.outputs_base
+    if suffix:
+        raise AddressError(f"{text!r}: remote I/O bits take no suffix")
+    if not 1 <= station < LINK_STATIONS or base != 0 or channel >= limit:
+        raise AddressError(f"{text!r}: a remote I/O channel is %{kind}x.0.z, x the remote's "
+                           f"address 1 .. {LINK_STATIONS - 1}, z its base channel 0 .. "
+                           f"{limit - 1}")
+    slot = profile.expansion_slots + station
+    return Ref(kind, slot * profile.channels_per_module + channel, 0, channel, station=station)
+
+
+def remote_io_slot(profile: Profile, station: int) -> int:
+    """The first flat index of remote I/O station `station`'s channels."""
+    return (profile.expansion_slots + station) * profile.channels_per_module
+
+
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     """Parse and range-check an address. Raises AddressError with a readable message."""
     t = text.strip().replace(" ", "")
@@ -193,6 +220,11 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         if field or bit is not None or offset or length is not None:
             raise AddressError(f"{text!r}: analog I/O words take no suffix")
         return Ref(kind, module * ANALOG_STRIDE + channel, module, channel)
+    if m["c"] is not None:
+        if kind not in IO_KINDS:
+            raise AddressError(f"malformed address {text!r}")
+        return _remote_io(kind, a, int(m["b"]), int(m["c"]), text, profile,
+                          bool(field or bit is not None or offset or length is not None))
     if kind in NETWORK_KINDS:
         return _network_word(kind, a, m["b"], text, bool(field or bit is not None or offset
                                                          or length is not None))
@@ -270,7 +302,7 @@ def expand(text: str, profile: Profile = DEFAULT_PROFILE) -> list[Ref]:
         return [ref]
     if ref.kind in IO_KINDS:
         assert ref.module is not None and ref.channel is not None
-        return [Ref(ref.kind, ref.index + k, ref.module, ref.channel + k)
+        return [replace(ref, index=ref.index + k, channel=ref.channel + k, length=None)
                 for k in range(ref.length)]
     step = WIDTH.get(ref.kind, 1)
     return [Ref(ref.kind, ref.index + k * step) for k in range(ref.length)]

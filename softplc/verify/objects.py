@@ -160,7 +160,7 @@ class ObjectModel(ExprModel):
             if self.use_block(Ref(ref.kind, ref.index), None) is None:
                 return "_none"
             return f"%{ref.kind}{ref.index}.{ref.field}"
-        key = str(Ref(ref.kind, ref.index, ref.module, ref.channel))
+        key = str(Ref(ref.kind, ref.index, ref.module, ref.channel, station=ref.station))
         if ref.kind == "S" and ref.index in S_CLOCKS:
             if CLOCK_WRAP_US % self.period_us:
                 self.unsupported(f"{ref} with a scan period that does not divide 1 min",

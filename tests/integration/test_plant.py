@@ -255,3 +255,42 @@ def test_an_exch_link_names_controllers(tmp_path):
     (tmp_path / "plant.toml").write_text(EXCH_PLANT.replace('client = "hmi"\n', ""))
     with pytest.raises(PlantError, match="an EXCH link names its client and its remotes"):
         Plant.from_file(tmp_path / "plant.toml")
+
+
+def test_a_remote_io_controller_is_the_masters_io(plant_from_file, tmp_path):
+    (tmp_path / "m.il").write_text("LD %I2.0.0\nST %Q2.0.3\nLD %I2.0.0\nST %Q0.0\n")
+    (tmp_path / "plant.toml").write_text("""\
+[controllers.cell]
+program = "m.il"
+
+[controllers.rio]
+role = "remote_io"
+address = 2
+
+[links.line]
+master = "cell"
+peers = ["rio"]
+
+[[wires]]
+name = "button"
+from = "cell:%Q0.1"
+to = "rio:%I0.0"
+""")
+    p = plant_from_file(tmp_path / "plant.toml")
+    assert p.plc("cell").settings.remote_link.remotes == {2: "remote_io"}
+    p["cell:%Q0.1"] = 1  # drives the remote's input through the wire (published next scan)
+    p.run(0.1)
+    assert p["cell:%I2.0.0"] and p["cell:%Q0.0"] and p["rio:%Q0.3"]
+    p.faults.kill("rio")
+    p.run(0.1)
+    assert not p["cell:%SW111"] and p["cell:%I2.0.0"]  # absent; the last inputs held
+
+
+def test_a_remote_io_controller_has_no_program(tmp_path):
+    (tmp_path / "m.il").write_text("LD 1\nST %Q0.0\n")
+    (tmp_path / "plant.toml").write_text(
+        '[controllers.cell]\nprogram = "m.il"\n\n[controllers.rio]\nrole = "remote_io"\n'
+        'program = "m.il"\naddress = 2\n')
+    with pytest.raises(PlantError, match="plant.toml:4: controllers.rio: a controller has a "
+                                         "program, a remote I/O controller"):
+        Plant.from_file(tmp_path / "plant.toml")

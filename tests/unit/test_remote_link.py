@@ -59,7 +59,7 @@ def test_remote_link_config():
     ({"address": 0, "remotes": {"9": "peer"}}, "remote_link.remotes.9: a remote's address"),
     ({"address": 2, "remotes": {"1": "peer"}}, r"the master's \(address 0\) settings"),
     ({"address": 2, "role": "master"}, "does not go with address 2"),
-    ({"address": 0, "remotes": {"1": "remote_io"}}, "remote I/O controllers are not emulated"),
+    ({"address": 0, "role": "remote_io", "remotes": {"1": "peer"}}, "does not go with address 0"),
     ({"address": 1, "speed": 9600}, "remote_link.speed: unknown key"),
 ])
 def test_remote_link_config_errors(section, message):
@@ -186,3 +186,46 @@ def test_a_remote_of_another_type_is_a_configuration_mismatch():
     _cycle(master, t)
     assert not master.machine.link.present(1)
     assert master.mem.sw.uw[SW_LINK_ERROR] == ERR_MISMATCH
+
+
+# ---- remote I/O controllers ------------------------------------------------------------------
+RIO_MASTER = {"remote_link": {"address": 0, "remotes": {"1": "peer", "3": "remote_io"}}}
+
+
+def test_remote_io_addresses():
+    r = parse_address("%I3.0.2")
+    assert (r.kind, r.station, r.module, r.channel, str(r)) == ("I", 3, 0, 2, "%I3.0.2")
+    assert r != parse_address("%I0.2") and r.index != parse_address("%I3.2").index
+    assert str(parse_address("%q7.0.15")) == "%Q7.0.15"
+
+
+@pytest.mark.parametrize("text", ["%I8.0.1", "%I0.0.1", "%I1.1.0", "%I1.0.24", "%Q1.0.16",
+                                  "%I1.0.1:X2", "%Q1.0.0:2"])
+def test_remote_io_addresses_refused(text):
+    with pytest.raises(AddressError, match="remote I/O"):
+        parse_address(text)
+
+
+@pytest.mark.parametrize(("source", "config", "message"), [
+    ("LD %I1.0.0\nST %Q0.0\n", RIO_MASTER, "station 1 is not a remote I/O of this master"),
+    ("LD %I0.0\nST %Q2.0.0\n", RIO_MASTER, "station 2 is not a remote I/O of this master"),
+    ("LD %I3.0.0\nST %Q0.0\n", peer_cfg(1), "only the master reaches a remote I/O"),
+])
+def test_remote_io_channel_errors(source, config, message):
+    with pytest.raises(ProgramError, match=message):
+        PLC.from_source(source, config)
+
+
+def test_the_master_drives_a_remote_io_controller():
+    master = PLC.from_source("LD %I3.0.2\nST %Q3.0.1\n", RIO_MASTER)
+    rio = PLC.from_source("", {"remote_link": {"address": 3, "role": "remote_io"}})
+    t = InMemoryTransport()
+    master.machine.link.transport = t
+    t.attach(rio.machine.link)
+    rio["%I0.2"] = 1           # the remote's field input
+    master.machine.link.cycle()  # -> the master's %I3.0.2 (latched by its next scan)
+    master.scan()              # %Q3.0.1 := %I3.0.2
+    master.machine.link.cycle()  # -> the remote's output
+    assert master["%I3.0.2"] and master["%Q3.0.1"]
+    assert rio.mem.q_field[1] and rio["%Q0.1"]
+    assert "%I3.0.2" in repr(master) and master["%SW111"] == 0b100
