@@ -9,7 +9,8 @@ with them, so every problem is reported at once with its key path and code:
 - `[exch]` (`ExchConfig`, resolved by `exch_remotes`): EXCH3's timeout and remote devices
   `[exch.remote.<index>]`;
 - `[remote_link]` (`RemoteLinkConfig`): this controller on the Twido Remote Link, its
-  address (0: the master) and, on the master, the remotes it polls and its link cycle.
+  address (0: the master) and role (a peer or a remote I/O controller) and, on the master,
+  the remotes it polls (`remotes = { 1 = "peer", 3 = "remote_io" }`) and its link cycle.
 
 The function blocks' sections (`[pid.n]`, `[pls]`, `[pwm]`, `[fast_counters]`,
 `[very_fast_counters]`) have their models in their runtime modules, named by their catalog
