@@ -95,9 +95,12 @@ def cmd_link(s: Session, arg: str) -> str:
     st = link.status()
     lines = [f"address {link.address} ({s.plc.settings.remote_link.kind})   %SW111="
              f"16#{st['status']:04X} %SW112={st['error']} %SW113=16#{st['config']:04X}"]
-    stations = list(getattr(link, "remotes", {})) or [0]
-    for a in stations:
+    stations = getattr(link, "remotes", None) or {0: "peer"}
+    for a, role in stations.items():
         here = "present" if st["status"] >> ((a or link.address) - 1) & 1 else "ABSENT"
+        if role != "peer":  # a remote I/O controller: its channels are the master's %Ia.0.z
+            lines.append(f"station {a}: {here:7s} remote I/O (%I{a}.0.z, %Q{a}.0.z)")
+            continue
         words = " ".join(f"{s.plc.mem.read(f'%INW{a}.{j}'):6d}" for j in range(LINK_WORDS))
         sent = " ".join(f"{s.plc.mem.read(f'%QNW{a}.{j}'):6d}" for j in range(LINK_WORDS))
         lines.append(f"station {a}: {here:7s} %INW{a}.0-3 {words}   %QNW{a}.0-3 {sent}")
