@@ -55,6 +55,7 @@ from softplc.config import (
     read_toml,
     validate_config,
 )
+from softplc.config.files import Local
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.plant.physics import SHARED_DEVICES
 from softplc.twido.address import LINK_STATIONS, parse_address
@@ -332,7 +333,7 @@ def load_plant(path: str | Path) -> PlantSpec:
             settings = validate_config(cfg_raw, device_types())
         except ConfigError as e:
             raise (e.in_file(cfg_file) if cfg_file else e) from None
-        configs[name] = Loaded(cfg_raw, base, settings, cfg_file)
+        configs[name] = Loaded(cfg_raw, base, settings, cfg_file, Local())
     return PlantSpec(p, data, configs, programs, options, wires)
 
 
