@@ -54,6 +54,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.assembly",),                    # configuration + program -> a machine
     ("softplc.plc", "softplc.testing"),       # the PLC facade, the pytest plugin
     ("softplc.online",),                      # online program change
+    ("softplc.plant",),                       # several controllers on one clock (issue 35)
     ("softplc.access", "softplc.verify"),     # the access port; the verifier
     ("softplc.debug", "softplc.web"),         # the front-ends
     ("softplc.daemon",),

@@ -188,3 +188,17 @@ def test_instruction_count_is_per_iteration_and_repeatable() -> None:
     assert one.total > 1000 and one.clock == 0.0  # the loop reads no clock
     assert 1.8 < two.total / one.total < 2.2
     assert abs(again.total - one.total) < 0.01 * one.total
+
+
+def test_plant_benchmark_tiny(tmp_path: Path) -> None:
+    import bench_plant
+
+    from softplc.plant import Plant
+
+    path = bench_plant.build(tmp_path, 3, 20)
+    per_cpu, per_wall, scans = bench_plant.measure(path, 0.5)
+    assert _positive(per_cpu) and _positive(per_wall) and scans == 3 * 50
+    plant = Plant.from_file(path)  # the generated programs exchange on the link
+    plant.run(1.0)
+    assert plant["master:%SW111"] == 0b11
+    plant.close()
