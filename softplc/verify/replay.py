@@ -90,15 +90,48 @@ def write_cex(path: Path, program: Path, config: Path | None,
                                 "counterexamples": items}, indent=1) + "\n")
 
 
+MAX_CEX_BYTES = 16 * 1024 * 1024  # a cex.json read back (DEPTH scans write ~10 KB)
+MAX_CEX_SCANS = 5000  # scans of one counterexample (far beyond any --depth BMC reaches)
+MAX_CEX_INPUTS = 1000  # inputs set in one scan
+MAX_NAME = 40  # characters of an address or a symbol in a counterexample
+
+
+def _finite(text: str) -> float:
+    raise ValueError(f"{text} is not a finite number")
+
+
+def _check_cex(path: Path, items: Any) -> None:
+    """The shape `replay_hook` and the trace player rely on, or a clear error."""
+    if not isinstance(items, list) or not items:
+        raise SoftPLCError(f"{path}: no counterexample in it")
+    for i, it in enumerate(items, 1):
+        where = f"{path}: counterexample {i}"
+        if not isinstance(it, dict) or not isinstance(it.get("check"), str) \
+                or not isinstance(it.get("scans"), list) or not it["scans"]:
+            raise SoftPLCError(f"{where}: needs \"check\" (text) and \"scans\" (a list)")
+        if len(it["scans"]) > MAX_CEX_SCANS:
+            raise SoftPLCError(f"{where}: {len(it['scans'])} scans, at most {MAX_CEX_SCANS}")
+        for n, row in enumerate(it["scans"], 1):
+            ins = row.get("inputs") if isinstance(row, dict) else None
+            if not isinstance(ins, dict) or len(ins) > MAX_CEX_INPUTS or not all(
+                    isinstance(k, str) and len(k) <= MAX_NAME and isinstance(v, int | float)
+                    for k, v in ins.items()):
+                raise SoftPLCError(f"{where}, scan {n}: \"inputs\" maps at most "
+                                   f"{MAX_CEX_INPUTS} addresses to numbers")
+
+
 def read_cex(path: Path) -> dict[str, Any]:
     try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as e:
+        if Path(path).stat().st_size > MAX_CEX_BYTES:
+            raise SoftPLCError(f"{path}: over {MAX_CEX_BYTES // 2**20} MiB, not a "
+                               "counterexample file")
+        data = json.loads(Path(path).read_text(), parse_constant=_finite)
+    except (OSError, ValueError, RecursionError) as e:
         raise SoftPLCError(f"{path}: not a counterexample file ({e})") from None
-    if not isinstance(data, dict) or data.get("format") != CEX_FORMAT \
-            or not data.get("counterexamples"):
+    if not isinstance(data, dict) or data.get("format") != CEX_FORMAT:
         raise SoftPLCError(f"{path}: not a counterexample file written by softplc verify "
                            f"--cex")
+    _check_cex(path, data.get("counterexamples"))
     return data
 
 
