@@ -17,9 +17,9 @@ from collections.abc import Callable
 from typing import Any
 
 from softplc.errors import SoftPLCError
+from softplc.verify.replay import first_failure, set_inputs
 from softplc.web import ladderview
 from softplc.web.live import clean
-from softplc.verify.replay import first_failure, set_inputs
 
 #: What the page calls each position's relation to the requirement.
 COLD, HOLDS, VIOLATED, AFTER = "cold start", "holds", "VIOLATED", "after the violation"
