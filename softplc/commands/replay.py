@@ -33,8 +33,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _player(args: argparse.Namespace) -> Any:
     from softplc.plc import PLC
+    from softplc.verify.player import TracePlayer
     from softplc.verify.replay import read_cex
-    from softplc.web.replay import TracePlayer
 
     check_files(args)
     items = read_cex(existing_file(args.cex, "counterexample"))["counterexamples"]
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _serve(player: Any, args: argparse.Namespace) -> int:
-    from softplc.web.replayserver import ReplayServer
+    from softplc.web.replay import ReplayServer
 
     async def main() -> None:
         server = ReplayServer(player, str(args.program), port=args.web)

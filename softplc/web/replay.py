@@ -1,142 +1,90 @@
-"""A counterexample of `softplc verify --cex` played back in the scan engine, scan by scan,
-for the replay page (`replayserver`) and `softplc replay`.
+"""The replay page's server (aiohttp): a counterexample played on the ladder, read-only.
 
-Position n is the controller after n scans of the trace from a cold start (0: the cold
-start itself, before any scan). Every position reached is kept as an `Engine.snapshot()`,
-so going back is a `restore`, never a re-run; going forward past the furthest one runs
-the next scans with the trace's inputs (`verify.replay.set_inputs`, as the verifier's own
-replay does). Nothing else writes to the controller: no Modbus server, no simulated
-devices, no host.
+    GET /                      the replay page (static/replay.html, replay.js)
+    GET /api/replay            the requirement, the scans, the violating scan, the rungs
+    GET /api/replay/scan/N     go to position N (0 = cold start): its inputs, values,
+                               status and every rung as SVG, the requirement's labels
+                               highlighted
+
+There is no POST route: nothing of a host or a plant reaches the controller, which only
+ever runs the trace's inputs (`verify.player`). It listens on loopback only, and every
+request goes through the web monitor's Host/Origin checks (`security.Guard`: DNS rebinding).
 """
 
 from __future__ import annotations
 
-import html
-import re
-from collections.abc import Callable
 from typing import Any
 
+from aiohttp import web
+
 from softplc.errors import SoftPLCError
-from softplc.verify.replay import first_failure, set_inputs
-from softplc.web import ladderview
-from softplc.web.live import clean
+from softplc.verify.player import TracePlayer
+from softplc.web.control import ApiError
+from softplc.web.live import dumps
+from softplc.web.security import Guard, is_loopback
+from softplc.web.server import static_dir
 
-#: What the page calls each position's relation to the requirement.
-COLD, HOLDS, VIOLATED, AFTER = "cold start", "holds", "VIOLATED", "after the violation"
+
+def _json(data: Any, status: int = 200) -> web.Response:
+    return web.Response(text=dumps(data), status=status, content_type="application/json")
 
 
-class TracePlayer:
-    """One counterexample (`item`: an entry of cex.json's "counterexamples") on the PLC
-    `make_plc()` builds cold (called twice: the player's, and one for the requirement's
-    own check, `first_failure`)."""
+class ReplayServer:
+    def __init__(self, player: TracePlayer, program: str, host: str = "127.0.0.1",
+                 port: int = 0):
+        if not is_loopback(host):
+            raise SoftPLCError(f"softplc replay: the page listens on loopback only, not "
+                               f"{host}")
+        self.player = player
+        self.program = program
+        self.host, self.port = host, port
+        self.guard = Guard(host)
+        self._runner: web.AppRunner | None = None
+        self.app = web.Application(middlewares=[self._errors])
+        r = self.app.router
+        r.add_get("/", self._index)
+        r.add_get("/api/replay", self._info)
+        r.add_get("/api/replay/scan/{n}", self._scan)
+        r.add_static("/static/", static_dir())
 
-    def __init__(self, make_plc: Callable[[], Any], item: dict[str, Any]):
-        self.item = item
-        self.requirement = str(item.get("requirement") or item["check"])
-        self.check = item["check"]
-        self.inputs: list[dict[str, Any]] = [row["inputs"] for row in item["scans"]]
-        self.model: list[dict[str, Any]] = [row.get("values") or {} for row in item["scans"]]
-        # the requirement's objects: those the verifier listed, in its order
-        self.watch: list[str] = list(self.model[0]) if self.model else []
-        self.plc = make_plc()
-        with make_plc() as judge:  # the requirement checked on the engine's values
-            self.violated_at = self._guard(lambda: first_failure(judge, self.check,
-                                                                 self.inputs))
-        self._snaps = [self.plc.engine.snapshot()]
-        self.position = 0
+    async def start(self) -> None:
+        self._runner = web.AppRunner(self.app, access_log=None)
+        await self._runner.setup()
+        site = web.TCPSite(self._runner, self.host, self.port, reuse_address=True)
+        await site.start()
+        self.port = site._server.sockets[0].getsockname()[1]  # type: ignore[union-attr]
 
-    def close(self) -> None:
-        self.plc.close()
+    async def close(self) -> None:
+        if self._runner is not None:
+            await self._runner.cleanup()
 
     @property
-    def total(self) -> int:
-        return len(self.inputs)
+    def url(self) -> str:
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"http://{host}:{self.port}/"
 
-    def _guard(self, run: Callable[[], Any]) -> Any:
+    @web.middleware
+    async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:
         try:
-            return run()
-        except SoftPLCError as e:  # a bad address or value in the file
-            raise SoftPLCError(f"counterexample {self.requirement!r}: {e}") from None
+            self.guard.check(request, change=request.method != "GET")
+            return await handler(request)
+        except ApiError as e:
+            return _json({"error": str(e)}, e.status)
+        except SoftPLCError as e:
+            return _json({"error": str(e)}, 400)
 
-    def goto(self, n: int) -> int:
-        """Move to position `n` (clamped to 0..total); the position reached."""
-        n = max(0, min(int(n), self.total))
-        if n < len(self._snaps):
-            self.plc.engine.restore(self._snaps[n])
-        else:
-            self.plc.engine.restore(self._snaps[-1])
-            while len(self._snaps) <= n:
-                scan = len(self._snaps) - 1
-                self._guard(lambda scan=scan: set_inputs(self.plc, self.inputs[scan]))
-                self.plc.scan()
-                self._snaps.append(self.plc.engine.snapshot())
-        self.position = n
-        return n
+    async def _index(self, request: web.Request) -> web.StreamResponse:
+        return web.FileResponse(static_dir() / "replay.html")
 
-    def status(self, n: int) -> str:
-        if n == 0:
-            return COLD
-        if self.violated_at is None or n < self.violated_at:
-            return HOLDS
-        return VIOLATED if n == self.violated_at else AFTER
+    async def _info(self, request: web.Request) -> web.Response:
+        return _json(self.player.info() | {"program": self.program})
 
-    def frame(self) -> dict[str, Any]:
-        """What the page shows of the current position: the scan's inputs, the
-        requirement's objects as the engine has them (and as the verifier's model had them),
-        the requirement's status."""
-        n = self.position
-        engine = {k: _plain(self.plc[k]) for k in self.watch}
-        model = self.model[n - 1] if n else {}
-        return clean({"scan": n, "total": self.total, "time": self.plc.time,
-                      "inputs": dict(sorted(self.inputs[n - 1].items())) if n else {},
-                      "values": [{"object": k, "engine": v, "model": model.get(k),
-                                  "agree": n == 0 or model.get(k) == v}
-                                 for k, v in engine.items()],
-                      "status": self.status(n), "violated_at": self.violated_at})
-
-    def rung_svgs(self) -> list[str]:
-        """Every rung at the current position, the requirement's objects highlighted."""
-        read = self.plc.mem.read
-        out = []
-        for rung in self.plc.ast.rungs:
-            refs = ladderview.refs(rung)
-            values = ladderview.capture(refs, [read(r) for r in refs])
-            out.append(highlight(ladderview.render(rung, values, set()), self.watch))
-        return out
-
-    def history(self) -> list[dict[str, Any]]:
-        """Every scan's frame without the rungs (the page's table); the position stays."""
-        here, rows = self.position, []
-        for n in range(1, self.total + 1):
-            self.goto(n)
-            f = self.frame()
-            rows.append({"scan": n, "time": f["time"], "inputs": f["inputs"],
-                         "values": {v["object"]: v["engine"] for v in f["values"]},
-                         "agree": all(v["agree"] for v in f["values"]),
-                         "status": f["status"]})
-        self.goto(here)
-        return rows
-
-    def info(self) -> dict[str, Any]:
-        return {"requirement": self.requirement, "check": self.check, "total": self.total,
-                "reported": self.total, "violated_at": self.violated_at,
-                "watch": self.watch, "history": self.history(),
-                "rungs": [{"index": r.index, "title": r.title or ""}
-                          for r in self.plc.ast.rungs]}
+    async def _scan(self, request: web.Request) -> web.Response:
+        text = request.match_info["n"]
+        if not text.isdigit() or len(text) > len(str(self.player.total)):
+            raise ApiError(f"scan {text[:20]!r}: a number from 0 to {self.player.total}")
+        n = self.player.goto(int(text))
+        return _json(self.player.frame() | {"scan": n, "rungs": self.player.rung_svgs()})
 
 
-def highlight(svg: str, names: list[str]) -> str:
-    """`svg` (a rung from the ladder renderer) with the labels naming one of `names` in
-    class "req" (the page draws them highlighted)."""
-    if not names:
-        return svg
-    wanted = "|".join(re.escape(html.escape(n, quote=False)) for n in names)
-    return re.sub(rf'<text ([^>]*)>({wanted})</text>', r'<text class="req" \1>\2</text>', svg)
-
-
-__all__ = ["AFTER", "COLD", "HOLDS", "VIOLATED", "TracePlayer", "highlight"]
-
-
-def _plain(v: Any) -> Any:
-    """A bit as 0/1, the way the verifier writes it."""
-    return int(v) if isinstance(v, bool) else v
+__all__ = ["ReplayServer"]

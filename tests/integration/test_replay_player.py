@@ -1,4 +1,4 @@
-"""The trace player (softplc.web.replay) and `softplc replay`: a counterexample of
+"""The trace player (softplc.verify.player) and `softplc replay`: a counterexample of
 `softplc verify --cex` played scan by scan in the engine, forward and back."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import pytest
 from softplc.cli import main
 from softplc.errors import SoftPLCError
 from softplc.plc import PLC
+from softplc.verify.player import COLD, HOLDS, VIOLATED, TracePlayer, highlight
 from softplc.verify.replay import MAX_CEX_SCANS, read_cex
-from softplc.web.replay import COLD, HOLDS, VIOLATED, TracePlayer, highlight
 
 ROOT = Path(__file__).resolve().parents[2]
 LP = ROOT / "ladder_programs"
