@@ -29,7 +29,7 @@ function buildHistory() {
   const head = $("history").tHead.insertRow();
   for (const h of ["scan", ...ins]) cell(head, h);
   for (const w of watch) cell(head, w, "req");
-  cell(head, "requirement");
+  cell(head, "status");
   const body = $("history").tBodies[0];
   for (const r of info.history) {
     const tr = body.insertRow();
@@ -65,17 +65,24 @@ function show(f) {
     const div = document.createElement("div");
     div.className = "rung";
     div.dataset.rung = i;
-    const title = info.rungs[i]?.title;
-    if (title) {
-      const t = document.createElement("div");
-      t.className = "rung-title";
-      t.textContent = title;
-      div.appendChild(t);
-    }
     // the server's own rendering (softplc.ladder escapes every label)
     div.insertAdjacentHTML("beforeend", svg);
     rungs.appendChild(div);
+    for (const label of div.querySelectorAll("svg text.req")) mark(label);
   });
+}
+
+// a yellow box behind a label of the requirement's (SVG text has no background)
+function mark(label) {
+  const b = label.getBBox();
+  const pad = 2;
+  const box = document.createElementNS("http://www.w3.org/2000/svg", "rect");
+  for (const [k, v] of Object.entries({x: b.x - pad, y: b.y - pad, width: b.width + 2 * pad,
+                                       height: b.height + 2 * pad, rx: 3})) {
+    box.setAttribute(k, v);
+  }
+  box.setAttribute("class", "req-box");
+  label.before(box);
 }
 
 async function go(n) {
