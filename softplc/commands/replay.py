@@ -31,18 +31,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _player(args: argparse.Namespace) -> Any:
+def _player(args: argparse.Namespace, cex: Path, index: int) -> Any:
     from softplc.plc import PLC
     from softplc.verify.player import TracePlayer
     from softplc.verify.replay import read_cex
 
     check_files(args)
-    items = read_cex(existing_file(args.cex, "counterexample"))["counterexamples"]
-    if not 1 <= args.index <= len(items):
-        raise SoftPLCError(f"--index {args.index}: {args.cex} holds counterexamples 1 to "
-                           f"{len(items)}")
+    items = read_cex(existing_file(cex, "counterexample"))["counterexamples"]
+    if not 1 <= index <= len(items):
+        raise SoftPLCError(f"--index {index}: {cex} holds counterexamples 1 to {len(items)}")
     return TracePlayer(lambda: PLC.from_file(args.program, config=args.config, devices=False),
-                       items[args.index - 1])
+                       items[index - 1])
 
 
 def table(player: Any) -> str:
@@ -56,29 +55,35 @@ def table(player: Any) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    player = _player(args)
+    return play(args, args.cex, args.index, args.web)
+
+
+def play(args: argparse.Namespace, cex: Path, index: int, web: int | None) -> int:
+    """Replay counterexample `index` of `cex` on `args.program` and `args.config`: the
+    table, or the page on 127.0.0.1:`web` (also `softplc run PROGRAM --replay CEX.json`)."""
+    player = _player(args, cex, index)
     try:
         print(f"{args.program}: {player.requirement} ({player.check})")
         where = f"scan {player.violated_at}" if player.violated_at else "no scan"
         print(f"  {player.total} scan(s) from a cold start; violated in the engine at "
               f"{where} (reported: scan {player.total})")
-        if args.web is None:
+        if web is None:
             print(table(player))
             return 0 if player.violated_at == player.total else 1
-        return _serve(player, args)
+        return _serve(player, str(args.program), web)
     finally:
         player.close()
 
 
-def _serve(player: Any, args: argparse.Namespace) -> int:
+def _serve(player: Any, program: str, web: int) -> int:
     from softplc.web.replay import ReplayServer
 
     async def main() -> None:
-        server = ReplayServer(player, str(args.program), port=args.web)
+        server = ReplayServer(player, program, port=web)
         try:
             await server.start()
         except OSError as e:
-            raise SoftPLCError(f"softplc replay: cannot listen on 127.0.0.1:{args.web}: "
+            raise SoftPLCError(f"softplc replay: cannot listen on 127.0.0.1:{web}: "
                                f"{e.strerror or e}") from None
         print(BANNER)
         print(f"replay page on {server.url} (Ctrl-C to stop)", flush=True)

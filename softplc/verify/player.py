@@ -122,14 +122,13 @@ class TracePlayer:
 
 def highlight(svg: str, names: list[str]) -> str:
     """`svg` (a rung from the ladder renderer) with the labels naming one of `names` in
-    class "req" (the page draws them highlighted)."""
+    class "req" (the page draws them highlighted); a block's field (`%TM0.Q`) marks the
+    block's box title (`%TM0`) too."""
     if not names:
         return svg
-    wanted = "|".join(re.escape(html.escape(n, quote=False)) for n in names)
+    blocks = [n.rpartition(".")[0] for n in names if n.rpartition(".")[2].isalpha()]
+    wanted = "|".join(re.escape(html.escape(n, quote=False)) for n in names + blocks)
     return re.sub(rf'<text ([^>]*)>({wanted})</text>', r'<text class="req" \1>\2</text>', svg)
-
-
-__all__ = ["AFTER", "COLD", "HOLDS", "VIOLATED", "TracePlayer", "highlight"]
 
 
 def _plain(v: Any) -> Any:

@@ -97,6 +97,9 @@ def test_highlight_marks_only_the_named_labels():
     out = highlight(svg, ["%I0.2"])
     assert out.count('class="req"') == 1 and '<text class="req" x="1">%I0.2</text>' in out
     assert highlight(svg, []) == svg
+    box = '<text x="3" font-weight="bold">%TM0</text>'
+    assert 'class="req"' in highlight(box, ["%TM0.Q"])  # the block of a field
+    assert 'class="req"' not in highlight(box, ["%TM01.Q", "%I0.2"])
 
 
 def test_replay_command_prints_every_scan(cex_files, capsys):
@@ -106,6 +109,25 @@ def test_replay_command_prints_every_scan(cex_files, capsys):
     assert len(lines) == len(read_cex(cex_files["delta"])["counterexamples"][0]["scans"])
     assert lines[-1].endswith("VIOLATED") and "%Q0.2=1" in lines[-1]
     assert all(x.endswith("holds") for x in lines[:-1])
+
+
+def test_run_replay_is_the_same_replay(cex_files, capsys):
+    """`softplc run PROGRAM --replay CEX.json` (the issue's spelling) replays instead of
+    starting the daemon: no Modbus server; with --web off the table."""
+    assert main(["run", *DEFECT, "--replay", str(cex_files["shipped"]), "--web", "off"]) == 0
+    out = capsys.readouterr().out
+    assert OVERLOAD in out and "listening" not in out
+    assert out.rstrip().endswith("VIOLATED") and "%I0.2=0 %Q0.0=1" in out
+
+
+def test_a_trace_the_engine_does_not_break_exits_1(cex_files, tmp_path, capsys):
+    data = json.loads(cex_files["delta"].read_text())
+    data["counterexamples"][0]["scans"].pop()  # without its last scan: no violation
+    short = tmp_path / "short.json"
+    short.write_text(json.dumps(data))
+    assert main(["replay", *DEFECT, str(short)]) == 1
+    out = capsys.readouterr().out
+    assert "violated in the engine at no scan" in out and "VIOLATED" not in out
 
 
 @pytest.mark.parametrize("text, says", [
