@@ -38,6 +38,8 @@ class TracePlayer:
         # the requirement's objects: those the verifier listed, in its order
         self.watch: list[str] = list(self.model[0]) if self.model else []
         self.plc = make_plc()
+        for k in self.watch:  # addresses of this program
+            self._guard(lambda k=k: self.plc[k])
         with make_plc() as judge:  # the requirement checked on the engine's values
             self.violated_at = self._guard(lambda: first_failure(judge, self.check,
                                                                  self.inputs))
@@ -51,11 +53,11 @@ class TracePlayer:
     def total(self) -> int:
         return len(self.inputs)
 
-    def _guard(self, run: Callable[[], Any]) -> Any:
+    def _guard(self, run: Callable[[], Any], where: str = "") -> Any:
         try:
             return run()
-        except SoftPLCError as e:  # a bad address or value in the file
-            raise SoftPLCError(f"counterexample {self.requirement!r}: {e}") from None
+        except (SoftPLCError, ValueError, OverflowError) as e:  # a bad address or value
+            raise SoftPLCError(f"counterexample {self.requirement!r}{where}: {e}") from None
 
     def goto(self, n: int) -> int:
         """Move to position `n` (clamped to 0..total); the position reached."""
@@ -66,7 +68,8 @@ class TracePlayer:
             self.plc.engine.restore(self._snaps[-1])
             while len(self._snaps) <= n:
                 scan = len(self._snaps) - 1
-                self._guard(lambda scan=scan: set_inputs(self.plc, self.inputs[scan]))
+                self._guard(lambda scan=scan: set_inputs(self.plc, self.inputs[scan]),
+                            f", scan {scan + 1}")
                 self.plc.scan()
                 self._snaps.append(self.plc.engine.snapshot())
         self.position = n

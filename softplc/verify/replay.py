@@ -94,6 +94,8 @@ MAX_CEX_BYTES = 16 * 1024 * 1024  # a cex.json read back (DEPTH scans write ~10 
 MAX_CEX_SCANS = 5000  # scans of one counterexample (far beyond any --depth BMC reaches)
 MAX_CEX_INPUTS = 1000  # inputs set in one scan
 MAX_NAME = 40  # characters of an address or a symbol in a counterexample
+# a scan's length: %SW0 holds it in ms, a signed word (PLC.set_scan_period clamps to it)
+MAX_CEX_PERIOD_MS = 32767
 
 
 def _finite(text: str) -> float:
@@ -111,13 +113,25 @@ def _check_cex(path: Path, items: Any) -> None:
             raise SoftPLCError(f"{where}: needs \"check\" (text) and \"scans\" (a list)")
         if len(it["scans"]) > MAX_CEX_SCANS:
             raise SoftPLCError(f"{where}: {len(it['scans'])} scans, at most {MAX_CEX_SCANS}")
+        if not isinstance(it.get("requirement", ""), str):
+            raise SoftPLCError(f"{where}: \"requirement\" is its name (text)")
         for n, row in enumerate(it["scans"], 1):
-            ins = row.get("inputs") if isinstance(row, dict) else None
-            if not isinstance(ins, dict) or len(ins) > MAX_CEX_INPUTS or not all(
-                    isinstance(k, str) and len(k) <= MAX_NAME and isinstance(v, int | float)
-                    for k, v in ins.items()):
-                raise SoftPLCError(f"{where}, scan {n}: \"inputs\" maps at most "
-                                   f"{MAX_CEX_INPUTS} addresses to numbers")
+            if not isinstance(row, dict):
+                raise SoftPLCError(f"{where}, scan {n}: an object with \"inputs\"")
+            for key in ("inputs", "values"):  # values: what the requirement reads
+                if not _numbers(row.get(key, {} if key == "values" else None)):
+                    raise SoftPLCError(f"{where}, scan {n}: \"{key}\" maps at most "
+                                       f"{MAX_CEX_INPUTS} addresses to numbers")
+            period = row["inputs"].get("period_ms", 1)
+            if not 1 <= period <= MAX_CEX_PERIOD_MS:
+                raise SoftPLCError(f"{where}, scan {n}: period_ms {period!r}: from 1 to "
+                                   f"{MAX_CEX_PERIOD_MS}")
+
+
+def _numbers(d: Any) -> bool:
+    return isinstance(d, dict) and len(d) <= MAX_CEX_INPUTS and all(
+        isinstance(k, str) and len(k) <= MAX_NAME and isinstance(v, int | float)
+        for k, v in d.items())
 
 
 def read_cex(path: Path) -> dict[str, Any]:

@@ -141,6 +141,16 @@ def test_a_trace_the_engine_does_not_break_exits_1(cex_files, tmp_path, capsys):
     ('{"format": "softplc-cex/1", "counterexamples": [{"check": "never %Q0.2", '
      '"scans": [{"inputs": {"%I0.0": "x"}}]}]}', "scan 1"),
     ("[" * 100_000, "not a counterexample file"),
+    ('{"format": "softplc-cex/1", "counterexamples": [{"check": "never %Q0.2", '
+     '"scans": [{"inputs": {}, "values": [1]}]}]}', '"values" maps'),
+    ('{"format": "softplc-cex/1", "counterexamples": [{"check": "never %Q0.2", '
+     '"scans": [{"values": {}}]}]}', '"inputs" maps'),
+    ('{"format": "softplc-cex/1", "counterexamples": [{"check": "never %Q0.2", '
+     '"scans": [{"inputs": {}, "values": {"%ZZ1": 1}}]}]}', "%ZZ1"),
+    ('{"format": "softplc-cex/1", "counterexamples": [{"check": "never %Q0.2", '
+     '"scans": [{"inputs": {"period_ms": 1e308}}]}]}', "scan 1"),
+    ('{"format": "softplc-cex/1", "counterexamples": [{"check": "never (((", '
+     '"scans": [{"inputs": {}}]}]}', "never ((("),
 ])
 def test_bad_counterexample_files_get_a_clear_error(tmp_path, capsys, text, says):
     bad = tmp_path / "bad.json"
