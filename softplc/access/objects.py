@@ -30,7 +30,8 @@ class Objects:
         refs = self._refs.get(key)
         if refs is None:
             try:  # an address, or a symbol of the configuration (softplc.twido.symbols)
-                refs = expand(self.plc.symbols.address_of(key), self.profile)
+                table = self.plc.symbols  # symbols attached: messages name them
+                refs = [table.attach(r) for r in expand(table.address_of(key), self.profile)]
             except AddressError as e:
                 raise AccessError(f"unknown object {text!r}: {e}") from None
             for r in refs:
