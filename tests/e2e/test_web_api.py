@@ -448,13 +448,20 @@ def test_softplc_io_command(star, capsys):
     assert cli(base + ["get", "%Q0.0:3", "%TM0"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert [ln.split(" = ")[1] in ("0", "1") for ln in lines[:3]] == [True] * 3
-    assert re.fullmatch(r"%TM0 = TON base 100ms Q=[01] V=\d+ P=50", lines[3]), lines[3]
+    assert re.fullmatch(r"%TM0 STAR_TIME = TON base 100ms Q=[01] V=\d+ P=50", lines[3]), \
+        lines[3]
     # symbols (star_delta.toml's symbols_file) name objects for the API too
     assert cli(base + ["set", "FAULT_RESET", "1"]) == 0
     s.scans()
     assert cli(base + ["get", "fault_reset", "STAR_TIME.P"]) == 0
     assert capsys.readouterr().out.splitlines()[-2:] == ["%I0.3 FAULT_RESET = 1",
                                                           "%TM0.P STAR_TIME.P = 50"]
+    # a range by symbol, and an address shown with its symbol (issue 33)
+    assert cli(base + ["get", "STARTS:2", "%Q0.0", "%MW12"]) == 0
+    lines = capsys.readouterr().out.splitlines()[-4:]
+    assert [ln.split(" = ")[0] for ln in lines] == [
+        "%MW10 STARTS", "%MW11 STATE", "%Q0.0 KM1_MAIN", "%MW12"], lines
+    assert all(re.fullmatch(r"-?\d+", ln.split(" = ")[1]) for ln in lines), lines
     assert cli(base + ["set", "FAULT_RESET", "0"]) == 0
     assert cli(base + ["get", "STRATS"]) == 1
     assert "unknown symbol 'STRATS' (did you mean STARTS?)" in capsys.readouterr().err
