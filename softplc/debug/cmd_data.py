@@ -36,7 +36,7 @@ def port_of(s: Session) -> AccessPort:
 @command("print", "p", formats=True)
 def cmd_print(s: Session, arg: str, fmt: str = "") -> str:
     """print[/FMT] ADDR...: show objects or ranges: %MW0:15 (15 words from %MW0),
-    %Q1.0:8 (8 bits), %MF40, %TM0, %C0. FMT: d decimal, u unsigned, x hex, b binary,
+    %Q1.0:8 (8 bits), %MF40, %TM0, %C0, symbols (STARTS, STARTS:4, STAR_TIME.P). FMT: d decimal, u unsigned, x hex, b binary,
     f float (a word pair as %MF). Forced values are marked [forced]."""
     if not arg.strip():
         raise DebugError("print what? e.g. print %MW0, print/x %MW0:8")
@@ -57,6 +57,9 @@ def cmd_print(s: Session, arg: str, fmt: str = "") -> str:
             vals = [s.fmt(r, v, fmt) + ("F" if str(r) in forced else "")
                     for r, v in zip(chunk, port.read_now(chunk), strict=True)]
             lines.append(f"{str(chunk[0]) + ':':<9} " + " ".join(f"{v:>6}" for v in vals))
+        named = [s.title(r) for r in refs if r.symbol]  # the names a column cannot hold
+        if named:
+            lines.append("  symbols: " + ", ".join(named))
     return "\n".join(lines)
 
 
