@@ -126,13 +126,14 @@ def object_uses(program: A.Program) -> dict[Ref, tuple[str, A.Pos]]:
 
 
 def rungs_using(program: A.Program, ref: Ref) -> list[int]:
-    """The numbers of the rungs that use `ref` (or a field or bit of it: %TM0 is used by
-    `LD %TM0.Q`), those that write it first: where an object is made."""
-    base = Ref(ref.kind, ref.index, ref.module, ref.channel)
-    whole = ref == base  # a whole object: its fields and bits count as uses
+    """The numbers of the rungs that use `ref`'s object (a block, field or bit of it:
+    `LD %TM0.Q` uses %TM0, `CU %C0` uses %C0.V), those that write it first: where an
+    object is made."""
+    def base(r: Ref) -> Ref:
+        return Ref(r.kind, r.index, r.module, r.channel)
 
     def hits(r: Ref) -> bool:
-        return r == ref or (whole and Ref(r.kind, r.index, r.module, r.channel) == base)
+        return base(r) == base(ref)
 
     writes, reads = [], []
     for n, rung in enumerate(program.rungs):

@@ -36,8 +36,9 @@ def port_of(s: Session) -> AccessPort:
 @command("print", "p", formats=True)
 def cmd_print(s: Session, arg: str, fmt: str = "") -> str:
     """print[/FMT] ADDR...: show objects or ranges: %MW0:15 (15 words from %MW0),
-    %Q1.0:8 (8 bits), %MF40, %TM0, %C0, symbols (STARTS, STARTS:4, STAR_TIME.P). FMT: d decimal, u unsigned, x hex, b binary,
-    f float (a word pair as %MF). Forced values are marked [forced]."""
+    %Q1.0:8 (8 bits), %MF40, %TM0, %C0, symbols (STARTS, STARTS:4, STAR_TIME.P).
+    FMT: d decimal, u unsigned, x hex, b binary, f float (a word pair as %MF). Forced
+    values are marked [forced]."""
     if not arg.strip():
         raise DebugError("print what? e.g. print %MW0, print/x %MW0:8")
     fmt = fmt.lower()
