@@ -24,6 +24,11 @@ function symbolTag(addr) {
   const name = symbolOf(addr);
   return name ? h("span", { class: "sym", title: commentOf(addr) || name }, name) : "";
 }
+// the symbol column of the simulation panel's I/O rows: the name shown, the comment as tooltip
+function ioSymbol(addr) {
+  const name = symbolOf(addr);
+  return h("span", { class: "iosym", title: commentOf(addr) || name }, name);
+}
 // what the user typed -> an address: a symbol (any case) with an optional .FIELD or :N
 function toAddress(text) {
   const t = text.trim().toUpperCase();
