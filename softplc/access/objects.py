@@ -43,6 +43,13 @@ class Objects:
                 self._cached_refs += len(refs)
         return refs
 
+    def address_of(self, text: Any) -> str:
+        """The canonical address a text names (`%MW10:2` for `starts:2`), checked as a read
+        would check it: how the web page turns what a user typed into a table's row, by
+        the one resolver (softplc.twido.symbols)."""
+        self.resolve(text)
+        return str(parse_address(self.plc.symbols.address_of(text.strip()), self.profile))
+
     def forget(self) -> None:
         """Drop the cached addresses (after a program or symbol change)."""
         self._refs.clear()

@@ -86,6 +86,7 @@ class WebServer:
         r.add_get("/api/status", self._status)
         r.add_get("/api/read", self._read)
         r.add_post("/api/read", self._read)
+        r.add_get("/api/resolve", self._resolve)
         r.add_get("/api/io", self._io)
         r.add_get("/api/ladder/{rung}", self._ladder)
         r.add_get("/api/machine", self._machine)
@@ -200,6 +201,10 @@ class WebServer:
             objs = request.query.getall("obj", [])
         values = await self.ctl.port.read(objs)
         return _json({"values": values})
+
+    async def _resolve(self, request: web.Request) -> web.Response:
+        """?obj=TEXT: the address a symbol, range or address names (what the page stores)."""
+        return _json({"address": self.ctl.objects.address_of(request.query.get("obj"))})
 
     async def _io(self, request: web.Request) -> web.Response:
         return _json(await self.ctl.io())

@@ -58,3 +58,25 @@ def test_ladder_find_box_finds_rungs_by_the_symbols_they_use(browser, star_daemo
     path = shot(page, "symbols-ladder-find")
     assert path.exists()
     page.close()
+
+
+def test_animation_table_resolves_what_is_typed_by_the_daemons_resolver(browser, star_daemon):
+    """A symbol, a symbol's range or field typed in the table: the daemon's one resolver
+    (GET /api/resolve) turns it into the address the row keeps; an unknown name is refused
+    with the resolver's guess, and nothing is added."""
+    page = open_page(browser, web_url(star_daemon))
+    page.click("#tabs button[data-tab=tables]")
+    page.fill("#table-add", "starts:2 star_time.p")
+    page.click("#table-add-btn")
+    sync_api.expect(page.locator("#anim tr.group")).to_have_text("%MW10:2✕")  # the range
+    for obj, name in (("%MW10", "STARTS"), ("%MW11", "STATE"), ("%TM0.P", "STAR_TIME.P")):
+        sync_api.expect(page.locator(f'#anim tr[data-obj="{obj}"] .sym')).to_have_text(name)
+    sync_api.expect(page.locator('#anim tr[data-obj="%TM0.P"] .val')).to_have_text("50")
+    rows = page.locator("#anim tbody tr[data-obj]").count()
+    page.fill("#table-add", "STATE STRATS")
+    page.click("#table-add-btn")
+    sync_api.expect(page.locator("#message")).to_contain_text(
+        "unknown symbol 'STRATS' (did you mean STARTS?)")
+    assert page.locator("#anim tbody tr[data-obj]").count() == rows  # STATE not added alone
+    assert page.input_value("#table-add") == "STATE STRATS"  # kept, to be corrected
+    page.close()

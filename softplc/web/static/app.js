@@ -424,9 +424,15 @@ function showTable() {
   }
 }
 
-function addToTable() {
+async function addToTable() {
   const text = $("#table-add").value;
-  for (const part of text.split(/[ ,;]+/).filter(Boolean)) currentTable().rows.push(toAddress(part));
+  const addrs = [];
+  for (const part of text.split(/[ ,;]+/).filter(Boolean)) {
+    const addr = await toAddress(part);
+    if (addr === null) return;  // the message says why; the text stays to be corrected
+    addrs.push(addr);
+  }
+  currentTable().rows.push(...addrs);
   $("#table-add").value = ""; saveTables(); buildTables(); subscribe();
 }
 $("#table-add-btn").addEventListener("click", addToTable);
@@ -522,8 +528,14 @@ function buildTrendChips() {
     h("i", { style: `background:${COLOURS[i % COLOURS.length]}` }), o, symbolTag(o),
     h("button", { onclick: () => { state.trend.objects.splice(i, 1); saveTrends(); buildTrendChips(); subscribe(); } }, "✕"))));
 }
-function addTrend() {
-  for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) state.trend.objects.push(toAddress(o));
+async function addTrend() {
+  const addrs = [];
+  for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) {
+    const addr = await toAddress(o);
+    if (addr === null) return;  // the message says why
+    addrs.push(addr);
+  }
+  state.trend.objects.push(...addrs);
   $("#trend-add").value = ""; saveTrends(); buildTrendChips(); subscribe();
 }
 $("#trend-add-btn").addEventListener("click", addTrend);
