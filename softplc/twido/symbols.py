@@ -170,7 +170,8 @@ class SymbolTable:
         return self.attach(parse_address(self.address_of(text), self.profile))
 
     def name_of(self, ref: Ref) -> str | None:
-        """The symbol of an object: its own, or its block's with the field (TIMER1.Q)."""
+        """The symbol of an object: its own, its block's with the field (TIMER1.Q), or its
+        word's with the bit (STATE:X3)."""
         s = self._by_address.get(str(ref))
         if s is not None:
             return s.name
@@ -178,6 +179,10 @@ class SymbolTable:
             base = self._by_address.get(str(Ref(ref.kind, ref.index)))
             if base is not None:
                 return f"{base.name}.{ref.field}"
+        if ref.bit is not None and ref.field is None:  # STATE:X3, a bit of a named word
+            base = self._by_address.get(str(Ref(ref.kind, ref.index)))
+            if base is not None:
+                return f"{base.name}:X{ref.bit}"
         return None
 
     def comment_of(self, ref: Ref) -> str:
