@@ -181,14 +181,16 @@ def resolve_rung(program: A.Program, key: str, symbols: SymbolTable | None = Non
         return program.rung(key)
     except (KeyError, IndexError):
         pass
-    hint = f"no rung {key!r} (rungs are 0..{len(program.rungs) - 1}; 'rungs' lists the titles)"
-    if symbols is None:
-        raise DebugError(hint)
+    last = len(program.rungs) - 1
     try:
-        ref = symbols.ref(key)
+        ref = symbols.ref(key) if symbols is not None else None
     except AddressError as e:
-        why = f"; {e}" if key.startswith("%") else symbols.suggest(key.split(".")[0])
-        raise DebugError(hint + why) from None
+        assert symbols is not None
+        raise DebugError(f"no rung {key!r} (rungs are 0..{last}; 'rungs' lists the titles)"
+                         + (f"; {e}" if key.startswith("%") else
+                            symbols.suggest(key.split(".")[0]))) from None
+    if ref is None:
+        raise DebugError(f"no rung {key!r} (rungs are 0..{last}; 'rungs' lists the titles)")
     found = rungs_using(program, ref)
     if not found:
         raise DebugError(f"no rung {key!r}: no title has it and no rung uses {ref.label}")
