@@ -51,7 +51,7 @@ def test_the_python_example_prints_what_the_page_says(monkeypatch, capsys):
 
 
 def test_the_repl_transcript_is_the_repls():
-    transcript = blocks("The REPL (`softplc repl", "text")[0].splitlines()
+    transcript = blocks("The REPL (`softplc repl ladder_programs", "text")[0].splitlines()
     s = Session(star())
     commands = [k for k, line in enumerate(transcript) if line.startswith(PROMPT)]
     assert commands
