@@ -73,7 +73,7 @@ def _check_set(s: Session, refs: list[Ref], values: list[str]) -> list[tuple[Ref
         # a debugger's set overrides devices, as a force does; %I: the field input
         why = port.why_not_writable(ref, forcing=True)
         if why is None and not (ref.writable or ref.kind == "I"):
-            why = f"{ref.label} is read-only"
+            why = f"{s.title(ref)} is read-only"
         if why:
             raise DebugError(why)
         try:
@@ -114,7 +114,7 @@ def cmd_force(s: Session, arg: str) -> str:
     except AccessError as e:
         raise DebugError(str(e)) from None
     port.apply_now()
-    return f"{ref.label} forced to {v}"
+    return f"{s.title(ref)} forced to {v}"
 
 
 @command("unforce")
@@ -127,10 +127,10 @@ def cmd_unforce(s: Session, arg: str) -> str:
         return f"released {n} forced object(s)"
     ref = s.parse_obj(arg)[0]
     if str(ref) not in port.forced:
-        raise DebugError(f"{ref.label} is not forced")
+        raise DebugError(f"{s.title(ref)} is not forced")
     port.unforce(str(ref))
     port.apply_now()
-    return f"{ref.label} released"
+    return f"{s.title(ref)} released"
 
 
 @command("trace")
