@@ -117,8 +117,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("action", choices=["get", "set", "force", "unforce", *ACTIONS, "status"],
                    help="get OBJ..., set OBJ VALUE [OBJ VALUE...], force OBJ VALUE, "
                         "unforce [OBJ], run, stop, cold, warm, status")
-    p.add_argument("args", nargs="*", help="objects (%%MW3, %%MW0:10, %%I0.0, %%TM0.P...) "
-                                           "and values (1, -5, 16#FF, 2#101, 1.5)")
+    p.add_argument("args", nargs="*", help="objects (%%MW3, %%MW0:10, %%I0.0, %%TM0.P... or "
+                                           "symbols: STARTS, STARTS:2, STAR_TIME.P) and "
+                                           "values (1, -5, 16#FF, 2#101, 1.5)")
     p.set_defaults(func=run)
 
 

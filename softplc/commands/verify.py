@@ -31,7 +31,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="requirement file ([environment], [[requirement]] check = ...)")
     p.add_argument("--require-expr", action="append", default=[], metavar="TEXT",
                    help="a requirement on the command line, e.g. 'never %%Q0.1 AND %%Q0.2' "
-                        "(repeatable)")
+                        "or, with the configuration's symbols, 'never KM2_STAR AND "
+                        "KM3_DELTA' (repeatable)")
     p.add_argument("--depth", type=int, default=DEPTH,
                    help="scans searched for a counterexample (default %(default)s)")
     p.add_argument("--max-k", type=int, default=MAX_K,
