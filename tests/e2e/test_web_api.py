@@ -702,3 +702,8 @@ def test_resolve_and_the_objects_each_rung_uses(star):
     assert uses_m10 and all("%M10" in r["il"] for r in rungs if r["index"] in uses_m10)
     timer = next(r for r in rungs if "%TM0.Q" in r["uses"] or "%TM0" in r["uses"])
     assert "%TM0" in timer["uses"]  # the block beside its field
+    # a new program: its rungs' uses, not the listed ones of the old program
+    from softplc.il.parser import parse
+    with star.lock:
+        star.plc.replace_program(parse("(*RUNG: only*)\nLD %I0.5\nST %M77\n"))
+    assert [r["uses"] for r in c.request("info")["rungs"]] == [["%I0.5", "%M77"]]
