@@ -201,7 +201,10 @@ class PLC:
         """State, PLC time, scan count and the I/O that is on, by symbol and address
         (`on: MOTOR(%Q0.0) %Q0.4`): what a failing test shows."""
         stride, shown = self.mem.stride, 16
-        on = [self.symbols.label(f"%{kind}{i // stride}.{i % stride}") for kind, bits in
+        slots = self.profile.expansion_slots  # beyond: the remote I/O's (%Ix.0.z)
+        on = [self.symbols.label(f"%{kind}{i // stride}.{i % stride}" if i // stride <= slots
+                                 else f"%{kind}{i // stride - slots}.0.{i % stride}")
+              for kind, bits in
               (("I", self.mem.i), ("Q", self.mem.q)) for i, v in enumerate(bits) if v]
         io = " ".join(on[:shown]) + (f" (+{len(on) - shown} more)" if len(on) > shown else "")
         return (f"<PLC {Path(self.ast.file).name} {self.state} t={self.time:.3f}s "
