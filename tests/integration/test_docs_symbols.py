@@ -80,3 +80,24 @@ def test_the_hypothesis_pattern_passes(pytester):
         (dst / f.name).write_text(f.read_text())
     result = pytester.runpytest("-p", "no:cacheprovider")
     result.assert_outcomes(passed=1)
+
+
+EXAMPLES = ROOT / "ladder_programs"
+# each example program with its configuration (the seed and the defect run on the others')
+PAIRS = [(il, il.with_name(il.stem.replace("_seed", "").replace("_defect", "") + ".toml"))
+         for il in sorted(EXAMPLES.glob("*.il"))] + [
+    (EXAMPLES / "plant" / "master.il", EXAMPLES / "plant" / "master.toml"),
+    (EXAMPLES / "plant" / "station.il", EXAMPLES / "plant" / "filler.toml"),
+    (EXAMPLES / "plant" / "station.il", EXAMPLES / "plant" / "capper.toml")]
+
+
+def test_every_example_program_names_its_inputs_and_outputs():
+    """As the page says: every shipped program has a symbol table, and each %I / %Q it
+    uses has a name."""
+    from softplc.compiler.resolve import object_uses
+
+    for il, config in PAIRS:
+        plc = PLC.from_file(il, config, devices=False)
+        io = [r for r in object_uses(plc.ast) if r.kind in ("I", "Q") and r.length is None]
+        unnamed = [str(r) for r in io if plc.symbols.name_of(r) is None]
+        assert io and not unnamed, f"{il.name} with {config.name}: {unnamed}"
