@@ -356,7 +356,9 @@ class ServoAxis(AxisDevice):
 
     # -- status -----------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        return {"pos": round(self.actual), "fe": round(self.fe_, 2), "homed": self.homed_,
+        # drive_homed: the drive's own home search (MODE home) ran; a program that homes
+        # the axis itself (on its switches, as cutting_table.il) keeps its own bit
+        return {"pos": round(self.actual), "fe": round(self.fe_, 2), "drive_homed": self.homed_,
                 "error": Err.TEXT[self.error_]}
 
     # -- snapshots --------------------------------------------------------------------------
