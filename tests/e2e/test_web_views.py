@@ -8,6 +8,7 @@ import re
 import signal
 import time
 
+import pytest
 from daemon_util import started
 from test_web_browser import PROGRAMS, browser, open_page, shot, start, sync_api, web_url
 
@@ -68,8 +69,43 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
     assert 20 < box["width"] < 40 and abs(box["width"] - box["height"]) < 2, box
     assert page.locator("#travel-path").count() == 1  # homing and the move to the start
     assert errors == []  # (a machine message without devices threw in machineHistory)
-    assert "torch off" in page.locator("#machine-hint").inner_text()  # the cut is over
+    # the cut is over; work coordinates, as the host reports them (res.pos_mm: the PLC's
+    # %MD112 / %MD114)
+    sync_api.expect(page.locator("#machine-hint")).to_contain_text(
+        f"X = {res.pos_mm[0]:.3f} mm, Y = {res.pos_mm[1]:.3f} mm (work coordinates, as the "
+        "host reports them; machine: ", timeout=20000)
+    assert "torch off;" in page.locator("#machine-hint").inner_text()
+    assert "X (mm, work)" in page.locator("#table-view").inner_html()
+    area, outline = (page.locator(s).bounding_box() for s in ("#work-area", "#table-outline"))
+    assert area["width"] == pytest.approx(outline["width"] * 240 / 305.5, abs=2)  # of 305.5 mm
+    rows = {r.locator("td").first.inner_text(): r.inner_text()
+            for r in page.locator("#devices tbody tr").all()}
+    assert "drive_homed=false" in rows["X"]  # the drive's own homing did not run...
+    assert "homed (program, %M110)=true" in rows["trace"]  # ...the program homed the table
     shot(page, "machine-cutting")
+    drawn = page.locator("#pen-path").bounding_box()
+    page.close()
+
+    # a page opened after the cut catches up; its first update split in two chunks shows
+    # the loading indicator, then the whole cut
+    page = open_page(browser, web_url(d))
+    page.evaluate("""() => { const orig = showMachine; window.loading = [];
+      showMachine = (m) => {
+        if (m.trace_from !== 0 || m.trace.length < 4) return orig(m);
+        const k = m.trace.length >> 1;
+        orig({ ...m, trace: m.trace.slice(0, k), trace_next: m.trace_next >> 1 });
+        const el = document.querySelector("#trace-loading");
+        window.loading.push(el ? el.textContent : "");
+        orig({ ...m, trace_from: m.trace_next >> 1, trace: m.trace.slice(k) });
+        window.loading.push(document.querySelector("#trace-loading") ? "still" : "");
+      }; }""")
+    machine_tab(page)
+    page.wait_for_function("() => window.loading.length === 2", timeout=20000)
+    first, after = page.evaluate("window.loading")
+    assert re.fullmatch(r"loading the trace: 50 % \(\d+ of \d+ samples\)…", first), first
+    assert after == ""
+    # the same cut (the updates' chunks differ, so do the samples thinned out of them)
+    assert page.locator("#pen-path").bounding_box() == pytest.approx(drawn, abs=1)
     page.close()
 
 
@@ -181,4 +217,51 @@ def test_header_says_disconnected_and_reconnects(browser, tmp_path, daemons):
     sync_api.expect(state).to_have_text("RUN", timeout=10000)
     assert state.evaluate(colour) != "rgb(90, 101, 112)"
     assert "disconnected" not in (page.locator("body").get_attribute("class") or "")
+    page.close()
+
+
+def test_a_write_the_axis_refuses_is_refused_where_it_was_made(browser, tmp_path, daemons):
+    """%MF328 is the servo table's X Ixx30 (kp): -5 is out of its range. The animation
+    table's row says so in red (not a green "queued"), `softplc io set` fails with the same
+    reason, a Modbus host gets exception 03; the value in force stays."""
+    import struct
+    import subprocess
+    import sys
+
+    from softplc.modbus.rawclient import ModbusExceptionReply, RawClient
+
+    d, url, api = start(daemons, tmp_path, "servo_table")
+    page = open_page(browser, url)
+    page.click("#tabs button[data-tab=tables]")
+    page.fill("#table-add", "%MF328")
+    page.click("#table-add-btn")
+    row = page.locator('#anim tr[data-obj="%MF328"]')
+    sync_api.expect(row.locator(".val")).not_to_have_text("…")
+    kp = row.locator(".val").inner_text()
+    row.locator("input.w").fill("-5")
+    row.locator("button.write").click()
+    note = row.locator(".write-note")
+    sync_api.expect(note).to_contain_text("%MF328 := -5 refused: device 'X': Ixx30 (kp) = -5:")
+    assert note.evaluate("e => getComputedStyle(e).color") == "rgb(198, 40, 40)"  # --halt
+    assert "refused" in row.locator("input.w").get_attribute("class")
+    assert "queued" not in page.locator("#message").inner_text()
+    shot(page, "write-refused")
+    row.locator("input.w").fill("7000")  # a value the axis takes: queued, the note goes
+    row.locator("button.write").click()
+    sync_api.expect(row.locator(".val")).to_have_text("7000")
+    sync_api.expect(note).to_be_hidden()
+    assert kp != "7000"
+
+    web_port = url.rstrip("/").rsplit(":", 1)[1]
+    r = subprocess.run([sys.executable, "-m", "softplc", "io", "--port", web_port, "set",
+                        "%MF328", "-5"], capture_output=True, text=True, timeout=30)
+    assert r.returncode != 0 and "%MF328 := -5 refused: device 'X': Ixx30 (kp)" in r.stderr, r
+    wire = struct.unpack(">2H", struct.pack(">f", -5.0))  # %MF: low word first (twido.md)
+    with RawClient("127.0.0.1", d.port) as mb:
+        try:
+            mb.write_registers(328, [wire[1], wire[0]])
+            raise AssertionError("a value the axis refuses was taken")
+        except ModbusExceptionReply as e:
+            assert e.code == 3
+    assert api.get("%MF328")["%MF328"] == 7000.0
     page.close()
