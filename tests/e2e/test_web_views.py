@@ -265,3 +265,64 @@ def test_a_write_the_axis_refuses_is_refused_where_it_was_made(browser, tmp_path
             assert e.code == 3
     assert api.get("%MF328")["%MF328"] == 7000.0
     page.close()
+
+
+# every text of each shown rung's svg: its box, and the right rail's x and top (the
+# rightmost vertical line); the title above the rails is left out of the rail check
+LADDER_GEOMETRY = """() => [...document.querySelectorAll('#ladder div[data-rung] svg')]
+.map((svg) => {
+  const at = (l, a) => +l.getAttribute(a);
+  const v = [...svg.querySelectorAll('line')].filter((l) => at(l, 'x1') === at(l, 'x2'));
+  const rail = v.reduce((a, l) => (at(l, 'x1') > at(a, 'x1') ? l : a), v[0]);
+  return { rung: svg.closest('[data-rung]').dataset.rung,
+    rail: [at(rail, 'x1'), Math.min(at(rail, 'y1'), at(rail, 'y2'))],
+    texts: [...svg.querySelectorAll('text')].map((t) => { const b = t.getBBox();
+      return [t.textContent, b.x, b.y, b.width, b.height]; }) };
+})"""
+
+
+def _overlap(a: list, b: list, tol: float = 1.0) -> bool:
+    return (a[1] + tol < b[1] + b[3] and b[1] + tol < a[1] + a[3]
+            and a[2] + tol < b[2] + b[4] and b[2] + tol < a[2] + a[4])
+
+
+def test_ladder_draws_short_form_timers_as_boxes_and_no_text_overlaps(browser, tmp_path,
+                                                                        daemons):
+    """The drawing table's ladder (issue 33): `IN %TM0` is the timer's box (pin IN, the
+    type and base and the live values inside it), no value runs into another text nor
+    under the right rail, no two texts of a rung overlap, and the IL listing fits a
+    1400 px window beside the ladder."""
+    d, url, api = start(daemons, tmp_path, "drawing_table")
+    page = open_page(browser, url)
+    page.click("#tabs button[data-tab=ladder]")
+    page.select_option("#ladder-zoom", "1")
+    seen: set[str] = set()
+    for first in range(0, 29, 4):  # the page shows 4 rungs from the one chosen
+        page.click(f"#rung-list li[data-rung='{first}']")
+        sync_api.expect(page.locator(f'#ladder div[data-rung="{first}"] svg')).to_be_visible()
+        for rung in page.evaluate(LADDER_GEOMETRY):
+            seen.add(rung["rung"])
+            texts = rung["texts"]
+            for i, a in enumerate(texts):
+                for b in texts[i + 1:]:
+                    assert not _overlap(a, b), (rung["rung"], a, b)
+            x, top = rung["rail"]
+            for t in texts:
+                if t[2] + t[4] > top:  # below the title
+                    assert not t[1] < x < t[1] + t[3], (rung["rung"], t)
+    assert len(seen) == 29
+    page.click("#rung-list li[data-rung='1']")
+    svg = page.locator('#ladder div[data-rung="1"] svg')
+    sync_api.expect(svg.locator("text", has_text="TON 1ms")).to_be_visible()
+    texts = svg.locator("text").evaluate_all("els => els.map((e) => e.textContent)")
+    assert "%TM0" in texts and "IN" in texts and "Q" in texts
+    assert not any("[%TM0 IN]" in t for t in texts)
+    sync_api.expect(svg.locator("text", has_text=re.compile(r"^P=2 V=\d+$"))).to_be_visible()
+    page.select_option("#ladder-zoom", "1.4")  # the default zoom: a wide rung scrolls
+    page.click("#rung-list li[data-rung='8']")
+    sync_api.expect(page.locator('#ladder div[data-rung="8"] svg')).to_be_visible()
+    listing = page.locator("#il-listing").bounding_box()
+    assert listing["x"] + listing["width"] <= 1400 and listing["width"] > 300
+    sync_api.expect(page.locator("#il-listing .ln.hit").first).to_be_in_viewport()
+    shot(page, "ladder-drawing-table")
+    page.close()
