@@ -39,6 +39,11 @@ def test_servo_table_view_follows_homing(browser, tmp_path, daemons):
     page.close()
 
 
+# the cut's box in the drawing's own units (read in one go: the view is redrawn each update)
+PATH_BOX = """() => { const b = document.querySelector('#pen-path').getBBox();
+  return [b.x, b.y, b.width, b.height]; }"""
+
+
 def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemons):
     """A square streamed by the host (softplc.machines.cutting.client) at full speed: the view
     draws what the torch cut (#pen-path) apart from the moves with the torch off."""
@@ -76,14 +81,15 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
         "host reports them; machine: ", timeout=20000)
     assert "torch off;" in page.locator("#machine-hint").inner_text()
     assert "X (mm, work)" in page.locator("#table-view").inner_html()
-    area, outline = (page.locator(s).bounding_box() for s in ("#work-area", "#table-outline"))
-    assert area["width"] == pytest.approx(outline["width"] * 240 / 305.5, abs=2)  # of 305.5 mm
+    area, outline = page.evaluate("""() => ['#work-area', '#table-outline'].map(
+      (s) => document.querySelector(s).getBBox().width)""")
+    assert area == pytest.approx(outline * 240 / 305, abs=1)  # of the travel, -5..300 mm
     rows = {r.locator("td").first.inner_text(): r.inner_text()
             for r in page.locator("#devices tbody tr").all()}
     assert "drive_homed=false" in rows["X"]  # the drive's own homing did not run...
     assert "homed (program, %M110)=true" in rows["trace"]  # ...the program homed the table
     shot(page, "machine-cutting")
-    drawn = page.locator("#pen-path").bounding_box()
+    drawn = page.evaluate(PATH_BOX)
     page.close()
 
     # a page opened after the cut catches up; its first update split in two chunks shows
@@ -105,7 +111,7 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
     assert re.fullmatch(r"loading the trace: 50 % \(\d+ of \d+ samples\)…", first), first
     assert after == ""
     # the same cut (the updates' chunks differ, so do the samples thinned out of them)
-    assert page.locator("#pen-path").bounding_box() == pytest.approx(drawn, abs=1)
+    assert page.evaluate(PATH_BOX) == pytest.approx(drawn, abs=1)
     page.close()
 
 
