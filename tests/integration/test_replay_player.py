@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
 from pathlib import Path
 
 import pytest
@@ -174,3 +175,21 @@ def test_too_many_scans_and_bad_addresses_are_refused(tmp_path, capsys):
     assert "never %Q0.2" in err and "%ZZ9" in err and "Traceback" not in err
     assert main(["replay", *DEFECT, str(addr), "--index", "2"]) == 1
     assert "counterexamples 1 to 1" in capsys.readouterr().err
+
+
+def test_the_docs_page_example_runs_as_written(tmp_path, capsys, monkeypatch):
+    """docs/replay.md: its commands, run from the repository, print what the page shows
+    (the header lines; the last scan breaks the requirement)."""
+    page = (ROOT / "docs" / "replay.md").read_text()
+    start = page.index("## Watching a counterexample")
+    bash = re.search(r"```bash\n(.*?)```", page[start:], re.S)[1].replace("\\\n", " ")
+    verify, replay = (shlex.split(line)[1:] for line in bash.strip().splitlines())
+    shown = re.search(r"```text\n(.*?)```", page[start:], re.S)[1].splitlines()
+    monkeypatch.chdir(ROOT)
+    cex = str(tmp_path / "cex.json")
+    assert main([cex if a == "cex.json" else a for a in verify]) == 2
+    capsys.readouterr()
+    assert main([cex if a == "cex.json" else a for a in replay]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[:2] == shown[:2]
+    assert out[-1].split(": ")[0] == shown[-1].split(": ")[0] and out[-1].endswith("VIOLATED")
