@@ -115,5 +115,11 @@ def test_the_slider_shows_the_violation_on_the_ladder(served):
             assert page.locator("#status").inner_text() == "holds"
             assert page.locator("#values tbody tr td").nth(1).inner_text() == "0"
             assert path.exists()
+            page.locator("#first").click()
+            page.wait_for_selector('body[data-scan="0"]')
+            page.locator("#play").click()  # plays to the end and stops there
+            page.wait_for_selector(f'body[data-scan="{total}"]', timeout=60_000)
+            page.wait_for_function("document.getElementById('play').textContent === 'play'")
+            assert page.locator("#status").inner_text() == "VIOLATED"
         finally:
             browser.close()

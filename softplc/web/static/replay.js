@@ -7,6 +7,8 @@ const $ = (id) => document.getElementById(id);
 let info = null;
 let wanted = 0;   // the position last asked for: an older answer is dropped
 let watch = [];
+let timer = null;  // playing: the interval stepping forward
+const PLAY_MS = 700;  // one scan shown this long while playing (to read the values)
 
 function cell(row, text, cls) {
   const td = document.createElement(row.parentElement?.tagName === "THEAD" ? "th" : "td");
@@ -94,6 +96,22 @@ async function go(n) {
   if (f.scan === wanted) show(f);
 }
 
+function pause() {
+  clearInterval(timer);
+  timer = null;
+  $("play").textContent = "play";
+}
+
+function play() {
+  if (timer !== null) { pause(); return; }
+  if (wanted >= info.total) go(0);
+  $("play").textContent = "pause";
+  timer = setInterval(() => {
+    if (wanted >= info.total) { pause(); return; }
+    go(wanted + 1);
+  }, PLAY_MS);
+}
+
 async function start() {
   info = await (await fetch("/api/replay")).json();
   watch = info.watch;
@@ -107,16 +125,25 @@ async function start() {
       `${info.reported}): engine and model disagree`;
   $("slider").max = info.total;
   buildHistory();
-  $("slider").addEventListener("input", (e) => go(Number(e.target.value)));
-  $("first").addEventListener("click", () => go(0));
-  $("back").addEventListener("click", () => go(wanted - 1));
-  $("fwd").addEventListener("click", () => go(wanted + 1));
-  $("to-violation").addEventListener("click", () => go(info.violated_at ?? info.total));
+  // a move by hand pauses the playing
+  const by_hand = (f) => () => { pause(); f(); };
+  $("slider").addEventListener("input", (e) => { pause(); go(Number(e.target.value)); });
+  $("first").addEventListener("click", by_hand(() => go(0)));
+  $("back").addEventListener("click", by_hand(() => go(wanted - 1)));
+  $("fwd").addEventListener("click", by_hand(() => go(wanted + 1)));
+  $("play").addEventListener("click", play);
+  $("to-violation").addEventListener("click",
+                                     by_hand(() => go(info.violated_at ?? info.total)));
   document.addEventListener("keydown", (e) => {
     if (e.target.tagName === "INPUT" && e.target.type !== "range") return;
+    if (e.key === " " && e.target.tagName !== "BUTTON") { e.preventDefault(); play(); return; }
     const keys = {ArrowLeft: wanted - 1, ArrowRight: wanted + 1, Home: 0,
                   v: info.violated_at ?? info.total};
-    if (e.key in keys && e.target.id !== "slider") { e.preventDefault(); go(keys[e.key]); }
+    if (e.key in keys && e.target.id !== "slider") {
+      e.preventDefault();
+      pause();
+      go(keys[e.key]);
+    }
   });
   go(0);
 }
