@@ -313,6 +313,8 @@ class Daemon:
             self._server = server
             if opt.link is not None:
                 opt.link.attach(plc)
+                if opt.speed != math.inf:  # the Modbus thread's priority (see _realtime)
+                    opt.link.priority = max(0, opt.rt_priority - 1)
                 opt.link.start()
             # web monitor hook: served on the Modbus server's event loop (softplc.web)
             if opt.web is not None and opt.web.port is not None:

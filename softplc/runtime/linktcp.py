@@ -31,6 +31,7 @@ byte 0/1 per bit). A frame that is not one of these closes the connection.
 from __future__ import annotations
 
 import logging
+import os
 import socket
 import struct
 import threading
@@ -213,6 +214,10 @@ class _Service:
         self.lock = threading.Lock()
         self.stopping = threading.Event()
         self.threads: list[threading.Thread] = []
+        # SCHED_FIFO priority of the link's threads (0: normal). The daemon gives them its
+        # Modbus thread's: at normal priority a busy machine delays an answer past its slot
+        # and a present remote would show absent.
+        self.priority = 0
 
     def attach(self, plc: Any) -> None:
         """Meet the scan only at its boundaries (plc.before_scan / after_scan)."""
@@ -220,9 +225,16 @@ class _Service:
         plc.after_scan.append(self.after_scan)
         self.after_scan()
 
-    def _spawn(self, target: Callable[[], None], name: str) -> None:
-        t = threading.Thread(target=target, name=name, daemon=True)
-        self.threads.append(t)
+    def _spawn(self, target: Callable[..., None], name: str, *args: Any) -> None:
+        def run() -> None:
+            if self.priority:
+                try:
+                    os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.priority))
+                except (AttributeError, OSError) as e:  # not permitted: normal priority
+                    log.debug("link thread at normal priority: %s", e)
+            target(*args)
+        t = threading.Thread(target=run, name=name, daemon=True)
+        self.threads = [*(x for x in self.threads if x.is_alive()), t]  # ended connections go
         t.start()
 
     def before_scan(self) -> None:
@@ -376,8 +388,7 @@ class RemoteService(_Service):
                 old, self.conn = self.conn, conn
             if old is not None:
                 old.close()
-            threading.Thread(target=self._serve, args=(conn,), name="remote-link-conn",
-                             daemon=True).start()
+            self._spawn(self._serve, "remote-link-conn", conn)
 
     def _serve(self, conn: socket.socket) -> None:
         me, role = self.remote.address, self.remote.role
