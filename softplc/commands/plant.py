@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from softplc.commands._args import port
 from softplc.commands.run import _speed
 from softplc.errors import PlantStateError
 
@@ -28,6 +29,7 @@ if TYPE_CHECKING:  # imported when the command runs: `softplc --help` stays ligh
     from softplc.plant import Plant
 
 STATE_DIR = Path(tempfile.gettempdir()) / "softplc-plants"  # `plant up` records and logs
+PUBLISH_S = 0.1  # how often (real time) the plant page gets a new view
 PACE_SLICE_S = 0.05  # longest sleep while pacing: Ctrl-C stays prompt
 
 
@@ -74,6 +76,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--every", type=_duration, default=None, metavar="TIME",
                    help="print the status every TIME of plant time (default: at the end)")
     r.add_argument("--json", action="store_true", help="print the status as JSON lines")
+    r.add_argument("--web", type=port, default=None, metavar="PORT",
+                   help="serve the plant page on 127.0.0.1:PORT (0 = any free port): each "
+                        "controller's state, scans, scan time, link health and words")
     r.set_defaults(func=_run)
     u = verbs.add_parser("up", help="each controller a `softplc run` daemon in its own "
                                     "network namespace, the Remote Link over TCP")
@@ -162,22 +167,33 @@ def _run(args: argparse.Namespace) -> int:
     from softplc.plant import Plant
 
     plant = Plant.from_file(args.plant)
+    page = None
+    if args.web is not None:
+        from softplc.plant.view import plant_view
+        from softplc.web.plantpage import PlantPage
+
+        page = PlantPage(args.web)
+        page.publish(plant_view(plant))
+        print(f"plant page: {page.start()}", flush=True)
     try:
         for key, value in args.set:
             plant[key] = value
         for key in args.show:
             plant[key]  # noqa: B018 (an unknown key fails now, not at the first status)
-        _loop(plant, args)
+        _loop(plant, args, page)
     except KeyboardInterrupt:
         pass
     finally:
+        if page is not None:
+            page.stop()
         _print(plant, args)
         plant.close()
     return 0
 
 
-def _loop(plant: Plant, args: argparse.Namespace) -> None:
+def _loop(plant: Plant, args: argparse.Namespace, page: Any = None) -> None:
     end = None if args.duration is None else round(args.duration * 1e6)
+    next_publish = time.monotonic()
     every = None if args.every is None else max(1, round(args.every * 1e6))
     next_print = every
     wall0 = time.monotonic()
@@ -186,6 +202,11 @@ def _loop(plant: Plant, args: argparse.Namespace) -> None:
         if every is not None and plant.now_us >= next_print:
             _print(plant, args)
             next_print += every
+        if page is not None and time.monotonic() >= next_publish:
+            from softplc.plant.view import plant_view
+
+            page.publish(plant_view(plant))
+            next_publish = time.monotonic() + PUBLISH_S
         if not math.isinf(args.speed):
             ahead = plant.now_us / 1e6 / args.speed - (time.monotonic() - wall0)
             while ahead > 0:  # pacing: plant time no faster than speed x real time
