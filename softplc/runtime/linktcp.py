@@ -387,7 +387,7 @@ class RemoteService(_Service):
             with self.lock:  # one master: a new connection (it restarted) replaces the old
                 old, self.conn = self.conn, conn
             if old is not None:
-                old.close()
+                _hang_up(old)  # its thread wakes, sees the end and closes it
             self._spawn(self._serve, "remote-link-conn", conn)
 
     def _serve(self, conn: socket.socket) -> None:
@@ -421,8 +421,13 @@ class RemoteService(_Service):
         with self.lock:
             conn, self.conn = self.conn, None
         if conn is not None:
-            try:
-                conn.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass
-            conn.close()
+            _hang_up(conn)
+
+
+def _hang_up(conn: socket.socket) -> None:
+    """End a connection another thread may be reading: shutdown wakes its recv (a close
+    alone does not, and its descriptor could be reused under it); that thread closes it."""
+    try:
+        conn.shutdown(socket.SHUT_RDWR)
+    except OSError:
+        pass

@@ -172,3 +172,25 @@ def test_bad_link_options_are_refused_with_a_reason(tmp_path):
         linktcp.MasterService(master.machine.link, {})
     with pytest.raises(ValueError, match="HOST:PORT"):
         linktcp.endpoint("127.0.0.1:99999")
+
+
+def test_a_new_master_connection_replaces_the_old_one(tmp_path):
+    """A restarted master reconnects: the remote answers the new connection and hangs up
+    the old one (one master per link)."""
+    peer = _plc(PEER_IL, PEER_TOML, tmp_path, "p")
+    remote = linktcp.RemoteService(peer.machine.link, "127.0.0.1", 0)
+    remote.attach(peer)
+    remote.start()
+    poll = linktcp.encode_poll(1, "peer", 20_000, linktcp.Request(words=(1, 0, 0, 0)))
+    try:
+        with socket.create_connection(remote.address, timeout=5) as old:
+            old.sendall(poll)
+            assert linktcp.read_frame(old, linktcp.ANSWER)[0] == 1
+            with socket.create_connection(remote.address, timeout=5) as new:
+                new.sendall(poll)
+                assert linktcp.read_frame(new, linktcp.ANSWER)[0] == 1
+                assert old.recv(64) == b""  # hung up
+                new.sendall(poll)
+                assert linktcp.read_frame(new, linktcp.ANSWER)[0] == 1
+    finally:
+        remote.stop()
