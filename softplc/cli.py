@@ -30,6 +30,7 @@ COMMAND_MODULES = {
     "verify": "softplc.commands.verify",
     "replay": "softplc.commands.replay",
     "plant": "softplc.commands.plant",
+    "fleet": "softplc.commands.fleet",
 }
 
 
