@@ -38,11 +38,15 @@ class TracePlayer:
         # the requirement's objects: those the verifier listed, in its order
         self.watch: list[str] = list(self.model[0]) if self.model else []
         self.plc = make_plc()
-        for k in self.watch:  # addresses of this program
-            self._guard(lambda k=k: self.plc[k])
-        with make_plc() as judge:  # the requirement checked on the engine's values
-            self.violated_at = self._guard(lambda: first_failure(judge, self.check,
-                                                                 self.inputs))
+        try:
+            for k in self.watch:  # addresses of this program
+                self._guard(lambda k=k: self.plc[k])
+            with make_plc() as judge:  # the requirement checked on the engine's values
+                self.violated_at = self._guard(lambda: first_failure(judge, self.check,
+                                                                     self.inputs))
+        except SoftPLCError:
+            self.plc.close()
+            raise
         self._snaps = [self.plc.engine.snapshot()]
         self.position = 0
 
