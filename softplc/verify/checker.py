@@ -82,6 +82,8 @@ class Checker:
         self.pre = {k: z3.Const(f"{k}@cone", sort_of(s)) for k, s in self.keys.items()}
         self.inp = self.model.fresh("cone")[1]
         self.post: dict[str, Any] | None = None
+        # invariants proven for this cone (`verify/invariants.py`), added to the range ones
+        self.strengthening: list[Callable[[dict[str, Any]], Any]] = []
         self._slice()
 
     def _slice(self) -> None:
@@ -181,7 +183,7 @@ class Checker:
             out = [out[i] for i in self.kept]
         if self.monitor:
             out.append(z3.ULE(st["_mon"], self.n + 1))
-        return out
+        return out + [f(st) for f in self.strengthening]
 
 
 def _put(terms: dict[str, Any], pairs: list[tuple[Any, Any]]) -> dict[str, Any]:

@@ -28,6 +28,7 @@ import z3
 from softplc.verify.checker import Checker
 from softplc.verify.clock import Clock, TimeUp
 from softplc.verify.defaults import DEPTH, MAX_K, TIMEOUT_S
+from softplc.verify.invariants import strengthen
 from softplc.verify.model import Model, run_concrete, sort_of
 from softplc.verify.requirements import Node, Requirement, Spec
 from softplc.verify.symbolic import value_of
@@ -318,6 +319,8 @@ def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],
             use_spacer: bool, progress: Progress | None) -> Result:
     if not invariants_inductive(ck, clock):  # pragma: no cover - a modelling bug
         ck.invariants = lambda st: []  # type: ignore[method-assign]  # prove without them
+    else:  # timer relations, proven inductive: k-induction's step and Spacer's clauses
+        strengthen(ck, clock)
     # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),
     # started once 1-induction has failed: most simple requirements end there
     child: list[Spacer] = []
