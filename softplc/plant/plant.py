@@ -201,6 +201,13 @@ class Plant:
 
     def step(self) -> None:
         """Move to the next instant anything is due and run it (the module's order)."""
+        for c in self.begin_step():
+            c.plc.engine.scan()
+
+    def begin_step(self) -> list[Controller]:
+        """Move to the next instant anything is due and run all of it but the scans
+        (steps 1-4); the controllers whose scan is due, in the file's order (the debugger
+        runs those scans itself, to stop inside one)."""
         t = self.next_time()
         if t >= NEVER:
             raise PlantStateError("nothing left to run: every controller is off")
@@ -218,9 +225,7 @@ class Plant:
             if t >= link.next_us:
                 self._link_cycle(link)
                 link.next_us += link.cycle_us
-        for c in self.controllers.values():
-            if c.alive and c.plc.clock.now_us <= t:
-                c.plc.engine.scan()
+        return [c for c in self.controllers.values() if c.alive and c.plc.clock.now_us <= t]
 
     def _link_cycle(self, link: Link) -> None:
         link.cycles += 1
@@ -320,6 +325,35 @@ class Plant:
         return {"time": self.now_us,
                 "controllers": {n: (c.alive, image(c)) for n, c in self.controllers.items()},
                 "devices": {n: d.state() for n, d in self.devices.items()}}
+
+    def checkpoint(self) -> dict[str, Any]:
+        """What the plant itself keeps between instants (its time, the devices, the links'
+        cycles and stations), for `rewind`; the controllers' engines are snapshotted by
+        their own `Engine.snapshot()`. Structure (a killed controller, a broken wire) is
+        not part of it."""
+        return {"now_us": self.now_us, "next_dev": self._next_dev,
+                "devices": {n: d.state() for n, d in self.devices.items()},
+                "links": {n: (lk.next_us, lk.cycles, lk.transport.state(),
+                              self._link_stations(lk, lambda st: st.state()))
+                          for n, lk in self.links.items()}}
+
+    def rewind(self, cp: dict[str, Any]) -> None:
+        """Back to a `checkpoint()` of this plant."""
+        self.now_us, self._next_dev = cp["now_us"], cp["next_dev"]
+        for n, st in cp["devices"].items():
+            self.devices[n].set_state(st)
+        for n, (next_us, cycles, transport, stations) in cp["links"].items():
+            lk = self.links[n]
+            lk.next_us, lk.cycles = next_us, cycles
+            lk.transport.set_state(transport)
+            for name, st in stations.items():
+                station = self._station(name)
+                if station is not None:
+                    station.set_state(st)
+
+    def _link_stations(self, link: Link, fn: Callable[[Any], Any]) -> dict[str, Any]:
+        return {name: fn(st) for name in [link.master, *link.peers]
+                if (st := self._station(name)) is not None}
 
     def close(self) -> None:
         for c in self.controllers.values():
