@@ -32,6 +32,7 @@ from softplc.debug.session import CONTINUE_LIMIT, Session
 from softplc.debug.stepper import HISTORY, STOPS_A_COMMAND, DebugError, Ran, StopKind
 from softplc.errors import ConfigError, SoftPLCError
 from softplc.plant import Plant
+from softplc.plant.history import checkpoint, rewind
 
 # NAME:REST where NAME may be a controller or a device (not a %-address: `%MW0:15` is a
 # range, `%L3:` a label)
@@ -211,14 +212,14 @@ class PlantSession:
         for _ in range(n):
             cp = self.ring.pop()
         assert cp is not None
-        self.plant.rewind(cp["plant"])
+        rewind(self.plant, cp["plant"])
         for name, snap in cp["controllers"].items():
             self.sessions[name].ctl.rewind(snap)
         self.due, self.held = [], None
         self.instants -= n
 
     def _checkpoint(self) -> dict[str, Any]:
-        return {"plant": self.plant.checkpoint(),
+        return {"plant": checkpoint(self.plant),
                 "controllers": {n: s.ctl.snapshot() for n, s in self.sessions.items()}}
 
     # ---- texts ---------------------------------------------------------------------------

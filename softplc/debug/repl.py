@@ -96,7 +96,8 @@ def history_path() -> Path:
     return Path(os.environ.get("SOFTPLC_HISTORY") or Path.home() / ".softplc_history")
 
 
-def run_repl(session: Session | PlantSession, intro: str = "", commands: list[str] | None = None) -> int:
+def run_repl(session: Session | PlantSession, intro: str = "",
+             commands: list[str] | None = None) -> int:
     """Run commands given on the command line, then the interactive loop (unless one of
     them quit)."""
     repl = Repl(session)

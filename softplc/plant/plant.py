@@ -326,35 +326,6 @@ class Plant:
                 "controllers": {n: (c.alive, image(c)) for n, c in self.controllers.items()},
                 "devices": {n: d.state() for n, d in self.devices.items()}}
 
-    def checkpoint(self) -> dict[str, Any]:
-        """What the plant itself keeps between instants (its time, the devices, the links'
-        cycles and stations), for `rewind`; the controllers' engines are snapshotted by
-        their own `Engine.snapshot()`. Structure (a killed controller, a broken wire) is
-        not part of it."""
-        return {"now_us": self.now_us, "next_dev": self._next_dev,
-                "devices": {n: d.state() for n, d in self.devices.items()},
-                "links": {n: (lk.next_us, lk.cycles, lk.transport.state(),
-                              self._link_stations(lk, lambda st: st.state()))
-                          for n, lk in self.links.items()}}
-
-    def rewind(self, cp: dict[str, Any]) -> None:
-        """Back to a `checkpoint()` of this plant."""
-        self.now_us, self._next_dev = cp["now_us"], cp["next_dev"]
-        for n, st in cp["devices"].items():
-            self.devices[n].set_state(st)
-        for n, (next_us, cycles, transport, stations) in cp["links"].items():
-            lk = self.links[n]
-            lk.next_us, lk.cycles = next_us, cycles
-            lk.transport.set_state(transport)
-            for name, st in stations.items():
-                station = self._station(name)
-                if station is not None:
-                    station.set_state(st)
-
-    def _link_stations(self, link: Link, fn: Callable[[Any], Any]) -> dict[str, Any]:
-        return {name: fn(st) for name in [link.master, *link.peers]
-                if (st := self._station(name)) is not None}
-
     def close(self) -> None:
         for c in self.controllers.values():
             c.plc.close()

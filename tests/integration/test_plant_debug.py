@@ -10,7 +10,6 @@ from pathlib import Path
 import pytest
 
 from softplc.debug.plant_session import PlantSession
-from softplc.plant import Plant
 
 PLANT = Path(__file__).resolve().parents[2] / "ladder_programs" / "plant" / "plant.toml"
 TOOL_RUNG = 3  # station.il: "the tool works while the time runs" (writes %Q0.0)
@@ -102,7 +101,8 @@ def test_ctl_focuses_a_controller_and_qualified_objects(s: PlantSession) -> None
     assert s.execute("print %MW0") == s.execute("print master:%MW0")
     counted = s.execute("print filler:%MW0")
     assert "no controller" in s.execute("ctl nobody")
-    assert s.execute("ctl filler").startswith("[plant t = 4.990 s, instant 500] filler:")  # 10 ms instants from 0
+    # 10 ms instants from 0: the 500th at 4.990 s
+    assert s.execute("ctl filler").startswith("[plant t = 4.990 s, instant 500] filler:")
     assert s.execute("print %MW0") == counted and int(counted.split("=")[1]) >= 1
     assert "* filler" in s.execute("ctl")
     assert s.execute("print belt:at_fill") in ("belt:at_fill = 0", "belt:at_fill = 1")
