@@ -29,6 +29,7 @@ COMMAND_MODULES = {
     "tune": "softplc.machines.machining.command",
     "verify": "softplc.commands.verify",
     "plant": "softplc.commands.plant",
+    "fleet": "softplc.commands.fleet",
 }
 
 
