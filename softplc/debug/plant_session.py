@@ -298,7 +298,8 @@ def cmd_scan(p: PlantSession, arg: str) -> str:
 @plant_command("run", "r")
 def cmd_run(p: PlantSession, arg: str) -> str:
     """run N | run Ts: N scans of the focused controller, or T seconds of plant time
-    (run 2s, run 500ms). Stops at breakpoints."""
+    (run 2s, run 500ms: every instant up to the plant's time + T). Stops at
+    breakpoints."""
     if not arg:
         raise DebugError("run N (scans) or run T (seconds of plant time, e.g. 2s, 500ms)")
     if re.fullmatch(r"\d{1,9}", arg):
@@ -308,7 +309,7 @@ def cmd_run(p: PlantSession, arg: str) -> str:
     except ConfigError as e:
         raise DebugError(str(e)) from None
     end = p.plant.now_us + round(secs * 1e6)
-    return p.result(p.advance(lambda: p.plant.next_time() < end))
+    return p.result(p.advance(lambda: p.plant.next_time() <= end))  # up to now + T
 
 
 @plant_command("continue", "c", "cont")

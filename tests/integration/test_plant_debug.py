@@ -101,8 +101,8 @@ def test_ctl_focuses_a_controller_and_qualified_objects(s: PlantSession) -> None
     assert s.execute("print %MW0") == s.execute("print master:%MW0")
     counted = s.execute("print filler:%MW0")
     assert "no controller" in s.execute("ctl nobody")
-    # 10 ms instants from 0: the 500th at 4.990 s
-    assert s.execute("ctl filler").startswith("[plant t = 4.990 s, instant 500] filler:")
+    # 10 ms instants from 0 up to 5 s: the 501st at 5.000 s
+    assert s.execute("ctl filler").startswith("[plant t = 5.000 s, instant 501] filler:")
     assert s.execute("print %MW0") == counted and int(counted.split("=")[1]) >= 1
     assert "* filler" in s.execute("ctl")
     assert s.execute("print belt:at_fill") in ("belt:at_fill = 0", "belt:at_fill = 1")
