@@ -33,6 +33,7 @@ from softplc.debug.stepper import HISTORY, STOPS_A_COMMAND, DebugError, Ran, Sto
 from softplc.errors import ConfigError, SoftPLCError
 from softplc.plant import Plant
 from softplc.plant.history import checkpoint, rewind
+from softplc.runtime.runstate import RUN
 
 # NAME:REST where NAME may be a controller or a device (not a %-address: `%MW0:15` is a
 # range, `%L3:` a label)
@@ -185,7 +186,8 @@ class PlantSession:
             if self.interrupted:
                 ctl = self.sessions[self.focus].ctl
                 return Stopped(self.focus, Ran(StopKind.INTERRUPTED, ctl.position(),
-                                               True, ctl.plc.state))
+                                               ctl.plc.state == RUN, ctl.plc.state,
+                                               ctl.plc.fault))
             stop = self._instant()
             n += 1
         if stop is not None:

@@ -132,3 +132,11 @@ def test_errors_are_text_and_commands_are_listed(s: PlantSession) -> None:
     text = s.execute("help")
     assert "ctl [NAME]" in text and "back [N]: the whole plant" in text and "watch" in text
     assert s.execute("quit") == "" and s.done
+
+
+def test_an_interrupt_stops_the_plant_at_the_next_instant(s: PlantSession) -> None:
+    s.sessions["capper"].plc.after_scan.append(s.interrupt)  # Ctrl-C during the 1st instant
+    out = s.execute("run 10s")
+    assert out.startswith("[master] interrupted") and s.instants == 1
+    assert not s.due  # the instant was finished first: every controller scanned once
+    assert all(c.plc.scan_count == 1 for c in s.plant.controllers.values())
