@@ -206,6 +206,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--web-max-pages", type=_whole(1, 1000), default=None, metavar="N",
                    help="websocket pages open at once, 1..1000 (default 32, or [web] "
                         "max_pages)")
+    p.add_argument("--replay", type=Path, metavar="CEX.json",
+                   help="play a counterexample of softplc verify --cex instead (as softplc "
+                        "replay): no Modbus server, no devices, nothing written from "
+                        "outside; its page on the --web port, on 127.0.0.1 only")
     p.add_argument("--log-level", default="warning",
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
@@ -267,6 +271,12 @@ _LOCKED: list[int] = []  # descriptors held open (and locked) until the process 
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.replay is not None:
+        from softplc.commands.replay import play
+        from softplc.web import DEFAULT_WEB_PORT
+
+        web = None if args.web == _WEB_OFF else _pick(args.web, DEFAULT_WEB_PORT)
+        return play(args, args.replay, 1, web)
     from softplc.daemon import Daemon, DaemonOptions
 
     logging.basicConfig(level=getattr(logging, args.log_level.upper()),

@@ -52,7 +52,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-spacer", action="store_true",
                    help="no Spacer (IC3/PDR) proof attempt after k-induction")
     p.add_argument("--cex", type=Path, metavar="FILE.json",
-                   help="write the counterexamples (softplc repl --replay FILE.json)")
+                   help="write the counterexamples (softplc replay PROGRAM FILE.json; "
+                        "softplc repl --replay FILE.json)")
     p.add_argument("--emit-test", type=Path, metavar="FILE.py",
                    help="write a pytest test per counterexample")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
@@ -176,8 +177,10 @@ def _run(args: argparse.Namespace) -> int:
     try:
         if cexs and args.cex:
             write_cex(args.cex, args.program, args.config, cexs)
-            print(f"counterexamples written to {args.cex} (softplc repl {args.program} "
-                  f"--replay {args.cex})")
+            cfg = f" --config {args.config}" if args.config else ""
+            print(f"counterexamples written to {args.cex} (on the ladder: softplc replay "
+                  f"{args.program}{cfg} {args.cex} --web 0; in the debugger: softplc repl "
+                  f"{args.program}{cfg} --replay {args.cex})")
         if cexs and args.emit_test:
             emit_test(args.emit_test, args.program, args.config, cexs, plc.symbols)
             print(f"pytest test written to {args.emit_test}")
