@@ -70,9 +70,8 @@ class PlantSession:
 
     def __init__(self, plant: Plant, history: int = HISTORY):
         self.plant = plant
-        # a controller's own history is its last scan only (the stepper replays it to
-        # stop where a watch fired); the plant keeps the history of every instant
-        self.sessions = {name: Session(c.plc, c.program, history=1)
+        # no history of a controller's own (history 0): the plant keeps every instant's
+        self.sessions = {name: Session(c.plc, c.program, history=0)
                          for name, c in plant.controllers.items()}
         self.focus = next(iter(self.sessions))
         self.ring: deque[dict[str, Any]] = deque(maxlen=history)

@@ -210,7 +210,10 @@ class Stepper:
         self.dbg_version = plc.code_version
         self.gen: Iterator[tuple[int, int]] | None = None
         self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
-        self.ring: deque[dict[str, Any]] = deque(maxlen=history)  # snapshots, for `back`
+        # snapshots, for `back`; history 0: none (a plant keeps its own), only the last
+        # scan while a watch or condition may have to replay it
+        self.history = history
+        self.ring: deque[dict[str, Any]] = deque(maxlen=max(1, history))
         self.breakpoints = Breakpoints(plc)
         self.breaks = self.breakpoints.items  # (the same list and dict, kept in place)
         self.changes = self.breakpoints.changes  # watched objects' recorded changes
@@ -236,8 +239,10 @@ class Stepper:
             self.plc[str(ref)] = v
 
     def _begin(self) -> None:
-        """A scan starts: keep the state before it for `back`."""
-        self.ring.append(self.snapshot())
+        """A scan starts: keep the state before it for `back` (and the replay of a
+        fast scan where a watch or condition fired)."""
+        if self.history or self.breakpoints.data:
+            self.ring.append(self.snapshot())
 
     def snapshot(self) -> dict[str, Any]:
         """The state at a scan boundary (the engine's, the queued writes), for `rewind`."""
