@@ -100,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from softplc.verify.advice import unknown_hints
     from softplc.verify.engines import Limits
     from softplc.verify.guard import check
     from softplc.verify.model import Model
@@ -120,17 +121,17 @@ def _run(args: argparse.Namespace) -> int:
             spec.periods = parse_periods(args.scan_period)
         except ValueError as e:
             raise SoftPLCError(f"--scan-period {args.scan_period}: {e}") from None
+    from softplc.verify.environment import device_words
     model = Model(plc, spec.reads + [r for r, _ in spec.free],
-                  spec.host + [r for r, _ in spec.free], spec.periods, args.loop_bound)
+                  spec.host + [r for r, _ in spec.free], spec.periods, args.loop_bound,
+                  spec.held, device_words(args.program, args.config))
     check_environment(spec, model.written, str(args.program))
     period = f"{model.period_us / 1000:g} ms" + (
         f" to {model.longest_us / 1000:g} ms" if model.variable else "")
     print(f"{args.program}: {len(plc.ast.rungs)} rungs, {len(model.vars)} state "
           f"variables, {len(model.inputs)} inputs, scan period {period}")
-    free = [f"{k} ({why})" for k, why in model.sys_free.items() if k in model.vars]
-    if free:  # say what the proofs take as any value
-        print("free in every scan (set by the system from what is not modelled): "
-              + ", ".join(free))
+    for line in model.env.lines(model):  # what the proofs take as given
+        print(line)
     worst, cexs, lemmas = 0, [], []
     limits = Limits(args.depth, args.max_k, args.timeout, not args.no_spacer)
     for req in spec.requirements:
@@ -142,6 +143,7 @@ def _run(args: argparse.Namespace) -> int:
             print(f"PROVEN    {req.name}: {res.method}, {res.seconds:.1f} s")
             if req.kind == "always":  # a lemma for the requirements after it
                 lemmas.append(req.cond)
+            _vacuity(model, spec, req, limits, args.loop_bound)
             continue
         if res.status == "UNKNOWN":
             note = "; Spacer finds it can fail later (raise --depth, or a scan_period " \
@@ -150,6 +152,8 @@ def _run(args: argparse.Namespace) -> int:
                   f"({res.seconds:.1f} s){note}")
             if res.note:
                 print(f"    {res.note}")
+            for tip in unknown_hints(model, res, limits):
+                print(f"    try: {tip}")
             ok = args.bounded and res.depth >= args.depth
             worst = max(worst, 0 if ok else EXIT_UNPROVEN)
             continue
@@ -179,3 +183,14 @@ def _run(args: argparse.Namespace) -> int:
     except OSError as e:
         raise SoftPLCError(f"cannot write {e.filename}: {e.strerror}") from None
     return worst
+
+
+def _vacuity(model: Any, spec: Any, req: Any, limits: Any, loop_bound: int) -> None:
+    """Flag a proof that rests on objects held at their cold-start value."""
+    from softplc.verify.advice import vacuity
+    keys, cex = vacuity(model, spec, req, limits, loop_bound)
+    if cex is not None:
+        print(f"    ! VACUOUS: holds only because {', '.join(keys)} never change (held at "
+              f"the cold-start value); free, it fails after {cex.depth} scan(s)")
+    elif keys:
+        print(f"    note: the proof reads {', '.join(keys)}, held at the cold-start value")

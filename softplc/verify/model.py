@@ -25,6 +25,7 @@ from softplc.il import rungtree
 from softplc.runtime.blocks import Timer
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido.address import BOOL, Ref
+from softplc.verify import environment
 from softplc.verify.blocks import advance_timer, el_bits, run_timer
 from softplc.verify.defaults import LOOP_BOUND
 from softplc.verify.loops import Loops
@@ -76,13 +77,18 @@ class Model(ObjectModel):
     """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
 
     def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = (),
-                 periods: tuple[int, int] | None = None, loop_bound: int = LOOP_BOUND):
+                 periods: tuple[int, int] | None = None, loop_bound: int = LOOP_BOUND,
+                 held: list[Ref] = (), devices: dict[str, list[tuple[int, int]]] | None = None):
         """`reads`: objects requirements read (modelled even if the program does not use
         them); `host`: objects the environment sets at the start of every scan;
         `periods`: (shortest, longest) scan period in us when any period in between (a
         multiple of the shortest) may occur in each scan, as in cyclic mode;
         `loop_bound`: passes of a backward jump (a loop) unrolled in one scan (beyond it
-        the key `_loop` is true after the scan: checkers treat it as unknown)."""
+        the key `_loop` is true after the scan: checkers treat it as unknown);
+        `held`: objects kept at their cold-start value although a host may write them;
+        `devices`: the %MW ranges each simulated device writes (`Device.read_only_words`;
+        None: those of `plc`'s devices). Objects the program reads and never writes that a
+        host or a device may write are free in every scan (`environment`: `self.env`)."""
         super().__init__(plc)
         self.loops = Loops(loop_bound, plc.ast.file)
         self.edge_keys: dict[int, str] = {}  # id of an edge instruction -> its key
@@ -110,8 +116,21 @@ class Model(ObjectModel):
         self.mw_array = any(r.offset is not None and r.kind in ("MW", "MD")
                             for r in _refs(plc.ast.rungs))
         self.mw_named: set[int] = set()
-        # discovery: run the scan on lazily created variables until no new key appears
+        # discovery: run the scan on lazily created variables until no new key appears,
+        # then again with the objects the environment writes as inputs (`environment`)
         self.discovering = True
+        who = environment.of_plc(plc, devices)
+        held_keys, declared = {str(r) for r in held}, set(self.host)
+        while True:
+            self._discover(plc, reads)
+            self.env = environment.decide(plc.ast, self.written, who, held_keys, declared)
+            extra = set(self.env.free) - self.host
+            if not extra:
+                break
+            self.host |= extra
+        self.discovering = False
+
+    def _discover(self, plc: Any, reads: list[Ref]) -> None:
         n = -1
         while n != len(self.vars) + len(self.inputs):
             n = len(self.vars) + len(self.inputs)
@@ -127,7 +146,6 @@ class Model(ObjectModel):
             self.scan(pre, self.inp)
             if self.problems:
                 raise VerifyError(sorted(set(self.problems), key=lambda d: (d.line, d.column)))
-        self.discovering = False
 
     # ---- variables ----------------------------------------------------------------------
     def declare(self, key: str, suffix: str = "") -> Any:

@@ -351,7 +351,7 @@ def test_system_words_definite_or_free_and_replayed(capsys):
     assert main(["verify", *therm, "--require-expr", "never %Q0.0 AND %Q0.1",
                  "--require-expr", "never %Q0.1", "-q"]) == 2
     out = capsys.readouterr().out
-    assert "free in every scan" in out and "%SW82 (an analog module" in out
+    assert "free system objects" in out and "%SW82 (an analog module" in out
     assert "PROVEN    never %Q0.0 AND %Q0.1" in out and "same values in every scan" in out
     rtc = [str(LP / "rtc_schedule.il"), "--config", str(LP / "rtc_schedule.toml")]
     assert main(["verify", *rtc, "--require-expr", "never %Q0.1", "-q"]) == 2

@@ -1,0 +1,82 @@
+"""What `softplc verify` says beside a verdict: for an UNKNOWN, what to try next; for a
+PROVEN, whether it rests on an object that never changes (held at its cold-start value),
+checked by searching again with that object free."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from softplc.twido.address import parse_address
+from softplc.verify.checker import Checker
+from softplc.verify.clock import Clock, TimeUp
+from softplc.verify.engines import Limits, Result, bmc
+from softplc.verify.guard import isolated
+from softplc.verify.model import Model
+from softplc.verify.requirements import Requirement, Spec
+
+US_PER_MS = 1000
+US_PER_S = 1_000_000
+LONGEST_PERIOD_US = 60_000_000  # `parse_periods`: a scan period range ends within 1 min
+VACUITY_SHARE = 0.5  # of a requirement's time, for the search with held objects free
+
+
+def _ms(us: int) -> str:
+    """A duration as the configuration writes it: 10ms, 3s."""
+    return f"{us // US_PER_S}s" if us % US_PER_S == 0 else f"{us / US_PER_MS:g}ms"
+
+
+def unknown_hints(model: Model, res: Result, limits: Limits) -> list[str]:
+    """What to try after an UNKNOWN: a depth the timers need, a scan period range, the
+    loop bound, a larger k or more time."""
+    tips: list[str] = []
+    period = model.period_us
+    reach = max(res.depth, limits.depth) * model.longest_us
+    for name, t in sorted(model.timers.items()):
+        span_us = int(t.P) * t.base_us  # the preset: the time the timer must see elapse
+        if span_us <= reach or span_us > LONGEST_PERIOD_US:
+            continue
+        scans = math.ceil(span_us / model.longest_us)
+        longest = min(LONGEST_PERIOD_US, math.ceil(span_us / period) * period)
+        tips.append(f"{name} needs {scans} scans of {_ms(model.longest_us)} to elapse, "
+                    f"more than the {limits.depth} searched: try --depth {scans + 2}, or "
+                    f"let the scan period vary: [environment] scan_period = "
+                    f'["{_ms(period)}", "{_ms(longest)}"] (--scan-period '
+                    f"{_ms(period)}:{_ms(longest)})")
+    if model.loops.sites:
+        tips.append(f"a loop is unrolled {model.loops.bound} passes per scan: "
+                    f"--loop-bound {model.loops.bound * 2} if it runs more")
+    if "time" in res.note or "ran out" in res.note:
+        tips.append(f"more time: --timeout {limits.seconds * 2:g}")
+    elif res.depth >= limits.depth:
+        tips.append(f"a deeper search: --depth {limits.depth * 2}; a proof by induction: "
+                    f"--max-k {limits.max_k * 2}, or an `always` requirement that "
+                    "strengthens it listed before it (proven ones are used as lemmas)")
+    return tips
+
+
+def vacuity(model: Model, spec: Spec, req: Requirement, limits: Limits,
+            loop_bound: int) -> tuple[list[str], Result | None]:
+    """The held objects (`model.env.held`) a proof of `req` reads, and, when freeing them
+    breaks it, the counterexample (within `limits.depth` scans, half its time)."""
+    held = list(model.env.held)
+    if not held:
+        return [], None
+    cone = set(Checker(model, spec, req).state_keys())
+    keys = [k for k in held if k in cone]
+    if not keys:
+        return [], None
+    profile = model.plc.profile
+    free = [*model.env.free, *keys]  # what was free stays free: only more behaviours
+    freed = Model(model.plc, spec.reads, spec.host + [parse_address(k, profile) for k in free],
+                  spec.periods, loop_bound, devices={})
+    ck = Checker(freed, spec, req)
+    seconds = limits.seconds * VACUITY_SHARE
+
+    def work(_report: Any) -> Result:
+        try:
+            return bmc(ck, limits.depth, Clock(seconds), [])
+        except TimeUp as e:
+            return Result("UNKNOWN", "BMC", note=str(e))
+    res = isolated(work, seconds)
+    return keys, res if res.status == "VIOLATED" else None
