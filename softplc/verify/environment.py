@@ -53,10 +53,10 @@ class Environment:
                 f"{k} ({why})" for k, why in self.held.items()))
         if system:
             out.append("  free system objects: " + ", ".join(system))
-        abstracted = getattr(model, "abstracted", {})
+        abstracted = model.abstract.where
         if abstracted:
-            out.append("  abstracted (any value in its documented range each scan): "
-                       + ", ".join(abstracted.values()))
+            out.append("  abstracted (any value of its documented range where the engine "
+                       "may change it): " + ", ".join(abstracted.values()))
         return out if len(out) > 1 else []
 
 

@@ -56,6 +56,8 @@ class ExprModel:
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None: ...
     def key_for(self, ref: Ref) -> str: ...
     def write_bit(self, ref: Ref, g: Any, value: Any, pos: A.Pos | None) -> None: ...
+    def run_exch(self, stmt: A.ExchCall, g: Any) -> None: ...
+    def run_pid(self, number: int, g: Any, pos: A.Pos | None) -> bool: ...
 
     def operand(self, op: Any, blk: Ref | None, g: Any) -> Any:
         if op is None:
@@ -168,6 +170,12 @@ class ExprModel:
                          16 if t == INT16 else 32)
             self.fault(g, f)
             self.store_word(stmt.target, g, r, t, stmt.pos)
+            return
+        if isinstance(stmt, A.ExchCall):
+            self.run_exch(stmt, g)
+            return
+        if isinstance(stmt, A.BlockCall) and stmt.keyword == "PID" \
+                and self.run_pid(stmt.number, g, stmt.pos):
             return
         if not isinstance(stmt, A.Assign):
             what = stmt.keyword if isinstance(stmt, A.BlockCall) else "EXCH"

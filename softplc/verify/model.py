@@ -26,6 +26,7 @@ from softplc.runtime.blocks import Timer
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido.address import BOOL, Ref
 from softplc.verify import environment
+from softplc.verify.abstract import Abstractions
 from softplc.verify.blocks import advance_timer, el_bits, run_timer
 from softplc.verify.defaults import LOOP_BOUND
 from softplc.verify.loops import Loops
@@ -104,6 +105,7 @@ class Model(ObjectModel):
         if self.variable:  # the input "_dt": this scan lasts _dt x the shortest period
             self.add_input("_dt", "w16", 1, self.longest_us // self.period_us)
         self.timers: dict[str, Timer] = {}
+        self.abstract = Abstractions()
         self.counters: list[str] = []
         self.drums: dict[str, list[str]] = {}
         self.written: dict[str, A.Pos] = {}  # keys the program writes, where first
@@ -161,6 +163,8 @@ class Model(ObjectModel):
             return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us, self.longest_us)}"
         if key == "_tmod":
             return "t"
+        if key in self.abstract.ranges:
+            return self.abstract.ranges[key][0]
         if key.startswith("%SC") and key.endswith(".W"):
             return "bv256"  # a step counter's 256 bits
         if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
@@ -258,6 +262,9 @@ class Model(ObjectModel):
             if self.discovering:
                 _ = st[k]
             st[k] = inp[k]
+        if self.discovering:
+            self.pulse_outputs()
+        self.abstract_scan_start()
         self.live: Any = z3.BoolVal(True)
         self.executed: dict[str, Any] = {}
         self.ga: dict[int, Any] = {}
@@ -270,6 +277,7 @@ class Model(ObjectModel):
         self.function(self.plc.ast.main, main=True)
         if self.grafcet and not self.post_done:
             self.post(self.live)
+        self.abstract_after_program()
         if self.conditional:
             for name, t in self.timers.items():  # timers not executed keep timing
                 run_timer(st, name, t, z3.Not(self.executed.get(name, z3.BoolVal(False))),
@@ -527,7 +535,9 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
     st = model.init_state()
     out = []
     for given in scans:
+        # an object the environment may write and did not: it keeps its value
         inp = {k: model.const(sort, int(given.get(k, lo if sort == "w16" else 0)))
+               if k in given or k not in model.env.free else _current(model, st, k)
                for k, (sort, lo, _hi) in model.inputs.items()}
         post = model.scan(st, inp)
         post = {k: z3.simplify(v) for k, v in post.items()}
@@ -543,6 +553,13 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
                 values[f"%MW{i}"] = value_of(m, z3.Select(post[MW_ARRAY], i))
         out.append(values)
     return out
+
+
+def _current(model: Model, st: dict[str, Any], key: str) -> Any:
+    """A state key's value in `st` (a %MW word: in the array when the program indexes)."""
+    if key in st:
+        return st[key]
+    return z3.Select(st[MW_ARRAY], z3.BitVecVal(int(key[3:]), 16))
 
 
 def _refs(node: Any) -> list[Ref]:
