@@ -48,8 +48,8 @@ class Abstractions:
     exch_words: set[str] = field(default_factory=set)  # reply words of EXCH tables
 
     def note(self, what: str, pos: A.Pos | None) -> None:
-        p = pos or A.NOPOS
-        self.where.setdefault(what, f"{what} at {p.line}:{p.column}")
+        self.where.setdefault(what, f"{what} at {pos.line}:{pos.column}" if pos is not None
+                              and pos.line else f"{what} (configured)")
 
     def is_input(self, key: str) -> bool:
         """An input of the model that stands for an abstracted value (not a real input:

@@ -125,8 +125,11 @@ def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
         clock.doing = f"BMC at scan {d + 1}"
         post = u.extend()
         bad = z3.Not(ck.holds(post))
+        abstract = bool(ck.model.abstract.ranges)
+        if abstract:  # exclusions hold at this depth only: a longer run may still fail
+            s.push()
         r = clock.check(s, bad, what="")
-        while r == z3.sat and ck.model.abstract.ranges and not _loop_hit(s, post) \
+        while r == z3.sat and abstract and not _loop_hit(s, post) \
                 and not confirmed(ck.model, ck.req.text, given_inputs(u.inputs, s.model())):
             spurious += 1  # the abstraction allowed it, the engine does not: refine
             s.add(exclusion(ck.model, u.inputs, s.model()))
@@ -134,8 +137,10 @@ def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
                            f"({spurious} counterexample(s) the engine did not confirm "
                            "excluded)")
             r = clock.check(s, bad, what="")
-        if r == z3.sat:
-            m = s.model()
+        m = s.model() if r == z3.sat else None
+        if abstract:
+            s.pop()
+        if m is not None:
             if "_loop" in post and z3.is_true(m.eval(post["_loop"], model_completion=True)):
                 return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
                               note=ck.model.loops.note(d + 1))
