@@ -132,6 +132,8 @@ class Checker:
 
     def assumed(self, post: dict[str, Any], inp: dict[str, Any]) -> list[Any]:
         out = self.model.input_constraints(inp)
+        if "_facts" in post:  # abstracted float functions: what is known of their values
+            out.append(post["_facts"])
         for a in self.spec.assumptions:
             out.append(as_bool(evaluate(Z3Domain, a, self.read(post))))
         return out

@@ -44,6 +44,8 @@ class Var:
 def sort_of(sort: str) -> Any:
     if sort == "arr":  # the %MW words, by word number
         return z3.ArraySort(z3.BitVecSort(16), z3.BitVecSort(16))
+    if sort == "f64":  # an abstracted float function's value (`floats`)
+        return z3.Float64()
     if sort.startswith("bv"):
         return z3.BitVecSort(int(sort[2:]))
     return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "t": z3.BitVecSort(32)}[sort]
@@ -218,7 +220,10 @@ class Model(ObjectModel):
     def const(sort: str, v: int) -> Any:
         if sort == "arr":  # every word 0 after a cold start
             return z3.K(z3.BitVecSort(16), z3.BitVecVal(v, 16))
-        return z3.BoolVal(bool(v)) if sort == "bool" else z3.BitVecVal(v, sort_of(sort).size())
+        if sort == "f64":
+            return z3.FPVal(float(v), z3.Float64())
+        return z3.BoolVal(bool(v)) if sort == "bool" else \
+            z3.BitVecVal(int(v), sort_of(sort).size())
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
         """Range facts true by construction in every reachable state (see `blocks`)."""
@@ -273,6 +278,7 @@ class Model(ObjectModel):
         self.frozen: Any = z3.BoolVal(False)
         self.calls: list[int] = []
         self.overflow: Any = z3.BoolVal(False)
+        self.facts: list[Any] = []  # what is known of abstracted float functions' values
         self.post_done = False
         self.function(self.plc.ast.main, main=True)
         if self.grafcet and not self.post_done:
@@ -295,6 +301,8 @@ class Model(ObjectModel):
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
+        if self.facts:
+            out["_facts"] = z3.simplify(z3.And(self.facts))
         if self.loops.sites:  # a loop ran past the unrolled passes in this scan
             out["_loop"] = z3.simplify(self.overflow)
         out.update({k: v for k, v in inp.items() if k not in st})  # %I, %IW: as latched
@@ -536,7 +544,7 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
     out = []
     for given in scans:
         # an object the environment may write and did not: it keeps its value
-        inp = {k: model.const(sort, int(given.get(k, lo if sort == "w16" else 0)))
+        inp = {k: model.const(sort, given.get(k, lo if sort == "w16" else 0))
                if k in given or k not in model.env.free else _current(model, st, k)
                for k, (sort, lo, _hi) in model.inputs.items()}
         post = model.scan(st, inp)

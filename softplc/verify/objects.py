@@ -35,6 +35,7 @@ from softplc.verify.blocks import (
     run_timer,
     set_step_bit,
 )
+from softplc.verify import floats
 from softplc.verify.exprs import ExprModel
 from softplc.verify.requirements import INDEXED_WORDS
 from softplc.verify.symbolic import as_bool, narrow, wide
@@ -263,6 +264,11 @@ class ObjectModel(AbstractModel, ExprModel):
             return wide(self.st[self.key_for(ref)]), INT16
         if abstracted(ref) and ref.field is not None and ref.type != REAL:
             return wide(self.read_abstract(ref)), INT16
+        if k == "MF":
+            return floats.from_words(self.word(Ref("MW", ref.index)),
+                                     self.word(Ref("MW", ref.index + 1))), REAL
+        if k == "KF":
+            return floats.const(float(self.plc.mem.read(ref))), REAL
         if ref.type == REAL:
             self.unsupported("floating-point values", pos, str(ref))
         else:
