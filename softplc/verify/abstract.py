@@ -29,6 +29,7 @@ from typing import Any
 import z3
 
 from softplc.il import ast as A
+from softplc.twido import catalog
 from softplc.twido.address import BLOCK_FIELDS, Ref
 
 WORD_RANGE = (-32768, 32767)  # a 16-bit word: any value
@@ -106,13 +107,16 @@ class AbstractModel:
         name = self.abstract_block(ref, None)
         return self.st[f"{name}.{ref.field}"]
 
-    def run_pid(self, number: int, g: Any, pos: A.Pos | None) -> bool:
-        """`[ PID n ]`: the words it writes fresh where it runs; False: not configured."""
-        blk = self.plc.mem.blocks.get("PID", {}).get(number)
-        if blk is None:
+    def run_called(self, stmt: A.BlockCall, g: Any) -> bool:
+        """`[ KEYWORD n ]` (a PID): the words it writes fresh where it runs; False: not a
+        block whose parameters name them."""
+        fam = catalog.by_instruction().get(stmt.keyword)
+        blk = self.plc.mem.blocks.get(fam.kind, {}).get(stmt.number) if fam else None
+        p = getattr(blk, "p", None)
+        if p is None or not hasattr(p, "out_max"):
             return False
-        p = blk.p
-        self.abstract.note(f"PID {number}", pos)
+        what, pos = f"{stmt.keyword} {stmt.number}", stmt.pos
+        self.abstract.note(what, pos)
         outs: list[tuple[Ref, tuple[str, int, int]]] = []
         if p.output is not None:
             outs.append((p.output, ("w16", p.out_min, p.out_max)))
@@ -126,7 +130,7 @@ class AbstractModel:
             _ = self.st[key]
             self.refresh(key, g, pos)
         if p.pwm_output is not None:
-            self.drive_output(p.pwm_output, f"PID {number}'s PWM output", pos)
+            self.drive_output(p.pwm_output, f"{what}'s PWM output", pos)
         return True
 
     def run_exch(self, stmt: A.ExchCall, g: Any) -> None:

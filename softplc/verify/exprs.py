@@ -65,7 +65,7 @@ class ExprModel:
     facts: list[Any]
     st: dict[str, Any]
     inp: dict[str, Any]
-    def run_pid(self, number: int, g: Any, pos: A.Pos | None) -> bool: ...
+    def run_called(self, stmt: A.BlockCall, g: Any) -> bool: ...
 
     def operand(self, op: Any, blk: Ref | None, g: Any) -> Any:
         if op is None:
@@ -187,8 +187,7 @@ class ExprModel:
         if isinstance(stmt, A.ExchCall):
             self.run_exch(stmt, g)
             return
-        if isinstance(stmt, A.BlockCall) and stmt.keyword == "PID" \
-                and self.run_pid(stmt.number, g, stmt.pos):
+        if isinstance(stmt, A.BlockCall) and self.run_called(stmt, g):
             return
         if not isinstance(stmt, A.Assign):
             what = stmt.keyword if isinstance(stmt, A.BlockCall) else "EXCH"

@@ -24,6 +24,7 @@ from softplc.runtime.blocks import (
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido import catalog
 from softplc.twido.address import BLOCK_FIELDS, INT16, INT32, REAL, Ref, parse_address
+from softplc.verify import floats
 from softplc.verify.abstract import AbstractModel
 from softplc.verify.blocks import (
     register_fields,
@@ -35,7 +36,6 @@ from softplc.verify.blocks import (
     run_timer,
     set_step_bit,
 )
-from softplc.verify import floats
 from softplc.verify.exprs import ExprModel
 from softplc.verify.requirements import INDEXED_WORDS
 from softplc.verify.symbolic import as_bool, narrow, wide

@@ -40,7 +40,9 @@ def test_abstraction_ranges_hold_the_engines_values(name):
         for n in range(SCANS):
             set_inputs(plc, {k: r.randrange(2) for k in inputs})
             plc.scan()
-            for key, (sort, lo, hi) in ranges.items():
+            for key, (_sort, lo, hi) in ranges.items():
+                if not key.startswith("%") or "~" in key:
+                    continue  # an abstracted float function: tested on its own
                 v = int(plc[key])
                 assert lo <= v <= hi, f"{name} scan {n + 1}: {key} = {v} not in {lo}..{hi}"
 
