@@ -54,6 +54,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="write the counterexamples (softplc repl --replay FILE.json)")
     p.add_argument("--emit-test", type=Path, metavar="FILE.py",
                    help="write a pytest test per counterexample")
+    p.add_argument("--junit", type=Path, metavar="REPORT.xml",
+                   help="write the verdicts as a JUnit XML report (one test per requirement)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     p.set_defaults(func=run)
 
@@ -132,7 +134,8 @@ def _run(args: argparse.Namespace) -> int:
           f"variables, {len(model.inputs)} inputs, scan period {period}")
     for line in model.env.lines(model):  # what the proofs take as given
         print(line)
-    worst, cexs, lemmas = 0, [], []
+    from softplc.verify.junit import Case
+    worst, cexs, lemmas, cases = 0, [], [], []
     limits = Limits(args.depth, args.max_k, args.timeout, not args.no_spacer)
     for req in spec.requirements:
         watch = list(dict.fromkeys(str(r) for r in req.reads))
@@ -141,6 +144,7 @@ def _run(args: argparse.Namespace) -> int:
             print(" " * 50, end="\r", file=sys.stderr)
         if res.status == "PROVEN":
             print(f"PROVEN    {req.name}: {res.method}, {res.seconds:.1f} s")
+            cases.append(Case(req.name, "PROVEN", res.seconds))
             if req.kind == "always":  # a lemma for the requirements after it
                 lemmas.append(req.cond)
             _vacuity(model, spec, req, limits, args.loop_bound)
@@ -152,14 +156,20 @@ def _run(args: argparse.Namespace) -> int:
                   f"({res.seconds:.1f} s){note}")
             if res.note:
                 print(f"    {res.note}")
-            for tip in unknown_hints(model, res, limits):
+            tips = unknown_hints(model, res, limits)
+            for tip in tips:
                 print(f"    try: {tip}")
             ok = args.bounded and res.depth >= args.depth
+            cases.append(Case(req.name, "UNKNOWN", res.seconds,
+                              f"no violation within {res.depth} scans, no proof",
+                              "\n".join([res.note, *tips]).strip(), ok))
             worst = max(worst, 0 if ok else EXIT_UNPROVEN)
             continue
         print(f"VIOLATED  {req.name}: counterexample of {res.depth} scan(s) from a cold "
               f"start ({res.seconds:.1f} s)")
         print(table(res.trace))
+        cases.append(Case(req.name, "VIOLATED", res.seconds,
+                          f"counterexample of {res.depth} scan(s)", table(res.trace)))
         with type(plc).from_file(args.program, args.config, devices=False) as again:
             diffs = replay(again, res.trace)
         if diffs:
@@ -177,6 +187,10 @@ def _run(args: argparse.Namespace) -> int:
             write_cex(args.cex, args.program, args.config, cexs)
             print(f"counterexamples written to {args.cex} (softplc repl {args.program} "
                   f"--replay {args.cex})")
+        if args.junit:
+            from softplc.verify.junit import write
+            write(args.junit, str(args.program), cases)
+            print(f"JUnit report written to {args.junit}")
         if cexs and args.emit_test:
             emit_test(args.emit_test, args.program, args.config, cexs)
             print(f"pytest test written to {args.emit_test}")

@@ -86,3 +86,29 @@ def test_unknown_says_what_to_try(tmp_path, capsys):
 def test_compact_ranges():
     assert compact(["%M1", "%M0", "%MW3", "%MW5", "%MW4", "%S19"]) == \
         "%M0..%M1 %MW3..%MW5 %S19"
+
+
+def test_junit_report(tmp_path, capsys):
+    """`--junit`: one test case per requirement, VIOLATED a failure with its table,
+    UNKNOWN a failure with its reasons, skipped when --bounded accepts it."""
+    import xml.etree.ElementTree as ET
+    prog = write(tmp_path, "conveyor.il", CONVEYOR)
+    report = tmp_path / "report.xml"
+    assert main(["verify", prog, "--require-expr", "never %M0 OR %M1", "--require-expr",
+                 "never %Q0.0 AND %I0.1", "-q", "--junit", str(report)]) == 2
+    suite = ET.parse(report).getroot()
+    assert (suite.get("tests"), suite.get("failures")) == ("2", "1")
+    violated, proven = suite.findall("testcase")
+    assert violated.get("name") == "never %M0 OR %M1"
+    assert violated.find("failure").get("type") == "VIOLATED"
+    assert "%M0 %M1" in violated.find("failure").text
+    assert proven.find("failure") is None and proven.find("skipped") is None
+    t = write(tmp_path, "t.il", "LD %I0.0\nIN %TM0\nLD %TM0.Q\nST %Q0.0\n")
+    cfg = write(tmp_path, "t.toml", 'scan_period = "10ms"\n[timers."%TM0"]\ntype = "TON"\n'
+                'base = "10ms"\npreset = 300\n')
+    assert main(["verify", t, "--config", cfg, "--require-expr", "never %Q0.0", "-q",
+                 "--no-spacer", "--max-k", "2", "--depth", "5", "--bounded",
+                 "--junit", str(report)]) == 0
+    case = ET.parse(report).getroot().find("testcase")
+    assert case.find("skipped").get("type") == "UNKNOWN"
+    assert "--depth" in case.find("skipped").text
