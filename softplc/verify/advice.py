@@ -32,15 +32,16 @@ def unknown_hints(model: Model, res: Result, limits: Limits) -> list[str]:
     tips: list[str] = []
     period = model.period_us
     reach = max(res.depth, limits.depth) * model.longest_us
-    for name, t in sorted(model.timers.items()):
-        span_us = int(t.P) * t.base_us  # the preset: the time the timer must see elapse
-        if span_us <= reach or span_us > LONGEST_PERIOD_US:
-            continue
+    long = sorted(((int(t.P) * t.base_us, name) for name, t in model.timers.items()
+                   if reach < int(t.P) * t.base_us <= LONGEST_PERIOD_US), reverse=True)
+    if long:  # the preset of the longest: the time it must see elapse
+        span_us, name = long[0]
         scans = math.ceil(span_us / model.longest_us)
         longest = min(LONGEST_PERIOD_US, math.ceil(span_us / period) * period)
-        tips.append(f"{name} needs {scans} scans of {_ms(model.longest_us)} to elapse, "
-                    f"more than the {limits.depth} searched: try --depth {scans + 2}, or "
-                    f"let the scan period vary: [environment] scan_period = "
+        others = f" (and {len(long) - 1} other timer(s))" if len(long) > 1 else ""
+        tips.append(f"{name}{others} needs {scans} scans of {_ms(model.longest_us)} to "
+                    f"elapse, more than the {limits.depth} searched: try --depth "
+                    f"{scans + 2}, or let the scan period vary: [environment] scan_period = "
                     f'["{_ms(period)}", "{_ms(longest)}"] (--scan-period '
                     f"{_ms(period)}:{_ms(longest)})")
     if model.loops.sites:
