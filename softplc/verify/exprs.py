@@ -80,8 +80,8 @@ class ExprModel:
             return self.read_bit(Ref(blk.kind, blk.index, field=op.name), op.pos)
         if isinstance(op, A.Compare):
             (a, ta), (b, tb) = self.pair(op.left, op.right, None, g)
-            if REAL in (ta, tb):
-                return floats.compare(op.op, a, b)
+            if REAL in (ta, tb):  # one side not a float: already reported
+                return floats.compare(op.op, a, b) if ta == tb else z3.BoolVal(False)
             return CMP[op.op](a, b)
         self.unsupported("this operand", getattr(op, "pos", None), "")
         return z3.BoolVal(False)
@@ -108,6 +108,8 @@ class ExprModel:
         if isinstance(e, A.BinOp):
             (a, ta), (b, tb) = self.pair(e.left, e.right, want, g)
             t = ta if ta == tb else INT32
+            if REAL in (ta, tb) and ta != tb:  # a side already reported
+                return floats.const(0.0), REAL
             if REAL in (ta, tb):
                 r, faults = floats.binop(e.op, a, b)
                 for c, kind in faults:
@@ -200,7 +202,8 @@ class ExprModel:
         if ref.type == REAL and ref.length is None and ref.offset is None \
                 and ref.kind == "MF":
             v, t = self.expr(stmt.expr, REAL, g)
-            self.store_real(ref, g, v, stmt.pos)
+            if t == REAL:  # else a part was reported
+                self.store_real(ref, g, v, stmt.pos)
             return
         if ref.length is not None or ref.type == REAL:
             self.unsupported("floating-point values" if ref.type == REAL else
@@ -254,13 +257,15 @@ class ExprModel:
         if f in ("INT_TO_REAL", "DINT_TO_REAL"):
             return floats.from_int(x), REAL
         if f in ("REAL_TO_INT", "REAL_TO_DINT"):
+            if t != REAL:  # the argument was reported
+                return wide(0), result
             bits = 16 if result == INT16 else 32
             v, fault = floats.to_int(x, bits)
             self.fault(g, fault)
             return v, result
         if t != REAL or any(ta != REAL for _, ta in args):
             self.unsupported(f"the function {f} on these types", e.pos, f)
-            return wide(0), want or INT16
+            return (floats.const(0.0), REAL) if result == REAL else (wide(0), want or INT16)
         exact = floats.exact_function(f, x)
         if exact is not None:
             r, faults = exact

@@ -152,7 +152,7 @@ def test_free_input_written_by_the_program_is_an_error(tmp_path):
 
 
 def test_unsupported_constructs_are_reported_with_position():
-    plc = PLC.from_source("LD 1\n[ %MF0 := %MF2 * 2.0 ]\nLD %M10[%MW2]\nST %Q0.0\n",
+    plc = PLC.from_source("LD 1\n[ %MF0 := MEAN(%MF2:3) ]\nLD %M10[%MW2]\nST %Q0.0\n",
                           devices=False)
     with pytest.raises(VerifyError) as e:
         Model(plc)
