@@ -86,3 +86,15 @@ def test_unconfirmed_counterexamples_never_violated(tmp_path, capsys):
     assert main(args) == 1
     out = capsys.readouterr().out
     assert "VIOLATED" not in out and "UNKNOWN" in out
+
+
+@pytest.mark.parametrize("src", [
+    "LD 1\n[ %MF4 := %MF0[%MW1] + 1.0 ]\n", "LD [ %MF0[%MW1] < 1.0 ]\nST %Q0.0\n",
+    "LD 1\n[ %MF4 := SIN(%MF0[%MW1]) ]\n", "LD 1\n[ %MW4 := REAL_TO_INT(%MF0[%MW1]) ]\n",
+    "LD 1\n[ %MF0 := MEAN(%MF2:3) ]\n"])
+def test_float_beside_an_unmodelled_construct_is_a_located_error(src):
+    from softplc.errors import VerifyError
+    plc = PLC.from_source(src, devices=False)
+    with pytest.raises(VerifyError) as e:
+        Model(plc)
+    assert all(d.line == (1 if src.startswith("LD [") else 2) for d in e.value.diagnostics)
