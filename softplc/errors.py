@@ -125,6 +125,9 @@ class ConfigCode(StrEnum):
     MODULE = "module"  # an expansion module or a channel no module provides
     DEVICE = "device"  # an unknown device type
     FILE = "file"  # the file cannot be read, or is not TOML
+    # a file this configuration may not name: from the network, outside --config-dir, a
+    # link leading out, not a regular file, too large (softplc.config.files)
+    PATH = "path"
     OTHER = "other"
 
 
@@ -171,6 +174,11 @@ class ConfigError(SoftPLCError):
     def in_file(self, file: str) -> ConfigError:
         """The same issues, said to be in `file`."""
         return ConfigError(self.issues, file)
+
+
+class PlantStateError(SoftPLCError):
+    """A plant access or fault names no controller, device, wire or link of the plant, or
+    asks what its state forbids (restart a running controller)."""
 
 
 class AddressError(SoftPLCError, ValueError):

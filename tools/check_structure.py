@@ -53,6 +53,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.assembly",),                    # configuration + program -> a machine
     ("softplc.plc", "softplc.testing"),       # the PLC facade, the pytest plugin
     ("softplc.online",),                      # online program change
+    ("softplc.plant",),                       # several controllers on one clock (issue 35)
     ("softplc.access", "softplc.verify"),     # the access port; the verifier
     ("softplc.debug", "softplc.web"),         # the front-ends
     ("softplc.daemon",),
@@ -61,8 +62,10 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc", "softplc.cli", "softplc.__main__"),
 )
 MACHINES = "softplc.machines."
-# what two machines may share: the G-code reader, where the shipped examples are
-SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples")
+# what two machines may share: the G-code reader, where the shipped examples are, the
+# lazy exports of their packages
+SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples",
+                       "softplc.machines.lazy")
 # the wing's own modules that name every machine: the package, the device registry
 MACHINE_REGISTRY = ("softplc.machines", "softplc.machines.devices")
 

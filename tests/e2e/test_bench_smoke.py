@@ -157,3 +157,17 @@ def test_bench_floor_parts_removes_each_part_it_names() -> None:
     import bench_floor_parts
     res = bench_floor_parts.run(number=20, repeat=1)
     assert set(res) == {"main", "full", *bench_floor_parts.PARTS}
+
+
+def test_plant_benchmark_tiny(tmp_path: Path) -> None:
+    import bench_plant
+
+    from softplc.plant import Plant
+
+    path = bench_plant.build(tmp_path, 3, 20)
+    per_cpu, per_wall, scans = bench_plant.measure(path, 0.5)
+    assert _positive(per_cpu) and _positive(per_wall) and scans == 3 * 50
+    plant = Plant.from_file(path)  # the generated programs exchange on the link
+    plant.run(1.0)
+    assert plant["master:%SW111"] == 0b11
+    plant.close()
