@@ -3,9 +3,10 @@ range, fresh where the engine may change it.
 
 - the function blocks without a model of their own (%FC, %VFC, %PLS, %PWM, %MSG and any
   other the catalog addresses but `objects.MODELLED` lacks): every field is fresh at the
-  start of every scan (hooks such as the fast counters' poll and the exchange port run at
-  the scan boundary) and after each execution of the block or write of one of its fields
-  (the engine may clamp what the program wrote) [sound: the engine's value is one of them];
+  start and the end of every scan (hooks such as the fast counters' poll, the exchange
+  port and the pulse generators run at the scan boundaries) and after each execution of
+  the block or write of one of its fields (the engine may clamp what the program wrote)
+  [sound: the engine's value is one of them];
 - `[ PID n ]`: where it runs, the words it writes are fresh: its output within the
   configured `output_min..output_max` (0..10000 [manual, from memory], `runtime.pid`), the
   diagnostic word and the Kp/Ti/Td words (auto-tuning writes them) any 16-bit value;
@@ -186,6 +187,14 @@ class AbstractModel:
                 self.st[key] = z3.If(landed, self.inp[site], self.st[key])
 
     def abstract_after_program(self) -> None:
+        """After the program: the driven outputs, and the abstracted fields (the engine's
+        end-of-scan work, the pulse generators', may change them before a requirement
+        reads them)."""
+        for key in sorted(self.abstract.scan_start):
+            sort, lo, hi = self.abstract.ranges[key]
+            site = f"{key}{SITE}end"
+            self.add_input(site, sort, lo, hi)
+            self.st[key] = self.inp[site]
         for key in sorted(self.abstract.after_program):
             self.add_input(f"{ABSTRACT_OUTPUT}{key}", "bool", 0, 1)
             self.st[key] = self.inp[f"{ABSTRACT_OUTPUT}{key}"]
