@@ -41,6 +41,7 @@ CLASS_ALLOW = {"Ops", "_ToAST"}
 # module's layer is that of the longest prefix naming it.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.errors",),
+    ("softplc.modbus.codec",),                # MBAP and word pairs: the server, EXCH, hosts
     ("softplc.twido",),                       # the Twido object model
     ("softplc.il",),                          # program text -> typed AST
     ("softplc.program",),                     # the compiled code's contract

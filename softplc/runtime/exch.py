@@ -52,6 +52,8 @@ from dataclasses import dataclass
 from queue import SimpleQueue
 from typing import Any
 
+from softplc.modbus.codec import MBAP_SIZE, bad_header, frame, header
+
 # Error codes of the EXCH status word [manual, %SW63/%SW64 list, from memory; check]
 OK = 0
 ERR_TX_TOO_LONG = 1  # more than MAX_TX_BYTES to send
@@ -74,7 +76,6 @@ ETHERNET_PORT = 3  # EXCH3 / %MSG3: the TWDLCAE40DRF's Ethernet port [manual]
 SERIAL_PORTS = (1, 2)
 MAX_TX_BYTES = 250  # [manual, from memory]
 CMD_SEND_ONLY, CMD_SEND_RECEIVE = 0, 1  # command byte [manual]; 2 (receive only) is serial
-MBAP = struct.Struct(">HHHB")  # transaction id, protocol 0, length, unit id
 
 
 @dataclass(frozen=True)
@@ -336,16 +337,16 @@ class _Connection:
                 if self.sock is None:
                     self._connect(deadline, worker)
                 self.tid = (self.tid + 1) & 0xFFFF
-                self._send(MBAP.pack(self.tid, 0, len(pdu) + 1, self.remote.unit_id) + pdu,
-                           deadline, worker)
+                self._send(frame(self.tid, self.remote.unit_id, pdu), deadline, worker)
             except OSError as e:
                 raise ExchError(ERR_TX, f"{self.where}: {e}") from None
             try:
                 # the reply of a send-only request is read too, to keep the stream in step
-                tid, proto, length, _unit = MBAP.unpack(self._recv(MBAP.size, deadline, worker))
-                if proto != 0 or length < 2 or tid != self.tid:
-                    raise ExchError(ERR_RX, f"bad MBAP header (transaction {tid}, protocol "
-                                    f"{proto}, length {length})")
+                tid, proto, length, _unit = header(self._recv(MBAP_SIZE, deadline, worker))
+                why = bad_header(proto, length)
+                if why is not None or tid != self.tid:
+                    raise ExchError(ERR_RX, f"{why or 'bad MBAP header'} (transaction {tid}, "
+                                    f"expected {self.tid})")
                 body = self._recv(length - 1, deadline, worker)
             except OSError as e:
                 raise ExchError(ERR_RX, str(e)) from None
