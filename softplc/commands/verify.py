@@ -134,6 +134,11 @@ def _run(args: argparse.Namespace) -> int:
           f"variables, {len(model.inputs)} inputs, scan period {period}")
     for line in model.env.lines(model):  # what the proofs take as given
         print(line)
+    from softplc.verify.advice import pinned_inputs
+    pinned = pinned_inputs(model, spec)
+    if pinned:  # a proof resting on these is a proof about a switch nobody moves
+        print(f"  ! the assumptions hold {', '.join(pinned)} in every scan: proofs never "
+              "see them change")
     from softplc.verify.junit import Case
     worst, cexs, lemmas, cases = 0, [], [], []
     limits = Limits(args.depth, args.max_k, args.timeout, not args.no_spacer)

@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import z3
+
 from softplc.twido.address import parse_address
 from softplc.verify.checker import Checker
 from softplc.verify.clock import Clock, TimeUp
@@ -81,3 +83,29 @@ def vacuity(model: Model, spec: Spec, req: Requirement, limits: Limits,
             return Result("UNKNOWN", "BMC", note=str(e))
     res = isolated(work, seconds)
     return keys, res if res.status == "VIOLATED" else None
+
+
+PIN_CHECK_S = 5.0  # s the solver may spend per input deciding whether the assumptions pin it
+
+
+def pinned_inputs(model: Model, spec: Spec) -> list[str]:
+    """Inputs the assumptions hold at one value in every scan (`assume = ["NOT %I0.0"]`):
+    a proof then never sees them change, as if they were held. Each is `key=value`."""
+    if not spec.assumptions or not spec.requirements:
+        return []
+    ck = Checker(model, spec, spec.requirements[0])
+    pre, inp = model.fresh("pin")
+    pre = {**model.init_state(), **pre}  # any state (the invariants bound it)
+    post = model.scan(pre, inp)
+    base = [*model.invariants(pre), *ck.assumed(post, inp)]
+    out = []
+    for key, (sort, _lo, _hi) in sorted(model.inputs.items()):
+        if sort != "bool" or model.abstract.is_input(key):
+            continue
+        s = z3.Solver()
+        s.set("timeout", int(PIN_CHECK_S * 1000))
+        s.add(*base)
+        can = [s.check(inp[key] == z3.BoolVal(v)) != z3.unsat for v in (False, True)]
+        if can.count(True) == 1:
+            out.append(f"{key}={can.index(True)}")
+    return out

@@ -112,3 +112,17 @@ def test_junit_report(tmp_path, capsys):
     case = ET.parse(report).getroot().find("testcase")
     assert case.find("skipped").get("type") == "UNKNOWN"
     assert "--depth" in case.find("skipped").text
+
+
+def test_assumption_pinning_an_input_is_flagged(tmp_path, capsys):
+    """`assume = ["NOT %I0.1"]` holds the stop button released forever: said so."""
+    prog = write(tmp_path, "conveyor.il", CONVEYOR)
+    req = write(tmp_path, "req.toml", '[environment]\nassume = ["NOT %I0.1"]\n\n'
+                '[[requirement]]\ncheck = "never %Q0.0 AND %I0.1"\n')
+    assert main(["verify", prog, "--require", req, "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "! the assumptions hold %I0.1=0 in every scan" in out
+    free = write(tmp_path, "free.toml", '[environment]\nassume = ["NOT (%I0.1 AND %M0)"]\n\n'
+                 '[[requirement]]\ncheck = "never %Q0.0 AND %I0.1"\n')
+    assert main(["verify", prog, "--require", free, "-q"]) == 0
+    assert "the assumptions hold" not in capsys.readouterr().out  # both values possible
