@@ -340,6 +340,9 @@ def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],
             use_spacer: bool, progress: Progress | None) -> Result:
     if not invariants_inductive(ck, clock):  # pragma: no cover - a modelling bug
         ck.invariants = lambda st: []  # type: ignore[method-assign]  # prove without them
+    elif ck.candidates(ck.init()):  # the timers' facts, kept where inductive
+        from softplc.verify.lemmas import houdini
+        ck.lemma_ids = houdini(ck, clock)
     # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),
     # started once 1-induction has failed: most simple requirements end there
     child: list[Spacer] = []

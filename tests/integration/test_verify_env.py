@@ -126,3 +126,42 @@ def test_assumption_pinning_an_input_is_flagged(tmp_path, capsys):
                  '[[requirement]]\ncheck = "never %Q0.0 AND %I0.1"\n')
     assert main(["verify", prog, "--require", free, "-q"]) == 0
     assert "the assumptions hold" not in capsys.readouterr().out  # both values possible
+
+
+TWO_HAND = ("LD %I0.0\nIN %TM0\nLD %I0.1\nIN %TM1\nLD %I0.0\nAND %I0.1\nANDN %TM0.Q\n"
+            "ANDN %TM1.Q\nOR %Q0.0\nAND %I0.0\nAND %I0.1\nST %Q0.0\n")
+TWO_HAND_CFG = ('scan_period = "50ms"\n' + "".join(
+    f'[timers."%TM{k}"]\ntype = "TON"\nbase = "10ms"\npreset = 50\n' for k in (0, 1)))
+
+
+def test_two_hand_window_proven_by_induction(tmp_path, capsys):
+    """Two-hand control, 0.5 s windows at 50 ms scans: the output starts only inside both
+    windows. The timers' candidate invariants (the monitor's last trigger, the presets the
+    program never writes), kept once inductive, make it k-inductive at a small k."""
+    prog = write(tmp_path, "two_hand.il", TWO_HAND)
+    cfg = write(tmp_path, "two_hand.toml", TWO_HAND_CFG)
+    args = ["verify", prog, "--config", cfg, "-q", "--no-spacer", "--require-expr",
+            "%Q0.0 rising -> %TM0.V < 50 AND %TM1.V < 50 within 0 scans"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "PROVEN" in out and "k-induction (k=" in out
+
+
+def test_houdini_drops_a_candidate_the_program_breaks():
+    """A preset the program writes is not taken for a constant; the one it never writes
+    is, once checked inductive."""
+    from softplc.verify.checker import Checker
+    from softplc.verify.clock import Clock
+    from softplc.verify.lemmas import houdini
+    from softplc.verify.requirements import load_spec
+    src = TWO_HAND + "LD %I0.2\n[ %TM0.P := 7 ]\n"
+    config = {"scan_period": "50ms", "timers": {
+        f"%TM{k}": {"type": "TON", "base": "10ms", "preset": 50} for k in (0, 1)}}
+    plc = PLC.from_source(src, config, devices=False)
+    spec = load_spec(None, ["%Q0.0 rising -> %TM0.V < 50 AND %TM1.V < 50 within 0 scans"],
+                     plc.profile)
+    ck = Checker(Model(plc, spec.reads), spec, spec.requirements[0])
+    kept = houdini(ck, Clock(30))
+    texts = [str(c) for c in ck.candidates(ck.pre)]
+    assert any("%TM1.P" in texts[i] for i in kept) and len(kept) == len(texts)
+    assert not any("%TM0.P" in t for t in texts)  # written by the program: no candidate
