@@ -17,6 +17,7 @@ from typing import Any
 import z3
 
 from softplc.verify.clock import Clock
+from softplc.verify.model import sort_of
 
 CHECK_S = 10.0  # s per Houdini round, at most (within the requirement's clock)
 
@@ -39,15 +40,15 @@ def houdini(ck: Any, clock: Clock) -> list[int]:
     s = z3.Solver()
     alive = [i for i, c in enumerate(init) if z3.is_true(z3.simplify(c))
              or s.check(z3.Not(c)) == z3.unsat]
-    from softplc.verify.engines import _Unroll
     while alive:
         s = z3.Solver()
-        u = _Unroll(ck, s, None, "h")
-        pre = u.states[0]
+        pre = {k: z3.Const(f"{k}@houdini", sort_of(v)) for k, v in ck.state_keys().items()}
+        _, inp = ck.model.fresh("houdini")
+        post = ck.step(pre, inp)
+        s.add(*ck.invariants(pre), *ck.assumed(post, inp))
         cands = ck.candidates(pre)
         s.add(*[cands[i] for i in alive])
-        u.extend()
-        after = ck.candidates(u.states[-1])
+        after = ck.candidates(post)
         bad = z3.Or(*[z3.Not(after[i]) for i in alive])
         clock.doing = "checking the timers' candidate invariants"
         r = clock.check(s, bad, what="", cap=CHECK_S)
