@@ -1,5 +1,6 @@
-"""Invariants the model states itself, about its timers: proven inductive here, then given
-to k-induction (assumed in every state of its step) and to Spacer (in its clauses' body).
+"""Relations between timers the model states itself: candidates added to
+`Checker.candidates`, kept where inductive by `lemmas.houdini`, then given to k-induction
+(assumed in every state of its step) and to Spacer (in its clauses' body).
 
 A proof that needs the relation between timers (a two-hand control: both hands within the
 window of a third timer) is k-inductive only at a k as long as the timer's window in scans
@@ -8,13 +9,12 @@ invariants, the same proof is 1-inductive.
 
 Candidates, over the state at the end of a scan (`blocks.py`: `_in` the timer's last IN,
 `_el` its elapsed time in units, advanced by the period at the end of the scan):
-- a block's preset (timers, counters) keeps its configured value (when the program
-  never writes it);
-- per on-delay timer (TON, `runtime/blocks.py`; Twido: the current value counts up from 0
-  while IN is 1, is 0 and Q is 0 while IN is 0, Q is 1 once the value reaches the preset
-  [TwidoSuite Programming Guide, "Timer function block %TMi", TON, manual, from memory]):
-  IN off -> V = 0; Q = (IN and V >= P); V <= P; with a fixed period, V is the elapsed
-  time before the scan's advance, in time bases, clamped at P;
+(presets and a TON's Q/V against its last IN are `lemmas.timer_candidates`')
+- per timer V <= P; per on-delay timer (TON, `runtime/blocks.py`; Twido: the current
+  value counts up from 0 while IN is 1, Q is 1 once it reaches the preset [TwidoSuite
+  Programming Guide, "Timer function block %TMi", TON, manual, from memory]) with a
+  fixed period: IN on -> V is the elapsed time before the scan's advance, in time bases,
+  clamped at P;
 - per pair of on-delay timers a, b counting in the same unit: IN_a -> IN_b (b's input is
   on whenever a's is) and, both on, el_a <= el_b (b started no later); both directions
   together: timers that share an input have equal elapsed times;
@@ -40,11 +40,8 @@ from typing import Any
 import z3
 
 from softplc.verify.blocks import time_unit, timer_cap
-from softplc.verify.checker import Checker
-from softplc.verify.clock import Clock
 
 WIDE_EL = 48  # bits for elapsed-time arithmetic: a cap (< 2^20 units) times a base (< 2^20)
-HOUDINI_CAP_S = 10.0  # s at most per solver call of the fixpoint (a share of the clock)
 MONITOR_OFFSETS = (-1, 0, 1)  # periods between the edge's scan and the timer's start
 
 
@@ -60,20 +57,13 @@ def _ew(x: Any) -> Any:
     return z3.ZeroExt(WIDE_EL - x.size(), x)
 
 
-def _timer_candidates(ck: Checker, name: str) -> list[Candidate]:
+def _timer_candidates(ck: Any, name: str) -> list[Candidate]:
     m = ck.model
     t = m.timers[name]
     k = {f: f"{name}.{f}" for f in ("P", "V", "Q", "_in", "_el")}
     out = [Candidate(f"{name}.V <= {name}.P", frozenset({k["P"], k["V"]}),
                      lambda s: s[k["V"]] <= s[k["P"]])]
-    if t.type != "TON":
-        return out
-    out += [
-        Candidate(f"{name} IN off -> {name}.V = 0", frozenset({k["_in"], k["V"]}),
-                  lambda s: z3.Implies(z3.Not(s[k["_in"]]), s[k["V"]] == 0)),
-        Candidate(f"{name}.Q = (IN and V >= P)", frozenset({k["_in"], k["V"], k["P"], k["Q"]}),
-                  lambda s: s[k["Q"]] == z3.And(s[k["_in"]], s[k["V"]] >= s[k["P"]]))]
-    if not m.variable:
+    if t.type == "TON" and not m.variable:
         u = time_unit(t, m.period_us)
         base, step = t.base_us // u, m.period_us // u
 
@@ -87,7 +77,7 @@ def _timer_candidates(ck: Checker, name: str) -> list[Candidate]:
     return out
 
 
-def _pair_candidates(ck: Checker, a: str, b: str) -> list[Candidate]:
+def _pair_candidates(ck: Any, a: str, b: str) -> list[Candidate]:
     """b's input on whenever a's is, and then b's elapsed time at least a's."""
     ia, ib, ea, eb = (f"{a}._in", f"{b}._in", f"{a}._el", f"{b}._el")
     return [Candidate(f"{a} IN on -> {b} IN on", frozenset({ia, ib}),
@@ -98,7 +88,7 @@ def _pair_candidates(ck: Checker, a: str, b: str) -> list[Candidate]:
                                            z3.ULE(_ew(s[ea]), _ew(s[eb]))))]
 
 
-def _monitor_candidates(ck: Checker, name: str) -> list[Candidate]:
+def _monitor_candidates(ck: Any, name: str) -> list[Candidate]:
     """An unanswered rising edge (`_mon` > 0 scans) and timer `name` running since."""
     m = ck.model
     t = m.timers[name]
@@ -116,16 +106,12 @@ def _monitor_candidates(ck: Checker, name: str) -> list[Candidate]:
     return out
 
 
-def candidates(ck: Checker) -> list[Candidate]:
-    """Every candidate whose state is in the requirement's cone."""
+def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
+    """The candidates over state `st`, for `Checker.candidates` (kept by `lemmas.houdini`
+    where inductive); the same list, in the same order, for every state of `ck`."""
     m, keys = ck.model, ck.state_keys()
     names = sorted(n for n in m.timers if f"{n}._in" in keys and f"{n}._el" in keys)
-    init = ck.init()
-    # a preset the program never writes keeps its configured value (an arbitrary one in
-    # the induction's first state would open any window)
-    out = [Candidate(f"{k} = {z3.simplify(init[k])}", frozenset({k}),
-                     lambda s, k=k: s[k] == init[k]) for k in keys if k.endswith(".P")]
-    out += [c for n in names for c in _timer_candidates(ck, n)]
+    out = [c for n in names for c in _timer_candidates(ck, n)]
     ton = [n for n in names if m.timers[n].type == "TON"]
     for a in ton:
         for b in ton:
@@ -134,45 +120,6 @@ def candidates(ck: Checker) -> list[Candidate]:
                     timer_cap(ta, m.period_us, m.longest_us) == \
                     timer_cap(tb, m.period_us, m.longest_us):
                 out += _pair_candidates(ck, a, b)
-    if ck.monitor and not m.variable:
+    if ck.monitor and not m.variable and "_mon" in keys:
         out += [c for n in ton for c in _monitor_candidates(ck, n)]
-    return [c for c in out if c.keys <= set(keys)]
-
-
-def houdini(ck: Checker, cands: list[Candidate], clock: Clock) -> list[Candidate]:
-    """The largest subset of `cands` true at the cold start and inductive (relative to the
-    range invariants); [] if the time is short (nothing unproven goes in)."""
-    clock.doing = "proving the timer invariants"
-    init = ck.init()
-    s0 = z3.Solver()
-    kept = [c for c in cands
-            if clock.check(s0, z3.Not(c.term(init)), what="at the cold start",
-                           cap=HOUDINI_CAP_S) == z3.unsat]
-    keys = ck.state_keys()
-    from softplc.verify.model import sort_of
-    pre = {k: z3.Const(f"{k}@hou", sort_of(v)) for k, v in keys.items()}
-    _, inp = ck.model.fresh("hou")
-    post = ck.step(pre, inp)
-    s = z3.Solver()
-    s.add(*ck.invariants(pre), *ck.assumed(post, inp))
-    while kept:
-        goals = [c.term(post) for c in kept]
-        s.push()
-        s.add(*[c.term(pre) for c in kept])
-        r = clock.check(s, z3.Not(z3.And(*goals)), what="keeping them", cap=HOUDINI_CAP_S)
-        mdl = s.model() if r == z3.sat else None
-        s.pop()
-        if r == z3.unsat:
-            return kept
-        if mdl is None:
-            return []
-        kept = [c for c, g in zip(kept, goals, strict=True)
-                if z3.is_true(mdl.eval(g, model_completion=True))]
-    return kept
-
-
-def strengthen(ck: Checker, clock: Clock) -> list[Candidate]:
-    """Prove the candidates of `ck`'s cone and add them to its invariants; the proven."""
-    proven = houdini(ck, candidates(ck), clock)
-    ck.strengthening.extend(c.term for c in proven)
-    return proven
+    return [c.term(st) for c in out if c.keys <= set(keys)]
