@@ -129,7 +129,7 @@ def machines(timeout: float, stem: str = "*") -> None:
         program = lp / f"{stem}.il"
         config = lp / f"{stem.removesuffix('_seed')}.toml"
         plc = PLC.from_file(program, config, devices=False)
-        spec = load_spec(req, [], plc.profile)
+        spec = load_spec(req, [], plc.symbols)  # as the command: symbols allowed
         print(f"{program.name} ({len(plc.ast.rungs)} rungs), {req.name}")
         run(plc, spec, timeout, 30, device_words(program, config))
 

@@ -83,6 +83,7 @@ class Checker:
         self.inp = self.model.fresh("cone")[1]
         self.post: dict[str, Any] | None = None
         self.lemma_ids: list[int] = []  # `candidates` proven inductive (`lemmas.houdini`)
+        self.timer_pairs: list[tuple[str, str]] | None = None  # `invariants.related_pairs`
         self._slice()
 
     def _slice(self) -> None:

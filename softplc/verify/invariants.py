@@ -42,7 +42,8 @@ import z3
 from softplc.verify.blocks import time_unit, timer_cap
 
 WIDE_EL = 48  # bits for elapsed-time arithmetic: a cap (< 2^20 units) times a base (< 2^20)
-MONITOR_OFFSETS = (-1, 0, 1)  # periods between the edge's scan and the timer's start
+MONITOR_OFFSETS = (-1, 0)  # periods between the timer's start and the edge's scan
+PAIR_CHECK_MS = 2000  # ms per pair: IN_a -> IN_b over one scan (small terms: the inputs)
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,26 @@ def _monitor_candidates(ck: Any, name: str) -> list[Candidate]:
     return out
 
 
+def related_pairs(ck: Any, ton: list[str]) -> list[tuple[str, str]]:
+    """The ordered pairs (a, b) of on-delay timers counting in the same unit whose inputs,
+    as one scan computes them from any state, satisfy IN_a -> IN_b: only those get the
+    pair candidates (a filter, for time: Houdini would drop the others one round each)."""
+    m = ck.model
+    post = ck.step(dict(ck.pre), ck.inp)
+    s = z3.Solver()
+    s.set("timeout", PAIR_CHECK_MS)
+    out = []
+    for a in ton:
+        for b in ton:
+            ta, tb = m.timers[a], m.timers[b]
+            if a != b and time_unit(ta, m.period_us) == time_unit(tb, m.period_us) and \
+                    timer_cap(ta, m.period_us, m.longest_us) == \
+                    timer_cap(tb, m.period_us, m.longest_us) and \
+                    s.check(post[f"{a}._in"], z3.Not(post[f"{b}._in"])) == z3.unsat:
+                out.append((a, b))
+    return out
+
+
 def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
     """The candidates over state `st`, for `Checker.candidates` (kept by `lemmas.houdini`
     where inductive); the same list, in the same order, for every state of `ck`."""
@@ -113,13 +134,10 @@ def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
     names = sorted(n for n in m.timers if f"{n}._in" in keys and f"{n}._el" in keys)
     out = [c for n in names for c in _timer_candidates(ck, n)]
     ton = [n for n in names if m.timers[n].type == "TON"]
-    for a in ton:
-        for b in ton:
-            ta, tb = m.timers[a], m.timers[b]
-            if a != b and time_unit(ta, m.period_us) == time_unit(tb, m.period_us) and \
-                    timer_cap(ta, m.period_us, m.longest_us) == \
-                    timer_cap(tb, m.period_us, m.longest_us):
-                out += _pair_candidates(ck, a, b)
+    if ck.timer_pairs is None:
+        ck.timer_pairs = related_pairs(ck, ton)
+    for a, b in ck.timer_pairs:
+        out += _pair_candidates(ck, a, b)
     if ck.monitor and not m.variable and "_mon" in keys:
         out += [c for n in ton for c in _monitor_candidates(ck, n)]
     return [c.term(st) for c in out if c.keys <= set(keys)]
