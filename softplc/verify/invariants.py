@@ -22,8 +22,9 @@ Candidates, over the state at the end of a scan (`blocks.py`: `_in` the timer's 
   unanswered rising edge, `_mon`), per on-delay timer: an unanswered edge means the timer
   runs and has run at least since that edge (its elapsed time at least `_mon` periods),
   so the deadline is reached through the timer, for every scan.
-Counters are not stated (a counter's input edges are the program's expressions, not
-state: nothing to relate its value to).
+- per counter: D = (V = P); E -> V = 9999; F -> V = 0 (its status bits against its
+  value). A counter's value against the count of its input's edges is not stated (the
+  edges are the program's expressions, not state the model keeps).
 
 A candidate is kept only if it holds at the cold start and is kept by every scan from any
 state satisfying the range invariants and the kept candidates (a greatest fixpoint,
@@ -39,6 +40,7 @@ from typing import Any
 
 import z3
 
+from softplc.runtime.blocks import MAX_VALUE
 from softplc.verify.blocks import time_unit, timer_cap
 
 WIDE_EL = 48  # bits for elapsed-time arithmetic: a cap (< 2^20 units) times a base (< 2^20)
@@ -107,6 +109,20 @@ def _monitor_candidates(ck: Any, name: str) -> list[Candidate]:
     return out
 
 
+def _counter_candidates(name: str) -> list[Candidate]:
+    """A counter's status bits against its value (`blocks.run_counter`): D is V = P after
+    every execution; E (an underflow wrapped V to 9999) and F (an overflow wrapped it to
+    0) stay set only until the next count or reset [TWD USE 10AE, "Up/down counter
+    function block %Ci", manual, from memory]."""
+    k = {f: f"{name}.{f}" for f in ("P", "V", "D", "E", "F")}
+    return [Candidate(f"{name}.D = ({name}.V = {name}.P)", frozenset({k["D"], k["V"], k["P"]}),
+                      lambda s: s[k["D"]] == (s[k["V"]] == s[k["P"]])),
+            Candidate(f"{name}.E -> {name}.V = {MAX_VALUE}", frozenset({k["E"], k["V"]}),
+                      lambda s: z3.Implies(s[k["E"]], s[k["V"]] == MAX_VALUE)),
+            Candidate(f"{name}.F -> {name}.V = 0", frozenset({k["F"], k["V"]}),
+                      lambda s: z3.Implies(s[k["F"]], s[k["V"]] == 0))]
+
+
 def related_pairs(ck: Any, ton: list[str]) -> list[tuple[str, str]]:
     """The ordered pairs (a, b) of on-delay timers counting in the same unit whose inputs,
     as one scan computes them from any state, satisfy IN_a -> IN_b: only those get the
@@ -138,6 +154,7 @@ def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
         ck.timer_pairs = related_pairs(ck, ton)
     for a, b in ck.timer_pairs:
         out += _pair_candidates(ck, a, b)
+    out += [c for n in sorted(m.counters) for c in _counter_candidates(n)]
     if ck.monitor and not m.variable and "_mon" in keys:
         out += [c for n in ton for c in _monitor_candidates(ck, n)]
     return [c.term(st) for c in out if c.keys <= set(keys)]

@@ -40,3 +40,16 @@ def test_timers_sharing_the_first_hand_are_related():
         texts = [str(ck.candidates(st)[i]) for i in kept]
     assert any("%TM0._in" in t and "%TM2._in" in t and "ULE" in t for t in texts)
     assert any("%TM1._in" in t and "%TM2._in" in t and "ULE" in t for t in texts)
+
+
+def test_counter_done_bit_against_its_value(capsys):
+    """A counter jumped over in some scans keeps its done bit as state: D = (V = P) is
+    kept, and the requirement reading it is proven."""
+    src = ("LD %I0.2\nJMPC %L1\nBLK %C0\nLD %I0.0\nCU\nLD %I0.1\nCD\nEND_BLK\n"
+           "%L1:\nLD %C0.D\nST %Q0.1\n")
+    with PLC.from_source(src, {"counters": {"%C0": {"preset": 5}}}, devices=False) as plc:
+        spec = load_spec(None, ["%Q0.1 -> %C0.V = 5"], plc.profile)
+        ck = Checker(Model(plc, spec.reads), spec, spec.requirements[0])
+        st = {k: z3.Const(k, sort_of(s)) for k, s in ck.state_keys().items()}
+        texts = [str(ck.candidates(st)[i]) for i in houdini(ck, Clock(60))]
+    assert "%C0.D == (%C0.V == %C0.P)" in texts
