@@ -371,8 +371,8 @@ def test_servo_set_and_get_ivars_while_running(tmp_path, monkeypatch, capsys):
     assert plc.devices["Y"].disturbance == 40.0
 
 
-def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
-    """The README's `softplc servo` lines, then the command's own --help examples (their
+def test_the_docs_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
+    """The servo table page's `softplc servo` lines, then the command's own --help examples (their
     daemon replaced by the in-process PLC): none refused."""
     import re
     import shlex
@@ -381,8 +381,9 @@ def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
     from softplc.machines.servo.command import _EXAMPLES
 
     plc = in_process(tmp_path, monkeypatch)
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = readme.split("## The servo XY table")[1].split("\n## ")[0]
+    from docs_util import page
+
+    section = page("docs/machines/servo-table.md")
     lines = [ln.split("#")[0].strip() for ln in re.findall(r"^softplc servo .*$", section,
                                                            re.M)]
     helps = [ln.strip() for ln in re.findall(r"^  softplc servo .*$", _EXAMPLES, re.M)]
@@ -395,6 +396,6 @@ def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
         assert softplc(argv + ([] if sim else ["--port", "1"])) == 0, line
         out = capsys.readouterr()
         assert "refused" not in out.err, line
-        if argv[1] == "scurve" and "--start" in argv:  # the README's figure
+        if argv[1] == "scurve" and "--start" in argv:  # the page's figure
             assert 14 <= max_fe_counts(out.out) <= 22
-    assert plc.devices["X"].gains.kp == 8000  # the README's `set` reached the axis
+    assert plc.devices["X"].gains.kp == 8000  # the page's `set` reached the axis
