@@ -247,9 +247,9 @@ def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp
         fe = max_fe_counts(out)
         # TABLA 4-3, Y: 11.8 counts. After the approach moves and a rest, the 12-bit DAC,
         # the friction and the integrator hunt at standstill and the stored integral adds
-        # to the peak (docs/NOTES.md "Servo axis"). How long the axis rests depends on the
-        # host's polling against the PLC's speed (--speed max): 14.54 counts for a host
-        # that answers at once, up to 21.39 for a rest of 1 s or more
+        # to the peak (docs/machines/servo-table.md, "The thesis reproduced"). How long the
+        # axis rests depends on the host's polling against the PLC's speed (--speed max):
+        # 14.54 counts for a host that answers at once, up to 21.39 for a rest of 1 s or more
         # (test_scurve_fe_depends_on_the_rest_before_the_move), so the band is wider than
         # the device test's (loop closed fresh at rest: 10.2, +-40 %).
         assert 0.6 * 11.8 <= fe <= 1.85 * 11.8
