@@ -143,4 +143,17 @@ def test_every_page_is_in_the_site_s_navigation():
     nav = (ROOT / "mkdocs.yml").read_text()
     missing = [name for name in pages() if name.startswith("docs/")
                and name.removeprefix("docs/") not in nav]
-    assert not missing
+    assert not missing, f"add them to the nav of mkdocs.yml: {missing}"
+
+
+# a file of the repository named in a page (`softplc/plc.py`, `tests/unit/test_pid.py`,
+# `ladder_programs/*.il`), as a path from the repository root
+REPO_PATH = re.compile(r"(?<![\w/.])((?:softplc|tools|tests|ladder_programs|docs)/[\w./*-]*\w)")
+
+
+def test_every_file_a_page_names_exists():
+    texts = {**pages(), "CONTRIBUTING.md": page("CONTRIBUTING.md")}
+    missing = sorted({(name, m.group(1)) for name, text in texts.items()
+                      for m in REPO_PATH.finditer(text)
+                      if not any(ROOT.glob(m.group(1))) and not any(ROOT.glob(m.group(1) + ".py"))})
+    assert not missing, f"stale file names: {missing}"
