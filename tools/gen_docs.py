@@ -342,7 +342,8 @@ def config_page() -> str:
 # ---- the Modbus map ---------------------------------------------------------------------------
 
 def modbus_page() -> str:
-    from softplc.modbus import regmap
+    from softplc import PLC
+    from softplc.modbus import regmap, tags
     from softplc.twido.profile import DEFAULT_PROFILE
 
     ident = ", ".join(f"`{v.decode()}`" for v in regmap.DEVICE_IDENTIFICATION.values())
@@ -357,9 +358,19 @@ def modbus_page() -> str:
              f"- device identification (FC 43, MEI 14): {ident}",
              f"- FC 23 writes at most {regmap.FC23_MAX_WRITE} registers; the default port is "
              f"{regmap.DEFAULT_PORT}", "",
-             "## Exception codes", "", "| code | name |", "|---|---|", codes, ""]
+             "## Exception codes", "", "| code | name |", "|---|---|", codes, "",
+             "## A program's map: the drawing table", "",
+             "What `softplc map` prints for the seed machine's program (every object it uses "
+             "that a host reaches, then what no host can reach):", "",
+             "```text", f"$ softplc map {MAP_EXAMPLE[0]} --config {MAP_EXAMPLE[1]}",
+             tags.to_text(tags.of_plc(PLC.from_file(ROOT / MAP_EXAMPLE[0],
+                                                    config=ROOT / MAP_EXAMPLE[1]))).rstrip(),
+             "```", ""]
     return "\n".join(lines)
 
+
+# the program whose `softplc map` the Modbus page shows (the seed machine's)
+MAP_EXAMPLE = ("ladder_programs/drawing_table.il", "ladder_programs/drawing_table.toml")
 
 PAGES: dict[str, Callable[[], str]] = {
     "reference/instructions.md": instructions_page,
