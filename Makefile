@@ -46,7 +46,7 @@ test: $(STAMP) sysdeps filesizes docs
 # anchor, and its hook on a generated reference page that differs from the code
 # (tools/gen_docs.py writes them).
 docs: $(STAMP)
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 filesizes:
 	@big=$$(git ls-files -z | xargs -0 -r stat -c '%s %n' 2>/dev/null | awk -v max=$(MAX_FILE_BYTES) '$$1 > max'); \
