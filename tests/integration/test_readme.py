@@ -34,6 +34,18 @@ def copy_programs(pytester: pytest.Pytester, *globs: str) -> None:
             (dst / f.name).write_text(f.read_text())
 
 
+README_MAX_LINES = 200  # issue 32: a front page; the rest is the site (docs/)
+
+
+def test_the_readme_is_a_front_page():
+    readme = page("README.md")
+    assert readme.count("\n") <= README_MAX_LINES
+    for part in ("## Set-up: two commands", "make run", "make test", "## A first example",
+                 "softplc check", "softplc run", "softplc io", "@pytest.mark.plc_program",
+                 "(docs/index.md)"):
+        assert part in readme, part
+
+
 # ---- the README's first example: check, (run, operate: tests/e2e/test_first_hour.py), test ----
 def test_readme_first_example_checks(capsys):
     from softplc.cli import main
