@@ -154,6 +154,11 @@ def test_every_python_block_compiles(where, line, text):
     compile(text, f"{where}:{line}", "exec")
 
 
+def test_every_code_block_says_its_language():
+    untagged = [(name, line) for name, line, _text in blocks("")]
+    assert not untagged, f"fenced code without a language: {untagged}"
+
+
 def test_every_page_is_in_the_site_s_navigation():
     """By hand in mkdocs.yml, or, for the design records, by the build's hook."""
     nav = (ROOT / "mkdocs.yml").read_text()
