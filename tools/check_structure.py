@@ -61,8 +61,10 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc", "softplc.cli", "softplc.__main__"),
 )
 MACHINES = "softplc.machines."
-# what two machines may share: the G-code reader, where the shipped examples are
-SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples")
+# what two machines may share: the G-code reader, where the shipped examples are, the
+# lazy exports of their packages
+SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples",
+                       "softplc.machines.lazy")
 # the wing's own modules that name every machine: the package, the device registry
 MACHINE_REGISTRY = ("softplc.machines", "softplc.machines.devices")
 
