@@ -24,8 +24,8 @@ DECISIONS = "decisions"
 DECISIONS_TITLE = "Design decisions"
 RECORDS_MARK = "<!-- records -->"  # where the index page gets its table of records
 # "**Decision.** ...", "**Decision:** ..." or a "## Decision" heading, then its sentence
-DECISION = re.compile(r"(?:\*\*Decision[.:]?\*\*[.:]?|^#+ *Decision *[.:]? *$)\s+(.+?\.)(?:\s|$)",
-                      re.S | re.M)
+DECISION = re.compile(r"(?:\*\*Decision[.:]?\*\*[.:]?|^#+ *Decision *[.:]? *$)\s+"
+                      r"(?:\d+\.\s+|[-*]\s+)?(.+?\.)(?:\s|$)", re.S | re.M)
 
 
 def records(docs: Path) -> list[Path]:
