@@ -26,6 +26,7 @@ RECORDS_MARK = "<!-- records -->"  # where the index page gets its table of reco
 # "**Decision.** ...", "**Decision:** ..." or a "## Decision" heading, then its sentence
 DECISION = re.compile(r"(?:\*\*Decision[.:]?\*\*[.:]?|^#+ *Decision *[.:]? *$)\s+"
                       r"(?:\d+\.\s+|[-*]\s+)?(.+?\.)(?:\s|$)", re.S | re.M)
+SUMMARY_MAX = 240  # characters of a decision's first sentence in the index's table
 
 
 def records(docs: Path) -> list[Path]:
@@ -37,8 +38,12 @@ def _summary(text: str) -> tuple[str, str]:
     """A record's title and the first sentence of its decision."""
     title = re.search(r"^# (.+)$", text, re.M)
     decision = DECISION.search(text)
-    return (title.group(1).strip() if title else "",
-            " ".join(decision.group(1).split()) if decision else "")
+    sentence = " ".join(decision.group(1).split()) if decision else ""
+    if len(sentence) > SUMMARY_MAX:  # a long one: up to its first colon, else cut short
+        head = sentence.split(": ", 1)[0]
+        sentence = head + ": ..." if len(head) <= SUMMARY_MAX \
+            else sentence[:SUMMARY_MAX].rsplit(" ", 1)[0] + " ..."
+    return (title.group(1).strip() if title else "", sentence)
 
 
 def records_table(docs: Path) -> str:
