@@ -1,7 +1,8 @@
 """mkdocs hooks (mkdocs.yml `hooks:`): the build fails when a generated reference page
 differs from the code (`tools/gen_docs.py`); the design records of `docs/decisions/` are
 listed by themselves (in the navigation and in the records' index page, from each record's
-title and first sentence), so a new record needs no edit elsewhere; the site's changelog page
+title and first sentence), so a new record needs no edit elsewhere; the architecture page
+shows the import layers of `tools/check_structure.py` as they are; the site's changelog page
 is the repository's CHANGELOG.md (one file, not a copy)."""
 
 from __future__ import annotations
@@ -17,12 +18,14 @@ from mkdocs.structure.files import File, Files
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
 
-import gen_docs  # noqa: E402  (tools/ is not a package)
+import check_structure  # noqa: E402  (tools/ is not a package)
+import gen_docs  # noqa: E402
 
 CHANGELOG = "changelog.md"
 DECISIONS = "decisions"
 DECISIONS_TITLE = "Design decisions"
 RECORDS_MARK = "<!-- records -->"  # where the index page gets its table of records
+LAYERS_MARK = "<!-- layers -->"  # where the architecture page gets the import layers
 # "**Decision.** ...", "**Decision:** ..." or a "## Decision" heading, then its sentence
 DECISION = re.compile(r"(?:\*\*Decision[.:]?\*\*[.:]?|^#+ *Decision *[.:]? *$)\s+"
                       r"(?:\d+\.\s+|[-*]\s+)?(.+?\.)(?:\s|$)", re.S | re.M)
@@ -76,7 +79,17 @@ def on_files(files: Files, config: Any) -> Files:
     return files
 
 
+def layers_list() -> str:
+    """The layers of tools/check_structure.py, lowest first, as a numbered list."""
+    return "\n".join(f"{n}. " + ", ".join(f"`{m}`" for m in layer)
+                     for n, layer in enumerate(check_structure.LAYERS, 1))
+
+
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str:
+    if page.file.src_uri == "architecture.md":
+        if LAYERS_MARK not in markdown:
+            raise PluginError(f"docs/architecture.md lost its {LAYERS_MARK} line")
+        return markdown.replace(LAYERS_MARK, layers_list())
     if page.file.src_uri == f"{DECISIONS}/index.md":
         if RECORDS_MARK not in markdown:
             raise PluginError(f"docs/{DECISIONS}/index.md lost its {RECORDS_MARK} line")
