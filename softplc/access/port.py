@@ -166,7 +166,11 @@ class AccessPort:
                 why = self.why_not_writable(ref)
                 if why:
                     raise AccessError(why, 403)
-                checked.append((ref, self.check_value(ref, v)))
+                v = self.check_value(ref, v)
+                why = self.machine.write_refusal(ref, v)
+                if why:  # the device would refuse it at its next scan: say so now
+                    raise AccessError(why)
+                checked.append((ref, v))
         self.queue.put([Write(ref, v) for ref, v in checked if not self._to_image(ref)])
         for ref, v in checked:
             if self._to_image(ref):

@@ -134,7 +134,7 @@ class LinkMaster(LinkStation):
         error = ERR_NONE
         for a, role in self.remotes.items():
             reply = None if self.transport is None else \
-                self.transport.poll(a, self._request(a, role))
+                self.transport.poll(a, self.request(a, role))
             if reply is not None and reply.role != role:
                 error = ERR_MISMATCH
                 reply = None
@@ -156,7 +156,8 @@ class LinkMaster(LinkStation):
                 self.mem.i_field[first:first + n] = reply.inputs[:n]
         self.mem.sw.uw[SW_LINK_ERROR] = error
 
-    def _request(self, a: int, role: str) -> Request:
+    def request(self, a: int, role: str) -> Request:
+        """The poll for remote `a` from the memory as it stands (the last scan's)."""
         if role == REMOTE_IO:  # the outputs the last scan published
             first = remote_io_slot(self.mem.profile, a)
             return Request(outputs=tuple(
@@ -188,9 +189,15 @@ class LinkRemote(LinkStation):
             if request is not None:
                 n = min(len(request.outputs), mem.profile.outputs_base)
                 mem.q[:n] = mem.q_field[:n] = request.outputs[:n]
-            return Reply(self.role, inputs=tuple(mem.i_field[:mem.profile.inputs_base]))
+            return self.reply()
         if request is not None:
             self._put("inw", MASTER, request.words)
+        return self.reply()
+
+    def reply(self) -> Reply:
+        """What this remote answers from its memory as it stands, changing nothing."""
+        if self.role == REMOTE_IO:
+            return Reply(self.role, inputs=tuple(self.mem.i_field[:self.mem.profile.inputs_base]))
         return Reply(self.role, self._words("qnw", MASTER))
 
     def tick(self) -> None:

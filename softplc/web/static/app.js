@@ -58,7 +58,7 @@ async function post(path, body, retry = true) {
       const t = prompt(data.error + "\n\nToken (printed by softplc run at start):");
       if (t) { localStorage.setItem("softplc.token", t.trim()); return post(path, body, false); }
     }
-    if (!r.ok) { say(data.error || r.statusText); return null; }
+    if (!r.ok) { post.error = data.error || r.statusText; say(post.error); return null; }
     return data;
   } catch (e) { say("daemon unreachable: " + e); return null; }
 }
@@ -394,9 +394,14 @@ function tableRow(obj, entry) {
     ...FORMATS.map((f) => h("option", { value: f }, f)));
   sel.value = state.formats[obj] || "dec";
   const input = h("input", { class: "w", placeholder: "value" });
+  const note = h("div", { class: "write-note" });  // a refused write says why, in its row
   const doWrite = async () => {
     if (input.value.trim() === "") return;
-    if (await write(obj, parseEntry(input.value, obj))) { say(`${obj} := ${input.value} queued`, true); input.value = ""; }
+    post.error = "";
+    const ok = await write(obj, parseEntry(input.value, obj));
+    input.classList.toggle("refused", !ok);
+    note.textContent = ok ? "" : post.error;
+    if (ok) { say(`${obj} := ${input.value} queued`, true); input.value = ""; }
   };
   input.addEventListener("keydown", (e) => { if (e.key === "Enter") doWrite(); });
   const bit = /^%(I|Q|M|S|X)\d/.test(obj) && !/^%(MW|MD|MF|SW)/.test(obj);
@@ -406,7 +411,7 @@ function tableRow(obj, entry) {
     h("td", { class: "obj", title: commentOf(obj) }, obj, " ", symbolTag(obj), " ", h("span", { class: "forced-mark" }, "F")),
     h("td", { class: "val" }, "…"), h("td", {}, block || bit ? "" : sel),
     h("td", {}, block ? h("span", { class: "hint" }, `write ${obj}.P …`) : input, " ",
-      block ? "" : h("button", { class: "write", onclick: doWrite }, "Write")),
+      block ? "" : h("button", { class: "write", onclick: doWrite }, "Write"), block ? "" : note),
     h("td", {}, forceable ? h("button", { class: "force", onclick: async () => {
       const v = input.value.trim() === "" ? (bit ? 1 : state.values[obj]) : parseEntry(input.value, obj);
       await force(obj, v);
