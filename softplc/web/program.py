@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
-import tomllib
 from dataclasses import asdict
 from typing import Any
 
 from softplc import online
 from softplc.access.program import ProgramAccess
+from softplc.config import parse_toml
 from softplc.errors import ConfigError, ProgramError, SoftPLCError
 from softplc.modbus import tags
 from softplc.modbus.regmap import COILS
@@ -93,8 +93,8 @@ class ProgramChanges:
         raw = None
         if config is not None:
             try:
-                raw = tomllib.loads(config)
-            except tomllib.TOMLDecodeError as e:
+                raw = parse_toml(config)
+            except ConfigError as e:
                 raise ApiError(f"configuration: {e}") from None
         return text, raw, name or "<online change>", flags[0], flags[1]
 
