@@ -71,6 +71,6 @@ def test_limits_leave_real_requirements_alone(tmp_path):
         '[environment]\nhost = ["%MW0:2"]\n[[requirement]]\nname = "n"\n'
         'check = "%I0.0 rising -> %Q0.1 within 0 scans"\n[[requirement]]\n'
         'check = "never %MD4 = #FFFFFFFF OR %MW0 = -2147483648"\n')
-    spec = load_spec(tmp_path / "req.toml", ["never " + "NOT (" * 60 + "%M0" + ")" * 60],
+    spec = load_spec(tmp_path / "req.toml", ["never " + "NOT (" * 30 + "%M0" + ")" * 30],
                      DEFAULT_PROFILE)
     assert [r.kind for r in spec.requirements] == ["response", "always", "always"]
