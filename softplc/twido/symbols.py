@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
+from softplc.limits import MAX_SYMBOLS_BYTES, BoundsError, decode_text, read_bytes
 from softplc.twido import catalog
 from softplc.twido.address import Ref, parse_address
 from softplc.twido.profile import DEFAULT_PROFILE, Profile
@@ -45,6 +46,9 @@ RESERVED = frozenset("""
 """.split()) | set(catalog.by_instruction())  # and the block instructions (`[ PID n ]`)
 _NUMBERED_KEYWORD = re.compile(r"^(SR|EXCH)\d+$", re.I)
 CSV_HEADER = ("Address", "Symbol", "Comment")
+#: Symbols one CSV declares: more than the objects of the largest Twido one would name
+#: (3,000 %MW, 256 %M, 128 timers, 128 counters... [manual, from memory]).
+MAX_SYMBOLS = 10_000
 
 
 @dataclass(frozen=True)
@@ -208,9 +212,18 @@ def read_csv(text: str, source: str = "<csv>") -> list[Symbol]:
     lines = [ln for ln in text.splitlines() if ln.strip()]
     if not lines:
         return []
+    if len(lines) > MAX_SYMBOLS + 1:  # and a header line
+        raise ConfigError(ConfigIssue("", f"{source}: {len(lines)} lines, at most "
+                                      f"{MAX_SYMBOLS} symbols", ConfigCode.FILE))
     delimiter = max((",", ";", "\t"), key=lambda d: lines[0].count(d))
     out = []
-    for n, row in enumerate(csv.reader(lines, delimiter=delimiter), 1):
+    rows = csv.reader(lines, delimiter=delimiter)
+    for n in range(1, len(lines) + 1):
+        try:
+            row = next(rows)
+        except (csv.Error, StopIteration) as e:  # a field over csv's size limit, a NUL
+            raise ConfigError(ConfigIssue("", f"{source}:{n}: not a symbol line: {e}",
+                                          ConfigCode.FILE)) from None
         cells = [c.strip() for c in row]
         if n == 1 and not any(c.startswith("%") for c in cells[:2]):
             continue  # the header line
@@ -225,14 +238,15 @@ def read_csv(text: str, source: str = "<csv>") -> list[Symbol]:
 
 def read_csv_file(path: str | Path) -> list[Symbol]:
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
+    try:  # UTF-8, else ANSI (cp1252) as TwidoSuite on Windows writes it
+        text = decode_text(read_bytes(p, MAX_SYMBOLS_BYTES, "the symbol file"),
+                           "the symbol file", fallback="cp1252")
     except FileNotFoundError:
         raise ConfigError(f"{p}: no such symbol file") from None
-    except UnicodeDecodeError:
-        text = p.read_text(encoding="cp1252")  # TwidoSuite on Windows writes ANSI
     except OSError as e:
         raise ConfigError(f"cannot read symbol file {p}: {e.strerror}") from None
+    except BoundsError as e:
+        raise ConfigError(ConfigIssue("", f"{p}:{e}", ConfigCode.FILE)) from None
     return read_csv(text, str(p))
 
 
