@@ -694,6 +694,7 @@ def parse_file(path: str | Path, symbols: SymbolTable | None = None) -> A.Progra
     try:
         text = read_bytes(p, MAX_PROGRAM_BYTES, "the program").decode("utf-8-sig", "replace")
     except (OSError, BoundsError) as e:
-        raise ParseError(Diagnostic(f"cannot read program: {getattr(e, 'strerror', e)}", str(p),
+        why = getattr(e, "strerror", None) or e
+        raise ParseError(Diagnostic(f"cannot read program: {why}", str(p),
                                     code=Code.CANNOT_READ)) from None
     return parse(text, str(p), symbols)
