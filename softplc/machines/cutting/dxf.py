@@ -21,9 +21,10 @@ import gc
 import math
 import os
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from softplc.limits import MAX_DXF_BYTES
 from softplc.machines.cutting.geometry import SAME_POINT, Arc, GeometryError, Line, Point, distance
@@ -42,6 +43,7 @@ MAX_COORD = 1e6
 #: Largest |bulge| of a polyline vertex: tan(θ/4) of an arc of θ = 359.9999° is 2.3e6;
 #: beyond, the arc is a full circle to rounding (and 1e300 divided by zero).
 MAX_BULGE = 1e7
+_TAIL = 64  # bytes read at the end of a file for its EOF
 
 
 def bulge_arc(p1: Point, p2: Point, bulge: float) -> Arc:
@@ -130,6 +132,17 @@ def _line_of(file: str, handle: str) -> int:
     return 0
 
 
+def _check_complete(file: str) -> None:
+    """A DXF file ends with the group `0` / `EOF`: one cut short (a copy or a download
+    that stopped) would otherwise be read up to where it stops, a part of the piece."""
+    with open(file, "rb") as f:
+        f.seek(max(os.fstat(f.fileno()).st_size - _TAIL, 0))
+        tail = f.read().split()
+    if tail[-2:] != [b"0", b"EOF"]:
+        raise PieceError(f"{file}: not a readable DXF file: it does not end with 0 / EOF "
+                         "(truncated?)")
+
+
 @contextmanager
 def _no_gc() -> Iterator[None]:
     """The cyclic garbage collector paused while a drawing's objects are created: its
@@ -160,7 +173,8 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
                    move_speed: float | None = None, accel: float = DEFAULT_ACCEL,
                    tolerance: float = 0.01, work_area: Point = WORK_AREA) -> Piece:
     """A piece from the LINE, ARC, CIRCLE and LWPOLYLINE entities of a DXF file."""
-    import ezdxf
+    from ezdxf.addons import iterdxf
+    from ezdxf.filemanagement import dxf_file_info
     from ezdxf.lldxf.const import DXFError
 
     file = str(path)
@@ -171,27 +185,25 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
     try:
         if os.stat(file).st_size > MAX_DXF_BYTES:
             raise PieceError(f"{file}: larger than {MAX_DXF_BYTES // 2**20} MiB")
-        with _no_gc():
-            doc = ezdxf.readfile(file)
+        _check_complete(file)
+        with _no_gc():  # entities streamed, never all in memory (ezdxf's iterdxf)
+            return _piece(iterdxf.modelspace(file), dxf_file_info(file).insert_units, file,
+                          speed, move_speed, accel, tolerance, work_area)
     except OSError as e:
         raise PieceError(f"{file}: cannot read the file: {e.strerror or e}") from None
-    except (DXFError, ValueError, UnicodeDecodeError, StopIteration, IndexError,
-            KeyError, TypeError) as e:  # ezdxf's errors on a truncated or garbled file
+    except (DXFError, ValueError, UnicodeDecodeError, IndexError, KeyError, TypeError,
+            StopIteration, RuntimeError) as e:  # ezdxf's errors on a truncated file
         why = str(e) if type(e).__name__ in str(e) else f"{type(e).__name__}: {e}"
-        if isinstance(e, StopIteration | IndexError):
+        if isinstance(e, IndexError | StopIteration | RuntimeError):  # (in a generator,
+            # a StopIteration becomes a RuntimeError)
             why = "it ends in the middle of an entry (truncated?)"
         raise PieceError(f"{file}: not a readable DXF file: {why}") from None
-    with _no_gc():
-        return _piece(doc, file, speed, move_speed, accel, tolerance, work_area)
 
 
-def _piece(doc: object, file: str, speed: float, move_speed: float | None, accel: float,
-           tolerance: float, work_area: Point) -> Piece:
-    """The piece of a read drawing (`piece_from_dxf`)."""
-    try:
-        units = int(doc.header.get("$INSUNITS", 0))  # type: ignore[attr-defined]
-    except (TypeError, ValueError):
-        units = -1
+def _piece(entities: Iterable[Any], units: Any, file: str, speed: float,
+           move_speed: float | None, accel: float, tolerance: float, work_area: Point
+           ) -> Piece:
+    """The piece of a drawing's modelspace entities (`piece_from_dxf`)."""
     if units not in MM_PER_UNIT:
         raise PieceError(f"{file}: $INSUNITS = {units}: only unitless, mm, cm, m and inch "
                          "drawings are read")
@@ -199,7 +211,7 @@ def _piece(doc: object, file: str, speed: float, move_speed: float | None, accel
     elements: list[Element] = []
     skipped: Counter[str] = Counter()
     pos: Point = (0.0, 0.0)
-    for e in doc.modelspace():  # type: ignore[attr-defined]
+    for e in entities:
         kind = e.dxftype()
         if kind not in CUT_TYPES:
             skipped[kind] += 1
