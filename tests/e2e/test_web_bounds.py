@@ -9,6 +9,10 @@ import urllib.error
 import urllib.request
 
 import pytest
+from fuzz_budget import examples
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from input_fuzz import online_change
 from test_web_api import STAR
 
 from softplc.commands.io import IoError
@@ -47,3 +51,15 @@ def test_json_bodies_refuse_huge_and_non_finite_numbers(star, body, words):
     with pytest.raises(urllib.error.HTTPError) as e:
         urllib.request.urlopen(req, timeout=5)
     assert e.value.code == 400 and words in json.loads(e.value.read())["error"]
+
+
+def test_mutated_online_changes_are_answered_never_with_a_500(star):
+    base = star.client().base
+
+    @settings(max_examples=examples(160), deadline=None, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(st.data())
+    def run(data):
+        assert online_change(base, data) in ("read", "refused")
+
+    run()
