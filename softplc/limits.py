@@ -88,7 +88,7 @@ def decode_text(data: bytes, what: str, fallback: str | None = None) -> str:
     nul = data.find(b"\0")
     if nul >= 0:
         line, col = position(data.decode("latin-1"), nul)
-        raise BoundsError(f"{what} is a binary file (a NUL byte), not text", line, col)
+        raise BoundsError(f"{what} is not a text file (a NUL byte: binary)", line, col)
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
@@ -99,7 +99,7 @@ def decode_text(data: bytes, what: str, fallback: str | None = None) -> str:
         except UnicodeDecodeError as e:
             bad = e.start
     line, col = position(data.decode("latin-1"), bad)
-    raise BoundsError(f"{what} is not text: byte 0x{data[bad]:02x} is no character of "
+    raise BoundsError(f"{what} is not a text file: byte 0x{data[bad]:02x} is no character of "
                       f"{'UTF-8' + (' or ' + fallback if fallback else '')}", line, col)
 
 

@@ -86,15 +86,15 @@ def test_toml_strings_and_comments_are_not_counted():
 def test_a_binary_configuration_file_is_a_file_error(tmp_path):
     p = tmp_path / "c.toml"
     p.write_bytes(b"scan_period = 1\n\x00\x01\x02")
-    with pytest.raises(ConfigError, match=r"2:1: the file is a binary file") as e:
+    with pytest.raises(ConfigError, match=r"2:1: the file is not a text file") as e:
         read_toml(p)
     assert e.value.issues[0].code == ConfigCode.FILE
 
 
 @pytest.mark.parametrize("data, where", [
-    (bytes(range(256)) * 8, ":1:1: the symbol file is a binary file"),
+    (bytes(range(256)) * 8, ":1:1: the symbol file is not a text file"),
     # no NUL, but bytes neither UTF-8 nor cp1252 has (0x81 0x8d 0x8f 0x90 0x9d)
-    (b"%M0,START\r\n%M1,ST\x81OP\r\n", ":2:7: the symbol file is not text: byte 0x81"),
+    (b"%M0,START\r\n%M1,ST\x81OP\r\n", ":2:7: the symbol file is not a text file: byte 0x81"),
 ])
 def test_a_binary_symbol_file_is_a_coded_error(tmp_path, data, where):
     p = tmp_path / "s.csv"

@@ -49,8 +49,8 @@ def refused(tmp_path: Path, text: str | bytes, exprs: tuple[str, ...] = ()) -> V
     ("[environment]\nhots = []\n" + OK, 2, 1, "unknown key environment.hots"),
     ("", 0, 0, "the file is empty"),
     ("# only a comment\n", 0, 0, "no requirement to check"),
-    (bytes(range(256)) * 4, 1, 1, "binary file"),
-    (b'[[requirement]]\ncheck = "never \xff"\n', 2, 16, "not text"),
+    (bytes(range(256)) * 4, 1, 1, "not a text file (a NUL"),
+    (b'[[requirement]]\ncheck = "never \xff"\n', 2, 16, "not a text file: byte"),
 ])
 def test_bad_requirement_files_are_coded_errors_at_line_col(tmp_path, text, line, col, words):
     e = refused(tmp_path, text)
