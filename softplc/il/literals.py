@@ -22,7 +22,7 @@ INT, HEX, FLOAT = "int", "hex", "float"
 
 
 def _pos(tok: Token) -> A.Pos:
-    return A.Pos(tok.line, tok.column)
+    return A.Pos(tok.line or 0, tok.column or 0, tok.end_line or 0, tok.end_column or 0)
 
 
 def number(tok: Token, kind: str, file: str, diags: list[Diagnostic]) -> A.Num:
