@@ -17,12 +17,10 @@ check, speeds and chord tolerance as for G-code (`piece.piece_from_gcode`).
 
 from __future__ import annotations
 
-import gc
 import math
 import os
 from collections import Counter
-from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -143,19 +141,6 @@ def _check_complete(file: str) -> None:
                          "(truncated?)")
 
 
-@contextmanager
-def _no_gc() -> Iterator[None]:
-    """The cyclic garbage collector paused while a drawing's objects are created: its
-    passes over every live object made a 200,000-entity import superlinear."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
-
-
 def _upright(e: object, where: str) -> None:
     """Entities drawn with the extrusion (0, 0, -1) turned to (0, 0, 1), same curve."""
     ext = getattr(e.dxf, "extrusion", None)  # type: ignore[attr-defined]
@@ -186,9 +171,9 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
         if os.stat(file).st_size > MAX_DXF_BYTES:
             raise PieceError(f"{file}: larger than {MAX_DXF_BYTES // 2**20} MiB")
         _check_complete(file)
-        with _no_gc():  # entities streamed, never all in memory (ezdxf's iterdxf)
-            return _piece(iterdxf.modelspace(file), dxf_file_info(file).insert_units, file,
-                          speed, move_speed, accel, tolerance, work_area)
+        # the entities streamed (ezdxf's iterdxf): never the whole document in memory
+        return _piece(iterdxf.modelspace(file), dxf_file_info(file).insert_units, file,
+                      speed, move_speed, accel, tolerance, work_area)
     except OSError as e:
         raise PieceError(f"{file}: cannot read the file: {e.strerror or e}") from None
     except (DXFError, ValueError, UnicodeDecodeError, IndexError, KeyError, TypeError,
