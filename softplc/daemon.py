@@ -299,6 +299,9 @@ class Daemon:
             image = self.image = ModbusImage(
                 plc.mem, ReadOnly(ro.registers + device_ro, ro.coils), store=store,
                 blocks=blocks, writes_allowed=not opt.read_only)
+            for dev in plc.devices.values():  # a value a device refuses: exception 03
+                if dev.word_check is not None:
+                    image.check_values(dev.word_check.ranges(), dev.word_check.refusal)
             plc.before_scan.append(image.apply_writes)
             plc.after_scan.append(image.take_snapshot)
             server = ServerThread(image, opt.host, opt.port, sockets=sockets,

@@ -31,7 +31,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="requirement file ([environment], [[requirement]] check = ...)")
     p.add_argument("--require-expr", action="append", default=[], metavar="TEXT",
                    help="a requirement on the command line, e.g. 'never %%Q0.1 AND %%Q0.2' "
-                        "(repeatable)")
+                        "or, with the configuration's symbols, 'never KM2_STAR AND "
+                        "KM3_DELTA' (repeatable)")
     p.add_argument("--depth", type=int, default=DEPTH,
                    help="scans searched for a counterexample (default %(default)s)")
     p.add_argument("--max-k", type=int, default=MAX_K,
@@ -73,16 +74,20 @@ def _progress(quiet: bool) -> Any:
     return show
 
 
-def table(rows: list[dict[str, Any]]) -> str:
-    """Inputs per scan | the values the requirement reads."""
+def table(rows: list[dict[str, Any]], symbols: Any = None) -> str:
+    """Inputs per scan | the values the requirement reads; a line of symbols above the
+    addresses that have one (`symbols`: the configuration's SymbolTable)."""
     ins = sorted({k for r in rows for k in r["inputs"]})
     vals = list(rows[0]["values"]) if rows else []
     head = ["scan"] + ins + (["|"] if vals else []) + vals
     body = [[str(n)] + [str(r["inputs"].get(k, "")) for k in ins] + (["|"] if vals else [])
             + [str(r["values"][k]) for k in vals] for n, r in enumerate(rows, 1)]
-    widths = [max(len(c[i]) for c in [head] + body) for i in range(len(head))]
+    names = [symbols.name_of(symbols.ref(k)) or "" if symbols is not None and k.startswith("%")
+             else "" for k in head]
+    lines = ([names] if any(names) else []) + [head] + body
+    widths = [max(len(c[i]) for c in lines) for i in range(len(head))]
     return "\n".join("    " + " ".join(c.rjust(w) for c, w in zip(line, widths, strict=True))
-                     for line in [head] + body)
+                     for line in lines)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -113,7 +118,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.require is not None:
         existing_file(args.require, "requirements")
     plc = load_plc(args, devices=False)
-    spec = load_spec(args.require, args.require_expr, plc.profile)
+    spec = load_spec(args.require, args.require_expr, plc.symbols)
     if args.scan_period:
         from softplc.verify.requirements import parse_periods
         try:
@@ -155,7 +160,7 @@ def _run(args: argparse.Namespace) -> int:
             continue
         print(f"VIOLATED  {req.name}: counterexample of {res.depth} scan(s) from a cold "
               f"start ({res.seconds:.1f} s)")
-        print(table(res.trace))
+        print(table(res.trace, plc.symbols))
         with type(plc).from_file(args.program, args.config, devices=False) as again:
             diffs = replay(again, res.trace)
         if diffs:
@@ -174,7 +179,7 @@ def _run(args: argparse.Namespace) -> int:
             print(f"counterexamples written to {args.cex} (softplc repl {args.program} "
                   f"--replay {args.cex})")
         if cexs and args.emit_test:
-            emit_test(args.emit_test, args.program, args.config, cexs)
+            emit_test(args.emit_test, args.program, args.config, cexs, plc.symbols)
             print(f"pytest test written to {args.emit_test}")
     except OSError as e:
         raise SoftPLCError(f"cannot write {e.filename}: {e.strerror}") from None

@@ -32,6 +32,9 @@ BLOCK_OUTPUTS = {f.kind: f.outputs for f in catalog.addressable() if f.fields}
 # blocks whose preset a store clamps to 0 .. MAX_VALUE (the others clamp it themselves or
 # take any word)
 CLAMPED_PRESET = frozenset(f.kind for f in catalog.FAMILIES.values() if f.clamp_preset)
+# word objects indexed by (module or station, channel), never by a %MW: analog I/O words and
+# the Remote Link's network words
+DIRECT_WORDS = frozenset(("IW", "QW", "INW", "QNW"))
 # Operand code without side effects (a buffer read, a literal): may be evaluated out of order
 _PURE = re.compile(r"-?[\w\[\]]+")
 
@@ -163,7 +166,7 @@ class ObjectCompiler:
                 return f"{b}.bit({ref.bit})"
             # a block holds its outputs as 0/1: compared, they store bools in the images
             return f"({b}.{ref.field} == 1)"
-        self.err(f"{ref} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
+        self.err(f"{ref.label} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
                  f"a bit (%I, %Q, %M, %S, %MWi:Xk, block output) or a comparison block "
                  f"such as [ {ref} <> 0 ]", code=Code.BLOCK)
         return "0"
@@ -173,7 +176,7 @@ class ObjectCompiler:
         k = ref.kind
         if ref.length is not None and k in BIT_BUFFERS and ref.offset is None:
             if ref.length > 32:  # a bit string read as a word (<= 16) or double word
-                self.err(f"{ref}: a bit string of {ref.length} bits", pos, str(ref),
+                self.err(f"{ref.label}: a bit string of {ref.length} bits", pos, str(ref),
                          "at most 16 bits for a word, 32 for a double word", code=Code.TYPE)
                 return "0", INT16
             h = self.helper("bitstr16" if ref.length <= 16 else "bitstr32")
@@ -181,18 +184,18 @@ class ObjectCompiler:
             return f"{h}({BIT_BUFFERS[k]}, {ref.index}, {ref.length})", \
                 INT16 if ref.length <= 16 else INT32
         if ref.length is not None:
-            self.err(f"{ref}: a word table cannot be used in an expression", pos, str(ref),
+            self.err(f"{ref.label}: a word table cannot be used in an expression", pos, str(ref),
                      "a single word, double word or float, or a bit string %Mi:L", code=Code.TYPE)
             return "0", INT16
         if ref.bit is not None or ref.type == BOOL:
-            self.err(f"{ref} is a bit, not a number", pos, str(ref),
+            self.err(f"{ref.label} is a bit, not a number", pos, str(ref),
                      "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)",
                      code=Code.TYPE)
             return "0", INT16
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
-            if k in ("IW", "QW"):  # the resolve pass checked the module (PLC._allocate)
+            if k in DIRECT_WORDS:  # the resolve pass checked the module (PLC._allocate)
                 return f"{buf}[{ref.index}]", INT16
             return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
         if k in PAIR_VIEWS:
@@ -207,12 +210,12 @@ class ObjectCompiler:
             return f"{view}[{ref.index >> 1}]", typ
         if k in BLOCK_OUTPUTS:
             if ref.field is None:
-                self.err(f"{ref} is a function block, not a value", pos, str(ref),
+                self.err(f"{ref.label} is a function block, not a value", pos, str(ref),
                          f"a field of it, such as {ref}.V or {ref}.P", code=Code.TYPE)
                 return "0", INT16
             b = self.block_name(Ref(ref.kind, ref.index))
             return f"{b}.{ref.field}", INT16
-        self.err(f"{ref} cannot be used in an expression", pos, str(ref),
+        self.err(f"{ref.label} cannot be used in an expression", pos, str(ref),
                  "a word, double word or float", code=Code.TYPE)
         return "0", INT16
 
@@ -220,6 +223,7 @@ class ObjectCompiler:
         if not ref.writable:
             what = {"I": "an input: the program cannot write inputs",
                     "IW": "an analog input: the program cannot write inputs",
+                    "INW": "a Remote Link word received: the program writes %QNW",
                     "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
                 ref.kind, "read-only")
             self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
@@ -253,7 +257,7 @@ class ObjectCompiler:
             self.emit(f"{u}[{ref.index}] = ({u}[{ref.index}] | {mask}) if {value} else "
                       f"({u}[{ref.index}] & {0xFFFF ^ mask})")
         else:
-            self.err(f"{ref} is not a bit that can be stored to", pos, str(ref),
+            self.err(f"{ref.label} is not a bit that can be stored to", pos, str(ref),
                      "%Q, %M, %S, %X or %MWi:Xk", code=Code.TYPE)
 
     @staticmethod
@@ -264,7 +268,7 @@ class ObjectCompiler:
         k = ref.kind
         if self.store_unchecked(ref, code, t):
             return
-        if k in ("IW", "QW"):
+        if k in DIRECT_WORDS:
             self.use(WORD_BUFFERS[k])
             self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
         elif k in WORD_BUFFERS:

@@ -1,5 +1,5 @@
 """Debugger commands: views of the PLC and the program (timers, counters, pid, pulses,
-analog, status, where, rung, rungs, reload, help, quit)."""
+analog, link, status, where, rung, rungs, reload, help, quit)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from softplc.debug.stepper import BreakKind, DebugError, resolve_rung
 from softplc.il import ast as A
 from softplc.il.parser import parse_file
 from softplc.twido import catalog
+from softplc.twido.address import LINK_WORDS
 
 if TYPE_CHECKING:
     from softplc.debug.session import Session
@@ -84,6 +85,28 @@ def cmd_analog(s: Session, arg: str) -> str:
     return "\n".join(lines)
 
 
+@command("link")
+def cmd_link(s: Session, arg: str) -> str:
+    """link: the Remote Link station (master or peer), each station's presence, the
+    status words %SW111-%SW113 and the network words %INW / %QNW."""
+    link = s.plc.machine.link
+    if link is None:
+        return "no Remote Link ([remote_link] not configured)"
+    st = link.status()
+    lines = [f"address {link.address} ({s.plc.settings.remote_link.kind})   %SW111="
+             f"16#{st['status']:04X} %SW112={st['error']} %SW113=16#{st['config']:04X}"]
+    stations = getattr(link, "remotes", None) or {0: "peer"}
+    for a, role in stations.items():
+        here = "present" if st["status"] >> ((a or link.address) - 1) & 1 else "ABSENT"
+        if role != "peer":  # a remote I/O controller: its channels are the master's %Ia.0.z
+            lines.append(f"station {a}: {here:7s} remote I/O (%I{a}.0.z, %Q{a}.0.z)")
+            continue
+        words = " ".join(f"{s.plc.mem.read(f'%INW{a}.{j}'):6d}" for j in range(LINK_WORDS))
+        sent = " ".join(f"{s.plc.mem.read(f'%QNW{a}.{j}'):6d}" for j in range(LINK_WORDS))
+        lines.append(f"station {a}: {here:7s} %INW{a}.0-3 {words}   %QNW{a}.0-3 {sent}")
+    return "\n".join(lines)
+
+
 @command("status", "info")
 def cmd_status(s: Session, arg: str) -> str:
     """status: PLC state, scan count, virtual time, scan times, position, forced."""
@@ -120,9 +143,9 @@ def cmd_where(s: Session, arg: str) -> str:
 
 @command("rung")
 def cmd_rung(s: Session, arg: str) -> str:
-    """rung [N | TITLE]: the rung as a ladder with live power flow (double lines) and
+    """rung [N | TITLE | SYMBOL]: the rung as a ladder with live power flow (double lines) and
     values (F = forced); > marks the next instruction. Default: the current rung."""
-    r = resolve_rung(s.plc.ast, arg) if arg else s.plc.ast.rungs[s.ctl.last_rung]
+    r = resolve_rung(s.plc.ast, arg, s.plc.symbols) if arg else s.plc.ast.rungs[s.ctl.last_rung]
     live = ladder.Live(s.read, s.ctl.dbg.log[r.index] if r.index < len(s.ctl.dbg.log)
                        else None, set(s.plc.forced))
     marker = s.ctl.pos[1] if s.ctl.pos and s.ctl.pos[0] == r.index else None

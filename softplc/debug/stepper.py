@@ -15,11 +15,13 @@ from collections.abc import Callable, Iterator
 from enum import Enum
 from typing import Any
 
-from softplc.errors import SoftPLCError
+from softplc.compiler.resolve import rungs_using
+from softplc.errors import AddressError, SoftPLCError
 from softplc.il import ast as A
 from softplc.plc import PLC
 from softplc.runtime.runstate import RUN
 from softplc.twido.address import Ref
+from softplc.twido.symbols import SymbolTable
 
 HISTORY = 1000  # scans kept for `back`
 
@@ -161,8 +163,11 @@ class _Stop:
     hits: tuple[Hit, ...] = ()
 
 
-def resolve_rung(program: A.Program, key: str) -> A.Rung:
-    """A rung named by number, title or label (%Li)."""
+def resolve_rung(program: A.Program, key: str, symbols: SymbolTable | None = None
+                 ) -> A.Rung:
+    """A rung named by number, title or label (%Li), or by an object (`%Q0.0`) or a
+    symbol (`NEARLY_FULL`) it uses: the first rung that writes it, else the first that
+    reads it."""
     key = key.strip()
     m = re.fullmatch(r"%L(\d+):?", key, re.I)
     if m:
@@ -175,8 +180,21 @@ def resolve_rung(program: A.Program, key: str) -> A.Rung:
     try:
         return program.rung(key)
     except (KeyError, IndexError):
-        raise DebugError(f"no rung {key!r} (rungs are 0..{len(program.rungs) - 1}; "
-                         f"'rungs' lists the titles)") from None
+        pass
+    last = len(program.rungs) - 1
+    try:
+        ref = symbols.ref(key) if symbols is not None else None
+    except AddressError as e:
+        assert symbols is not None
+        raise DebugError(f"no rung {key!r} (rungs are 0..{last}; 'rungs' lists the titles)"
+                         + (f"; {e}" if key.startswith("%") else
+                            symbols.suggest(key.split(".")[0]))) from None
+    if ref is None:
+        raise DebugError(f"no rung {key!r} (rungs are 0..{last}; 'rungs' lists the titles)")
+    found = rungs_using(program, ref)
+    if not found:
+        raise DebugError(f"no rung {key!r}: no title has it and no rung uses {ref.label}")
+    return program.rungs[found[0]]
 
 
 def _running(plc: PLC) -> bool:
@@ -371,7 +389,7 @@ class Stepper:
         for b in self.breaks:
             if b.kind == BreakKind.RUNG:
                 try:
-                    r = resolve_rung(program, b.key)
+                    r = resolve_rung(program, b.key, self.plc.symbols)
                     b.rung, b.text = r.index, r.name
                 except DebugError:
                     b.enabled = False

@@ -154,7 +154,7 @@ class Model(ObjectModel):
         if blk:
             return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd", "_u", "_i", "_o")
         return key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
-            ("%MW", "%QW", "%SW", "%MD"))
+            ("%MW", "%QW", "%SW", "%MD", "%QNW", "%INW"))
 
     def _init(self, key: str) -> int:
         """The value after a cold start."""

@@ -61,7 +61,7 @@ def first_failure(plc: Any, check: str, scans: list[dict[str, int]]) -> int | No
     each scan: the first scan (from 1) where it fails, or None."""
     def err(msg: str, col: int) -> SoftPLCError:
         return SoftPLCError(f"{check!r}: {msg} (column {col})")
-    req = parse_check(check, check, plc.profile, err)
+    req = parse_check(check, check, plc.symbols, err)  # names as written
     count, prev = 0, False
     n_resp = req.within if req.within >= 0 else (-req.within * 1000) // round(
         plc.scan_period * 1e6)
@@ -115,9 +115,10 @@ def replay_hook(plc: Any, cex: dict[str, Any]) -> Callable[[], None]:
 
 
 def emit_test(path: Path, program: Path, config: Path | None,
-              items: list[dict[str, Any]]) -> None:
+              items: list[dict[str, Any]], symbols: Any = None) -> None:
     """A pytest file: each counterexample's inputs replayed in the engine, asserting the
-    requirement holds, so it fails until the program is fixed."""
+    requirement holds, so it fails until the program is fixed; a comment names the
+    inputs' symbols (`symbols`: the configuration's SymbolTable)."""
     def rel(p: Path) -> str:  # from the test's folder: the test runs from anywhere
         return os.path.relpath(Path(p).resolve(), Path(path).resolve().parent)
 
@@ -129,8 +130,12 @@ def emit_test(path: Path, program: Path, config: Path | None,
              f"CONFIG = HERE / {rel(config)!r}" if config else "CONFIG = None", ""]
     for i, it in enumerate(items):
         scans = [row["inputs"] for row in it["scans"]]
+        named = [symbols.label(k) for k in dict.fromkeys(k for row in scans for k in row)
+                 ] if symbols is not None else []
         lines += ["", f"def test_requirement_{i}():",
                   f"    # {it['requirement']}",
+                  *([f"    # inputs: {' '.join(named)}"] if any("(" in n for n in named)
+                    else []),
                   f"    check = {it['check']!r}",
                   f"    scans = {scans!r}",
                   "    with PLC.from_file(PROGRAM, CONFIG, devices=False) as plc:",

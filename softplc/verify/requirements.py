@@ -12,7 +12,8 @@ A requirement file (TOML) beside the program:
 
 Forms of `check` (evaluated on the values at the end of every scan):
   `never E`, `always E`, `A -> B` (same scan), `X rising -> Y within N scans` or
-  `... within T ms`. Expressions use the IL address syntax and operators: NOT AND OR XOR,
+  `... within T ms`. Expressions use the IL address syntax, or the configuration's symbols
+(`never MOTOR AND JAM`, resolved by softplc.twido.symbols), and operators: NOT AND OR XOR,
   comparisons = <> < <= > >=, + - * / REM on words (exact, no wrap-around), parentheses.
 %I bits and configured analog inputs %IW are free (any value in every scan, analog within
 the configured span). Errors carry the line:col in the file (`VerifyError`).
@@ -36,13 +37,15 @@ from softplc.limits import (
     decode_text,
     read_bytes,
 )
-from softplc.twido.address import BOOL, Ref, expand, parse_address
+from softplc.twido.address import BOOL, Ref, expand
+from softplc.twido.profile import Profile
+from softplc.twido.symbols import SymbolTable
 
 _TOKEN = re.compile(r"""\s*(?:
     (?P<addr>%[A-Za-z]+[0-9][0-9A-Za-z.:\[\]%]*) |
     (?P<num>-?\d+|16\#[0-9A-Fa-f]+|\#[0-9A-Fa-f]+) |
     (?P<op>->|<=|>=|<>|[-+*/()=<>]) |
-    (?P<word>[A-Za-z_]+))""", re.X)
+    (?P<word>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z]+[0-9]*)?(?::X?[0-9]+)?))""", re.X)
 KEYWORDS = {"AND", "OR", "XOR", "NOT", "REM", "NEVER", "ALWAYS", "RISING", "WITHIN",
             "SCANS", "SCAN", "MS", "S"}
 #: The keys a requirement file takes, by table (anything else is an unknown key).
@@ -112,11 +115,18 @@ class _Where:
         return 0, 0
 
 
-class Parser:
-    """One expression: tokens with their columns, recursive descent, typed nodes."""
+def names(table: SymbolTable | Profile) -> SymbolTable:
+    """The symbols requirements may use (a bare profile: none)."""
+    return table if isinstance(table, SymbolTable) else SymbolTable(profile=table)
 
-    def __init__(self, text: str, profile: Any, err: Any):
-        self.text, self.profile, self.err = text, profile, err
+
+class Parser:
+    """One expression: tokens with their columns, recursive descent, typed nodes.
+    `table`: the configuration's symbols (addresses and names resolve there, the one path
+    of softplc.twido.symbols), or a bare profile."""
+
+    def __init__(self, text: str, table: SymbolTable | Profile, err: Any):
+        self.text, self.names, self.err = text, names(table), err
         self.toks: list[tuple[str, str, int]] = []
         pos = 0
         while pos < len(text):
@@ -241,12 +251,13 @@ class Parser:
         if kind == "num":
             self.take()
             return Node("num", (self.number(val, col),), "int", col)
-        if kind == "addr":
+        if kind == "addr" or (kind == "word" and val.split(".")[0] not in KEYWORDS):
             self.take()
             try:
-                ref = parse_address(val, self.profile)
+                ref = self.names.ref(val)
             except AddressError as e:
-                raise self.err(f"unknown address: {e}", col) from None
+                raise self.err(f"unknown address: {e}" if kind == "addr" else str(e),
+                               col) from None
             if ref.length is not None or ref.offset is not None or ref.is_block:
                 raise self.err(f"{val}: a single bit or word", col)
             self.reads.append(ref)
@@ -286,7 +297,8 @@ def check_depth(n: Node, err: Any) -> Node:
     return n
 
 
-def parse_check(text: str, name: str, profile: Any, err: Any) -> Requirement:
+def parse_check(text: str, name: str, profile: SymbolTable | Profile, err: Any
+                ) -> Requirement:
     """One requirement's text (`never E`, `always E`, `A -> B`, `X rising -> Y within N
     scans|ms`); `err(message, col)` makes the error to raise."""
     p = Parser(text, profile, err)
@@ -325,8 +337,10 @@ def parse_check(text: str, name: str, profile: Any, err: Any) -> Requirement:
                                             BOOL, a.col), text=text, reads=p.reads)
 
 
-def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
-    """The requirements of a file and of `--require-expr` texts."""
+def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profile) -> Spec:
+    """The requirements of a file and of `--require-expr` texts; `profile`: the
+    configuration's symbol table (names and addresses), or a bare profile."""
+    table = names(profile)
     problems: list[Diagnostic] = []
     reqs: list[Requirement] = []
     assumptions: list[Node] = []
@@ -370,8 +384,8 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
         shown = s if len(s) <= SHOWN else s[:SHOWN] + "..."
 
         def err(msg: str, col: int) -> VerifyError:
-            code = Code.ADDRESS if "address" in msg else Code.TYPE if "mismatch" in msg \
-                else Code.SYNTAX
+            code = Code.ADDRESS if "address" in msg else Code.SYMBOL if "symbol" in msg \
+                else Code.TYPE if "mismatch" in msg else Code.SYNTAX
             return VerifyError(Diagnostic(msg, src, line, col0 + col - 1 if line else col,
                                           shown, "", code))
         try:
@@ -414,7 +428,7 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
         for s in env.get(key, []):
             def env_refs(s: str, err: Any, key: str = key) -> list[Ref]:
                 try:
-                    refs = expand(s, profile)
+                    refs = expand(table.address_of(s), table.profile)
                 except AddressError as e:
                     raise err(f"unknown address: {e}", 1) from None
                 kinds = ("MW", "MD") if key == "host" else ("MW", "MD", "M", "Q", "I")

@@ -4,6 +4,7 @@ servo axes (PLC API), and the same over Modbus TCP on loopback with the daemon."
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Sequence
 
 import pytest
 from daemon_util import ROOT, Daemon
@@ -268,16 +269,19 @@ def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp
 
 
 class _WordsClient:
-    """A RawClient stand-in on a PLC's words (the holding registers, unsigned on the wire),
-    for running the host commands in-process on the virtual clock."""
+    """A ModbusHost stand-in on a PLC's words (the holding registers, unsigned on the
+    wire), for running the host commands in-process on the virtual clock."""
 
     def __init__(self, plc: PLC):
         self.uw = plc.mem.mw.uw  # the words' unsigned view (what the Modbus server serves)
 
-    def read_registers(self, addr: int, n: int) -> list[int]:
-        return list(self.uw[addr:addr + n])
+    def connect(self) -> _WordsClient:
+        return self
 
-    def write_registers(self, addr: int, values: list[int]) -> None:
+    def read_words(self, addr: int, n: int) -> list[int]:
+        return [int(v) for v in self.uw[addr:addr + n]]
+
+    def write_words(self, addr: int, values: Sequence[int]) -> None:
         for i, v in enumerate(values):
             self.uw[addr + i] = v
 
@@ -303,7 +307,7 @@ def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, ca
     from softplc.cli import main as softplc
 
     plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
-    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    monkeypatch.setattr(servo_client, "ModbusHost", lambda *a, **k: _WordsClient(plc))
     # the client's own `time` only: its sleeps run the PLC, its timeouts stay wall time
     monkeypatch.setattr(servo_client, "time", SimpleNamespace(
         sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
@@ -345,7 +349,7 @@ def in_process(tmp_path, monkeypatch, poll_ms: float = 0) -> PLC:
     import softplc.machines.servo.client as servo_client
 
     plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
-    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    monkeypatch.setattr(servo_client, "ModbusHost", lambda *a, **k: _WordsClient(plc))
     monkeypatch.setattr(servo_client, "time", SimpleNamespace(
         sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
         monotonic=time.monotonic))
@@ -398,3 +402,50 @@ def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
         if argv[1] == "scurve" and "--start" in argv:  # the README's figure
             assert 14 <= max_fe_counts(out.out) <= 22
     assert plc.devices["X"].gains.kp == 8000  # the README's `set` reached the axis
+
+
+def test_a_value_the_axis_refuses_is_refused_where_it_is_written(cell):
+    """%MF328 (X's Ixx30, kp) := -5: the access port (the web monitor, `softplc io set`)
+    and the Modbus server refuse it before it is queued, with the axis's own reason (the
+    same check as the table's, `ivars.check`); a value it takes is queued as before."""
+    from struct import pack
+
+    from softplc.access import AccessError, AccessPort
+    from softplc.modbus import ModbusImage
+    from softplc.modbus.protocol import process_pdu
+    from softplc.modbus.regmap import ExceptionCode
+    from softplc.persist.retain import words_to_be
+    from softplc.runtime.memory import WordFamily
+
+    port = AccessPort(cell)
+    with pytest.raises(AccessError) as e:
+        port.write_many([("%MF328", -5)])
+    assert e.value.status == 400
+    assert str(e.value).startswith("%MF328 := -5 refused: device 'X': Ixx30 (kp) = -5:")
+    assert port.pending == 0
+    with pytest.raises(AccessError, match="disturbance"):  # Y's load disturbance word
+        port.write_many([("%MF352", 1e6)])
+    assert port.write_many([("%MF328", 8000.0)]) == ["%MF328"]
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000
+
+    image = ModbusImage(cell.mem)
+    for dev in cell.devices.values():
+        if dev.word_check is not None:
+            image.check_values(dev.word_check.ranges(), dev.word_check.refusal)
+
+    def wire(*floats: float) -> bytes:
+        fam = WordFamily(2 * len(floats))
+        for i, f in enumerate(floats):
+            fam.set_f(2 * i, f)
+        return words_to_be(fam.buf)
+
+    def fc16(addr: int, data: bytes) -> bytes:
+        return process_pdu(image, pack(">BHHB", 16, addr, len(data) // 2, len(data)) + data)
+
+    assert fc16(328, wire(-5.0)) == bytes((0x90, ExceptionCode.ILLEGAL_DATA_VALUE))
+    assert fc16(326, wire(0.0, -5.0)) == bytes((0x90, ExceptionCode.ILLEGAL_DATA_VALUE))
+    assert image.pending == 0
+    assert fc16(328, wire(7000.0)) == pack(">BHH", 16, 328, 2)
+    assert fc16(329, wire(-5.0)) == pack(">BHH", 16, 329, 2)  # no %MF of the table whole
+    assert image.pending == 2
