@@ -61,6 +61,19 @@ def test_a_truncated_file_is_a_clear_error(tmp_path):
             load_piece(part)
 
 
+def test_an_infinite_integer_group_is_a_clear_error(tmp_path):
+    """Found by the fuzzer: 1e999 as an integer group's value (90: a polyline's vertex
+    count) raised OverflowError inside ezdxf."""
+    path = saved(tmp_path, lambda m: m.add_lwpolyline([(30, 20), (40, 20)]))
+    lines = path.read_text().splitlines()
+    at = next(n for n, ln in enumerate(lines) if ln.strip() == "LWPOLYLINE")
+    at = next(n for n in range(at, len(lines)) if lines[n].strip() == "90")
+    lines[at + 1] = "1e999"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(PieceError, match="not a readable DXF file"):
+        load_piece(path)
+
+
 def test_an_arc_is_at_most_max_arc_segments_chords(tmp_path):
     path = saved(tmp_path, lambda m: m.add_circle((100, 100), 50))
     with pytest.raises(PieceError, match=f"more than {MAX_ARC_SEGMENTS} chords"):

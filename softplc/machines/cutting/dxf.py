@@ -177,7 +177,8 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
     except OSError as e:
         raise PieceError(f"{file}: cannot read the file: {e.strerror or e}") from None
     except (DXFError, ValueError, UnicodeDecodeError, IndexError, KeyError, TypeError,
-            StopIteration, RuntimeError) as e:  # ezdxf's errors on a truncated file
+            OverflowError, StopIteration, RuntimeError) as e:  # ezdxf's, on a garbled
+        # or truncated file (OverflowError: 1e999 where an integer group code stands)
         why = str(e) if type(e).__name__ in str(e) else f"{type(e).__name__}: {e}"
         if isinstance(e, IndexError | StopIteration | RuntimeError):  # (in a generator,
             # a StopIteration becomes a RuntimeError)
