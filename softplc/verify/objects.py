@@ -23,7 +23,9 @@ from softplc.runtime.blocks import (
 )
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido import catalog
-from softplc.twido.address import INT16, INT32, REAL, Ref, parse_address
+from softplc.twido.address import BLOCK_FIELDS, INT16, INT32, REAL, Ref, parse_address
+from softplc.verify import floats
+from softplc.verify.abstract import AbstractModel
 from softplc.verify.blocks import (
     register_fields,
     run_counter,
@@ -49,9 +51,15 @@ MODELLED = {TM: ("P", "V", "Q", "_in", "_on", "_el"), C: Counter.FIELDS,
             SBR: ShiftRegister.FIELDS, DR: ("S", "F", "_u", "_written"),
             SC: StepCounter.FIELDS, R: ()}  # %R: `register_fields`
 BLOCK_KEY = re.compile(rf"%({'|'.join(MODELLED)})(\d+)\.(\w+)$")  # a modelled block's field
+# the addressable blocks without a model: sound abstractions (`abstract`)
+ABSTRACTED = frozenset(BLOCK_FIELDS) - set(MODELLED)
 
 
-class ObjectModel(ExprModel):
+def abstracted(ref: Ref) -> bool:
+    return ref.kind in ABSTRACTED and ref.offset is None
+
+
+class ObjectModel(AbstractModel, ExprModel):
     """What `Model` reads and writes; `Model` supplies the state and the scan."""
 
     st: dict[str, Any]
@@ -108,6 +116,9 @@ class ObjectModel(ExprModel):
         return []
 
     def run_block(self, ref: Ref, g: Any, pins: dict[str, Any], pos: A.Pos | None) -> None:
+        if abstracted(ref):
+            self.run_abstract(ref, g, pos)
+            return
         name = self.use_block(ref, pos)
         if name is None:
             return
@@ -134,6 +145,9 @@ class ObjectModel(ExprModel):
     def run_pin(self, ref: Ref, pin: str, g: Any, v: Any, pos: A.Pos | None) -> None:
         """The short form (`CU %C0`, `U %DR0`): as `Block`'s generated pin methods, the
         edge inputs held at their last value, the level inputs at 0."""
+        if abstracted(ref):
+            self.run_abstract(ref, g, pos)
+            return
         name = self.use_block(ref, pos)
         if name is None:
             return
@@ -186,6 +200,8 @@ class ObjectModel(ExprModel):
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
         if ref.kind in (TM, C, DR, R) and ref.field in ("Q", "D", "E", "F"):
             return self.st[self.key_for(ref)]
+        if abstracted(ref) and ref.field is not None and ref.bit is None:
+            return self.read_abstract(ref)
         if ref.kind in (SBR, SC) and ref.field == "J":
             w = self.st[self.key_for(Ref(ref.kind, ref.index, field="W"))]
             return z3.Extract(ref.bit, ref.bit, w) == 1
@@ -204,6 +220,8 @@ class ObjectModel(ExprModel):
             w = self.word(word)
             mask = z3.BitVecVal(1 << ref.bit, 16)
             self.put_word(word, g, z3.If(value, w | mask, w & ~mask), pos)
+        elif abstracted(ref) and ref.field is not None:
+            self.run_abstract(Ref(ref.kind, ref.index), g, pos)
         elif ref.kind == SC and ref.bit is not None and ref.offset is None:
             name = self.use_block(Ref(SC, ref.index), pos)
             if name is not None:
@@ -247,6 +265,13 @@ class ObjectModel(ExprModel):
         if k in (TM, C) and ref.field in ("V", "P") or k == DR and ref.field == "S" \
                 or k == R and ref.field in ("I", "O"):
             return wide(self.st[self.key_for(ref)]), INT16
+        if abstracted(ref) and ref.field is not None and ref.type != REAL:
+            return wide(self.read_abstract(ref)), INT16
+        if k == "MF":
+            return floats.from_words(self.word(Ref("MW", ref.index)),
+                                     self.word(Ref("MW", ref.index + 1))), REAL
+        if k == "KF":
+            return floats.const(float(self.plc.mem.read(ref))), REAL
         if ref.type == REAL:
             self.unsupported("floating-point values", pos, str(ref))
         else:
@@ -279,6 +304,8 @@ class ObjectModel(ExprModel):
             self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
         elif k == R and ref.field in ("I", "O"):
             self._put(self.key_for(ref), g, narrow(v, 16), pos)
+        elif abstracted(ref) and ref.field is not None:
+            self.run_abstract(Ref(k, ref.index), g, pos)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 

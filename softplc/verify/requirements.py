@@ -4,6 +4,8 @@ A requirement file (TOML) beside the program:
 
     [environment]
     host = ["%MW0:10"]            # words a host writes: any value at the start of a scan
+    held = ["%M0"]                # kept at its cold-start value (default: objects the
+                                  # program reads, never writes, a host can write are free)
     assume = ["NOT (%I0.0 AND %I0.1)"]   # what the environment never does
 
     [[requirement]]
@@ -50,7 +52,7 @@ KEYWORDS = {"AND", "OR", "XOR", "NOT", "REM", "NEVER", "ALWAYS", "RISING", "WITH
             "SCANS", "SCAN", "MS", "S"}
 #: The keys a requirement file takes, by table (anything else is an unknown key).
 TABLES = ("environment", "requirement")
-ENVIRONMENT_KEYS = ("host", "free", "assume", "scan_period")
+ENVIRONMENT_KEYS = ("host", "free", "held", "assume", "scan_period")
 REQUIREMENT_KEYS = ("name", "check")
 #: A number in an expression: a value of a 32-bit double word (%MD), or its bit pattern
 #: in hex (#FFFFFFFF): whatever a program compares a word with.
@@ -98,6 +100,7 @@ class Spec:
     reads: list[Ref]  # every object a requirement or assumption reads
     free: list[tuple[Ref, Diagnostic]] = field(default_factory=list)  # with where declared
     periods: tuple[int, int] | None = None  # (shortest, longest) scan period in us
+    held: list[Ref] = field(default_factory=list)  # kept at their cold-start value
 
 
 class _Where:
@@ -409,7 +412,7 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
     for k in sorted(set(env) - set(ENVIRONMENT_KEYS)):
         problems.append(Diagnostic(f"unknown key environment.{k}", file, *_key(where, k),
                                    expected=", ".join(ENVIRONMENT_KEYS), code=Code.SYNTAX))
-    for k in ("host", "free", "assume"):
+    for k in ("host", "free", "held", "assume"):
         if k in env and not isinstance(env[k], list):
             problems.append(Diagnostic(f"environment.{k}: a list of strings expected, got "
                                        f"{type(env[k]).__name__} {env[k]!r}"[:200], file,
@@ -424,23 +427,27 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
             problems.append(Diagnostic(f"environment.scan_period: {e}", file,
                                        *_key(where, "scan_period"), code=Code.TYPE))
     free: list[tuple[Ref, Diagnostic]] = []
-    for key in ("host", "free"):
+    held: list[Ref] = []
+    for key in ("host", "free", "held"):
         for s in env.get(key, []):
             def env_refs(s: str, err: Any, key: str = key) -> list[Ref]:
                 try:
                     refs = expand(table.address_of(s), table.profile)
                 except AddressError as e:
                     raise err(f"unknown address: {e}", 1) from None
-                kinds = ("MW", "MD") if key == "host" else ("MW", "MD", "M", "Q", "I")
+                kinds = {"host": ("MW", "MD"), "held": ("MW", "MD", "M")}.get(
+                    key, ("MW", "MD", "M", "Q", "I"))
                 if any(r.kind not in kinds for r in refs):
-                    raise err(f"{s}: {key} objects are "
-                              + ("%MW / %MD words" if key == "host" else
-                                 "%M, %MW, %MD (%I are free anyway)"), 1)
+                    raise err(f"{s}: {key} objects are " + {
+                        "host": "%MW / %MD words", "held": "%M, %MW, %MD"}.get(
+                        key, "%M, %MW, %MD (%I are free anyway)"), 1)
                 return [Ref("MW", r.index + k) if r.kind in ("MW", "MD") else r
                         for r in refs for k in range(2 if r.kind == "MD" else 1)]
             refs = parse_one(s, f"environment.{key}", env_refs) or []
             if key == "host":
                 host += refs
+            elif key == "held":
+                held += refs
             else:
                 line, col = where.find(s)
                 free += [(r, Diagnostic(f"free input {r} is written by the program", file,
@@ -500,7 +507,7 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
                     *where.find(r.text), expected="'within N scans'", code=Code.TYPE))
     if problems:
         raise VerifyError(problems)
-    return Spec(reqs, assumptions, host, reads, free, periods)
+    return Spec(reqs, assumptions, host, reads, free, periods, held)
 
 
 def parse_periods(value: Any) -> tuple[int, int]:
