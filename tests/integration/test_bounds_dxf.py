@@ -74,6 +74,14 @@ def test_an_infinite_integer_group_is_a_clear_error(tmp_path):
         load_piece(path)
 
 
+def test_a_binary_dxf_is_still_read(tmp_path):
+    doc = ezdxf.new()
+    doc.header["$INSUNITS"] = 4
+    doc.modelspace().add_line((10, 10), (30, 20))
+    doc.saveas(tmp_path / "part.dxf", fmt="bin")
+    assert [s.kind for s in load_piece(tmp_path / "part.dxf").segments()] == ["move", "cut"]
+
+
 def test_an_arc_is_at_most_max_arc_segments_chords(tmp_path):
     path = saved(tmp_path, lambda m: m.add_circle((100, 100), 50))
     with pytest.raises(PieceError, match=f"more than {MAX_ARC_SEGMENTS} chords"):

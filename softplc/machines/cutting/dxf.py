@@ -42,6 +42,7 @@ MAX_COORD = 1e6
 #: beyond, the arc is a full circle to rounding (and 1e300 divided by zero).
 MAX_BULGE = 1e7
 _TAIL = 64  # bytes read at the end of a file for its EOF
+BINARY_SENTINEL = b"AutoCAD Binary DXF"  # how a binary DXF file starts [ezdxf, AutoCAD]
 
 
 def bulge_arc(p1: Point, p2: Point, bulge: float) -> Arc:
@@ -158,6 +159,7 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
                    move_speed: float | None = None, accel: float = DEFAULT_ACCEL,
                    tolerance: float = 0.01, work_area: Point = WORK_AREA) -> Piece:
     """A piece from the LINE, ARC, CIRCLE and LWPOLYLINE entities of a DXF file."""
+    import ezdxf
     from ezdxf.addons import iterdxf
     from ezdxf.filemanagement import dxf_file_info
     from ezdxf.lldxf.const import DXFError
@@ -170,10 +172,15 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
     try:
         if os.stat(file).st_size > MAX_DXF_BYTES:
             raise PieceError(f"{file}: larger than {MAX_DXF_BYTES // 2**20} MiB")
-        _check_complete(file)
-        # the entities streamed (ezdxf's iterdxf): never the whole document in memory
-        return _piece(iterdxf.modelspace(file), dxf_file_info(file).insert_units, file,
-                      speed, move_speed, accel, tolerance, work_area)
+        with open(file, "rb") as f:
+            binary = f.read(len(BINARY_SENTINEL)) == BINARY_SENTINEL
+        if binary:  # iterdxf reads text files only: the whole document then
+            doc = ezdxf.readfile(file)
+            entities, units = doc.modelspace(), doc.header.get("$INSUNITS", 0)
+        else:  # streamed (ezdxf's iterdxf): never the whole document in memory
+            _check_complete(file)
+            entities, units = iterdxf.modelspace(file), dxf_file_info(file).insert_units
+        return _piece(entities, units, file, speed, move_speed, accel, tolerance, work_area)
     except OSError as e:
         raise PieceError(f"{file}: cannot read the file: {e.strerror or e}") from None
     except (DXFError, ValueError, UnicodeDecodeError, IndexError, KeyError, TypeError,
