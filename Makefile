@@ -76,5 +76,5 @@ clean:
 # quarter: tests/fuzz_budget.py), then the mutation fuzzers at full size with a progress
 # line: 4,000 mutated programs and 1,559 mutated configs, 0 tracebacks and 0 crashes expected.
 fuzz: $(STAMP)
-	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/unit/test_fuzz.py tests/unit/test_properties.py tests/unit/test_config_fuzz.py tests/unit/test_il_recovery.py tests/integration/test_examples.py
-	$(BIN)/python tools/fuzz_mutations.py --programs 4000 --configs 1559
+	SOFTPLC_FUZZ=1 $(BIN)/python -m pytest -q tests/unit/test_fuzz.py tests/unit/test_properties.py tests/unit/test_config_fuzz.py tests/unit/test_il_recovery.py tests/unit/test_input_fuzz.py tests/integration/test_examples.py
+	$(BIN)/python tools/fuzz_mutations.py

@@ -40,7 +40,7 @@ CLASS_ALLOW = {"Ops", "_ToAST"}
 # The layers, lowest first: a module imports from its own layer and lower ones only. A
 # module's layer is that of the longest prefix naming it.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("softplc.errors",),
+    ("softplc.errors", "softplc.limits"),    # errors; the input limits every reader applies
     ("softplc.modbus.codec",),                # MBAP and word pairs: the server, EXCH, hosts
     ("softplc.twido",),                       # the Twido object model
     ("softplc.il",),                          # program text -> typed AST

@@ -93,6 +93,7 @@ from softplc.config.models import (
     ScheduleNumber,
 )
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
+from softplc.limits import MAX_CONFIG_BYTES, BoundsError, check_toml, decode_text, read_bytes
 from softplc.runtime.blocks import MAX_VALUE
 from softplc.twido import catalog
 from softplc.twido.address import parse_address
@@ -508,17 +509,29 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     def fail(what: str) -> ConfigError:
         return ConfigError(ConfigIssue("", f"{p}: {what}", ConfigCode.FILE))
     try:
-        text = p.read_text(encoding="utf-8")
+        text = decode_text(read_bytes(p, MAX_CONFIG_BYTES, "the file"), "the file")
     except FileNotFoundError:
         raise fail("no such file") from None
     except OSError as e:
         raise fail(f"cannot read the file: {e.strerror or e}") from None
-    except UnicodeDecodeError:
-        raise fail("not a UTF-8 text file") from None
+    except BoundsError as e:
+        raise fail(str(e)) from None
+    return parse_toml(text, str(p))
+
+
+def parse_toml(text: str, where: str = "") -> dict[str, Any]:
+    """A configuration's TOML text parsed, its depth and numbers bounded first
+    (softplc.limits.check_toml): ConfigError (code `file`) at line:col otherwise. `where`:
+    the file or origin named in the message."""
+    prefix = f"{where}: " if where else ""
     try:
+        check_toml(text)
         return tomllib.loads(text)
+    except BoundsError as e:
+        raise ConfigError(ConfigIssue("", f"{prefix}{e}", ConfigCode.FILE)) from None
     except tomllib.TOMLDecodeError as e:
-        raise fail(f"not valid TOML: {e}") from None
+        raise ConfigError(ConfigIssue("", f"{prefix}not valid TOML: {e}",
+                                      ConfigCode.FILE)) from None
 
 
 def read_config(config: str | Path | dict[str, Any] | None) -> tuple[dict[str, Any], Path | None]:

@@ -210,7 +210,10 @@ class Stepper:
         self.dbg_version = plc.code_version
         self.gen: Iterator[tuple[int, int]] | None = None
         self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
-        self.ring: deque[dict[str, Any]] = deque(maxlen=history)  # snapshots, for `back`
+        # snapshots, for `back`; history 0: none (a plant keeps its own), only the last
+        # scan while a watch or condition may have to replay it
+        self.history = history
+        self.ring: deque[dict[str, Any]] = deque(maxlen=max(1, history))
         self.breakpoints = Breakpoints(plc)
         self.breaks = self.breakpoints.items  # (the same list and dict, kept in place)
         self.changes = self.breakpoints.changes  # watched objects' recorded changes
@@ -236,8 +239,14 @@ class Stepper:
             self.plc[str(ref)] = v
 
     def _begin(self) -> None:
-        """A scan starts: keep the state before it for `back`."""
-        self.ring.append({"engine": self.plc.engine.snapshot(), "pending": list(self.pending)})
+        """A scan starts: keep the state before it for `back` (and the replay of a
+        fast scan where a watch or condition fired)."""
+        if self.history or self.breakpoints.data:
+            self.ring.append(self.snapshot())
+
+    def snapshot(self) -> dict[str, Any]:
+        """The state at a scan boundary (the engine's, the queued writes), for `rewind`."""
+        return {"engine": self.plc.engine.snapshot(), "pending": list(self.pending)}
 
     def _tick(self) -> bool:
         """One step of the debug build: enter a scan (stop before its first instruction) or
@@ -293,9 +302,10 @@ class Stepper:
             if one_instr or self.pos[0] != start_rung or self.interrupted:
                 return None
 
-    def _scans(self, scans: int, running: bool) -> _Stop | None:
+    def _scans(self, scans: int, running: bool, power_flow: bool = True) -> _Stop | None:
         """Finish the scan in progress, then run `scans` whole scans; a hit, an interrupt
-        or a fault (the PLC leaving RUN) stops them."""
+        or a fault (the PLC leaving RUN) stops them. `power_flow`: the last scan runs the
+        debug build (for `rung N`)."""
         stop = self._debug_scan() if self.gen is not None else None
         remaining = scans
         debug = bool(self.breakpoints.at_rung)
@@ -304,7 +314,7 @@ class Stepper:
                 stop = _Stop(StopKind.INTERRUPTED)
             elif running and not _running(self.plc):
                 stop = _Stop(StopKind.FAULT)
-            elif debug or remaining == 1:  # the last scan feeds the power-flow view
+            elif debug or (remaining == 1 and power_flow):  # feeds the power-flow view
                 stop = self._debug_scan()
                 if self.gen is None:
                     remaining -= 1
@@ -323,14 +333,15 @@ class Stepper:
         return stop
 
     def _run(self, scans: int | None, *, one_instr: bool = False,
-             limit: bool = False) -> Ran:
+             limit: bool = False, power_flow: bool = True) -> Ran:
         """The one driver. `scans`: whole scans to run after finishing the one in progress
         (`limit`: without a hit that is a SCAN_LIMIT); None: a step (one instruction, or
         to the next rung). Stops at breakpoints and when the PLC faults."""
         self.interrupted = False
         self.breakpoints.arm()
         running = _running(self.plc)
-        stop = self._step(one_instr) if scans is None else self._scans(scans, running)
+        stop = self._step(one_instr) if scans is None else \
+            self._scans(scans, running, power_flow)
         if running and not _running(self.plc) and (stop is None or
                                                  stop.kind == StopKind.SCAN_END):
             stop = _Stop(StopKind.FAULT)
@@ -353,10 +364,11 @@ class Stepper:
         """Run one instruction (entering a scan if at the boundary)."""
         return self._run(None, one_instr=True)
 
-    def run_scans(self, n: int) -> Ran:
+    def run_scans(self, n: int, power_flow: bool = True) -> Ran:
         """Finish the scan in progress, then run n whole scans (0: only finish it);
-        breakpoints stop it."""
-        return self._run(n)
+        breakpoints stop it. `power_flow` False: the fast build unless a breakpoint needs
+        the debug one (a plant runs each controller scan by scan)."""
+        return self._run(n, power_flow=power_flow)
 
     def run_until_hit(self, limit: int) -> Ran:
         """Run until a breakpoint or watch stops it, at most `limit` scans (SCAN_LIMIT)."""
@@ -401,12 +413,18 @@ class Stepper:
         """Go back n scans (1 <= n <= len(ring); a scan in progress counts as one)."""
         if n > len(self.ring):
             raise DebugError(f"only {len(self.ring)} scans of history")
-        if self.gen is not None:
-            self.gen.close()
-            self.gen, self.pos = None, None
         snap = None
         for _ in range(n):
             snap = self.ring.pop()
+        assert snap is not None
+        self.rewind(snap)
+
+    def rewind(self, snap: dict[str, Any]) -> None:
+        """Back to a `snapshot()`: a scan in progress is abandoned, the writes queued
+        since stay queued, the watches forget the changes after it."""
+        if self.gen is not None:
+            self.gen.close()
+            self.gen, self.pos = None, None
         queued = self.pending  # sets typed since the last scan stay queued
         self._restore(snap)
         self.pending += [q for q in queued if q not in self.pending]

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 from softplc.runtime.memory import MemoryImage
 from softplc.twido.address import LINK_STATIONS, LINK_WORDS, remote_io_slot
@@ -164,6 +164,13 @@ class LinkMaster(LinkStation):
                 self.mem.q_field[first:first + self.mem.profile.outputs_base]))
         return Request(self._words("qnw", a))
 
+    def state(self) -> dict[str, Any]:
+        """What a link cycle changes here besides memory (for the debugger's `back`)."""
+        return {"missed": dict(self.missed), "cycles": self.cycles}
+
+    def set_state(self, st: dict[str, Any]) -> None:
+        self.missed, self.cycles = dict(st["missed"]), st["cycles"]
+
     def present(self, address: int) -> bool:
         return bool(self.mem.sw.uw[SW_LINK_STATUS] >> (address - 1) & 1)
 
@@ -199,6 +206,13 @@ class LinkRemote(LinkStation):
         if self.role == REMOTE_IO:
             return Reply(self.role, inputs=tuple(self.mem.i_field[:self.mem.profile.inputs_base]))
         return Reply(self.role, self._words("qnw", MASTER))
+
+    def state(self) -> dict[str, Any]:
+        """What a link cycle changes here besides memory (for the debugger's `back`)."""
+        return {"missed": self.missed, "polled": self.polled}
+
+    def set_state(self, st: dict[str, Any]) -> None:
+        self.missed, self.polled = st["missed"], st["polled"]
 
     def tick(self) -> None:
         self.missed = 0 if self.polled else min(MISSES, self.missed + 1)
@@ -247,6 +261,15 @@ class InMemoryTransport:
 
     def mend(self, address: int) -> None:
         self.lines[address].broken = False
+
+    def state(self) -> dict[int, tuple[Any, ...]]:
+        """Each line's endpoint, delay, break and words in flight (for `back`)."""
+        return {a: (ln.remote, ln.delay, ln.broken, tuple(ln.to_remote), tuple(ln.to_master))
+                for a, ln in self.lines.items()}
+
+    def set_state(self, st: dict[int, tuple[Any, ...]]) -> None:
+        for a, (remote, delay, broken, to_remote, to_master) in st.items():
+            self.lines[a] = _Line(remote, delay, broken, deque(to_remote), deque(to_master))
 
     def remotes(self) -> list[LinkRemote]:
         return [ln.remote for ln in self.lines.values() if ln.remote is not None]

@@ -206,9 +206,18 @@ def remote_io_slot(profile: Profile, station: int) -> int:
     return (profile.expansion_slots + station) * profile.channels_per_module
 
 
+#: Characters of one address: the longest Twido address, an indexed double-word bit such
+#: as `%MD2999[%MW2999]:X31`, has 22; numbers longer than any index are refused before
+#: their conversion.
+MAX_ADDRESS_CHARS = 40
+
+
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     """Parse and range-check an address. Raises AddressError with a readable message."""
     t = text.strip().replace(" ", "")
+    if len(t) > MAX_ADDRESS_CHARS:  # before int() of its numbers
+        raise AddressError(f"malformed address {text[:20]!r}...: {len(t)} characters, at "
+                           f"most {MAX_ADDRESS_CHARS}")
     m = _ADDR.match(t)
     if not m:
         raise AddressError(f"malformed address {text!r}")

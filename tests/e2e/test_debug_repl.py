@@ -84,3 +84,31 @@ def test_batch_commands(capsys: pytest.CaptureFixture[str]) -> None:
     assert rc == 0
     out = capsys.readouterr().out
     assert "(softplc) print/x %MW0\n%MW0 = 16#0005" in out and out.rstrip().endswith("bye")
+
+
+PLANT = ROOT / "ladder_programs" / "plant" / "plant.toml"
+
+
+def test_plant_session_in_a_terminal(tmp_path: Path) -> None:
+    """`softplc repl plant.toml`: a breakpoint in a peer stops the whole line; `back`
+    rewinds every controller and the belt; Ctrl-D leaves."""
+    child = spawn(tmp_path, str(PLANT.relative_to(ROOT)))
+    try:
+        assert "focus: master" in child.before  # the intro
+        assert "queued" in cmd(child, "set master:%I0.0 1")
+        assert "breakpoint #1 when %Q0.0 rises" in cmd(child, "break when capper:%Q0.0 rises")
+        out = cmd(child, "continue")
+        assert "[capper] breakpoint #1 when %Q0.0 rises" in out and "] capper: [scan" in out
+        assert "%Q0.0 TOOL = 1" in cmd(child, "print %Q0.0")  # the capper's, now focused
+        assert "still to scan" not in cmd(child, "scan 0")  # the instant finished
+        cmd(child, "delete")
+        before = cmd(child, "plant")
+        assert "belt         boxes=2 fed=2 delivered=0" in before
+        assert "[plant t = 6.150 s, instant 616]" in cmd(child, "run 1s")  # 100 of 10 ms
+        assert cmd(child, "plant") != before
+        assert "instant 516]" in cmd(child, "back 100")
+        assert cmd(child, "plant") == before  # every controller, the belt
+        child.sendeof()
+        child.expect(pexpect.EOF)
+    finally:
+        child.close(force=True)

@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from softplc.errors import SoftPLCError
-from softplc.machines.gcode.arcs import TAU, segments_needed
+from softplc.machines.gcode.arcs import TAU, ArcGeometryError, segments_needed
 
 Point = tuple[float, float]
 
@@ -195,7 +195,10 @@ class Arc:
     def chord_count(self, tolerance: float = DEFAULT_TOLERANCE,
                     max_chord: float | None = None) -> int:
         """n = ceil(|θ| / α_max), α_max from the sagitta tolerance (and a chord limit)."""
-        n = segments_needed(self.radius, self.sweep, tolerance)
+        try:
+            n = segments_needed(self.radius, self.sweep, tolerance)
+        except ArcGeometryError as e:
+            raise GeometryError(str(e)) from None
         if max_chord is not None:
             if max_chord <= 0:
                 raise GeometryError(f"chord limit {max_chord:g} mm must be positive")
