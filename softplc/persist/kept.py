@@ -5,7 +5,7 @@ without program loss is a warm restart (program and data held in battery-backed 
 program also backed up in the internal EEPROM); a cold start comes with a new application
 downloaded, a lost program or %S0 (industrialmonitordirect.com, "Twido TWDLCAA24DRF cold
 start vs warm start conditions"; control.com thread 17899 on the %SW96 EEPROM backup;
-`../shared/reference/twido.md` on %S1). A soft Twido's
+docs/twido.md#scan-cycle on %S1). A soft Twido's
 online change (`softplc load`, POST /api/program) is that download: the program, its
 configuration and the files it named (the symbols) are written here before the swap, so
 that a restart with the original command line (what a supervisor does after kill -9) finds

@@ -1,6 +1,6 @@
 """Path geometry of the cutting table: lines, arcs, fillets, Newton curves, in mm.
 
-The corrected algorithms of `../shared/reference/cutting-table.md` §2 (the thesis's defects
+The corrected algorithms of docs/machines/cutting-table.md ("Path library"; the thesis's defects
 are reproduced separately in `seed.py`). Every shape is a frozen dataclass that knows its
 start, end and length and turns itself into chord end points (`chords`), each chord a line
 move of the table. Arcs use the drawing host's chord count (`softplc.machines.gcode.arcs`):
