@@ -13,9 +13,8 @@ from softplc.config import Config, key_path
 from softplc.config.models import AnalogChannelConfig, ExchConfig, exch_remotes, schedule
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.runtime.analog import AnalogChannel, AnalogIO, normal_range
-from softplc.runtime.blocks import Message
 from softplc.runtime.clock import Clock, VirtualClock
-from softplc.runtime.exch import ETHERNET_PORT, ExchPort
+from softplc.runtime.exch import ETHERNET_PORT, ExchPort, Message
 from softplc.runtime.memory import MemoryImage
 from softplc.runtime.rtc import Schedule
 from softplc.twido.address import Ref, parse_address
