@@ -74,7 +74,8 @@ class PLC:
         build.attach_scan_hooks(m)
         self.ast = program
         self.program: CompiledProgram = build.load_program(m, program)
-        self.program_version = 0  # bumped when the running code is rebuilt
+        self.program_version = 0  # bumped by each new program (online change, reload)
+        self.code_version = 0  # bumped whenever the running code is rebuilt (forcing too)
         self.program_loaded_at = time.time()  # wall time of the last load (online change)
         self.engine.cold_start()
 
@@ -103,14 +104,18 @@ class PLC:
         return build.compile_onto(self.machine, self.ast, build.forced_bits(self._forced),
                                   debug=True)
 
-    def replace_program(self, program: A.Program) -> None:
+    def replace_program(self, program: A.Program, *, new_program: bool = True) -> None:
         """Run `program` from the next scan on, keeping memory (the debugger's reload).
-        Raises CompileError, leaving the running program in place, if it does not compile."""
+        Raises CompileError, leaving the running program in place, if it does not compile.
+        `new_program` False: the same program rebuilt (a bit forced or released): the
+        program's version, which the user sees, stays; only `code_version` moves."""
         self.program = build.load_program(self.machine, program,
                                           build.forced_bits(self._forced))
         self.ast = program
-        self.program_version += 1
-        self.program_loaded_at = time.time()
+        self.code_version += 1
+        if new_program:
+            self.program_version += 1
+            self.program_loaded_at = time.time()
 
     # -- running --------------------------------------------------------------------------------
     def scan(self, n: int = 1) -> None:
@@ -185,7 +190,7 @@ class PLC:
         """Recompile when the set of forced bits changed (2-14 ms for a machine program),
         so that stores to them are left out (or back in); not for words or a no-op."""
         if build.forced_bits(self._forced) != before:
-            self.replace_program(self.ast)
+            self.replace_program(self.ast, new_program=False)
 
     @property
     def forced(self) -> dict[str, Any]:

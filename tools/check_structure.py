@@ -21,7 +21,7 @@ Prints, and exits 1 when a rule is broken (`--strict`), or always 0 (default):
 - imports that run up the layers (LAYERS: a module imports its own layer or lower ones;
   the data path from program text to the front-ends, the machines above the core, the
   command line on top), and imports from one machine into another (only the shared
-  G-code reader, `softplc.machines.gcode`, serves two machines).
+  G-code reader and the shipped examples' paths serve several machines).
 
     python tools/check_structure.py [--strict] [--kinds VFC,PLS,...]
 """
@@ -69,7 +69,10 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc", "softplc.cli", "softplc.__main__"),
 )
 MACHINES = "softplc.machines."
-SHARED_MACHINE_LIBS = ("softplc.machines.gcode",)
+# what two machines may share: the G-code reader, where the shipped examples are
+SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples")
+# the wing's own modules that name every machine: the package, the device registry
+MACHINE_REGISTRY = ("softplc.machines", "softplc.machines.devices")
 
 
 def _docstring_nodes(tree: ast.AST) -> set[int]:
@@ -301,7 +304,7 @@ def upward_imports(graph: dict[str, set[str]]) -> list[str]:
         for d in sorted(deps):
             mm, md = machine_of(m), machine_of(d)
             across = mm and md and mm != md and md not in SHARED_MACHINE_LIBS \
-                and m != MACHINES.rstrip(".")
+                and m not in MACHINE_REGISTRY
             if layer_of(d) > layer_of(m) or across:
                 out.append(f"{m} -> {d}")
     return out

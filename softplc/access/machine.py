@@ -62,9 +62,11 @@ class MachineInfo:
         return self.plc.rungs
 
     @property
-    def program_version(self) -> int:
-        """Bumped by every rebuild of the running code (forcing, online change)."""
-        return self.plc.program_version
+    def code_version(self) -> int:
+        """Bumped by every rebuild of the running code (forcing, online change): what the
+        views' caches of the running code key on (the program's own version is the
+        program port's)."""
+        return self.plc.code_version
 
     @property
     def time(self) -> float:

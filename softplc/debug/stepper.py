@@ -189,7 +189,7 @@ class Stepper:
     def __init__(self, plc: PLC, history: int = HISTORY):
         self.plc = plc
         self.dbg = plc.compile_debug()
-        self.dbg_version = plc.program_version
+        self.dbg_version = plc.code_version
         self.gen: Iterator[tuple[int, int]] | None = None
         self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
         self.ring: deque[dict[str, Any]] = deque(maxlen=history)  # snapshots, for `back`
@@ -226,9 +226,9 @@ class Stepper:
         run the next instruction. True when a scan ended."""
         if self.gen is None:
             self._begin()
-            if self.dbg_version != self.plc.program_version:  # rebuilt (force, reload)
+            if self.dbg_version != self.plc.code_version:  # rebuilt (force, reload)
                 self.dbg = self.plc.compile_debug()
-                self.dbg_version = self.plc.program_version
+                self.dbg_version = self.plc.code_version
             self.gen = self.plc.engine.scan_stepwise(self.dbg.main)
             self.executed = Executed()
         else:
@@ -366,7 +366,7 @@ class Stepper:
             self._run(0)
         self.plc.replace_program(program)
         self.dbg = self.plc.compile_debug()
-        self.dbg_version = self.plc.program_version
+        self.dbg_version = self.plc.code_version
         lost = []
         for b in self.breaks:
             if b.kind == BreakKind.RUNG:

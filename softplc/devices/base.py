@@ -158,7 +158,7 @@ DEVICE_TYPES: dict[str, type[Device]] = {}
 
 #: The package that registers the machines' own device types when imported (a plug-in: the
 #: core names it, never imports from it).
-MACHINE_PLUGINS = "softplc.machines"
+MACHINE_PLUGINS = "softplc.machines.devices"
 
 
 def device_types() -> dict[str, type[Device]]:

@@ -1,14 +1,7 @@
 """The seed machines, apart from the core: each in its own package with its host client, its
-commands, its devices and what its web view draws. The core never imports them: importing
-this package registers the machines' device types (`softplc.devices.base.device_types()`
-does so when a configuration names a type the core does not have)."""
-
-from softplc.machines.drawing import pen, trace  # noqa: F401  (each registers its device type)
-from softplc.machines.machining import (  # noqa: F401  (likewise)
-    centre,
-    drive_tuning,
-    feed_axis,
-    scope,
-)
+commands, its devices and what its web view draws (drawing, servo, cutting, machining; gcode
+is the G-code reader the drawing and cutting tables share). The core never imports them:
+`softplc.machines.devices` registers their device types, imported by
+`softplc.devices.base.device_types()` when a configuration is read."""
 
 MACHINES = ("drawing", "servo", "cutting", "machining")

@@ -20,27 +20,54 @@ if not _pymodbus_log.handlers:
 
 
 class ProgressLine:
-    """One text line redrawn in place (carriage return) on a text stream (None: silent):
-    a bar of `width` characters for a fraction done, then any text."""
+    """A progress line on a text stream (None: silent): a bar of `width` characters for a
+    fraction done, then any text. On a terminal the line is redrawn in place (carriage
+    return); written to a pipe or a file it is a plain line every `LINE_INTERVAL_S` seconds
+    (and the first and the last), so a log holds a readable history, not one line of
+    hundreds of carriage-return frames."""
 
-    def __init__(self, stream: TextIO | None, width: int = 30):
+    LINE_INTERVAL_S = 5.0  # off a terminal: a line at most this often
+
+    def __init__(self, stream: TextIO | None, width: int = 30,
+                 clock: Callable[[], float] = time.monotonic):
         self.stream = stream
         self.width = width
         self.shown = False
+        self._clock = clock
+        isatty = getattr(stream, "isatty", None)
+        self.tty = bool(isatty and isatty())
+        self._last_line: float | None = None  # off a terminal: when the last line went out
+        self._pending: str | None = None  # off a terminal: the newest text not written
 
     def show(self, fraction: float, text: str) -> None:
         if self.stream is None:
             return
         filled = min(self.width, max(0, int(self.width * fraction)))
-        self.stream.write(f"\r[{'#' * filled}{'-' * (self.width - filled)}] {text}\x1b[K")
+        line = f"[{'#' * filled}{'-' * (self.width - filled)}] {text}"
+        if self.tty:
+            self.stream.write(f"\r{line}\x1b[K")
+        else:
+            now = self._clock()
+            if self._last_line is not None and fraction < 1 \
+                    and now - self._last_line < self.LINE_INTERVAL_S:
+                self._pending = line
+                return
+            self.stream.write(line + "\n")
+            self._last_line, self._pending = now, None
         self.stream.flush()
         self.shown = True
 
     def close(self) -> None:
-        if self.stream is not None and self.shown:
+        if self.stream is None:
+            return
+        if self._pending is not None:  # off a terminal: the last state is always written
+            self.stream.write(self._pending + "\n")
+            self._pending = None
+            self.stream.flush()
+        elif self.tty and self.shown:
             self.stream.write("\n")
             self.stream.flush()
-            self.shown = False
+        self.shown = False
 
 
 class ModbusHost:

@@ -34,26 +34,69 @@ MULTI_REGISTER_WRITES = tuple(c for c in WRITE_FCS[REGISTERS] if FUNCTIONS[c].ma
 #: holding register n is 40001 + n.
 REFERENCE_BASE = {COILS: 1, REGISTERS: 40001}
 TYPES = {"M": "BOOL", "MW": "INT16", "MD": "INT32", "MF": "REAL"}
-#: Why an object is not on the map, and how a program shows it to a host.
+#: Why an object is not on the map, and how a program shows it to a host: the copy's target
+#: is a bit ("M"), a word ("MW"), a double word ("MD") or a float ("MF"), chosen free.
 HIDDEN_WHY = {
-    "I": "inputs have no Modbus address: copy to a %M bit (LD %I0.0 / ST %M100)",
-    "Q": "outputs have no Modbus address: copy to a %M bit (LD %Q0.0 / ST %M101)",
-    "IW": "analog inputs: copy to a %MW word ([ %MW100 := %IW1.0 ])",
-    "QW": "analog outputs: copy to a %MW word ([ %MW101 := %QW1.0 ])",
-    "S": "system bits: copy to a %M bit",
-    "SW": "system words: copy to a %MW word",
-    "KW": "constants have no Modbus address: copy to a %MW word",
-    "KD": "constants have no Modbus address: copy to two %MW words (%MD)",
-    "KF": "constants have no Modbus address: copy to two %MW words (%MF)",
-    "X": "Grafcet steps: copy to a %M bit",
+    "I": ("inputs have no Modbus address", "M"),
+    "Q": ("outputs have no Modbus address", "M"),
+    "IW": ("analog inputs have no Modbus address", "MW"),
+    "QW": ("analog outputs have no Modbus address", "MW"),
+    "S": ("system bits have no Modbus address", "M"),
+    "SW": ("system words have no Modbus address", "MW"),
+    "KW": ("constants have no Modbus address", "MW"),
+    "KD": ("constants have no Modbus address", "MD"),
+    "KF": ("constants have no Modbus address", "MF"),
+    "X": ("Grafcet steps have no Modbus address", "M"),
 }
 
 
-def block_why(name: str, kind: str) -> str:
-    """How a program shows block `name` (%C0) to a host: its own word field in the hint."""
+class FreeTargets:
+    """%M bits and %MW words the program does not use, handed out in order: each hidden
+    object's hint copies it to its own free target (two rows never suggest the same)."""
+
+    def __init__(self, used_coils: set[int], used_registers: set[int]):
+        self._coils, self._regs = used_coils, used_registers
+        self._next_coil = self._next_reg = 0
+
+    def bit(self) -> int:
+        while self._next_coil in self._coils:
+            self._next_coil += 1
+        self._coils.add(self._next_coil)
+        return self._next_coil
+
+    def words(self, n: int) -> int:
+        """The first of `n` free registers in a row (even for a double word, as TwidoSuite
+        aligns %MD/%MF)."""
+        i = self._next_reg + (self._next_reg % n if n > 1 else 0)
+        while any(i + k in self._regs for k in range(n)):
+            i += n
+        self._regs.update(range(i, i + n))
+        if n == 1:
+            self._next_reg = i + 1
+        return i
+
+    def copy(self, address: str, target: str) -> str:
+        """The IL that shows `address` to a host through a free `target` kind."""
+        if target == "M":
+            return f"LD {address} / ST %M{self.bit()}"
+        n = 2 if target in ("MD", "MF") else 1
+        return f"[ %{target}{self.words(n)} := {address} ]"
+
+
+def hidden_why(kind: str, address: str, free: FreeTargets) -> str:
+    """Why `address` (of kind `kind`) is not on the map, and its own copy to a free target."""
+    why, target = HIDDEN_WHY[kind]
+    return f"{why}: copy it ({free.copy(address, target)})"
+
+
+def block_why(name: str, kind: str, free: FreeTargets | None = None) -> str:
+    """How a program shows block `name` (%C0) to a host: its own word field, copied to a
+    free word (%MW100 when no program is given)."""
     words = [f for f, (typ, _) in BLOCK_FIELDS[kind].items() if typ != "bool"]
-    example = f" ([ %MW102 := {name}.{words[0]} ])" if words else ""
-    return f"function block: copy its fields to %M/%MW{example}"
+    if not words:
+        return "function block: copy its bits to %M bits"
+    target = f"%MW{free.words(1)}" if free is not None else "%MW100"
+    return f"function block: copy its fields to %M/%MW ([ {target} := {name}.{words[0]} ])"
 
 
 @dataclass(frozen=True)
@@ -111,6 +154,18 @@ def _block_name(ref: Ref) -> str:
     return f"%{ref.kind}{ref.index}"
 
 
+def _free_targets(uses: Mapping[Any, Any]) -> FreeTargets:
+    """The %M bits and registers the program's own objects take (hints suggest others)."""
+    coils: set[int] = set()
+    regs: set[int] = set()
+    for ref in uses:
+        where = span(ref)
+        if where is not None:
+            space, start, count = where
+            (coils if space == COILS else regs).update(range(start, start + count))
+    return FreeTargets(coils, regs)
+
+
 def build(program: A.Program, read_only: ReadOnly | None = None,
           device_words: Mapping[str, Iterable[tuple[int, int]]] | None = None,
           symbols: Mapping[str, tuple[str, str]] | None = None,
@@ -125,7 +180,9 @@ def build(program: A.Program, read_only: ReadOnly | None = None,
     tags: list[Tag] = []
     hidden: list[Hidden] = []
     seen_blocks: set[str] = set()
-    for ref, (role, pos) in object_uses(program).items():
+    uses = object_uses(program)
+    free = _free_targets(uses)
+    for ref, (role, pos) in uses.items():
         text = str(ref)
         sym, comment = symbols.get(text, ("", ""))
         where = span(ref)
@@ -136,10 +193,11 @@ def build(program: A.Program, read_only: ReadOnly | None = None,
                     continue
                 seen_blocks.add(name)
                 sym, comment = symbols.get(name, (sym, comment))
-                hidden.append(Hidden(name, "uses", pos.line, block_why(name, ref.kind), sym,
-                                      comment))
+                hidden.append(Hidden(name, "uses", pos.line, block_why(name, ref.kind, free),
+                                     sym, comment))
             elif ref.kind in HIDDEN_WHY:
-                hidden.append(Hidden(text, role, pos.line, HIDDEN_WHY[ref.kind], sym, comment))
+                hidden.append(Hidden(text, role, pos.line, hidden_why(ref.kind, text, free),
+                                     sym, comment))
             continue
         space, start, count = where
         if limits is not None and start + count > limits.get(space, start + count):

@@ -233,8 +233,13 @@ class Engine:
         self.invalidate()
 
     def stop(self) -> None:
+        """RUN -> STOP: the program no longer runs and the physical outputs take their
+        fallback value 0, the %Q image kept (a Twido has no "maintain outputs in STOP"
+        option for its discrete outputs [docs/twido.md "Outputs in STOP", from memory]; on START the
+        image is written to the outputs again)."""
         self.state = STOP
         self.mem.s[S_RUNNING] = False
+        self.mem.q_field[:] = [False] * len(self.mem.q_field)
         self.invalidate()
 
     def start(self) -> None:

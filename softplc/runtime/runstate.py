@@ -17,4 +17,8 @@ class RunState(StrEnum):
 
 RUN, STOP, HALT = RunState.RUN, RunState.STOP, RunState.HALT
 
-__all__ = ["HALT", "RUN", "STOP", "RunState"]
+# %S9 = 1: the physical outputs at their fallback value 0 while the program runs on (the
+# engine's STOP rule, in RUN) [docs/twido.md "Outputs in STOP"; from memory, as the M221's]
+S_FALLBACK = 9
+
+__all__ = ["HALT", "RUN", "S_FALLBACK", "STOP", "RunState"]

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, SupportsIndex
 
 from softplc.program import Names, Watchdog
 from softplc.runtime.clock import Clock, RealClock, VirtualClock
-from softplc.runtime.runstate import RUN
+from softplc.runtime.runstate import RUN, S_FALLBACK
 
 if TYPE_CHECKING:
     from softplc.runtime.scanhost import ScanHost
@@ -228,14 +228,14 @@ def source(eng: ScanHost, before: bool = True) -> tuple[str, dict[str, Any]]:
         finish += [*(f"s[{bit}] = False" for bit in eng._first), "eng._first = {}",
                    "eng.invalidate()"]
     finish += forced
-    publish = [f"    {x}" for x in eng.mem.copy_lines("Q")] or ["    pass"]
+    publish = _publish_lines(eng)
     # after a HALT in this scan the output image is all 0 (Engine.halt), so publishing it
     # changes nothing, unless something writes %Q after the program: forcing, pulse
     # generators, RTC schedules
     if eng.forced or eng.pulses is not None or eng.rtc is not None:
-        finish += ["if eng.state == RUN:", *publish]
+        finish += ["if eng.state == RUN:", *(f"    {x}" for x in publish or ["pass"])]
     else:
-        finish += [x[4:] for x in publish if x != "    pass"]
+        finish += publish
     finish += ["st.scans += 1", "st.last = dt", "st.total += dt",
                # int() of a float is the dearest step of the statistics: most scans are
                # under half a millisecond
@@ -254,6 +254,17 @@ def source(eng: ScanHost, before: bool = True) -> tuple[str, dict[str, Any]]:
                    *(f"d{k}(t, DTS)" for k in range(len(eng.devices)))]
     finish += hooks_a
     return _make(pre, begin, run, finish, ["return True"], ns, cells), ns
+
+
+def _publish_lines(eng: Any) -> list[str]:
+    """The output publication (%Q image -> physical outputs) as lines of Python: with %S9
+    set, the outputs at their fallback value 0 instead (Engine.stop's rule, in RUN)."""
+    copy = eng.mem.copy_lines("Q")
+    if not copy:
+        return []
+    fallback = [line.split(" = ")[0] + " = False" for line in copy]
+    return [f"if s[{S_FALLBACK}]:", *(f"    {x}" for x in fallback), "else:",
+            *(f"    {x}" for x in copy)]
 
 
 _NAME = re.compile(r"(?<![.\w])[A-Za-z_]\w*")  # a name, not an attribute

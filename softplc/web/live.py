@@ -45,7 +45,7 @@ class LiveViews:
         rungs = m.rungs
         if not 0 <= n < len(rungs):
             raise ApiError(f"rung {n}: the program has rungs 0..{len(rungs) - 1}", 404)
-        key = (m.program_version, n)
+        key = (m.code_version, n)
         refs = self._rung_refs.get(key)
         if refs is None:
             refs = self._rung_refs[key] = ladderview.refs(rungs[n])
@@ -60,7 +60,7 @@ class LiveViews:
     def svg(self, n: int, values: dict[Ref, Any]) -> str:
         m = self.ctl.machine
         forced = set(self.ctl.port.forced)
-        key = (m.program_version, n, repr(sorted(values.items(), key=lambda kv: str(kv[0]))),
+        key = (m.code_version, n, repr(sorted(values.items(), key=lambda kv: str(kv[0]))),
                tuple(sorted(forced)))
         svg = self._svg_cache.get(key)
         if svg is None:
@@ -91,8 +91,8 @@ class LiveViews:
 
     def _step_titles(self) -> dict[int, str]:
         m = self.ctl.machine
-        if self._titles[0] != m.program_version:
-            self._titles = (m.program_version, machineview.step_titles(m.rungs))
+        if self._titles[0] != m.code_version:
+            self._titles = (m.code_version, machineview.step_titles(m.rungs))
         return self._titles[1]
 
     def machine_view(self, snap: dict[str, Any], since: int) -> dict[str, Any]:

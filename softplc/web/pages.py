@@ -242,7 +242,9 @@ class Pages:
                         changed.append(f'"{n}": {svg_json[n]}')
             if changed:
                 parts.append(', "ladder": {' + ", ".join(changed) + "}")
-            if c.machine:
+            # a page that just opened its Machine tab waits for a sample that has the
+            # machine's devices (this one was taken when no page asked for them)
+            if c.machine and snap["machine"]:
                 view = views.machine_view(snap["machine"], c.trace_sent)
                 c.trace_sent = view["trace_from"] + len(view["trace"])
                 parts.append(', "machine": ' + dumps(view))

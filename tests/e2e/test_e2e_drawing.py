@@ -121,9 +121,10 @@ def test_ctrl_c_lifts_the_pen_and_the_drawing_resumes(table, tmp_path):
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, env=env)
     seen = b""
     deadline = time.monotonic() + 30
-    # interrupt right after the first segment: under load the whole drawing (4 s) could
-    # otherwise end before the signal arrives
-    while b"] 1/" not in seen and time.monotonic() < deadline:
+    # interrupt as the first segment starts (the progress line "0/N", written at once
+    # off a terminal too): whatever the machine's speed, the drawing (4 s of moves) has
+    # not ended then; the wait is on the host's own output, never on a time
+    while b"] 0/" not in seen and time.monotonic() < deadline:
         chunk = os.read(proc.stderr.fileno(), 4096)
         if not chunk:
             break

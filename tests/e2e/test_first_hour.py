@@ -118,8 +118,12 @@ def test_progress_bar_shows_elapsed_time_and_eta():
 
     from softplc.machines.drawing.host import ProgressBar
 
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
     now = [0.0]
-    out = io.StringIO()
+    out = Terminal()
     bar = ProgressBar(10, out, clock=lambda: now[0])
     bar.update(0)
     now[0] = 20.0

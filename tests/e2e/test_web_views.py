@@ -52,6 +52,9 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
     d = started(daemons, tmp_path, "--config", str(machine), "--web", "0", "--speed", "max",
                 "--stats-interval", "0", program=PROGRAMS / "cutting_table.il")
     page = open_page(browser, web_url(d))
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     machine_tab(page)
     sync_api.expect(page.locator("#tool")).to_be_visible()
     piece = load_piece(PROGRAMS / "pieces" / "cuadrado.toml", speed=10.0, move_speed=10.0)
@@ -64,6 +67,7 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
     box = page.locator("#pen-path").bounding_box()  # the 15 mm square: about 25 px
     assert 20 < box["width"] < 40 and abs(box["width"] - box["height"]) < 2, box
     assert page.locator("#travel-path").count() == 1  # homing and the move to the start
+    assert errors == []  # (a machine message without devices threw in machineHistory)
     assert "torch off" in page.locator("#machine-hint").inner_text()  # the cut is over
     shot(page, "machine-cutting")
     page.close()

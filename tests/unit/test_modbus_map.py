@@ -163,3 +163,16 @@ def test_a_hidden_block_is_shown_with_its_own_word_field():
     assert "%C0.V ]" in tags.block_why("%C0", "C")
     assert "%DR1.S ]" in tags.block_why("%DR1", "DR")
     assert "%TM0.V ]" in {h.address: h for h in program_map().hidden}["%TM0"].why
+
+
+def test_each_hidden_row_hints_its_own_address_and_a_free_target():
+    """The hint names the row's own object and a %M/%MW the program does not use, a
+    different one on each row (issue 33: it was `LD %I0.0 / ST %M100` on every row)."""
+    prog = parse("LD %I0.3\nST %M0\nLD %I0.5\nST %Q0.2\n"
+                         "[ %MW0 := %IW1.0 ]\n[ %MW1 := %KW4 ]\n")
+    why = {h.address: h.why for h in tags.build(prog, ReadOnly()).hidden}
+    assert "LD %I0.3 / ST %M1" in why["%I0.3"]
+    assert "LD %I0.5 / ST %M2" in why["%I0.5"]
+    assert "LD %Q0.2 / ST %M3" in why["%Q0.2"]
+    assert "[ %MW2 := %IW1.0 ]" in why["%IW1.0"]
+    assert "[ %MW3 := %KW4 ]" in why["%KW4"]

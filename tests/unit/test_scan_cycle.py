@@ -250,19 +250,19 @@ def test_forcing_recompiles_only_when_the_forced_bits_change(plc_from_source):
     """Stores to forced bits are compiled out; words are re-asserted by the engine, so
     forcing a word, re-forcing a bit or releasing nothing costs no recompilation."""
     plc = plc_from_source("LD 1\n[ %MW0 := 5 ]\nLD 1\nST %Q0.0\n")
-    v = plc.program_version
+    v = plc.code_version
     plc.force("%MW0", 42)
     plc.unforce("%MW1")  # not forced
-    assert plc.program_version == v
+    assert plc.code_version == v
     plc.force("%Q0.0", 0)
-    assert plc.program_version == v + 1
+    assert plc.code_version == v + 1
     plc.force("%Q0.0", 1)  # the same bit, another value
     plc.unforce("%MW0")
-    assert plc.program_version == v + 1
+    assert plc.code_version == v + 1
     plc.scan()
     assert plc["%Q0.0"] == 1 and plc["%MW0"] == 5
     plc.unforce()
-    assert plc.program_version == v + 2 and plc.forced == {}
+    assert plc.code_version == v + 2 and plc.forced == {}
 
 
 # ---- HALT -----------------------------------------------------------------------------------
@@ -490,3 +490,39 @@ def test_cold_start_after_forcing_resets_blocks(plc_from_source):
     plc.force("%M5", True)
     plc.cold_start()
     assert plc["%C0.V"] == 0
+
+
+# ---- outputs in STOP and %S9 [docs/twido.md "Outputs in STOP", from memory] -----------------
+def test_stop_puts_the_physical_outputs_at_0_and_keeps_the_image(plc_from_source):
+    plc = plc_from_source(COPY)
+    plc["%I0.0"] = 1
+    plc.scan(2)
+    assert plc["%Q0.0"] and plc.mem.q_field[0]
+    plc.stop()
+    plc.scan(3)
+    assert plc["%Q0.0"]  # the %Q image is kept...
+    assert not plc.mem.q_field[0]  # ...the output itself is at its fallback value 0
+    plc.start()
+    plc.scan()
+    assert plc.mem.q_field[0]  # back in RUN the image is written to the outputs again
+
+
+def test_s9_holds_the_outputs_at_0_while_the_program_runs(plc_from_source):
+    plc = plc_from_source(COPY + "LD %I0.1\nST %S9\n")
+    plc["%I0.0"] = 1
+    plc["%I0.1"] = 1
+    plc.scan(2)
+    assert plc["%Q0.0"] and not plc.mem.q_field[0]  # the program runs; the output is 0
+    plc["%I0.1"] = 0
+    plc.scan()
+    assert plc.mem.q_field[0]
+
+
+def test_forcing_a_bit_rebuilds_the_code_but_is_not_a_new_program_version(plc_from_source):
+    plc = plc_from_source(COPY)
+    version, code = plc.program_version, plc.code_version
+    plc.force("%Q0.0", 1)  # a forced bit: the program's stores to it compiled out
+    assert plc.code_version == code + 1
+    assert plc.program_version == version  # what the Program tab shows does not move
+    plc.unforce()
+    assert plc.program_version == version

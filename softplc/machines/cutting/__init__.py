@@ -13,55 +13,35 @@ in `motion.py`, the thesis's defective algorithms in `seed.py`, pieces from TOML
 `regmap.py`. See `../shared/reference/cutting-table.md`.
 """
 
-from softplc.machines.cutting.geometry import (
-    Arc,
-    CoincidentPointsError,
-    CuttingError,
-    Fillet,
-    FilletError,
-    GeometryError,
-    Line,
-    NewtonCurve,
-    NewtonError,
-    ZeroRadiusError,
-    fillet,
-)
-from softplc.machines.cutting.load import load_piece
-from softplc.machines.cutting.motion import LineSplit, Trapezoid, matlab_steps, split_line
-from softplc.machines.cutting.piece import (
-    Piece,
-    PieceError,
-    Segment,
-    piece_from_dict,
-    piece_from_gcode,
-)
-from softplc.machines.cutting.preview import preview
-from softplc.machines.cutting.regmap import SegmentWords, piece_words, segment_words
+from softplc.machines.lazy import lazy_exports
 
-__all__ = [
-    "Arc",
-    "CoincidentPointsError",
-    "CuttingError",
-    "Fillet",
-    "FilletError",
-    "GeometryError",
-    "Line",
-    "LineSplit",
-    "NewtonCurve",
-    "NewtonError",
-    "Piece",
-    "PieceError",
-    "Segment",
-    "SegmentWords",
-    "Trapezoid",
-    "ZeroRadiusError",
-    "fillet",
-    "load_piece",
-    "matlab_steps",
-    "piece_from_dict",
-    "piece_from_gcode",
-    "piece_words",
-    "preview",
-    "segment_words",
-    "split_line",
-]
+# name -> the submodule that defines it, imported on first use (machines/lazy.py)
+_EXPORTS = {
+    "Arc": "geometry",
+    "CoincidentPointsError": "geometry",
+    "CuttingError": "geometry",
+    "Fillet": "geometry",
+    "FilletError": "geometry",
+    "GeometryError": "geometry",
+    "Line": "geometry",
+    "LineSplit": "motion",
+    "NewtonCurve": "geometry",
+    "NewtonError": "geometry",
+    "Piece": "piece",
+    "PieceError": "piece",
+    "Segment": "piece",
+    "SegmentWords": "regmap",
+    "Trapezoid": "motion",
+    "ZeroRadiusError": "geometry",
+    "fillet": "geometry",
+    "load_piece": "load",
+    "matlab_steps": "motion",
+    "piece_from_dict": "piece",
+    "piece_from_gcode": "piece",
+    "piece_words": "regmap",
+    "preview": "preview",
+    "segment_words": "regmap",
+    "split_line": "motion",
+}
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__all__ = sorted(_EXPORTS)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 
 from softplc.commands._args import add_connection_arguments, size_arg
+from softplc.machines.examples import example
 
 _EXAMPLES = """\
 examples (after P=ladder_programs/pieces):
@@ -92,9 +93,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--trace", metavar="TRACE.csv",
                    help="the daemon's trace file (softplc run --trace): report the torch-on "
                         "samples' distance from the ideal shape after the run")
-    g.add_argument("--machine", default="ladder_programs/cutting_table.toml",
+    g.add_argument("--machine", default=str(example("cutting_table.toml")),
                    metavar="TOML", help="machine config of the daemon, for the trace's "
-                                        "axis start and counts per mm (default %(default)s)")
+                                        "axis start and counts per mm (default: the shipped "
+                                        "cutting_table.toml, whatever the current folder)")
     p.set_defaults(func=run)
 
 

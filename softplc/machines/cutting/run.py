@@ -221,4 +221,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"segment words written to {args.frames}", file=sys.stderr)
     if args.dry_run:
         return 0
+    if args.trace:  # checked before the cut, not after it: the run is long
+        _machine_axes(args.machine)
     return _stream(piece, args)

@@ -74,7 +74,7 @@ class ProgressBar(ProgressLine):
 
     def __init__(self, total: int, stream: TextIO | None = sys.stderr, width: int = 30,
                  clock: Callable[[], float] = time.monotonic):
-        super().__init__(stream, width)
+        super().__init__(stream, width, clock)
         self.total = max(total, 1)
         self.clock = clock
         self._t0 = clock()

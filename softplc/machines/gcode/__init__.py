@@ -9,26 +9,19 @@
     print(max_deviation(steps, "trace.csv", prog.config.steps_per_unit))
 """
 
-from softplc.machines.gcode.parser import (
-    GCodeConfig,
-    GCodeError,
-    Program,
-    Segment,
-    StepSegment,
-    parse_file,
-    parse_gcode,
-    to_steps,
-)
-from softplc.machines.gcode.preview import preview
+from softplc.machines.lazy import lazy_exports
 
-__all__ = [
-    "GCodeConfig",
-    "GCodeError",
-    "Program",
-    "Segment",
-    "StepSegment",
-    "parse_file",
-    "parse_gcode",
-    "preview",
-    "to_steps",
-]
+# name -> the submodule that defines it, imported on first use (machines/lazy.py)
+_EXPORTS = {
+    "GCodeConfig": "parser",
+    "GCodeError": "parser",
+    "Program": "parser",
+    "Segment": "parser",
+    "StepSegment": "parser",
+    "parse_file": "parser",
+    "parse_gcode": "parser",
+    "preview": "preview",
+    "to_steps": "parser",
+}
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__all__ = sorted(_EXPORTS)

@@ -8,13 +8,24 @@ formulas (`thesis`, only to show the defects) and seeded synthetic recordings (`
     print(res.estimate.mass, res.estimate.uncertainty, res.row.number)
 """
 
-from softplc.machines.machining.estimator import Estimate, estimate
-from softplc.machines.machining.mpfile import MPFile
-from softplc.machines.machining.params import ParameterTable, default_template
-from softplc.machines.machining.recording import Channel, Recording, read_recording, write_recording
-from softplc.machines.machining.settings import Settings, read_settings
-from softplc.machines.machining.tuning import TuneResult, tune, tune_files
+from softplc.machines.lazy import lazy_exports
 
-__all__ = ["Channel", "Estimate", "MPFile", "ParameterTable", "Recording", "Settings",
-           "TuneResult", "default_template", "estimate", "read_recording", "read_settings",
-           "tune", "tune_files", "write_recording"]
+# name -> the submodule that defines it, imported on first use (machines/lazy.py)
+_EXPORTS = {
+    "Channel": "recording",
+    "Estimate": "estimator",
+    "MPFile": "mpfile",
+    "ParameterTable": "params",
+    "Recording": "recording",
+    "Settings": "settings",
+    "TuneResult": "tuning",
+    "default_template": "params",
+    "estimate": "estimator",
+    "read_recording": "recording",
+    "read_settings": "settings",
+    "tune": "tuning",
+    "tune_files": "tuning",
+    "write_recording": "recording",
+}
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__all__ = sorted(_EXPORTS)

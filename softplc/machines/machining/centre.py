@@ -25,12 +25,12 @@ from softplc.devices.axis.options import Ctl, Mode, St, Word
 from softplc.devices.axis.rig import Rig
 from softplc.devices.base import device_types
 from softplc.errors import ConfigError
+from softplc.machines.examples import example
 from softplc.machines.machining.drive_tuning import DriveTuning
 from softplc.machines.machining.scope import SW, Scope
 from softplc.machines.machining.synth import CAL_JOB, MEAS_JOB, Run, Scenario
 
-ROOT = Path(__file__).resolve().parents[3]
-MACHINE_TOML = ROOT / "ladder_programs" / "mass_tuning.toml"
+MACHINE_TOML = example("mass_tuning.toml")
 POSITIONING = (3000.0 / 60000, 1.0)  # the macro's F3000 approach (m/s), at 1 m/s²
 AXES = ("servo_axis", "feed_axis")
 APPROACH = 0.005  # m: fe_of_move's approach distance

@@ -20,9 +20,10 @@ from softplc.devices.axis import Ctl, Err, Mode
 from softplc.devices.axis.ivars import IVarError, resolve
 from softplc.devices.axis.rig import Rig
 from softplc.errors import SoftPLCError
+from softplc.machines.examples import example
 
 # The machine the commands simulate unless told (found from any working directory).
-DEFAULT_CONFIG = Path(__file__).resolve().parents[3] / "ladder_programs" / "servo_table.toml"
+DEFAULT_CONFIG = example("servo_table.toml")
 MOVES = ("step", "step-return", "parabolic", "trapezoid", "scurve")
 MODES = {"step": Mode.STEP, "step-return": Mode.STEP, "parabolic": Mode.PARABOLIC,
          "trapezoid": Mode.TRAPEZOID, "scurve": Mode.SCURVE}
