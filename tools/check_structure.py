@@ -70,7 +70,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
 )
 MACHINES = "softplc.machines."
 # what two machines may share: the G-code reader, where the shipped examples are
-SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples")
+SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples",
+                       "softplc.machines.lazy")
 # the wing's own modules that name every machine: the package, the device registry
 MACHINE_REGISTRY = ("softplc.machines", "softplc.machines.devices")
 
@@ -122,7 +123,7 @@ def kind_names(tree: ast.AST, kinds: tuple[str, ...] = KINDS) -> set[str]:
     # in a string: "%PID0", "%C{i}", "PID" alone, or one alternative of a regex
     # ("TM|DR|PLS"); "FC 3/4" (a Modbus function code) or "kill -USR1 PID" (a process id)
     # is not a kind, nor "%R" or "%C" of a date format (a letter follows the kind or not)
-    words = {k: re.compile(rf"%{k}(?![A-Za-z])(?=[0-9{{]|$|\.)" if len(k) == 1 else
+    words = {k: re.compile(rf"%{k}(?=[0-9{{])|^%{k}$" if len(k) == 1 else
                            rf"%{k}(?![A-Za-z])|^{k}$|(?:^|\|){k}(?:\||$)|\({k}\||\|{k}\)")
              for k in kinds}
     # a function or class named after the kind (`_configure_pid`, `VfcBlock`)
