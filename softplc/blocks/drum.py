@@ -37,7 +37,7 @@ def drum_rule(D: Any, steps: Sequence[int], s: Mapping[str, Any], R: Any,
     S2 = D.ite(R, 0, D.ite(up, D.ite(S == n - 1, 0, S + 1), S))
     changed = S2 != D.ite(R, -1, s["_written"])
     out = [D.ite(changed, D.any_([S2 == j for j, bits in enumerate(steps) if bits >> k & 1]),
-                 old) for k, old in enumerate(s["out"])]
+                 old) for k, old in enumerate(s.get("out", ()))]
     return {"S": S2, "_written": S2, "_u": D.bit(U), "F": D.bit(S2 == n - 1), "out": out}
 
 
