@@ -177,15 +177,6 @@ def addressable() -> Iterator[Family]:
     return (f for f in FAMILIES.values() if f.addressable)
 
 
-def of_class(cls: type) -> str:
-    """The kind whose runtime class is `cls` (a module modelling one family by its class,
-    as the verifier does, names it so)."""
-    for f in FAMILIES.values():
-        if f.runtime.rpartition(":")[2] == cls.__name__ and f.block_class is cls:
-            return f.kind
-    raise KeyError(cls.__name__)
-
-
 def by_instruction() -> dict[str, Family]:
     """IL keyword -> the family its instruction runs (`PID` -> the PID functions)."""
     return {f.instruction: f for f in FAMILIES.values() if f.instruction}
