@@ -48,6 +48,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from softplc import assembly as build
+from softplc import online
 from softplc.errors import SoftPLCError
 from softplc.modbus import ModbusImage, ReadOnly, ServerThread
 from softplc.modbus.regmap import describe
@@ -55,6 +56,7 @@ from softplc.modbus.server import DEFAULT_IDLE_TIMEOUT, bind_listeners
 from softplc.modbus.tags import host_read_only
 from softplc.persist import retain
 from softplc.persist.keeper import StateKeeper
+from softplc.persist.kept import ProgramKeeper
 from softplc.runtime.engine import HALT, RUN
 
 log = logging.getLogger("softplc.daemon")
@@ -72,6 +74,9 @@ class DaemonOptions:
     state_symlink: bool = False  # a --state that is a symbolic link is used (else refused)
     cold: bool = False
     keep_state: bool = False  # warm restart even if the program or configuration changed
+    # run the program kept beside the state file (softplc.persist.kept) whatever the
+    # command line's program is
+    program_from_state: bool = False
     save_interval: float = 5.0  # seconds between flushes to disk; 0 = only at shutdown
     speed: float | None = None  # None: real time; N: N x real time; math.inf: max
     # seconds; 0 = none (SIGUSR1 still prints one). A line every minute, not every few
@@ -97,6 +102,9 @@ class DaemonOptions:
     on_serving: list[Callable[[ServerThread, ModbusImage], None]] = field(
         default_factory=list)
     web: Any = None  # softplc.web.WebOptions; None = no web monitor
+    # the folder an online change's configuration may name files in (--config-dir);
+    # None: only the files the request carries (softplc.config.files)
+    config_dir: Path | None = None
     gc_freeze: bool = True  # freeze what start-up made (see Daemon.run); False: comparisons
 
 
@@ -128,6 +136,7 @@ class Daemon:
         self.signals = 0
         self.stats_wanted = False  # SIGUSR1: a statistics line at the next scan
         self.image: ModbusImage | None = None
+        self.keeper: ProgramKeeper | None = None  # the program kept with the state file
         self._server: ServerThread | None = None
         self.overruns = 0  # cycles that missed their period (each one sets %S19)
         self.late_starts = 0  # of which the scan itself was short: its start was late
@@ -229,15 +238,40 @@ class Daemon:
             except retain.StateFileError:
                 if not opt.cold:
                     raise
+            why = self._choose_program(state)
             self.start_mode, self.start_why = retain.restart(
                 plc, state, cold=opt.cold, keep_state=opt.keep_state, app=self.app,
                 where=f"state file {opt.state}")
+            if self.start_mode == "warm":
+                self.start_why = why
             store.start(retain.capture(plc.mem, self.app))
             store.set_pid()
         except BaseException:
             store.close()
             raise
         return store
+
+    def _choose_program(self, state: retain.RetainedState | None) -> str:
+        """Which program runs (`online.choose_program`: the command line's, or the one
+        kept with the state file's data); keep it beside the state file. Why, for the
+        banner."""
+        plc, opt = self.plc, self.opt
+        assert opt.state is not None
+        keeper = self.keeper = ProgramKeeper(opt.state)
+        why, command_line = "", self.app
+        if state is not None and not opt.cold:
+            retain.check_compatible(state, plc.mem, f"state file {opt.state}")
+            self.app, why = online.choose_program(
+                plc, state.app, self.app, keeper, keep_state=opt.keep_state,
+                from_state=opt.program_from_state, state=opt.state)
+        kept = keeper.find(self.app) if self.app != command_line else None
+        if kept is not None:
+            self.program_name = f"{kept.file} (kept with the state)"
+        else:
+            kept = online.kept_record(plc, self.app, self.app, file=self.program_name)
+        keeper.keep(kept)
+        keeper.running = kept
+        return why
 
     # -- the loop ------------------------------------------------------------------------
     def run(self) -> int:
@@ -277,7 +311,10 @@ class Daemon:
                 from softplc.access import AccessPort
                 from softplc.web import attach
 
-                self.web = attach(self, server, AccessPort(plc, image), opt.web)
+                port = AccessPort(plc, image)
+                port.program.files_root = opt.config_dir
+                port.program.keeper = self.keeper  # an online change is kept with the state
+                self.web = attach(self, server, port, opt.web)
             for hook in opt.on_serving:
                 hook(server, image)
         except BaseException:

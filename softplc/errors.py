@@ -125,6 +125,9 @@ class ConfigCode(StrEnum):
     MODULE = "module"  # an expansion module or a channel no module provides
     DEVICE = "device"  # an unknown device type
     FILE = "file"  # the file cannot be read, or is not TOML
+    # a file this configuration may not name: from the network, outside --config-dir, a
+    # link leading out, not a regular file, too large (softplc.config.files)
+    PATH = "path"
     OTHER = "other"
 
 

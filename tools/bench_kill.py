@@ -5,7 +5,8 @@ own pair of registers and writes an increasing 32-bit counter with FC 16, rememb
 last value the daemon acknowledged), `kill -9` the daemon at a random moment with writes
 in flight, restart it on the same file and read the registers back. A register holding
 less than its last acknowledged value lost acknowledged writes (the difference). Also
-counted: files left in the state file's directory besides the program and the state.
+counted: files left in the state file's directory besides the program, the state and the
+program kept with it (`softplc.persist.kept`).
 
 `--attack delete` (or `replace`) also deletes the state file (or renames another file over
 it) while the writes go on, 0.2-0.6 s before the kill; the daemon must re-create it with
@@ -30,6 +31,7 @@ import time
 from pathlib import Path
 
 from softplc.modbus.rawclient import RawClient
+from softplc.persist.kept import path_of
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -125,7 +127,7 @@ def run(kills: int = 100, writers: int = 4, save_interval: str = "0.5s",
             if progress:
                 print(file=sys.stderr)
         leftovers = sorted(p.name for p in Path(tmp).iterdir()
-                           if p.name not in (program.name, state.name))
+                           if p.name not in (program.name, state.name, path_of(state).name))
     return {"kills": kills, "attack": attack, "acknowledged_writes": acked_total,
             "lost_total": sum(lost), "lost_mean": statistics.mean(lost) if lost else 0.0,
             "lost_max": max(lost, default=0), "kills_with_loss": sum(1 for x in lost if x),

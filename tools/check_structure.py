@@ -69,7 +69,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc", "softplc.cli", "softplc.__main__"),
 )
 MACHINES = "softplc.machines."
-# what two machines may share: the G-code reader, where the shipped examples are
+# what two machines may share: the G-code reader, where the shipped examples are, the
+# lazy exports of their packages
 SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples",
                        "softplc.machines.lazy")
 # the wing's own modules that name every machine: the package, the device registry

@@ -9,24 +9,22 @@ from typing import Any
 
 from softplc import assembly as build
 from softplc import online
+from softplc.config.files import Carried
+from softplc.persist.kept import KeptProgram, ProgramKeeper
 from softplc.persist.retain import application_id
 from softplc.twido.symbols import SymbolTable
 
 
-def _anchored(raw: dict[str, Any], base: Path | None) -> dict[str, Any]:
-    """`raw` with a relative `symbols_file` made absolute from `base` (the folder of the
-    running configuration): a configuration given as text or dict has no folder of its
-    own."""
-    file = raw.get("symbols_file")
-    if base is not None and isinstance(file, str) and file and not Path(file).is_absolute():
-        return raw | {"symbols_file": str(base / file)}
-    return raw
-
-
 class ProgramAccess:
-    def __init__(self, plc: Any, image: Any = None):
+    def __init__(self, plc: Any, image: Any = None, files_root: Path | None = None):
         self.plc = plc
         self.image = image  # the Modbus image: its state file follows a program change
+        # the folder an online change's configuration may name files in (`softplc run
+        # --config-dir`); None: only the files the request carries
+        self.files_root = files_root
+        # the programs kept with the state file (the daemon's, with --state): an online
+        # change is written there before its swap
+        self.keeper: ProgramKeeper | None = None
         self._map: tuple[int, Any] | None = None
 
     @property
@@ -57,13 +55,17 @@ class ProgramAccess:
             self._map = (self.version, tags.of_plc(self.plc))
         return self._map[1]
 
-    def plan(self, text: str, raw: dict[str, Any] | None,
-             name: str) -> tuple[online.Plan, SymbolTable]:
+    def plan(self, text: str, raw: dict[str, Any] | None, name: str,
+             files: dict[str, bytes] | None = None) -> tuple[online.Plan, SymbolTable]:
         """Check and compile `text` against `raw` (None: the running configuration) in any
-        thread but the scan's: the plan and the symbols of its configuration."""
+        thread but the scan's: the plan and the symbols of its configuration. The
+        configuration comes from the network: the files it names are those `files` carries
+        (name -> bytes), those the running configuration read at its start, or regular files
+        under `files_root`; no other (`softplc.config.files.Carried`)."""
         plc = self.plc
-        config = _anchored(dict(plc.config if raw is None else raw), plc.config_dir)
-        change = online.plan(plc, text, config, file=name)
+        policy = Carried(plc.machine.files.served | (files or {}), self.files_root)
+        config = dict(plc.config if raw is None else raw)
+        change = online.plan(plc, text, config, file=name, files=policy)
         return change, change.symbols
 
     def app_id(self, text: str, raw: dict[str, Any] | None) -> bytes:
@@ -73,8 +75,20 @@ class ProgramAccess:
             return build.application_id(self.plc.machine, text.encode())
         return application_id(text.encode(), raw)
 
+    def keep(self, plan: online.Plan, text: str, name: str, app: bytes) -> KeptProgram | None:
+        """Before the swap (not in the scan thread): write what the change will run beside
+        the state file, so that a restart runs it with its data. StateFileError if it
+        cannot be written: then the change is not made."""
+        if self.keeper is None:
+            return None
+        running = self.keeper.running
+        record = online.kept_record(self.plc, app, app if running is None else running.origin,
+                                    plan, name, text)
+        self.keeper.keep(record)
+        return record
+
     def swap(self, plan: online.Plan, names: SymbolTable, version: int, *, confirm: bool,
-             cold: bool, app: bytes) -> dict[str, Any]:
+             cold: bool, app: bytes, kept: KeptProgram | None = None) -> dict[str, Any]:
         """In the scan thread, between two scans: make the change planned against
         `version`; what runs then. ChangeRefused if another change came meanwhile."""
         plc = self.plc
@@ -85,7 +99,9 @@ class ProgramAccess:
         plc.symbols = names
         store = getattr(self.image, "store", None)
         if store is not None:  # the state file now belongs to the new program: a restart
-            store.app = app  # with it warm-starts, with the old one not
+            store.app = app  # runs it (kept beside the file) with its data
+        if kept is not None and self.keeper is not None:
+            self.keeper.running = kept
         return self.info()
 
 

@@ -12,6 +12,7 @@ from typing import Any, NamedTuple
 from softplc.assembly import hardware
 from softplc.assembly.blocks import BlockSetup
 from softplc.config import Config, load_config
+from softplc.config.files import FilePolicy, Local
 from softplc.config.models import rtc_start
 from softplc.errors import ConfigError
 from softplc.persist import retain
@@ -60,6 +61,8 @@ class Machine:
     # to configure (the block set-up provides it)
     block_factory: Callable[[Ref], str | None] = _no_blocks
     devices: dict[str, Any] = field(default_factory=dict)
+    # where the files the configuration names came from, and what they held
+    files: FilePolicy = field(default_factory=Local)
 
 
 class Loaded(NamedTuple):
@@ -70,20 +73,31 @@ class Loaded(NamedTuple):
     config_dir: Path | None  # the folder of its file (relative paths), None for a dict
     settings: Config
     file: str | None  # its file, for messages
+    # where the files it names may come from (`softplc.config.files`); what was read
+    files: FilePolicy
 
 
 ConfigSource = str | Path | dict[str, Any] | Loaded | None
 
 
-def load(config: ConfigSource) -> Loaded:
+def load(config: ConfigSource, files: FilePolicy | None = None) -> Loaded:
     """`config` read and checked (`config.load_config`, the devices' options too); a
-    `Loaded` is returned as it is. Raises ConfigError with every problem the schema finds."""
+    `Loaded` is returned as it is. `files`: where the files it names may come from
+    (default: anywhere, `Local`; a configuration from the network: `Carried`). Raises
+    ConfigError with every problem the schema finds."""
     from softplc.devices import device_types
 
     if isinstance(config, Loaded):
         return config
     raw, config_dir, settings = load_config(config, device_types())
-    return Loaded(raw, config_dir, settings, None if config_dir is None else str(config))
+    return Loaded(raw, config_dir, settings, None if config_dir is None else str(config),
+                  Local() if files is None else files.fresh())
+
+
+def _symbols(c: Loaded) -> SymbolTable:
+    return symbols.from_settings(
+        c.settings, c.config_dir, PROFILES[c.settings.profile],
+        lambda name: c.files.read(name, c.config_dir, "symbols_file", "symbol file"))
 
 
 def symbol_table(config: ConfigSource) -> SymbolTable:
@@ -92,7 +106,7 @@ def symbol_table(config: ConfigSource) -> SymbolTable:
     before the program's errors (every name of the program would be one without it)."""
     c = load(config)
     try:
-        return symbols.from_settings(c.settings, c.config_dir, PROFILES[c.settings.profile])
+        return _symbols(c)
     except ConfigError as e:
         raise e.in_file(c.file) if c.file is not None else e from None
 
@@ -101,12 +115,13 @@ def assemble(config: ConfigSource, clock: str | Clock = "virtual") -> Machine:
     """Load and check `config`, then build the controller's parts (no function blocks, no
     program, no devices yet). Raises ConfigError with every problem the schema finds; the
     builder's are collected in `problems`, which `equip` raises with its own."""
-    raw, config_dir, settings, file = load(config)
+    loaded = load(config)
+    raw, config_dir, settings, file, files = loaded
     profile = PROFILES[settings.profile]
     problems = hardware.Problems(file)
     table = SymbolTable(profile=profile)
     with problems.collecting():
-        table = symbols.from_settings(settings, config_dir, profile)
+        table = _symbols(loaded)
     mem = MemoryImage(profile)
     clk = make_clock(clock)
     discrete, analog_modules = hardware.modules(settings)
@@ -123,7 +138,7 @@ def assemble(config: ConfigSource, clock: str | Clock = "virtual") -> Machine:
         grafcet=grafcet,
         engine=Engine(mem, clk, settings.scan_period, watchdog, time_source),
         program_state=ProgramState(grafcet=grafcet), rtc_start=rtc_start(settings.rtc),
-        schedules=found, problems=problems)
+        schedules=found, problems=problems, files=files)
 
 
 def equip(m: Machine, devices: bool = True) -> BlockSetup:
@@ -166,9 +181,15 @@ def settle_exchange(m: Machine, timeout: float) -> bool:
     return port is None or not port.wait or m.engine.state != RUN or port.settle(timeout)
 
 
+#: Device options that name a file the device writes, placed by the machine's file policy
+#: (`FilePolicy.output`): the trace recorder's `csv` (relative to the configuration's
+#: folder: True) and a servo axis's `trace_csv` (relative to the working folder, as ever).
+FILE_OPTIONS = {"csv": True, "trace_csv": False}
+
+
 def attach_devices(m: Machine) -> dict[str, Any]:
     """Build the simulated machine of [devices] on the memory image (relative files made
-    relative to the config file's folder)."""
+    relative to the config file's folder; a configuration from the network names none)."""
     if not m.settings.devices:
         return {}
     from softplc.devices import build_devices
@@ -176,9 +197,12 @@ def attach_devices(m: Machine) -> dict[str, Any]:
     config = {}
     for name, section in m.settings.devices.items():
         opts = section.options
-        csv = getattr(opts, "csv", None)
-        if m.config_dir is not None and isinstance(csv, str) and not Path(csv).is_absolute():
-            opts = opts.model_copy(update={"csv": str(m.config_dir / csv)})
+        for key, anchored in FILE_OPTIONS.items():
+            value = getattr(opts, key, None)
+            if isinstance(value, str):
+                where = m.files.output(value, m.config_dir if anchored else None,
+                                       f"devices.{name}.{key}")
+                opts = opts.model_copy(update={key: str(where)})
         config[name] = (section.type, opts)
     m.devices = build_devices(config, m.mem)
     m.engine.devices = m.devices

@@ -2,7 +2,9 @@
 change through its web API, `POST /api/program`).
 
 The daemon checks and compiles the program; on an error nothing changes and every error is
-printed with line:col. What cannot carry over (a block removed, a preset changed) is listed
+printed with line:col. A configuration given with --config goes with the files it names
+(its `symbols_file`, read here, relative to its folder): the daemon reads no file a request
+names (`softplc.config.files`). What cannot carry over (a block removed, a preset changed) is listed
 and asked about (unless --yes); the swap is made between two scans, keeping %M, %MW,
 timers, counters and steps wherever the objects still exist.
 """
@@ -12,13 +14,16 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
+from typing import Any
 
 from softplc.commands._args import CONFIG_HELP, existing_file, port
 from softplc.commands.io import DEFAULT_PORT, Client
-from softplc.errors import SoftPLCError
+from softplc.errors import ConfigCode, ConfigError, SoftPLCError
 
 LOAD_TIMEOUT = 120.0  # s: checking a ~1 MB program takes a while
+PENDING_POLL_S = 0.2  # s between two looks at a swap the daemon is still making
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -60,13 +65,59 @@ def _ask(question: str) -> bool:
         return False
 
 
+#: Configuration keys that name a file the daemon needs to read (sent with the request).
+FILE_KEYS = ("symbols_file",)
+
+
+def _files(config: Path, text: str) -> dict[str, str]:
+    """The files `config` (its `text`) names, read here: name -> text."""
+    import tomllib
+
+    from softplc.config.files import Local
+    from softplc.twido.symbols import decode_csv
+
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return {}  # the daemon says what is wrong with it, at line:col
+    files, policy = {}, Local()
+    for key in FILE_KEYS:
+        name = raw.get(key)
+        if not isinstance(name, str) or not name:
+            continue
+        try:
+            data = policy.read(name, config.parent, key, "symbol file")
+        except ConfigError as e:
+            if e.issues[0].code == ConfigCode.FILE and not (config.parent / name).exists():
+                continue  # not here: the daemon's running copy of that name, if it has one
+            raise
+        files[name] = decode_csv(data, name)
+    return files
+
+
+def _pending(client: Client, answer: dict[str, Any]) -> dict[str, Any]:
+    """An answer "still being made" (202: the scan thread began the swap and has not ended
+    it) followed until the program's version says it ended (softplc.web.program)."""
+    if answer.get("applied") is not None:
+        return answer
+    end = time.monotonic() + LOAD_TIMEOUT
+    while time.monotonic() < end:
+        info = client.request("program")["info"]
+        if info["version"] >= answer["version"]:
+            return {"applied": True, "info": info}
+        time.sleep(PENDING_POLL_S)
+    raise SoftPLCError(f"the daemon began the swap and did not end it within "
+                       f"{LOAD_TIMEOUT:g} s: {answer['error']}")
+
+
 def run(args: argparse.Namespace) -> int:
+    config = None if args.config is None else _read(args.config, "configuration")
     body = {"program": _read(args.program, "program"), "file": str(args.program),
-            "config": None if args.config is None else _read(args.config, "configuration"),
-            "confirm": bool(args.yes), "cold": bool(args.cold)}
+            "config": config, "confirm": bool(args.yes), "cold": bool(args.cold),
+            "files": {} if config is None else _files(args.config, config)}
     client = Client(args.host, args.port, args.token, timeout=LOAD_TIMEOUT)
-    answer = client.request("program", body)
-    if not answer["applied"]:
+    answer = _pending(client, client.request("program", body))
+    if answer["applied"] is False:
         print("This change loses state:")
         for loss in answer["losses"]:
             print("  " + loss)
@@ -74,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
             print("not loaded: nothing changed (--yes loads it, --cold also "
                   "cold-starts)", file=sys.stderr)
             return 1
-        answer = client.request("program", body | {"confirm": True})
+        answer = _pending(client, client.request("program", body | {"confirm": True}))
     info = answer["info"]
     print(f"loaded {args.program}: version {info['version']}, sha256 {info['hash']}, "
           f"at {info['loaded_at']}" + (" (cold restart)" if answer.get("cold") else ""))

@@ -129,8 +129,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--cold", action="store_true",
                    help="cold start even if the state file holds data (or is damaged)")
     p.add_argument("--keep-state", action="store_true",
-                   help="warm restart even if the program or configuration changed since the "
-                        "state was saved (default: a new application cold-starts)")
+                   help="run PROGRAM.il warm with the state file's data even if that data "
+                        "belongs to another program or configuration (default: the start "
+                        "stops and says what differs)")
+    p.add_argument("--program-from-state", action="store_true",
+                   help="run the program kept with the state file's data (the last one "
+                        "loaded online, or run), whatever PROGRAM.il holds; by default it "
+                        "runs when PROGRAM.il is the program it replaced, and a PROGRAM.il "
+                        "that differs otherwise stops the start until you choose")
     p.add_argument("--save-interval", type=_interval,
                    help="how often to flush the state file to disk, for power loss (default "
                         "5s; 0 = only at shutdown); a killed process loses nothing anyway")
@@ -167,6 +173,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--trace", type=Path, metavar="FILE.csv",
                    help="keep the machine's trace recorder's samples (t,x,z,pen,missed) in "
                         "this CSV file (flushed every simulated second and at shutdown)")
+    p.add_argument("--config-dir", type=Path, metavar="DIR",
+                   help="an online change's configuration may name files (symbols_file) "
+                        "under DIR, regular files only (default: none; the files go with "
+                        "the request, as `softplc load` sends them)")
     # web monitor options (softplc.web)
     p.add_argument("--web", type=_web_port, default=None, metavar="PORT|off",
                    help="web monitor port (default 8020, on 127.0.0.1; 0 = any free port; "
@@ -247,6 +257,7 @@ def run(args: argparse.Namespace) -> int:
         state_symlink=args.state_symlink,
         cold=args.cold,
         keep_state=args.keep_state,
+        program_from_state=args.program_from_state,
         save_interval=_pick(args.save_interval, dm.save_interval),
         speed=args.speed,
         stats_interval=_pick(args.stats_interval, dm.stats_interval),
@@ -261,9 +272,19 @@ def run(args: argparse.Namespace) -> int:
         on_host_wait=waits,
         web=_web_options(args, plc.settings.web),
         gc_freeze=not args.no_gc_freeze,
+        config_dir=_folder(args.config_dir),
     )
     app = application_id(plc.machine, args.program.read_bytes())
     return Daemon(plc, opts, program_name=str(args.program), app=app).run()
+
+
+def _folder(path: Path | None) -> Path | None:
+    """--config-dir checked: an existing folder, resolved (links included) once, here."""
+    if path is None:
+        return None
+    if not path.is_dir():
+        raise ConfigError(f"--config-dir {path}: not a folder")
+    return path.resolve()
 
 
 def _web_options(args: argparse.Namespace, configured: Any) -> Any:

@@ -25,7 +25,7 @@ import csv
 import difflib
 import io
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -217,10 +217,27 @@ def read_csv(text: str, source: str = "<csv>") -> list[Symbol]:
         if len(cells) >= 2 and cells[1].startswith("%") and not cells[0].startswith("%"):
             cells[0], cells[1] = cells[1], cells[0]  # symbol first: take it as well
         if len(cells) < 2 or not cells[0] or not cells[1]:
+            # the line is not quoted: the file may be one the reader may not show
             raise ConfigError(f"{source}:{n}: expected ADDRESS{delimiter}SYMBOL"
-                              f"[{delimiter}COMMENT], got {lines[n - 1]!r}")
+                              f"[{delimiter}COMMENT], got {len(cells)} cell(s)")
         out.append(Symbol(cells[1], cells[0], cells[2] if len(cells) > 2 else ""))
     return out
+
+
+def decode_csv(data: bytes, source: str) -> str:
+    """A symbol file's text: UTF-8 (with or without a BOM), else Windows-1252, which
+    TwidoSuite on Windows writes; ConfigError if it is neither (a binary file)."""
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        pass
+    try:
+        text = data.decode("cp1252")
+    except UnicodeDecodeError:
+        text = "\0"
+    if "\0" in text:
+        raise ConfigError(f"{source}: not a text file (neither UTF-8 nor Windows-1252)")
+    return text
 
 
 def read_csv_file(path: str | Path) -> list[Symbol]:
@@ -236,16 +253,22 @@ def read_csv_file(path: str | Path) -> list[Symbol]:
     return read_csv(text, str(p))
 
 
-def from_settings(settings: Any, base: Path | None,
-                  profile: Profile = DEFAULT_PROFILE) -> SymbolTable:
+def from_settings(settings: Any, base: Path | None, profile: Profile = DEFAULT_PROFILE,
+                  read: Callable[[str], bytes] | None = None) -> SymbolTable:
     """The table of a checked configuration (`softplc.config.Config`: its `symbols` and
-    `symbols_file`; `base`: the folder of its file, for `symbols_file`). An empty table
-    when it declares none; every wrong declaration at its key path (`symbols.NAME`)."""
+    `symbols_file`; `base`: the folder of its file, for `symbols_file`). `read` gives the
+    bytes of the file the configuration names (the machine builder passes its file policy,
+    `softplc.config.files`); None reads it from disk. An empty table when it declares
+    none; every wrong declaration at its key path (`symbols.NAME`)."""
     symbols: list[Symbol] = []
     if settings.symbols_file is not None:
-        path = Path(settings.symbols_file)
-        if base is not None and not path.is_absolute():
-            path = base / path
-        symbols += read_csv_file(path)
+        if read is not None:
+            name = settings.symbols_file
+            symbols += read_csv(decode_csv(read(name), name), name)
+        else:
+            path = Path(settings.symbols_file)
+            if base is not None and not path.is_absolute():
+                path = base / path
+            symbols += read_csv_file(path)
     symbols += [Symbol(name, v.address, v.comment) for name, v in settings.symbols.items()]
     return SymbolTable(symbols, profile, {n: f"symbols.{n}" for n in settings.symbols})

@@ -7,6 +7,15 @@ event loop (a 1 MB program takes seconds) nor in the scan thread; the swap itsel
 thread between two scans. One change at a time: a second one while the first is checked
 is refused (409). A plan made against another program version than the one running when
 the swap comes (two pages loading at once) is refused too: nothing changes.
+
+The configuration sent names no file of the host: the files it names come with the
+request (`"files": {"name.csv": "text"}`), or from the running configuration, or from under
+the daemon's --config-dir (`softplc.config.files.Carried`).
+
+The answer says what happened, always: a swap the scan thread has not begun when the
+deadline passes is withdrawn (it never runs: "not changed", 503); one it has begun is
+waited for and reported as it ended; one still running after a second deadline is
+answered 202 `"applied": null` with the version to look for (GET /api/program).
 """
 
 from __future__ import annotations
@@ -19,6 +28,7 @@ from typing import Any
 
 from softplc import online
 from softplc.access.program import ProgramAccess
+from softplc.config.files import carried_files
 from softplc.errors import ConfigError, ProgramError, SoftPLCError
 from softplc.modbus import tags
 from softplc.modbus.regmap import COILS
@@ -74,7 +84,8 @@ class ProgramChanges:
 
     # -- changing ----------------------------------------------------------------------------
     @staticmethod
-    def _request(data: dict[str, Any]) -> tuple[str, dict[str, Any] | None, str, bool, bool]:
+    def _request(data: dict[str, Any]) -> tuple[str, dict[str, Any] | None, str, bool, bool,
+                                                dict[str, bytes]]:
         text, config = data.get("program"), data.get("config")
         if not isinstance(text, str) or not text.strip():
             raise ApiError('"program": the IL text of the new program')
@@ -96,13 +107,17 @@ class ProgramChanges:
                 raw = tomllib.loads(config)
             except tomllib.TOMLDecodeError as e:
                 raise ApiError(f"configuration: {e}") from None
-        return text, raw, name or "<online change>", flags[0], flags[1]
+        try:
+            files = carried_files(data.get("files"))
+        except ConfigError as e:
+            raise ApiError(f'"files": the files the configuration names, {e}') from None
+        return text, raw, name or "<online change>", flags[0], flags[1], files
 
     async def change(self, data: dict[str, Any]) -> tuple[int, dict[str, Any]]:
         """Check, then apply if nothing is lost or the change is confirmed: (status, body)."""
         if self.ctl.read_only:
             raise ApiError("the web monitor is read-only (--web-read-only)", 403)
-        text, raw, name, confirm, cold = self._request(data)
+        text, raw, name, confirm, cold, files = self._request(data)
         if self._busy:
             raise ApiError("another program change is being made: try again when it is "
                            "done", 409)
@@ -112,7 +127,8 @@ class ProgramChanges:
             version = program.version
             loop = asyncio.get_running_loop()
             try:
-                plan, names = await loop.run_in_executor(None, program.plan, text, raw, name)
+                plan, names = await loop.run_in_executor(None, program.plan, text, raw, name,
+                                                         files)
             except ProgramError as e:
                 errors = diagnostics(e)
                 return 400, {"error": f"the program was not loaded: {len(e.diagnostics)} "
@@ -125,33 +141,56 @@ class ProgramChanges:
             if plan.needs_confirmation and not (confirm or cold):
                 return 200, {"applied": False, "losses": plan.losses,
                              "needs_confirmation": True, "info": program.info()}
-            info = await self._swap(plan, names, version, confirm, cold,
-                                    program.app_id(text, raw))
+            app = program.app_id(text, raw)
+            try:  # kept with the state file before it runs: a restart runs it too
+                kept = await loop.run_in_executor(None, program.keep, plan, text, name, app)
+            except SoftPLCError as e:
+                return 500, {"error": f"not loaded, nothing changed: {e}", "errors": [],
+                             "applied": False}
+            info = await self._swap(plan, names, version, confirm, cold, app, kept)
             self.ctl.objects.forget()
+            if info is None:  # still being made: say so, and what to look for
+                return 202, {"applied": None, "pending": True, "version": version + 1,
+                             "error": f"the swap is being made by the scan thread: GET "
+                                      f"/api/program shows version {version + 1} once it is "
+                                      f"done", "info": program.info()}
             return 200, {"applied": True, "losses": plan.losses, "cold": cold, "info": info}
         finally:
             self._busy = False
 
     async def _swap(self, plan: online.Plan, names: SymbolTable, version: int,
-                    confirm: bool, cold: bool, app: bytes) -> dict[str, Any]:
-        """Queue the swap in the control lane; wait for the scan thread to make it."""
+                    confirm: bool, cold: bool, app: bytes,
+                    kept: Any = None) -> dict[str, Any] | None:
+        """Queue the swap in the control lane; wait for the scan thread to make it: what
+        runs then, or None if it is still being made after two deadlines."""
         done: concurrent.futures.Future[dict[str, Any]] = concurrent.futures.Future()
 
         def swap() -> None:  # the scan thread, between two scans
             if not done.set_running_or_notify_cancel():
-                return  # the request timed out: it was answered "not applied"
+                return  # withdrawn at the deadline: it was answered "not changed"
             try:
                 done.set_result(self.program.swap(plan, names, version, confirm=confirm,
-                                                  cold=cold, app=app))
+                                                  cold=cold, app=app, kept=kept))
             except SoftPLCError as e:
                 done.set_exception(e)
+            except BaseException as e:  # the answer must not wait for nothing
+                done.set_exception(e)
+                raise
 
         self.ctl.port.call(swap)
-        try:
-            return await asyncio.wait_for(asyncio.wrap_future(done), APPLY_TIMEOUT)
-        except TimeoutError:
+        waiting = asyncio.wrap_future(done)
+        finished, _ = await asyncio.wait({waiting}, timeout=APPLY_TIMEOUT)
+        # cancel() succeeds only while the scan thread has not begun the swap: then it
+        # never runs and "not changed" is true; once begun, the swap's end is the answer
+        if not finished and done.cancel():
             raise ApiError(f"the scan did not reach a boundary within {APPLY_TIMEOUT:g} s: "
-                           f"the program was not changed", 503) from None
+                           f"the program was not changed", 503)
+        if not finished:
+            finished, _ = await asyncio.wait({waiting}, timeout=APPLY_TIMEOUT)
+            if not finished:
+                return None
+        try:
+            return waiting.result()
         except SoftPLCError as e:
             raise ApiError(f"not loaded, nothing changed: {e}", 409) from None
 

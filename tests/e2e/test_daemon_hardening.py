@@ -143,8 +143,8 @@ def test_slow_scan_coalesces_writes(daemons, tmp_path):
     assert grown < 1000, f"daemon grew by {grown} kB while writes waited for a scan"
 
 
-# -- 5: a new application cold-starts ---------------------------------------------------------
-def test_changed_config_is_a_cold_start_unless_keep_state(daemons, tmp_path):
+# -- 5: a new application is never a silent cold start (issue 31: the start stops) -------------
+def test_changed_config_stops_the_start_unless_keep_state_or_cold(daemons, tmp_path):
     cfg = tmp_path / "m.toml"
     state = tmp_path / "plc.state"
     cfg.write_text(TIMER.format(50))
@@ -166,10 +166,11 @@ def test_changed_config_is_a_cold_start_unless_keep_state(daemons, tmp_path):
         assert c.read_registers(5, 1) == [77]
     assert d.stop() == 0
     cfg.write_text(TIMER.format(8))
-    d = start(daemons, tmp_path, *args, program=TIMER_PROGRAM)
-    banner = "".join(d.out)
-    assert "cold start (the program or configuration changed" in banner
-    assert "--keep-state" in banner
+    err = failed_start(daemons, tmp_path, *args, program=TIMER_PROGRAM)
+    assert "differs in the configuration (timers)" in err, err
+    assert "--keep-state" in err and "--cold" in err
+    d = start(daemons, tmp_path, *args, "--cold", program=TIMER_PROGRAM)
+    assert "cold start (--cold)" in "".join(d.out)
     with d.client() as c:
         wait_until(lambda: c.read_registers(20, 1) == [8])
         assert c.read_registers(5, 1) == [0]

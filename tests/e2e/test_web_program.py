@@ -228,8 +228,9 @@ def test_load_into_a_running_daemon(tmp_path, capsys, daemons):
 
 def test_the_state_file_follows_the_loaded_program(tmp_path, capsys, daemons):
     """After `softplc load`, the --state file belongs to the new program: a restart with
-    the new program file warm-starts (the counter kept); one with the old file cold-starts
-    (its state is not laid into a program it does not belong to)."""
+    the new program file warm-starts (the counter kept); one with the old file then stops
+    and asks (issue 31: never a silent cold start), the old file being no longer the
+    command line the running program came from."""
     cfg, state = str(STAR.with_suffix(".toml")), str(tmp_path / "plc.state")
     (tmp_path / "star_delta_symbols.csv").write_bytes(
         (STAR.parent / "star_delta_symbols.csv").read_bytes())
@@ -253,5 +254,8 @@ def test_the_state_file_follows_the_loaded_program(tmp_path, capsys, daemons):
     assert "warm start" in d.out[0], d.out[0]
     assert Client("127.0.0.1", int(port)).get("%MW100")["%MW100"] == 123
     assert d.stop() == 0
-    d, _ = start(old)
-    assert "cold start (the program or configuration changed" in d.out[0], d.out[0]
+    d = started(daemons, tmp_path, "--config", cfg, "--state", state, "--web", "0",
+                program=old, wait=False)
+    assert d.proc.wait(20) == 1
+    err = d.proc.stderr.read()
+    assert "steady.il (started" in err and "--program-from-state" in err, err

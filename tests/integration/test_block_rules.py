@@ -32,7 +32,7 @@ bit = st.integers(0, 1)
 SMALL_PRESET = 30  # presets and times small enough that timers end within a run
 
 
-# ---- the engine's straight-line code against the rule, on ints ----------------------------------
+# ---- the engine's straight-line code against the rule, on ints ---------------------------
 @settings(max_examples=examples(300), deadline=None)
 @given(kind=st.sampled_from(["TON", "TOF", "TP"]), base=st.sampled_from(["1ms", "10ms"]),
        preset=st.integers(0, SMALL_PRESET),
@@ -94,7 +94,7 @@ def test_the_register_runs_its_rule(lifo: bool, depth: int,
         assert r._data == [s[k] for k in slots(depth)][:s["_n"]]
 
 
-# ---- the solver's reading of each rule against the ints' ------------------------------------------
+# ---- the solver's reading of each rule against the ints' ---------------------------------
 SCAN = Scan(10_000, 30_000)  # a 10 ms scan, up to 30 ms when the period varies
 ints = st.integers(0, MAX_VALUE)
 

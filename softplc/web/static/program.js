@@ -71,6 +71,8 @@ function showOutcome(kind, title, items = [], buttons = []) {
   if (buttons.length) box.append(h("div", { class: "toolbar" }, ...buttons));
 }
 
+const PENDING_LOOK_MS = 2000;  // a swap still being made: look at the version again then
+
 async function sendProgram(extra = {}) {
   const text = $("#prog-text").value;
   if (!text.trim()) { showOutcome("bad", "Paste a program or choose a file first."); return; }
@@ -89,6 +91,9 @@ async function sendProgram(extra = {}) {
       h("button", { id: "prog-confirm", onclick: () => sendProgram({ confirm: true }) }, "Confirm and load"),
       h("button", { id: "prog-cold", onclick: () => sendProgram({ cold: true }) }, "Load with a cold restart"),
       h("button", { onclick: () => showOutcome("", "Not loaded: nothing changed.") }, "Cancel")]);
+  } else if (status === 202) {  // the scan thread is still making the swap
+    showOutcome("warn", data.error);
+    setTimeout(programChanged, PENDING_LOOK_MS);
   } else if (data.errors && data.errors.length) {
     showOutcome("bad", `Not loaded, nothing changed: ${data.errors.length} error(s)`,
       data.errors.map((d) => h("li", { class: "err", title: "show this line in the program",
