@@ -28,6 +28,7 @@ COMMAND_MODULES = {
     "servo": "softplc.machines.servo.command",
     "tune": "softplc.machines.machining.command",
     "verify": "softplc.commands.verify",
+    "plant": "softplc.commands.plant",
 }
 
 

@@ -176,6 +176,11 @@ class ConfigError(SoftPLCError):
         return ConfigError(self.issues, file)
 
 
+class PlantStateError(SoftPLCError):
+    """A plant access or fault names no controller, device, wire or link of the plant, or
+    asks what its state forbids (restart a running controller)."""
+
+
 class AddressError(SoftPLCError, ValueError):
     """An address string is malformed or outside the controller profile."""
 

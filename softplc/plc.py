@@ -200,7 +200,9 @@ class PLC:
     def __repr__(self) -> str:
         """State, PLC time, scan count and the I/O that is on (what a failing test shows)."""
         stride, shown = self.mem.stride, 16
-        on = [f"%{kind}{i // stride}.{i % stride}" for kind, bits in
+        slots = self.profile.expansion_slots  # beyond: the remote I/O's (%Ix.0.z)
+        on = [f"%{kind}{i // stride}.{i % stride}" if i // stride <= slots else
+              f"%{kind}{i // stride - slots}.0.{i % stride}" for kind, bits in
               (("I", self.mem.i), ("Q", self.mem.q)) for i, v in enumerate(bits) if v]
         io = " ".join(on[:shown]) + (f" (+{len(on) - shown} more)" if len(on) > shown else "")
         return (f"<PLC {Path(self.ast.file).name} {self.state} t={self.time:.3f}s "

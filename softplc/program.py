@@ -35,9 +35,11 @@ class Names:
     """The names compiled code may use (besides its own locals and functions)."""
 
     BIT = {"I": "_I", "Q": "_Q", "M": "_M", "S": "_S", "X": "_X"}  # bit lists
-    # signed 16-bit views (%IW/%QW: analog I/O words)
-    WORD = {"MW": "_MW", "KW": "_KW", "SW": "_SW", "IW": "_IW", "QW": "_QW"}
-    UWORD = {"MW": "_UMW", "KW": "_UKW", "SW": "_USW", "IW": "_UIW", "QW": "_UQW"}
+    # signed 16-bit views (%IW/%QW: analog I/O words; %INW/%QNW: Remote Link words)
+    WORD = {"MW": "_MW", "KW": "_KW", "SW": "_SW", "IW": "_IW", "QW": "_QW",
+            "INW": "_INW", "QNW": "_QNW"}
+    UWORD = {"MW": "_UMW", "KW": "_UKW", "SW": "_USW", "IW": "_UIW", "QW": "_UQW",
+             "INW": "_UINW", "QNW": "_UQNW"}
     # 32-bit views at even / odd word offsets (index i -> view[i & 1][i >> 1])
     PAIR = {"MD": ("_MDE", "_MDO"), "KD": ("_KDE", "_KDO"),
             "MF": ("_MFE", "_MFO"), "KF": ("_KFE", "_KFO")}

@@ -13,6 +13,12 @@ Targets on the 2-core reference machine: <= 10 ns per boolean instruction, <= 20
 scan of a 40-rung program; issue 26: <= 3.0 ns per instruction through plc.scan().
 
     .venv/bin/python tools/bench_engine.py [--quick] [--cpu] [--against REV [--rounds 4]]
+                                           [--no-count]
+
+Beside the times, where valgrind exists, the x86 instructions per scan of the 1,000-line
+boolean program under callgrind (tools/instr_count.py: the clock calls counted apart), a
+figure that does not move with the machine or its load; `--no-count` skips it (it takes
+a minute or two: two runs under valgrind).
 
 `--cpu` times CPU time of the thread (`time.thread_time`: steadier on a shared machine)
 instead of wall time; `--against REV` runs the main figures (CPU time) for a git revision
@@ -32,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 import bench_cpu_ab as ab
+import instr_count
 from gen_programs import boolean_program
 from peers.common import best_interleaved, best_per_batch, loop, print_report, progress
 from peers.programs import mixed_program
@@ -204,6 +211,29 @@ AB_KEYS = (("bool_main_ns", "boolean main(), ns/line", False),
            ("mixed_scan_us", "mixed 40 rungs plc.scan(), us", False))
 
 
+COUNT_SCANS = (100, 600)  # the two runs' scans under callgrind: their difference is measured
+COUNT_CHILD = r"""
+import sys
+import instr_count
+from gen_programs import boolean_program
+from softplc.plc import PLC
+plc = PLC.from_source(boolean_program(int(sys.argv[2])), file="<boolean>")
+plc.scan()
+instr_count.start()
+for _ in range(int(sys.argv[1])):
+    plc.scan()
+"""
+
+
+def count_line(n_instr: int = 1000) -> str:
+    """Instructions per plc.scan() of the n-instruction boolean program, or why not."""
+    if not instr_count.available():
+        return instr_count.MISSING
+    c = instr_count.count(COUNT_CHILD, *COUNT_SCANS, str(n_instr))
+    return (c.line(f"plc.scan() of the {n_instr:,}-instruction boolean program")
+            + f" ({c.without_clock / n_instr:.1f} per IL instruction)")
+
+
 def ab_figures(res: dict[str, Any]) -> dict[str, float]:
     b = res["boolean"]
     return {"bool_main_ns": b["main_ns_per_instr"], "bool_scan_ns": b["scan_ns_per_instr"],
@@ -220,6 +250,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ab-child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--profile", type=Path, metavar="PROGRAM.il",
                     help="instead: cProfile plc.scan() of this program, top functions")
+    ap.add_argument("--no-count", action="store_true",
+                    help="skip the instruction count under valgrind (callgrind)")
     a = ap.parse_args(argv)
     if a.cpu or a.against or a.ab_child:
         global CLOCK
@@ -241,6 +273,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     res = run(quick=a.quick)
     print_report(report(res), res, a.json)
+    if not a.no_count:
+        print(count_line())
     return 0
 
 

@@ -29,11 +29,11 @@ import threading
 import time
 from pathlib import Path
 
-from softplc.modbus.protocol import pack_mbap
+from softplc.modbus.codec import frame as mbap_frame
 from softplc.modbus.rawclient import RawClient
 
 ROOT = Path(__file__).resolve().parents[1]
-REQUEST = pack_mbap(1, 1, struct.pack(">BHH", 3, 0, 125))  # 12 bytes in, 259 bytes out
+REQUEST = mbap_frame(1, 1, struct.pack(">BHH", 3, 0, 125))  # 12 bytes in, 259 bytes out
 KINDS = ("idle", "slowloris", "never-reading")
 
 

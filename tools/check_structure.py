@@ -48,6 +48,7 @@ CLASS_ALLOW = {"Ops", "_ToAST"}
 # module's layer is that of the longest prefix naming it.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.errors",),
+    ("softplc.modbus.codec",),                # MBAP and word pairs: the server, EXCH, hosts
     ("softplc.twido",),                       # the Twido object model
     ("softplc.il",),                          # program text -> typed AST
     ("softplc.program",),                     # the compiled code's contract
@@ -61,6 +62,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.assembly",),                    # configuration + program -> a machine
     ("softplc.plc", "softplc.testing"),       # the PLC facade, the pytest plugin
     ("softplc.online",),                      # online program change
+    ("softplc.plant",),                       # several controllers on one clock (issue 35)
     ("softplc.access", "softplc.verify"),     # the access port; the verifier
     ("softplc.debug", "softplc.web"),         # the front-ends
     ("softplc.daemon",),

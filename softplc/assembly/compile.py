@@ -7,6 +7,7 @@ import re
 from datetime import datetime, timedelta
 from typing import TYPE_CHECKING, Any
 
+from softplc.assembly import hardware
 from softplc.assembly.heap import release_free_memory
 from softplc.compiler import Resolved, compile_program, resolve
 from softplc.errors import Code, Diagnostic
@@ -14,7 +15,7 @@ from softplc.il import ast as A
 from softplc.program import CompiledProgram, bind
 from softplc.runtime.clock import VirtualClock
 from softplc.runtime.rtc import DEFAULT_START, RTC
-from softplc.twido.address import IO_KINDS, Ref
+from softplc.twido.address import IO_KINDS, NETWORK_KINDS, Ref
 
 if TYPE_CHECKING:
     from softplc.assembly.machine import Machine
@@ -34,6 +35,8 @@ def forced_bits(forced: dict[Ref, Any]) -> frozenset[Ref]:
 def _io_check(m: Machine, ref: Ref) -> str | None:
     """What is wrong with an I/O channel the program uses (None: it exists)."""
     mem, profile = m.mem, m.profile
+    if ref.kind in NETWORK_KINDS or ref.station is not None:
+        return hardware.link_word_check(m.settings.remote_link, ref)
     if ref.kind in ("IW", "QW"):
         if mem.analog is not None and ref in mem.analog.channels:
             return None
@@ -70,7 +73,10 @@ def _allocate(m: Machine, program: A.Program, resolved: Resolved) -> list[Diagno
             m.mem.use_io(ref)
         msg = _io_check(m, ref)
         if msg:
-            problem(msg, ref, pos, "an I/O channel of a configured module", Code.IO)
+            problem(msg, ref, pos, "a station of [remote_link]"
+                    if ref.kind in NETWORK_KINDS or ref.station is not None
+                    else "an I/O channel of a configured module",
+                    Code.IO)
     pulses = m.mem.pulses
     if pulses is not None:  # [our choice] a pulse block owns its output: no coil on it
         for rung in program.rungs:

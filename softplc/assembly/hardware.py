@@ -10,12 +10,19 @@ from contextlib import contextmanager
 from typing import Any
 
 from softplc.config import Config, key_path
-from softplc.config.models import AnalogChannelConfig, ExchConfig, exch_remotes, schedule
+from softplc.config.models import (
+    AnalogChannelConfig,
+    ExchConfig,
+    RemoteLinkConfig,
+    exch_remotes,
+    schedule,
+)
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.runtime.analog import AnalogChannel, AnalogIO, normal_range
 from softplc.runtime.clock import Clock, VirtualClock
 from softplc.runtime.exch import ETHERNET_PORT, ExchPort, Message
 from softplc.runtime.memory import MemoryImage
+from softplc.runtime.remotelink import LinkMaster, LinkRemote, default_cycle_us
 from softplc.runtime.rtc import Schedule
 from softplc.twido.address import Ref, parse_address
 from softplc.twido.profile import ANALOG_MODULES, MODULES, AnalogModule, Profile
@@ -163,3 +170,39 @@ def schedules(settings: Config, mem: MemoryImage, problems: Problems) -> list[Sc
         with problems.collecting():
             out.append(schedule(n, o, mem))
     return out
+
+
+def remote_link(cfg: RemoteLinkConfig | None, mem: MemoryImage) -> LinkMaster | LinkRemote | None:
+    """This controller's Remote Link station (`[remote_link]`), its status words set; the
+    transport is attached by whoever runs the link (softplc.plant)."""
+    if cfg is None:
+        return None
+    if cfg.kind == "master":
+        cycle = round(cfg.cycle * 1e6) if cfg.cycle is not None else \
+            default_cycle_us(len(cfg.remotes))
+        return LinkMaster(mem, cfg.remotes, cycle)
+    return LinkRemote(mem, cfg.address, cfg.kind)
+
+
+def link_word_check(cfg: RemoteLinkConfig | None, ref: Ref) -> str | None:
+    """What is wrong with a %INWi.j / %QNWi.j or a remote I/O channel %Ix.0.z the program
+    uses (None: the link has it): a master reaches the peers' words and the remote I/O
+    controllers' channels it declares, a peer only the master's words (station 0)."""
+    if cfg is None:
+        return f"{ref}: the Remote Link is not configured ([remote_link] address = ...)"
+    remote_io = ref.station is not None
+    station = ref.station if remote_io else ref.module
+    want = "remote_io" if remote_io else "peer"
+    if cfg.kind == "master":
+        if cfg.remotes.get(station) != want:
+            declared = ", ".join(str(a) for a, t in cfg.remotes.items() if t == want)
+            what = "remote I/O" if remote_io else "peer"
+            return (f"{ref}: station {station} is not a {what} of this master "
+                    f"([remote_link] remotes: {declared or 'none'})")
+        return None
+    if remote_io:
+        return f"{ref}: only the master reaches a remote I/O controller's channels"
+    if station != 0:
+        return (f"{ref}: a peer exchanges words with the master only "
+                f"(%{ref.kind}0.0 .. %{ref.kind}0.3)")
+    return None

@@ -23,6 +23,7 @@ from softplc.runtime.engine import DEFAULT_WATCHDOG_S, RUN, Engine
 from softplc.runtime.exch import ExchPort
 from softplc.runtime.grafcet import Grafcet
 from softplc.runtime.memory import MemoryImage
+from softplc.runtime.remotelink import LinkMaster, LinkRemote
 from softplc.runtime.rtc import Schedule
 from softplc.twido import symbols
 from softplc.twido.address import Ref
@@ -49,6 +50,8 @@ class Machine:
     clock: Clock
     modules: hardware.Modules | None  # None: [modules] not given (I/O not checked)
     exch: ExchPort | None
+    # the Remote Link station of [remote_link] (runtime/remotelink.py), None without one
+    link: LinkMaster | LinkRemote | None
     ops: Ops
     grafcet: Grafcet
     engine: Engine
@@ -134,7 +137,8 @@ def assemble(config: ConfigSource, clock: str | Clock = "virtual") -> Machine:
     return Machine(
         raw=raw, config_dir=config_dir, settings=settings, profile=profile, symbols=table,
         mem=mem, time_source=time_source, clock=clk, modules=discrete,
-        exch=hardware.exch_port(settings.exch, mem, clk), ops=Ops(mem.s, mem.sw.w),
+        exch=hardware.exch_port(settings.exch, mem, clk),
+        link=hardware.remote_link(settings.remote_link, mem), ops=Ops(mem.s, mem.sw.w),
         grafcet=grafcet,
         engine=Engine(mem, clk, settings.scan_period, watchdog, time_source),
         program_state=ProgramState(grafcet=grafcet), rtc_start=rtc_start(settings.rtc),

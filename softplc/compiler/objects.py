@@ -32,6 +32,9 @@ BLOCK_OUTPUTS = {f.kind: f.outputs for f in catalog.addressable() if f.fields}
 # blocks whose preset a store clamps to 0 .. MAX_VALUE (the others clamp it themselves or
 # take any word)
 CLAMPED_PRESET = frozenset(f.kind for f in catalog.FAMILIES.values() if f.clamp_preset)
+# word objects indexed by (module or station, channel), never by a %MW: analog I/O words and
+# the Remote Link's network words
+DIRECT_WORDS = frozenset(("IW", "QW", "INW", "QNW"))
 # Operand code without side effects (a buffer read, a literal): may be evaluated out of order
 _PURE = re.compile(r"-?[\w\[\]]+")
 
@@ -192,7 +195,7 @@ class ObjectCompiler:
         if k in WORD_BUFFERS:
             buf = WORD_BUFFERS[k]
             self.use(buf)
-            if k in ("IW", "QW"):  # the resolve pass checked the module (PLC._allocate)
+            if k in DIRECT_WORDS:  # the resolve pass checked the module (PLC._allocate)
                 return f"{buf}[{ref.index}]", INT16
             return f"{buf}[{self.index_code(ref, self.counts[k])}]", INT16
         if k in PAIR_VIEWS:
@@ -220,6 +223,7 @@ class ObjectCompiler:
         if not ref.writable:
             what = {"I": "an input: the program cannot write inputs",
                     "IW": "an analog input: the program cannot write inputs",
+                    "INW": "a Remote Link word received: the program writes %QNW",
                     "KW": "a constant", "KD": "a constant", "KF": "a constant"}.get(
                 ref.kind, "read-only")
             self.err(f"cannot write {ref}: it is {what}", pos, str(ref),
@@ -264,7 +268,7 @@ class ObjectCompiler:
         k = ref.kind
         if self.store_unchecked(ref, code, t):
             return
-        if k in ("IW", "QW"):
+        if k in DIRECT_WORDS:
             self.use(WORD_BUFFERS[k])
             self.emit(f"{WORD_BUFFERS[k]}[{ref.index}] = {code}")
         elif k in WORD_BUFFERS:

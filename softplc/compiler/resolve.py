@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from softplc.errors import Code, Diagnostic
 from softplc.il import ast as A
-from softplc.twido.address import ANALOG_KINDS, BLOCK_FIELDS, IO_KINDS, Ref
+from softplc.twido.address import ANALOG_KINDS, BLOCK_FIELDS, IO_KINDS, NETWORK_KINDS, Ref
 
 EDGE_MODIFIERS = ("R", "F")
 
@@ -176,7 +176,7 @@ class _Resolver:
         for ref, p in _instruction_refs(instr):
             if ref.kind in BLOCK_FIELDS:
                 out.blocks.setdefault(Ref(ref.kind, ref.index), p)
-            elif ref.kind in IO_KINDS or ref.kind in ANALOG_KINDS:
+            elif ref.kind in IO_KINDS or ref.kind in ANALOG_KINDS or ref.kind in NETWORK_KINDS:
                 out.io.setdefault(ref, p)
         if isinstance(instr, A.Jump):
             self.jump(instr, rung)

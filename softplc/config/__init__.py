@@ -16,6 +16,7 @@
     pwm."%PWM1" = { base = "10ms", preset = 100, ratio = 0 }    # (runtime/pulse.py)
     [fast_counters."%FC0"]   # fast counters, [very_fast_counters."%VFC0"]: runtime/fastcount.py
     [exch.remote.1]          # EXCH3's remote devices: host, port, unit_id; [exch] timeout
+    [remote_link]            # Remote Link: address (0 master), remotes = { 1 = "peer" }, cycle
     [devices.NAME]           # simulated machine (softplc.devices): type = "...", options
     [modbus]                 # the daemon's server options (softplc run)
     [daemon]                 # the daemon's state file, save and statistics intervals
@@ -84,6 +85,7 @@ from softplc.config.fields import (  # noqa: F401  (the field types devices impo
 from softplc.config.models import (
     AnalogChannelConfig,
     ExchConfig,
+    RemoteLinkConfig,
     RtcConfig,
     ScheduleConfig,
     ScheduleNumber,
@@ -256,6 +258,8 @@ class Config(_BlockSections):  # type: ignore[misc, valid-type]
         Field(default_factory=dict)
     # EXCH3 remote devices (issue 11 B)
     exch: Annotated[ExchConfig | None, BeforeValidator(_none_if_empty)] = None
+    # the Twido Remote Link (issue 35): this controller's address and, on the master, remotes
+    remote_link: RemoteLinkConfig | None = None
     # names for addresses: softplc.twido.symbols resolves them (the parser needs them first)
     symbols: dict[str, Annotated[SymbolEntry, BeforeValidator(_symbol_entry)]] = \
         Field(default_factory=dict)

@@ -7,7 +7,10 @@ with them, so every problem is reported at once with its key path and code:
 - `[rtc]` (`RtcConfig`, `rtc_start`): the calendar start of the clock; `[schedule.n]`
   (`ScheduleConfig`, keys 0..15, resolved by `schedules`): the schedule blocks;
 - `[exch]` (`ExchConfig`, resolved by `exch_remotes`): EXCH3's timeout and remote devices
-  `[exch.remote.<index>]`.
+  `[exch.remote.<index>]`;
+- `[remote_link]` (`RemoteLinkConfig`): this controller on the Twido Remote Link, its
+  address (0: the master) and role (a peer or a remote I/O controller) and, on the master,
+  the remotes it polls (`remotes = { 1 = "peer", 3 = "remote_io" }`) and its link cycle.
 
 The function blocks' sections (`[pid.n]`, `[pls]`, `[pwm]`, `[fast_counters]`,
 `[very_fast_counters]`) have their models in their runtime modules, named by their catalog
@@ -39,12 +42,13 @@ from pydantic import (
     model_validator,
 )
 
-from softplc.config.fields import Duration, exch_timeout_ok, numbered
+from softplc.config.fields import Duration, PositiveDuration, exch_timeout_ok, numbered
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.runtime.analog import SIGNAL_SPAN, TEMPERATURE_TYPES
 from softplc.runtime.exch import Remote
+from softplc.runtime.remotelink import MASTER, PEER
 from softplc.runtime.rtc import DAYS, SCHEDULE_BLOCKS, Schedule, parse_month_day, parse_time_of_day
-from softplc.twido.address import Ref, parse_address
+from softplc.twido.address import LINK_STATIONS, Ref, parse_address
 
 Word = str  # an address, checked when it is resolved
 Signal = Literal["0-10V", "4-20mA", "+-10V", "pot", "PT100", "J", "K", "T"]
@@ -221,3 +225,41 @@ class ExchConfig(BaseModel):
 def exch_remotes(cfg: ExchConfig) -> dict[int, Remote]:
     """The validated `[exch]` remote devices: index -> Remote."""
     return {n: Remote(r.host, r.port, r.unit_id) for n, r in cfg.remote.items()}
+
+
+# ---- the Twido Remote Link (issue 35) -----------------------------------------------------
+RemoteAddress = numbered(1, LINK_STATIONS - 1, "a remote's address is {lo} .. {hi}")
+# a peer (its own program, 4 words each way) or a remote I/O controller (no program: the
+# master's %Ix.0.z / %Qx.0.z are its base I/O) [remote-link.md A1, A2]
+RemoteType = Literal["peer", "remote_io"]
+
+
+class RemoteLinkConfig(BaseModel):
+    """`[remote_link]`: this controller on the Remote Link. `address` 0 is the master
+    [remote-link.md A1]; it declares its `remotes` by address and type, as TwidoSuite's
+    master configuration does [A6, from memory]; `cycle`: the master's link cycle (default
+    one slot per remote, softplc.runtime.remotelink.default_cycle_us)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    address: int = Field(ge=0, le=LINK_STATIONS - 1)
+    role: Literal["master", "peer", "remote_io"] | None = None  # implied by the address
+    remotes: dict[RemoteAddress, RemoteType] = Field(default_factory=dict)
+    cycle: PositiveDuration | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> RemoteLinkConfig:
+        master = self.address == MASTER
+        if self.role is not None and (self.role == "master") != master:
+            raise ValueError(f"role {self.role!r} does not go with address {self.address} "
+                             f"(the master is address 0, remotes 1 .. {LINK_STATIONS - 1})")
+        if master and not self.remotes:
+            raise ValueError("the master declares its remotes, e.g. remotes = { 1 = \"peer\" }")
+        if not master and (self.remotes or self.cycle is not None):
+            raise ValueError("remotes and cycle are the master's (address 0) settings")
+        return self
+
+    @property
+    def kind(self) -> str:
+        """"master" or the remote's type."""
+        return "master" if self.address == MASTER else (self.role or PEER)

@@ -1,5 +1,5 @@
 """Debugger commands: views of the PLC and the program (timers, counters, pid, pulses,
-analog, status, where, rung, rungs, reload, help, quit)."""
+analog, link, status, where, rung, rungs, reload, help, quit)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from softplc.debug.stepper import BreakKind, DebugError, resolve_rung
 from softplc.il import ast as A
 from softplc.il.parser import parse_file
 from softplc.twido import catalog
+from softplc.twido.address import LINK_WORDS
 
 if TYPE_CHECKING:
     from softplc.debug.session import Session
@@ -79,6 +80,28 @@ def cmd_analog(s: Session, arg: str) -> str:
         rng = f"{ch.range} {ch.lo}..{ch.hi}" if ch.range in ("normal", "custom") else ch.range
         extra = f"  = {analog.output(ref):.3f}" if ref.kind == "QW" else ""
         lines.append(f"{str(ref):<8} {ch.signal:<6} {rng:<18} {word}{extra}")
+    return "\n".join(lines)
+
+
+@command("link")
+def cmd_link(s: Session, arg: str) -> str:
+    """link: the Remote Link station (master or peer), each station's presence, the
+    status words %SW111-%SW113 and the network words %INW / %QNW."""
+    link = s.plc.machine.link
+    if link is None:
+        return "no Remote Link ([remote_link] not configured)"
+    st = link.status()
+    lines = [f"address {link.address} ({s.plc.settings.remote_link.kind})   %SW111="
+             f"16#{st['status']:04X} %SW112={st['error']} %SW113=16#{st['config']:04X}"]
+    stations = getattr(link, "remotes", None) or {0: "peer"}
+    for a, role in stations.items():
+        here = "present" if st["status"] >> ((a or link.address) - 1) & 1 else "ABSENT"
+        if role != "peer":  # a remote I/O controller: its channels are the master's %Ia.0.z
+            lines.append(f"station {a}: {here:7s} remote I/O (%I{a}.0.z, %Q{a}.0.z)")
+            continue
+        words = " ".join(f"{s.plc.mem.read(f'%INW{a}.{j}'):6d}" for j in range(LINK_WORDS))
+        sent = " ".join(f"{s.plc.mem.read(f'%QNW{a}.{j}'):6d}" for j in range(LINK_WORDS))
+        lines.append(f"station {a}: {here:7s} %INW{a}.0-3 {words}   %QNW{a}.0-3 {sent}")
     return "\n".join(lines)
 
 

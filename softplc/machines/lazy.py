@@ -12,7 +12,9 @@ from typing import Any
 def lazy_exports(package: str, exports: dict[str, str]) -> tuple[Callable[[str], Any],
                                                                     Callable[[], list[str]]]:
     """`__getattr__` and `__dir__` for `package`: each name of `exports` is imported from
-    its submodule (`{"load_piece": "load"}`) on first use."""
+    its submodule (`{"load_piece": "load"}`) on first use. A name must not be a submodule's
+    own name: once that submodule is imported the package attribute is the module, and
+    `__getattr__` is no longer asked (tests/unit/test_machines_lazy.py checks it)."""
 
     def getattr_(name: str) -> Any:
         sub = exports.get(name)

@@ -1,9 +1,20 @@
-"""Modbus TCP server of the soft Twido: %MW as registers, %M as coils (see `regmap`)."""
+"""Modbus TCP server of the soft Twido: %MW as registers, %M as coils (see `regmap`).
 
-from softplc.modbus.image import ModbusImage
-from softplc.modbus.protocol import process_pdu
-from softplc.modbus.regmap import FUNCTIONS, ExceptionCode, ReadOnly, read_only_of
-from softplc.modbus.server import ModbusTcpServer, ServerThread
+The names below load their module on first use (PEP 562): importing the low
+`softplc.modbus.codec` (the runtime's EXCH does) must not pull in the server, the image
+and the persistence above the runtime."""
 
-__all__ = ["FUNCTIONS", "ExceptionCode", "ModbusImage", "ModbusTcpServer", "ReadOnly",
-           "ServerThread", "read_only_of", "process_pdu"]
+from importlib import import_module
+from typing import Any
+
+_WHERE = {"ModbusImage": "image", "process_pdu": "protocol", "FUNCTIONS": "regmap",
+          "ExceptionCode": "regmap", "ReadOnly": "regmap", "read_only_of": "regmap",
+          "ModbusTcpServer": "server", "ServerThread": "server"}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)

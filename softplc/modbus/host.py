@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, Self, TextIO
 
 from softplc.errors import HostError
-from softplc.modbus.regmap import float_to_registers, registers_to_float
+from softplc.modbus.codec import float_to_words, words_to_float
 
 # pymodbus logs failed connects itself; without a handler Python would print them raw to
 # stderr next to our own message. Records still reach handlers an application installs.
@@ -182,10 +182,10 @@ class ModbusHost:
 
     def read_float(self, address: int) -> float:
         """%MF<address> (two registers, low word first)."""
-        return registers_to_float(*self.read_words(address, 2))
+        return words_to_float(*self.read_words(address, 2))
 
     def write_float(self, address: int, value: float) -> None:
-        self.write_words(address, float_to_registers(value))
+        self.write_words(address, float_to_words(value))
 
     def write_bit(self, index: int, value: bool) -> None:
         """%M<index> (coil, FC 5)."""

@@ -169,6 +169,3 @@ def process_pdu(img: ModbusImage, pdu: bytes) -> bytes:
         return exception(pdu[0], ILLEGAL_FUNCTION)
     return handler(img, pdu)
 
-
-def pack_mbap(tid: int, unit: int, pdu: bytes) -> bytes:
-    return pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu

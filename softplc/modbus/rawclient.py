@@ -6,7 +6,7 @@ from __future__ import annotations
 import socket
 from struct import pack, unpack
 
-from softplc.modbus.protocol import pack_mbap
+from softplc.modbus.codec import MBAP_SIZE, bad_header, frame, header
 
 
 class ModbusExceptionReply(Exception):
@@ -41,13 +41,16 @@ class RawClient:
 
     def recv_frame(self) -> tuple[int, int, bytes]:
         """One response: (transaction id, unit id, PDU)."""
-        tid, pid, length, unit = unpack(">HHHB", self.recv_exact(7))
+        tid, pid, length, unit = header(self.recv_exact(MBAP_SIZE))
+        why = bad_header(pid, length)
+        if why is not None:
+            raise ConnectionError(why)
         return tid, unit, self.recv_exact(length - 1)
 
     def request(self, pdu: bytes, unit: int = 1) -> bytes:
         """Send a PDU, return the response PDU (exception responses included)."""
         self.tid = (self.tid + 1) & 0xFFFF
-        self.sock.sendall(pack_mbap(self.tid, unit, pdu))
+        self.sock.sendall(frame(self.tid, unit, pdu))
         tid, u, resp = self.recv_frame()
         if tid != self.tid or u != unit:
             raise ConnectionError(f"reply for transaction {tid} unit {u}, expected "

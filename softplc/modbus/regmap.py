@@ -12,7 +12,6 @@ two registers i (low word) and i+1 (high word) [sure].
 
 from __future__ import annotations
 
-import struct
 from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import IntEnum
@@ -156,12 +155,3 @@ def markdown_table() -> str:
         q = str(f.max_quantity) if f.max_quantity else "-"
         rows.append(f"| {f.code} | {f.name} | {f.objects} | {q} |")
     return "\n".join(rows)
-
-
-def float_to_registers(value: float) -> list[int]:
-    """The two registers of a %MF (IEEE single), low word first ("CDAB") [sure]."""
-    return list(struct.unpack("<2H", struct.pack("<f", value)))
-
-
-def registers_to_float(low: int, high: int) -> float:
-    return struct.unpack("<f", struct.pack("<2H", low & 0xFFFF, high & 0xFFFF))[0]

@@ -49,13 +49,13 @@ from struct import pack, unpack_from
 from typing import Any, cast
 
 from softplc.errors import SoftPLCError
+from softplc.modbus.codec import GOOD_LENGTHS, MBAP_SIZE, PROTOCOL_MODBUS, bad_header, frame, header
 from softplc.modbus.image import ModbusImage
-from softplc.modbus.protocol import ExceptionCode, exception, pack_mbap, process_pdu
+from softplc.modbus.protocol import ExceptionCode, exception, process_pdu
 
 log = logging.getLogger("softplc.modbus")
 
 IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
-MAX_PDU_LENGTH = 253  # MBAP length field = unit id + PDU <= 254
 LISTEN_BACKLOG = 128
 ACCEPT_BATCH = 16  # connections accepted per event-loop turn
 ACCEPT_PAUSE = 0.1  # seconds without accepting after accept() fails (e.g. out of fds)
@@ -315,16 +315,16 @@ class _Connection(asyncio.Protocol):
         done = False
         pos = 0
         size = len(buf)
-        while size - pos >= 7 and not self.paused:
-            tid, pid, length, unit = unpack_from(">HHHB", buf, pos)
-            if pid != 0 or not 2 <= length <= MAX_PDU_LENGTH + 1:
+        while size - pos >= MBAP_SIZE and not self.paused:
+            tid, pid, length, unit = header(buf, pos)
+            if pid != PROTOCOL_MODBUS or length not in GOOD_LENGTHS:  # (bad_header, inline)
                 self.drop("header", "clients closed for a bad MBAP header",
-                          f"bad MBAP header (protocol id {pid}, length {length})")
+                          str(bad_header(pid, length)))
                 return size
-            end = pos + 6 + length
+            end = pos + MBAP_SIZE - 1 + length
             if size < end:
                 break
-            pdu = bytes(buf[pos + 7:end])
+            pdu = bytes(buf[pos + MBAP_SIZE:end])
             pos = end
             done = True
             try:
@@ -335,7 +335,7 @@ class _Connection(asyncio.Protocol):
             if resp[0] & 0x80:
                 stats.exceptions += 1
             stats.requests += 1
-            write(pack_mbap(tid, unit, resp))
+            write(frame(tid, unit, resp))
         if buf is self.buf and pos:
             del buf[:pos]
             size -= pos

@@ -41,6 +41,9 @@ HIDDEN_WHY = {
     "Q": ("outputs have no Modbus address", "M"),
     "IW": ("analog inputs have no Modbus address", "MW"),
     "QW": ("analog outputs have no Modbus address", "MW"),
+    # the Modbus map is %M / %MW only [manual, TWD USE 10AE]: the Remote Link words too
+    "INW": ("Remote Link words received have no Modbus address", "MW"),
+    "QNW": ("Remote Link words sent have no Modbus address", "MW"),
     "S": ("system bits have no Modbus address", "M"),
     "SW": ("system words have no Modbus address", "MW"),
     "KW": ("constants have no Modbus address", "MW"),

@@ -52,6 +52,7 @@ from dataclasses import dataclass
 from queue import SimpleQueue
 from typing import Any
 
+from softplc.modbus.codec import MBAP_SIZE, bad_header, frame, header
 from softplc.runtime.blocks import Block
 
 # Error codes of the EXCH status word [manual, %SW63/%SW64 list, from memory; check]
@@ -76,7 +77,6 @@ ETHERNET_PORT = 3  # EXCH3 / %MSG3: the TWDLCAE40DRF's Ethernet port [manual]
 SERIAL_PORTS = (1, 2)
 MAX_TX_BYTES = 250  # [manual, from memory]
 CMD_SEND_ONLY, CMD_SEND_RECEIVE = 0, 1  # command byte [manual]; 2 (receive only) is serial
-MBAP = struct.Struct(">HHHB")  # transaction id, protocol 0, length, unit id
 
 
 @dataclass(frozen=True)
@@ -167,7 +167,8 @@ class _Job:
     """One exchange handed to the worker: the request, its deadline (monotonic seconds)
     and its outcome, a Future set once (by the worker, or by the scan at the deadline)."""
 
-    def __init__(self, conn: _Connection, pdu: bytes, expect_reply: bool, deadline: float):
+    def __init__(self, conn: _Connection | None, pdu: bytes, expect_reply: bool,
+                 deadline: float):
         self.conn, self.pdu, self.expect_reply, self.deadline = conn, pdu, expect_reply, deadline
         self.future: Future[bytes] = Future()
         self.cancelled = False
@@ -240,6 +241,7 @@ class _Worker:
 
     def _run(self) -> None:
         while (job := self._queue.get()) is not None:
+            assert job.conn is not None  # only socket exchanges reach the worker
             self._current = job
             self._drain()
             try:
@@ -336,16 +338,16 @@ class _Connection:
                 if self.sock is None:
                     self._connect(deadline, worker)
                 self.tid = (self.tid + 1) & 0xFFFF
-                self._send(MBAP.pack(self.tid, 0, len(pdu) + 1, self.remote.unit_id) + pdu,
-                           deadline, worker)
+                self._send(frame(self.tid, self.remote.unit_id, pdu), deadline, worker)
             except OSError as e:
                 raise ExchError(ERR_TX, f"{self.where}: {e}") from None
             try:
                 # the reply of a send-only request is read too, to keep the stream in step
-                tid, proto, length, _unit = MBAP.unpack(self._recv(MBAP.size, deadline, worker))
-                if proto != 0 or length < 2 or tid != self.tid:
-                    raise ExchError(ERR_RX, f"bad MBAP header (transaction {tid}, protocol "
-                                    f"{proto}, length {length})")
+                tid, proto, length, _unit = header(self._recv(MBAP_SIZE, deadline, worker))
+                why = bad_header(proto, length)
+                if why is not None or tid != self.tid:
+                    raise ExchError(ERR_RX, f"{why or 'bad MBAP header'} (transaction {tid}, "
+                                    f"expected {self.tid})")
                 body = self._recv(length - 1, deadline, worker)
             except OSError as e:
                 raise ExchError(ERR_RX, str(e)) from None
@@ -372,6 +374,11 @@ class ExchPort:
         self._job: _Job | None = None
         self._req: _Request | None = None
         self._t0 = 0
+        # remote devices served in this process (softplc.plant: another controller of the
+        # plant): index -> its Modbus server's answer to a request PDU, given at once, no
+        # socket (ExchError when it does not answer); the reply lands at the next scan
+        # boundary like any other
+        self.local: dict[int, Callable[[bytes], bytes]] = {}
 
     def start(self, start: int, n: int) -> None:
         """`EXCH3 %MW<start>:<n>` with the block done: check the table, send the request.
@@ -388,6 +395,15 @@ class ExchPort:
             self._finish(e.code)
             return
         msg.D, msg.E = 0, 0
+        serve = self.local.get(req.index)
+        if serve is not None:
+            self._req, self._t0 = req, self.now_us()
+            self._job = _Job(None, req.pdu, req.expect_reply, math.inf)
+            try:  # a timeout shows once its time has passed on the clock (`poll`)
+                self._job.settle(serve(req.pdu))
+            except ExchError as e:
+                self._job.settle(error=e)
+            return
         if self._worker is None:
             self._worker = _Worker()
         conn = self._conns.get(req.index)

@@ -19,9 +19,21 @@ from typing import Any
 
 from softplc.errors import AddressError
 from softplc.twido import catalog
-from softplc.twido.address import ANALOG_STRIDE, BLOCK_FIELDS, IO_KINDS, WIDTH, Ref, parse_address
+from softplc.twido.address import (
+    ANALOG_STRIDE,
+    BLOCK_FIELDS,
+    IO_KINDS,
+    LINK_STATIONS,
+    LINK_WORDS,
+    WIDTH,
+    Ref,
+    parse_address,
+)
 from softplc.twido.numeric import to_f32, wrap16, wrap32
 from softplc.twido.profile import DEFAULT_PROFILE, Profile
+
+# the word families a snapshot holds
+WORD_IMAGES = ("mw", "kw", "sw", "iw", "qw", "inw", "qnw")
 
 
 class WordFamily:
@@ -58,7 +70,9 @@ class MemoryImage:
         self.profile = profile
         c = profile.count
         self.stride = profile.channels_per_module
-        n_io = (profile.expansion_slots + 1) * self.stride
+        # the base, the expansion slots, then the base I/O of the remote I/O controllers
+        # on the Remote Link (%Ix.0.z, address.remote_io_slot)
+        n_io = (profile.expansion_slots + LINK_STATIONS) * self.stride
         # Input/output images and what the field (devices, API) sees. Inputs are copied
         # field -> image at the start of a scan, outputs image -> field at its end.
         self.i = [False] * n_io
@@ -87,6 +101,10 @@ class MemoryImage:
         n_aio = (profile.expansion_slots + 1) * ANALOG_STRIDE
         self.iw = WordFamily(n_aio)
         self.qw = WordFamily(n_aio)
+        # Remote Link network words %INWi.j (received) / %QNWi.j (sent): the link's exchange
+        # writes %INW and reads %QNW on its own cycle (runtime/remotelink.py)
+        self.inw = WordFamily(LINK_STATIONS * LINK_WORDS)
+        self.qnw = WordFamily(LINK_STATIONS * LINK_WORDS)
         self.analog: Any = None  # the AnalogIO converter, when analog channels are configured
         self.pulses: Any = None  # runtime.pulse.PulseOutputs, when %PLS/%PWM are configured
         # fast counters: the CountingInputs that pulse sources feed (runtime/fastcount.py)
@@ -103,7 +121,8 @@ class MemoryImage:
 
     def words(self, kind: str) -> WordFamily:
         return {"MW": self.mw, "MD": self.mw, "MF": self.mw, "KW": self.kw,
-                "KD": self.kw, "KF": self.kw, "SW": self.sw, "IW": self.iw, "QW": self.qw}[kind]
+                "KD": self.kw, "KF": self.kw, "SW": self.sw, "IW": self.iw, "QW": self.qw,
+                "INW": self.inw, "QNW": self.qnw}[kind]
 
     def block(self, ref: Ref) -> Any:
         try:
@@ -226,7 +245,7 @@ class MemoryImage:
             name: bytes(getattr(self, name))
             for name in ("i", "i_field", "q", "q_field", "m", "s", "x")
         }
-        for name in ("mw", "kw", "sw", "iw", "qw"):
+        for name in WORD_IMAGES:
             snap[name] = bytes(getattr(self, name).buf)
         snap["blocks"] = {k: {i: b.state() for i, b in d.items()} for k, d in self.blocks.items()}
         return snap
@@ -234,7 +253,7 @@ class MemoryImage:
     def restore(self, snap: dict[str, Any]) -> None:
         for name in ("i", "i_field", "q", "q_field", "m", "s", "x"):
             getattr(self, name)[:] = map(bool, snap[name])
-        for name in ("mw", "kw", "sw", "iw", "qw"):
+        for name in WORD_IMAGES:
             if name in snap:
                 getattr(self, name).buf[:] = snap[name]
         for k, d in snap["blocks"].items():

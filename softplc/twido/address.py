@@ -28,11 +28,17 @@ IO_KINDS = {"I": BOOL, "Q": BOOL}
 # Analog I/O words %IWm.c / %QWm.c (module m, channel c) [manual].
 ANALOG_KINDS = {"IW": INT16, "QW": INT16}
 ANALOG_STRIDE = 8  # word channels per module in the flat index (the widest analog module)
+# Remote Link network words %INWi.j / %QNWi.j (issue 35): i the station (0 the master, 1-7
+# the remotes), j = 0..3 [src S1 of shared/reference/remote-link.md: 4 words each way; the
+# names, the indexes and the range 1-7: manual, from memory]. Flat index i * LINK_WORDS + j.
+NETWORK_KINDS = {"INW": INT16, "QNW": INT16}
+LINK_WORDS = 4  # words each way between the master and one peer [src S1]
+LINK_STATIONS = 8  # address 0 (the master) and 1-7 (the remotes) [src S1, range from memory]
 # Function-block objects: kind -> {field: (type, writable by the program)} (the catalog's).
 BLOCK_FIELDS: dict[str, dict[str, tuple[str, bool]]] = {
     f.kind: dict(f.fields or {}) for f in catalog.addressable()}
 # Objects the program may never write.
-READ_ONLY_KINDS = {"I", "IW", "KW", "KD", "KF"}
+READ_ONLY_KINDS = {"I", "IW", "INW", "KW", "KD", "KF"}
 # Word-backed kinds: the 16-bit family a 32-bit or float object overlays.
 WORD_FAMILY = {"MW": "MW", "MD": "MW", "MF": "MW", "KW": "KW", "KD": "KW", "KF": "KW",
                "SW": "SW"}
@@ -50,10 +56,11 @@ def _alternation(words: Iterable[str]) -> str:
 _LONG_FIELDS = {f.rstrip("0123456789") for fields in BLOCK_FIELDS.values() for f in fields
                 if len(f.rstrip("0123456789")) > 1}
 _ADDR = re.compile(
-    rf"""%(?P<kind>{_alternation([*SIMPLE_KINDS, *IO_KINDS, *ANALOG_KINDS, *BLOCK_FIELDS,
-                                  "L"])})
+    rf"""%(?P<kind>{_alternation([*SIMPLE_KINDS, *IO_KINDS, *ANALOG_KINDS, *NETWORK_KINDS,
+                                  *BLOCK_FIELDS, "L"])})
         (?P<a>\d+)
         (?:\.(?P<b>\d+))?                       # %I0.12 module.channel
+        (?:\.(?P<c>\d+))?                       # %I1.0.3 a remote I/O's station.0.channel
         (?:\.(?P<field>{_alternation(_LONG_FIELDS)}|[A-Z])(?P<fbit>\d+)?)?  # %TM0.Q, .TH1
         (?::X(?P<bit>\d+))?                     # %MW3:X5
         (?::(?P<length>\d+))?                   # %MW0:10 table / bit string
@@ -75,6 +82,9 @@ class Ref:
     bit: int | None = None  # %MWi:Xk or %SBRi.Jk
     length: int | None = None  # %MWi:L tables, %Mi:L bit strings
     offset: Ref | None = None  # %MWi[%MWj]
+    # %Ix.0.z / %Qx.0.z: the Remote Link station x of a remote I/O controller (its base I/O
+    # on the master; the flat index as if it were module expansion_slots + x)
+    station: int | None = None
     # the object's symbol (softplc.twido.symbols), for the views; not part of its identity
     symbol: str | None = dc_field(default=None, compare=False, repr=False)
 
@@ -91,7 +101,7 @@ class Ref:
             return BLOCK_FIELDS[self.kind][self.field][0]
         if self.kind in IO_KINDS:
             return BOOL
-        if self.kind in ANALOG_KINDS:
+        if self.kind in ANALOG_KINDS or self.kind in NETWORK_KINDS:
             return INT16
         return SIMPLE_KINDS[self.kind]
 
@@ -111,7 +121,9 @@ class Ref:
         return self.kind in BLOCK_FIELDS and self.field is None
 
     def __str__(self) -> str:
-        if self.kind in IO_KINDS or self.kind in ANALOG_KINDS:
+        if self.station is not None:
+            s = f"%{self.kind}{self.station}.{self.module}.{self.channel}"
+        elif self.kind in IO_KINDS or self.kind in ANALOG_KINDS or self.kind in NETWORK_KINDS:
             s = f"%{self.kind}{self.module}.{self.channel}"
         else:
             s = f"%{self.kind}{self.index}"
@@ -154,6 +166,40 @@ def _module_channel(kind: str, a: int, b: str | None, text: str,
     return a, int(b)
 
 
+def _network_word(kind: str, station: int, word: str | None, text: str,
+                  suffix: bool) -> Ref:
+    """%INWi.j / %QNWi.j: station i 0..7, word j 0..3."""
+    if word is None or suffix:
+        raise AddressError(f"{text!r}: Remote Link words are %{kind}i.j (i the station "
+                           f"0..{LINK_STATIONS - 1}, j the word 0..{LINK_WORDS - 1})")
+    j = int(word)
+    if station >= LINK_STATIONS or j >= LINK_WORDS:
+        raise AddressError(f"{text!r}: Remote Link words are %{kind}0.0 .. "
+                           f"%{kind}{LINK_STATIONS - 1}.{LINK_WORDS - 1}")
+    return Ref(kind, station * LINK_WORDS + j, station, j)
+
+
+def _remote_io(kind: str, station: int, base: int, channel: int, text: str,
+               profile: Profile, suffix: bool) -> Ref:
+    """%Ix.0.z / %Qx.0.z: channel z of the base I/O of the remote I/O controller at Remote
+    Link address x [manual, from memory, low-medium: shared/reference/remote-link.md A2;
+    only the base is reachable, its size taken as this profile's base]."""
+    limit = profile.inputs_base if kind == "I" else profile.outputs_base
+    if suffix:
+        raise AddressError(f"{text!r}: remote I/O bits take no suffix")
+    if not 1 <= station < LINK_STATIONS or base != 0 or channel >= limit:
+        raise AddressError(f"{text!r}: a remote I/O channel is %{kind}x.0.z, x the remote's "
+                           f"address 1 .. {LINK_STATIONS - 1}, z its base channel 0 .. "
+                           f"{limit - 1}")
+    slot = profile.expansion_slots + station
+    return Ref(kind, slot * profile.channels_per_module + channel, 0, channel, station=station)
+
+
+def remote_io_slot(profile: Profile, station: int) -> int:
+    """The first flat index of remote I/O station `station`'s channels."""
+    return (profile.expansion_slots + station) * profile.channels_per_module
+
+
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     """Parse and range-check an address. Raises AddressError with a readable message."""
     t = text.strip().replace(" ", "")
@@ -174,6 +220,14 @@ def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
         if field or bit is not None or offset or length is not None:
             raise AddressError(f"{text!r}: analog I/O words take no suffix")
         return Ref(kind, module * ANALOG_STRIDE + channel, module, channel)
+    if m["c"] is not None:
+        if kind not in IO_KINDS:
+            raise AddressError(f"malformed address {text!r}")
+        return _remote_io(kind, a, int(m["b"]), int(m["c"]), text, profile,
+                          bool(field or bit is not None or offset or length is not None))
+    if kind in NETWORK_KINDS:
+        return _network_word(kind, a, m["b"], text, bool(field or bit is not None or offset
+                                                         or length is not None))
     if kind == "L":
         raise AddressError(f"{text!r} is a label, not an object")
 
@@ -248,7 +302,7 @@ def expand(text: str, profile: Profile = DEFAULT_PROFILE) -> list[Ref]:
         return [ref]
     if ref.kind in IO_KINDS:
         assert ref.module is not None and ref.channel is not None
-        return [Ref(ref.kind, ref.index + k, ref.module, ref.channel + k)
+        return [replace(ref, index=ref.index + k, channel=ref.channel + k, length=None)
                 for k in range(ref.length)]
     step = WIDTH.get(ref.kind, 1)
     return [Ref(ref.kind, ref.index + k * step) for k in range(ref.length)]

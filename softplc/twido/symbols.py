@@ -193,7 +193,7 @@ def _toml_str(s: str) -> str:
 
 def _address_key(address: str) -> tuple[Any, ...]:
     """%I before %Q before %M..., then by number: the order of TwidoSuite's table."""
-    order = ["I", "Q", "IW", "QW", "M", "MW", "MD", "MF", "KW", "KD", "KF", "S", "SW"]
+    order = ["I", "Q", "IW", "QW", "INW", "QNW", "M", "MW", "MD", "MF", "KW", "KD", "KF", "S", "SW"]
     order += [f.kind for f in catalog.FAMILIES.values() if f.online]  # %TM %C %DR %R
     m = re.match(r"%([A-Z]+)(\d+)(?:\.(\d+))?", address)
     if not m:

@@ -152,7 +152,7 @@ class Model(ObjectModel):
         if blk:
             return self._sort(key) == "bool"
         return key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
-            ("%MW", "%QW", "%SW", "%MD"))
+            ("%MW", "%QW", "%SW", "%MD", "%QNW", "%INW"))
 
     def _init(self, key: str) -> int:
         """The value after a cold start."""

@@ -135,11 +135,14 @@ class ObjectModel(ExprModel):
             lo, hi = (min(ch.lo, ch.hi), max(ch.lo, ch.hi)) if ch else (-32768, 32767)
             self.add_input(str(ref), "w16", lo, hi)
             return str(ref)
+        if ref.kind == "INW":  # the Remote Link's words arrive on its own cycle: free
+            self.add_input(str(ref), "w16", -32768, 32767)
+            return str(ref)
         if ref.kind in MODELLED and ref.field is not None:
             if self.use_block(Ref(ref.kind, ref.index), None) is None:
                 return "_none"
             return f"%{ref.kind}{ref.index}.{ref.field}"
-        key = str(Ref(ref.kind, ref.index, ref.module, ref.channel))
+        key = str(Ref(ref.kind, ref.index, ref.module, ref.channel, station=ref.station))
         if ref.kind == "S" and ref.index in S_CLOCKS:
             if CLOCK_WRAP_US % self.period_us:
                 self.unsupported(f"{ref} with a scan period that does not divide 1 min",
@@ -223,9 +226,9 @@ class ObjectModel(ExprModel):
             return wide(int(self.plc.mem.kw.w[ref.index])), INT16
         if k == "KD":
             return wide(int(self.plc.mem.read(ref))), INT32
-        if k in ("MW", "QW", "SW"):
+        if k in ("MW", "QW", "SW", "QNW"):
             return wide(self.word(ref)), INT16
-        if k == "IW":
+        if k in ("IW", "INW"):
             return wide(self.inp[self.key_for(ref)]), INT16
         if k == "MD":
             lo = self.word(Ref("MW", ref.index))
@@ -255,7 +258,7 @@ class ObjectModel(ExprModel):
             return
         if ref.offset is not None or ref.length is not None:
             self.unsupported("an indexed object or table", pos, str(ref))
-        elif k in ("MW", "QW", "SW"):
+        elif k in ("MW", "QW", "SW", "QNW"):
             self.put_word(ref, g, narrow(v, 16), pos)
         elif k == "MD":
             v32 = narrow(v, 32)

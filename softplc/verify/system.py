@@ -17,7 +17,8 @@ analog signals): any value at the start of every scan, stated as such by `softpl
 and set so by the replay: %S19 (a scan overrun), %SW30-%SW32 (scan times, rewritten after
 the program, which may not write them), %SW0 with a variable scan period; with a real-time
 clock %S51, %SW49-%SW53 and the outputs of its schedule blocks; with analog modules their
-status words %SW80+slot.
+status words %SW80+slot; with the Remote Link its status and error words %SW111-%SW112
+(the link words %INW are free inputs, verify/objects.py).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from typing import Any
 
 from softplc.runtime.analog import SW_ANALOG_STATUS
 from softplc.runtime.engine import SW_LAST, SW_MAX, SW_MIN, SW_PERIOD
+from softplc.runtime.remotelink import SW_LINK_ERROR, SW_LINK_STATUS
 from softplc.runtime.rtc import S_RTC_UNSET, SW_CCYY, SW_DOW
 from softplc.twido.address import Ref
 
@@ -50,6 +52,9 @@ def free_objects(plc: Any, variable_period: bool) -> dict[str, str]:
             out[f"%SW{k}"] = "the real-time clock"
         for sch in rtc.schedules:
             out[str(sch.output)] = "written by a real-time clock schedule block"
+    if plc.machine.link is not None:  # the link runs on its own cycle
+        out[f"%SW{SW_LINK_STATUS}"] = "the Remote Link's stations present"
+        out[f"%SW{SW_LINK_ERROR}"] = "the Remote Link's error code"
     analog = plc.mem.analog
     for ref in analog.channels if analog else ():
         if ref.kind == "IW" and ref.module:

@@ -26,7 +26,8 @@ from softplc.machines.cutting import (
     segment_words,
 )
 from softplc.machines.cutting.geometry import distance, distance_to, unit
-from softplc.machines.cutting.regmap import FRAME_LEN, SEG_BASE, seg_no, words_dint, words_real
+from softplc.machines.cutting.regmap import FRAME_LEN, SEG_BASE, seg_no
+from softplc.modbus.codec import words_to_float, words_to_long
 
 PIECES = Path(__file__).resolve().parents[2] / "ladder_programs" / "pieces"
 
@@ -241,8 +242,8 @@ def test_segment_words_land_in_the_plc_words():
         assert plc["%MF104"] == pytest.approx(seg.speed)
         assert (plc["%MW106"], plc["%MW107"], plc["%MW108"]) == (
             1 if seg.cut else 2, seg.number, 1)
-    assert words_dint(*segment_words(p.segments()[0]).frame()[0:2]) == 20000
-    assert words_real(*segment_words(p.segments()[0]).frame()[4:6]) == 2.0
+    assert words_to_long(*segment_words(p.segments()[0]).frame()[0:2]) == 20000
+    assert words_to_float(*segment_words(p.segments()[0]).frame()[4:6]) == 2.0
     assert (seg_no(1), seg_no(32767), seg_no(32768)) == (1, 32767, 1)
 
 
@@ -252,7 +253,7 @@ def test_negative_coordinates_in_words():
     seg = Segment(3, "move", (0, 0), (-30.0005, 12.0004), 10.0, "x")
     w = segment_words(seg)
     assert (w.x_um, w.y_um) == (-30001, 12000)  # halves away from zero
-    assert words_dint(*w.frame()[0:2]) == -30001
+    assert words_to_long(*w.frame()[0:2]) == -30001
 
 
 # -- the command ---------------------------------------------------------------------------

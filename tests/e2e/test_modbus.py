@@ -23,7 +23,7 @@ from pyModbusTCP.client import ModbusClient
 
 from softplc.config import validate_config
 from softplc.modbus import ModbusImage, ReadOnly, ServerThread, read_only_of
-from softplc.modbus.protocol import pack_mbap
+from softplc.modbus.codec import frame as mbap_frame
 from softplc.modbus.rawclient import RawClient
 from softplc.modbus.regmap import DEVICE_IDENTIFICATION, FUNCTIONS, describe, markdown_table
 from softplc.runtime.memory import MemoryImage
@@ -272,7 +272,7 @@ def test_pipelined_requests_and_unit_echo(rig):
     rig.mem.mw.w[3] = 7
     rig.scan()
     with rig.raw() as c:
-        frames = b"".join(pack_mbap(100 + k, k, struct.pack(">BHH", 3, 3, 1)) for k in range(5))
+        frames = b"".join(mbap_frame(100 + k, k, struct.pack(">BHH", 3, 3, 1)) for k in range(5))
         c.sock.sendall(frames)
         for k in range(5):
             tid, unit, pdu = c.recv_frame()
@@ -331,7 +331,7 @@ def test_malformed_traffic_keeps_server_serving(rig):
     silent = socket.create_connection(("127.0.0.1", rig.port))  # connects, sends nothing
 
     cases = {
-        "MBAP length longer than the data": pack_mbap(1, 1, b"\x03\x00\x00\x00\x01")[:-2],
+        "MBAP length longer than the data": mbap_frame(1, 1, b"\x03\x00\x00\x00\x01")[:-2],
         "MBAP length 0": b"\x00\x01\x00\x00\x00\x00\x01\x03",
         "MBAP length 1 (no function code)": b"\x00\x01\x00\x00\x00\x01\x01",
         "MBAP length beyond 254": b"\x00\x01\x00\x00\x01\x00\x01" + bytes(300),
@@ -347,10 +347,10 @@ def test_malformed_traffic_keeps_server_serving(rig):
 
     # A truncated PDU inside a correct frame gets an exception reply.
     s = socket.create_connection(("127.0.0.1", rig.port))
-    s.sendall(pack_mbap(9, 3, b"\x10\x00\x00"))
-    assert closed_or_reply(s) == pack_mbap(9, 3, exc(16, 3))
+    s.sendall(mbap_frame(9, 3, b"\x10\x00\x00"))
+    assert closed_or_reply(s) == mbap_frame(9, 3, exc(16, 3))
     # A client that disconnects mid-frame.
-    s.sendall(pack_mbap(10, 3, struct.pack(">BHHB2H", 16, 0, 2, 4, 9, 9))[:-3])
+    s.sendall(mbap_frame(10, 3, struct.pack(">BHHB2H", 16, 0, 2, 4, 9, 9))[:-3])
     s.close()
     # Zero quantity and unknown function: exception replies on a raw socket.
     with rig.raw() as c:
@@ -362,8 +362,8 @@ def test_malformed_traffic_keeps_server_serving(rig):
     assert good.read_registers(0, 2) == [1, 2]  # nothing lost, nothing partial applied
     assert rig.img.writes_applied == 2
     # The silent client is still connected and can be served too.
-    silent.sendall(pack_mbap(1, 1, struct.pack(">BHH", 3, 0, 1)))
-    assert closed_or_reply(silent) == pack_mbap(1, 1, b"\x03\x02\x00\x01")
+    silent.sendall(mbap_frame(1, 1, struct.pack(">BHH", 3, 0, 1)))
+    assert closed_or_reply(silent) == mbap_frame(1, 1, b"\x03\x02\x00\x01")
     silent.close()
     good.close()
     assert rig.server.stats.dropped >= len(cases)
@@ -407,7 +407,7 @@ def test_client_that_never_reads_replies_is_reset(rig):
     the server's bounded write buffer, the client is reset (its slot freed, memory
     bounded) and the others are served."""
     s = socket.create_connection(("127.0.0.1", rig.port))
-    frame = pack_mbap(1, 1, struct.pack(">BHH", 3, 0, 125))  # 12 bytes in, 259 out
+    frame = mbap_frame(1, 1, struct.pack(">BHH", 3, 0, 125))  # 12 bytes in, 259 out
     s.setblocking(False)
     sent, reset = 0, False
     end = time.monotonic() + 5

@@ -18,7 +18,7 @@ import pytest
 
 from softplc.modbus import ModbusImage, ServerThread
 from softplc.modbus import server as srv
-from softplc.modbus.protocol import pack_mbap
+from softplc.modbus.codec import frame as mbap_frame
 from softplc.modbus.rawclient import RawClient
 from softplc.modbus.server import DEFAULT_IDLE_TIMEOUT
 from softplc.runtime.memory import MemoryImage
@@ -110,7 +110,7 @@ def test_a_client_leaving_replies_unread_is_evicted_first():
         with RawClient("127.0.0.1", th.port) as b:
             assert b.read_registers(0, 1) == [0]
             u = socket.create_connection(("127.0.0.1", th.port))
-            u.sendall(pack_mbap(1, 1, struct.pack(">BHH", 3, 0, 125)) * 2000)  # 518 kB out
+            u.sendall(mbap_frame(1, 1, struct.pack(">BHH", 3, 0, 125)) * 2000)  # 518 kB out
             time.sleep(0.3)
             (conn,) = [c for c in th.server.connections if c.peer[1] == u.getsockname()[1]]
             assert conn.unread() > srv.UNREAD_EVICT
@@ -135,7 +135,7 @@ def test_frame_deadline_runs_from_the_first_byte():
     th = ServerThread(ModbusImage(MemoryImage()), "127.0.0.1", 0, frame_timeout=0.3).start()
     try:
         s = socket.create_connection(("127.0.0.1", th.port))
-        frame = pack_mbap(1, 1, struct.pack(">BHH", 3, 0, 1))
+        frame = mbap_frame(1, 1, struct.pack(">BHH", 3, 0, 1))
         got = b""
         try:
             for k in range(len(frame)):

@@ -19,6 +19,7 @@ from daemon_util import started
 
 from softplc.daemon import Daemon as InProcessDaemon
 from softplc.daemon import DaemonOptions
+from softplc.errors import ConfigError
 from softplc.machines.drawing.trace import TraceError
 from softplc.modbus.image import ModbusImage
 from softplc.modbus.rawclient import ModbusExceptionReply
@@ -394,13 +395,19 @@ def test_start_up_objects_are_frozen_out_of_the_collector(freeze):
 
 def test_servo_trajectory_of_centuries_is_refused_not_allocated():
     """Found by tools/fuzz_mutations.py: a jog ramp of 1.99e16 ms (Ixx20) asked numpy for
-    319 PiB in the first scans; now the axis refuses the command (bad command) and holds."""
+    319 PiB in the first scans. That value is now beyond Ixx20's range (a configuration
+    error); the longest ramp in range (8,388,607 ms, 2.3 hours of servo ticks) still makes
+    a trajectory too long to hold, and the axis refuses the command (bad command) and holds."""
     import tomllib
 
+    from softplc.devices.axis.law import I24_MAX
     from softplc.devices.axis.options import Err
 
     cfg = tomllib.loads((TABLE / "cutting_table.toml").read_text())
     cfg["devices"]["X"]["ivars"]["Ixx20"] = 1.9891118211402064e16
+    with pytest.raises(ConfigError, match="Ixx20"):
+        PLC.from_file(TABLE / "cutting_table.il", config=cfg)
+    cfg["devices"]["X"]["ivars"]["Ixx20"] = I24_MAX
     plc = PLC.from_file(TABLE / "cutting_table.il", config=cfg)
     plc.scan(5)
     assert plc.state == "RUN" and plc.devices["X"].error == Err.BAD_COMMAND

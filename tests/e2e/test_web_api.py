@@ -672,5 +672,10 @@ def test_servo_i_variables_tuned_live_from_the_monitor():
         s.scans(5)
         got = c.get("%MF328", "%MW300")
         assert axis.gains.kp == kp * 2 and got["%MF328"] == kp * 2 and got["%MW300"] == 30
+        for huge in (1e30, 3.4e38):  # beyond Ixx30's PMAC range (issue 31)
+            c.set("%MF328", huge)
+            s.scans(5)
+            got = c.get("%MF328", "%MW300")
+            assert axis.gains.kp == kp * 2 and got["%MF328"] == kp * 2 and got["%MW300"] == 30
     finally:
         s.close()

@@ -4,6 +4,7 @@ servo axes (PLC API), and the same over Modbus TCP on loopback with the daemon."
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Sequence
 
 import pytest
 from daemon_util import ROOT, Daemon
@@ -268,16 +269,19 @@ def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp
 
 
 class _WordsClient:
-    """A RawClient stand-in on a PLC's words (the holding registers, unsigned on the wire),
-    for running the host commands in-process on the virtual clock."""
+    """A ModbusHost stand-in on a PLC's words (the holding registers, unsigned on the
+    wire), for running the host commands in-process on the virtual clock."""
 
     def __init__(self, plc: PLC):
         self.uw = plc.mem.mw.uw  # the words' unsigned view (what the Modbus server serves)
 
-    def read_registers(self, addr: int, n: int) -> list[int]:
-        return list(self.uw[addr:addr + n])
+    def connect(self) -> _WordsClient:
+        return self
 
-    def write_registers(self, addr: int, values: list[int]) -> None:
+    def read_words(self, addr: int, n: int) -> list[int]:
+        return [int(v) for v in self.uw[addr:addr + n]]
+
+    def write_words(self, addr: int, values: Sequence[int]) -> None:
         for i, v in enumerate(values):
             self.uw[addr + i] = v
 
@@ -303,7 +307,7 @@ def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, ca
     from softplc.cli import main as softplc
 
     plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
-    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    monkeypatch.setattr(servo_client, "ModbusHost", lambda *a, **k: _WordsClient(plc))
     # the client's own `time` only: its sleeps run the PLC, its timeouts stay wall time
     monkeypatch.setattr(servo_client, "time", SimpleNamespace(
         sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
@@ -345,7 +349,7 @@ def in_process(tmp_path, monkeypatch, poll_ms: float = 0) -> PLC:
     import softplc.machines.servo.client as servo_client
 
     plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
-    monkeypatch.setattr(servo_client, "RawClient", lambda *a, **k: _WordsClient(plc))
+    monkeypatch.setattr(servo_client, "ModbusHost", lambda *a, **k: _WordsClient(plc))
     monkeypatch.setattr(servo_client, "time", SimpleNamespace(
         sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
         monotonic=time.monotonic))

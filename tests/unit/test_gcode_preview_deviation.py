@@ -12,7 +12,8 @@ from softplc.cli import main
 from softplc.errors import SoftPLCError
 from softplc.machines.drawing import TraceError, load_trace, max_deviation
 from softplc.machines.drawing.deviation import distances_to_path
-from softplc.machines.gcode import parse_gcode, preview
+from softplc.machines.gcode import parse_gcode
+from softplc.machines.gcode.preview import preview
 
 SAMPLES = Path(__file__).resolve().parents[2] / "ladder_programs" / "samples"
 LINE = "G00 X1 Z1\nY1\nG01 X3 Z1\nZ3\nY0\nG00 X10 Z10\n"

@@ -12,7 +12,7 @@ from softplc.cli import main
 from softplc.errors import UncertaintyError
 from softplc.machines.machining import handshake, tuning
 from softplc.machines.machining.mpfile import MPFile
-from softplc.modbus.regmap import float_to_registers, registers_to_float
+from softplc.modbus.codec import float_to_words, words_to_float
 
 
 @pytest.fixture(scope="module")
@@ -96,10 +96,10 @@ def test_words_of_a_result(example):
     assert len(w) == handshake.RESULT_END - handshake.W_ACK <= 123  # one FC 16 frame
     assert w[:4] == [7, 0, 2, 0]
     at = handshake.F_MPS - handshake.W_ACK
-    assert registers_to_float(w[at], w[at + 1]) == 3650.0
+    assert words_to_float(w[at], w[at + 1]) == 3650.0
     at = handshake.F_MASS - handshake.W_ACK
-    assert registers_to_float(w[at], w[at + 1]) == pytest.approx(res.estimate.mass, rel=1e-7)
-    assert float_to_registers(3350.0) == [0x6000, 0x4551]  # IEEE single 0x45516000, CDAB
+    assert words_to_float(w[at], w[at + 1]) == pytest.approx(res.estimate.mass, rel=1e-7)
+    assert float_to_words(3350.0) == (0x6000, 0x4551)  # IEEE single 0x45516000, CDAB
     err = UncertaintyError("too uncertain")
     assert handshake.error_words(8, err) == [8, 5]
 

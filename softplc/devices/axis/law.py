@@ -53,19 +53,64 @@ IVARS: tuple[tuple[str, str, float, str], ...] = (
 )
 
 
-_INTEGER = {"Ixx34": (0, 1), "Ixx60": (0, 255)}  # (min, max)
-_SIGNED = {"Ixx23", "Ixx26", "Ixx29"}  # may be negative
-_POSITIVE = {"Ixx08", "Ixx09", "Ixx69"}  # must be > 0
+# The range each I-variable accepts: (min, max, min exclusive, source). PMAC I-variables
+# are 24-bit registers (-8,388,608 .. 8,388,607) unless noted; the sources are the Delta
+# Tau manuals: SRM = "Turbo PMAC/PMAC2 Software Reference", section "Turbo PMAC Global
+# I-Variables" (page), PMAC SRM = the non-Turbo "PMAC/PMAC2 Software Reference",
+# "PMAC I-Variable Specification" (page), QRG = "PMAC Quick Reference Guide", Appendix B
+# "PMAC I-Variables Summary". A PMAC rolls an out-of-range value over (Turbo PMAC User
+# Manual, "Limited Range"); the axis refuses it instead, so a typing error never becomes
+# a different gain [choice].
+# docs/servo-gains.md shows this table (`range_table`).
+I24_MAX = 2 ** 23 - 1  # 8,388,607: the largest value of a 24-bit register
+I24_MIN = -(2 ** 23)
+DAC_MAX = 2 ** 15 - 1  # 32,767: a 16-bit DAC's largest output
+DAC_MIN = -(2 ** 15)
+QRG_SAFETY = "QRG, Motor Safety I-Variables"
+QRG_MOVE = "QRG, Motor Movement I-Variables"
+QRG_SERVO = "QRG, Servo Control I-Variables"
+QRG_MOD = "QRG, Motor Servo Loop Modifiers"
+NO_MAX = ("SRM p.100 (Ixx19), p.101 (Ixx22): 'positive floating point', no upper bound; "
+          "the 24-bit range of its neighbours Ixx20/21 [choice]")
+RANGES: dict[str, tuple[float, float, bool, str]] = {
+    "Ixx08": (0, I24_MAX, True, "PMAC SRM p.63 (Ix09 0 .. 8,388,607; Ix08 the same "
+              "[manual, from memory]); 0 would zero the law [choice]"),
+    "Ixx09": (0, I24_MAX, True, "PMAC SRM p.63, Ix09: 0 .. 8,388,607; 0 refused as Ixx08"),
+    "Ixx11": (0, I24_MAX, False, QRG_SAFETY + "; 0 = off (SRM p.96 [manual, from memory])"),
+    "Ixx12": (0, I24_MAX, False, QRG_SAFETY),
+    "Ixx19": (0, I24_MAX, False, NO_MAX),
+    "Ixx20": (0, I24_MAX, False, QRG_MOVE + "; SRM p.101"),
+    "Ixx21": (0, I24_MAX, False, QRG_MOVE + "; SRM p.101"),
+    "Ixx22": (0, I24_MAX, False, NO_MAX),
+    "Ixx23": (-I24_MAX, I24_MAX, False, "SRM p.101: 'floating point', no bound; the "
+              "24-bit range either way [choice]"),
+    "Ixx26": (I24_MIN, I24_MAX, False, QRG_MOVE),
+    "Ixx28": (0, I24_MAX, False, QRG_MOVE),
+    "Ixx29": (DAC_MIN, DAC_MAX, False, QRG_MOVE),
+    "Ixx30": (0, I24_MAX, False, "SRM p.111: -8,388,608 .. 8,388,607; a negative gain "
+              "inverts the output polarity (wiring), not modelled: >= 0 [choice]"),
+    "Ixx31": (0, I24_MAX, False, QRG_SERVO + ": signed; >= 0 as Ixx30 [choice]"),
+    "Ixx32": (0, I24_MAX, False, QRG_SERVO),
+    "Ixx33": (0, I24_MAX, False, QRG_SERVO),
+    "Ixx34": (0, 1, False, QRG_SERVO),
+    "Ixx35": (0, I24_MAX, False, QRG_SERVO),
+    "Ixx60": (0, 255, False, QRG_MOD),
+    "Ixx63": (0, I24_MAX, False, QRG_MOD + ": signed; a negative limit is not modelled: "
+              ">= 0 [choice]"),
+    "Ixx68": (0, DAC_MAX, False, "SRM p.127 (Turbo: 0 .. 32,767)"),
+    "Ixx69": (0, DAC_MAX, True, "SRM p.127: 0 .. 32,767; 0 would hold the output at 0 "
+              "[choice]"),
+}
+_INTEGER = {"Ixx34", "Ixx60"}
 
 
 def _field(ivar: str, default: float, meaning: str) -> tuple[type, Any]:
+    lo, hi, open_lo, _ = RANGES[ivar]
+    low = {"gt": lo} if open_lo else {"ge": lo}
     if ivar in _INTEGER:
-        lo, hi = _INTEGER[ivar]
-        return int, Field(int(default), alias=ivar, ge=lo, le=hi, description=meaning)
-    bound: dict[str, float] = {} if ivar in _SIGNED else (
-        {"gt": 0} if ivar in _POSITIVE else {"ge": 0})
+        return int, Field(int(default), alias=ivar, le=hi, description=meaning, **low)
     return float, Field(float(default), alias=ivar, description=meaning, allow_inf_nan=False,
-                        **bound)
+                        le=hi, **low)
 
 
 def _one_name_each(data: Any) -> Any:
@@ -82,6 +127,16 @@ Gains = create_model(
     "Gains", __config__=ConfigDict(extra="forbid", populate_by_name=True),
     __validators__={"one_name_each": model_validator(mode="before")(_one_name_each)},
     **{name: _field(ivar, default, meaning) for ivar, name, default, meaning in IVARS})
+
+
+def range_table() -> str:
+    """The I-variables' accepted ranges with their sources, as markdown (docs)."""
+    rows = ["| I-variable | plain name | accepted | source |", "|---|---|---|---|"]
+    for ivar, name, _, _ in IVARS:
+        lo, hi, open_lo, src = RANGES[ivar]
+        rows.append(f"| {ivar} | `{name}` | {lo:,} {'<' if open_lo else '<='} x <= {hi:,} "
+                    f"| {src} |")
+    return "\n".join(rows)
 
 
 def markdown_table() -> str:

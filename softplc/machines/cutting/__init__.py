@@ -1,6 +1,7 @@
 """The cutting table's host side: path library, seed mode, pieces, preview, PLC words.
 
-    from softplc.machines.cutting import load_piece, piece_words, preview
+    from softplc.machines.cutting import load_piece, piece_words
+    from softplc.machines.cutting.preview import preview
     piece = load_piece("ladder_programs/pieces/achaflanado.toml")
     segs = piece.segments()               # numbered straight moves, cut or move
     for words in piece_words(segs):       # each with the look-ahead of the next one
@@ -39,7 +40,6 @@ _EXPORTS = {
     "piece_from_dict": "piece",
     "piece_from_gcode": "piece",
     "piece_words": "regmap",
-    "preview": "preview",
     "segment_words": "regmap",
     "split_line": "motion",
 }

@@ -48,10 +48,9 @@ from softplc.machines.cutting.regmap import (
     SegmentWords,
     piece_words,
     seg_no,
-    signed_word,
     to_um,
-    words_dint,
 )
+from softplc.modbus.codec import signed_word, words_to_long
 from softplc.modbus.host import ModbusHost, ProgressLine
 from softplc.runtime.engine import RUN
 
@@ -91,7 +90,7 @@ class PlcState:
             return regs[i - SEG_BASE]
 
         def d(i: int) -> int:
-            return words_dint(w(i), w(i + 1))
+            return words_to_long(w(i), w(i + 1))
 
         return cls(signed_word(w(INICIO)), w(EJECUTANDO), w(FAULT), w(STATE), (d(POS_X), d(POS_Y)),
                    w(SEG_DONE), (d(ORIGIN_X), d(ORIGIN_X + 2)))

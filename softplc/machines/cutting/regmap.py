@@ -29,12 +29,12 @@ speed. `piece_words` gives every segment of a piece its kind this way.
 
 from __future__ import annotations
 
-import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from softplc.machines.cutting.piece import CUT, DWELL, Segment
 from softplc.machines.gcode.parser import steps_of
+from softplc.modbus.codec import float_to_words, long_to_words
 
 SEG_BASE = 100
 SEG_X, SEG_Y, SEG_V, SEG_KIND, SEG_NO, INICIO = 100, 102, 104, 106, 107, 108
@@ -56,40 +56,11 @@ UM_PER_MM = 1000.0
 FAULTS = {0: "none", 1: "limit switch", 2: "homing failed",
           3: "target outside the work area", 4: "axis error", 5: "E-stop",
           6: "bad segment (unknown kind, negative speed, dwell over 9.999 s)"}
-DINT_MIN, DINT_MAX = -(1 << 31), (1 << 31) - 1
 
 
 def to_um(mm: float) -> int:
     """A coordinate in whole µm, rounded to nearest (the thesis truncates, B9)."""
     return steps_of(mm, UM_PER_MM)
-
-
-def dint_words(v: int) -> tuple[int, int]:
-    """A %MD value as two holding registers (low word first), unsigned as on the wire."""
-    if not DINT_MIN <= v <= DINT_MAX:
-        raise ValueError(f"{v} does not fit a %MD (32-bit) word")
-    u = v & 0xFFFFFFFF
-    return u & 0xFFFF, u >> 16
-
-
-def real_words(v: float) -> tuple[int, int]:
-    """A %MF value (IEEE single) as two holding registers, low word first."""
-    lo, hi = struct.unpack("<HH", struct.pack("<f", v))
-    return lo, hi
-
-
-def signed_word(u: int) -> int:
-    """A holding register (unsigned on the wire) as the PLC's signed %MW."""
-    return u - 0x10000 if u & 0x8000 else u
-
-
-def words_dint(lo: int, hi: int) -> int:
-    u = (hi << 16) | lo
-    return u - (1 << 32) if u & 0x80000000 else u
-
-
-def words_real(lo: int, hi: int) -> float:
-    return struct.unpack("<f", struct.pack("<HH", lo, hi))[0]
 
 
 def seg_no(number: int) -> int:
@@ -108,7 +79,7 @@ class SegmentWords:
 
     def frame(self) -> list[int]:
         """The FC 16 registers from %MW100 (INICIO = 1 last)."""
-        return [*dint_words(self.x_um), *dint_words(self.y_um), *real_words(self.speed),
+        return [*long_to_words(self.x_um), *long_to_words(self.y_um), *float_to_words(self.speed),
                 self.kind, self.number, START_VALUE]
 
 

@@ -14,11 +14,11 @@ from softplc.machines.cutting import (
     Piece,
     load_piece,
     piece_words,
-    preview,
     split_line,
 )
 from softplc.machines.cutting.motion import simulate
 from softplc.machines.cutting.piece import DWELL
+from softplc.machines.cutting.preview import preview
 from softplc.machines.cutting.regmap import FRAME_LEN, SEG_BASE
 from softplc.machines.cutting.seed import run_trigger_chain, thesis_split
 

@@ -131,7 +131,8 @@ def run(args: argparse.Namespace) -> int:
     # `softplc --help` does not need
     from softplc.machines.drawing import DrawClient, max_deviation
     from softplc.machines.drawing.deviation import last_sample
-    from softplc.machines.gcode import GCodeConfig, parse_file, preview
+    from softplc.machines.gcode import GCodeConfig, parse_file
+    from softplc.machines.gcode.preview import preview
 
     cfg = GCodeConfig(plane=args.plane, pen=args.pen, units=args.units, dialect=args.dialect,
                       table_width=args.table[0], table_height=args.table[1],

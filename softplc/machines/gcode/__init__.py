@@ -1,4 +1,5 @@
-"""G-code, as the drawing and cutting tables read it: the reader and the preview.
+"""G-code, as the drawing and cutting tables read it: the reader (the preview is
+`softplc.machines.gcode.preview.preview`).
 
     from softplc.machines.gcode import parse_file, GCodeConfig
     from softplc.machines.drawing import DrawClient, max_deviation
@@ -20,7 +21,6 @@ _EXPORTS = {
     "StepSegment": "parser",
     "parse_file": "parser",
     "parse_gcode": "parser",
-    "preview": "preview",
     "to_steps": "parser",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -25,15 +25,15 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TextIO
 
 from softplc.errors import HostError, MassEstimationError, UncertaintyError
 from softplc.machines.machining.params import MP_NAMES
 from softplc.machines.machining.tuning import TuneResult
+from softplc.modbus.codec import float_to_words
 from softplc.modbus.host import ModbusHost
-from softplc.modbus.regmap import float_to_registers
 
 W_STATE, W_REQ, W_ACK, W_STATUS, W_ROW, W_AXIS = 400, 401, 402, 403, 404, 405
 F_MASS, F_UNCERT, F_ACCEL = 406, 408, 410
@@ -61,15 +61,15 @@ def result_words(req: int, res: TuneResult) -> list[int]:
     """%MW402..%MW463: EST_ACK, status 0, row, axis, mass, uncertainty, a, the 22 MPs."""
     words = [0] * (RESULT_END - W_ACK)
 
-    def put(addr: int, regs: list[int]) -> None:
+    def put(addr: int, regs: Sequence[int]) -> None:
         words[addr - W_ACK:addr - W_ACK + len(regs)] = regs
 
     e = res.estimate
     put(W_ACK, [req, STATUS_OK, res.row.number, int(res.values[0])])
     for addr, v in ((F_MASS, e.mass), (F_UNCERT, e.uncertainty), (F_ACCEL, e.acceleration)):
-        put(addr, float_to_registers(v))
+        put(addr, float_to_words(v))
     for i, v in enumerate(res.mp_values()):
-        put(F_MPS + 2 * i, float_to_registers(v))
+        put(F_MPS + 2 * i, float_to_words(v))
     return words
 
 

@@ -9,14 +9,20 @@ FE_MAX word, not the polled samples' maximum.
 
 from __future__ import annotations
 
-import struct
 import time
 from dataclasses import dataclass, field
 from typing import TextIO
 
 from softplc.devices.axis.options import DEFAULT_SERVO_CLOCK_HZ, Mode, St, Word
-from softplc.errors import SoftPLCError
-from softplc.modbus.rawclient import ModbusExceptionReply, RawClient
+from softplc.errors import HostError, SoftPLCError
+from softplc.modbus.codec import (
+    float_to_words,
+    long_to_words,
+    signed_word,
+    words_to_float,
+    words_to_long,
+)
+from softplc.modbus.host import ModbusHost
 
 REQ_BLOCK = 100  # %MW100.. (servo_table.il header)
 REQ_MOVE, REQ_HOME, REQ_RESET, REQ_STOP, REQ_START = 1, 2, 3, 4, 5
@@ -32,21 +38,12 @@ class ServoClientError(SoftPLCError):
     """The table refused a request, did not answer in time, or the connection failed."""
 
 
-def _s16(v: int) -> int:
-    return v - 0x10000 if v & 0x8000 else v
-
-
 def _d(regs: list[int], i: int) -> int:
-    return struct.unpack("<i", struct.pack("<HH", regs[i], regs[i + 1]))[0]
+    return words_to_long(regs[i], regs[i + 1])
 
 
 def _f(regs: list[int], i: int) -> float:
-    return struct.unpack("<f", struct.pack("<HH", regs[i], regs[i + 1]))[0]
-
-
-def _words32(v: int) -> list[int]:
-    lo, hi = struct.unpack("<HH", struct.pack("<i", v))
-    return [lo, hi]
+    return words_to_float(regs[i], regs[i + 1])
 
 
 @dataclass
@@ -66,7 +63,7 @@ class AxisState:
         o = Word.ACTUAL
         return cls(_d(regs, Word.ACTUAL - o), _d(regs, Word.COMMANDED - o),
                    _f(regs, Word.FE - o), _f(regs, Word.FE_MAX - o), regs[Word.STATUS - o],
-                   _s16(regs[Word.ERROR - o]), _d(regs, Word.TICKS - o),
+                   signed_word(regs[Word.ERROR - o]), _d(regs, Word.TICKS - o),
                    _f(regs, Word.OUTPUT - o))
 
 
@@ -82,14 +79,19 @@ class TuningResult:
 
 
 class ServoClient:
+    """The servo table's host over the hosts' one Modbus client (`ModbusHost`); its
+    failures are ServoClientErrors."""
+
     def __init__(self, host: str, port: int, *, timeout: float = 2.0,
                  servo_hz: float = DEFAULT_SERVO_CLOCK_HZ, poll: float = 0.002,
                  progress: TextIO | None = None):
+        # no retries: a request is sent once (a repeated request pulse is a new request)
+        self.c = ModbusHost(host, port, poll_interval=poll, request_timeout=timeout,
+                            retries=0)
         try:
-            self.c = RawClient(host, port, timeout=timeout)
-        except OSError as e:
-            raise ServoClientError(f"cannot connect to {host}:{port}: "
-                                   f"{e.strerror or e}") from None
+            self.c.connect()
+        except HostError as e:
+            raise ServoClientError(str(e)) from None
         self.servo_hz = servo_hz
         self.poll = poll
         self.progress = progress
@@ -109,9 +111,15 @@ class ServoClient:
 
     def _read(self, addr: int, n: int) -> list[int]:
         try:
-            return self.c.read_registers(addr, n)
-        except (OSError, ConnectionError, ModbusExceptionReply) as e:
-            raise ServoClientError(f"reading %MW{addr}: {e}") from None
+            return self.c.read_words(addr, n)
+        except HostError as e:
+            raise ServoClientError(str(e)) from None
+
+    def _write(self, addr: int, words: list[int] | tuple[int, ...], what: str) -> None:
+        try:
+            self.c.write_words(addr, words)
+        except HostError as e:
+            raise ServoClientError(f"writing {what}: {e}") from None
 
     def axis(self, name: str) -> AxisState:
         b = AXIS_BASE[name]
@@ -124,20 +132,17 @@ class ServoClient:
                 acc_ms: int = 0, scurve_ms: int = 0, mode: int = 0, open_loop: int = 0,
                 timeout: float = 5.0) -> int:
         """Write the request block, wait until the program clears REQ; the reply code."""
-        block = [0 if axis == "X" else 1, *_words32(target), *_words32(speed), acc_ms,
-                 scurve_ms, mode, open_loop & 0xFFFF]
-        try:
-            self.c.write_registers(REQ_BLOCK + 1, block)
-            self.c.write_registers(REQ_BLOCK, [req])
-        except (OSError, ConnectionError, ModbusExceptionReply) as e:
-            raise ServoClientError(f"writing the request block: {e}") from None
+        block = [0 if axis == "X" else 1, *long_to_words(target), *long_to_words(speed),
+                 acc_ms, scurve_ms, mode, open_loop & 0xFFFF]
+        self._write(REQ_BLOCK + 1, block, "the request block")
+        self._write(REQ_BLOCK, [req], "the request block")
         end = time.monotonic() + timeout
         while self._read(REQ_BLOCK, 1)[0]:
             if time.monotonic() > end:
                 raise ServoClientError(f"the PLC did not take request {req} within "
                                        f"{timeout:g} s (is servo_table.il running?)")
             time.sleep(self.poll)
-        return _s16(self._read(REPLY, 1)[0])
+        return signed_word(self._read(REPLY, 1)[0])
 
     def ensure_ready(self, start: bool, timeout: float = 120.0) -> None:
         state = self.cell()
@@ -310,11 +315,7 @@ def set_disturbance(sc: ServoClient, axis: str, bits: float) -> None:
 
     if not abs(bits) <= 32768:
         raise ServoClientError(f"load {bits:g}: expected DAC bits within +-32768")
-    lo, hi = struct.unpack("<HH", struct.pack("<f", bits))
-    try:
-        sc.c.write_registers(AXIS_IVARS[axis] + DISTURBANCE, [lo, hi])
-    except (OSError, ConnectionError, ModbusExceptionReply) as e:
-        raise ServoClientError(f"writing the load disturbance: {e}") from None
+    sc._write(AXIS_IVARS[axis] + DISTURBANCE, float_to_words(bits), "the load disturbance")
 
 
 def get_ivar(sc: ServoClient, name: str) -> float:
@@ -332,13 +333,10 @@ def set_ivar(sc: ServoClient, name: str, value: float, timeout: float = 2.0) -> 
     base = AXIS_IVARS[axis]
     applied = sc._read(base + iv.APPLIED, 1)[0]
     old = get_ivar(sc, name)
-    lo, hi = struct.unpack("<HH", struct.pack("<f", value))
-    if [lo, hi] == sc._read(reg, 2):
+    words = float_to_words(value)
+    if list(words) == sc._read(reg, 2):
         return old  # already in force
-    try:
-        sc.c.write_registers(reg, [lo, hi])
-    except (OSError, ConnectionError, ModbusExceptionReply) as e:
-        raise ServoClientError(f"writing {name}: {e}") from None
+    sc._write(reg, words, name)
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         refused, now = sc._read(base + iv.REFUSED, 2)

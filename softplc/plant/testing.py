@@ -1,0 +1,57 @@
+"""pytest plugin for plants (issue 35): a line's behaviour tested like one program's.
+
+Installed with softplc (entry point `pytest11`, `softplc_plant`):
+
+    @pytest.mark.plant_file("ladder_programs/plant/plant.toml")
+    def test_line_runs(plant):
+        plant["master:%I0.0"] = 1
+        plant.run(30.0)
+        assert plant["master:%MW0"] > 0
+
+    def test_other(plant_from_file):
+        plant = plant_from_file("my_plant.toml")
+
+The file is found as `softplc.testing` finds a program: next to the test file, else from
+the rootdir or the current directory.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from softplc.plant import Plant
+from softplc.testing import _locate
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "plant_file(path): the plant the `plant` fixture loads")
+
+
+@pytest.fixture
+def plant_from_file(request: pytest.FixtureRequest) -> Iterator[Callable[[str | Path], Plant]]:
+    """Factory: plant_from_file(path) -> a Plant at time 0 (closed after the test)."""
+    made: list[Plant] = []
+    here = Path(str(request.node.path)).parent
+    root = Path(str(request.config.rootpath))
+
+    def make(path: str | Path) -> Plant:
+        p = Plant.from_file(_locate(path, here, root))
+        made.append(p)
+        return p
+
+    yield make
+    for p in made:
+        p.close()
+
+
+@pytest.fixture
+def plant(request: pytest.FixtureRequest,
+          plant_from_file: Callable[[str | Path], Plant]) -> Plant:
+    """The plant named by the test's `plant_file` marker, at time 0."""
+    marker = request.node.get_closest_marker("plant_file")
+    if marker is None:
+        pytest.fail("the `plant` fixture needs @pytest.mark.plant_file(path)")
+    return plant_from_file(marker.args[0])
