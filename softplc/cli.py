@@ -28,7 +28,9 @@ COMMAND_MODULES = {
     "servo": "softplc.machines.servo.command",
     "tune": "softplc.machines.machining.command",
     "verify": "softplc.commands.verify",
+    "replay": "softplc.commands.replay",
     "plant": "softplc.commands.plant",
+    "fleet": "softplc.commands.fleet",
 }
 
 

@@ -106,6 +106,9 @@ class DaemonOptions:
     # None: only the files the request carries (softplc.config.files)
     config_dir: Path | None = None
     gc_freeze: bool = True  # freeze what start-up made (see Daemon.run); False: comparisons
+    # the Remote Link over TCP (softplc.runtime.linktcp: a MasterService or RemoteService,
+    # already bound): it meets the scans at their boundaries, runs in threads of its own
+    link: Any = None
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -208,6 +211,8 @@ class Daemon:
             self.say("  read-only: every write is answered with exception 01")
         if opt.allow is not None:
             self.say("  clients allowed from: " + ", ".join(str(n) for n in opt.allow))
+        if opt.link is not None:
+            self.say(opt.link.banner())
         for line in self.web.banner() if self.web is not None else ():  # web monitor hook
             self.say(line)
         # The last banner line: tools and tests wait for it.
@@ -299,6 +304,9 @@ class Daemon:
             image = self.image = ModbusImage(
                 plc.mem, ReadOnly(ro.registers + device_ro, ro.coils), store=store,
                 blocks=blocks, writes_allowed=not opt.read_only)
+            for dev in plc.devices.values():  # a value a device refuses: exception 03
+                if dev.word_check is not None:
+                    image.check_values(dev.word_check.ranges(), dev.word_check.refusal)
             plc.before_scan.append(image.apply_writes)
             plc.after_scan.append(image.take_snapshot)
             server = ServerThread(image, opt.host, opt.port, sockets=sockets,
@@ -306,6 +314,11 @@ class Daemon:
                                   idle_timeout=opt.idle_timeout, allow=opt.allow)
             server.start()
             self._server = server
+            if opt.link is not None:
+                opt.link.attach(plc)
+                if opt.speed != math.inf:  # the Modbus thread's priority (see _realtime)
+                    opt.link.priority = max(0, opt.rt_priority - 1)
+                opt.link.start()
             # web monitor hook: served on the Modbus server's event loop (softplc.web)
             if opt.web is not None and opt.web.port is not None:
                 from softplc.access import AccessPort
@@ -322,6 +335,8 @@ class Daemon:
                 self.web.stop()
             if self._server is not None:
                 self._server.stop()
+            if opt.link is not None:
+                opt.link.stop()
             for s in sockets:
                 s.close()
             if store is not None:
@@ -504,6 +519,8 @@ class Daemon:
     def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
                   keeper: StateKeeper | None) -> None:
         plc = self.plc
+        if self.opt.link is not None:  # off the link before the outputs go to 0
+            self.opt.link.stop()
         plc.engine.stop_outputs()
         if self.web is not None:  # web monitor hook
             self.web.stop()

@@ -29,7 +29,7 @@ from softplc.il.rungtree import syntax_follow_ups
 from softplc.program import CompiledProgram
 from softplc.runtime.clock import Clock
 from softplc.runtime.engine import Engine
-from softplc.twido.address import BLOCK_FIELDS, Ref, parse_address
+from softplc.twido.address import BLOCK_FIELDS, Ref
 
 
 def _engine(name: str) -> Callable[..., Any]:
@@ -148,11 +148,11 @@ class PLC:
     def __setitem__(self, address: str, value: Any) -> None:
         ref = self._ref(address)
         if ref.kind in ("KW", "KD", "KF"):
-            raise AddressError(f"{address} is a constant: set it in the configuration "
+            raise AddressError(f"{ref.label} is a constant: set it in the configuration "
                                f"([constants])")
         if ref.kind in BLOCK_FIELDS and (ref.field is None or
                                          not BLOCK_FIELDS[ref.kind].get(ref.field, ("", 0))[1]):
-            raise AddressError(f"{address} is read-only")
+            raise AddressError(f"{ref.label} is read-only")
         self.mem.write(ref, value)
 
     def _ref(self, address: str | Ref) -> Ref:
@@ -160,9 +160,9 @@ class PLC:
             return address
         ref = self._refs.get(address)
         if ref is None:  # parsed once per address string: hosts poll the same words
-            ref = self._refs[address] = (parse_address(address, self.profile)
-                                         if address.startswith("%")
-                                         else self.symbols.ref(address))  # plc["START_PB"]
+            # an address, a symbol, a symbol's range or field (plc["STARTS:4"]): one
+            # resolver (softplc.twido.symbols), the symbol attached for the messages
+            ref = self._refs[address] = self.symbols.ref(address)
         return ref
 
     def force(self, address: str, value: Any) -> None:
@@ -198,11 +198,13 @@ class PLC:
 
     # -- state ----------------------------------------------------------------------------------
     def __repr__(self) -> str:
-        """State, PLC time, scan count and the I/O that is on (what a failing test shows)."""
+        """State, PLC time, scan count and the I/O that is on, by symbol and address
+        (`on: MOTOR(%Q0.0) %Q0.4`): what a failing test shows."""
         stride, shown = self.mem.stride, 16
         slots = self.profile.expansion_slots  # beyond: the remote I/O's (%Ix.0.z)
-        on = [f"%{kind}{i // stride}.{i % stride}" if i // stride <= slots else
-              f"%{kind}{i // stride - slots}.0.{i % stride}" for kind, bits in
+        on = [self.symbols.label(f"%{kind}{i // stride}.{i % stride}" if i // stride <= slots
+                                 else f"%{kind}{i // stride - slots}.0.{i % stride}")
+              for kind, bits in
               (("I", self.mem.i), ("Q", self.mem.q)) for i, v in enumerate(bits) if v]
         io = " ".join(on[:shown]) + (f" (+{len(on) - shown} more)" if len(on) > shown else "")
         return (f"<PLC {Path(self.ast.file).name} {self.state} t={self.time:.3f}s "

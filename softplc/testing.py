@@ -14,11 +14,20 @@ Installed with softplc (entry point `pytest11`), so in any project:
         plc = plc_from_source("LD %I0.0\\nST %Q0.0\\n")
         ...
 
+With hypothesis's `@given`, ask for `plc_factory` (module-scoped, so hypothesis's
+function-scoped-fixture health check does not apply) and build a fresh PLC per example:
+
+    @given(st.lists(st.booleans()))
+    def test_never_both(plc_factory, presses):
+        with plc_factory("motor.il", "motor.toml") as plc:   # cold-started, this example's
+            ...
+
 Helpers: `pulse(plc, "%I0.1")` (one-scan pulse), `scan_until(plc, cond, timeout)`.
 """
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -63,6 +72,40 @@ def plc(request: pytest.FixtureRequest) -> PLC:
     p = PLC.from_file(path, config)
     yield p
     p.close()
+
+
+@pytest.fixture(scope="module")
+def plc_factory(request: pytest.FixtureRequest) -> Callable[..., PLC]:
+    """Factory for tests that need a fresh PLC per call, as hypothesis's `@given` examples
+    do: `plc_factory(path=None, config=None, **kw)` -> a cold-started PLC on the virtual
+    clock, to use as `with plc_factory(...) as plc:`. Paths are found as the marker's
+    (the test file's folder, the rootdir, the current directory); without a path, the
+    module's `pytestmark = pytest.mark.plc_program(...)`. Module-scoped: a function-scoped
+    fixture runs once for all of a `@given` test's examples, which hypothesis refuses
+    (HealthCheck.function_scoped_fixture); the factory holds no PLC state between calls.
+    PLCs not closed by their `with` are closed when the module's tests end."""
+    here = Path(str(request.node.path)).parent
+    root = Path(str(request.config.rootpath))
+    made: weakref.WeakSet[PLC] = weakref.WeakSet()  # closed and dropped ones go
+
+    def make(path: str | Path | None = None, config: Any = None, **kw: Any) -> PLC:
+        if path is None:
+            marker = request.node.get_closest_marker("plc_program")
+            if marker is None:
+                pytest.fail("plc_factory() needs a program: plc_factory('x.il', 'x.toml') "
+                            "or the module's pytestmark = pytest.mark.plc_program(...)")
+            path = marker.args[0]
+            config = marker.kwargs.get("config",
+                                       marker.args[1] if len(marker.args) > 1 else None)
+        if isinstance(config, (str, Path)):
+            config = _locate(config, here, root)
+        p = PLC.from_file(_locate(path, here, root), config, **kw)
+        made.add(p)
+        return p
+
+    yield make
+    for p in list(made):
+        p.close()
 
 
 def _locate(name: str | Path, here: Path, root: Path) -> Path:

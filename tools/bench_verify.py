@@ -58,8 +58,11 @@ def stations_program(n: int) -> tuple[str, dict, list[str]]:
 DEEP = "LD %I0.0\nAND %I0.1\nIN %TM0\nLD %TM0.Q\nST %Q0.0\nLD %I0.2\nST %Q0.1\n"
 
 
-def run(plc: PLC, spec, timeout: float, depth: int) -> list[tuple[str, str, str, float]]:
-    model = Model(plc, spec.reads, spec.host, spec.periods)
+def run(plc: PLC, spec, timeout: float, depth: int,
+        devices: dict | None = None) -> list[tuple[str, str, str, float]]:
+    free = [r for r, _ in spec.free]  # as the command builds it
+    model = Model(plc, spec.reads + free, spec.host + free, spec.periods, held=spec.held,
+                  devices=devices)
     out, lemmas = [], []
     for req in spec.requirements:
         t0 = time.perf_counter()
@@ -78,9 +81,14 @@ def main() -> int:
                     "(default 9)")
     ap.add_argument("--timeout", type=float, default=60.0, help="s per requirement")
     ap.add_argument("--quick", action="store_true", help="2 stations, no drawing table")
+    ap.add_argument("--machines", action="store_true",
+                    help="only section 4: every shipped requirement file")
     args = ap.parse_args()
     n = 2 if args.quick else min(10, args.stations)
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores shared)")
+    if args.machines:
+        machines(args.timeout)
+        return 0
     if not args.quick:
         deep()
     text, config, reqs = stations_program(n)
@@ -101,6 +109,22 @@ def main() -> int:
         res = run(plc, spec, args.timeout, 50)
         print(f"  max {max(r[3] for r in res):.2f} s")
     return 0
+
+
+def machines(timeout: float) -> None:
+    """Section 4: every ladder_programs/*.req.toml on its program, as `softplc verify`
+    (the environment with the devices' words). Goals (issue 34): <= 10 s per requirement
+    up to 50 rungs, the drawing table <= 20 s, the cutting table and mass tuning <= 60 s."""
+    from softplc.verify.environment import device_words
+    lp = ROOT / "ladder_programs"
+    for req in sorted(lp.glob("*.req.toml")):
+        stem = req.name.removesuffix(".req.toml")
+        program = lp / f"{stem}.il"
+        config = lp / f"{stem.removesuffix('_seed')}.toml"
+        plc = PLC.from_file(program, config, devices=False)
+        spec = load_spec(req, [], plc.profile)
+        print(f"{program.name} ({len(plc.ast.rungs)} rungs), {req.name}")
+        run(plc, spec, timeout, 30, device_words(program, config))
 
 
 def deep() -> None:

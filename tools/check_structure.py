@@ -65,7 +65,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.plant",),                       # several controllers on one clock (issue 35)
     ("softplc.access", "softplc.verify"),     # the access port; the verifier
     ("softplc.debug", "softplc.web"),         # the front-ends
-    ("softplc.daemon",),
+    ("softplc.daemon", "softplc.fleet"),     # one controller; many in one process
     ("softplc.commands",),
     ("softplc.machines",),                    # the machines' wing, above the core
     ("softplc", "softplc.cli", "softplc.__main__"),

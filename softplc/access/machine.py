@@ -15,6 +15,7 @@ from softplc.twido.address import Ref, parse_address
 from softplc.twido.profile import MODULES
 
 IO_PREFIXES = ("%I", "%Q")  # %I/%Q bits and %IW/%QW analog words
+DEVICE_WORD_KINDS = ("MW", "MD", "MF")  # the words a device's `word_check` may check
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,18 @@ class MachineInfo:
         self.device_io = {a: d.name for d in self.devices for a in d.io}
         # I/O the program, configuration and devices name (before any write adds more)
         self.io_in_use = {kind: plc.mem.io_used(kind) for kind in ("I", "Q")}
+
+    def write_refusal(self, ref: Ref, value: int | float) -> str | None:
+        """Why a simulated device refuses `value` in a word it checks (its `word_check`,
+        e.g. a servo axis's I-variable ranges), None if none does."""
+        if ref.kind not in DEVICE_WORD_KINDS or ref.offset is not None or ref.bit is not None:
+            return None
+        for entry in self.devices:
+            check = entry.device.word_check
+            why = check.refusal(ref.kind, ref.index, value) if check is not None else None
+            if why:
+                return f"{ref} := {value:g} refused: {why}"
+        return None
 
     # -- program --------------------------------------------------------------------------
     @property

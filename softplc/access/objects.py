@@ -30,7 +30,8 @@ class Objects:
         refs = self._refs.get(key)
         if refs is None:
             try:  # an address, or a symbol of the configuration (softplc.twido.symbols)
-                refs = expand(self.plc.symbols.address_of(key), self.profile)
+                table = self.plc.symbols  # symbols attached: messages name them
+                refs = [table.attach(r) for r in expand(table.address_of(key), self.profile)]
             except AddressError as e:
                 raise AccessError(f"unknown object {text!r}: {e}") from None
             for r in refs:
@@ -41,6 +42,13 @@ class Objects:
                 self._refs[key] = refs
                 self._cached_refs += len(refs)
         return refs
+
+    def address_of(self, text: Any) -> str:
+        """The canonical address a text names (`%MW10:2` for `starts:2`), checked as a read
+        would check it: how the web page turns what a user typed into a table's row, by
+        the one resolver (softplc.twido.symbols)."""
+        self.resolve(text)
+        return str(parse_address(self.plc.symbols.address_of(text.strip()), self.profile))
 
     def forget(self) -> None:
         """Drop the cached addresses (after a program or symbol change)."""

@@ -129,20 +129,21 @@ class AccessPort:
         if self.refuse_changes:
             return self.refuse_changes
         if ref.kind in CONSTANT_KINDS:
-            return f"{ref} is a constant (read-only): set it in the configuration ([constants])"
+            return (f"{ref.label} is a constant (read-only): set it in the configuration "
+                    f"([constants])")
         if ref.kind in BLOCK_FIELDS:
             if ref.is_block:
-                return f"{ref} is a function block: read or write its fields (.P, .V...)"
+                return f"{ref.label} is a function block: read or write its fields (.P, .V...)"
             if not ref.writable:
-                return f"{ref} is read-only (the block computes it)"
+                return f"{ref.label} is read-only (the block computes it)"
         device_io = self.machine.device_io
         if ref.kind == "I" and not forcing and str(ref) in device_io:
-            return (f"{ref} is driven by the simulated device "
+            return (f"{ref.label} is driven by the simulated device "
                     f"{device_io[str(ref)]!r}: force it to override")
         if self.image is not None and ref.kind in IMAGE_KINDS and not forcing \
                 and ref.offset is None \
                 and self.image.read_only_object(ref.kind, ref.index, ref.bit):
-            return f"{ref} is read-only ([modbus] read_only in the configuration)"
+            return f"{ref.label} is read-only ([modbus] read_only in the configuration)"
         return None
 
     check_value = staticmethod(check_value)
@@ -165,7 +166,11 @@ class AccessPort:
                 why = self.why_not_writable(ref)
                 if why:
                     raise AccessError(why, 403)
-                checked.append((ref, self.check_value(ref, v)))
+                v = self.check_value(ref, v)
+                why = self.machine.write_refusal(ref, v)
+                if why:  # the device would refuse it at its next scan: say so now
+                    raise AccessError(why)
+                checked.append((ref, v))
         self.queue.put([Write(ref, v) for ref, v in checked if not self._to_image(ref)])
         for ref, v in checked:
             if self._to_image(ref):
@@ -214,7 +219,7 @@ class AccessPort:
         for ref in self.objects.resolve(obj):
             self._deny()
             if not self.forceable(ref):
-                raise AccessError(f"{ref} cannot be forced: bits (%I %Q %M %S %X) and "
+                raise AccessError(f"{ref.label} cannot be forced: bits (%I %Q %M %S %X) and "
                                   f"%MW/%MD/%MF words can", 403)
             why = self.why_not_writable(ref, forcing=True)
             if why:

@@ -26,20 +26,20 @@ def check_value(ref: Ref, value: Any) -> int | float:
         try:
             value = float(value) if ref.type == "real" else int(value, 0)
         except ValueError:
-            raise AccessError(f"{ref}: {value!r} is not a number") from None
+            raise AccessError(f"{ref.label}: {value!r} is not a number") from None
     if ref.type == "bool":
         if value in (0, 1) and not isinstance(value, float):
             return int(value)
-        raise AccessError(f"{ref} is a bit: value 0 or 1, not {value!r}")
+        raise AccessError(f"{ref.label} is a bit: value 0 or 1, not {value!r}")
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise AccessError(f"{ref}: expected a number, not {value!r}")
+        raise AccessError(f"{ref.label}: expected a number, not {value!r}")
     if ref.type == "real":
         if not (math.isfinite(value) and abs(value) <= F32_MAX):
-            raise AccessError(f"{ref}: {value!r} does not fit a 32-bit float")
+            raise AccessError(f"{ref.label}: {value!r} does not fit a 32-bit float")
         return float(value)
     if isinstance(value, float):
         if not value.is_integer():
-            raise AccessError(f"{ref} is an integer object: {value!r} is not whole")
+            raise AccessError(f"{ref.label} is an integer object: {value!r} is not whole")
         value = int(value)
     # other block words are plain words (%VFCi.S0 up to 65535)
     preset = ref.kind in BLOCK_FIELDS and ref.field == "P" \
@@ -47,5 +47,5 @@ def check_value(ref: Ref, value: Any) -> int | float:
     lo, hi = PRESET_RANGE if preset else INT32_RANGE if ref.type == "int32" else INT16_RANGE
     if not lo <= value <= hi:
         why = "a preset the program can hold" if preset else "does not fit"
-        raise AccessError(f"{ref}: {value} is out of range {lo}..{hi} ({why})")
+        raise AccessError(f"{ref.label}: {value} is out of range {lo}..{hi} ({why})")
     return value

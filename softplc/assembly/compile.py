@@ -41,7 +41,7 @@ def _io_check(m: Machine, ref: Ref) -> str | None:
         if mem.analog is not None and ref in mem.analog.channels:
             return None
         if ref.module == 0 or m.modules is not None:
-            return (f"{ref}: no such analog channel (the base has %IW0.0.."
+            return (f"{ref.label}: no such analog channel (the base has %IW0.0.."
                     f"%IW0.{len(profile.analog_base) - 1}; expansion channels need "
                     f"an analog module in [modules])")
         return None
@@ -50,9 +50,9 @@ def _io_check(m: Machine, ref: Ref) -> str | None:
         n = None if mod is None else (mod[0] if ref.kind == "I" else mod[1])
         if not n:
             what = "inputs" if ref.kind == "I" else "outputs"
-            return f"{ref}: no module in slot {ref.module} with {what} (see [modules])"
+            return f"{ref.label}: no module in slot {ref.module} with {what} (see [modules])"
         if ref.channel >= n:
-            return f"{ref}: the module in slot {ref.module} has {n} channels"
+            return f"{ref.label}: the module in slot {ref.module} has {n} channels"
     return None
 
 

@@ -33,7 +33,7 @@ from softplc.twido.symbols import SymbolTable
 
 
 def _no_blocks(ref: Ref) -> str | None:
-    return f"{ref}: no function blocks on this machine"
+    return f"{ref.label}: no function blocks on this machine"
 
 
 @dataclass(eq=False)

@@ -117,8 +117,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("action", choices=["get", "set", "force", "unforce", *ACTIONS, "status"],
                    help="get OBJ..., set OBJ VALUE [OBJ VALUE...], force OBJ VALUE, "
                         "unforce [OBJ], run, stop, cold, warm, status")
-    p.add_argument("args", nargs="*", help="objects (%%MW3, %%MW0:10, %%I0.0, %%TM0.P...) "
-                                           "and values (1, -5, 16#FF, 2#101, 1.5)")
+    p.add_argument("args", nargs="*", help="objects (%%MW3, %%MW0:10, %%I0.0, %%TM0.P... or "
+                                           "symbols: STARTS, STARTS:2, STAR_TIME.P) and "
+                                           "values (1, -5, 16#FF, 2#101, 1.5)")
     p.set_defaults(func=run)
 
 
@@ -126,6 +127,22 @@ def _pairs(args: list[str], what: str) -> list[tuple[str, int | float]]:
     if not args or len(args) % 2:
         raise IoError(f"{what}: give OBJECT VALUE pairs, e.g. `softplc io {what} %MW3 5`")
     return [(args[k], parse_value(args[k + 1])) for k in range(0, len(args), 2)]
+
+
+def _symbols(c: Client) -> Any:
+    """The daemon's symbol table (GET /api/info), to name the objects read as the REPL
+    does (softplc.twido.symbols: one way of naming); an empty one if it has none."""
+    from softplc.twido.profile import PROFILES
+    from softplc.twido.symbols import Symbol, SymbolTable
+
+    info = c.request("info")
+    profile = PROFILES.get(info.get("profile", ""))
+    symbols = [Symbol(name, addr, comment)
+               for addr, (name, comment) in (info.get("symbols") or {}).items()]
+    try:
+        return SymbolTable(symbols, *([profile] if profile else []))
+    except SoftPLCError:  # a daemon of another version: its names are not shown
+        return SymbolTable()
 
 
 def _show(name: str, value: Any) -> str:
@@ -147,10 +164,9 @@ def run(args: argparse.Namespace) -> int:
         if not rest:
             raise IoError("get: name at least one object, e.g. `softplc io get %MW0:4`")
         out: Any = c.get(*rest)
-        # one object per name asked (no range): the symbols asked for beside the addresses
-        asked = rest if len(rest) == len(out) else [""] * len(out)
-        lines = [f"{k}{'' if a.startswith('%') or not a else ' ' + a.upper()} = "
-                 f"{_show(k, v)}" for a, (k, v) in zip(asked, out.items(), strict=True)]
+        table = _symbols(c)  # each object with its symbol: `%Q0.0 KM1_MAIN = 1`
+        lines = [f"{k}{' ' + n if (n := table.name_of(ref)) else ''} = {_show(k, v)}"
+                 for k, v in out.items() for ref in [table.ref(k)]]
     elif a in ("set", "force"):
         if a == "set":
             out = c.request("write", {"writes": [{"object": o, "value": v}

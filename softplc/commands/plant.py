@@ -3,6 +3,8 @@
     softplc plant check plant.toml                 # load and build; every error, with its line
     softplc plant run plant.toml [--speed max] [--for 60s] [--set master:%I0.0=1]
                                  [--print master:%MW0] [--every 10s] [--json]
+    softplc plant up plant.toml --netns            # each controller a daemon, its own host
+    softplc plant down plant.toml                  # stop them, remove the namespaces
 
 `run` runs every controller, link, wire and shared device of the plant file in this
 process on one virtual clock (softplc.plant): the same result on every run. `--speed N`
@@ -14,14 +16,20 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import tempfile
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from softplc.commands._args import port
 from softplc.commands.run import _speed
+from softplc.errors import PlantStateError
 
 if TYPE_CHECKING:  # imported when the command runs: `softplc --help` stays light
     from softplc.plant import Plant
 
+STATE_DIR = Path(tempfile.gettempdir()) / "softplc-plants"  # `plant up` records and logs
+PUBLISH_S = 0.1  # how often (real time) the plant page gets a new view
 PACE_SLICE_S = 0.05  # longest sleep while pacing: Ctrl-C stays prompt
 
 
@@ -68,7 +76,56 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--every", type=_duration, default=None, metavar="TIME",
                    help="print the status every TIME of plant time (default: at the end)")
     r.add_argument("--json", action="store_true", help="print the status as JSON lines")
+    r.add_argument("--web", type=port, default=None, metavar="PORT",
+                   help="serve the plant page on 127.0.0.1:PORT (0 = any free port): each "
+                        "controller's state, scans, scan time, link health and words")
     r.set_defaults(func=_run)
+    u = verbs.add_parser("up", help="each controller a `softplc run` daemon in its own "
+                                    "network namespace, the Remote Link over TCP")
+    u.add_argument("plant", help="the plant file (plant.toml)")
+    u.add_argument("--netns", action="store_true", required=True,
+                   help="network namespaces, a bridge and veth pairs (iproute2; root)")
+    u.add_argument("--state-dir", type=Path, default=STATE_DIR,
+                   help=f"where the record of what was made and the logs go "
+                        f"(default {STATE_DIR})")
+    u.set_defaults(func=_up)
+    d = verbs.add_parser("down", help="stop the daemons and remove the namespaces "
+                                      "`plant up` made")
+    d.add_argument("plant", help="the plant file (plant.toml)")
+    d.add_argument("--state-dir", type=Path, default=STATE_DIR,
+                   help=f"the --state-dir of `plant up` (default {STATE_DIR})")
+    d.set_defaults(func=_down)
+
+
+def _up(args: argparse.Namespace) -> int:
+    from softplc.plant import hosts
+    from softplc.plant.model import load_plant
+
+    why = hosts.netns_works()
+    if why:
+        raise PlantStateError(f"plant up --netns: network namespaces do not work here: {why}")
+    spec = load_plant(args.plant)
+    record = hosts.up(spec, args.state_dir)
+    print(f"{args.plant}: up; SCADA namespace {record['namespaces'][0]} at "
+          f"{record['scada']}")
+    for name, c in record["controllers"].items():
+        print(f"  {name}: namespace {c['namespace']}, Modbus {c['host']}:{hosts.MODBUS_PORT}, "
+              f"pid {c['pid']}, log {c['log']}")
+    if spec.data.wires or spec.data.devices:
+        print(f"  not carried between hosts: {len(spec.data.wires)} wires, "
+              f"{len(spec.data.devices)} shared devices (one process' objects: plant run)")
+    print(f"e.g. ip netns exec {record['namespaces'][0]} softplc io ... ; stop with: "
+          f"softplc plant down {args.plant}")
+    return 0
+
+
+def _down(args: argparse.Namespace) -> int:
+    from softplc.plant import hosts
+
+    record = args.state_dir / f"sp{hosts.tag(Path(args.plant))}.json"
+    for line in hosts.down(record):
+        print(line)
+    return 0
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -110,22 +167,33 @@ def _run(args: argparse.Namespace) -> int:
     from softplc.plant import Plant
 
     plant = Plant.from_file(args.plant)
+    page = None
+    if args.web is not None:
+        from softplc.plant.view import plant_view
+        from softplc.web.plantpage import PlantPage
+
+        page = PlantPage(args.web)
+        page.publish(plant_view(plant))
+        print(f"plant page: {page.start()}", flush=True)
     try:
         for key, value in args.set:
             plant[key] = value
         for key in args.show:
             plant[key]  # noqa: B018 (an unknown key fails now, not at the first status)
-        _loop(plant, args)
+        _loop(plant, args, page)
     except KeyboardInterrupt:
         pass
     finally:
+        if page is not None:
+            page.stop()
         _print(plant, args)
         plant.close()
     return 0
 
 
-def _loop(plant: Plant, args: argparse.Namespace) -> None:
+def _loop(plant: Plant, args: argparse.Namespace, page: Any = None) -> None:
     end = None if args.duration is None else round(args.duration * 1e6)
+    next_publish = time.monotonic()
     every = None if args.every is None else max(1, round(args.every * 1e6))
     next_print = every
     wall0 = time.monotonic()
@@ -134,6 +202,11 @@ def _loop(plant: Plant, args: argparse.Namespace) -> None:
         if every is not None and plant.now_us >= next_print:
             _print(plant, args)
             next_print += every
+        if page is not None and time.monotonic() >= next_publish:
+            from softplc.plant.view import plant_view
+
+            page.publish(plant_view(plant))
+            next_publish = time.monotonic() + PUBLISH_S
         if not math.isinf(args.speed):
             ahead = plant.now_us / 1e6 / args.speed - (time.monotonic() - wall0)
             while ahead > 0:  # pacing: plant time no faster than speed x real time

@@ -6,7 +6,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from softplc.commands._args import add_program_arguments, load_plc
+from softplc.commands._args import add_program_arguments, existing_file, load_plc
+from softplc.errors import SoftPLCError
+
+PLANT_SUFFIX = ".toml"  # a program is Instruction List text: a .toml is a plant file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -15,8 +18,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Load PROGRAM.il on the virtual clock (with the simulated devices of the "
                     "machine configuration) and debug it: scan/step/stepi/run/continue, "
                     "breakpoints on rungs, labels and conditions, watches, print/set/force, "
-                    "the live ladder view of a rung, going back in time. 'help' inside "
-                    "lists the commands.")
+                    "the live ladder view of a rung, going back in time. Given a plant "
+                    "file (plant.toml), the whole plant on its one clock: every "
+                    "controller stepped together, CONTROLLER:OBJECT, 'ctl NAME'. 'help' "
+                    "inside lists the commands.")
     add_program_arguments(p)
     p.add_argument("-x", "--execute", action="append", default=[], metavar="CMD",
                    help="run this debugger command first (repeatable); end with -x quit "
@@ -32,6 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from softplc.debug.repl import run_repl
     from softplc.debug.session import Session
+    if args.program.suffix.lower() == PLANT_SUFFIX:
+        return run_plant(args)
     plc = load_plc(args, clock="virtual")
     replaying = ""
     if args.replay is not None:
@@ -50,3 +57,24 @@ def run(args: argparse.Namespace) -> int:
         return run_repl(session, intro, args.execute)
     finally:
         plc.close()
+
+
+def run_plant(args: argparse.Namespace) -> int:
+    """The debugger over every controller of a plant file (docs/plant.md)."""
+    from softplc.debug.plant_session import PlantSession
+    from softplc.debug.repl import run_repl
+    from softplc.plant import Plant
+    if args.config is not None or args.replay is not None:
+        raise SoftPLCError("--config and --replay are for one program; a plant file names "
+                           "each controller's configuration")
+    plant = Plant.from_file(existing_file(args.program, "plant"))
+    session = PlantSession(plant, history=max(1, args.history))
+    intro = (f"softplc debugger: plant {plant.name} ({args.program}): "
+             f"{', '.join(plant.controllers)}"
+             + (f"; devices: {', '.join(plant.devices)}" if plant.devices else "")
+             + f", one virtual clock\nfocus: {session.focus} ('ctl NAME' to change; "
+             "NAME:OBJECT names another's); 'help' for the commands, 'quit' to leave")
+    try:
+        return run_repl(session, intro, args.execute)
+    finally:
+        plant.close()

@@ -177,6 +177,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="an online change's configuration may name files (symbols_file) "
                         "under DIR, regular files only (default: none; the files go with "
                         "the request, as `softplc load` sends them)")
+    # the Remote Link over TCP (softplc.runtime.linktcp)
+    p.add_argument("--link-listen", type=_endpoint, metavar="HOST:PORT",
+                   help="a remote of the Remote Link ([remote_link] address 1..7): answer "
+                        "the master's polls on this TCP address (port 0 = any free port)")
+    p.add_argument("--link-remote", action="append", default=[], type=_link_remote,
+                   metavar="ADDR=HOST:PORT",
+                   help="the master ([remote_link] address 0): where remote ADDR listens; "
+                        "one for each declared remote (repeatable)")
     # web monitor options (softplc.web)
     p.add_argument("--web", type=_web_port, default=None, metavar="PORT|off",
                    help="web monitor port (default 8020, on 127.0.0.1; 0 = any free port; "
@@ -198,10 +206,60 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--web-max-pages", type=_whole(1, 1000), default=None, metavar="N",
                    help="websocket pages open at once, 1..1000 (default 32, or [web] "
                         "max_pages)")
+    p.add_argument("--replay", type=Path, metavar="CEX.json",
+                   help="play a counterexample of softplc verify --cex instead (as softplc "
+                        "replay): no Modbus server, no devices, nothing written from "
+                        "outside; its page on the --web port, on 127.0.0.1 only")
     p.add_argument("--log-level", default="warning",
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
     p.set_defaults(func=run)
+
+
+def _endpoint(text: str) -> tuple[str, int]:
+    from softplc.runtime.linktcp import endpoint
+
+    try:
+        return endpoint(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _link_remote(text: str) -> tuple[int, tuple[str, int]]:
+    from softplc.twido.address import LINK_STATIONS
+
+    addr, sep, where = text.partition("=")
+    if not sep or not addr.strip().isdigit() or not 1 <= int(addr) < LINK_STATIONS:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: write ADDR=HOST:PORT, ADDR a remote's address 1..{LINK_STATIONS - 1}")
+    return int(addr), _endpoint(where)
+
+
+def _link(args: argparse.Namespace, plc: Any) -> Any:
+    """The Remote Link service --link-listen / --link-remote ask for, bound (None: none)."""
+    from softplc.runtime import linktcp
+    from softplc.runtime.remotelink import LinkMaster
+
+    station = plc.machine.link
+    if not args.link_listen and not args.link_remote:
+        return None
+    if station is None:
+        raise ConfigError("--link-listen / --link-remote: the configuration has no "
+                          "[remote_link] section")
+    if isinstance(station, LinkMaster):
+        if args.link_listen:
+            raise ConfigError("--link-listen is a remote's option; the master ([remote_link] "
+                              "address 0) names its remotes with --link-remote")
+        endpoints: dict[int, tuple[str, int]] = {}
+        for a, where in args.link_remote:
+            if a in endpoints:
+                raise ConfigError(f"--link-remote: remote {a} given twice")
+            endpoints[a] = where
+        return linktcp.MasterService(station, endpoints)
+    if args.link_remote or not args.link_listen:
+        raise ConfigError(f"remote {station.address} of the Remote Link: --link-listen "
+                          f"HOST:PORT (--link-remote is the master's)")
+    return linktcp.RemoteService(station, *args.link_listen)
 
 
 def _pick(cli: Any, configured: Any) -> Any:
@@ -213,6 +271,12 @@ _LOCKED: list[int] = []  # descriptors held open (and locked) until the process 
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.replay is not None:
+        from softplc.commands.replay import play
+        from softplc.web import DEFAULT_WEB_PORT
+
+        web = None if args.web == _WEB_OFF else _pick(args.web, DEFAULT_WEB_PORT)
+        return play(args, args.replay, 1, web)
     from softplc.daemon import Daemon, DaemonOptions
 
     logging.basicConfig(level=getattr(logging, args.log_level.upper()),
@@ -273,6 +337,7 @@ def run(args: argparse.Namespace) -> int:
         web=_web_options(args, plc.settings.web),
         gc_freeze=not args.no_gc_freeze,
         config_dir=_folder(args.config_dir),
+        link=_link(args, plc),
     )
     app = application_id(plc.machine, args.program.read_bytes())
     return Daemon(plc, opts, program_name=str(args.program), app=app).run()

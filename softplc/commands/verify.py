@@ -31,7 +31,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="requirement file ([environment], [[requirement]] check = ...)")
     p.add_argument("--require-expr", action="append", default=[], metavar="TEXT",
                    help="a requirement on the command line, e.g. 'never %%Q0.1 AND %%Q0.2' "
-                        "(repeatable)")
+                        "or, with the configuration's symbols, 'never KM2_STAR AND "
+                        "KM3_DELTA' (repeatable)")
     p.add_argument("--depth", type=int, default=DEPTH,
                    help="scans searched for a counterexample (default %(default)s)")
     p.add_argument("--max-k", type=int, default=MAX_K,
@@ -51,9 +52,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-spacer", action="store_true",
                    help="no Spacer (IC3/PDR) proof attempt after k-induction")
     p.add_argument("--cex", type=Path, metavar="FILE.json",
-                   help="write the counterexamples (softplc repl --replay FILE.json)")
+                   help="write the counterexamples (softplc replay PROGRAM FILE.json; "
+                        "softplc repl --replay FILE.json)")
     p.add_argument("--emit-test", type=Path, metavar="FILE.py",
                    help="write a pytest test per counterexample")
+    p.add_argument("--junit", type=Path, metavar="REPORT.xml",
+                   help="write the verdicts as a JUnit XML report (one test per requirement)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     p.set_defaults(func=run)
 
@@ -73,16 +77,20 @@ def _progress(quiet: bool) -> Any:
     return show
 
 
-def table(rows: list[dict[str, Any]]) -> str:
-    """Inputs per scan | the values the requirement reads."""
+def table(rows: list[dict[str, Any]], symbols: Any = None) -> str:
+    """Inputs per scan | the values the requirement reads; a line of symbols above the
+    addresses that have one (`symbols`: the configuration's SymbolTable)."""
     ins = sorted({k for r in rows for k in r["inputs"]})
     vals = list(rows[0]["values"]) if rows else []
     head = ["scan"] + ins + (["|"] if vals else []) + vals
     body = [[str(n)] + [str(r["inputs"].get(k, "")) for k in ins] + (["|"] if vals else [])
             + [str(r["values"][k]) for k in vals] for n, r in enumerate(rows, 1)]
-    widths = [max(len(c[i]) for c in [head] + body) for i in range(len(head))]
+    names = [symbols.name_of(symbols.ref(k)) or "" if symbols is not None and k.startswith("%")
+             else "" for k in head]
+    lines = ([names] if any(names) else []) + [head] + body
+    widths = [max(len(c[i]) for c in lines) for i in range(len(head))]
     return "\n".join("    " + " ".join(c.rjust(w) for c, w in zip(line, widths, strict=True))
-                     for line in [head] + body)
+                     for line in lines)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from softplc.verify.advice import unknown_hints
     from softplc.verify.engines import Limits
     from softplc.verify.guard import check
     from softplc.verify.model import Model
@@ -113,25 +122,31 @@ def _run(args: argparse.Namespace) -> int:
     if args.require is not None:
         existing_file(args.require, "requirements")
     plc = load_plc(args, devices=False)
-    spec = load_spec(args.require, args.require_expr, plc.profile)
+    spec = load_spec(args.require, args.require_expr, plc.symbols)
     if args.scan_period:
         from softplc.verify.requirements import parse_periods
         try:
             spec.periods = parse_periods(args.scan_period)
         except ValueError as e:
             raise SoftPLCError(f"--scan-period {args.scan_period}: {e}") from None
+    from softplc.verify.environment import device_words
     model = Model(plc, spec.reads + [r for r, _ in spec.free],
-                  spec.host + [r for r, _ in spec.free], spec.periods, args.loop_bound)
+                  spec.host + [r for r, _ in spec.free], spec.periods, args.loop_bound,
+                  spec.held, device_words(args.program, args.config))
     check_environment(spec, model.written, str(args.program))
     period = f"{model.period_us / 1000:g} ms" + (
         f" to {model.longest_us / 1000:g} ms" if model.variable else "")
     print(f"{args.program}: {len(plc.ast.rungs)} rungs, {len(model.vars)} state "
           f"variables, {len(model.inputs)} inputs, scan period {period}")
-    free = [f"{k} ({why})" for k, why in model.sys_free.items() if k in model.vars]
-    if free:  # say what the proofs take as any value
-        print("free in every scan (set by the system from what is not modelled): "
-              + ", ".join(free))
-    worst, cexs, lemmas = 0, [], []
+    for line in model.env.lines(model):  # what the proofs take as given
+        print(line)
+    from softplc.verify.advice import pinned_inputs
+    pinned = pinned_inputs(model, spec)
+    if pinned:  # a proof resting on these is a proof about a switch nobody moves
+        print(f"  ! the assumptions hold {', '.join(pinned)} in every scan: proofs never "
+              "see them change")
+    from softplc.verify.junit import Case
+    worst, cexs, lemmas, cases = 0, [], [], []
     limits = Limits(args.depth, args.max_k, args.timeout, not args.no_spacer)
     for req in spec.requirements:
         watch = list(dict.fromkeys(str(r) for r in req.reads))
@@ -140,8 +155,10 @@ def _run(args: argparse.Namespace) -> int:
             print(" " * 50, end="\r", file=sys.stderr)
         if res.status == "PROVEN":
             print(f"PROVEN    {req.name}: {res.method}, {res.seconds:.1f} s")
+            cases.append(Case(req.name, "PROVEN", res.seconds))
             if req.kind == "always":  # a lemma for the requirements after it
                 lemmas.append(req.cond)
+            _vacuity(model, spec, req, limits, args.loop_bound)
             continue
         if res.status == "UNKNOWN":
             note = "; Spacer finds it can fail later (raise --depth, or a scan_period " \
@@ -150,12 +167,21 @@ def _run(args: argparse.Namespace) -> int:
                   f"({res.seconds:.1f} s){note}")
             if res.note:
                 print(f"    {res.note}")
+            tips = unknown_hints(model, res, limits)
+            for tip in tips:
+                print(f"    try: {tip}")
             ok = args.bounded and res.depth >= args.depth
+            cases.append(Case(req.name, "UNKNOWN", res.seconds,
+                              f"no violation within {res.depth} scans, no proof",
+                              "\n".join([res.note, *tips]).strip(), ok))
             worst = max(worst, 0 if ok else EXIT_UNPROVEN)
             continue
         print(f"VIOLATED  {req.name}: counterexample of {res.depth} scan(s) from a cold "
               f"start ({res.seconds:.1f} s)")
-        print(table(res.trace))
+        shown = table(res.trace, plc.symbols)
+        print(shown)
+        cases.append(Case(req.name, "VIOLATED", res.seconds,
+                          f"counterexample of {res.depth} scan(s)", shown))
         with type(plc).from_file(args.program, args.config, devices=False) as again:
             diffs = replay(again, res.trace)
         if diffs:
@@ -171,11 +197,28 @@ def _run(args: argparse.Namespace) -> int:
     try:
         if cexs and args.cex:
             write_cex(args.cex, args.program, args.config, cexs)
-            print(f"counterexamples written to {args.cex} (softplc repl {args.program} "
-                  f"--replay {args.cex})")
+            cfg = f" --config {args.config}" if args.config else ""
+            print(f"counterexamples written to {args.cex} (on the ladder: softplc replay "
+                  f"{args.program}{cfg} {args.cex} --web 0; in the debugger: softplc repl "
+                  f"{args.program}{cfg} --replay {args.cex})")
+        if args.junit:
+            from softplc.verify.junit import write
+            write(args.junit, str(args.program), cases)
+            print(f"JUnit report written to {args.junit}")
         if cexs and args.emit_test:
-            emit_test(args.emit_test, args.program, args.config, cexs)
+            emit_test(args.emit_test, args.program, args.config, cexs, plc.symbols)
             print(f"pytest test written to {args.emit_test}")
     except OSError as e:
         raise SoftPLCError(f"cannot write {e.filename}: {e.strerror}") from None
     return worst
+
+
+def _vacuity(model: Any, spec: Any, req: Any, limits: Any, loop_bound: int) -> None:
+    """Flag a proof that rests on objects held at their cold-start value."""
+    from softplc.verify.advice import vacuity
+    keys, cex = vacuity(model, spec, req, limits, loop_bound)
+    if cex is not None:
+        print(f"    ! VACUOUS: holds only because {', '.join(keys)} never change (held at "
+              f"the cold-start value); free, it fails after {cex.depth} scan(s)")
+    elif keys:
+        print(f"    note: the proof reads {', '.join(keys)}, held at the cold-start value")

@@ -166,7 +166,7 @@ class ObjectCompiler:
                 return f"{b}.bit({ref.bit})"
             # a block holds its outputs as 0/1: compared, they store bools in the images
             return f"({b}.{ref.field} == 1)"
-        self.err(f"{ref} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
+        self.err(f"{ref.label} is a {self.tname(ref.type)}, not a bit", pos, str(ref),
                  f"a bit (%I, %Q, %M, %S, %MWi:Xk, block output) or a comparison block "
                  f"such as [ {ref} <> 0 ]", code=Code.BLOCK)
         return "0"
@@ -176,7 +176,7 @@ class ObjectCompiler:
         k = ref.kind
         if ref.length is not None and k in BIT_BUFFERS and ref.offset is None:
             if ref.length > 32:  # a bit string read as a word (<= 16) or double word
-                self.err(f"{ref}: a bit string of {ref.length} bits", pos, str(ref),
+                self.err(f"{ref.label}: a bit string of {ref.length} bits", pos, str(ref),
                          "at most 16 bits for a word, 32 for a double word", code=Code.TYPE)
                 return "0", INT16
             h = self.helper("bitstr16" if ref.length <= 16 else "bitstr32")
@@ -184,11 +184,11 @@ class ObjectCompiler:
             return f"{h}({BIT_BUFFERS[k]}, {ref.index}, {ref.length})", \
                 INT16 if ref.length <= 16 else INT32
         if ref.length is not None:
-            self.err(f"{ref}: a word table cannot be used in an expression", pos, str(ref),
+            self.err(f"{ref.label}: a word table cannot be used in an expression", pos, str(ref),
                      "a single word, double word or float, or a bit string %Mi:L", code=Code.TYPE)
             return "0", INT16
         if ref.bit is not None or ref.type == BOOL:
-            self.err(f"{ref} is a bit, not a number", pos, str(ref),
+            self.err(f"{ref.label} is a bit, not a number", pos, str(ref),
                      "a word, double word or float (%MW, %MD, %MF, %KW, %SW, block field)",
                      code=Code.TYPE)
             return "0", INT16
@@ -210,12 +210,12 @@ class ObjectCompiler:
             return f"{view}[{ref.index >> 1}]", typ
         if k in BLOCK_OUTPUTS:
             if ref.field is None:
-                self.err(f"{ref} is a function block, not a value", pos, str(ref),
+                self.err(f"{ref.label} is a function block, not a value", pos, str(ref),
                          f"a field of it, such as {ref}.V or {ref}.P", code=Code.TYPE)
                 return "0", INT16
             b = self.block_name(Ref(ref.kind, ref.index))
             return f"{b}.{ref.field}", INT16
-        self.err(f"{ref} cannot be used in an expression", pos, str(ref),
+        self.err(f"{ref.label} cannot be used in an expression", pos, str(ref),
                  "a word, double word or float", code=Code.TYPE)
         return "0", INT16
 
@@ -257,7 +257,7 @@ class ObjectCompiler:
             self.emit(f"{u}[{ref.index}] = ({u}[{ref.index}] | {mask}) if {value} else "
                       f"({u}[{ref.index}] & {0xFFFF ^ mask})")
         else:
-            self.err(f"{ref} is not a bit that can be stored to", pos, str(ref),
+            self.err(f"{ref.label} is not a bit that can be stored to", pos, str(ref),
                      "%Q, %M, %S, %X or %MWi:Xk", code=Code.TYPE)
 
     @staticmethod

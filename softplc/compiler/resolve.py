@@ -99,27 +99,50 @@ def _write_targets(instr: A.Instruction) -> tuple[set[int], set[int]]:
     return set(), set()
 
 
+def rung_uses(rung: A.Rung) -> Iterator[tuple[Ref, str, A.Pos]]:
+    """Every object a rung reads or writes (block fields and indexes included), with how
+    (READ, WRITE or READ_WRITE) and where, in the rung's order."""
+    for instr in rung.instructions:
+        written, both = _write_targets(instr)
+        for ref, pos in _instruction_refs(instr):
+            yield ref, WRITE if id(ref) in written else READ_WRITE if id(ref) in both \
+                else READ, pos
+            if ref.offset is not None:  # %MW2[%MW5]: the index word is read
+                yield ref.offset, READ, pos
+
+
 def object_uses(program: A.Program) -> dict[Ref, tuple[str, A.Pos]]:
     """Every object the program reads or writes (block fields and indexes included): how
     (READ, WRITE or READ_WRITE) and where first, for listings such as the Modbus map."""
     uses: dict[Ref, tuple[str, A.Pos]] = {}
-
-    def note(ref: Ref, role: str, pos: A.Pos) -> None:
-        old = uses.get(ref)
-        if old is None:
-            uses[ref] = (role, pos)
-        elif old[0] != role:
-            uses[ref] = (READ_WRITE, old[1])
-
     for rung in program.rungs:
-        for instr in rung.instructions:
-            written, both = _write_targets(instr)
-            for ref, pos in _instruction_refs(instr):
-                role = WRITE if id(ref) in written else READ_WRITE if id(ref) in both else READ
-                note(ref, role, pos)
-                if ref.offset is not None:  # %MW2[%MW5]: the index word is read
-                    note(ref.offset, READ, pos)
+        for ref, role, pos in rung_uses(rung):
+            old = uses.get(ref)
+            if old is None:
+                uses[ref] = (role, pos)
+            elif old[0] != role:
+                uses[ref] = (READ_WRITE, old[1])
     return uses
+
+
+def rungs_using(program: A.Program, ref: Ref) -> list[int]:
+    """The numbers of the rungs that use `ref`'s object (a block, field or bit of it:
+    `LD %TM0.Q` uses %TM0, `CU %C0` uses %C0.V), those that write it first: where an
+    object is made."""
+    def base(r: Ref) -> Ref:
+        return Ref(r.kind, r.index, r.module, r.channel)
+
+    def hits(r: Ref) -> bool:
+        return base(r) == base(ref)
+
+    writes, reads = [], []
+    for n, rung in enumerate(program.rungs):
+        roles = {role for r, role, _ in rung_uses(rung) if hits(r)}
+        if roles - {READ}:
+            writes.append(n)
+        elif roles:
+            reads.append(n)
+    return writes + reads
 
 
 class _Resolver:

@@ -26,7 +26,7 @@ def cmd_break(s: Session, arg: str) -> str:
     m = re.match(r"when\s+(.*)$", arg, re.I)
     if m:
         return _break_when(s, m[1])
-    r = resolve_rung(s.plc.ast, arg)
+    r = resolve_rung(s.plc.ast, arg, s.plc.symbols)
     b = s.ctl.breakpoints.add(kind=BreakKind.RUNG, text=r.name, rung=r.index, key=arg)
     return f"breakpoint #{b.id} at {r.name}"
 

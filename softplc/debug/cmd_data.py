@@ -36,8 +36,9 @@ def port_of(s: Session) -> AccessPort:
 @command("print", "p", formats=True)
 def cmd_print(s: Session, arg: str, fmt: str = "") -> str:
     """print[/FMT] ADDR...: show objects or ranges: %MW0:15 (15 words from %MW0),
-    %Q1.0:8 (8 bits), %MF40, %TM0, %C0. FMT: d decimal, u unsigned, x hex, b binary,
-    f float (a word pair as %MF). Forced values are marked [forced]."""
+    %Q1.0:8 (8 bits), %MF40, %TM0, %C0, symbols (STARTS, STARTS:4, STAR_TIME.P).
+    FMT: d decimal, u unsigned, x hex, b binary, f float (a word pair as %MF). Forced
+    values are marked [forced]."""
     if not arg.strip():
         raise DebugError("print what? e.g. print %MW0, print/x %MW0:8")
     fmt = fmt.lower()
@@ -57,6 +58,9 @@ def cmd_print(s: Session, arg: str, fmt: str = "") -> str:
             vals = [s.fmt(r, v, fmt) + ("F" if str(r) in forced else "")
                     for r, v in zip(chunk, port.read_now(chunk), strict=True)]
             lines.append(f"{str(chunk[0]) + ':':<9} " + " ".join(f"{v:>6}" for v in vals))
+        named = [s.title(r) for r in refs if r.symbol]  # the names a column cannot hold
+        if named:
+            lines.append("  symbols: " + ", ".join(named))
     return "\n".join(lines)
 
 
@@ -69,7 +73,7 @@ def _check_set(s: Session, refs: list[Ref], values: list[str]) -> list[tuple[Ref
         # a debugger's set overrides devices, as a force does; %I: the field input
         why = port.why_not_writable(ref, forcing=True)
         if why is None and not (ref.writable or ref.kind == "I"):
-            why = f"{ref} is read-only"
+            why = f"{s.title(ref)} is read-only"
         if why:
             raise DebugError(why)
         try:
@@ -110,7 +114,7 @@ def cmd_force(s: Session, arg: str) -> str:
     except AccessError as e:
         raise DebugError(str(e)) from None
     port.apply_now()
-    return f"{ref} forced to {v}"
+    return f"{s.title(ref)} forced to {v}"
 
 
 @command("unforce")
@@ -123,10 +127,10 @@ def cmd_unforce(s: Session, arg: str) -> str:
         return f"released {n} forced object(s)"
     ref = s.parse_obj(arg)[0]
     if str(ref) not in port.forced:
-        raise DebugError(f"{ref} is not forced")
+        raise DebugError(f"{s.title(ref)} is not forced")
     port.unforce(str(ref))
     port.apply_now()
-    return f"{ref} released"
+    return f"{s.title(ref)} released"
 
 
 @command("trace")

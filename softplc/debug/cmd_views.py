@@ -141,9 +141,9 @@ def cmd_where(s: Session, arg: str) -> str:
 
 @command("rung")
 def cmd_rung(s: Session, arg: str) -> str:
-    """rung [N | TITLE]: the rung as a ladder with live power flow (double lines) and
+    """rung [N | TITLE | SYMBOL]: the rung as a ladder with live power flow (double lines) and
     values (F = forced); > marks the next instruction. Default: the current rung."""
-    r = resolve_rung(s.plc.ast, arg) if arg else s.plc.ast.rungs[s.ctl.last_rung]
+    r = resolve_rung(s.plc.ast, arg, s.plc.symbols) if arg else s.plc.ast.rungs[s.ctl.last_rung]
     live = ladder.Live(s.read, s.ctl.dbg.log[r.index] if r.index < len(s.ctl.dbg.log)
                        else None, set(s.plc.forced))
     marker = s.ctl.pos[1] if s.ctl.pos and s.ctl.pos[0] == r.index else None

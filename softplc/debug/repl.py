@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from softplc.debug.plant_session import PlantSession
 from softplc.debug.session import Session
 
 try:  # readline is missing on some platforms: the REPL then works without it
@@ -28,7 +29,8 @@ PROMPT = "(softplc) "
 class Repl(cmd.Cmd):
     prompt = PROMPT
 
-    def __init__(self, session: Session, stdin: Any = None, stdout: Any = None):
+    def __init__(self, session: Session | PlantSession, stdin: Any = None,
+                 stdout: Any = None):
         super().__init__(stdin=stdin, stdout=stdout)
         self.session = session
         self._addresses: list[str] | None = None
@@ -94,7 +96,8 @@ def history_path() -> Path:
     return Path(os.environ.get("SOFTPLC_HISTORY") or Path.home() / ".softplc_history")
 
 
-def run_repl(session: Session, intro: str = "", commands: list[str] | None = None) -> int:
+def run_repl(session: Session | PlantSession, intro: str = "",
+             commands: list[str] | None = None) -> int:
     """Run commands given on the command line, then the interactive loop (unless one of
     them quit)."""
     repl = Repl(session)

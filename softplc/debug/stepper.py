@@ -15,11 +15,13 @@ from collections.abc import Callable, Iterator
 from enum import Enum
 from typing import Any
 
-from softplc.errors import SoftPLCError
+from softplc.compiler.resolve import rungs_using
+from softplc.errors import AddressError, SoftPLCError
 from softplc.il import ast as A
 from softplc.plc import PLC
 from softplc.runtime.runstate import RUN
 from softplc.twido.address import Ref
+from softplc.twido.symbols import SymbolTable
 
 HISTORY = 1000  # scans kept for `back`
 
@@ -161,8 +163,11 @@ class _Stop:
     hits: tuple[Hit, ...] = ()
 
 
-def resolve_rung(program: A.Program, key: str) -> A.Rung:
-    """A rung named by number, title or label (%Li)."""
+def resolve_rung(program: A.Program, key: str, symbols: SymbolTable | None = None
+                 ) -> A.Rung:
+    """A rung named by number, title or label (%Li), or by an object (`%Q0.0`) or a
+    symbol (`NEARLY_FULL`) it uses: the first rung that writes it, else the first that
+    reads it."""
     key = key.strip()
     m = re.fullmatch(r"%L(\d+):?", key, re.I)
     if m:
@@ -175,8 +180,21 @@ def resolve_rung(program: A.Program, key: str) -> A.Rung:
     try:
         return program.rung(key)
     except (KeyError, IndexError):
-        raise DebugError(f"no rung {key!r} (rungs are 0..{len(program.rungs) - 1}; "
-                         f"'rungs' lists the titles)") from None
+        pass
+    last = len(program.rungs) - 1
+    try:
+        ref = symbols.ref(key) if symbols is not None else None
+    except AddressError as e:
+        assert symbols is not None
+        raise DebugError(f"no rung {key!r} (rungs are 0..{last}; 'rungs' lists the titles)"
+                         + (f"; {e}" if key.startswith("%") else
+                            symbols.suggest(key.split(".")[0]))) from None
+    if ref is None:
+        raise DebugError(f"no rung {key!r} (rungs are 0..{last}; 'rungs' lists the titles)")
+    found = rungs_using(program, ref)
+    if not found:
+        raise DebugError(f"no rung {key!r}: no title has it and no rung uses {ref.label}")
+    return program.rungs[found[0]]
 
 
 def _running(plc: PLC) -> bool:
@@ -192,7 +210,10 @@ class Stepper:
         self.dbg_version = plc.code_version
         self.gen: Iterator[tuple[int, int]] | None = None
         self.pos: tuple[int, int] | None = None  # next instruction (rung, k), None: boundary
-        self.ring: deque[dict[str, Any]] = deque(maxlen=history)  # snapshots, for `back`
+        # snapshots, for `back`; history 0: none (a plant keeps its own), only the last
+        # scan while a watch or condition may have to replay it
+        self.history = history
+        self.ring: deque[dict[str, Any]] = deque(maxlen=max(1, history))
         self.breakpoints = Breakpoints(plc)
         self.breaks = self.breakpoints.items  # (the same list and dict, kept in place)
         self.changes = self.breakpoints.changes  # watched objects' recorded changes
@@ -218,8 +239,14 @@ class Stepper:
             self.plc[str(ref)] = v
 
     def _begin(self) -> None:
-        """A scan starts: keep the state before it for `back`."""
-        self.ring.append({"engine": self.plc.engine.snapshot(), "pending": list(self.pending)})
+        """A scan starts: keep the state before it for `back` (and the replay of a
+        fast scan where a watch or condition fired)."""
+        if self.history or self.breakpoints.data:
+            self.ring.append(self.snapshot())
+
+    def snapshot(self) -> dict[str, Any]:
+        """The state at a scan boundary (the engine's, the queued writes), for `rewind`."""
+        return {"engine": self.plc.engine.snapshot(), "pending": list(self.pending)}
 
     def _tick(self) -> bool:
         """One step of the debug build: enter a scan (stop before its first instruction) or
@@ -275,9 +302,10 @@ class Stepper:
             if one_instr or self.pos[0] != start_rung or self.interrupted:
                 return None
 
-    def _scans(self, scans: int, running: bool) -> _Stop | None:
+    def _scans(self, scans: int, running: bool, power_flow: bool = True) -> _Stop | None:
         """Finish the scan in progress, then run `scans` whole scans; a hit, an interrupt
-        or a fault (the PLC leaving RUN) stops them."""
+        or a fault (the PLC leaving RUN) stops them. `power_flow`: the last scan runs the
+        debug build (for `rung N`)."""
         stop = self._debug_scan() if self.gen is not None else None
         remaining = scans
         debug = bool(self.breakpoints.at_rung)
@@ -286,7 +314,7 @@ class Stepper:
                 stop = _Stop(StopKind.INTERRUPTED)
             elif running and not _running(self.plc):
                 stop = _Stop(StopKind.FAULT)
-            elif debug or remaining == 1:  # the last scan feeds the power-flow view
+            elif debug or (remaining == 1 and power_flow):  # feeds the power-flow view
                 stop = self._debug_scan()
                 if self.gen is None:
                     remaining -= 1
@@ -305,14 +333,15 @@ class Stepper:
         return stop
 
     def _run(self, scans: int | None, *, one_instr: bool = False,
-             limit: bool = False) -> Ran:
+             limit: bool = False, power_flow: bool = True) -> Ran:
         """The one driver. `scans`: whole scans to run after finishing the one in progress
         (`limit`: without a hit that is a SCAN_LIMIT); None: a step (one instruction, or
         to the next rung). Stops at breakpoints and when the PLC faults."""
         self.interrupted = False
         self.breakpoints.arm()
         running = _running(self.plc)
-        stop = self._step(one_instr) if scans is None else self._scans(scans, running)
+        stop = self._step(one_instr) if scans is None else \
+            self._scans(scans, running, power_flow)
         if running and not _running(self.plc) and (stop is None or
                                                  stop.kind == StopKind.SCAN_END):
             stop = _Stop(StopKind.FAULT)
@@ -335,10 +364,11 @@ class Stepper:
         """Run one instruction (entering a scan if at the boundary)."""
         return self._run(None, one_instr=True)
 
-    def run_scans(self, n: int) -> Ran:
+    def run_scans(self, n: int, power_flow: bool = True) -> Ran:
         """Finish the scan in progress, then run n whole scans (0: only finish it);
-        breakpoints stop it."""
-        return self._run(n)
+        breakpoints stop it. `power_flow` False: the fast build unless a breakpoint needs
+        the debug one (a plant runs each controller scan by scan)."""
+        return self._run(n, power_flow=power_flow)
 
     def run_until_hit(self, limit: int) -> Ran:
         """Run until a breakpoint or watch stops it, at most `limit` scans (SCAN_LIMIT)."""
@@ -371,7 +401,7 @@ class Stepper:
         for b in self.breaks:
             if b.kind == BreakKind.RUNG:
                 try:
-                    r = resolve_rung(program, b.key)
+                    r = resolve_rung(program, b.key, self.plc.symbols)
                     b.rung, b.text = r.index, r.name
                 except DebugError:
                     b.enabled = False
@@ -383,12 +413,18 @@ class Stepper:
         """Go back n scans (1 <= n <= len(ring); a scan in progress counts as one)."""
         if n > len(self.ring):
             raise DebugError(f"only {len(self.ring)} scans of history")
-        if self.gen is not None:
-            self.gen.close()
-            self.gen, self.pos = None, None
         snap = None
         for _ in range(n):
             snap = self.ring.pop()
+        assert snap is not None
+        self.rewind(snap)
+
+    def rewind(self, snap: dict[str, Any]) -> None:
+        """Back to a `snapshot()`: a scan in progress is abandoned, the writes queued
+        since stay queued, the watches forget the changes after it."""
+        if self.gen is not None:
+            self.gen.close()
+            self.gen, self.pos = None, None
         queued = self.pending  # sets typed since the last scan stay queued
         self._restore(snap)
         self.pending += [q for q in queued if q not in self.pending]

@@ -20,7 +20,7 @@ from __future__ import annotations
 import importlib
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 from softplc.config import Section, validate_config
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
@@ -28,8 +28,26 @@ from softplc.runtime.memory import MemoryImage
 from softplc.twido.address import parse_address
 
 
+class WordCheck(Protocol):
+    """A device's check of the values a host writes into its words: the access port and
+    the Modbus server ask it before queueing a write, so a value the device would refuse
+    is refused where it was made. Called from a front-end's thread: settings only."""
+
+    def ranges(self) -> list[tuple[int, int]]:
+        """%MW ranges [start, stop) whose writes `refusal` checks."""
+        ...
+
+    def refusal(self, kind: str, index: int, value: float) -> str | None:
+        """Why `value` written to %MW/%MD/%MF`index` (`kind` "MW", "MD" or "MF") is
+        refused, None if it is taken (or the word is not checked)."""
+        ...
+
+
 class Device:
     """Base class of simulated devices. `name` is the key in the machine config."""
+
+    #: the check of a host's writes into this device's words (None: none)
+    word_check: WordCheck | None = None
 
     type_name = "device"
     # The simulated state, declared by each device: attributes holding immutable values

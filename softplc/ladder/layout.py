@@ -191,7 +191,7 @@ class _Layout:
                 (row, c, ch, p))
             return 1
         if isinstance(ch, Block):
-            return self.block(ch, row, c)
+            return self.block(ch, row, c, p_in)
         if isinstance(ch, Merge):
             return self.merge(ch, row, c, p_in)
         w, hl, p = self.expr(ch.logic, row, c, p_in)
@@ -244,8 +244,9 @@ class _Layout:
                 return True
         return False
 
-    def block(self, b: Block, r: int, c0: int) -> int:
-        """A function block: its input networks, the box, what its outputs feed."""
+    def block(self, b: Block, r: int, c0: int, p_in: bool = True) -> int:
+        """A function block: its input networks, the box, what its outputs feed. `p_in`:
+        the power where it hangs (the rail for BLK; the logic before a short-form pin)."""
         in_names, out_names = BOX_PINS.get(b.ref.kind, ((), ()))
         order = {n: i for i, n in enumerate(in_names)}
         wired = {n for ch in b.ins.children for n in _pins_in(ch)}
@@ -263,7 +264,7 @@ class _Layout:
                 left[row] = (it, False, False, -1)
                 row += 1
             else:
-                row += self.child(it, b.ins, row, c0, True)
+                row += self.child(it, b.ins, row, c0, p_in)
         pins, self.pins = self.pins, None
         h_in = row - r
         cb = max([c for _, c, _, _ in pins] + [cc + 1 for (_, cc) in self.g.cells.keys() - before]

@@ -8,7 +8,7 @@ from typing import Any
 from softplc.il import ast as A
 from softplc.il import rungtree
 from softplc.il.printer import format_expr
-from softplc.ladder.tree import BOX_PINS, Elem, element
+from softplc.ladder.tree import BOX_PINS, Elem, element, short_form_block
 from softplc.twido.address import Ref
 from softplc.twido.display import format_value
 from softplc.twido.semantics import COMPARE
@@ -99,13 +99,13 @@ def reads(rung: A.Rung) -> list[Ref]:
     """The objects the live view of `rung` reads, in instruction order, from the rung's
     structure (`il/rungtree.py`) without drawing it: what each instruction's element shows
     (a contact's bit, a comparison's operands, a coil's or an operation's target, the block
-    of a short-form input) and each BLK box (the block and its output pins)."""
+    of a short-form input) and each box, BLK or short-form (the block, its output pins)."""
     seen: dict[Ref, None] = {}
     for st in rungtree.build(rung).steps:
         if not st.ok:
             continue
-        if isinstance(st.instr, A.Blk) and st.block is not None:
-            b = st.block
+        b = st.block if isinstance(st.instr, A.Blk) else short_form_block(st)
+        if b is not None:  # a box: the block and its output pins
             seen[Ref(b.kind, b.index)] = None
             seen.update((Ref(b.kind, b.index, field=pin), None)
                         for pin in BOX_PINS.get(b.kind, ((), ()))[1])

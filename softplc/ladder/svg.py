@@ -12,6 +12,7 @@ from softplc.ladder.text import box_inner_width, program_sections
 
 CH, ROW_H, PAD = 7.2, 48, 20  # pixels per character, per row, margin
 SYMBOL_H = 13  # the symbols' line above the addresses
+VALUE_H = 8  # more per row in the live view: a value line clear of the next row's address
 INFO_DY = 17  # a box row's info baseline below its wire (pin names sit on the wire, +4)
 
 
@@ -81,15 +82,15 @@ def _svg_rung(rung: A.Rung, x0: float, y0: float, body: list[str],
     for (_, c), cell in g.cells.items():
         if cell.box is not None:
             widths[c] = max(widths[c], box_inner_width(cell) + 2)
-        elif cell.elem is not None:
+        elif cell.elem is not None:  # a value too: the next column (or the rail) clear of it
             widths[c] = max(widths[c], len(cell.elem.symbol), len(cell.elem.label),
-                            len(cell.elem.name))
+                            len(cell.elem.name), len(cell.value))
     xs = [x0 + 10]
     for w in widths:
         xs.append(xs[-1] + (w + 4) * CH)
     # a line more per row for the symbols above the addresses, when the rung shows any
     extra = SYMBOL_H if any(c.elem is not None and c.elem.name for c in g.cells.values()) else 0
-    row_h = ROW_H + extra
+    row_h = ROW_H + extra + (VALUE_H if live is not None else 0)
     height = g.rows * row_h
 
     def wy(r: int) -> float:

@@ -194,6 +194,12 @@ def _block_output(ins: A.BoolInstr, blk: Ref) -> str | None:
     return None
 
 
+def short_form_block(st: rungtree.Step) -> Ref | None:
+    """The block of a short-form input outside BLK (`IN %TM0`), drawn as its box."""
+    ins = st.instr
+    return ins.block if isinstance(ins, A.Pin) and st.block_k is None else None
+
+
 def _has_merge(j: Junction) -> bool:
     return any(isinstance(ch, Merge) or (isinstance(ch, Branch) and _has_merge(ch.to))
                for ch in j.children)
@@ -293,6 +299,15 @@ def build(rung: A.Rung, merge: bool = True) -> Junction:
             root.children.append(block)
             rail = cur = block.ins
             pend = None
+        elif short_form_block(st) is not None:
+            # the short form `IN %TM0`: the block's box with that one input wired, as the
+            # BLK form draws it (TwidoSuite draws the timer, not an operation box)
+            b = short_form_block(st)
+            assert b is not None and isinstance(ins, A.Pin)
+            box = Block(b, Elem("block", str(b), "", k, ins, Ref(b.kind, b.index)))
+            box.ks.add(k)
+            box.ins.children.append(Elem("pin", ins.name, "", k, ins))
+            (rail if pend is None and cur is rail else attach()).children.append(box)
         else:
             el = element(st)
             if el is None:

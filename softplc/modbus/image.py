@@ -50,6 +50,9 @@ from softplc.runtime.memory import MemoryImage, WordFamily
 from softplc.twido.address import WIDTH
 from softplc.twido.numeric import wrap16
 
+#: a device's check of a value a host writes: (kind, index, value) -> why it is refused
+ValueCheck = Callable[[str, int, float], "str | None"]
+
 # Modbus registers are big-endian on the wire
 words_to_wire = words_to_be
 wire_to_words = be_to_words
@@ -73,6 +76,7 @@ class ModbusImage:
         self.read_only = read_only or ReadOnly()
         self.writes_allowed = writes_allowed  # False: `--read-only`, every write refused
         self.refused_why = ""  # why writes are refused when not `--read-only`
+        self.value_checks: list[tuple[int, int, ValueCheck]] = []  # (check_values)
         self.n_registers = n = mem.mw.n
         self.n_coils = c = len(mem.m)
         self._regs_native = np.frombuffer(mem.mw.buf, np.uint16)
@@ -101,6 +105,28 @@ class ModbusImage:
         self.coils = bytearray(c)
         self.writes_applied = 0
         self.take_snapshot()
+
+    def check_values(self, ranges: list[tuple[int, int]], refusal: ValueCheck) -> None:
+        """Ask `refusal(kind, index, value)` about every %MF a host's register write
+        covers whole inside `ranges` ([start, stop): %MF values from `start`, a device's
+        `word_check`): a refused value is answered with exception 03 and not queued. A
+        write of one register of such a float cannot be judged alone: it is queued (the
+        device refuses the value it makes at its scan, as it always did)."""
+        self.value_checks += [(lo, hi, refusal) for lo, hi in ranges]
+
+    def refusal(self, addr: int, wire: bytes | bytearray) -> str | None:
+        """Why a device refuses a write of big-endian register bytes at `addr`."""
+        end = addr + len(wire) // 2
+        for lo, hi, refusal in self.value_checks:
+            first = max(lo, addr)
+            first += (first - lo) % 2  # the first %MF starting inside the write
+            for i in range(first, min(hi, end) - 1, 2):
+                fam = WordFamily(WIDTH["MF"])
+                fam.buf[:] = wire_to_words(wire[2 * (i - addr):2 * (i - addr) + 4])
+                why = refusal("MF", i, fam.get_f(0))
+                if why:
+                    return why
+        return None
 
     def protect(self, extra: ReadOnly) -> None:
         """Add read-only ranges (e.g. a device's status words) to those of the config."""
@@ -241,7 +267,11 @@ class ModbusImage:
         """Write %MW`addr`.. (16-bit values, signed or not) at the next scan start."""
         vals = [int(v) & 0xFFFF for v in values]
         self.check_write(REGISTERS, addr, len(vals))
-        self.queue_registers(addr, pack(f">{len(vals)}H", *vals))
+        wire = pack(f">{len(vals)}H", *vals)
+        why = self.refusal(addr, wire) if self.value_checks else None
+        if why:
+            raise WriteRefused(why, ExceptionCode.ILLEGAL_DATA_VALUE)
+        self.queue_registers(addr, wire)
 
     def write_bits(self, addr: int, values: Iterable[int | bool]) -> None:
         """Write %M`addr`.. at the next scan start."""

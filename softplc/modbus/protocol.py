@@ -106,6 +106,8 @@ def _write_multiple_registers(img: ModbusImage, pdu: bytes) -> bytes:
         return exception(16, ILLEGAL_VALUE)
     if addr + qty > img.n_registers or img.read_only.blocks(REGISTERS, addr, qty):
         return exception(16, ILLEGAL_ADDRESS)
+    if img.value_checks and img.refusal(addr, pdu[6:]):  # a value a device refuses
+        return exception(16, ILLEGAL_VALUE)
     img.queue_registers(addr, pdu[6:])
     return pdu[:5]
 
@@ -122,6 +124,8 @@ def _read_write_registers(img: ModbusImage, pdu: bytes) -> bytes:
     if raddr + rqty > img.n_registers or waddr + wqty > img.n_registers \
             or img.read_only.blocks(REGISTERS, waddr, wqty):
         return exception(23, ILLEGAL_ADDRESS)
+    if img.value_checks and img.refusal(waddr, pdu[10:]):
+        return exception(23, ILLEGAL_VALUE)
     data = img.read_registers_wire(raddr, rqty)
     img.queue_registers(waddr, pdu[10:])
     return bytes((23, 2 * rqty)) + data

@@ -201,6 +201,13 @@ class Plant:
 
     def step(self) -> None:
         """Move to the next instant anything is due and run it (the module's order)."""
+        for c in self.begin_step():
+            c.plc.engine.scan()
+
+    def begin_step(self) -> list[Controller]:
+        """Move to the next instant anything is due and run all of it but the scans
+        (steps 1-4); the controllers whose scan is due, in the file's order (the debugger
+        runs those scans itself, to stop inside one)."""
         t = self.next_time()
         if t >= NEVER:
             raise PlantStateError("nothing left to run: every controller is off")
@@ -218,9 +225,7 @@ class Plant:
             if t >= link.next_us:
                 self._link_cycle(link)
                 link.next_us += link.cycle_us
-        for c in self.controllers.values():
-            if c.alive and c.plc.clock.now_us <= t:
-                c.plc.engine.scan()
+        return [c for c in self.controllers.values() if c.alive and c.plc.clock.now_us <= t]
 
     def _link_cycle(self, link: Link) -> None:
         link.cycles += 1

@@ -128,7 +128,8 @@ class MemoryImage:
         try:
             return self.blocks[ref.kind][ref.index]
         except KeyError:
-            raise AddressError(f"%{ref.kind}{ref.index} is not configured") from None
+            raise AddressError(f"{ref.label + ': ' if ref.symbol else ''}%{ref.kind}{ref.index} "
+                               f"is not configured") from None
 
     def _effective_index(self, ref: Ref) -> int:
         idx = ref.index
@@ -175,7 +176,7 @@ class MemoryImage:
                 b.set_bit(ref.bit, value)
                 return
             if ref.field is None or ref.field == "J":
-                raise AddressError(f"{ref} cannot be written")
+                raise AddressError(f"{ref.label} cannot be written")
             v = int(value)
             if BLOCK_FIELDS[ref.kind][ref.field][0] == "int16":
                 v = wrap16(v)  # a word (%VFCi.S0 := 40000 from the API is 16#9C40)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 from softplc.runtime.memory import MemoryImage
 from softplc.twido.address import LINK_STATIONS, LINK_WORDS, remote_io_slot
@@ -134,7 +134,7 @@ class LinkMaster(LinkStation):
         error = ERR_NONE
         for a, role in self.remotes.items():
             reply = None if self.transport is None else \
-                self.transport.poll(a, self._request(a, role))
+                self.transport.poll(a, self.request(a, role))
             if reply is not None and reply.role != role:
                 error = ERR_MISMATCH
                 reply = None
@@ -156,12 +156,20 @@ class LinkMaster(LinkStation):
                 self.mem.i_field[first:first + n] = reply.inputs[:n]
         self.mem.sw.uw[SW_LINK_ERROR] = error
 
-    def _request(self, a: int, role: str) -> Request:
+    def request(self, a: int, role: str) -> Request:
+        """The poll for remote `a` from the memory as it stands (the last scan's)."""
         if role == REMOTE_IO:  # the outputs the last scan published
             first = remote_io_slot(self.mem.profile, a)
             return Request(outputs=tuple(
                 self.mem.q_field[first:first + self.mem.profile.outputs_base]))
         return Request(self._words("qnw", a))
+
+    def state(self) -> dict[str, Any]:
+        """What a link cycle changes here besides memory (for the debugger's `back`)."""
+        return {"missed": dict(self.missed), "cycles": self.cycles}
+
+    def set_state(self, st: dict[str, Any]) -> None:
+        self.missed, self.cycles = dict(st["missed"]), st["cycles"]
 
     def present(self, address: int) -> bool:
         return bool(self.mem.sw.uw[SW_LINK_STATUS] >> (address - 1) & 1)
@@ -188,10 +196,23 @@ class LinkRemote(LinkStation):
             if request is not None:
                 n = min(len(request.outputs), mem.profile.outputs_base)
                 mem.q[:n] = mem.q_field[:n] = request.outputs[:n]
-            return Reply(self.role, inputs=tuple(mem.i_field[:mem.profile.inputs_base]))
+            return self.reply()
         if request is not None:
             self._put("inw", MASTER, request.words)
+        return self.reply()
+
+    def reply(self) -> Reply:
+        """What this remote answers from its memory as it stands, changing nothing."""
+        if self.role == REMOTE_IO:
+            return Reply(self.role, inputs=tuple(self.mem.i_field[:self.mem.profile.inputs_base]))
         return Reply(self.role, self._words("qnw", MASTER))
+
+    def state(self) -> dict[str, Any]:
+        """What a link cycle changes here besides memory (for the debugger's `back`)."""
+        return {"missed": self.missed, "polled": self.polled}
+
+    def set_state(self, st: dict[str, Any]) -> None:
+        self.missed, self.polled = st["missed"], st["polled"]
 
     def tick(self) -> None:
         self.missed = 0 if self.polled else min(MISSES, self.missed + 1)
@@ -240,6 +261,15 @@ class InMemoryTransport:
 
     def mend(self, address: int) -> None:
         self.lines[address].broken = False
+
+    def state(self) -> dict[int, tuple[Any, ...]]:
+        """Each line's endpoint, delay, break and words in flight (for `back`)."""
+        return {a: (ln.remote, ln.delay, ln.broken, tuple(ln.to_remote), tuple(ln.to_master))
+                for a, ln in self.lines.items()}
+
+    def set_state(self, st: dict[int, tuple[Any, ...]]) -> None:
+        for a, (remote, delay, broken, to_remote, to_master) in st.items():
+            self.lines[a] = _Line(remote, delay, broken, deque(to_remote), deque(to_master))
 
     def remotes(self) -> list[LinkRemote]:
         return [ln.remote for ln in self.lines.values() if ln.remote is not None]

@@ -92,6 +92,12 @@ class Ref:
         return replace(self, symbol=name)
 
     @property
+    def label(self) -> str:
+        """`MOTOR(%Q0.0)` when the object has its symbol attached, else `%Q0.0`: how
+        messages and tables name an object (the address alone stays its identity)."""
+        return f"{self.symbol}({self})" if self.symbol else str(self)
+
+    @property
     def type(self) -> str:
         if self.bit is not None:
             return BOOL

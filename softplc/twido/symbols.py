@@ -44,6 +44,11 @@ RESERVED = frozenset("""
     END_BLK IN CU CD U I O Q D E F POST REM SECTION
 """.split()) | set(catalog.by_instruction())  # and the block instructions (`[ PID n ]`)
 _NUMBERED_KEYWORD = re.compile(r"^(SR|EXCH)\d+$", re.I)
+# A name and what may follow it where an address stands: .FIELD, :Xk, :N, [INDEX]
+# (the suffixes of an address, softplc.twido.address). The index is bounded like a name.
+_NAMED = re.compile(r"""(?P<name>[A-Za-z_][A-Za-z0-9_]{0,31})
+    (?P<suffix>(?P<pre>(?:\.[A-Za-z]{1,3}\d{0,3})?(?::X?\d{1,5})?)
+               (?:\[(?P<index>%?[A-Za-z_][A-Za-z0-9_]{0,31})\])?)$""", re.X)
 CSV_HEADER = ("Address", "Symbol", "Comment")
 
 
@@ -116,14 +121,17 @@ class SymbolTable:
         return f" (did you mean {self._by_name[close[0]].name}?)" if close else ""
 
     def address_of(self, text: str) -> str:
-        """The address a name (or NAME.FIELD for a block's field) stands for; AddressError
-        naming the closest symbol if it is unknown. Text starting with % is returned as
-        is."""
+        """The address text a name stands for, with what follows it: `STAR_TIME.Q` (a block's
+        field), `STATE:X3` (a bit of a word), `STARTS:4` (a range from the symbol's object),
+        `TABLE[INDEX]` (indexed, the index a symbol or an address). Text starting with % is
+        returned as is. The one resolver of names: the parser, `plc[...]`, the REPL,
+        `softplc io`, the access port and the verifier all come here. AddressError naming
+        the closest symbol if a name is unknown."""
         text = text.strip()
         if text.startswith("%"):
             return text
-        name, dot, field = text.partition(".")
-        s = self.get(name)
+        m = _NAMED.match(text)
+        s = self.get(m["name"]) if m is not None else None
         if s is None:
             try:  # `I0.0`, `MW3`: an address without its %
                 parse_address("%" + text, self.profile)
@@ -132,19 +140,38 @@ class SymbolTable:
             else:
                 raise AddressError(f"{text!r} is no address (they start with %) and no "
                                    f"declared symbol: did you mean %{text}?")
+        if m is None:
+            raise AddressError(f"{text!r} is neither an address (they start with %: %MW3, "
+                               f"%I0.0...) nor a symbol (a name, with .FIELD, :N, :Xk or "
+                               f"[INDEX] after it)")
+        name, suffix = m["name"], m["suffix"]
+        if s is None:
             if self:
-                raise AddressError(f"unknown symbol {text!r}{self.suggest(name)}")
+                raise AddressError(f"unknown symbol {name!r}{self.suggest(name)}")
             raise AddressError(f"{text!r} is neither an address (addresses start with %: "
                                f"%MW3, %I0.0...) nor a symbol (none is declared: [symbols] "
                                f"in the configuration)")
-        return s.address + dot + field
+        if m["index"] is not None:  # TABLE[INDEX]: the index may be a symbol too
+            suffix = f"{m['pre'] or ''}[{self.address_of(m['index'])}]"
+        return s.address + suffix
+
+    def label(self, ref: Ref | str) -> str:
+        """`MOTOR(%Q0.0)` for an object with a symbol, else its address (`Ref.label` with
+        this table's name attached): how messages, test output and tables name it."""
+        if isinstance(ref, str):
+            try:
+                ref = parse_address(ref, self.profile)
+            except AddressError:
+                return ref
+        return self.attach(ref).label
 
     def ref(self, text: str) -> Ref:
         """The object named by an address or a symbol, its symbol attached."""
         return self.attach(parse_address(self.address_of(text), self.profile))
 
     def name_of(self, ref: Ref) -> str | None:
-        """The symbol of an object: its own, or its block's with the field (TIMER1.Q)."""
+        """The symbol of an object: its own, its block's with the field (TIMER1.Q), or its
+        word's with the bit (STATE:X3)."""
         s = self._by_address.get(str(ref))
         if s is not None:
             return s.name
@@ -152,6 +179,10 @@ class SymbolTable:
             base = self._by_address.get(str(Ref(ref.kind, ref.index)))
             if base is not None:
                 return f"{base.name}.{ref.field}"
+        if ref.bit is not None and ref.field is None:  # STATE:X3, a bit of a named word
+            base = self._by_address.get(str(Ref(ref.kind, ref.index)))
+            if base is not None:
+                return f"{base.name}:X{ref.bit}"
         return None
 
     def comment_of(self, ref: Ref) -> str:

@@ -82,6 +82,7 @@ class Checker:
         self.pre = {k: z3.Const(f"{k}@cone", sort_of(s)) for k, s in self.keys.items()}
         self.inp = self.model.fresh("cone")[1]
         self.post: dict[str, Any] | None = None
+        self.lemma_ids: list[int] = []  # `candidates` proven inductive (`lemmas.houdini`)
         self._slice()
 
     def _slice(self) -> None:
@@ -132,6 +133,8 @@ class Checker:
 
     def assumed(self, post: dict[str, Any], inp: dict[str, Any]) -> list[Any]:
         out = self.model.input_constraints(inp)
+        if "_facts" in post:  # abstracted float functions: what is known of their values
+            out.append(post["_facts"])
         for a in self.spec.assumptions:
             out.append(as_bool(evaluate(Z3Domain, a, self.read(post))))
         return out
@@ -181,6 +184,27 @@ class Checker:
             out = [out[i] for i in self.kept]
         if self.monitor:
             out.append(z3.ULE(st["_mon"], self.n + 1))
+        if self.lemma_ids:  # the candidate invariants found inductive (`lemmas.houdini`)
+            cands = self.candidates(st)
+            out += [cands[i] for i in self.lemma_ids]
+        return out
+
+    def candidates(self, st: dict[str, Any]) -> list[Any]:
+        """The model's candidate invariants (`lemmas`) over the timers in the cone."""
+        from softplc.verify.lemmas import timer_candidates
+        timers = {n: t for n, t in self.model.timers.items()
+                  if all(f"{n}.{f}" in self.keys for f in ("Q", "V", "P", "_in"))}
+        out = timer_candidates(st, timers)
+        init = self.model.init_state()
+        # presets the program never writes keep their configured value
+        out += [st[k] == init[k] for k in sorted(self.keys)
+                if k.endswith(".P") and k not in self.model.written and k in init]
+        if self.monitor and "_prev" in st and all(
+                r.kind not in ("I", "IW", "INW") and f"{r}" in self.keys
+                for r in _refs_of(self.req.cond)):
+            # the trigger's last value is the trigger on the state (it reads no input)
+            out.append(st["_prev"] == as_bool(evaluate(Z3Domain, self.req.cond,
+                                                        self.read(st))))
         return out
 
 
@@ -214,3 +238,10 @@ def _reads(term: Any, names: dict[str, str]) -> set[str]:
         else:
             todo.extend(t.children())
     return out
+
+
+def _refs_of(n: Node) -> list[Ref]:
+    """The objects an expression reads."""
+    if n.op == "addr":
+        return [n.args[0]]
+    return [r for a in n.args if isinstance(a, Node) for r in _refs_of(a)]

@@ -25,6 +25,7 @@ from typing import Any
 
 import z3
 
+from softplc.verify.cegar import confirmed, engine_run, exclusion, given_inputs, real_inputs
 from softplc.verify.checker import Checker
 from softplc.verify.clock import Clock, TimeUp
 from softplc.verify.defaults import DEPTH, MAX_K, TIMEOUT_S
@@ -84,8 +85,11 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
     object the model has, from the whole model run on the inputs (the solver saw only the
     requirement's cone of influence)."""
     from softplc.twido.address import parse_address
-    given = [{k: value_of(model, v) for k, v in inp.items()} for inp in u.inputs]
+    given = given_inputs(u.inputs, model)
     every = run_concrete(ck.model, given)
+    if ck.model.abstract.ranges:  # the values are the engine's (it confirmed the run)
+        every = engine_run(ck.model, ck.req.text,
+                           [real_inputs(ck.model, g) for g in given])[1]
     rows = []
     for raw, post, objects in zip(given, u.posts, every, strict=True):
         rd = ck.read(post)
@@ -93,13 +97,17 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
         for a in watch:
             ref = parse_address(a, ck.model.plc.profile)
             values[a] = value_of(model, rd(ref))
-        ins = dict(raw)
-        if "_dt" in ins:  # a variable period: this scan's, in ms
-            p = ins.pop("_dt") * ck.model.period_us / 1000
-            ins["period_ms"] = int(p) if p == int(p) else p
-        rows.append({"inputs": ins,
-                     "values": values, "objects": objects})
+        ins = real_inputs(ck.model, raw)
+        if ck.model.abstract.ranges:
+            values = {a: objects.get(a, values[a]) for a in values}
+        rows.append({"inputs": ins, "values": values, "objects": objects})
     return rows
+
+
+def _loop_hit(s: z3.Solver, post: dict[str, Any]) -> bool:
+    """The solver's run has a loop past the passes unrolled (not a counterexample)."""
+    return "_loop" in post and z3.is_true(s.model().eval(post["_loop"],
+                                                         model_completion=True))
 
 
 def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
@@ -110,15 +118,29 @@ def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
     t0 = time.monotonic()
     s = z3.Solver()
     u = _Unroll(ck, s, ck.init(), "b")
+    spurious = 0
     for d in range(depth):
         if stop is not None and stop():
             return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
         clock.doing = f"BMC at scan {d + 1}"
         post = u.extend()
         bad = z3.Not(ck.holds(post))
+        abstract = bool(ck.model.abstract.ranges)
+        if abstract:  # exclusions hold at this depth only: a longer run may still fail
+            s.push()
         r = clock.check(s, bad, what="")
-        if r == z3.sat:
-            m = s.model()
+        while r == z3.sat and abstract and not _loop_hit(s, post) \
+                and not confirmed(ck.model, ck.req.text, given_inputs(u.inputs, s.model())):
+            spurious += 1  # the abstraction allowed it, the engine does not: refine
+            s.add(exclusion(ck.model, u.inputs, s.model()))
+            clock.doing = (f"BMC at scan {d + 1}, refining the abstractions "
+                           f"({spurious} counterexample(s) the engine did not confirm "
+                           "excluded)")
+            r = clock.check(s, bad, what="")
+        m = s.model() if r == z3.sat else None
+        if abstract:
+            s.pop()
+        if m is not None:
             if "_loop" in post and z3.is_true(m.eval(post["_loop"], model_completion=True)):
                 return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
                               note=ck.model.loops.note(d + 1))
@@ -318,6 +340,9 @@ def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],
             use_spacer: bool, progress: Progress | None) -> Result:
     if not invariants_inductive(ck, clock):  # pragma: no cover - a modelling bug
         ck.invariants = lambda st: []  # type: ignore[method-assign]  # prove without them
+    elif ck.candidates(ck.init()):  # the timers' facts, kept where inductive
+        from softplc.verify.lemmas import houdini
+        ck.lemma_ids = houdini(ck, clock)
     # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),
     # started once 1-induction has failed: most simple requirements end there
     child: list[Spacer] = []

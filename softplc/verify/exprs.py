@@ -30,6 +30,8 @@ from softplc.twido.semantics import (
     negate,
     shift,
 )
+from softplc.verify import floats
+from softplc.verify.abstract import SITE
 from softplc.verify.symbolic import Z3Domain, wide
 
 # the integer functions modelled exactly (each a rule in `semantics`)
@@ -56,6 +58,14 @@ class ExprModel:
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None: ...
     def key_for(self, ref: Ref) -> str: ...
     def write_bit(self, ref: Ref, g: Any, value: Any, pos: A.Pos | None) -> None: ...
+    def run_exch(self, stmt: A.ExchCall, g: Any) -> None: ...
+    def put_word(self, ref: Ref, g: Any, v: Any, pos: A.Pos | None) -> None: ...
+    def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None: ...
+    def mark_written(self, key: str, pos: A.Pos | None) -> None: ...
+    facts: list[Any]
+    st: dict[str, Any]
+    inp: dict[str, Any]
+    def run_called(self, stmt: A.BlockCall, g: Any) -> bool: ...
 
     def operand(self, op: Any, blk: Ref | None, g: Any) -> Any:
         if op is None:
@@ -70,9 +80,8 @@ class ExprModel:
             return self.read_bit(Ref(blk.kind, blk.index, field=op.name), op.pos)
         if isinstance(op, A.Compare):
             (a, ta), (b, tb) = self.pair(op.left, op.right, None, g)
-            if REAL in (ta, tb):
-                self.unsupported("floating-point comparisons", op.pos, "")
-                return z3.BoolVal(False)
+            if REAL in (ta, tb):  # one side not a float: already reported
+                return floats.compare(op.op, a, b) if ta == tb else z3.BoolVal(False)
             return CMP[op.op](a, b)
         self.unsupported("this operand", getattr(op, "pos", None), "")
         return z3.BoolVal(False)
@@ -81,8 +90,7 @@ class ExprModel:
         """(wide term, type) of an expression; faults set %S18 where g holds."""
         if isinstance(e, A.Num):
             if e.is_float or want == REAL:
-                self.unsupported("floating-point values", e.pos, e.text)
-                return wide(0), REAL
+                return floats.const(float(e.value)), REAL
             v = int(e.value)
             if e.text.startswith(("#", "16#")) and want != INT32 and 0x8000 <= v <= 0xFFFF:
                 v -= 0x10000  # hex word constants are bit patterns
@@ -92,15 +100,21 @@ class ExprModel:
             return self.read_word(e.ref, e.pos, g)
         if isinstance(e, A.Neg):
             v, t = self.expr(e.operand, want, g)
+            if t == REAL:
+                return z3.fpNeg(v), REAL
             r, f = negate(Z3Domain, v, 16 if t == INT16 else 32)
             self.fault(g, f)
             return r, t
         if isinstance(e, A.BinOp):
             (a, ta), (b, tb) = self.pair(e.left, e.right, want, g)
             t = ta if ta == tb else INT32
+            if REAL in (ta, tb) and ta != tb:  # a side already reported
+                return floats.const(0.0), REAL
             if REAL in (ta, tb):
-                self.unsupported("floating-point arithmetic", e.pos, e.op)
-                return wide(0), REAL
+                r, faults = floats.binop(e.op, a, b)
+                for c, kind in faults:
+                    self.float_fault(g, c, kind)
+                return r, REAL
             if e.op in ("AND", "OR", "XOR"):
                 return (a & b if e.op == "AND" else a | b if e.op == "OR" else a ^ b), t
             r, f = arith(Z3Domain, ARITH_OPS[e.op], a, b, 16 if t == INT16 else 32)
@@ -125,6 +139,10 @@ class ExprModel:
         """The integer functions with a bit-vector rule in `semantics`, typed as
         `ValueCompiler.call` (argument hints from `FUNCTIONS`, "same" result type)."""
         f = e.func
+        if f in FUNCTIONS and len(e.args) == len(FUNCTIONS[f][0]) and (
+                REAL in FUNCTIONS[f][0] or FUNCTIONS[f][1] == REAL or want == REAL
+                and f in ("ABS", "SQRT")):
+            return self.real_call(e, want, g)
         if f not in INT_FUNCS or f not in FUNCTIONS or len(e.args) != len(FUNCTIONS[f][0]):
             self.unsupported(f"the function {f}", e.pos, f)
             return wide(0), want or INT16
@@ -132,8 +150,7 @@ class ExprModel:
         args = [self.expr(a, p if p in (INT16, INT32, REAL) else want, g)
                 for p, a in zip(params, e.args, strict=True)]
         if any(t == REAL for _, t in args):
-            self.unsupported("floating-point functions", e.pos, f)
-            return wide(0), REAL
+            return self.real_call(e, want, g)
         (v, t), bits = args[0], 16 if args[0][1] == INT16 else 32
         rtype = t if result == "same" else result
         D = Z3Domain
@@ -169,6 +186,11 @@ class ExprModel:
             self.fault(g, f)
             self.store_word(stmt.target, g, r, t, stmt.pos)
             return
+        if isinstance(stmt, A.ExchCall):
+            self.run_exch(stmt, g)
+            return
+        if isinstance(stmt, A.BlockCall) and self.run_called(stmt, g):
+            return
         if not isinstance(stmt, A.Assign):
             what = stmt.keyword if isinstance(stmt, A.BlockCall) else "EXCH"
             self.unsupported(f"{what} (its effect is outside the program)", stmt.pos, what)
@@ -176,6 +198,12 @@ class ExprModel:
         ref = stmt.target
         if ref.length is not None and ref.offset is None:
             self.table_assign(ref, stmt.expr, g, stmt.pos)
+            return
+        if ref.type == REAL and ref.length is None and ref.offset is None \
+                and ref.kind == "MF":
+            v, t = self.expr(stmt.expr, REAL, g)
+            if t == REAL:  # else a part was reported
+                self.store_real(ref, g, v, stmt.pos)
             return
         if ref.length is not None or ref.type == REAL:
             self.unsupported("floating-point values" if ref.type == REAL else
@@ -217,3 +245,55 @@ class ExprModel:
             self.write_bit(ref, g, v, pos)
         else:
             self.store_word(ref, g, v, INT16, pos)
+
+    # ---- floats (`floats`) --------------------------------------------------------------
+    def real_call(self, e: A.Call, want: str | None, g: Any) -> tuple[Any, str]:
+        """A function on or to floats: exact where `floats` has a rule, else abstracted."""
+        f = e.func
+        params, result = FUNCTIONS[f]
+        args = [self.expr(a, p if p in (INT16, INT32, REAL) else want, g)
+                for p, a in zip(params, e.args, strict=True)]
+        (x, t) = args[0]
+        if f in ("INT_TO_REAL", "DINT_TO_REAL"):
+            return floats.from_int(x), REAL
+        if f in ("REAL_TO_INT", "REAL_TO_DINT"):
+            if t != REAL:  # the argument was reported
+                return wide(0), result
+            bits = 16 if result == INT16 else 32
+            v, fault = floats.to_int(x, bits)
+            self.fault(g, fault)
+            return v, result
+        if t != REAL or any(ta != REAL for _, ta in args):
+            self.unsupported(f"the function {f} on these types", e.pos, f)
+            return (floats.const(0.0), REAL) if result == REAL else (wide(0), want or INT16)
+        exact = floats.exact_function(f, x)
+        if exact is not None:
+            r, faults = exact
+        else:  # abstracted: fresh, within what is known of the function
+            key = f"{f}{SITE}{e.pos.line}:{e.pos.column}"
+            self.abstract.ranges.setdefault(key, ("f64", 0, 0))
+            self.abstract.note(f, e.pos)
+            self.add_input(key, "f64")
+            self.add_input(key + "!", "bool")
+            r, fault = self.inp[key], self.inp[key + "!"]
+            self.abstract.ranges.setdefault(key + "!", ("bool", 0, 1))
+            self.facts += floats.abstract_function(f, [a for a, _ in args], r, fault)
+            faults = [(fault, floats.FLOAT_INVALID)]
+        for c, kind in faults:
+            self.float_fault(g, c, kind)
+        return r, REAL
+
+    def store_real(self, ref: Ref, g: Any, v: Any, pos: A.Pos | None) -> None:
+        """`%MFi := v`: rounded to a single in %MWi (low half) and %MWi+1 (`Ops.stf`)."""
+        bits, over = floats.to_single(v)
+        self.float_fault(g, over, floats.FLOAT_OVERFLOW)
+        self.put_word(Ref("MW", ref.index), g, z3.Extract(15, 0, bits), pos)
+        self.put_word(Ref("MW", ref.index + 1), g, z3.Extract(31, 16, bits), pos)
+
+    def float_fault(self, g: Any, c: Any, kind: int) -> None:
+        """%S18 and %SW17's bit `kind` where a float rule faulted (`Ops._float_fault`)."""
+        self.fault(g, c)
+        key = self.key_for(Ref("SW", floats.SW_FLOAT))
+        self.mark_written(key, None)
+        w = self.st[key]
+        self.st[key] = z3.simplify(z3.If(z3.And(g, c), w | kind, w))

@@ -24,6 +24,8 @@ from softplc.il import ast as A
 from softplc.il import rungtree
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido.address import BOOL, Ref
+from softplc.verify import environment
+from softplc.verify.abstract import Abstractions
 from softplc.verify.blocks import apply, sort_name
 from softplc.verify.defaults import LOOP_BOUND
 from softplc.verify.loops import Loops
@@ -42,6 +44,8 @@ class Var:
 def sort_of(sort: str) -> Any:
     if sort == "arr":  # the %MW words, by word number
         return z3.ArraySort(z3.BitVecSort(16), z3.BitVecSort(16))
+    if sort == "f64":  # an abstracted float function's value (`floats`)
+        return z3.Float64()
     if sort.startswith("bv"):
         return z3.BitVecSort(int(sort[2:]))
     return {"bool": z3.BoolSort(), "w16": z3.BitVecSort(16), "t": z3.BitVecSort(32)}[sort]
@@ -76,13 +80,18 @@ class Model(ObjectModel):
     """The transition relation of `plc`'s program (a loaded `PLC`, cold-started)."""
 
     def __init__(self, plc: Any, reads: list[Ref] = (), host: list[Ref] = (),
-                 periods: tuple[int, int] | None = None, loop_bound: int = LOOP_BOUND):
+                 periods: tuple[int, int] | None = None, loop_bound: int = LOOP_BOUND,
+                 held: list[Ref] = (), devices: dict[str, list[tuple[int, int]]] | None = None):
         """`reads`: objects requirements read (modelled even if the program does not use
         them); `host`: objects the environment sets at the start of every scan;
         `periods`: (shortest, longest) scan period in us when any period in between (a
         multiple of the shortest) may occur in each scan, as in cyclic mode;
         `loop_bound`: passes of a backward jump (a loop) unrolled in one scan (beyond it
-        the key `_loop` is true after the scan: checkers treat it as unknown)."""
+        the key `_loop` is true after the scan: checkers treat it as unknown);
+        `held`: objects kept at their cold-start value although a host may write them;
+        `devices`: the %MW ranges each simulated device writes (`Device.read_only_words`;
+        None: those of `plc`'s devices). Objects the program reads and never writes that a
+        host or a device may write are free in every scan (`environment`: `self.env`)."""
         super().__init__(plc)
         self.loops = Loops(loop_bound, plc.ast.file)
         self.edge_keys: dict[int, str] = {}  # id of an edge instruction -> its key
@@ -99,6 +108,7 @@ class Model(ObjectModel):
             self.add_input("_dt", "w16", 1, self.longest_us // self.period_us)
         self.used: dict[str, tuple[Any, Any]] = {}  # the blocks modelled
         self.outs: dict[str, list[str]] = {}
+        self.abstract = Abstractions()
         self.written: dict[str, A.Pos] = {}  # keys the program writes, where first
         self.grafcet = any(isinstance(i, A.Grafcet) for r in plc.ast.rungs
                            for i in r.instructions)
@@ -109,8 +119,21 @@ class Model(ObjectModel):
         self.mw_array = any(r.offset is not None and r.kind in ("MW", "MD")
                             for r in _refs(plc.ast.rungs))
         self.mw_named: set[int] = set()
-        # discovery: run the scan on lazily created variables until no new key appears
+        # discovery: run the scan on lazily created variables until no new key appears,
+        # then again with the objects the environment writes as inputs (`environment`)
         self.discovering = True
+        who = environment.of_plc(plc, devices)
+        held_keys, declared = {str(r) for r in held}, set(self.host)
+        while True:
+            self._discover(plc, reads)
+            self.env = environment.decide(plc.ast, self.written, who, held_keys, declared)
+            extra = set(self.env.free) - self.host
+            if not extra:
+                break
+            self.host |= extra
+        self.discovering = False
+
+    def _discover(self, plc: Any, reads: list[Ref]) -> None:
         n = -1
         while n != len(self.vars) + len(self.inputs):
             n = len(self.vars) + len(self.inputs)
@@ -126,7 +149,6 @@ class Model(ObjectModel):
             self.scan(pre, self.inp)
             if self.problems:
                 raise VerifyError(sorted(set(self.problems), key=lambda d: (d.line, d.column)))
-        self.discovering = False
 
     # ---- variables ----------------------------------------------------------------------
     def declare(self, key: str, suffix: str = "") -> Any:
@@ -143,6 +165,8 @@ class Model(ObjectModel):
             return sort_name(self.block_fields(key.split(".")[0])[blk[3]])
         if key == "_tmod":
             return "t"
+        if key in self.abstract.ranges:
+            return self.abstract.ranges[key][0]
         if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
             return "bool"
         return "w16"
@@ -192,7 +216,10 @@ class Model(ObjectModel):
     def const(sort: str, v: int) -> Any:
         if sort == "arr":  # every word 0 after a cold start
             return z3.K(z3.BitVecSort(16), z3.BitVecVal(v, 16))
-        return z3.BoolVal(bool(v)) if sort == "bool" else z3.BitVecVal(v, sort_of(sort).size())
+        if sort == "f64":
+            return z3.FPVal(float(v), z3.Float64())
+        return z3.BoolVal(bool(v)) if sort == "bool" else \
+            z3.BitVecVal(int(v), sort_of(sort).size())
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
         """Range facts true by construction in every reachable state (see `blocks`)."""
@@ -230,6 +257,9 @@ class Model(ObjectModel):
             if self.discovering:
                 _ = st[k]
             st[k] = inp[k]
+        if self.discovering:
+            self.pulse_outputs()
+        self.abstract_scan_start()
         self.live: Any = z3.BoolVal(True)
         self.executed: dict[str, Any] = {}
         self.ga: dict[int, Any] = {}
@@ -238,10 +268,12 @@ class Model(ObjectModel):
         self.frozen: Any = z3.BoolVal(False)
         self.calls: list[int] = []
         self.overflow: Any = z3.BoolVal(False)
+        self.facts: list[Any] = []  # what is known of abstracted float functions' values
         self.post_done = False
         self.function(self.plc.ast.main, main=True)
         if self.grafcet and not self.post_done:
             self.post(self.live)
+        self.abstract_after_program()
         if self.conditional:  # blocks not executed that go on (timers keep timing)
             for name, (model, _b) in self.used.items():
                 held = model.held(self.block_view(name))
@@ -262,6 +294,8 @@ class Model(ObjectModel):
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
+        if self.facts:
+            out["_facts"] = z3.simplify(z3.And(self.facts))
         if self.loops.sites:  # a loop ran past the unrolled passes in this scan
             out["_loop"] = z3.simplify(self.overflow)
         out.update({k: v for k, v in inp.items() if k not in st})  # %I, %IW: as latched
@@ -504,7 +538,9 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
     st = model.init_state()
     out = []
     for given in scans:
-        inp = {k: model.const(sort, int(given.get(k, lo if sort == "w16" else 0)))
+        # an object the environment may write and did not: it keeps its value
+        inp = {k: model.const(sort, given.get(k, lo if sort == "w16" else 0))
+               if k in given or k not in model.env.free else _current(model, st, k)
                for k, (sort, lo, _hi) in model.inputs.items()}
         post = model.scan(st, inp)
         post = {k: z3.simplify(v) for k, v in post.items()}
@@ -520,6 +556,13 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
                 values[f"%MW{i}"] = value_of(m, z3.Select(post[MW_ARRAY], i))
         out.append(values)
     return out
+
+
+def _current(model: Model, st: dict[str, Any], key: str) -> Any:
+    """A state key's value in `st` (a %MW word: in the array when the program indexes)."""
+    if key in st:
+        return st[key]
+    return z3.Select(st[MW_ARRAY], z3.BitVecVal(int(key[3:]), 16))
 
 
 def _refs(node: Any) -> list[Ref]:

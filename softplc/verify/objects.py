@@ -15,7 +15,9 @@ from softplc.il import ast as A
 from softplc.runtime.blocks import MAX_VALUE
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido import catalog
-from softplc.twido.address import INT16, INT32, REAL, Ref
+from softplc.twido.address import BLOCK_FIELDS, INT16, INT32, REAL, Ref
+from softplc.verify import floats
+from softplc.verify.abstract import AbstractModel
 from softplc.verify.blocks import apply, view
 from softplc.verify.exprs import ExprModel
 from softplc.verify.requirements import INDEXED_WORDS
@@ -27,9 +29,15 @@ CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
 # the modelled families: those whose catalog entry names a verify model (softplc/blocks/)
 MODELLED = {f.kind: f for f in catalog.FAMILIES.values() if f.verify}
 BLOCK_KEY = re.compile(rf"%({'|'.join(MODELLED)})(\d+)\.(\w+)$")  # a modelled block's field
+# the addressable blocks without a model: sound abstractions (`abstract`)
+ABSTRACTED = frozenset(BLOCK_FIELDS) - set(MODELLED)
 
 
-class ObjectModel(ExprModel):
+def abstracted(ref: Ref) -> bool:
+    return ref.kind in ABSTRACTED and ref.offset is None
+
+
+class ObjectModel(AbstractModel, ExprModel):
     """What `Model` reads and writes; `Model` supplies the state and the scan."""
 
     st: dict[str, Any]
@@ -58,6 +66,12 @@ class ObjectModel(ExprModel):
         model, blk = self.used[name]
         return model.fields(blk, self.scan_info())
 
+    @property
+    def timers(self) -> dict[str, Any]:
+        """The modelled blocks that count time (a time base), by name: what the timer
+        lemmas (`lemmas`) and the advice on depths read."""
+        return {n: b for n, (_m, b) in self.used.items() if hasattr(b, "base_us")}
+
     def block_view(self, name: str) -> dict[str, Any]:
         return view(self.st, name, self.block_fields(name), self.outs.get(name, ()))
 
@@ -82,6 +96,9 @@ class ObjectModel(ExprModel):
         return name
 
     def run_block(self, ref: Ref, g: Any, pins: dict[str, Any], pos: A.Pos | None) -> None:
+        if abstracted(ref):
+            self.run_abstract(ref, g, pos)
+            return
         name = self.use_block(ref, pos)
         if name is None:
             return
@@ -104,6 +121,9 @@ class ObjectModel(ExprModel):
     def run_pin(self, ref: Ref, pin: str, g: Any, v: Any, pos: A.Pos | None) -> None:
         """The short form (`CU %C0`, `U %DR0`): as `Block`'s generated pin methods, the
         edge inputs held at their last value, the level inputs at 0."""
+        if abstracted(ref):
+            self.run_abstract(ref, g, pos)
+            return
         name = self.use_block(ref, pos)
         if name is None:
             return
@@ -172,6 +192,8 @@ class ObjectModel(ExprModel):
         name = self.bit_object(ref, pos)
         if name is not None:
             return self.used[name][0].bit(Z3State, self.block_view(name), ref.bit)
+        if abstracted(ref) and ref.field is not None and ref.bit is None:
+            return self.read_abstract(ref)
         self.unsupported(f"reading {ref}", pos, str(ref))
         return z3.BoolVal(False)
 
@@ -191,6 +213,8 @@ class ObjectModel(ExprModel):
             for f in new:
                 self.mark_written(f"{name}.{f}", pos)
             apply(self.st, name, g, new)
+        elif abstracted(ref) and ref.field is not None:
+            self.run_abstract(Ref(ref.kind, ref.index), g, pos)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 
@@ -237,6 +261,13 @@ class ObjectModel(ExprModel):
         key = self.block_field(ref, 16)
         if key is not None:
             return (wide(self.st[key]) if key != "_none" else wide(0)), INT16
+        if abstracted(ref) and ref.field is not None and ref.type != REAL:
+            return wide(self.read_abstract(ref)), INT16
+        if k == "MF":
+            return floats.from_words(self.word(Ref("MW", ref.index)),
+                                     self.word(Ref("MW", ref.index + 1))), REAL
+        if k == "KF":
+            return floats.const(float(self.plc.mem.read(ref))), REAL
         if ref.type == REAL:
             self.unsupported("floating-point values", pos, str(ref))
         else:
@@ -269,6 +300,8 @@ class ObjectModel(ExprModel):
                 v = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
             if key != "_none":
                 self._put(key, g, narrow(v, 16), pos)
+        elif abstracted(ref) and ref.field is not None:
+            self.run_abstract(Ref(k, ref.index), g, pos)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
 

@@ -61,7 +61,7 @@ def first_failure(plc: Any, check: str, scans: list[dict[str, int]]) -> int | No
     each scan: the first scan (from 1) where it fails, or None."""
     def err(msg: str, col: int) -> SoftPLCError:
         return SoftPLCError(f"{check!r}: {msg} (column {col})")
-    req = parse_check(check, check, plc.profile, err)
+    req = parse_check(check, check, plc.symbols, err)  # names as written
     count, prev = 0, False
     n_resp = req.within if req.within >= 0 else (-req.within * 1000) // round(
         plc.scan_period * 1e6)
@@ -90,15 +90,62 @@ def write_cex(path: Path, program: Path, config: Path | None,
                                 "counterexamples": items}, indent=1) + "\n")
 
 
+MAX_CEX_BYTES = 16 * 1024 * 1024  # a cex.json read back (DEPTH scans write ~10 KB)
+MAX_CEX_SCANS = 5000  # scans of one counterexample (far beyond any --depth BMC reaches)
+MAX_CEX_INPUTS = 1000  # inputs set in one scan
+MAX_NAME = 40  # characters of an address or a symbol in a counterexample
+# a scan's length: %SW0 holds it in ms, a signed word (PLC.set_scan_period clamps to it)
+MAX_CEX_PERIOD_MS = 32767
+
+
+def _finite(text: str) -> float:
+    raise ValueError(f"{text} is not a finite number")
+
+
+def _check_cex(path: Path, items: Any) -> None:
+    """The shape `replay_hook` and the trace player rely on, or a clear error."""
+    if not isinstance(items, list) or not items:
+        raise SoftPLCError(f"{path}: no counterexample in it")
+    for i, it in enumerate(items, 1):
+        where = f"{path}: counterexample {i}"
+        if not isinstance(it, dict) or not isinstance(it.get("check"), str) \
+                or not isinstance(it.get("scans"), list) or not it["scans"]:
+            raise SoftPLCError(f"{where}: needs \"check\" (text) and \"scans\" (a list)")
+        if len(it["scans"]) > MAX_CEX_SCANS:
+            raise SoftPLCError(f"{where}: {len(it['scans'])} scans, at most {MAX_CEX_SCANS}")
+        if not isinstance(it.get("requirement", ""), str):
+            raise SoftPLCError(f"{where}: \"requirement\" is its name (text)")
+        for n, row in enumerate(it["scans"], 1):
+            if not isinstance(row, dict):
+                raise SoftPLCError(f"{where}, scan {n}: an object with \"inputs\"")
+            for key in ("inputs", "values"):  # values: what the requirement reads
+                if not _numbers(row.get(key, {} if key == "values" else None)):
+                    raise SoftPLCError(f"{where}, scan {n}: \"{key}\" maps at most "
+                                       f"{MAX_CEX_INPUTS} addresses to numbers")
+            period = row["inputs"].get("period_ms", 1)
+            if not 1 <= period <= MAX_CEX_PERIOD_MS:
+                raise SoftPLCError(f"{where}, scan {n}: period_ms {period!r}: from 1 to "
+                                   f"{MAX_CEX_PERIOD_MS}")
+
+
+def _numbers(d: Any) -> bool:
+    return isinstance(d, dict) and len(d) <= MAX_CEX_INPUTS and all(
+        isinstance(k, str) and len(k) <= MAX_NAME and isinstance(v, int | float)
+        for k, v in d.items())
+
+
 def read_cex(path: Path) -> dict[str, Any]:
     try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as e:
+        if Path(path).stat().st_size > MAX_CEX_BYTES:
+            raise SoftPLCError(f"{path}: over {MAX_CEX_BYTES // 2**20} MiB, not a "
+                               "counterexample file")
+        data = json.loads(Path(path).read_text(), parse_constant=_finite)
+    except (OSError, ValueError, RecursionError) as e:
         raise SoftPLCError(f"{path}: not a counterexample file ({e})") from None
-    if not isinstance(data, dict) or data.get("format") != CEX_FORMAT \
-            or not data.get("counterexamples"):
+    if not isinstance(data, dict) or data.get("format") != CEX_FORMAT:
         raise SoftPLCError(f"{path}: not a counterexample file written by softplc verify "
                            f"--cex")
+    _check_cex(path, data.get("counterexamples"))
     return data
 
 
@@ -115,9 +162,10 @@ def replay_hook(plc: Any, cex: dict[str, Any]) -> Callable[[], None]:
 
 
 def emit_test(path: Path, program: Path, config: Path | None,
-              items: list[dict[str, Any]]) -> None:
+              items: list[dict[str, Any]], symbols: Any = None) -> None:
     """A pytest file: each counterexample's inputs replayed in the engine, asserting the
-    requirement holds, so it fails until the program is fixed."""
+    requirement holds, so it fails until the program is fixed; a comment names the
+    inputs' symbols (`symbols`: the configuration's SymbolTable)."""
     def rel(p: Path) -> str:  # from the test's folder: the test runs from anywhere
         return os.path.relpath(Path(p).resolve(), Path(path).resolve().parent)
 
@@ -129,8 +177,12 @@ def emit_test(path: Path, program: Path, config: Path | None,
              f"CONFIG = HERE / {rel(config)!r}" if config else "CONFIG = None", ""]
     for i, it in enumerate(items):
         scans = [row["inputs"] for row in it["scans"]]
+        named = [symbols.label(k) for k in dict.fromkeys(k for row in scans for k in row)
+                 ] if symbols is not None else []
         lines += ["", f"def test_requirement_{i}():",
                   f"    # {it['requirement']}",
+                  *([f"    # inputs: {' '.join(named)}"] if any("(" in n for n in named)
+                    else []),
                   f"    check = {it['check']!r}",
                   f"    scans = {scans!r}",
                   "    with PLC.from_file(PROGRAM, CONFIG, devices=False) as plc:",

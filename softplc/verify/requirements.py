@@ -4,6 +4,8 @@ A requirement file (TOML) beside the program:
 
     [environment]
     host = ["%MW0:10"]            # words a host writes: any value at the start of a scan
+    held = ["%M0"]                # kept at its cold-start value (default: objects the
+                                  # program reads, never writes, a host can write are free)
     assume = ["NOT (%I0.0 AND %I0.1)"]   # what the environment never does
 
     [[requirement]]
@@ -12,7 +14,8 @@ A requirement file (TOML) beside the program:
 
 Forms of `check` (evaluated on the values at the end of every scan):
   `never E`, `always E`, `A -> B` (same scan), `X rising -> Y within N scans` or
-  `... within T ms`. Expressions use the IL address syntax and operators: NOT AND OR XOR,
+  `... within T ms`. Expressions use the IL address syntax, or the configuration's symbols
+(`never MOTOR AND JAM`, resolved by softplc.twido.symbols), and operators: NOT AND OR XOR,
   comparisons = <> < <= > >=, + - * / REM on words (exact, no wrap-around), parentheses.
 %I bits and configured analog inputs %IW are free (any value in every scan, analog within
 the configured span). Errors carry the line:col in the file (`VerifyError`).
@@ -27,13 +30,15 @@ from pathlib import Path
 from typing import Any
 
 from softplc.errors import AddressError, Code, Diagnostic, VerifyError
-from softplc.twido.address import BOOL, Ref, expand, parse_address
+from softplc.twido.address import BOOL, Ref, expand
+from softplc.twido.profile import Profile
+from softplc.twido.symbols import SymbolTable
 
 _TOKEN = re.compile(r"""\s*(?:
     (?P<addr>%[A-Za-z]+[0-9][0-9A-Za-z.:\[\]%]*) |
     (?P<num>-?\d+|16\#[0-9A-Fa-f]+|\#[0-9A-Fa-f]+) |
     (?P<op>->|<=|>=|<>|[-+*/()=<>]) |
-    (?P<word>[A-Za-z_]+))""", re.X)
+    (?P<word>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z]+[0-9]*)?(?::X?[0-9]+)?))""", re.X)
 KEYWORDS = {"AND", "OR", "XOR", "NOT", "REM", "NEVER", "ALWAYS", "RISING", "WITHIN",
             "SCANS", "SCAN", "MS", "S"}
 
@@ -68,6 +73,7 @@ class Spec:
     reads: list[Ref]  # every object a requirement or assumption reads
     free: list[tuple[Ref, Diagnostic]] = field(default_factory=list)  # with where declared
     periods: tuple[int, int] | None = None  # (shortest, longest) scan period in us
+    held: list[Ref] = field(default_factory=list)  # kept at their cold-start value
 
 
 class _Where:
@@ -85,11 +91,18 @@ class _Where:
         return 0, 0
 
 
-class Parser:
-    """One expression: tokens with their columns, recursive descent, typed nodes."""
+def names(table: SymbolTable | Profile) -> SymbolTable:
+    """The symbols requirements may use (a bare profile: none)."""
+    return table if isinstance(table, SymbolTable) else SymbolTable(profile=table)
 
-    def __init__(self, text: str, profile: Any, err: Any):
-        self.text, self.profile, self.err = text, profile, err
+
+class Parser:
+    """One expression: tokens with their columns, recursive descent, typed nodes.
+    `table`: the configuration's symbols (addresses and names resolve there, the one path
+    of softplc.twido.symbols), or a bare profile."""
+
+    def __init__(self, text: str, table: SymbolTable | Profile, err: Any):
+        self.text, self.names, self.err = text, names(table), err
         self.toks: list[tuple[str, str, int]] = []
         pos = 0
         while pos < len(text):
@@ -186,12 +199,13 @@ class Parser:
             self.take()
             v = int(val.replace("16#", "").lstrip("#"), 16) if "#" in val else int(val)
             return Node("num", (v,), "int", col)
-        if kind == "addr":
+        if kind == "addr" or (kind == "word" and val.split(".")[0] not in KEYWORDS):
             self.take()
             try:
-                ref = parse_address(val, self.profile)
+                ref = self.names.ref(val)
             except AddressError as e:
-                raise self.err(f"unknown address: {e}", col) from None
+                raise self.err(f"unknown address: {e}" if kind == "addr" else str(e),
+                               col) from None
             if ref.length is not None or ref.offset is not None or ref.is_block:
                 raise self.err(f"{val}: a single bit or word", col)
             self.reads.append(ref)
@@ -210,7 +224,8 @@ class Parser:
         return n
 
 
-def parse_check(text: str, name: str, profile: Any, err: Any) -> Requirement:
+def parse_check(text: str, name: str, profile: SymbolTable | Profile, err: Any
+                ) -> Requirement:
     """One requirement's text (`never E`, `always E`, `A -> B`, `X rising -> Y within N
     scans|ms`); `err(message, col)` makes the error to raise."""
     p = Parser(text, profile, err)
@@ -246,8 +261,10 @@ def parse_check(text: str, name: str, profile: Any, err: Any) -> Requirement:
                                             BOOL, a.col), text=text, reads=p.reads)
 
 
-def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
-    """The requirements of a file and of `--require-expr` texts."""
+def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profile) -> Spec:
+    """The requirements of a file and of `--require-expr` texts; `profile`: the
+    configuration's symbol table (names and addresses), or a bare profile."""
+    table = names(profile)
     problems: list[Diagnostic] = []
     reqs: list[Requirement] = []
     assumptions: list[Node] = []
@@ -281,6 +298,7 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
         def err(msg: str, col: int) -> VerifyError:
             return VerifyError(Diagnostic(msg, file, line, col0 + col - 1 if line else col,
                                           s, "", Code.ADDRESS if "address" in msg
+                                          else Code.SYMBOL if "symbol" in msg
                                           else Code.TYPE if "mismatch" in msg else Code.SYNTAX))
         try:
             return fn(s, err)
@@ -293,9 +311,9 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
         problems.append(Diagnostic(f"unknown table [{k}]", file, *where.find(k),
                                    expected="[environment], [[requirement]]", code=Code.SYNTAX))
     env = data.get("environment", {})
-    for k in sorted(set(env) - {"host", "free", "assume", "scan_period"}):
+    for k in sorted(set(env) - {"host", "free", "held", "assume", "scan_period"}):
         problems.append(Diagnostic(f"unknown key environment.{k}", file, *_key(where, k),
-                                   expected="host, free, assume, scan_period",
+                                   expected="host, free, held, assume, scan_period",
                                    code=Code.SYNTAX))
     periods = None
     if "scan_period" in env:
@@ -305,23 +323,27 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
             problems.append(Diagnostic(f"environment.scan_period: {e}", file,
                                        *_key(where, "scan_period"), code=Code.TYPE))
     free: list[tuple[Ref, Diagnostic]] = []
-    for key in ("host", "free"):
+    held: list[Ref] = []
+    for key in ("host", "free", "held"):
         for s in env.get(key, []):
             def env_refs(s: str, err: Any, key: str = key) -> list[Ref]:
                 try:
-                    refs = expand(s, profile)
+                    refs = expand(table.address_of(s), table.profile)
                 except AddressError as e:
                     raise err(f"unknown address: {e}", 1) from None
-                kinds = ("MW", "MD") if key == "host" else ("MW", "MD", "M", "Q", "I")
+                kinds = {"host": ("MW", "MD"), "held": ("MW", "MD", "M")}.get(
+                    key, ("MW", "MD", "M", "Q", "I"))
                 if any(r.kind not in kinds for r in refs):
-                    raise err(f"{s}: {key} objects are "
-                              + ("%MW / %MD words" if key == "host" else
-                                 "%M, %MW, %MD (%I are free anyway)"), 1)
+                    raise err(f"{s}: {key} objects are " + {
+                        "host": "%MW / %MD words", "held": "%M, %MW, %MD"}.get(
+                        key, "%M, %MW, %MD (%I are free anyway)"), 1)
                 return [Ref("MW", r.index + k) if r.kind in ("MW", "MD") else r
                         for r in refs for k in range(2 if r.kind == "MD" else 1)]
             refs = parse_one(s, f"environment.{key}", env_refs) or []
             if key == "host":
                 host += refs
+            elif key == "held":
+                held += refs
             else:
                 line, col = where.find(s)
                 free += [(r, Diagnostic(f"free input {r} is written by the program", file,
@@ -367,7 +389,7 @@ def load_spec(path: Path | None, exprs: list[str], profile: Any) -> Spec:
                     *where.find(r.text), expected="'within N scans'", code=Code.TYPE))
     if problems:
         raise VerifyError(problems)
-    return Spec(reqs, assumptions, host, reads, free, periods)
+    return Spec(reqs, assumptions, host, reads, free, periods, held)
 
 
 def parse_periods(value: Any) -> tuple[int, int]:

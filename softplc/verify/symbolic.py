@@ -7,6 +7,7 @@ values exists before the Twido rule (`semantics.checked`) wraps it. Bits are z3 
 
 from __future__ import annotations
 
+import struct
 from typing import Any
 
 import z3
@@ -124,4 +125,7 @@ def value_of(model: z3.ModelRef, term: Any) -> int:
         return 1 if z3.is_true(v) else 0
     if z3.is_bv_value(v):
         return v.as_signed_long()
+    if z3.is_fp(v):  # a float (an abstracted function's value): its double
+        bits = model.eval(z3.fpToIEEEBV(v), model_completion=True).as_long()
+        return struct.unpack("<d", bits.to_bytes(8, "little"))[0]
     return int(str(v))

@@ -246,7 +246,7 @@ class Pages:
             # machine's devices (this one was taken when no page asked for them)
             if c.machine and snap["machine"]:
                 view = views.machine_view(snap["machine"], c.trace_sent)
-                c.trace_sent = view["trace_from"] + len(view["trace"])
+                c.trace_sent = view["trace_next"]
                 parts.append(', "machine": ' + dumps(view))
             parts.append("}")
             self._offer(c, "".join(parts))

@@ -1,9 +1,11 @@
 """The web monitor's HTTP/websocket server (aiohttp), on the daemon's asyncio loop.
 
     GET  /                    the monitor page (static files shipped in softplc/web/static)
-    GET  /api/info            program, controller, modules, devices, rungs, read-only flag
+    GET  /api/info            program, controller, modules, devices, rungs (and the objects
+                              each uses), read-only flag, symbols
     GET  /api/status          state, scan times, overruns, Modbus clients, forced objects
     GET  /api/read?obj=%MW0:4&obj=%TM0      values of one scan
+    GET  /api/resolve?obj=STARTS:2          the address a symbol names ({"address": "%MW10:2"})
     GET  /api/io              every I/O channel: value, forced, driving device
     GET  /api/ladder/N        rung N as live SVG
     GET  /api/machine?since=K simulated devices and the trace recorder's samples from K
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import json
 import logging
+from functools import partial
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -53,6 +56,12 @@ def static_dir() -> Path:
 
 def _json(data: Any, status: int = 200) -> web.Response:
     return web.Response(text=dumps(data), status=status, content_type="application/json")
+
+
+async def _resolve(ctl: Controller, request: web.Request) -> web.Response:
+    """GET /api/resolve?obj=TEXT: the address a symbol, range or address names (what the
+    page keeps in a table), by the daemon's resolver (softplc.twido.symbols)."""
+    return _json({"address": ctl.objects.address_of(request.query.get("obj"))})
 
 
 class WebServer:
@@ -86,6 +95,7 @@ class WebServer:
         r.add_get("/api/status", self._status)
         r.add_get("/api/read", self._read)
         r.add_post("/api/read", self._read)
+        r.add_get("/api/resolve", partial(_resolve, self.ctl))
         r.add_get("/api/io", self._io)
         r.add_get("/api/ladder/{rung}", self._ladder)
         r.add_get("/api/machine", self._machine)

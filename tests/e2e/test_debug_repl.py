@@ -36,25 +36,25 @@ def cmd(child: pexpect.spawn, line: str) -> str:
 def test_drawing_table_session_in_a_terminal(tmp_path: Path) -> None:
     child = spawn(tmp_path, str(TABLE.relative_to(ROOT)), "--config",
                   str(TABLE.with_suffix(".toml").relative_to(ROOT)))
-    try:
+    try:  # drawing_table.toml names its objects: each shows its symbol (TRAYEX, PX)
         assert "breakpoint #1 at rung" in cmd(child, "break X home switch")
         out = cmd(child, "continue")
         assert "breakpoint #1" in out and "before rung 4" in out
         assert "before rung 5" in cmd(child, "step")
-        assert "watch #2 %MW32 (now 32000)" in cmd(child, "watch %MW32")
-        assert "%I0.12 forced to 1" in cmd(child, "force %I0.12 1")
+        assert "watch #2 %MW32 TRAYEX (now 32000)" in cmd(child, "watch %MW32")
+        assert "%I0.12 PX forced to 1" in cmd(child, "force %I0.12 1")
         assert "breakpoint #1" in cmd(child, "continue")  # the next scan, rung 4 again
-        assert "watch #2 %MW32: 32000 -> 0 (in rung 4 instr 3)" in cmd(child, "step")
+        assert "watch #2 %MW32 TRAYEX: 32000 -> 0 (in rung 4 instr 3)" in cmd(child, "step")
         screen = cmd(child, "rung 4")
         assert "%I0.12" in screen and "1F" in screen and "═" in screen
         assert "[scan 1," in cmd(child, "back")
-        assert "%MW32 = 32000" in cmd(child, "print %MW32")
-        assert "%I0.12 = 1  [forced]" in cmd(child, "print %I0.12")
+        assert "%MW32 TRAYEX = 32000" in cmd(child, "print %MW32")
+        assert "%I0.12 PX = 1  [forced]" in cmd(child, "print %I0.12")
         # tab completes a command name, then an address
         child.send("prin\t%TM1.\t")
         child.sendline("")
         child.expect(PROMPT)
-        assert "%TM1.Q = " in child.before
+        assert "%TM1.Q OSC_OFF.Q = " in child.before
         assert "error: malformed address" in cmd(child, "print %ZZ")  # still alive
         child.sendline("quit")
         child.expect(pexpect.EOF)
@@ -84,3 +84,31 @@ def test_batch_commands(capsys: pytest.CaptureFixture[str]) -> None:
     assert rc == 0
     out = capsys.readouterr().out
     assert "(softplc) print/x %MW0\n%MW0 = 16#0005" in out and out.rstrip().endswith("bye")
+
+
+PLANT = ROOT / "ladder_programs" / "plant" / "plant.toml"
+
+
+def test_plant_session_in_a_terminal(tmp_path: Path) -> None:
+    """`softplc repl plant.toml`: a breakpoint in a peer stops the whole line; `back`
+    rewinds every controller and the belt; Ctrl-D leaves."""
+    child = spawn(tmp_path, str(PLANT.relative_to(ROOT)))
+    try:
+        assert "focus: master" in child.before  # the intro
+        assert "queued" in cmd(child, "set master:%I0.0 1")
+        assert "breakpoint #1 when %Q0.0 rises" in cmd(child, "break when capper:%Q0.0 rises")
+        out = cmd(child, "continue")
+        assert "[capper] breakpoint #1 when %Q0.0 rises" in out and "] capper: [scan" in out
+        assert "%Q0.0 TOOL = 1" in cmd(child, "print %Q0.0")  # the capper's, now focused
+        assert "still to scan" not in cmd(child, "scan 0")  # the instant finished
+        cmd(child, "delete")
+        before = cmd(child, "plant")
+        assert "belt         boxes=2 fed=2 delivered=0" in before
+        assert "[plant t = 6.150 s, instant 616]" in cmd(child, "run 1s")  # 100 of 10 ms
+        assert cmd(child, "plant") != before
+        assert "instant 516]" in cmd(child, "back 100")
+        assert cmd(child, "plant") == before  # every controller, the belt
+        child.sendeof()
+        child.expect(pexpect.EOF)
+    finally:
+        child.close(force=True)

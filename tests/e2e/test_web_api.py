@@ -190,6 +190,7 @@ def test_write_applied_at_scan_boundary_push_button_seen(star):
     ("%TM0.P", 10000, 400, "out of range 0..9999"),
 ])
 def test_bad_write_is_refused_and_nothing_applied(star, obj, value, status, message):
+    star.scans()  # past the first scans (the fault latched, STATE = 9): the words settled
     before = star.plc.mem.snapshot()
     with pytest.raises(IoError, match=message) as e:
         star.client().request("write", {"writes": [{"object": "%MW7", "value": 99},
@@ -448,13 +449,20 @@ def test_softplc_io_command(star, capsys):
     assert cli(base + ["get", "%Q0.0:3", "%TM0"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert [ln.split(" = ")[1] in ("0", "1") for ln in lines[:3]] == [True] * 3
-    assert re.fullmatch(r"%TM0 = TON base 100ms Q=[01] V=\d+ P=50", lines[3]), lines[3]
+    assert re.fullmatch(r"%TM0 STAR_TIME = TON base 100ms Q=[01] V=\d+ P=50", lines[3]), \
+        lines[3]
     # symbols (star_delta.toml's symbols_file) name objects for the API too
     assert cli(base + ["set", "FAULT_RESET", "1"]) == 0
     s.scans()
     assert cli(base + ["get", "fault_reset", "STAR_TIME.P"]) == 0
     assert capsys.readouterr().out.splitlines()[-2:] == ["%I0.3 FAULT_RESET = 1",
                                                           "%TM0.P STAR_TIME.P = 50"]
+    # a range by symbol, and an address shown with its symbol (issue 33)
+    assert cli(base + ["get", "STARTS:2", "%Q0.0", "%MW12"]) == 0
+    lines = capsys.readouterr().out.splitlines()[-4:]
+    assert [ln.split(" = ")[0] for ln in lines] == [
+        "%MW10 STARTS", "%MW11 STATE", "%Q0.0 KM1_MAIN", "%MW12"], lines
+    assert all(re.fullmatch(r"-?\d+", ln.split(" = ")[1]) for ln in lines), lines
     assert cli(base + ["set", "FAULT_RESET", "0"]) == 0
     assert cli(base + ["get", "STRATS"]) == 1
     assert "unknown symbol 'STRATS' (did you mean STARTS?)" in capsys.readouterr().err
@@ -655,8 +663,8 @@ def test_device_driven_analog_input_forced_then_released(thermo):
 def test_servo_i_variables_tuned_live_from_the_monitor():
     """Issue 23: the animation table edits a running axis's I-variables through its word
     table (%MF328 = Ixx30 of X, word table at %MW300): applied at a servo tick, counted in
-    %MW301, read back as the value in force; a value out of range is refused (%MW300 names
-    it) and the value in force stays."""
+    %MW301, read back as the value in force; a value out of range is refused when written
+    and the value in force stays."""
     servo = ROOT / "ladder_programs" / "servo_table.il"
     s = Stack(servo, servo.with_suffix(".toml"))
     try:
@@ -668,14 +676,38 @@ def test_servo_i_variables_tuned_live_from_the_monitor():
         assert axis.gains.kp == kp * 2
         got = c.get("%MF328", "%MW300", "%MW301")
         assert got["%MF328"] == kp * 2 and got["%MW300"] == 0 and got["%MW301"] >= 1
-        c.set("%MF328", -1.0)  # Ixx30 >= 0
-        s.scans(5)
-        got = c.get("%MF328", "%MW300")
-        assert axis.gains.kp == kp * 2 and got["%MF328"] == kp * 2 and got["%MW300"] == 30
-        for huge in (1e30, 3.4e38):  # beyond Ixx30's PMAC range (issue 31)
-            c.set("%MF328", huge)
+        # Ixx30 >= 0, and within its PMAC range (issue 31): refused when written, with the
+        # axis's reason (issue 33), never queued; the value in force stays
+        for bad in (-1.0, 1e30, 3.4e38):
+            with pytest.raises(IoError, match=r"%MF328 := \S+ refused: device 'X': Ixx30"):
+                c.set("%MF328", bad)
             s.scans(5)
             got = c.get("%MF328", "%MW300")
-            assert axis.gains.kp == kp * 2 and got["%MF328"] == kp * 2 and got["%MW300"] == 30
+            assert axis.gains.kp == kp * 2 and got["%MF328"] == kp * 2 and got["%MW300"] == 0
     finally:
         s.close()
+
+
+# ---- symbols (issue 33) -----------------------------------------------------------------------
+def test_resolve_and_the_objects_each_rung_uses(star):
+    """GET /api/resolve: the address a typed text names, by the daemon's symbol table; the
+    rungs of /api/info list the objects they use (the ladder's find box matches their
+    symbols)."""
+    c = star.client()
+    for text, address in (("starts:2", "%MW10:2"), ("STAR_TIME.p", "%TM0.P"),
+                          ("%mw3", "%MW3"), ("STATE:X3", "%MW11:X3")):
+        assert c.request("resolve?obj=" + text) == {"address": address}, text
+    for text, message in (("STRATS", "unknown symbol 'STRATS' (did you mean STARTS?)"),
+                          ("%TM9", "%TM9 is not configured")):
+        with pytest.raises(IoError, match=re.escape(message) + r".*\(HTTP 400\)"):
+            c.request("resolve?obj=" + text)
+    rungs = c.request("info")["rungs"]
+    uses_m10 = [r["index"] for r in rungs if "%M10" in r["uses"]]
+    assert uses_m10 and all("%M10" in r["il"] for r in rungs if r["index"] in uses_m10)
+    timer = next(r for r in rungs if "%TM0.Q" in r["uses"] or "%TM0" in r["uses"])
+    assert "%TM0" in timer["uses"]  # the block beside its field
+    # a new program: its rungs' uses, not the listed ones of the old program
+    from softplc.il.parser import parse
+    with star.lock:
+        star.plc.replace_program(parse("(*RUNG: only*)\nLD %I0.5\nST %M77\n"))
+    assert [r["uses"] for r in c.request("info")["rungs"]] == [["%I0.5", "%M77"]]

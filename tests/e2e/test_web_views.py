@@ -8,6 +8,7 @@ import re
 import signal
 import time
 
+import pytest
 from daemon_util import started
 from test_web_browser import PROGRAMS, browser, open_page, shot, start, sync_api, web_url
 
@@ -36,6 +37,11 @@ def test_servo_table_view_follows_homing(browser, tmp_path, daemons):
     assert page.locator("#axes-trail").count() == 1
     shot(page, "machine-servo")
     page.close()
+
+
+# the cut's box in the drawing's own units (read in one go: the view is redrawn each update)
+PATH_BOX = """() => { const b = document.querySelector('#pen-path').getBBox();
+  return [b.x, b.y, b.width, b.height]; }"""
 
 
 def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemons):
@@ -68,8 +74,44 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
     assert 20 < box["width"] < 40 and abs(box["width"] - box["height"]) < 2, box
     assert page.locator("#travel-path").count() == 1  # homing and the move to the start
     assert errors == []  # (a machine message without devices threw in machineHistory)
-    assert "torch off" in page.locator("#machine-hint").inner_text()  # the cut is over
+    # the cut is over; work coordinates, as the host reports them (res.pos_mm: the PLC's
+    # %MD112 / %MD114)
+    sync_api.expect(page.locator("#machine-hint")).to_contain_text(
+        f"X = {res.pos_mm[0]:.3f} mm, Y = {res.pos_mm[1]:.3f} mm (work coordinates, as the "
+        "host reports them; machine: ", timeout=20000)
+    assert "torch off;" in page.locator("#machine-hint").inner_text()
+    assert "X (mm, work)" in page.locator("#table-view").inner_html()
+    area, outline = page.evaluate("""() => ['#work-area', '#table-outline'].map(
+      (s) => document.querySelector(s).getBBox().width)""")
+    assert area == pytest.approx(outline * 240 / 305, abs=1)  # of the travel, -5..300 mm
+    rows = {r.locator("td").first.inner_text(): r.inner_text()
+            for r in page.locator("#devices tbody tr").all()}
+    assert "drive_homed=false" in rows["X"]  # the drive's own homing did not run...
+    assert "homed (program, %M110)=true" in rows["trace"]  # ...the program homed the table
     shot(page, "machine-cutting")
+    drawn = page.evaluate(PATH_BOX)
+    page.close()
+
+    # a page opened after the cut catches up; its first update split in two chunks shows
+    # the loading indicator, then the whole cut
+    page = open_page(browser, web_url(d))
+    page.evaluate("""() => { const orig = showMachine; window.loading = [];
+      showMachine = (m) => {
+        if (m.trace_from !== 0 || m.trace.length < 4) return orig(m);
+        const k = m.trace.length >> 1;
+        orig({ ...m, trace: m.trace.slice(0, k), trace_next: m.trace_next >> 1 });
+        const el = document.querySelector("#trace-loading");
+        window.loading.push(el ? el.textContent : "");
+        orig({ ...m, trace_from: m.trace_next >> 1, trace: m.trace.slice(k) });
+        window.loading.push(document.querySelector("#trace-loading") ? "still" : "");
+      }; }""")
+    machine_tab(page)
+    page.wait_for_function("() => window.loading.length === 2", timeout=20000)
+    first, after = page.evaluate("window.loading")
+    assert re.fullmatch(r"loading the trace: 50 % \(\d+ of \d+ samples\)…", first), first
+    assert after == ""
+    # the same cut (the updates' chunks differ, so do the samples thinned out of them)
+    assert page.evaluate(PATH_BOX) == pytest.approx(drawn, abs=1)
     page.close()
 
 
@@ -181,4 +223,112 @@ def test_header_says_disconnected_and_reconnects(browser, tmp_path, daemons):
     sync_api.expect(state).to_have_text("RUN", timeout=10000)
     assert state.evaluate(colour) != "rgb(90, 101, 112)"
     assert "disconnected" not in (page.locator("body").get_attribute("class") or "")
+    page.close()
+
+
+def test_a_write_the_axis_refuses_is_refused_where_it_was_made(browser, tmp_path, daemons):
+    """%MF328 is the servo table's X Ixx30 (kp): -5 is out of its range. The animation
+    table's row says so in red (not a green "queued"), `softplc io set` fails with the same
+    reason, a Modbus host gets exception 03; the value in force stays."""
+    import struct
+    import subprocess
+    import sys
+
+    from softplc.modbus.rawclient import ModbusExceptionReply, RawClient
+
+    d, url, api = start(daemons, tmp_path, "servo_table")
+    page = open_page(browser, url)
+    page.click("#tabs button[data-tab=tables]")
+    page.fill("#table-add", "%MF328")
+    page.click("#table-add-btn")
+    row = page.locator('#anim tr[data-obj="%MF328"]')
+    sync_api.expect(row.locator(".val")).not_to_have_text("…")
+    kp = row.locator(".val").inner_text()
+    row.locator("input.w").fill("-5")
+    row.locator("button.write").click()
+    note = row.locator(".write-note")
+    sync_api.expect(note).to_contain_text("%MF328 := -5 refused: device 'X': Ixx30 (kp) = -5:")
+    assert note.evaluate("e => getComputedStyle(e).color") == "rgb(198, 40, 40)"  # --halt
+    assert "refused" in row.locator("input.w").get_attribute("class")
+    assert "queued" not in page.locator("#message").inner_text()
+    shot(page, "write-refused")
+    row.locator("input.w").fill("7000")  # a value the axis takes: queued, the note goes
+    row.locator("button.write").click()
+    sync_api.expect(row.locator(".val")).to_have_text("7000")
+    sync_api.expect(note).to_be_hidden()
+    assert kp != "7000"
+
+    web_port = url.rstrip("/").rsplit(":", 1)[1]
+    r = subprocess.run([sys.executable, "-m", "softplc", "io", "--port", web_port, "set",
+                        "%MF328", "-5"], capture_output=True, text=True, timeout=30)
+    assert r.returncode != 0 and "%MF328 := -5 refused: device 'X': Ixx30 (kp)" in r.stderr, r
+    wire = struct.unpack(">2H", struct.pack(">f", -5.0))  # %MF: low word first (twido.md)
+    with RawClient("127.0.0.1", d.port) as mb:
+        try:
+            mb.write_registers(328, [wire[1], wire[0]])
+            raise AssertionError("a value the axis refuses was taken")
+        except ModbusExceptionReply as e:
+            assert e.code == 3
+    assert api.get("%MF328")["%MF328"] == 7000.0
+    page.close()
+
+
+# every text of each shown rung's svg: its box, and the right rail's x and top (the
+# rightmost vertical line); the title above the rails is left out of the rail check
+LADDER_GEOMETRY = """() => [...document.querySelectorAll('#ladder div[data-rung] svg')]
+.map((svg) => {
+  const at = (l, a) => +l.getAttribute(a);
+  const v = [...svg.querySelectorAll('line')].filter((l) => at(l, 'x1') === at(l, 'x2'));
+  const rail = v.reduce((a, l) => (at(l, 'x1') > at(a, 'x1') ? l : a), v[0]);
+  return { rung: svg.closest('[data-rung]').dataset.rung,
+    rail: [at(rail, 'x1'), Math.min(at(rail, 'y1'), at(rail, 'y2'))],
+    texts: [...svg.querySelectorAll('text')].map((t) => { const b = t.getBBox();
+      return [t.textContent, b.x, b.y, b.width, b.height]; }) };
+})"""
+
+
+def _overlap(a: list, b: list, tol: float = 1.0) -> bool:
+    return (a[1] + tol < b[1] + b[3] and b[1] + tol < a[1] + a[3]
+            and a[2] + tol < b[2] + b[4] and b[2] + tol < a[2] + a[4])
+
+
+def test_ladder_draws_short_form_timers_as_boxes_and_no_text_overlaps(browser, tmp_path,
+                                                                        daemons):
+    """The drawing table's ladder (issue 33): `IN %TM0` is the timer's box (pin IN, the
+    type and base and the live values inside it), no value runs into another text nor
+    under the right rail, no two texts of a rung overlap, and the IL listing fits a
+    1400 px window beside the ladder."""
+    d, url, api = start(daemons, tmp_path, "drawing_table")
+    page = open_page(browser, url)
+    page.click("#tabs button[data-tab=ladder]")
+    page.select_option("#ladder-zoom", "1")
+    seen: set[str] = set()
+    for first in range(0, 29, 4):  # the page shows 4 rungs from the one chosen
+        page.click(f"#rung-list li[data-rung='{first}']")
+        sync_api.expect(page.locator(f'#ladder div[data-rung="{first}"] svg')).to_be_visible()
+        for rung in page.evaluate(LADDER_GEOMETRY):
+            seen.add(rung["rung"])
+            texts = rung["texts"]
+            for i, a in enumerate(texts):
+                for b in texts[i + 1:]:
+                    assert not _overlap(a, b), (rung["rung"], a, b)
+            x, top = rung["rail"]
+            for t in texts:
+                if t[2] + t[4] > top:  # below the title
+                    assert not t[1] < x < t[1] + t[3], (rung["rung"], t)
+    assert len(seen) == 29
+    page.click("#rung-list li[data-rung='1']")
+    svg = page.locator('#ladder div[data-rung="1"] svg')
+    sync_api.expect(svg.locator("text", has_text="TON 1ms")).to_be_visible()
+    texts = svg.locator("text").evaluate_all("els => els.map((e) => e.textContent)")
+    assert "%TM0" in texts and "IN" in texts and "Q" in texts
+    assert not any("[%TM0 IN]" in t for t in texts)
+    sync_api.expect(svg.locator("text", has_text=re.compile(r"^P=2 V=\d+$"))).to_be_visible()
+    page.select_option("#ladder-zoom", "1.4")  # the default zoom: a wide rung scrolls
+    page.click("#rung-list li[data-rung='8']")
+    sync_api.expect(page.locator('#ladder div[data-rung="8"] svg')).to_be_visible()
+    listing = page.locator("#il-listing").bounding_box()
+    assert listing["x"] + listing["width"] <= 1400 and listing["width"] > 300
+    sync_api.expect(page.locator("#il-listing .ln.hit").first).to_be_in_viewport()
+    shot(page, "ladder-drawing-table")
     page.close()

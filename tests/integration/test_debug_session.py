@@ -274,7 +274,7 @@ def test_drawing_table_homing_with_a_forced_switch() -> None:
     out = s.execute("continue")  # next scan: stops at the rung breakpoint first
     assert "breakpoint #1" in out
     out = s.execute("step")
-    assert "watch #2 %MW32: 32000 -> 0" in out
+    assert "watch #2 %MW32 TRAYEX: 32000 -> 0" in out  # with its symbol (drawing_table.toml)
     assert "1F" in s.execute("rung X home switch")
     s.execute("back")
     assert s.plc["%MW32"] == 32000

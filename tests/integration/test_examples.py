@@ -105,22 +105,29 @@ event = st.tuples(st.sampled_from(["start", "stop", "overload", "ok", "reset", "
 
 @settings(max_examples=examples(60), deadline=None)
 @given(st.lists(event, max_size=12))
-def test_star_and_delta_never_together(events):
-    plc = PLC.from_file("ladder_programs/star_delta.il", "ladder_programs/star_delta.toml")
+def test_star_and_delta_never_together(plc_factory, events):
+    # plc_factory (softplc.testing): a fresh, cold-started PLC per hypothesis example
+    with plc_factory("ladder_programs/star_delta.il",
+                     "ladder_programs/star_delta.toml") as plc:
+        _star_delta_events(plc, events)
+
+
+def _star_delta_events(plc: PLC, events: list[tuple[str, int]]) -> None:
+    """The events on the star-delta starter, by the symbols of star_delta_symbols.csv."""
     run_ok(plc)
     for what, scans in events:
         if what in ("start", "reset"):
-            plc["%I0.0" if what == "start" else "%I0.3"] = 1
+            plc["START_PB" if what == "start" else "FAULT_RESET"] = 1
         elif what == "stop":
-            plc["%I0.1"] = 0
+            plc["STOP_PB"] = 0  # NC: 0 = pressed
         elif what in ("overload", "ok"):
-            plc["%I0.2"] = 0 if what == "overload" else 1
+            plc["OVERLOAD_OK"] = 0 if what == "overload" else 1
         for _ in range(scans):
             plc.scan()
-            km1, star, delta = plc["%Q0.0"], plc["%Q0.1"], plc["%Q0.2"]
-            assert not (star and delta)
-            assert km1 or not (star or delta)
-            if not plc["%I0.2"]:
-                assert not km1
-        plc["%I0.0"] = plc["%I0.3"] = 0
-        plc["%I0.1"] = 1
+            km1, star, delta = plc["KM1_MAIN"], plc["KM2_STAR"], plc["KM3_DELTA"]
+            assert not (star and delta), plc
+            assert km1 or not (star or delta), plc
+            if not plc["OVERLOAD_OK"]:
+                assert not km1, plc
+        plc["START_PB"] = plc["FAULT_RESET"] = 0
+        plc["STOP_PB"] = 1

@@ -148,3 +148,44 @@ def test_missing(plc):
     result = pytester.runpytest("-p", "no:cacheprovider", "sub/test_motor.py")
     result.assert_outcomes(passed=1, errors=1)
     result.stdout.fnmatch_lines([f"*{sub / 'absent.il'}*"])
+
+
+def test_plc_factory_gives_each_hypothesis_example_a_fresh_plc(pytester):
+    """`plc_factory` with @given: no function-scoped-fixture health check, a cold-started
+    PLC per example (the counter starts at 0 every time), the module's marker as the
+    default program, and a failing example shows the outputs on by symbol (issue 33)."""
+    pytester.makefile(".il", motor=MOTOR + "LD %I0.2\n[ INC %MW0 ]\n")
+    pytester.makefile(".toml", motor=MOTOR_TOML + '[symbols]\nMOTOR = "%Q0.0"\n'
+                                                  'START_PB = "%I0.0"\nCOUNT = "%MW0"\n')
+    pytester.makepyfile(test_prop="""
+import pytest
+from hypothesis import given, settings, strategies as st
+
+pytestmark = pytest.mark.plc_program("motor.il", config="motor.toml")
+seen = []
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 20))
+def test_fresh_per_example(plc_factory, n):
+    with plc_factory() as plc:
+        assert plc.scan_count == 0 and plc["COUNT"] == 0
+        plc["%I0.2"] = 1
+        plc.scan(n)
+        assert plc["COUNT"] == n
+    seen.append(n)
+
+def test_examples_ran():
+    assert len(seen) > 1
+
+@settings(max_examples=5, deadline=None)
+@given(st.just(1))
+def test_fails_with_symbols(plc_factory, n):
+    with plc_factory("motor.il", "motor.toml") as plc:
+        plc["START_PB"] = n
+        plc.scan()
+        assert not plc["MOTOR"], plc
+""")
+    result = pytester.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(passed=2, failed=1)
+    result.stdout.fnmatch_lines(["*on: START_PB(%I0.0) MOTOR(%Q0.0)>*"])
+    result.stdout.no_fnmatch_line("*function_scoped_fixture*")

@@ -402,3 +402,50 @@ def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
         if argv[1] == "scurve" and "--start" in argv:  # the README's figure
             assert 14 <= max_fe_counts(out.out) <= 22
     assert plc.devices["X"].gains.kp == 8000  # the README's `set` reached the axis
+
+
+def test_a_value_the_axis_refuses_is_refused_where_it_is_written(cell):
+    """%MF328 (X's Ixx30, kp) := -5: the access port (the web monitor, `softplc io set`)
+    and the Modbus server refuse it before it is queued, with the axis's own reason (the
+    same check as the table's, `ivars.check`); a value it takes is queued as before."""
+    from struct import pack
+
+    from softplc.access import AccessError, AccessPort
+    from softplc.modbus import ModbusImage
+    from softplc.modbus.protocol import process_pdu
+    from softplc.modbus.regmap import ExceptionCode
+    from softplc.persist.retain import words_to_be
+    from softplc.runtime.memory import WordFamily
+
+    port = AccessPort(cell)
+    with pytest.raises(AccessError) as e:
+        port.write_many([("%MF328", -5)])
+    assert e.value.status == 400
+    assert str(e.value).startswith("%MF328 := -5 refused: device 'X': Ixx30 (kp) = -5:")
+    assert port.pending == 0
+    with pytest.raises(AccessError, match="disturbance"):  # Y's load disturbance word
+        port.write_many([("%MF352", 1e6)])
+    assert port.write_many([("%MF328", 8000.0)]) == ["%MF328"]
+    cell.scan()
+    assert cell.devices["X"].gains.kp == 8000
+
+    image = ModbusImage(cell.mem)
+    for dev in cell.devices.values():
+        if dev.word_check is not None:
+            image.check_values(dev.word_check.ranges(), dev.word_check.refusal)
+
+    def wire(*floats: float) -> bytes:
+        fam = WordFamily(2 * len(floats))
+        for i, f in enumerate(floats):
+            fam.set_f(2 * i, f)
+        return words_to_be(fam.buf)
+
+    def fc16(addr: int, data: bytes) -> bytes:
+        return process_pdu(image, pack(">BHHB", 16, addr, len(data) // 2, len(data)) + data)
+
+    assert fc16(328, wire(-5.0)) == bytes((0x90, ExceptionCode.ILLEGAL_DATA_VALUE))
+    assert fc16(326, wire(0.0, -5.0)) == bytes((0x90, ExceptionCode.ILLEGAL_DATA_VALUE))
+    assert image.pending == 0
+    assert fc16(328, wire(7000.0)) == pack(">BHH", 16, 328, 2)
+    assert fc16(329, wire(-5.0)) == pack(">BHH", 16, 329, 2)  # no %MF of the table whole
+    assert image.pending == 2

@@ -152,7 +152,7 @@ def test_free_input_written_by_the_program_is_an_error(tmp_path):
 
 
 def test_unsupported_constructs_are_reported_with_position():
-    plc = PLC.from_source("LD 1\n[ %MF0 := %MF2 * 2.0 ]\nLD %M10[%MW2]\nST %Q0.0\n",
+    plc = PLC.from_source("LD 1\n[ %MF0 := MEAN(%MF2:3) ]\nLD %M10[%MW2]\nST %Q0.0\n",
                           devices=False)
     with pytest.raises(VerifyError) as e:
         Model(plc)
@@ -351,7 +351,7 @@ def test_system_words_definite_or_free_and_replayed(capsys):
     assert main(["verify", *therm, "--require-expr", "never %Q0.0 AND %Q0.1",
                  "--require-expr", "never %Q0.1", "-q"]) == 2
     out = capsys.readouterr().out
-    assert "free in every scan" in out and "%SW82 (an analog module" in out
+    assert "free system objects" in out and "%SW82 (an analog module" in out
     assert "PROVEN    never %Q0.0 AND %Q0.1" in out and "same values in every scan" in out
     rtc = [str(LP / "rtc_schedule.il"), "--config", str(LP / "rtc_schedule.toml")]
     assert main(["verify", *rtc, "--require-expr", "never %Q0.1", "-q"]) == 2
@@ -440,3 +440,35 @@ def test_a_loop_the_solver_cannot_decide_is_cut_and_unknown(tmp_path, monkeypatc
     res = verify(ck, 4, 2, 20, [], use_spacer=False)
     assert res.status == "UNKNOWN" and "<string>:9:1" in res.note
     assert "more than 1 passes" in res.note and "outgrew 0 s of the solver" in res.note
+
+
+# ---- symbols (issue 33) ----------------------------------------------------------------------
+def test_requirements_name_objects_by_symbol_and_the_results_show_them(tmp_path, capsys):
+    """`check` and --require-expr take the configuration's symbols (star_delta_symbols.csv)
+    like addresses; the counterexample table and the emitted test name them too."""
+    req = write(tmp_path, '[[requirement]]\ncheck = "never KM2_STAR AND KM3_DELTA"\n')
+    test = tmp_path / "test_cex.py"
+    code = main(["verify", str(LP / "star_delta_defect.il"), "--config",
+                 str(LP / "star_delta_defect.toml"), "--require", str(req), "--require-expr",
+                 "overload_ok = 0 -> NOT (KM1_MAIN OR STAR_TIME.Q)", "-q", "--depth", "5",
+                 "--emit-test", str(test)])
+    out = capsys.readouterr().out
+    assert code == 2, out
+    assert "PROVEN    never KM2_STAR AND KM3_DELTA" in out
+    names, head = [ln.split() for ln in out.splitlines() if ("%I0.0" in ln or
+                   "START_PB" in ln) and "free inputs" not in ln][:2]  # not the environment
+    assert names[:4] == ["START_PB", "STOP_PB", "OVERLOAD_OK", "FAULT_RESET"], out
+    assert head[:5] == ["scan", "%I0.0", "%I0.1", "%I0.2", "%I0.3"], out
+    assert "KM1_MAIN" in names and "STAR_TIME.Q" in names, out
+    emitted = test.read_text()
+    assert "# inputs: " in emitted and "OVERLOAD_OK(%I0.2)" in emitted
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                        str(test)], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 1 and "broken at scan 1" in r.stdout
+
+
+def test_an_unknown_symbol_in_a_requirement_is_located_with_a_guess(tmp_path, capsys):
+    req = write(tmp_path, '[[requirement]]\ncheck = "never KM2_STAR AND KM3_DELTTA"\n')
+    assert main(["verify", *STAR, "--require", str(req)]) == 1
+    err = capsys.readouterr().err
+    assert "req.toml:2:29: unknown symbol 'KM3_DELTTA' (did you mean KM3_DELTA?)" in err, err

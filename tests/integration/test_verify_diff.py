@@ -31,6 +31,7 @@ from softplc.twido.semantics import (
     low_word,
     shift,
 )
+from softplc.verify import floats
 from softplc.verify.model import Model, run_concrete
 from softplc.verify.replay import set_inputs
 
@@ -244,3 +245,80 @@ def test_generic_word_functions_are_the_engines_helpers(w, v, d):
         got = getattr(ops, f"sqrt{bits}")(x)
         value, fault = int_sqrt(IntDomain, x, bits)
         assert (got, ops.s[18]) == (value, int(bool(fault)))
+
+
+# ---- floats (issue 34 item 1): %MF as z3 floating point, bit for bit ------------------------
+FLOATS = ["%MF0", "%MF2", "%KF0", "1.5", "-0.0", "3.0E38", "1.0E-40"]
+FLOAT_TARGETS = ["%MF4", "%MF6", "%MF8"]
+FLOAT_FUNCS = ["ABS", "SQRT", "TRUNC", "DEG_TO_RAD", "RAD_TO_DEG"]
+
+
+def float_rung(r: random.Random) -> list[str]:
+    """A random rung on floats: arithmetic, the exact functions, conversions both ways,
+    comparisons (NaN, infinities, subnormals and overflow come from the host's words)."""
+    a, b, t = r.choice(FLOATS), r.choice(FLOATS), r.choice(FLOAT_TARGETS)
+    stmt = r.choice([f"{t} := {a} {r.choice(['+', '-', '*', '/'])} {b}",
+                     f"{t} := {r.choice(FLOAT_FUNCS)}({a})", f"{t} := -{a}",
+                     f"%MW10 := REAL_TO_INT({a})", f"%MD12 := REAL_TO_DINT({a} * {b})",
+                     f"{t} := INT_TO_REAL(%MW{r.choice([0, 1])})",
+                     f"{t} := DINT_TO_REAL(%MD0) / {b}", f"{t} := {a}"])
+    if r.random() < 0.3:
+        return [f"LD [ {a} {r.choice(list('<>='))} {b} ]",
+                f"ST {r.choice(['%Q0.0', '%M1'])}"]
+    return [f"LD {r.choice(['1', '%I0.0'])}", f"[ {stmt} ]"]
+
+
+FLOAT_WORDS = [f"%MW{k}" for k in range(4, 14)] + ["%S18", "%SW17", "%Q0.0", "%M1"]
+float_word = st.one_of(word, st.sampled_from([0x7F80, -128, 0x7FC0, 0x0001, 0x3F80, -16512]))
+float_scan = st.fixed_dictionaries({"%I0.0": st.integers(0, 1), "%MW0": float_word,
+                                    "%MW1": float_word, "%MW2": float_word,
+                                    "%MW3": float_word})
+
+
+def _is_nan_store(plc: PLC, k: str) -> bool:
+    """A float word pair holding a NaN (its bit pattern is the solver's choice)."""
+    if not k.startswith("%MW") or k == "%MW10":
+        return False
+    i = int(k[3:])
+    base = i - (i % 2)
+    v = plc.mem.read(f"%MF{base}")
+    return v != v
+
+
+@settings(max_examples=examples(200), deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10**9), scans=st.lists(float_scan, min_size=1, max_size=6))
+def test_float_model_and_engine_agree_bit_for_bit(seed, scans):
+    r = random.Random(seed)
+    lines = [x for _ in range(r.randrange(1, 6)) for x in float_rung(r)]
+    text = "\n".join(lines) + "\n"
+    config = {"constants": {"%KF0": r.choice([0.1, -2.5, 1e30, 0.0])}}
+    plc = PLC.from_source(text, config, devices=False)
+    model = Model(plc, [Ref("MW", k) for k in range(4)], [Ref("MW", k) for k in range(4)])
+    want = run_concrete(model, scans)
+    for n, (inputs, values) in enumerate(zip(scans, want, strict=True), 1):
+        set_inputs(plc, inputs)
+        plc.scan()
+        for k, v in values.items():
+            if k in FLOAT_WORDS and not _is_nan_store(plc, k):
+                assert int(plc[k]) == v, f"scan {n}: {k} engine {int(plc[k])} model {v}\n{text}"
+
+
+@settings(max_examples=examples(400), deadline=None)
+@given(bits=st.integers(0, 2**32 - 1), func=st.sampled_from(sorted(floats.ABSTRACTED - {"EXPT"})),
+       y=st.floats(-10, 10))
+def test_float_abstractions_contain_the_engines_value(bits, func, y):
+    """SIN, COS, LN, EXP...: what the abstraction knows holds of the engine's value and
+    fault, for any single (NaN, infinities, subnormals included)."""
+    import struct
+
+    import z3
+    x = struct.unpack("<f", bits.to_bytes(4, "little"))[0]
+    ops = Ops([0] * 32)
+    got = ops.fexpt(x, y) if func == "EXPT" else getattr(ops, "f" + func.lower())(x)
+    fault = bool(ops.s[18])
+    facts = floats.abstract_function(func, [floats.const(x)], floats.const(got),
+                                     z3.BoolVal(fault))
+    s = z3.Solver()
+    s.add(*facts)
+    assert s.check() == z3.sat, f"{func}({x!r}) = {got!r}, fault {fault}"

@@ -97,3 +97,46 @@ def test_machining_centre_step_and_estimate_words():
         assert x["load_mass_ratio"] == pytest.approx(0.5132667)
     finally:
         plc.close()
+
+
+def test_cutting_table_work_frame_is_the_hosts():
+    """The trace's work frame ([devices.trace.work]): before homing the origin is unknown
+    (homed False); once the program has homed (%M110), the origin in the trace's frame puts
+    the tool where the PLC reports it (%MD112 / %MD114, µm: what `softplc cut` prints)."""
+    cfg = tomllib.loads((PROGRAMS / "cutting_table.toml").read_text(encoding="utf-8"))
+    cfg["devices"]["X"]["start"] = cfg["devices"]["Y"]["start"] = 100000.0  # 1 mm
+    plc = PLC.from_file(PROGRAMS / "cutting_table.il", cfg)
+    views = LiveViews(Controller(AccessPort(plc)))
+    try:
+        plc.scan()
+        work = views.devices_now()["devices"]["trace"]["view"]["work"]
+        assert work["homed"] is False and work["homed_by"] == "%M110"
+        assert work["area"] == [240.0, 240.0]
+        assert plc.run_until(lambda p: p["%M110"], timeout=20)
+        plc.run(0.2)
+        snap = views.devices_now()
+        work = snap["devices"]["trace"]["view"]["work"]
+        assert work["homed"] is True
+        for axis, pos_um in (("X", "%MD112"), ("Y", "%MD114")):
+            v = snap["devices"][axis]["view"]
+            work_mm = (v["x"] - work["origin"]["XY".index(axis)]) / v["counts_per_mm"]
+            assert work_mm == pytest.approx(plc[pos_um] / 1000, abs=0.001)
+            assert v["x"] / v["counts_per_mm"] > work_mm + 25  # machine: the 30 mm retract
+        assert snap["devices"]["X"]["drive_homed"] is False  # the PLC homed, not the drive
+    finally:
+        plc.close()
+
+
+def test_thin_keeps_what_a_drawing_at_the_cell_shows():
+    """thin: a slow move (many samples per cell) becomes about one sample per cell; every
+    pen change keeps the samples on both sides; the first and the last are kept."""
+    from softplc.web.live import thin
+
+    rows = [(i * 0.001, i * 0.1, 0.0, 1 if i < 500 else 0, 0) for i in range(1000)]
+    rows += [(1.0 + i * 0.001, 100.0, i * 0.1, 1, 0) for i in range(1000)]
+    kept = thin(rows, [5.0, 5.0])
+    assert kept[0] == rows[0] and kept[-1] == rows[-1]
+    assert 40 < len(kept) < 70  # 100 mm / 5 twice, and the pen changes
+    for i in (499, 500, 999, 1000):  # the pen lifts at 500, goes down at 1000
+        assert rows[i] in kept
+    assert thin(rows[:2], [5.0, 5.0]) == rows[:2] and thin(rows, [0.0, 0.0]) == rows

@@ -282,11 +282,11 @@ def test_repl_shows_the_counters():
     s.execute("scan 120")
     out = s.execute("print %VFC0")
     assert "V=1190" in out and "S0=2200" in out and "TH0=0" in out
-    assert s.execute("print %FC0.V") == "%FC0.V = 2"
+    assert s.execute("print %FC0.V") == "%FC0.V PART_COUNTER.V = 2"  # fast_counter.toml names it
     s.execute("set %VFC0.S0 40000")  # a word: the unsigned threshold 40000
     s.execute("scan")
     assert s.plc.mem.blocks["VFC"][0].S0 & 0xFFFF == 40000 and s.plc.engine.state == "RUN"
-    assert s.execute("print/u %VFC0.S0") == "%VFC0.S0 = 40000"
+    assert s.execute("print/u %VFC0.S0") == "%VFC0.S0 BELT_ENCODER.S0 = 40000"
     counters = s.execute("counters")
     rows = {line.split()[0]: line.split()[1] for line in counters.splitlines()}
     assert rows == {"%FC0": "up", "%VFC0": "quadrature"}

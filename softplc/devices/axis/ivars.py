@@ -61,6 +61,18 @@ def resolve(name: str) -> tuple[str, str]:
     return _NAMES[key]
 
 
+#: a load disturbance step, DAC bits at most (the DAC's 16-bit span, `set_disturbance`)
+DISTURBANCE_MAX = 32768
+
+
+def disturbance_refusal(bits: Any) -> str | None:
+    """Why `bits` is no load disturbance (None: it is one)."""
+    if not isinstance(bits, int | float) or not math.isfinite(bits) \
+            or abs(bits) > DISTURBANCE_MAX:
+        return f"disturbance {bits!r}: expected DAC bits within +-{DISTURBANCE_MAX}"
+    return None
+
+
 def check(gains: Any, name: str, value: float) -> Any:
     """The gains with `name` set to `value`, validated as the TOML table is."""
     ivar, plain = resolve(name)
@@ -86,6 +98,29 @@ class IVarTable:
         self.lo = self.hi = 0
         self.seen = b""  # the values' bytes as last written: a difference is a host's write
         self.applied = 0  # changes applied (the table's APPLIED word)
+
+    # -- the device's WordCheck: a host's value refused before it is queued ------------
+    def ranges(self) -> list[tuple[int, int]]:
+        at = self._at
+        return [] if at is None else [(at + DISTURBANCE, at + SIZE)]
+
+    def refusal(self, kind: str, index: int, value: float) -> str | None:
+        """Why the table refuses `value` written to %MF`index` (the check `set` and a
+        host's write make: `check`, the law's ranges), None if it takes it or `index` is
+        no value of the table."""
+        at = self._at
+        if at is None or kind != "MF":
+            return None
+        off = index - at
+        why = None
+        if off == DISTURBANCE:
+            why = disturbance_refusal(value)
+        elif FIRST <= off < SIZE and (off - FIRST) % 2 == 0:
+            try:
+                check(self._pending or self.a.gains, IVARS[(off - FIRST) // 2][0], value)
+            except IVarError as e:
+                why = str(e)
+        return f"device {self.a.name!r}: {why}" if why else None
 
     def get(self, name: str) -> float:
         return getattr(self.a.gains, resolve(name)[1])

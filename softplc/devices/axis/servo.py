@@ -165,9 +165,9 @@ class ServoAxis(AxisDevice):
     def set_disturbance(self, bits: float) -> None:
         """A step of load torque (DAC bits, added to `plant.load`) from the next servo
         cycle: what the integrator has to take up (0 removes it)."""
-        if not isinstance(bits, int | float) or not math.isfinite(bits) or abs(bits) > 32768:
-            raise iv.IVarError(f"device {self.name!r}: disturbance {bits!r}: expected "
-                               "DAC bits within +-32768")
+        why = iv.disturbance_refusal(bits)
+        if why:
+            raise iv.IVarError(f"device {self.name!r}: {why}")
         if bits != self.disturbance:
             self.disturbance = float(bits)
             self.runner.build()
@@ -204,6 +204,7 @@ class ServoAxis(AxisDevice):
         self._wired = self._estop_idx is not None or self._power_idx is not None
         if self.opt.ivar_words is not None:
             self.ivars.bind(_word_block(self, mem, self.opt.ivar_words, iv.SIZE, "ivar_words"))
+            self.word_check = self.ivars  # a host's refused value is refused when written
         self.words.write()
         self._scan = self.runner.scan_function()
 
@@ -355,7 +356,9 @@ class ServoAxis(AxisDevice):
 
     # -- status -----------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        return {"pos": round(self.actual), "fe": round(self.fe_, 2), "homed": self.homed_,
+        # drive_homed: the drive's own home search (MODE home) ran; a program that homes
+        # the axis itself (on its switches, as cutting_table.il) keeps its own bit
+        return {"pos": round(self.actual), "fe": round(self.fe_, 2), "drive_homed": self.homed_,
                 "error": Err.TEXT[self.error_]}
 
     # -- snapshots --------------------------------------------------------------------------

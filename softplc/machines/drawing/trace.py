@@ -12,6 +12,12 @@ pen in the config, so that it sees their state of the same scan:
 - `flush_every` (duration > 0 of simulated time, default "1s"): CSV write period.
 - `max_samples` (int 1..10000000, default 1000000): stop recording (and warn) after this
   many (a sample takes about 100 bytes of memory).
+- `[devices.NAME.work]` (optional): the work frame the program keeps, for the web
+  monitor's Machine tab, which then plots work coordinates as the host reports them:
+  `origin` (two %MD: the work origin in the axes' counts as the controller reads them,
+  the program's words), `area` (two mm > 0: the work area from the origin) and `homed`
+  (a %M bit: the program has set the origin). A servo axis's counts are its controller's
+  (user) position, which the trace's true position differs from by a constant.
 
 A CSV file that cannot be written while the machine runs (a full disk, an I/O error) stops
 the file, with one error message; the simulation and the samples in memory go on (a
@@ -34,22 +40,34 @@ from typing import Any
 
 from pydantic import Field
 
-from softplc.config import PositiveDuration, Section
+from softplc.config import FiniteFloat, PositiveDuration, Section
 from softplc.devices.base import AxisDevice, Device, register_device
-from softplc.errors import ConfigError, SoftPLCError
+from softplc.errors import AddressError, ConfigCode, ConfigError, SoftPLCError
 from softplc.machines.drawing.pen import Pen
 from softplc.runtime.memory import MemoryImage
+from softplc.twido.address import parse_address
 
 log = logging.getLogger(__name__)
 
 CSV_HEADER = "t,x,z,pen,missed"
 MAX_SAMPLES = 10_000_000
+#: cells across an axis's travel for the web view's samples: the Machine tab draws the
+#: travel about 520 px wide, so a cell is under a quarter of a pixel
+VIEW_CELLS = 2000
 Sample = tuple[float, int | float, int | float, int, int]
 Segment = tuple[tuple[float, float], tuple[float, float]]
 
 
 class _NoPen:
     down = False
+
+
+class WorkFrame(Section):
+    """The program's work frame (module docstring)."""
+
+    origin: list[str] = Field(min_length=2, max_length=2)
+    area: list[FiniteFloat] = Field(min_length=2, max_length=2)
+    homed: str = Field(min_length=1)
 
 
 class TraceError(SoftPLCError):
@@ -71,6 +89,7 @@ class Trace(Device):
         csv: str | None = Field(None, min_length=1)
         flush_every: PositiveDuration = 1.0
         max_samples: int = Field(1_000_000, ge=1, le=MAX_SAMPLES)
+        work: WorkFrame | None = None
 
     def __init__(self, name: str, options: Options):
         super().__init__(name, options)
@@ -86,6 +105,8 @@ class Trace(Device):
         self._written = 0  # samples already in the CSV file
         self._next_flush = math.inf
         self.file_error = ""  # why the CSV file stopped being written ("" = it is not)
+        self._mem: MemoryImage | None = None
+        self._work: tuple[tuple[int, int], int] | None = None  # (%MD origin, %M homed)
 
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         x, z = self.options.axes
@@ -93,7 +114,26 @@ class Trace(Device):
         self._z = self.peer(devices, z, AxisDevice, "axes[1]")
         if self.options.pen != "":
             self._pen = self.peer(devices, self.options.pen, Pen, "pen")
+        work = self.options.work
+        if work is not None:
+            if min(work.area) <= 0:
+                raise self.problem("work.area", f"expected two sizes > 0 mm, not {work.area}")
+            ox, oz = (self._word(mem, a, "MD", "work.origin") for a in work.origin)
+            self._work = ((ox, oz), self._word(mem, work.homed, "M", "work.homed"))
+        self._mem = mem
         self.reset()
+
+    def _word(self, mem: MemoryImage, address: str, kind: str, option: str) -> int:
+        """The index of a plain %MD or %M (kind) the work frame reads."""
+        try:
+            ref = parse_address(address, mem.profile)
+        except AddressError as e:
+            raise self.problem(option, str(e), ConfigCode.ADDRESS) from None
+        if ref.kind != kind or ref.bit is not None or ref.length or ref.offset is not None \
+                or ref.field is not None:
+            raise self.problem(option, f"expected a %{kind} address (got {address!r})",
+                               ConfigCode.ADDRESS)
+        return ref.index
 
     def reset(self) -> None:
         self.samples = []
@@ -130,8 +170,22 @@ class Trace(Device):
         return {"samples": len(self.samples)}
 
     def view(self, since_t: float) -> dict[str, Any] | None:
-        return {"axes": list(self.options.axes), "pen": self.options.pen,
-                "samples": len(self.samples)}
+        # cell: the resolution a drawing of the whole travel needs (the web monitor sends
+        # the samples that leave a cell: softplc.web.live.thin)
+        view: dict[str, Any] = {"axes": list(self.options.axes), "pen": self.options.pen,
+                                "samples": len(self.samples),
+                                "cell": [_cell(a) for a in (self._x, self._z)]}
+        if self._work is not None and self._mem is not None:
+            (ox, oz), homed = self._work
+            mw, work = self._mem.mw, self.options.work
+            assert work is not None
+            # the origin in the trace's frame: the program's counts + (true - controller's)
+            origin = [mw.get_d(i) + a.trace_position() - _controller_position(a)
+                      for i, a in ((ox, self._x), (oz, self._z))]
+            view["work"] = {"origin": origin, "area": list(work.area),
+                            "homed": bool(self._mem.m[homed]), "homed_by": work.homed,
+                            "origin_words": list(work.origin)}
+        return view
 
     # -- files ------------------------------------------------------------------------------
     def record_to(self, path: str | os.PathLike[str]) -> None:
@@ -187,6 +241,19 @@ class Trace(Device):
                      steps_per_unit=(_per_unit(self._x), _per_unit(self._z)),
                      travel_steps=(_travel(self._x), _travel(self._z)),
                      title=title or None, name=self.name, full_area=full_area)
+
+
+def _controller_position(axis: Any) -> float:
+    """Where the axis's controller sees it: a servo axis's actual position (user counts),
+    a stepper's own steps (its trace position)."""
+    actual = getattr(axis, "actual", None)
+    return axis.trace_position() if actual is None else float(actual)
+
+
+def _cell(axis: Any) -> float:
+    """An axis's travel / VIEW_CELLS; 0 (no thinning) for a travel without an end."""
+    c = _travel(axis) / VIEW_CELLS
+    return c if math.isfinite(c) and c > 0 else 0.0
 
 
 def _per_unit(axis: Any) -> float:

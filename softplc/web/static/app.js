@@ -58,7 +58,7 @@ async function post(path, body, retry = true) {
       const t = prompt(data.error + "\n\nToken (printed by softplc run at start):");
       if (t) { localStorage.setItem("softplc.token", t.trim()); return post(path, body, false); }
     }
-    if (!r.ok) { say(data.error || r.statusText); return null; }
+    if (!r.ok) { post.error = data.error || r.statusText; say(post.error); return null; }
     return data;
   } catch (e) { say("daemon unreachable: " + e); return null; }
 }
@@ -165,6 +165,8 @@ for (const b of $$("#tabs button")) {
 // ---- simulation panel ----------------------------------------------------------------------
 function buildModules() {
   const box = $("#modules"); box.innerHTML = "";
+  // a column of symbols beside the addresses when the program has any (issue 33)
+  $("#tab-sim").classList.toggle("has-symbols", Object.keys(state.info.symbols || {}).length > 0);
   buildAnalog();
   for (const m of state.info.modules) {
     const ins = h("div", { class: "col" }, h("h4", {}, `inputs (${m.inputs})`));
@@ -204,7 +206,7 @@ function inputRow(addr) {
   push.addEventListener("pointerup", release);
   push.addEventListener("pointerleave", release);
   const row = h("div", { class: "io in" + (dev ? " driven" : "") + used(addr), "data-addr": addr },
-    h("span", { class: "led" }), h("span", { class: "addr", title: symbolOf(addr) }, addr), toggle, push,
+    h("span", { class: "led" }), h("span", { class: "addr", title: commentOf(addr) }, addr), ioSymbol(addr), toggle, push,
     forceButton(addr), h("span", { class: "forced-mark" }, "F"),
     h("span", { class: "dev", title: dev ? "driven by device " + dev : "" }, dev ? "⚙ " + dev : ""));
   return row;
@@ -213,7 +215,7 @@ function inputRow(addr) {
 function outputRow(addr) {
   const dev = state.info.device_io[addr] || "";
   return h("div", { class: "io out" + used(addr), "data-addr": addr },
-    h("span", { class: "led" }), h("span", { class: "addr", title: symbolOf(addr) }, addr), forceButton(addr),
+    h("span", { class: "led" }), h("span", { class: "addr", title: commentOf(addr) }, addr), ioSymbol(addr), forceButton(addr),
     h("span", { class: "forced-mark" }, "F"),
     h("span", { class: "dev", title: dev ? "drives device " + dev : "" }, dev ? "⚙ " + dev : ""));
 }
@@ -250,7 +252,7 @@ function buildAnalog() {
     const word = h("span", { class: "aword" }, "");
     const row = h("div", { class: "aio " + (ch.input ? "in" : "out") + (dev ? " driven" : "") + (ch.configured ? "" : " unconfigured"), "data-addr": a,
       title: ch.configured ? title : `${a}: not configured in [analog] (no signal type): its word is shown raw` },
-      h("span", { class: "addr" }, a), h("span", { class: "sig" }, ch.signal));
+      h("span", { class: "addr" }, a), ioSymbol(a), h("span", { class: "sig" }, ch.signal));
     if (ch.input) {
       const step = (ch.max - ch.min) / 1000;
       const slider = h("input", { type: "range", min: ch.min, max: ch.max, step, value: ch.min,
@@ -392,9 +394,14 @@ function tableRow(obj, entry) {
     ...FORMATS.map((f) => h("option", { value: f }, f)));
   sel.value = state.formats[obj] || "dec";
   const input = h("input", { class: "w", placeholder: "value" });
+  const note = h("div", { class: "write-note" });  // a refused write says why, in its row
   const doWrite = async () => {
     if (input.value.trim() === "") return;
-    if (await write(obj, parseEntry(input.value, obj))) { say(`${obj} := ${input.value} queued`, true); input.value = ""; }
+    post.error = "";
+    const ok = await write(obj, parseEntry(input.value, obj));
+    input.classList.toggle("refused", !ok);
+    note.textContent = ok ? "" : post.error;
+    if (ok) { say(`${obj} := ${input.value} queued`, true); input.value = ""; }
   };
   input.addEventListener("keydown", (e) => { if (e.key === "Enter") doWrite(); });
   const bit = /^%(I|Q|M|S|X)\d/.test(obj) && !/^%(MW|MD|MF|SW)/.test(obj);
@@ -404,7 +411,7 @@ function tableRow(obj, entry) {
     h("td", { class: "obj", title: commentOf(obj) }, obj, " ", symbolTag(obj), " ", h("span", { class: "forced-mark" }, "F")),
     h("td", { class: "val" }, "…"), h("td", {}, block || bit ? "" : sel),
     h("td", {}, block ? h("span", { class: "hint" }, `write ${obj}.P …`) : input, " ",
-      block ? "" : h("button", { class: "write", onclick: doWrite }, "Write")),
+      block ? "" : h("button", { class: "write", onclick: doWrite }, "Write"), block ? "" : note),
     h("td", {}, forceable ? h("button", { class: "force", onclick: async () => {
       const v = input.value.trim() === "" ? (bit ? 1 : state.values[obj]) : parseEntry(input.value, obj);
       await force(obj, v);
@@ -422,9 +429,15 @@ function showTable() {
   }
 }
 
-function addToTable() {
+async function addToTable() {
   const text = $("#table-add").value;
-  for (const part of text.split(/[ ,;]+/).filter(Boolean)) currentTable().rows.push(toAddress(part));
+  const addrs = [];
+  for (const part of text.split(/[ ,;]+/).filter(Boolean)) {
+    const addr = await toAddress(part);
+    if (addr === null) return;  // the message says why; the text stays to be corrected
+    addrs.push(addr);
+  }
+  currentTable().rows.push(...addrs);
   $("#table-add").value = ""; saveTables(); buildTables(); subscribe();
 }
 $("#table-add-btn").addEventListener("click", addToTable);
@@ -478,13 +491,16 @@ function buildRungs() {
   }
   showRung(0);
 }
-// rungs whose title or IL mentions the text (e.g. where %Q0.1 is used)
+// rungs whose title or IL mentions the text (e.g. where %Q0.1 is used), or that use an
+// object whose symbol has it ("JAM" finds the rungs using %M10 when JAM = %M10)
+function rungMatches(r, q) {
+  if (r.title.toUpperCase().includes(q) || r.il.toUpperCase().includes(q)) return true;
+  return (r.uses || []).some((a) => a.toUpperCase() === q || symbolOf(a).toUpperCase().includes(q));
+}
 $("#rung-filter").addEventListener("input", (e) => {
   const q = e.target.value.trim().toUpperCase();
-  for (const li of $$("#rung-list li")) {
-    const r = state.info.rungs[+li.dataset.rung];
-    li.hidden = q !== "" && !(r.title.toUpperCase().includes(q) || r.il.toUpperCase().includes(q));
-  }
+  for (const li of $$("#rung-list li"))
+    li.hidden = q !== "" && !rungMatches(state.info.rungs[+li.dataset.rung], q);
 });
 const RUNGS_SHOWN = 4;  // the selected rung and the next ones, all live
 function shownRungs() {
@@ -517,8 +533,14 @@ function buildTrendChips() {
     h("i", { style: `background:${COLOURS[i % COLOURS.length]}` }), o, symbolTag(o),
     h("button", { onclick: () => { state.trend.objects.splice(i, 1); saveTrends(); buildTrendChips(); subscribe(); } }, "✕"))));
 }
-function addTrend() {
-  for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) state.trend.objects.push(toAddress(o));
+async function addTrend() {
+  const addrs = [];
+  for (const o of $("#trend-add").value.split(/[ ,;]+/).filter(Boolean)) {
+    const addr = await toAddress(o);
+    if (addr === null) return;  // the message says why
+    addrs.push(addr);
+  }
+  state.trend.objects.push(...addrs);
   $("#trend-add").value = ""; saveTrends(); buildTrendChips(); subscribe();
 }
 $("#trend-add-btn").addEventListener("click", addTrend);

@@ -12,13 +12,15 @@ const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&l
 
 function showMachine(m) {
   const mc = state.machine;
-  if (m.trace_from === 0) mc.trace = [];
-  mc.trace.push(...m.trace);
+  if (m.trace_from === 0) { mc.trace = []; mc.paths = null; }
+  for (const s of m.trace) mc.trace.push(s);  // (a spread of a large chunk overflows the stack)
+  mc.total = m.trace_total; mc.next = m.trace_next;  // samples recorded; looked at so far
   mc.devices = m.devices; mc.steps = m.steps; mc.estimate = m.estimate;
   machineHistory(mc, m);
   const body = $("#devices tbody"); body.innerHTML = "";
   for (const [name, st] of Object.entries(m.devices)) {
     const shown = Object.entries(st).filter(([k]) => k !== "type" && k !== "view")
+      .concat(st.view && st.view.work ? [[`homed (program, ${st.view.work.homed_by})`, st.view.work.homed]] : [])
       .map(([k, v]) => `${k}=${typeof v === "number" ? Number(v.toPrecision(6)) : v}`).join("  ");
     body.append(h("tr", {}, h("td", {}, name), h("td", {}, st.type), h("td", {}, shown)));
   }
@@ -102,37 +104,71 @@ const crosshair = (cx, cz, colour, filled, id = "") =>
 
 // A trace recorder over two axes (stepper or servo) with a pen or a torch: the drawing
 // table and the cutting table. What was drawn (cut) is #pen-path; moves with the pen up
-// (torch off) are the dashed #travel-path.
+// (torch off) are the dashed #travel-path. With the program's work frame (the trace's
+// `work`: origin, area, homed bit), once homed the plane is in work coordinates, as the
+// host (`softplc cut`) reports them, with the work area (#work-area); before, in machine
+// coordinates, labelled so.
+const TRACE_MIN_PX = 0.5;  // a sample nearer than this to the last one drawn adds nothing
 const traceTableView = {
   fits: (devs) => Object.values(devs).some((d) => d.type === "trace" && d.view),
   draw(svg, mc) {
     const devs = mc.devices;
     const tr = Object.values(devs).find((d) => d.type === "trace").view;
     const [xn, zn] = tr.axes, gx = axisGeometry(devs[xn]), gz = axisGeometry(devs[zn]);
+    const work = tr.work && tr.work.homed ? tr.work : null;
+    const shift = work ? [work.origin[0] / gx.per, work.origin[1] / gz.per] : [0, 0];
+    const frame = work ? "work" : "machine";
+    const wx = { ...gx, unit: `${gx.unit}, ${frame}`, lo: gx.lo - shift[0], hi: gx.hi - shift[0], pos: gx.pos - shift[0] };
+    const wz = { ...gz, unit: `${gz.unit}, ${frame}`, lo: gz.lo - shift[1], hi: gz.hi - shift[1], pos: gz.pos - shift[1] };
     const tool = devs[tr.pen] || {}, torch = tool.type === "torch", on = torch ? tool.lit : tool.down;
     svg.setAttribute("viewBox", "0 0 600 615");
-    const f = planeFrame(gx, gz, [xn, zn], { x: 60, y: 20, w: 520, h: 530 });
-    let down = "", up = "", last = null;
-    for (const [, sx, sz, pen] of mc.trace) {
-      const p = `${f.X(sx / gx.per).toFixed(1)},${f.Z(sz / gz.per).toFixed(1)}`;
-      if (last) {  // a run of moves with the pen up is one subpath: its dashes run on
-        if (pen && last.pen) down += `L${p}`;
-        else up += (last.up ? "" : `M${last.p}`) + `L${p}`;
-      }
-      if (pen && !(last && last.pen)) down += `M${p}`;
-      last = { p, pen, up: last !== null && !(pen && last.pen) };
-    }
+    const f = planeFrame(wx, wz, [xn, zn], { x: 60, y: 20, w: 520, h: 530 });
+    const { down, up } = tracePaths(mc, f, gx, gz, shift);
     const colour = torch ? "#e65100" : "#1f4fa0";
-    svg.innerHTML = f.svg +
+    const area = work ? `<rect id="work-area" x="${f.X(0)}" y="${f.Z(work.area[1])}" width="${f.X(work.area[0]) - f.X(0)}" ` +
+      `height="${f.Z(0) - f.Z(work.area[1])}" fill="#fff8e1" fill-opacity="0.6" stroke="#b28704" stroke-dasharray="6 3"/>` +
+      `<text x="${f.X(0) + 4}" y="${f.Z(work.area[1]) - 5}" font-size="11" fill="#8a6d00">work area ${work.area[0]} × ${work.area[1]} mm</text>` : "";
+    const total = mc.total ?? mc.trace.length, got = mc.next ?? mc.trace.length, loading = got < total;
+    svg.innerHTML = f.svg.replace('<rect id="table-outline"', area + '<rect id="table-outline"') +
       (up ? `<path id="travel-path" d="${up}" fill="none" stroke="#9aa5b1" stroke-width="1" stroke-dasharray="4 3"/>` : "") +
       (down ? `<path id="pen-path" d="${down}" fill="none" stroke="${colour}" stroke-width="2"/>` : "") +
-      crosshair(f.X(gx.pos), f.Z(gz.pos), torch ? "#e65100" : "#d62728", on, "tool");
+      crosshair(f.X(wx.pos), f.Z(wz.pos), torch ? "#e65100" : "#d62728", on, "tool") +
+      (loading ? `<text id="trace-loading" x="300" y="40" font-size="14" text-anchor="middle" fill="#8a4b00">` +
+        `loading the trace: ${Math.floor(100 * got / total)} % (${got} of ${total} samples)…</text>` : "");
     const what = torch ? `torch ${on ? "lit (cutting)" : "off"}` : `pen ${on ? "down" : "up"}`;
-    $("#machine-hint").textContent = `${xn} = ${mnum(gx.pos, 2)} ${gx.unit}, ${zn} = ${mnum(gz.pos, 2)} ${gz.unit}, ${what}; ` +
-      `${mc.trace.length} trace samples; the ${torch ? "orange line is what the torch cut" : "blue line is what the pen drew"}` +
-      ", dashed: moves with the " + (torch ? "torch off." : "pen up.");
+    const where = `${xn} = ${mnum(wx.pos, 3)} ${gx.unit}, ${zn} = ${mnum(wz.pos, 3)} ${gz.unit}`;
+    $("#machine-hint").textContent = (work ? `${where} (work coordinates, as the host reports them; machine: ` +
+      `${mnum(gx.pos, 3)}, ${mnum(gz.pos, 3)}), ` : tr.work ? `${where} (machine coordinates: not homed, ` +
+      `${tr.work.homed_by} = 0, no work origin yet), ` : `${where}, `) + `${what}; ` +
+      `${got} trace samples${loading ? ` of ${total} (loading)` : ""}; the ` +
+      `${torch ? "orange line is what the torch cut" : "blue line is what the pen drew"}, dashed: moves with the ` +
+      (torch ? "torch off." : "pen up.");
   },
 };
+
+// the trace as two SVG paths, built on from the samples added since the last draw (a
+// long trace is not formatted again on every update); rebuilt when the frame changes
+function tracePaths(mc, f, gx, gz, shift) {
+  const key = [f.X(0), f.Z(0), f.X(1), gx.per, gz.per, ...shift].join();
+  let c = mc.paths;
+  if (!c || c.key !== key || c.n > mc.trace.length) c = mc.paths = { key, n: 0, down: "", up: "", last: null };
+  let { down, up, last } = c;
+  const tr = mc.trace;
+  for (let i = c.n; i < tr.length; i++) {
+    const [, sx, sz, pen] = tr[i];
+    const x = f.X(sx / gx.per - shift[0]), y = f.Z(sz / gz.per - shift[1]);
+    if (last && !pen === !last.pen && Math.abs(x - last.x) < TRACE_MIN_PX && Math.abs(y - last.y) < TRACE_MIN_PX) continue;
+    const p = `${x.toFixed(1)},${y.toFixed(1)}`;
+    if (last) {  // a run of moves with the pen up is one subpath: its dashes run on
+      if (pen && last.pen) down += `L${p}`;
+      else up += (last.up ? "" : `M${last.p}`) + `L${p}`;
+    }
+    if (pen && !(last && last.pen)) down += `M${p}`;
+    last = { p, x, y, pen, up: last !== null && !(pen && last.pen) };
+  }
+  Object.assign(c, { n: tr.length, down, up, last });
+  return c;
+}
 
 // FE against machine time, one line per servo axis, with its envelope over the servo-rate
 // trace between two updates (the band): at `box` in the svg, legend right of the plot

@@ -24,13 +24,19 @@ function symbolTag(addr) {
   const name = symbolOf(addr);
   return name ? h("span", { class: "sym", title: commentOf(addr) || name }, name) : "";
 }
-// what the user typed -> an address: a symbol (any case) with an optional .FIELD or :N
-function toAddress(text) {
-  const t = text.trim().toUpperCase();
-  if (t.startsWith("%") || !state.info || !state.info.symbols) return t;
-  const m = /^([A-Z_][A-Z0-9_]*)((?:\.[A-Z]+)?(?::\d+)?)$/.exec(t);
-  if (!m) return t;
-  for (const [addr, [name]] of Object.entries(state.info.symbols))
-    if (name.toUpperCase() === m[1]) return addr + m[2];
-  return t;  // unknown: the server says so
+// the symbol column of the simulation panel's I/O rows: the name shown, the comment as tooltip
+function ioSymbol(addr) {
+  const name = symbolOf(addr);
+  return h("span", { class: "iosym", title: commentOf(addr) || name }, name);
+}
+// what the user typed -> its address, by the daemon's resolver (GET /api/resolve: a symbol in
+// any case, with .FIELD, :N, :Xk; the one resolution path of softplc.twido.symbols); null,
+// with the daemon's message shown (unknown symbol, did you mean ...), if it names nothing
+async function toAddress(text) {
+  try {
+    const r = await fetch("/api/resolve?obj=" + encodeURIComponent(text.trim()));
+    const data = await r.json();
+    if (!r.ok) { say(data.error || r.statusText); return null; }
+    return data.address;
+  } catch (e) { say("daemon unreachable: " + e); return null; }
 }
