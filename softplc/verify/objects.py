@@ -131,11 +131,13 @@ class ObjectModel(AbstractModel, ExprModel):
         held[pin] = v
         self.run_block(ref, g, held, pos)
 
-    def block_field(self, ref: Ref, width: int | None) -> str | None:
+    def block_field(self, ref: Ref, width: int | None, writable: bool = False) -> str | None:
         """The state key of a block's field the program reads or writes (an address field
-        of its family that its model keeps, of that width; None: any width)."""
+        of its family that its model keeps, of that width; None: any width; `writable`:
+        one the program may write, %TMi.P, %Ri.I...)."""
         fam = MODELLED.get(ref.kind)
-        if fam is None or ref.field not in (fam.fields or {}) or ref.offset is not None:
+        if fam is None or ref.field not in (fam.fields or {}) or ref.offset is not None \
+                or writable and not (fam.fields or {})[ref.field][1]:
             return None
         name = self.use_block(Ref(ref.kind, ref.index), None)
         if name is None:
@@ -295,7 +297,7 @@ class ObjectModel(AbstractModel, ExprModel):
             v32 = narrow(v, 32)
             self.put_word(Ref("MW", ref.index), g, z3.Extract(15, 0, v32), pos)
             self.put_word(Ref("MW", ref.index + 1), g, z3.Extract(31, 16, v32), pos)
-        elif (key := self.writable_field(ref)) is not None:
+        elif (key := self.block_field(ref, 16, writable=True)) is not None:
             if catalog.family(k).clamp_preset and ref.field == "P":
                 v = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
             if key != "_none":
@@ -304,13 +306,6 @@ class ObjectModel(AbstractModel, ExprModel):
             self.run_abstract(Ref(k, ref.index), g, pos)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
-
-    def writable_field(self, ref: Ref) -> str | None:
-        """The key of a block's word field the program may write (%TMi.P, %Ri.I...)."""
-        fam = MODELLED.get(ref.kind)
-        if fam is None or not (fam.fields or {}).get(ref.field, ("", False))[1]:
-            return None
-        return self.block_field(ref, 16)
 
     # ---- words: one state key each, or with indexed objects the %MW words as one array --
     def word(self, ref: Ref) -> Any:
