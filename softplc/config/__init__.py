@@ -42,7 +42,7 @@ import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from pydantic import (
     AfterValidator,
@@ -59,7 +59,6 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from softplc.config.fields import (  # noqa: F401  (the field types devices import from here)
-    DRUM_STEPS,
     MAX_CLIENTS,
     MAX_DURATION_S,
     MIN_INTERVAL_S,
@@ -72,7 +71,6 @@ from softplc.config.fields import (  # noqa: F401  (the field types devices impo
     Interval,
     PositiveDuration,
     Section,
-    TimeBase,
     _at_least,
     _parse_duration,
     between,
@@ -94,30 +92,9 @@ from softplc.config.models import (
 )
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.limits import MAX_CONFIG_BYTES, BoundsError, check_toml, decode_text, read_bytes
-from softplc.runtime.blocks import MAX_VALUE
 from softplc.twido import catalog
 from softplc.twido.address import parse_address
 from softplc.twido.profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES
-
-
-class TimerConfig(Section):
-    type: Literal["TON", "TOF", "TP"] = "TON"
-    base: TimeBase = "1s"
-    preset: int = Field(0, ge=0, le=MAX_VALUE)
-
-
-class CounterConfig(Section):
-    preset: int = Field(MAX_VALUE, ge=0, le=MAX_VALUE)
-
-
-class DrumConfig(Section):
-    steps: list[Annotated[int, Field(ge=0, le=0xFFFF)]] = Field(
-        default_factory=lambda: [0], min_length=1, max_length=DRUM_STEPS)
-    outputs: list[Address] = Field(default_factory=list)
-
-
-class RegisterConfig(Section):
-    type: Literal["FIFO", "LIFO"] = "FIFO"
 
 
 def _network(text: str) -> str:
@@ -247,9 +224,9 @@ def _none_if_empty(v: Any) -> Any:
     return None if v == {} else v  # `exch = {}`: no EXCH, as if absent
 
 
-# The function blocks' sections typed by their catalog entries' models ([pid], [pls], [pwm],
-# [fast_counters], ...: softplc/twido/catalog.py); addresses are resolved when the blocks are
-# set up.
+# The function blocks' sections typed by their catalog entries' models ([timers], [counters],
+# [drums], [registers], [pid], [pls], [pwm], [fast_counters], ...: softplc/twido/catalog.py);
+# addresses are resolved when the blocks are set up.
 _BlockSections = create_model(  # type: ignore[call-overload]
     "_BlockSections", __base__=Section,
     **{f.section: (Annotated[dict[str, f.config_model()], BeforeValidator(_str_keys)],
@@ -266,10 +243,6 @@ class Config(_BlockSections):  # type: ignore[misc, valid-type]
     # None: the controller's default (engine)
     watchdog: Annotated[Duration, _at_least(MIN_WATCHDOG_S, "the watchdog")] | None = None
     profile: str = DEFAULT_PROFILE.name
-    timers: dict[str, TimerConfig] = Field(default_factory=dict)
-    counters: dict[str, CounterConfig] = Field(default_factory=dict)
-    drums: dict[str, DrumConfig] = Field(default_factory=dict)
-    registers: dict[str, RegisterConfig] = Field(default_factory=dict)
     constants: dict[str, int | FiniteFloat] = Field(default_factory=dict)
     # expansion modules by slot; None: not configured (I/O addresses are not checked)
     modules: Annotated[dict[Slot, ModuleName] | None, BeforeValidator(_str_keys)] = None
