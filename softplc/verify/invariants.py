@@ -7,12 +7,13 @@ window of a third timer) is k-inductive only at a k as long as the timer's windo
 (0.5 s at 50 ms: k = 11), each step with every timer's divider: too slow. Stated as
 invariants, the same proof is 1-inductive.
 
-Candidates, over the state at the end of a scan (`blocks.py`: `_in` the timer's last IN,
-`_el` its elapsed time in units, advanced by the period at the end of the scan):
+Candidates, over the state at the end of a scan (`_in` a timer's last IN,
+`_el` its elapsed time in units, advanced by the period at the end of the scan:
+`softplc/blocks/timer.py`):
 (presets and a TON's Q/V against its last IN are `lemmas.timer_candidates`')
-- per timer V <= P; per on-delay timer (TON, `runtime/blocks.py`; Twido: the current
+- per timer V <= P; per on-delay timer (TON; Twido: the current
   value counts up from 0 while IN is 1, Q is 1 once it reaches the preset [TwidoSuite
-  Programming Guide, "Timer function block %TMi", TON, manual, from memory]) with a
+  Programming Guide, "Timer function block", TON, manual, from memory]) with a
   fixed period: IN on -> V is the elapsed time before the scan's advance, in time bases,
   clamped at P;
 - per pair of on-delay timers a, b counting in the same unit: IN_a -> IN_b (b's input is
@@ -40,8 +41,9 @@ from typing import Any
 
 import z3
 
+from softplc.blocks.counter import Counter
+from softplc.blocks.timer import time_unit, timer_cap
 from softplc.runtime.blocks import MAX_VALUE
-from softplc.verify.blocks import time_unit, timer_cap
 
 WIDE_EL = 48  # bits for elapsed-time arithmetic: a cap (< 2^20 units) times a base (< 2^20)
 MONITOR_OFFSETS = (-1, 0)  # periods between the timer's start and the edge's scan
@@ -96,7 +98,7 @@ def _monitor_candidates(ck: Any, name: str) -> list[Candidate]:
     m = ck.model
     t = m.timers[name]
     step = m.period_us // time_unit(t, m.period_us)
-    cap = timer_cap(t, m.period_us, m.longest_us)
+    cap = timer_cap(t, m.scan_info())
     i, e = f"{name}._in", f"{name}._el"
     out = []
     for off in MONITOR_OFFSETS:
@@ -110,10 +112,10 @@ def _monitor_candidates(ck: Any, name: str) -> list[Candidate]:
 
 
 def _counter_candidates(name: str) -> list[Candidate]:
-    """A counter's status bits against its value (`blocks.run_counter`): D is V = P after
-    every execution; E (an underflow wrapped V to 9999) and F (an overflow wrapped it to
-    0) stay set only until the next count or reset [TWD USE 10AE, "Up/down counter
-    function block %Ci", manual, from memory]."""
+    """A counter's status bits against its value (`softplc/blocks/counter.py`): D is
+    V = P after every execution; E (an underflow wrapped V to 9999) and F (an overflow
+    wrapped it to 0) stay set only until the next count or reset [TWD USE 10AE, "Up/down
+    counter function block", manual, from memory]."""
     k = {f: f"{name}.{f}" for f in ("P", "V", "D", "E", "F")}
     return [Candidate(f"{name}.D = ({name}.V = {name}.P)", frozenset({k["D"], k["V"], k["P"]}),
                       lambda s: s[k["D"]] == (s[k["V"]] == s[k["P"]])),
@@ -136,8 +138,8 @@ def related_pairs(ck: Any, ton: list[str]) -> list[tuple[str, str]]:
         for b in ton:
             ta, tb = m.timers[a], m.timers[b]
             if a != b and time_unit(ta, m.period_us) == time_unit(tb, m.period_us) and \
-                    timer_cap(ta, m.period_us, m.longest_us) == \
-                    timer_cap(tb, m.period_us, m.longest_us) and \
+                    timer_cap(ta, m.scan_info()) == \
+                    timer_cap(tb, m.scan_info()) and \
                     s.check(post[f"{a}._in"], z3.Not(post[f"{b}._in"])) == z3.unsat:
                 out.append((a, b))
     return out
@@ -154,7 +156,8 @@ def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
         ck.timer_pairs = related_pairs(ck, ton)
     for a, b in ck.timer_pairs:
         out += _pair_candidates(ck, a, b)
-    out += [c for n in sorted(m.counters) for c in _counter_candidates(n)]
+    out += [c for n in sorted(m.used) if isinstance(m.used[n][1], Counter)
+            for c in _counter_candidates(n)]
     if ck.monitor and not m.variable and "_mon" in keys:
         out += [c for n in ton for c in _monitor_candidates(ck, n)]
     return [c.term(st) for c in out if c.keys <= set(keys)]
