@@ -41,7 +41,7 @@ from typing import Any
 
 import z3
 
-from softplc.blocks.counter import Counter
+from softplc.blocks import counter
 from softplc.blocks.timer import time_unit, timer_cap
 from softplc.runtime.blocks import MAX_VALUE
 
@@ -156,7 +156,7 @@ def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
         ck.timer_pairs = related_pairs(ck, ton)
     for a, b in ck.timer_pairs:
         out += _pair_candidates(ck, a, b)
-    out += [c for n in sorted(m.used) if isinstance(m.used[n][1], Counter)
+    out += [c for n in sorted(m.used) if m.used[n][0] is counter.MODEL
             for c in _counter_candidates(n)]
     if ck.monitor and not m.variable and "_mon" in keys:
         out += [c for n in ton for c in _monitor_candidates(ck, n)]
