@@ -45,7 +45,8 @@ from softplc.blocks import counter
 from softplc.blocks.timer import time_unit, timer_cap
 from softplc.runtime.blocks import MAX_VALUE
 
-WIDE_EL = 48  # bits for elapsed-time arithmetic: a cap (< 2^20 units) times a base (< 2^20)
+WIDE_EL = 64  # bits for elapsed-time arithmetic: an elapsed time times a 16-bit count
+WORD_BITS = 16  # a Twido word: a preset, a value, the response monitor's count
 MONITOR_OFFSETS = (-1, 0)  # periods between the timer's start and the edge's scan
 PAIR_CHECK_MS = 2000  # ms per pair: IN_a -> IN_b over one scan (small terms: the inputs)
 
@@ -149,7 +150,9 @@ def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
     """The candidates over state `st`, for `Checker.candidates` (kept by `lemmas.houdini`
     where inductive); the same list, in the same order, for every state of `ck`."""
     m, keys = ck.model, ck.state_keys()
-    names = sorted(n for n in m.timers if f"{n}._in" in keys and f"{n}._el" in keys)
+    # a product of an elapsed time and a 16-bit count must fit in WIDE_EL bits
+    names = sorted(n for n in m.timers if f"{n}._in" in keys and f"{n}._el" in keys
+                   and m.block_fields(n)["_el"] <= WIDE_EL - WORD_BITS)
     out = [c for n in names for c in _timer_candidates(ck, n)]
     ton = [n for n in names if m.timers[n].type == "TON"]
     if ck.timer_pairs is None:
