@@ -23,6 +23,7 @@ from softplc.web.control import ApiError
 from softplc.web.live import dumps
 from softplc.web.security import Guard, is_loopback
 from softplc.web.server import static_dir
+from softplc.web.site import http_url, serve
 
 
 def _json(data: Any, status: int = 200) -> web.Response:
@@ -48,11 +49,8 @@ class ReplayServer:
         r.add_static("/static/", static_dir())
 
     async def start(self) -> None:
-        self._runner = web.AppRunner(self.app, access_log=None)
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port, reuse_address=True)
-        await site.start()
-        self.port = site._server.sockets[0].getsockname()[1]  # type: ignore[union-attr]
+        self._runner, self.port = await serve(self.app, self.host, self.port,
+                                              reuse_address=True)
 
     async def close(self) -> None:
         if self._runner is not None:
@@ -60,8 +58,7 @@ class ReplayServer:
 
     @property
     def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"http://{host}:{self.port}/"
+        return http_url(self.host, self.port)
 
     @web.middleware
     async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:

@@ -44,6 +44,7 @@ from softplc.web.live import LiveViews, dumps
 from softplc.web.pages import MAX_PAGES, UPDATE_HZ, Pages
 from softplc.web.program import MAX_PROGRAM_BODY, ProgramChanges
 from softplc.web.security import COOKIE, Guard
+from softplc.web.site import http_url, serve
 
 log = logging.getLogger("softplc.web")
 
@@ -112,12 +113,8 @@ class WebServer:
         return app
 
     async def start(self) -> None:
-        self._runner = web.AppRunner(self.app, access_log=None)
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port, reuse_address=True)
-        await site.start()
-        sock = site._server.sockets[0]  # type: ignore[union-attr]
-        self.port = sock.getsockname()[1]  # the real one if port was 0
+        self._runner, self.port = await serve(self.app, self.host, self.port,
+                                              reuse_address=True)
         self.pages.start()
 
     async def close(self) -> None:
@@ -127,8 +124,7 @@ class WebServer:
 
     @property
     def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"http://{host}:{self.port}/"
+        return http_url(self.host, self.port)
 
     # -- plumbing ----------------------------------------------------------------------------
     @web.middleware
