@@ -23,14 +23,14 @@ from softplc.web.control import ApiError
 from softplc.web.live import dumps
 from softplc.web.security import Guard, is_loopback
 from softplc.web.server import static_dir
-from softplc.web.site import http_url, serve
+from softplc.web.site import Site
 
 
 def _json(data: Any, status: int = 200) -> web.Response:
     return web.Response(text=dumps(data), status=status, content_type="application/json")
 
 
-class ReplayServer:
+class ReplayServer(Site):
     def __init__(self, player: TracePlayer, program: str, host: str = "127.0.0.1",
                  port: int = 0):
         if not is_loopback(host):
@@ -40,25 +40,12 @@ class ReplayServer:
         self.program = program
         self.host, self.port = host, port
         self.guard = Guard(host)
-        self._runner: web.AppRunner | None = None
         self.app = web.Application(middlewares=[self._errors])
         r = self.app.router
         r.add_get("/", self._index)
         r.add_get("/api/replay", self._info)
         r.add_get("/api/replay/scan/{n}", self._scan)
         r.add_static("/static/", static_dir())
-
-    async def start(self) -> None:
-        self._runner, self.port = await serve(self.app, self.host, self.port,
-                                              reuse_address=True)
-
-    async def close(self) -> None:
-        if self._runner is not None:
-            await self._runner.cleanup()
-
-    @property
-    def url(self) -> str:
-        return http_url(self.host, self.port)
 
     @web.middleware
     async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:

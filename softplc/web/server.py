@@ -44,7 +44,7 @@ from softplc.web.live import LiveViews, dumps
 from softplc.web.pages import MAX_PAGES, UPDATE_HZ, Pages
 from softplc.web.program import MAX_PROGRAM_BODY, ProgramChanges
 from softplc.web.security import COOKIE, Guard
-from softplc.web.site import http_url, serve
+from softplc.web.site import Site
 
 log = logging.getLogger("softplc.web")
 
@@ -65,7 +65,7 @@ async def _resolve(ctl: Controller, request: web.Request) -> web.Response:
     return _json({"address": ctl.objects.address_of(request.query.get("obj"))})
 
 
-class WebServer:
+class WebServer(Site):
     def __init__(self, controller: Controller, host: str = "127.0.0.1", port: int = 8020, *,
                  token: str | None = None, read_token: str | None = None,
                  allowed_hosts: tuple[str, ...] = (), max_pages: int = MAX_PAGES,
@@ -79,7 +79,6 @@ class WebServer:
         self.program = ProgramChanges(controller)
         self.pages = Pages(controller, self.views, max_pages=max_pages, update_hz=update_hz)
         self.warn = RateLimitedLog(log)
-        self._runner: web.AppRunner | None = None
         self.app = self._make_app()
 
     @property
@@ -113,18 +112,12 @@ class WebServer:
         return app
 
     async def start(self) -> None:
-        self._runner, self.port = await serve(self.app, self.host, self.port,
-                                              reuse_address=True)
+        await super().start()
         self.pages.start()
 
     async def close(self) -> None:
         await self.pages.close()
-        if self._runner is not None:
-            await self._runner.cleanup()
-
-    @property
-    def url(self) -> str:
-        return http_url(self.host, self.port)
+        await super().close()
 
     # -- plumbing ----------------------------------------------------------------------------
     @web.middleware

@@ -25,4 +25,26 @@ def http_url(host: str, port: int, path: str = "/") -> str:
     return f"http://{format_address((host, port))}{path}"
 
 
-__all__ = ["http_url", "serve"]
+class Site:
+    """A page server on the caller's event loop: a subclass sets `app`, `host` and `port`
+    (0: any free one, the real one once started)."""
+
+    app: web.Application
+    host: str
+    port: int
+    _runner: web.AppRunner | None = None
+
+    async def start(self) -> None:
+        self._runner, self.port = await serve(self.app, self.host, self.port,
+                                              reuse_address=True)
+
+    async def close(self) -> None:
+        if self._runner is not None:
+            await self._runner.cleanup()
+
+    @property
+    def url(self) -> str:
+        return http_url(self.host, self.port)
+
+
+__all__ = ["Site", "http_url", "serve"]
