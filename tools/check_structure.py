@@ -5,10 +5,15 @@ Prints, and exits 1 when a rule is broken (`--strict`), or always 0 (default):
 - files over 700 lines;
 - classes over 25 methods, a method made by a factory (`stop = _engine("stop")`) counted
   too (tables of one method per instruction or grammar rule are exempt: CLASS_ALLOW);
-- files that name each block kind (%VFC %PLS %PWM %DR %FC %PID): the kind as a
-  whole word in a string literal or an identifier, outside comments and docstrings
-  (so a regex alternation, a dict key, a `kind == "PLS"` test or a `_configure_pid`
-  all count; a sentence in a docstring does not);
+- files that name each block kind (%TM %C %DR %SBR %SC %R %PLS %PWM %FC %VFC %PID): the
+  kind in a string literal or an identifier, outside comments, docstrings and sentences
+  (so a format "%TM{i}", a regex alternation, a dict key, a `kind == "PLS"` test, a
+  `blocks["TM"]` or a `_configure_pid` all count; the example in a message or a help
+  text, "a full address such as %TM0.Q", does not: a string with a space is a sentence).
+  A one-letter kind (C, R) alone in a string is a pin or a field as often ("R" resets), so
+  it counts only where a kind goes (compared with a `kind`, a key of `blocks`, the first
+  argument of `family(...)`, `Family(...)` or `count(...)`) or as "%C0", "%R{i}"; no
+  identifier counts for it (`r` is the reset pin's method);
 - import cycles between files, every import statement counted (module level, inside
   functions, under `if TYPE_CHECKING:`); `from . import sub` is an edge to `sub` only;
 - files of softplc/web/ that reach the PLC object (`.plc` attribute, `PLC` name, or
@@ -25,22 +30,24 @@ from __future__ import annotations
 
 import argparse
 import ast
+import importlib.util
 import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent / "softplc"
 MAX_LINES = 700
 MAX_METHODS = 25
-MAX_KIND_FILES = 3
-KINDS = ("VFC", "PLS", "PWM", "DR", "FC", "PID")
+MAX_KIND_FILES = 2  # its module and the catalog (issue 32)
+KINDS = ("TM", "C", "DR", "SBR", "SC", "R", "PLS", "PWM", "FC", "VFC", "PID")
 # Tables of one method per instruction or grammar rule (DEVELOPERS.md excepts them).
 CLASS_ALLOW = {"Ops", "_ToAST"}
 # The layers, lowest first: a module imports from its own layer and lower ones only. A
 # module's layer is that of the longest prefix naming it.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("softplc.errors",),
+    ("softplc.errors", "softplc.limits"),    # errors; the input limits every reader applies
     ("softplc.modbus.codec",),                # MBAP and word pairs: the server, EXCH, hosts
     ("softplc.twido",),                       # the Twido object model
     ("softplc.il",),                          # program text -> typed AST
@@ -50,6 +57,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.persist",),                     # retained state
     ("softplc.modbus",),                      # the Modbus codec, map and server
     ("softplc.config",),                      # the typed configuration
+    ("softplc.blocks",),                      # the basic blocks: runtime, config, verify
     ("softplc.devices",),                     # generic simulated devices
     ("softplc.assembly",),                    # configuration + program -> a machine
     ("softplc.plc", "softplc.testing"),       # the PLC facade, the pytest plugin
@@ -82,27 +90,92 @@ def _docstring_nodes(tree: ast.AST) -> set[int]:
     return ids
 
 
-def kind_names(tree: ast.AST) -> set[str]:
+def _kind_slots(tree: ast.AST) -> set[int]:
+    """The string constants in a place where a kind goes: compared with something named
+    `kind`, a subscript of something named `blocks`, the argument of `family` / `count`
+    (alone or in a tuple or set there)."""
+    def named(node: ast.AST, words: tuple[str, ...]) -> bool:
+        text = ast.unparse(node)
+        return any(re.search(rf"\b{w}\b", text) for w in words)
+
+    out: set[int] = set()
+    for node in ast.walk(tree):
+        places: list[ast.AST] = []
+        if isinstance(node, ast.Compare) and any(
+                named(n, ("kind",)) for n in [node.left, *node.comparators]):
+            places = [node.left, *node.comparators]
+        elif isinstance(node, ast.Subscript) and named(node.value, ("blocks",)):
+            places = [node.slice]
+        elif isinstance(node, ast.Call) and named(node.func, ("family", "Family", "count",
+                                                              "get")) \
+                and (not isinstance(node.func, ast.Attribute) or node.func.attr != "get"
+                     or named(node.func.value, ("blocks",))):
+            places = list(node.args[:1])
+        for p in places:
+            for c in ast.walk(p):
+                if isinstance(c, ast.Constant):
+                    out.add(id(c))
+    return out
+
+
+def kind_names(tree: ast.AST, kinds: tuple[str, ...] = KINDS) -> set[str]:
     """The block kinds a module names in code (strings outside docstrings, identifiers)."""
     docs = _docstring_nodes(tree)
+    slots = _kind_slots(tree)
     found: set[str] = set()
-    # in a string: "%PID0", "PID" alone, or one alternative of a regex ("TM|DR|PLS");
-    # "FC 3/4" (a Modbus function code) or "kill -USR1 PID" (a process id) is not a kind
-    words = {k: re.compile(rf"%{k}(?![A-Za-z])|^{k}$|(?:^|\|){k}(?:\||$)|\({k}\||\|{k}\)")
-             for k in KINDS}
+    # in a string: "%PID0", "%C{i}", "PID" alone, or one alternative of a regex
+    # ("TM|DR|PLS"); "FC 3/4" (a Modbus function code) or "kill -USR1 PID" (a process id)
+    # is not a kind, nor "%R" or "%C" of a date format (a letter follows the kind or not)
+    words = {k: re.compile(rf"%{k}(?=[0-9{{])|^%{k}$" if len(k) == 1 else
+                           rf"%{k}(?![A-Za-z])|^{k}$|(?:^|\|){k}(?:\||$)|\({k}\||\|{k}\)")
+             for k in kinds}
     # a function or class named after the kind (`_configure_pid`, `VfcBlock`)
     ident = {k: re.compile(rf"(?:^|_){k.lower()}(?:_|$)|{k.capitalize()}[A-Z]|^{k}")
-             for k in KINDS}
-    ident["PID"] = re.compile(r"(?:^|_)pid(?:_|$)(?<!set_pid)|Pid[A-Z]|^PID")  # set_pid: a process
+             for k in kinds if len(k) > 1}
+    if "PID" in ident:  # set_pid: a process
+        ident["PID"] = re.compile(r"(?:^|_)pid(?:_|$)(?<!set_pid)|Pid[A-Z]|^PID")
     for node in ast.walk(tree):
-        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs:
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) \
+                and id(node) not in docs and not re.search(r"\s", node.value):
             for k, rx in words.items():
-                if rx.search(node.value):
+                if rx.search(node.value) or (id(node) in slots and node.value == k):
                     found.add(k)
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             for k, rx in ident.items():
                 if rx.search(node.name):
                     found.add(k)
+    return found
+
+
+def family_classes(root: Path) -> dict[str, tuple[str, str]]:
+    """kind -> (module, class) of its runtime block, from the catalog of the tree measured
+    (none for a tree without one)."""
+    path = root / "twido" / "catalog.py"
+    if not path.exists():
+        return {}
+    # data only, importing nothing of softplc: loaded from its file, whatever tree it is in
+    spec = importlib.util.spec_from_file_location("_catalog_measured", path)
+    cat: Any = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = cat  # a dataclass looks its module up
+    try:
+        spec.loader.exec_module(cat)
+    finally:
+        del sys.modules[spec.name]
+    return {k: tuple(f.runtime.split(":")) for k, f in cat.FAMILIES.items()}
+
+
+def class_names(tree: ast.Module, mod: str, is_pkg: bool,
+                families: dict[str, tuple[str, str]]) -> set[str]:
+    """The kinds whose runtime class `mod` defines or imports by name (the verifier naming a
+    timer by `Timer` names the family as surely as by "TM")."""
+    found = {k for k, (m, _c) in families.items() if m == mod}
+    for st in ast.walk(tree):
+        if isinstance(st, ast.ImportFrom):
+            base = mod.split(".")
+            target = ".".join(base[: len(base) - st.level + (1 if is_pkg else 0)]
+                              + ([st.module] if st.module else [])) if st.level else st.module
+            found |= {k for k, (m, c) in families.items()
+                      if m == target and any(a.name == c for a in st.names)}
     return found
 
 
@@ -243,6 +316,7 @@ def upward_imports(graph: dict[str, set[str]]) -> list[str]:
 
 def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
     rep = Report(per_kind={k: [] for k in kinds})
+    families = family_classes(root)
     trees: dict[str, tuple[ast.Module, bool]] = {}
     for path in sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts):
         text = path.read_text()
@@ -254,9 +328,11 @@ def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
         for name, line, n in methods(tree):
             if n > MAX_METHODS and name not in CLASS_ALLOW:
                 rep.big_classes.append(f"{rel}:{line} {name} {n}")
-        for k in kind_names(tree) & set(kinds):
+        mod, is_pkg = _module_name(path, root), path.name == "__init__.py"
+        named = kind_names(tree) | class_names(tree, mod, is_pkg, families)
+        for k in sorted(named & set(kinds)):
             rep.per_kind[k].append(rel)
-        trees[_module_name(path, root)] = (tree, path.name == "__init__.py")
+        trees[mod] = (tree, is_pkg)
         if path.parent.name == "web" and re.search(
                 r"\.plc\b|\bPLC\b|softplc\.plc\b|from \.\.plc\b", text):
             rep.web_reach.append(rel)

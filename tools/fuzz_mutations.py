@@ -1,13 +1,20 @@
 """The mutation fuzzers at full size, with a progress line (`make fuzz` runs it).
 
     .venv/bin/python tools/fuzz_mutations.py [--programs 4000] [--configs 1559]
+        [--requirements 2000] [--symbols 2000] [--dxf 600] [--gcode 2000] [--api 400]
 
 Programs: the ladder_programs/*.il texts mutated by `tests/test_il_recovery.mutate` (tokens
 replaced, inserted, deleted, repeated); each either loads with its machine configuration
 and devices and then runs 5 scans, or is refused with a SoftPLCError. Configs: the
 ladder_programs/*.toml mutated by `tests/test_config_fuzz.mutated` (types, out-of-range
 values, inf/nan, deleted and unknown keys); each loads, builds its devices and runs 5 scans,
-or is a ConfigError / ProgramError. Any other exception while loading is a *traceback*, any
+or is a ConfigError / ProgramError. Requirement files, symbol CSVs, DXF drawings and G-code
+programs (tests/input_fuzz.py: the shipped examples mutated with huge numbers, NaN, deep
+nesting, binary bytes, cut short) are read or refused with their reader's coded error.
+Online changes: mutated POST /api/program bodies (program, configuration and the JSON
+itself) against the web monitor of the star-delta example, in this process (its server on
+127.0.0.1): a 200 or a 4xx with a JSON error, never a 5xx. Any other exception while
+loading is a *traceback*, any
 exception out of a scan a *run-time crash* (a program fault is a HALT, not a crash). The
 first few of each are printed with the input that caused them; the exit status is 1 if
 there was any. The cases are new at every run (hypothesis, not derandomised).
@@ -25,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "unit")]  # the seeds' modules
 
 SHOWN = 3  # failures printed in full, per fuzzer
 
@@ -132,6 +139,37 @@ def fuzz_configs(n: int) -> Tally:
     return tally
 
 
+def fuzz_reader(name: str, target: Callable[[Any], str], n: int) -> Tally:
+    """A file reader's target of tests/input_fuzz.py: "read" or "refused", else a
+    traceback."""
+    from hypothesis import strategies as st
+
+    tally = Tally(f"mutated {name}", n)
+
+    def case(data: Any) -> None:
+        try:
+            tally.add(target(data))
+        except Exception:
+            tally.add("tracebacks", traceback.format_exc()[-3000:])
+
+    _run(case, n, st.data())
+    return tally
+
+
+def fuzz_api(n: int) -> Tally:
+    """Mutated online changes against the star-delta example's web monitor."""
+    sys.path.insert(0, str(ROOT / "tests" / "e2e"))
+    from input_fuzz import online_change
+    from test_web_api import STAR, Stack
+
+    stack = Stack(STAR, STAR.with_suffix(".toml"))
+    try:
+        return fuzz_reader("online changes", lambda data: online_change(
+            stack.client().base, data), n)
+    finally:
+        stack.close()
+
+
 def _run(case: Callable[..., None], n: int, *strategies: Any) -> None:
     """`case` on `n` generated examples: outcomes are tallied, never raised, so nothing is
     shrunk and the run is not cut short by the first failure."""
@@ -147,11 +185,26 @@ def main() -> int:
                                  "with a progress line; exit 1 on any traceback or crash.")
     ap.add_argument("--programs", type=int, default=4000, help="mutated programs (4000)")
     ap.add_argument("--configs", type=int, default=1559, help="mutated configs (1559)")
+    from input_fuzz import TARGETS
+
+    options = {"requirement files": "requirements", "symbol CSVs": "symbols",
+               "DXF drawings": "dxf", "G-code programs": "gcode"}
+    for name, (_target, full) in TARGETS.items():
+        ap.add_argument(f"--{options[name]}", type=int, default=full,
+                        help=f"mutated {name} ({full})")
+    ap.add_argument("--api", type=int, default=400, help="mutated online changes (400)")
     args = ap.parse_args()
+    runs: list[tuple[Callable[[], Tally], int]] = [
+        (lambda: fuzz_programs(args.programs), args.programs),
+        (lambda: fuzz_configs(args.configs), args.configs)]
+    for name, (target, _full) in TARGETS.items():
+        n = getattr(args, options[name])
+        runs.append((lambda name=name, target=target, n=n: fuzz_reader(name, target, n), n))
+    runs.append((lambda: fuzz_api(args.api), args.api))
     tallies = []
-    for fuzz, n in ((fuzz_programs, args.programs), (fuzz_configs, args.configs)):
+    for fuzz, n in runs:
         if n > 0:
-            tallies.append(fuzz(n))
+            tallies.append(fuzz())
             print(file=sys.stderr)
     for t in tallies:
         print(t.line())

@@ -1,5 +1,5 @@
-"""Write ladder_programs/pieces/plate.dxf, the DXF sample of `softplc cut` (README, "The
-cutting table"): E3's rounded rectangle as one closed LWPOLYLINE with bulges, a round hole
+"""Write ladder_programs/pieces/plate.dxf, the DXF sample of `softplc cut` (docs/machines/
+cutting-table.md): E3's rounded rectangle as one closed LWPOLYLINE with bulges, a round hole
 (CIRCLE R 6) and a slot of two LINEs and two ARCs, in mm, made with ezdxf.
 
     python tools/make_plate_dxf.py [OUT.dxf]

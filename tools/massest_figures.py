@@ -1,5 +1,6 @@
-"""Print the mass-estimation reproduction figures (README table): estimator errors on the
-seeded synthetic recordings, the calibration's effect, and the thesis's wrong formulas.
+"""Print the mass-estimation reproduction figures (docs/machines/machining-centre.md):
+estimator errors on the seeded synthetic recordings, the calibration's effect, and the
+thesis's wrong formulas.
 
     .venv/bin/python tools/massest_figures.py [--seeds 10]
 """

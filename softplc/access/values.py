@@ -15,8 +15,8 @@ from softplc.twido.numeric import F32_MAX
 # Value ranges accepted, per value type.
 INT16_RANGE = (-32768, 65535)  # unsigned 16-bit too, as a Modbus host or hex entry gives it
 INT32_RANGE = (-(2 ** 31), 2 ** 32 - 1)
-# %TMi.P / %Ci.P: what the program's store clamps to (twido.md: presets 0-9999), so a host
-# cannot write a preset the program could never hold.
+# %TMi.P / %Ci.P: what the program's store clamps to (docs/twido.md#function-blocks: presets
+# 0-9999), so a host cannot write a preset the program could never hold.
 PRESET_RANGE = (0, MAX_VALUE)
 
 

@@ -1,6 +1,6 @@
 """The function blocks of a machine, built from the configuration by the catalog
-(`softplc/twido/catalog.py`): each family's section is handed to its set-up hook (the basic
-blocks' below, the others' in their runtime module), then each distinct `finish` hook
+(`softplc/twido/catalog.py`): each family's section is handed to its set-up hook (in the
+family's module: `softplc/blocks/` for the basic ones), then each distinct `finish` hook
 attaches what runs at scan time; a block the program uses but the configuration does not
 name gets its family's default, or a message saying what to configure.
 
@@ -16,7 +16,6 @@ from typing import Any
 from softplc.config import key_path
 from softplc.config.models import _bit, _word
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue, located
-from softplc.runtime.blocks import Counter, Drum, Register, Timer
 from softplc.twido import catalog
 from softplc.twido.address import Ref, parse_address
 from softplc.twido.catalog import Family
@@ -106,6 +105,22 @@ class BlockSetup:
     def bit(self, where: str, key: str, v: Any, kinds: tuple[str, ...]) -> Ref | None:
         return _bit(where, key, v, self.mem, kinds)
 
+    def each(self, fam: Family, entries: dict[str, Any], make: Any) -> None:
+        """Each entry's block, made by `make(options, key)`, into the family's blocks; every
+        entry's problems raised together (a set-up hook's common loop)."""
+        issues: list[ConfigIssue] = []
+        for text, o in entries.items():
+            try:
+                ref = self.block_ref(text, fam)
+                self.mem.blocks[fam.kind][ref.index] = make(o, text)
+            except ValueError as e:
+                issues.append(ConfigIssue(self.where(fam.section, text), str(e),
+                                          ConfigCode.VALUE))
+            except ConfigError as e:
+                issues += e.issues
+        if issues:
+            raise ConfigError(issues)
+
     def claim_input(self, channel: int, who: str) -> int:
         """%I0.`channel` for `who` alone (a counting input); its flat index."""
         if channel in self.inputs:
@@ -113,64 +128,3 @@ class BlockSetup:
         self.inputs[channel] = who
         self.mem.use_io(parse_address(f"%I0.{channel}", self.profile))
         return channel  # base inputs: flat index = channel
-
-
-# ---- the basic blocks (typed by `config.Config`): the catalog's set-up hooks ------------------
-def _each(ctx: BlockSetup, fam: Family, entries: dict[str, Any], make: Any) -> None:
-    """Each entry's block, made by `make(options, key)`; every entry's problems raised."""
-    issues: list[ConfigIssue] = []
-    for text, o in entries.items():
-        try:
-            ref = ctx.block_ref(text, fam)
-            ctx.mem.blocks[fam.kind][ref.index] = make(o, text)
-        except ValueError as e:
-            issues.append(ConfigIssue(ctx.where(fam.section, text), str(e), ConfigCode.VALUE))
-        except ConfigError as e:
-            issues += e.issues
-    if issues:
-        raise ConfigError(issues)
-
-
-def timers(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
-    _each(ctx, fam, entries, lambda t, _: Timer(ctx.time_source, t.type, t.base, t.preset))
-
-
-def counters(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
-    _each(ctx, fam, entries, lambda c, _: Counter(c.preset))
-
-
-def registers(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
-    _each(ctx, fam, entries, lambda g, _: Register(g.type, ctx.profile.count("FIFO_DEPTH")))
-
-
-def default_register(profile: Any) -> Register:
-    """A register the configuration does not name: FIFO, the profile's depth."""
-    return Register("FIFO", profile.count("FIFO_DEPTH"))
-
-
-def drum_outputs(d: Any, where: str, profile: Any, symbols: SymbolTable | None) -> list[Ref]:
-    """The output bits of a `[drums]` entry `d` (at key path `where`), each an address or a
-    symbol of `symbols`: %Q or %M bits. The block set-up and the verifier read them here."""
-    outs, issues = [], []
-    for k, a in enumerate(d.outputs):
-        try:
-            r = symbols.ref(a) if symbols is not None else parse_address(a, profile)
-        except AddressError as e:
-            issues.append(ConfigIssue(f"{where}.outputs[{k}]", str(e), ConfigCode.ADDRESS))
-            continue
-        if r.type != "bool" or r.kind not in ("Q", "M") or r.length:
-            issues.append(ConfigIssue(f"{where}.outputs[{k}]", f"%Q or %M bits, not {a!r}",
-                                      ConfigCode.ADDRESS))
-        outs.append(r)
-    if issues:
-        raise ConfigError(issues)
-    return outs
-
-
-def drums(ctx: BlockSetup, fam: Family, entries: dict[str, Any]) -> None:
-    def make(d: Any, text: str) -> Drum:
-        outs = drum_outputs(d, ctx.where(fam.section, text), ctx.profile, ctx.symbols)
-        for r in outs:
-            ctx.mem.use_io(r)
-        return Drum(d.steps, [(ctx.mem.bits(r.kind), r.index) for r in outs])
-    _each(ctx, fam, entries, make)

@@ -19,9 +19,8 @@ from softplc.config.models import (
 )
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.runtime.analog import AnalogChannel, AnalogIO, normal_range
-from softplc.runtime.blocks import Message
 from softplc.runtime.clock import Clock, VirtualClock
-from softplc.runtime.exch import ETHERNET_PORT, ExchPort
+from softplc.runtime.exch import ETHERNET_PORT, ExchPort, Message
 from softplc.runtime.memory import MemoryImage
 from softplc.runtime.remotelink import LinkMaster, LinkRemote, default_cycle_us
 from softplc.runtime.rtc import Schedule

@@ -3,8 +3,8 @@
 CPython's `compile()` of a large generated program (10,000 rungs: 0.7 MB of source) takes
 about 100 MiB of C heap for its syntax tree and code tables and frees it all, but glibc's
 malloc keeps freed memory mapped: the process stays that much bigger (RSS) for its whole
-life. `malloc_trim(0)` returns it (measured with tools/bench_compile.py: README
-"Performance"). Elsewhere than glibc, or when libc cannot be loaded, nothing happens.
+life. `malloc_trim(0)` returns it (measured with tools/bench_compile.py:
+docs/performance.md). Elsewhere than glibc, or when libc cannot be loaded, nothing happens.
 """
 
 from __future__ import annotations

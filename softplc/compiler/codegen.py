@@ -169,7 +169,7 @@ class Compiler(ValueCompiler):
                 saved[k] = outer
                 code = self.operand(instr.operand, blk, pos) if instr.operand else "0"
                 # the modifier applies to the first operand inside the parenthesis, as
-                # LDN/LDR/LDF would [manual, see NOTES]
+                # LDN/LDR/LDF would [manual, see docs/twido.md#instruction-list]
                 acc = self.modified(code, instr.modifier)
             elif isinstance(instr, A.ParenClose):
                 op = tree.steps[st.opener].instr.op

@@ -42,7 +42,7 @@ import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from pydantic import (
     AfterValidator,
@@ -59,7 +59,6 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from softplc.config.fields import (  # noqa: F401  (the field types devices import from here)
-    DRUM_STEPS,
     MAX_CLIENTS,
     MAX_DURATION_S,
     MIN_INTERVAL_S,
@@ -72,7 +71,6 @@ from softplc.config.fields import (  # noqa: F401  (the field types devices impo
     Interval,
     PositiveDuration,
     Section,
-    TimeBase,
     _at_least,
     _parse_duration,
     between,
@@ -93,30 +91,10 @@ from softplc.config.models import (
     ScheduleNumber,
 )
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
-from softplc.runtime.blocks import MAX_VALUE
+from softplc.limits import MAX_CONFIG_BYTES, BoundsError, check_toml, decode_text, read_bytes
 from softplc.twido import catalog
 from softplc.twido.address import parse_address
 from softplc.twido.profile import ANALOG_MODULES, DEFAULT_PROFILE, MODULES, PROFILES
-
-
-class TimerConfig(Section):
-    type: Literal["TON", "TOF", "TP"] = "TON"
-    base: TimeBase = "1s"
-    preset: int = Field(0, ge=0, le=MAX_VALUE)
-
-
-class CounterConfig(Section):
-    preset: int = Field(MAX_VALUE, ge=0, le=MAX_VALUE)
-
-
-class DrumConfig(Section):
-    steps: list[Annotated[int, Field(ge=0, le=0xFFFF)]] = Field(
-        default_factory=lambda: [0], min_length=1, max_length=DRUM_STEPS)
-    outputs: list[Address] = Field(default_factory=list)
-
-
-class RegisterConfig(Section):
-    type: Literal["FIFO", "LIFO"] = "FIFO"
 
 
 def _network(text: str) -> str:
@@ -246,9 +224,9 @@ def _none_if_empty(v: Any) -> Any:
     return None if v == {} else v  # `exch = {}`: no EXCH, as if absent
 
 
-# The function blocks' sections typed by their catalog entries' models ([pid], [pls], [pwm],
-# [fast_counters], ...: softplc/twido/catalog.py); addresses are resolved when the blocks are
-# set up.
+# The function blocks' sections typed by their catalog entries' models ([timers], [counters],
+# [drums], [registers], [pid], [pls], [pwm], [fast_counters], ...: softplc/twido/catalog.py);
+# addresses are resolved when the blocks are set up.
 _BlockSections = create_model(  # type: ignore[call-overload]
     "_BlockSections", __base__=Section,
     **{f.section: (Annotated[dict[str, f.config_model()], BeforeValidator(_str_keys)],
@@ -265,10 +243,6 @@ class Config(_BlockSections):  # type: ignore[misc, valid-type]
     # None: the controller's default (engine)
     watchdog: Annotated[Duration, _at_least(MIN_WATCHDOG_S, "the watchdog")] | None = None
     profile: str = DEFAULT_PROFILE.name
-    timers: dict[str, TimerConfig] = Field(default_factory=dict)
-    counters: dict[str, CounterConfig] = Field(default_factory=dict)
-    drums: dict[str, DrumConfig] = Field(default_factory=dict)
-    registers: dict[str, RegisterConfig] = Field(default_factory=dict)
     constants: dict[str, int | FiniteFloat] = Field(default_factory=dict)
     # expansion modules by slot; None: not configured (I/O addresses are not checked)
     modules: Annotated[dict[Slot, ModuleName] | None, BeforeValidator(_str_keys)] = None
@@ -508,17 +482,29 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     def fail(what: str) -> ConfigError:
         return ConfigError(ConfigIssue("", f"{p}: {what}", ConfigCode.FILE))
     try:
-        text = p.read_text(encoding="utf-8")
+        text = decode_text(read_bytes(p, MAX_CONFIG_BYTES, "the file"), "the file")
     except FileNotFoundError:
         raise fail("no such file") from None
     except OSError as e:
         raise fail(f"cannot read the file: {e.strerror or e}") from None
-    except UnicodeDecodeError:
-        raise fail("not a UTF-8 text file") from None
+    except BoundsError as e:
+        raise fail(str(e)) from None
+    return parse_toml(text, str(p))
+
+
+def parse_toml(text: str, where: str = "") -> dict[str, Any]:
+    """A configuration's TOML text parsed, its depth and numbers bounded first
+    (softplc.limits.check_toml): ConfigError (code `file`) at line:col otherwise. `where`:
+    the file or origin named in the message."""
+    prefix = f"{where}: " if where else ""
     try:
+        check_toml(text)
         return tomllib.loads(text)
+    except BoundsError as e:
+        raise ConfigError(ConfigIssue("", f"{prefix}{e}", ConfigCode.FILE)) from None
     except tomllib.TOMLDecodeError as e:
-        raise fail(f"not valid TOML: {e}") from None
+        raise ConfigError(ConfigIssue("", f"{prefix}not valid TOML: {e}",
+                                      ConfigCode.FILE)) from None
 
 
 def read_config(config: str | Path | dict[str, Any] | None) -> tuple[dict[str, Any], Path | None]:

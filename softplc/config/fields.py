@@ -12,7 +12,6 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo
 
 from softplc.errors import ConfigError
-from softplc.runtime.blocks import TIME_BASES_US
 from softplc.twido.profile import DEFAULT_PROFILE, Profile
 
 _DUR = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(us|ms|s|min)?\s*$", re.I)
@@ -42,14 +41,6 @@ def duration(value: Any, what: str = "duration") -> float:
         return _parse_duration(value)
     except ValueError as e:
         raise ConfigError(f"{what}: {e} (got {value!r})") from None
-
-
-def _parse_time_base(value: Any) -> str:
-    s = _parse_duration(value)
-    for name, us in TIME_BASES_US.items():
-        if abs(s * 1e6 - us) < 1e-3:
-            return name
-    raise ValueError(f"one of {', '.join(TIME_BASES_US)}")
 
 
 def _positive(v: float) -> float:
@@ -104,7 +95,6 @@ def check_interval(v: float) -> float:
 Duration = Annotated[float, BeforeValidator(_parse_duration)]
 """Seconds, written with a unit ("10ms"); bare numbers refused."""
 PositiveDuration = Annotated[Duration, AfterValidator(_positive)]
-TimeBase = Annotated[str, BeforeValidator(_parse_time_base)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Interval = Annotated[Duration, AfterValidator(check_interval)]
 """Seconds between two periodic actions: 0 (never) or at least 10 ms."""

@@ -13,7 +13,7 @@ anything else is refused, and it writes no file at all.
 
 Every file read from disk, by either policy, is opened without blocking (a FIFO or a
 device does not wedge the reader), must be a regular file, is size-capped before it is read
-and read against a deadline (`softplc.persist.bounded`); an error says what is wrong with
+and read against a deadline (`softplc.limits.read_regular`); an error says what is wrong with
 the file, never what is in it.
 The files a policy served are recorded (`served`): an online change keeps them with its
 program (`softplc.persist.kept`), so a restart rebuilds it without reading them again.
@@ -26,7 +26,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from softplc.errors import ConfigCode, ConfigError, ConfigIssue
-from softplc.persist.bounded import FileRefused, read_regular
+from softplc.limits import FileRefused, read_regular
 
 #: The largest file a configuration may name: a TwidoSuite symbol table of every object
 #: of a TWDLCAE40DRF (3,000 %MW, 256 %M, ... with 200-character comments) is under 1 MiB.
@@ -45,7 +45,7 @@ def _refused(key: str, message: str) -> ConfigError:
 
 def read_bounded(path: Path, key: str, what: str, limit: int = MAX_FILE_BYTES,
                  deadline_s: float = READ_DEADLINE_S, follow: bool = True) -> bytes:
-    """The bytes of the regular file `path` (`softplc.persist.bounded.read_regular`: not
+    """The bytes of the regular file `path` (`softplc.limits.read_regular`: not
     blocking, size-capped, with a deadline); ConfigError at `key` (code `path` for a file
     that may not be read, `file` for one that cannot be), naming the file, never quoting
     it."""

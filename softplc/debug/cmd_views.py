@@ -23,14 +23,7 @@ if TYPE_CHECKING:
 @command("timers")
 def cmd_timers(s: Session, arg: str) -> str:
     """timers: every timer with its type, base, preset, value and output."""
-    tms = s.plc.mem.blocks.get("TM", {})
-    if not tms:
-        return "no timers"
-    lines = []
-    for i, t in sorted(tms.items()):
-        lines.append(f"%TM{i:<3} {t.type:<3} base {t.base:<5} P={t.P:<5} V={t.V:<5} "
-                     f"Q={int(t.Q)} IN={int(t.last_in)}")
-    return "\n".join(lines)
+    return "\n".join(_listing(s, "timers")) or "no timers"
 
 
 @command("counters")
@@ -38,13 +31,18 @@ def cmd_counters(s: Session, arg: str) -> str:
     """counters: every counter with its preset, value and outputs (D done, E/F
     underflow/overflow); the fast counters %FC / %VFC with their mode (_en: IN, lost:
     pulses above the input's frequency)."""
-    cs = s.plc.mem.blocks.get("C", {})
-    lines = [f"%C{i:<3} P={c.P:<5} V={c.V:<5} D={int(c.D)} E={int(c.E)} F={int(c.F)}"
-             for i, c in sorted(cs.items())]
-    for fam in catalog.listed_in("counters"):  # fast counters (runtime/fastcount.py)
-        lines += [f"{f'%{fam.kind}{i}':<6} {c.mode:<10} {ladder.block_summary(c)}"
-                  for i, c in sorted(s.plc.mem.blocks.get(fam.kind, {}).items())]
-    return "\n".join(lines) or "no counters"
+    return "\n".join(_listing(s, "counters")) or "no counters"
+
+
+def _listing(s: Session, command: str) -> list[str]:
+    """The lines of the blocks of the families `command` lists (catalog order): a block's
+    own `listing(i)`, or its mode and its summary of the ladder's box."""
+    lines = []
+    for fam in catalog.listed_in(command):
+        for i, b in sorted(s.plc.mem.blocks.get(fam.kind, {}).items()):
+            lines.append(b.listing(i) if hasattr(b, "listing") else
+                         f"{f'%{fam.kind}{i}':<6} {b.mode:<10} {ladder.block_summary(b)}")
+    return lines
 
 
 @command("pid")

@@ -26,8 +26,9 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 
 from softplc.errors import AddressError, Code, Diagnostic, ParseError
 from softplc.il import ast as A
-from softplc.il import fastlines
+from softplc.il import fastlines, literals
 from softplc.il.fastlines import FastLines
+from softplc.limits import MAX_PROGRAM_BYTES, BoundsError, read_bytes
 from softplc.twido import catalog
 from softplc.twido.address import Ref, parse_address
 from softplc.twido.profile import DEFAULT_PROFILE
@@ -211,17 +212,13 @@ class _ToAST(Transformer):
         return A.Addr(self._ref(tok), _pos(tok))
 
     def int_lit(self, items):
-        (tok,) = items
-        return A.Num(int(str(tok)), str(tok), _pos(tok))
+        return literals.number(items[0], literals.INT, self.file, self.diags)
 
     def hex_lit(self, items):
-        (tok,) = items
-        text = str(tok)
-        return A.Num(int(text.split("#", 1)[1], 16), text, _pos(tok))
+        return literals.number(items[0], literals.HEX, self.file, self.diags)
 
     def float_lit(self, items):
-        (tok,) = items
-        return A.Num(float(str(tok)), str(tok), _pos(tok))
+        return literals.number(items[0], literals.FLOAT, self.file, self.diags)
 
     @v_args(meta=True)
     def binop(self, meta, items):
@@ -563,6 +560,10 @@ def parse_lines(text: str, file: str = "<string>", symbols: SymbolTable | None =
     Returns (items, comments, diagnostics); comments are (line, column, text)."""
     lp = _LineParser(text, file, symbols)
     lp.inside = _inside_comments(text, lp.lines)
+    for d in literals.long_numbers(text, file, _COMMENT):  # left out before int() sees them
+        lp.lines[d.line - 1] = ""
+        lp.bad.add(d.line)
+        lp.diags.append(d)
     items = []
     for start, end in _chunks(lp.lines, lp.inside):
         items += lp.parse_range(start, end)
@@ -691,8 +692,9 @@ def parse(text: str, file: str = "<string>", symbols: SymbolTable | None = None
 def parse_file(path: str | Path, symbols: SymbolTable | None = None) -> A.Program:
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig", errors="replace")
-    except OSError as e:
-        raise ParseError(Diagnostic(f"cannot read program: {e.strerror}", str(p),
+        text = read_bytes(p, MAX_PROGRAM_BYTES, "the program").decode("utf-8-sig", "replace")
+    except (OSError, BoundsError) as e:
+        why = getattr(e, "strerror", None) or e
+        raise ParseError(Diagnostic(f"cannot read program: {why}", str(p),
                                     code=Code.CANNOT_READ)) from None
     return parse(text, str(p), symbols)

@@ -149,7 +149,7 @@ def describe(n_registers: int, n_coils: int, read_only: ReadOnly | None = None) 
 
 
 def markdown_table() -> str:
-    """The function-code table as markdown (README, `--help`)."""
+    """The function-code table as markdown (the docs' generated Modbus map, `--help`)."""
     rows = ["| FC | function | objects | max quantity |", "|---|---|---|---|"]
     for f in FUNCTIONS.values():
         q = str(f.max_quantity) if f.max_quantity else "-"

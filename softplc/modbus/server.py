@@ -546,7 +546,7 @@ def _reset(conn: socket.socket) -> None:
 
 def new_event_loop() -> asyncio.AbstractEventLoop:
     """uvloop's event loop when it is installed (its C event loop halves the server's CPU
-    per request: README "Performance"), else asyncio's. SOFTPLC_EVENT_LOOP=asyncio picks
+    per request: docs/performance.md), else asyncio's. SOFTPLC_EVENT_LOOP=asyncio picks
     asyncio's anyway (for comparing the two, tools/bench_modbus_c.py)."""
     if os.environ.get("SOFTPLC_EVENT_LOOP", "") != "asyncio":
         try:

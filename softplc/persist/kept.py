@@ -5,7 +5,7 @@ without program loss is a warm restart (program and data held in battery-backed 
 program also backed up in the internal EEPROM); a cold start comes with a new application
 downloaded, a lost program or %S0 (industrialmonitordirect.com, "Twido TWDLCAA24DRF cold
 start vs warm start conditions"; control.com thread 17899 on the %SW96 EEPROM backup;
-`../shared/reference/twido.md` on %S1). A soft Twido's
+docs/twido.md#scan-cycle on %S1). A soft Twido's
 online change (`softplc load`, POST /api/program) is that download: the program, its
 configuration and the files it named (the symbols) are written here before the swap, so
 that a restart with the original command line (what a supervisor does after kill -9) finds
@@ -16,7 +16,7 @@ before it, each tagged with its application id (`retain.application_id`, which t
 file's slots carry). The state file says which application its data belongs to; the
 record with that id is the program to run. A swap cut off between the two writes leaves
 the state file naming the old id, whose record is still here. Written atomically (a new
-file renamed over the old one, fsync'ed); read size-capped (`softplc.persist.bounded`).
+file renamed over the old one, fsync'ed); read size-capped (`softplc.limits.read_regular`).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from datetime import time as dtime
 from pathlib import Path
 from typing import Any
 
-from softplc.persist.bounded import FileRefused, read_regular
+from softplc.limits import FileRefused, read_regular
 from softplc.persist.retain import StateFileError, _fsync_dir
 
 log = logging.getLogger("softplc.retain")

@@ -61,6 +61,7 @@ from pathlib import Path
 from typing import Any
 
 from softplc.errors import SoftPLCError
+from softplc.limits import BoundsError, check_digits
 from softplc.runtime.memory import MemoryImage
 
 log = logging.getLogger("softplc.retain")
@@ -83,6 +84,14 @@ _SWAP = sys.byteorder == "little"
 
 class StateFileError(SoftPLCError):
     """A retained-state file cannot be used."""
+
+
+#: Bounds of a state file's header (checked before anything is mapped or copied): the
+#: Modbus address space holds 65,536 registers and 65,536 coils, which no Twido exceeds;
+#: a slot's blocks JSON and the journal are 64 KiB by default (BLOCKS_MIN_CAPACITY,
+#: JOURNAL_CAPACITY) and grow with the configuration, far below 64 MiB.
+MAX_STATE_OBJECTS = 65_536
+MAX_STATE_REGION = 64 * 1024 * 1024
 
 
 def words_to_be(buf: bytes | bytearray | memoryview) -> bytes:
@@ -150,12 +159,25 @@ def apply(mem: MemoryImage, state: RetainedState) -> None:
         present = mem.blocks.get(kind, {})
         for i, st in d.items():
             if i in present:
-                _set_block_state(present[i], st)
+                try:
+                    _set_block_state(present[i], st)
+                except (TypeError, ValueError, KeyError, AttributeError) as e:
+                    raise StateFileError(f"the saved state of %{kind}{i} cannot be "
+                                         f"restored ({type(e).__name__}: {e}){_HINT}") from None
 
 
 def encode_blocks(blocks: dict[str, dict[int, Any]]) -> bytes:
     return json.dumps({k: {str(i): st for i, st in d.items()} for k, d in blocks.items()},
                       separators=(",", ":"), default=_jsonable).encode()
+
+
+def _bounded_int(text: str) -> int:
+    check_digits(text)  # before int(): a crafted 5,000-digit number is a ValueError there
+    return int(text)
+
+
+def _no_constant(text: str) -> float:
+    raise BoundsError(f"{text} in a block's state (a finite number is expected)")
 
 
 def _jsonable(o: Any) -> Any:
@@ -334,6 +356,12 @@ class StateStore:
                                  f"version {FORMAT_VERSION}{_HINT}")
         if zlib.crc32(head[:-4]) != crc:
             raise StateFileError(f"{where} has a corrupt header (checksum mismatch){_HINT}")
+        if max(n_regs, n_coils) > MAX_STATE_OBJECTS or \
+                max(blocks_cap, journal_cap) > MAX_STATE_REGION:
+            raise StateFileError(f"{where} claims {n_regs} registers, {n_coils} coils, "
+                                 f"{blocks_cap} + {journal_cap} bytes of blocks and journal: "
+                                 f"beyond {MAX_STATE_OBJECTS} objects or "
+                                 f"{MAX_STATE_REGION // 2**20} MiB{_HINT}")
         lay = _Layout(prof.rstrip(b"\0").decode(errors="replace"), n_regs, n_coils,
                       blocks_cap, journal_cap)
         if size != lay.file_size:
@@ -353,9 +381,11 @@ class StateStore:
         coils = bytearray(mm[p:p + n_coils])
         p += n_coils
         try:
-            raw = json.loads(mm[p:p + blen])
-            blocks = {k: {int(i): st for i, st in v.items()} for k, v in raw.items()}
-        except (ValueError, TypeError, AttributeError) as e:
+            raw = json.loads(mm[p:p + blen], parse_int=_bounded_int,
+                             parse_constant=_no_constant)
+            blocks = {str(k): {int(_bounded_int(i)): dict(st) for i, st in v.items()}
+                      for k, v in raw.items()}
+        except (ValueError, TypeError, AttributeError, RecursionError, BoundsError) as e:
             raise StateFileError(f"{where} has a valid checksum but unreadable content "
                                  f"({e}){_HINT}") from None
         replayed = self._replay(seq, regs, coils)

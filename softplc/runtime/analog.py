@@ -1,7 +1,7 @@
 """Analog I/O: the conversion an analog channel does between a physical signal and the
 word the program sees in %IWm.c / writes to %QWm.c, and the channel status.
 
-As TwidoSuite configures a channel [manual, from memory: see docs/NOTES.md]:
+As TwidoSuite configures a channel [manual, from memory: see docs/twido.md#analog-io]:
   * the signal type: 0-10 V, 4-20 mA, +-10 V, a temperature sensor (PT100, thermocouple J/K/T),
     or on the base a potentiometer (position 0..1) or the 0-10 V input;
   * the range: "normal" (0 .. full scale, 4095 on the 12-bit expansion modules; a

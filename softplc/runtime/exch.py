@@ -53,6 +53,7 @@ from queue import SimpleQueue
 from typing import Any
 
 from softplc.modbus.codec import MBAP_SIZE, bad_header, frame, header
+from softplc.runtime.blocks import Block
 
 # Error codes of the EXCH status word [manual, %SW63/%SW64 list, from memory; check]
 OK = 0
@@ -367,7 +368,7 @@ class ExchPort:
         self.timeout_us = round(timeout_s * 1e6)
         self.wait = wait_at_boundary  # virtual clock: take the result at the next boundary
         self.status_word = STATUS_WORD[port]
-        self.msg: Any = None  # the %MSG block (runtime.blocks.Message) this port drives
+        self.msg: Any = None  # the %MSG block (`Message`) this port drives
         self._worker: _Worker | None = None
         self._conns: dict[int, _Connection] = {}
         self._job: _Job | None = None
@@ -494,3 +495,28 @@ class ExchPort:
             self._worker.stop(list(self._conns.values()))
             self._worker = None
         self._conns.clear()
+
+
+# ---- the %MSG block: the exchanges' state, as the program sees it ------------------------
+class Message(Block):
+    """%MSGi: the state of the exchanges of port i [manual]: D = 1 done (no exchange in
+    progress), E = 1 the last exchange failed (code in the port's status word). R resets:
+    the exchange in progress is dropped, D = 1, E = 0. `port` is the `ExchPort`
+    the configuration gives (None: the port is not configured)."""
+
+    PINS = ("R",)
+    FIELDS = ("D", "E")
+
+    def __init__(self) -> None:
+        self.D, self.E = 1, 0
+        self.port: Any = None
+
+    def run(self, R: Any = 0) -> None:
+        if R:
+            if self.port is not None:
+                self.port.reset()
+            self.D, self.E = 1, 0
+
+    def exch(self, start: int, n: int) -> None:
+        """`EXCHi %MW<start>:<n>` (the compiler checked that the port is configured)."""
+        self.port.start(start, n)

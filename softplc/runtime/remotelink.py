@@ -1,5 +1,5 @@
 """The Twido Remote Link (issue 35): one master (address 0) polls up to 7 remotes (1-7) on
-a cycle of its own, not inside a scan [shared/reference/remote-link.md A1, A4].
+a cycle of its own, not inside a scan [docs/twido.md#remote-link].
 
 A peer controller exchanges 4 words each way with the master: the master's `%QNWi.j`
 arrive as peer i's `%INW0.j`, peer i's `%QNW0.j` as the master's `%INWi.j` [A3; names and

@@ -29,7 +29,7 @@ IO_KINDS = {"I": BOOL, "Q": BOOL}
 ANALOG_KINDS = {"IW": INT16, "QW": INT16}
 ANALOG_STRIDE = 8  # word channels per module in the flat index (the widest analog module)
 # Remote Link network words %INWi.j / %QNWi.j (issue 35): i the station (0 the master, 1-7
-# the remotes), j = 0..3 [src S1 of shared/reference/remote-link.md: 4 words each way; the
+# the remotes), j = 0..3 [docs/twido.md#remote-link: FA164505, 4 words each way; the
 # names, the indexes and the range 1-7: manual, from memory]. Flat index i * LINK_WORDS + j.
 NETWORK_KINDS = {"INW": INT16, "QNW": INT16}
 LINK_WORDS = 4  # words each way between the master and one peer [src S1]
@@ -188,7 +188,7 @@ def _network_word(kind: str, station: int, word: str | None, text: str,
 def _remote_io(kind: str, station: int, base: int, channel: int, text: str,
                profile: Profile, suffix: bool) -> Ref:
     """%Ix.0.z / %Qx.0.z: channel z of the base I/O of the remote I/O controller at Remote
-    Link address x [manual, from memory, low-medium: shared/reference/remote-link.md A2;
+    Link address x [manual, from memory, low-medium: docs/twido.md#remote-link;
     only the base is reachable, its size taken as this profile's base]."""
     limit = profile.inputs_base if kind == "I" else profile.outputs_base
     if suffix:
@@ -206,9 +206,18 @@ def remote_io_slot(profile: Profile, station: int) -> int:
     return (profile.expansion_slots + station) * profile.channels_per_module
 
 
+#: Characters of one address: the longest Twido address, an indexed double-word bit such
+#: as `%MD2999[%MW2999]:X31`, has 22; numbers longer than any index are refused before
+#: their conversion.
+MAX_ADDRESS_CHARS = 40
+
+
 def parse_address(text: str, profile: Profile = DEFAULT_PROFILE) -> Ref:
     """Parse and range-check an address. Raises AddressError with a readable message."""
     t = text.strip().replace(" ", "")
+    if len(t) > MAX_ADDRESS_CHARS:  # before int() of its numbers
+        raise AddressError(f"malformed address {text[:20]!r}...: {len(t)} characters, at "
+                           f"most {MAX_ADDRESS_CHARS}")
     m = _ADDR.match(t)
     if not m:
         raise AddressError(f"malformed address {text!r}")

@@ -2,20 +2,21 @@
 (%TM, %C, %DR, ... %VFC, and the PID functions), read by every layer that must know a
 family: the address syntax (`address.py`: fields and the regex of kinds), the bindings
 table (`program.py`), the profile counts (`profile.py`), the compiler (`compiler/values.py`:
-pins and outputs), the block set-up (`build/blocks.py`: configuration section, model,
-set-up hooks), the symbol table, the rung structure, online change, the verifier and the
-debugger's listings.
+pins and outputs), the block set-up (`assembly/blocks.py`: configuration section, model,
+set-up hooks), the symbol table, the rung structure, online change, the verifier (each
+family's model, dispatched by kind) and the debugger's listings.
 
 The catalog is the bottom of the package: it imports nothing of softplc, so `address.py`
 (which the runtime imports) may read it. What lives above it is named by a
 "module:attribute" string and imported on first use (`Family.block_class`,
-`Family.config_model`, `resolve`): the runtime class, the configuration model and the
-set-up hooks of a family live in its runtime module, and a string keeps the catalog below
-them without a registration step that would depend on import order.
+`Family.config_model`, `Family.verify_model`, `resolve`): the runtime class, the
+configuration model, the set-up hooks and the verify model of a family live in its one
+module (`softplc/blocks/` for the basic ones), and a string keeps the catalog below them
+without a registration step that would depend on import order.
 
-A new function block: its runtime module (the block class with its `PINS`, its
-configuration model and set-up function) and one `Family` entry below; see
-CONTRIBUTING.md, "Adding a function block".
+A new function block: its module (the block class with its `PINS`, its configuration model,
+set-up function and verify model) and one `Family` entry below; see CONTRIBUTING.md,
+"Adding a function block".
 """
 
 from __future__ import annotations
@@ -60,7 +61,10 @@ class Family:
     pulse_output: bool = False  # drives one of the profile's `pulse_outputs` (%Q0.i)
     clamp_preset: bool = False  # a store to .P is clamped to 0 .. MAX_VALUE (%TM, %C)
     in_blk_hint: bool = False  # named in the hint of what BLK takes
-    listing: str = ""  # the debugger command listing it besides its own ("counters")
+    listing: str = ""  # the debugger command listing it ("timers", "counters")
+    # its model for `softplc verify` ("module:attribute" of a `softplc.blocks.BlockModel`:
+    # its state and its rule over a value domain); None: the verifier does not model it
+    verify: str | None = None
 
     @property
     def addressable(self) -> bool:
@@ -83,6 +87,9 @@ class Family:
     def config_model(self) -> Any:
         return resolve(self.model) if self.model else None
 
+    def verify_model(self) -> Any:
+        return resolve(self.verify) if self.verify else None
+
 
 @cache
 def resolve(target: str) -> Any:
@@ -91,8 +98,8 @@ def resolve(target: str) -> Any:
     return getattr(importlib.import_module(module), attr)
 
 
-_RT, _FC, _PL = "softplc.runtime.blocks", "softplc.runtime.fastcount", "softplc.runtime.pulse"
-_BUILD = "softplc.assembly.blocks"
+_RT, _FC, _PL = "softplc.runtime", "softplc.runtime.fastcount", "softplc.runtime.pulse"
+_B = "softplc.blocks"  # the basic blocks, one module each
 _RW, _RO, _BW = (INT16, True), (INT16, False), (BOOL, False)
 _COUNTER_HINT = ('counter {ref} is used but not configured: add [{section}."{ref}"] with its '
                  "mode (TwidoSuite's counter screen)")
@@ -103,25 +110,31 @@ _PULSE_HINT = ('{ref} is used but not configured: %Q0.{q} must be configured as 
 # The families (this order: the memory image's, hence the state file's). Counts and fields
 # [manual] unless said otherwise.
 FAMILIES: dict[str, Family] = {f.kind: f for f in (
-    Family("TM", "timer", f"{_RT}:Timer", 128, {"Q": _BW, "V": _RO, "P": _RW},
-           section="timers", setup=f"{_BUILD}:timers", online=True, clamp_preset=True,
-           in_blk_hint=True,
+    Family("TM", "timer", f"{_B}.timer:Timer", 128, {"Q": _BW, "V": _RO, "P": _RW},
+           section="timers", model=f"{_B}.timer:TimerConfig", setup=f"{_B}.timer:setup",
+           verify=f"{_B}.timer:MODEL", online=True, clamp_preset=True, in_blk_hint=True,
+           listing="timers",
            unconfigured='timer {ref} is used but not configured: give its type, time base '
                         'and preset, e.g. timers = {{"{ref}" = {{type = "TON", '
                         'base = "100ms", preset = 10}}}}'),
-    Family("C", "counter", f"{_RT}:Counter", 128,
+    Family("C", "counter", f"{_B}.counter:Counter", 128,
            {"V": _RO, "P": _RW, "D": _BW, "E": _BW, "F": _BW},
-           section="counters", setup=f"{_BUILD}:counters", online=True, clamp_preset=True,
-           in_blk_hint=True),
-    Family("DR", "drum", f"{_RT}:Drum", 8, {"S": _RO, "F": _BW},
-           section="drums", setup=f"{_BUILD}:drums", online=True, in_blk_hint=True,
+           section="counters", model=f"{_B}.counter:CounterConfig",
+           setup=f"{_B}.counter:setup", verify=f"{_B}.counter:MODEL", online=True,
+           clamp_preset=True, in_blk_hint=True, listing="counters"),
+    Family("DR", "drum", f"{_B}.drum:Drum", 8, {"S": _RO, "F": _BW},
+           section="drums", model=f"{_B}.drum:DrumConfig", setup=f"{_B}.drum:setup",
+           verify=f"{_B}.drum:MODEL", online=True, in_blk_hint=True,
            unconfigured='drum {ref} is used but not configured ({section}."{ref}".steps)'),
-    Family("SBR", "shift register", f"{_RT}:ShiftRegister", 8, bits=16, in_blk_hint=True),
-    Family("SC", "step counter", f"{_RT}:StepCounter", 8, bits=256, in_blk_hint=True),
-    Family("R", "register", f"{_RT}:Register", 4,
+    Family("SBR", "shift register", f"{_B}.shift:ShiftRegister", 8, bits=16,
+           verify=f"{_B}.shift:SHIFT_MODEL", in_blk_hint=True),
+    Family("SC", "step counter", f"{_B}.shift:StepCounter", 8, bits=256,
+           verify=f"{_B}.shift:STEP_MODEL", in_blk_hint=True),
+    Family("R", "register", f"{_B}.register:Register", 4,
            {"I": _RW, "O": _RW, "E": _BW, "F": _BW},
-           section="registers", setup=f"{_BUILD}:registers", online=True, in_blk_hint=True,
-           default=f"{_BUILD}:default_register"),
+           section="registers", model=f"{_B}.register:RegisterConfig",
+           setup=f"{_B}.register:setup", verify=f"{_B}.register:MODEL", online=True,
+           in_blk_hint=True, default=f"{_B}.register:default"),
     # pulse outputs (issue 11 B, runtime/pulse.py) on the profile's transistor outputs
     Family("PLS", "pulse generator", f"{_PL}:PulseGenerator", 2,
            {"Q": _BW, "D": _BW, "P": _RW, "N": _RW},
@@ -147,7 +160,7 @@ FAMILIES: dict[str, Family] = {f.kind: f for f in (
            listing="counters",
            unconfigured=_COUNTER_HINT),
     # communication (issue 11 B, runtime/exch.py): %MSG1..%MSG3 (index 0 unused)
-    Family("MSG", "exchange block", f"{_RT}:Message", 4, {"D": _BW, "E": _BW}),
+    Family("MSG", "exchange block", f"{_RT}.exch:Message", 4, {"D": _BW, "E": _BW}),
     # PID functions PID 0 .. PID 13 [manual, from memory]
     Family("PID", "PID function", "softplc.runtime.pid:Pid", 14, None, instruction="PID",
            section="pid", model="softplc.runtime.pid:PidConfig",
@@ -162,15 +175,6 @@ def family(kind: str) -> Family:
 def addressable() -> Iterator[Family]:
     """The families that are objects of the address syntax (%TM0.Q, %VFC1.S0...)."""
     return (f for f in FAMILIES.values() if f.addressable)
-
-
-def of_class(cls: type) -> str:
-    """The kind whose runtime class is `cls` (a module modelling one family by its class,
-    as the verifier does, names it so)."""
-    for f in FAMILIES.values():
-        if f.runtime.rpartition(":")[2] == cls.__name__ and f.block_class is cls:
-            return f.kind
-    raise KeyError(cls.__name__)
 
 
 def by_instruction() -> dict[str, Family]:

@@ -458,6 +458,34 @@ class IntDomain:
     def tdiv(a: int, b: int) -> int:
         return _tdiv(a, b)
 
+    # -- what the function blocks' rules add (softplc/blocks/): non-negative fields of
+    # their own widths (16-bit words, a timer's elapsed time), 0/1 bits
+    @staticmethod
+    def bit(a: Any) -> int:
+        """A bit as a block stores it."""
+        return 1 if a else 0
+
+    @staticmethod
+    def ne(a: Any, b: Any) -> bool:
+        return bool(a) != bool(b)
+
+    @staticmethod
+    def any_(terms: list[Any]) -> bool:
+        return any(terms)
+
+    @staticmethod
+    def resize(v: int, like: Any) -> int:
+        """`v` in the width of `like` (an int has every width)."""
+        return v
+
+    @staticmethod
+    def udiv(a: int, b: int) -> int:
+        return a // b
+
+    @staticmethod
+    def lshr(a: int, n: int) -> int:
+        return a >> n
+
 
 def checked(D: Any, v: Any, bits: int) -> tuple[Any, Any]:
     """(value, fault): `v` stored in `bits` bits, wrapped with %S18 when it does not fit."""

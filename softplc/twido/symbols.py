@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
+from softplc.limits import MAX_SYMBOLS_BYTES, BoundsError, decode_text, read_bytes
 from softplc.twido import catalog
 from softplc.twido.address import Ref, parse_address
 from softplc.twido.profile import DEFAULT_PROFILE, Profile
@@ -50,6 +51,9 @@ _NAMED = re.compile(r"""(?P<name>[A-Za-z_][A-Za-z0-9_]{0,31})
     (?P<suffix>(?P<pre>(?:\.[A-Za-z]{1,3}\d{0,3})?(?::X?\d{1,5})?)
                (?:\[(?P<index>%?[A-Za-z_][A-Za-z0-9_]{0,31})\])?)$""", re.X)
 CSV_HEADER = ("Address", "Symbol", "Comment")
+#: Symbols one CSV declares: more than the objects of the largest Twido one would name
+#: (3,000 %MW, 256 %M, 128 timers, 128 counters... [manual, from memory]).
+MAX_SYMBOLS = 10_000
 
 
 @dataclass(frozen=True)
@@ -239,9 +243,18 @@ def read_csv(text: str, source: str = "<csv>") -> list[Symbol]:
     lines = [ln for ln in text.splitlines() if ln.strip()]
     if not lines:
         return []
+    if len(lines) > MAX_SYMBOLS + 1:  # and a header line
+        raise ConfigError(ConfigIssue("", f"{source}: {len(lines)} lines, at most "
+                                      f"{MAX_SYMBOLS} symbols", ConfigCode.FILE))
     delimiter = max((",", ";", "\t"), key=lambda d: lines[0].count(d))
     out = []
-    for n, row in enumerate(csv.reader(lines, delimiter=delimiter), 1):
+    rows = csv.reader(lines, delimiter=delimiter)
+    for n in range(1, len(lines) + 1):
+        try:
+            row = next(rows)
+        except (csv.Error, StopIteration) as e:  # a field over csv's size limit, a NUL
+            raise ConfigError(ConfigIssue("", f"{source}:{n}: not a symbol line: {e}",
+                                          ConfigCode.FILE)) from None
         cells = [c.strip() for c in row]
         if n == 1 and not any(c.startswith("%") for c in cells[:2]):
             continue  # the header line
@@ -257,31 +270,25 @@ def read_csv(text: str, source: str = "<csv>") -> list[Symbol]:
 
 def decode_csv(data: bytes, source: str) -> str:
     """A symbol file's text: UTF-8 (with or without a BOM), else Windows-1252, which
-    TwidoSuite on Windows writes; ConfigError if it is neither (a binary file)."""
+    TwidoSuite on Windows writes; ConfigError at the line:col of the first byte that is
+    neither (a binary file)."""
     try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        pass
-    try:
-        text = data.decode("cp1252")
-    except UnicodeDecodeError:
-        text = "\0"
-    if "\0" in text:
-        raise ConfigError(f"{source}: not a text file (neither UTF-8 nor Windows-1252)")
-    return text
+        return decode_text(data, "the symbol file", fallback="cp1252")
+    except BoundsError as e:
+        raise ConfigError(ConfigIssue("", f"{source}:{e}", ConfigCode.FILE)) from None
 
 
 def read_csv_file(path: str | Path) -> list[Symbol]:
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")
+        data = read_bytes(p, MAX_SYMBOLS_BYTES, "the symbol file")
     except FileNotFoundError:
         raise ConfigError(f"{p}: no such symbol file") from None
-    except UnicodeDecodeError:
-        text = p.read_text(encoding="cp1252")  # TwidoSuite on Windows writes ANSI
     except OSError as e:
         raise ConfigError(f"cannot read symbol file {p}: {e.strerror}") from None
-    return read_csv(text, str(p))
+    except BoundsError as e:
+        raise ConfigError(ConfigIssue("", f"{p}: {e}", ConfigCode.FILE)) from None
+    return read_csv(decode_csv(data, str(p)), str(p))
 
 
 def from_settings(settings: Any, base: Path | None, profile: Profile = DEFAULT_PROFILE,

@@ -2,7 +2,7 @@
 
 An on-delay timer's outputs follow from its last input and elapsed value: `Q` is set
 exactly when the last IN was 1 and `V` reached `P`, and `V` is 0 while the last IN was 0
-(`runtime/blocks.Timer._ton`, `verify/blocks.run_timer`). That holds after every execution;
+(`blocks/timer.timer_rule`). That holds after every execution;
 a program that writes the preset between two executions breaks it, which is why each
 candidate is only kept once checked: dropped if false at the cold start, then the ones a
 scan can break from a state satisfying all of them are dropped until the rest is

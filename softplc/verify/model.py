@@ -22,15 +22,15 @@ import z3
 from softplc.errors import VerifyError
 from softplc.il import ast as A
 from softplc.il import rungtree
-from softplc.runtime.blocks import Timer
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido.address import BOOL, Ref
 from softplc.verify import environment
 from softplc.verify.abstract import Abstractions
-from softplc.verify.blocks import advance_timer, el_bits, run_timer
+from softplc.verify.blocks import apply, sort_name
 from softplc.verify.defaults import LOOP_BOUND
 from softplc.verify.loops import Loops
-from softplc.verify.objects import BLOCK_KEY, CLOCK_WRAP_US, MW_ARRAY, ObjectModel
+from softplc.verify.objects import BLOCK_KEY, CLOCK_WRAP_US, MODELLED, MW_ARRAY, ObjectModel
+from softplc.verify.symbolic import Z3State
 from softplc.verify.system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
 
@@ -106,10 +106,9 @@ class Model(ObjectModel):
         self.sys_free = free_objects(plc, self.variable)
         if self.variable:  # the input "_dt": this scan lasts _dt x the shortest period
             self.add_input("_dt", "w16", 1, self.longest_us // self.period_us)
-        self.timers: dict[str, Timer] = {}
+        self.used: dict[str, tuple[Any, Any]] = {}  # the blocks modelled
+        self.outs: dict[str, list[str]] = {}
         self.abstract = Abstractions()
-        self.counters: list[str] = []
-        self.drums: dict[str, list[str]] = {}
         self.written: dict[str, A.Pos] = {}  # keys the program writes, where first
         self.grafcet = any(isinstance(i, A.Grafcet) for r in plc.ast.rungs
                            for i in r.instructions)
@@ -161,14 +160,13 @@ class Model(ObjectModel):
     def _sort(self, key: str) -> str:
         if key == MW_ARRAY:
             return "arr"
-        if key.endswith("._el"):
-            return f"bv{el_bits(self.block(key.split('.')[0]), self.period_us, self.longest_us)}"
+        blk = BLOCK_KEY.match(key)
+        if blk:
+            return sort_name(self.block_fields(key.split(".")[0])[blk[3]])
         if key == "_tmod":
             return "t"
         if key in self.abstract.ranges:
             return self.abstract.ranges[key][0]
-        if key.startswith("%SC") and key.endswith(".W"):
-            return "bv256"  # a step counter's 256 bits
         if key.startswith("edge") or key == "_first" or self.is_bit_key(key):
             return "bool"
         return "w16"
@@ -176,7 +174,7 @@ class Model(ObjectModel):
     def is_bit_key(self, key: str) -> bool:
         blk = BLOCK_KEY.match(key)
         if blk:
-            return blk[3] in ("Q", "D", "E", "F", "_in", "_on", "_cu", "_cd", "_u", "_i", "_o")
+            return self._sort(key) == "bool"
         return key.startswith(("%M", "%Q", "%S", "%X", "%I")) and not key.startswith(
             ("%MW", "%QW", "%SW", "%MD", "%QNW", "%INW"))
 
@@ -186,10 +184,8 @@ class Model(ObjectModel):
             return 1
         blk = BLOCK_KEY.match(key)
         if blk:
-            b, f = self.block(key.split(".")[0]), blk[3]
-            if blk[1] == "R" and f.startswith(("_n", "_d")):  # a register's stored words
-                return len(b._data) if f == "_n" else (b._data + [0] * b.depth)[int(f[2:])]
-            return 0 if f == "_el" else int(getattr(b, f))
+            model, b = self.used[key.split(".")[0]]
+            return model.init(b, blk[3])
         if key.startswith("%S"):
             return cold_value(self.plc, key)
         if key.startswith("%X"):  # the initial steps are active from the cold start
@@ -227,16 +223,10 @@ class Model(ObjectModel):
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
         """Range facts true by construction in every reachable state (see `blocks`)."""
-        from softplc.verify.blocks import block_invariants
-        out = block_invariants(st, {n: (t, self.period_us, self.longest_us)
-                                    for n, t in self.timers.items()}, self.counters)
-        for name in self.drums:
-            n = len(self.block(name).steps)
-            out += [z3.ULT(st[f"{name}.S"], n), st[f"{name}._written"] >= -1,
-                    st[f"{name}._written"] < n]
-        out += [z3.ULE(st[k], 255) for k in st if k.startswith("%SC") and k.endswith(".V")]
-        out += [z3.ULE(st[k], self.block(k[:-3]).depth) for k in st
-                if k.startswith("%R") and k.endswith("._n")]
+        out = []
+        for name, (model, b) in self.used.items():
+            s = {f: st[f"{name}.{f}"] for f in self.block_fields(name)}
+            out += model.invariants(Z3State, b, s, self.scan_info())
         if "_tmod" in st:
             out.append(z3.ULT(st["_tmod"], self.clock_wrap))
         return out
@@ -284,16 +274,19 @@ class Model(ObjectModel):
         if self.grafcet and not self.post_done:
             self.post(self.live)
         self.abstract_after_program()
-        if self.conditional:
-            for name, t in self.timers.items():  # timers not executed keep timing
-                run_timer(st, name, t, z3.Not(self.executed.get(name, z3.BoolVal(False))),
-                          st[f"{name}._in"], self.period_us)
+        if self.conditional:  # blocks not executed that go on (timers keep timing)
+            for name, (model, _b) in self.used.items():
+                held = model.held(self.block_view(name))
+                if held is not None:
+                    self.step_block(name, z3.Not(self.executed.get(name, z3.BoolVal(False))),
+                                    held)
         for b in FIRST_SCAN_BITS:
             if f"%S{b}" in st:
                 st[f"%S{b}"] = z3.BoolVal(False)
         dt = z3.Extract(15, 0, inp["_dt"]) if self.variable else None
-        for name, t in self.timers.items():
-            advance_timer(st, name, t, self.period_us, dt, self.longest_us)
+        for name, (model, b) in self.used.items():  # time goes on (timers' elapsed time)
+            apply(st, name, z3.BoolVal(True),
+                  model.after_scan(Z3State, b, self.block_view(name), self.scan_info(dt)))
         if "_tmod" in self.vars or "_tmod" in st:
             t = st["_tmod"]
             t = t + (z3.ZeroExt(16, dt) if dt is not None else 1)
@@ -530,9 +523,11 @@ __all__ = ["Model", "Var", "is_object", "run_concrete"]
 
 def is_object(key: str) -> bool:
     """A state key that is an object address (not a block's internal state)."""
-    return key.startswith("%") and "._" not in key and not key.endswith((".W", "[]")) and \
-        not key.startswith("%SC") and key not in AFTER_PROGRAM  # a step counter's
-    # step has no address; scan times are rewritten after the program
+    blk = BLOCK_KEY.match(key)
+    if blk:  # a field of the block's address (a step counter's step has none)
+        return blk[3] in (MODELLED[blk[1]].fields or {})
+    # scan times are rewritten after the program
+    return key.startswith("%") and not key.endswith("[]") and key not in AFTER_PROGRAM
 
 
 def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:

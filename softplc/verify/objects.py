@@ -1,4 +1,4 @@
-"""Object access for the model: bits, words, double words, %TM/%C blocks as entries of the
+"""Object access for the model: bits, words, double words, function blocks as entries of the
 state dict being built (`self.st`, inputs in `self.inp`), every write guarded, %S18 where a
 rule faults, and what cannot be modelled reported with its line:col."""
 
@@ -9,47 +9,25 @@ from typing import Any
 
 import z3
 
-from softplc.assembly.blocks import drum_outputs
+from softplc.blocks import BIT, Scan
 from softplc.errors import Code, Diagnostic
 from softplc.il import ast as A
-from softplc.runtime.blocks import (
-    MAX_VALUE,
-    Counter,
-    Drum,
-    Register,
-    ShiftRegister,
-    StepCounter,
-    Timer,
-)
+from softplc.runtime.blocks import MAX_VALUE
 from softplc.runtime.engine import S_CLOCKS
 from softplc.twido import catalog
-from softplc.twido.address import BLOCK_FIELDS, INT16, INT32, REAL, Ref, parse_address
+from softplc.twido.address import BLOCK_FIELDS, INT16, INT32, REAL, Ref
 from softplc.verify import floats
 from softplc.verify.abstract import AbstractModel
-from softplc.verify.blocks import (
-    register_fields,
-    run_counter,
-    run_drum,
-    run_register,
-    run_shift_register,
-    run_step_counter,
-    run_timer,
-    set_step_bit,
-)
+from softplc.verify.blocks import apply, view
 from softplc.verify.exprs import ExprModel
 from softplc.verify.requirements import INDEXED_WORDS
-from softplc.verify.symbolic import as_bool, narrow, wide
+from softplc.verify.symbolic import Z3State, as_bool, narrow, wide
 from softplc.verify.system import AFTER_PROGRAM
 
 MW_ARRAY = INDEXED_WORDS  # the state key of the %MW words when the program indexes them
 CLOCK_WRAP_US = 60_000_000  # every %S4-%S7 clock period divides one minute
-# the modelled families, named by their runtime class (their kinds are the catalog's)
-TM, C, DR, SBR, SC, R = map(catalog.of_class, (Timer, Counter, Drum, ShiftRegister,
-                                               StepCounter, Register))
-# the state kept per modelled block kind (a drum's `_written`: the step its outputs hold)
-MODELLED = {TM: ("P", "V", "Q", "_in", "_on", "_el"), C: Counter.FIELDS,
-            SBR: ShiftRegister.FIELDS, DR: ("S", "F", "_u", "_written"),
-            SC: StepCounter.FIELDS, R: ()}  # %R: `register_fields`
+# the modelled families: those whose catalog entry names a verify model (softplc/blocks/)
+MODELLED = {f.kind: f for f in catalog.FAMILIES.values() if f.verify}
 BLOCK_KEY = re.compile(rf"%({'|'.join(MODELLED)})(\d+)\.(\w+)$")  # a modelled block's field
 # the addressable blocks without a model: sound abstractions (`abstract`)
 ABSTRACTED = frozenset(BLOCK_FIELDS) - set(MODELLED)
@@ -64,21 +42,38 @@ class ObjectModel(AbstractModel, ExprModel):
 
     st: dict[str, Any]
     inp: dict[str, Any]
-    timers: dict[str, Timer]
-    counters: list[str]
-    drums: dict[str, list[str]]  # drum -> its output keys
+    used: dict[str, tuple[Any, Any]]  # block name -> (its family's model, the block)
+    outs: dict[str, list[str]]  # block name -> the keys of the output bits it writes
     written: dict[str, A.Pos]
     executed: dict[str, Any]
     period_us: int
+    longest_us: int
     mw_array: bool = False  # the %MW words as one array (`word`, `put_word`)
     mw_named: set[int]  # with it, the words named: compared with the engine
 
     def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None: ...
 
-    # ---- blocks ---------------------------------------------------------------------------
+    # ---- blocks: each family's model (softplc/blocks/), dispatched by the catalog ----------
     def block(self, name: str) -> Any:
         m = BLOCK_KEY.match(name + ".x")
         return self.plc.mem.blocks[m[1]][int(m[2])]
+
+    def scan_info(self, dt: Any = None) -> Scan:
+        return Scan(self.period_us, self.longest_us, dt)
+
+    def block_fields(self, name: str) -> dict[str, int]:
+        """Block `name`'s state: field -> width (BIT for a bit)."""
+        model, blk = self.used[name]
+        return model.fields(blk, self.scan_info())
+
+    @property
+    def timers(self) -> dict[str, Any]:
+        """The modelled blocks that count time (a time base), by name: what the timer
+        lemmas (`lemmas`) and the advice on depths read."""
+        return {n: b for n, (_m, b) in self.used.items() if hasattr(b, "base_us")}
+
+    def block_view(self, name: str) -> dict[str, Any]:
+        return view(self.st, name, self.block_fields(name), self.outs.get(name, ()))
 
     def use_block(self, ref: Ref, pos: A.Pos | None) -> str | None:
         name = f"%{ref.kind}{ref.index}"
@@ -88,32 +83,17 @@ class ObjectModel(AbstractModel, ExprModel):
         if ref.index not in self.plc.mem.blocks.get(ref.kind, {}):
             self.unsupported(f"{name}: not used by the program nor configured", pos, name)
             return None
-        if ref.kind == TM:
-            self.timers.setdefault(name, self.plc.mem.blocks[TM][ref.index])
-        elif ref.kind == C and name not in self.counters:
-            self.counters.append(name)
-        elif ref.kind == DR and name not in self.drums:
-            self.drums[name] = self.drum_outputs(ref, pos)
-        fields = register_fields(self.block(name).depth) if ref.kind == R else \
-            MODELLED[ref.kind]
-        for f in fields:
+        if name not in self.used:
+            model, blk = MODELLED[ref.kind].verify_model(), self.block(name)
+            self.used[name] = (model, blk)
+            outs = model.outputs(blk, self.plc)
+            if outs:
+                self.outs[name] = [self.key_for(r) for r in outs]
+        for k in self.outs.get(name, ()):
+            self.mark_written(k, pos)
+        for f in self.block_fields(name):
             _ = self.st[f"{name}.{f}"]
         return name
-
-    def drum_outputs(self, ref: Ref, pos: A.Pos | None) -> list[str]:
-        """The state keys of a drum's configured output bits, in bit order."""
-        plc = self.plc
-        for text, d in plc.settings.drums.items():  # checked when the PLC was built
-            if parse_address(text, plc.profile).index != ref.index:
-                continue
-            outs = drum_outputs(d, text, plc.profile, plc.symbols)  # addresses or symbols
-            keys = [self.key_for(r) for r in outs]
-            for k in keys:
-                self.mark_written(k, pos)
-            return keys
-        self.unsupported(f"{ref}: its outputs are not found in the configuration", pos,
-                         str(ref))
-        return []
 
     def run_block(self, ref: Ref, g: Any, pins: dict[str, Any], pos: A.Pos | None) -> None:
         if abstracted(ref):
@@ -122,25 +102,21 @@ class ObjectModel(AbstractModel, ExprModel):
         name = self.use_block(ref, pos)
         if name is None:
             return
-        p = {k: pins.get(k, z3.BoolVal(False))
-             for k in ("IN", "R", "S", "CU", "CD", "U", "I", "O")}
-        st = self.st
-        if ref.kind == TM:
-            self.mark_written(f"{name}.V", pos)
-            self.executed[name] = z3.Or(self.executed.get(name, False), g)
-            run_timer(st, name, self.timers[name], g, p["IN"], self.period_us)
-        elif ref.kind == SBR:
-            run_shift_register(st, name, g, p["R"], p["CU"], p["CD"])
-        elif ref.kind == SC:
-            run_step_counter(st, name, g, p["R"], p["CU"], p["CD"])
-        elif ref.kind == R:
-            b = self.block(name)
-            run_register(st, name, b.type == "LIFO", b.depth, g, p["R"], p["I"], p["O"])
-        elif ref.kind == DR:
-            run_drum(st, name, self.block(name).steps, self.drums[name], g, p["R"], p["U"])
-        else:
-            self.mark_written(f"{name}.V", pos)
-            run_counter(st, name, g, p["R"], p["S"], p["CU"], p["CD"])
+        model, blk = self.used[name]
+        self.executed[name] = z3.Or(self.executed.get(name, False), g)
+        self.step_block(name, g, {k: pins.get(k, z3.BoolVal(False)) for k in blk.PINS}, pos)
+
+    def step_block(self, name: str, g: Any, pins: dict[str, Any],
+                   pos: A.Pos | None = None) -> None:
+        """One execution of block `name` with inputs `pins`, where g holds; the fields the
+        program can read that it changes are written by the program."""
+        model, blk = self.used[name]
+        new = model.run(Z3State, blk, self.block_view(name), pins, self.scan_info())
+        readable = catalog.family(BLOCK_KEY.match(name + ".x")[1]).fields or {}
+        for f in new:
+            if f in readable:
+                self.mark_written(f"{name}.{f}", pos)
+        apply(self.st, name, g, new, self.outs.get(name, ()))
 
     def run_pin(self, ref: Ref, pin: str, g: Any, v: Any, pos: A.Pos | None) -> None:
         """The short form (`CU %C0`, `U %DR0`): as `Block`'s generated pin methods, the
@@ -151,10 +127,24 @@ class ObjectModel(AbstractModel, ExprModel):
         name = self.use_block(ref, pos)
         if name is None:
             return
-        held = {p: self.st[f"{name}.{a}"] for p, a in
-                catalog.family(ref.kind).block_class.EDGE_PINS.items()} if ref.kind != TM else {}
+        held = {p: self.st[f"{name}.{a}"] for p, a in self.used[name][1].EDGE_PINS.items()}
         held[pin] = v
         self.run_block(ref, g, held, pos)
+
+    def block_field(self, ref: Ref, width: int | None, writable: bool = False) -> str | None:
+        """The state key of a block's field the program reads or writes (an address field
+        of its family that its model keeps, of that width; None: any width; `writable`:
+        one the program may write, %TMi.P, %Ri.I...)."""
+        fam = MODELLED.get(ref.kind)
+        if fam is None or ref.field not in (fam.fields or {}) or ref.offset is not None \
+                or writable and not (fam.fields or {})[ref.field][1]:
+            return None
+        name = self.use_block(Ref(ref.kind, ref.index), None)
+        if name is None:
+            return "_none"
+        w = self.block_fields(name).get(ref.field)
+        return None if w is None or width is not None and w != width else \
+            f"{name}.{ref.field}"
 
     # ---- objects --------------------------------------------------------------------------
     def key_for(self, ref: Ref) -> str:
@@ -198,13 +188,14 @@ class ObjectModel(AbstractModel, ExprModel):
             return z3.Extract(ref.bit, ref.bit, w) == 1
         if ref.bit is not None and ref.kind == "KW":
             return z3.BoolVal(bool(self.plc.mem.kw.uw[ref.index] >> ref.bit & 1))
-        if ref.kind in (TM, C, DR, R) and ref.field in ("Q", "D", "E", "F"):
-            return self.st[self.key_for(ref)]
+        key = self.block_field(ref, BIT)
+        if key is not None:
+            return self.st[key] if key != "_none" else z3.BoolVal(False)
+        name = self.bit_object(ref, pos)
+        if name is not None:
+            return self.used[name][0].bit(Z3State, self.block_view(name), ref.bit)
         if abstracted(ref) and ref.field is not None and ref.bit is None:
             return self.read_abstract(ref)
-        if ref.kind in (SBR, SC) and ref.field == "J":
-            w = self.st[self.key_for(Ref(ref.kind, ref.index, field="W"))]
-            return z3.Extract(ref.bit, ref.bit, w) == 1
         self.unsupported(f"reading {ref}", pos, str(ref))
         return z3.BoolVal(False)
 
@@ -214,21 +205,28 @@ class ObjectModel(AbstractModel, ExprModel):
             key = self.key_for(ref)
             self.mark_written(key, pos)
             self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
-        elif ref.kind in ("MW", "SW", SBR) and ref.bit is not None and ref.offset is None:
-            word = Ref(ref.kind, ref.index) if ref.kind != SBR else \
-                Ref(SBR, ref.index, field="W")
+        elif ref.kind in ("MW", "SW") and ref.bit is not None and ref.offset is None:
+            word = Ref(ref.kind, ref.index)
             w = self.word(word)
             mask = z3.BitVecVal(1 << ref.bit, 16)
             self.put_word(word, g, z3.If(value, w | mask, w & ~mask), pos)
+        elif (name := self.bit_object(ref, pos)) is not None:
+            new = self.used[name][0].set_bit(Z3State, self.block_view(name), ref.bit, value)
+            for f in new:
+                self.mark_written(f"{name}.{f}", pos)
+            apply(self.st, name, g, new)
         elif abstracted(ref) and ref.field is not None:
             self.run_abstract(Ref(ref.kind, ref.index), g, pos)
-        elif ref.kind == SC and ref.bit is not None and ref.offset is None:
-            name = self.use_block(Ref(SC, ref.index), pos)
-            if name is not None:
-                self.mark_written(f"{name}.W", pos)
-                set_step_bit(self.st, name, ref.bit, g, value)
         else:
             self.unsupported(f"writing {ref}", pos, str(ref))
+
+    def bit_object(self, ref: Ref, pos: A.Pos | None) -> str | None:
+        """The block of a bit object (%SBRi.Jk, %SCi.k: a family with `bits`), None if
+        `ref` is not one."""
+        fam = MODELLED.get(ref.kind)
+        if fam is None or not fam.bits or ref.bit is None or ref.offset is not None:
+            return None
+        return self.use_block(Ref(ref.kind, ref.index), pos)
 
     def read_word(self, ref: Ref, pos: A.Pos | None, g: Any = None) -> tuple[Any, str]:
         """(wide term, type); `g`: where the read runs (an index out of range: %S20)."""
@@ -262,9 +260,9 @@ class ObjectModel(AbstractModel, ExprModel):
             lo = self.word(Ref("MW", ref.index))
             hi = self.word(Ref("MW", ref.index + 1))
             return wide(z3.Concat(hi, lo)), INT32
-        if k in (TM, C) and ref.field in ("V", "P") or k == DR and ref.field == "S" \
-                or k == R and ref.field in ("I", "O"):
-            return wide(self.st[self.key_for(ref)]), INT16
+        key = self.block_field(ref, 16)
+        if key is not None:
+            return (wide(self.st[key]) if key != "_none" else wide(0)), INT16
         if abstracted(ref) and ref.field is not None and ref.type != REAL:
             return wide(self.read_abstract(ref)), INT16
         if k == "MF":
@@ -299,11 +297,11 @@ class ObjectModel(AbstractModel, ExprModel):
             v32 = narrow(v, 32)
             self.put_word(Ref("MW", ref.index), g, z3.Extract(15, 0, v32), pos)
             self.put_word(Ref("MW", ref.index + 1), g, z3.Extract(31, 16, v32), pos)
-        elif k in (TM, C) and ref.field == "P":
-            clamped = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
-            self._put(self.key_for(ref), g, narrow(clamped, 16), pos)
-        elif k == R and ref.field in ("I", "O"):
-            self._put(self.key_for(ref), g, narrow(v, 16), pos)
+        elif (key := self.block_field(ref, 16, writable=True)) is not None:
+            if catalog.family(k).clamp_preset and ref.field == "P":
+                v = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
+            if key != "_none":
+                self._put(key, g, narrow(v, 16), pos)
         elif abstracted(ref) and ref.field is not None:
             self.run_abstract(Ref(k, ref.index), g, pos)
         else:

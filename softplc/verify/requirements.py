@@ -30,6 +30,15 @@ from pathlib import Path
 from typing import Any
 
 from softplc.errors import AddressError, Code, Diagnostic, VerifyError
+from softplc.limits import (
+    MAX_EXPR_NESTING,
+    MAX_NUMBER_DIGITS,
+    MAX_REQUIREMENTS_BYTES,
+    BoundsError,
+    check_toml,
+    decode_text,
+    read_bytes,
+)
 from softplc.twido.address import BOOL, Ref, expand
 from softplc.twido.profile import Profile
 from softplc.twido.symbols import SymbolTable
@@ -41,6 +50,24 @@ _TOKEN = re.compile(r"""\s*(?:
     (?P<word>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z]+[0-9]*)?(?::X?[0-9]+)?))""", re.X)
 KEYWORDS = {"AND", "OR", "XOR", "NOT", "REM", "NEVER", "ALWAYS", "RISING", "WITHIN",
             "SCANS", "SCAN", "MS", "S"}
+#: The keys a requirement file takes, by table (anything else is an unknown key).
+TABLES = ("environment", "requirement")
+ENVIRONMENT_KEYS = ("host", "free", "held", "assume", "scan_period")
+REQUIREMENT_KEYS = ("name", "check")
+#: A number in an expression: a value of a 32-bit double word (%MD), or its bit pattern
+#: in hex (#FFFFFFFF): whatever a program compares a word with.
+NUMBER_RANGE = (-(1 << 31), (1 << 32) - 1)
+#: `within N scans`: the response monitor counts scans in a 16-bit word (checker.py).
+MAX_WITHIN_SCANS = 32767
+#: `within T ms`: a day, far beyond any timer of the program (a %TM counts at most 32767
+#: of its 1 s base [manual, from memory]: about 9 hours).
+MAX_WITHIN_MS = 86_400_000
+#: Depth of an expression's tree, a chain of operators included (`A OR B OR ...` nests to
+#: the left): the checker and the replay walk it recursively, a few frames a level, well
+#: inside Python's recursion limit (1,000) at this depth.
+MAX_EXPR_TREE_DEPTH = 2 * MAX_EXPR_NESTING
+EXPR_ARG = "--require-expr"
+SHOWN = 80  # characters of an expression quoted in an error
 
 
 @dataclass(frozen=True)
@@ -117,7 +144,32 @@ class Parser:
             self.toks.append((kind, val.upper() if kind == "word" else val, m.start(kind) + 1))
             pos = m.end()
         self.i = 0
+        self.depth = 0  # NOT, parentheses and minus signs open now (MAX_EXPR_NESTING)
         self.reads: list[Ref] = []
+
+    def nested(self, parse: Any, col: int) -> Node:
+        """`parse()` one level deeper: refused past MAX_EXPR_NESTING levels (the parser
+        recurses per level, as does everything that walks the expression later)."""
+        self.depth += 1
+        try:
+            if self.depth > MAX_EXPR_NESTING:
+                raise self.err(f"nested more than {MAX_EXPR_NESTING} levels deep (NOT, "
+                               "parentheses, minus signs)", col)
+            return parse()
+        finally:
+            self.depth -= 1
+
+    def number(self, val: str, col: int) -> int:
+        """The value of a number token, bounded in digits and range."""
+        if len(val) > MAX_NUMBER_DIGITS:
+            raise self.err(f"a number of {len(val)} characters (at most "
+                           f"{MAX_NUMBER_DIGITS})", col)
+        v = int(val.replace("16#", "").lstrip("#"), 16) if "#" in val else int(val)
+        lo, hi = NUMBER_RANGE
+        if not lo <= v <= hi:
+            raise self.err(f"{val} is beyond the 32-bit range of a word or double word "
+                           f"({lo} .. {hi}, #0 .. #FFFFFFFF)", col)
+        return v
 
     def peek(self) -> tuple[str, str, int]:
         return self.toks[self.i] if self.i < len(self.toks) else ("end", "", len(self.text) + 1)
@@ -140,21 +192,23 @@ class Parser:
     def boolean(self) -> Node:
         n = self.conj()
         while self.at("OR", "XOR"):
-            op = self.take()[1].lower()
-            n = Node(op, (self.need_bool(n), self.need_bool(self.conj())), BOOL, n.col)
+            op, col = self.take()[1].lower(), self.peek()[2]
+            n = Node(op, (self.need_bool(n), self.need_bool(self.nested(self.conj, col))),
+                     BOOL, n.col)
         return n
 
     def conj(self) -> Node:
         n = self.unary()
         while self.at("AND"):
-            self.take()
-            n = Node("and", (self.need_bool(n), self.need_bool(self.unary())), BOOL, n.col)
+            col = self.take()[2]
+            n = Node("and", (self.need_bool(n), self.need_bool(self.nested(self.unary, col))),
+                     BOOL, n.col)
         return n
 
     def unary(self) -> Node:
         if self.at("NOT"):
             col = self.take()[2]
-            return Node("not", (self.need_bool(self.unary()),), BOOL, col)
+            return Node("not", (self.need_bool(self.nested(self.unary, col)),), BOOL, col)
         return self.comparison()
 
     def comparison(self) -> Node:
@@ -174,31 +228,32 @@ class Parser:
     def sum(self) -> Node:
         n = self.term()
         while self.at("+", "-"):
-            op = self.take()[1]
-            n = Node(op, (self.need_int(n), self.need_int(self.term())), "int", n.col)
+            _, op, col = self.take()
+            n = Node(op, (self.need_int(n), self.need_int(self.nested(self.term, col))), "int",
+                     n.col)
         return n
 
     def term(self) -> Node:
         n = self.factor()
         while self.at("*", "/", "REM"):
-            op = self.take()[1].lower()
-            n = Node(op, (self.need_int(n), self.need_int(self.factor())), "int", n.col)
+            _, op, col = self.take()
+            n = Node(op.lower(), (self.need_int(n), self.need_int(self.nested(self.factor, col))),
+                     "int", n.col)
         return n
 
     def factor(self) -> Node:
         kind, val, col = self.peek()
         if kind == "op" and val == "(":
             self.take()
-            n = self.boolean()
+            n = self.nested(self.boolean, col)
             self.take(")")
             return n
         if kind == "op" and val == "-":
             self.take()
-            return Node("neg", (self.need_int(self.factor()),), "int", col)
+            return Node("neg", (self.need_int(self.nested(self.factor, col)),), "int", col)
         if kind == "num":
             self.take()
-            v = int(val.replace("16#", "").lstrip("#"), 16) if "#" in val else int(val)
-            return Node("num", (v,), "int", col)
+            return Node("num", (self.number(val, col),), "int", col)
         if kind == "addr" or (kind == "word" and val.split(".")[0] not in KEYWORDS):
             self.take()
             try:
@@ -224,6 +279,27 @@ class Parser:
         return n
 
 
+def tree_depth(n: Node) -> tuple[int, Node]:
+    """The depth of an expression's tree (iteratively), and its deepest node."""
+    deepest, at, stack = 0, n, [(n, 1)]
+    while stack:
+        node, d = stack.pop()
+        if d > deepest:
+            deepest, at = d, node
+        stack.extend((a, d + 1) for a in node.args if isinstance(a, Node))
+    return deepest, at
+
+
+def check_depth(n: Node, err: Any) -> Node:
+    """`n`, or the error `err(message, col)` if its tree is deeper than
+    MAX_EXPR_TREE_DEPTH."""
+    depth, at = tree_depth(n)
+    if depth > MAX_EXPR_TREE_DEPTH:
+        raise err(f"an expression {depth} operators deep (at most {MAX_EXPR_TREE_DEPTH}): "
+                  "split it over several requirements or assumptions", at.col)
+    return n
+
+
 def parse_check(text: str, name: str, profile: SymbolTable | Profile, err: Any
                 ) -> Requirement:
     """One requirement's text (`never E`, `always E`, `A -> B`, `X rising -> Y within N
@@ -231,15 +307,15 @@ def parse_check(text: str, name: str, profile: SymbolTable | Profile, err: Any
     p = Parser(text, profile, err)
     if p.at("NEVER", "ALWAYS"):
         kw = p.take()[1]
-        e = p.need_bool(p.boolean())
+        e = check_depth(p.need_bool(p.boolean()), err)
         p.done()
         cond = Node("not", (e,), BOOL, e.col) if kw == "NEVER" else e
         return Requirement(name, "always", cond, text=text, reads=p.reads)
-    a = p.need_bool(p.boolean())
+    a = check_depth(p.need_bool(p.boolean()), err)
     if p.at("RISING"):
         p.take()
         p.take("->")
-        b = p.need_bool(p.boolean())
+        b = check_depth(p.need_bool(p.boolean()), err)
         p.take("WITHIN")
         kind, val, col = p.peek()
         if kind != "num":
@@ -249,13 +325,16 @@ def parse_check(text: str, name: str, profile: SymbolTable | Profile, err: Any
         if unit not in ("SCANS", "SCAN", "MS"):
             raise err("expected 'scans' or 'ms' after the number", p.peek()[2])
         p.done()
-        n = int(val)
+        n = p.number(val, col)
+        top = MAX_WITHIN_MS if unit == "MS" else MAX_WITHIN_SCANS
+        if not 0 <= n <= top:  # 0: in the same scan
+            raise err(f"within {val} {unit.lower()}: from 0 to {top}", col)
         return Requirement(name, "response", a, b, n if unit != "MS" else -n, text, p.reads)
     if not p.at("->"):
         p.done()
         return Requirement(name, "always", a, text=text, reads=p.reads)
     p.take("->")
-    b = p.need_bool(p.boolean())
+    b = check_depth(p.need_bool(p.boolean()), err)
     p.done()
     return Requirement(name, "always", Node("or", (Node("not", (a,), BOOL, a.col), b),
                                             BOOL, a.col), text=text, reads=p.reads)
@@ -274,10 +353,19 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
     where = _Where("", "")
     if path is not None:
         try:
-            text = path.read_text()
+            text = decode_text(read_bytes(path, MAX_REQUIREMENTS_BYTES, "the file"),
+                               "the file")
+            check_toml(text)
         except OSError as e:
             raise VerifyError(Diagnostic(f"cannot read the requirements: {e.strerror}",
                                          str(path), code=Code.CANNOT_READ)) from None
+        except BoundsError as e:
+            raise VerifyError(Diagnostic(e.message, str(path), e.line, e.col,
+                                         code=Code.SYNTAX)) from None
+        if not text.strip():
+            raise VerifyError(Diagnostic("the file is empty: no [[requirement]]", str(path),
+                                         expected='[[requirement]] with check = "..."',
+                                         code=Code.SYNTAX))
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as e:
@@ -290,31 +378,47 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
 
     def parse_one(s: Any, what: str, fn: Any) -> Any:
         if not isinstance(s, str):
-            problems.append(Diagnostic(f"{what}: a string expected, got {s!r}", file,
-                                       *where.find(str(s)), code=Code.TYPE))
+            problems.append(Diagnostic(f"{what}: a string expected, got {s!r}"[:200], file,
+                                       *_key(where, what.rsplit(".", 1)[-1]),
+                                       code=Code.TYPE))
             return None
-        line, col0 = where.find(s)
+        # an expression of the command line is line 1 of its own
+        src, (line, col0) = (what, (1, 1)) if what == EXPR_ARG else (file, where.find(s))
+        shown = s if len(s) <= SHOWN else s[:SHOWN] + "..."
 
         def err(msg: str, col: int) -> VerifyError:
-            return VerifyError(Diagnostic(msg, file, line, col0 + col - 1 if line else col,
-                                          s, "", Code.ADDRESS if "address" in msg
-                                          else Code.SYMBOL if "symbol" in msg
-                                          else Code.TYPE if "mismatch" in msg else Code.SYNTAX))
+            code = Code.ADDRESS if "address" in msg else Code.SYMBOL if "symbol" in msg \
+                else Code.TYPE if "mismatch" in msg else Code.SYNTAX
+            return VerifyError(Diagnostic(msg, src, line, col0 + col - 1 if line else col,
+                                          shown, "", code))
         try:
             return fn(s, err)
         except VerifyError as e:
             problems.extend(e.diagnostics)
             return None
 
-    unknown = set(data) - {"environment", "requirement"}
+    unknown = set(data) - set(TABLES)
     for k in sorted(unknown):
-        problems.append(Diagnostic(f"unknown table [{k}]", file, *where.find(k),
+        problems.append(Diagnostic(f"unknown table [{k}]", file, *_key(where, k),
                                    expected="[environment], [[requirement]]", code=Code.SYNTAX))
     env = data.get("environment", {})
-    for k in sorted(set(env) - {"host", "free", "held", "assume", "scan_period"}):
+    if not isinstance(env, dict):
+        problems.append(Diagnostic("environment: a table expected, got "
+                                   f"{type(env).__name__} {env!r}"[:200], file,
+                                   *_key(where, "environment"),
+                                   expected="[environment] with host, free, assume",
+                                   code=Code.TYPE))
+        env = {}
+    for k in sorted(set(env) - set(ENVIRONMENT_KEYS)):
         problems.append(Diagnostic(f"unknown key environment.{k}", file, *_key(where, k),
-                                   expected="host, free, held, assume, scan_period",
-                                   code=Code.SYNTAX))
+                                   expected=", ".join(ENVIRONMENT_KEYS), code=Code.SYNTAX))
+    for k in ("host", "free", "held", "assume"):
+        if k in env and not isinstance(env[k], list):
+            problems.append(Diagnostic(f"environment.{k}: a list of strings expected, got "
+                                       f"{type(env[k]).__name__} {env[k]!r}"[:200], file,
+                                       *_key(where, k), expected=f'{k} = ["..."]',
+                                       code=Code.TYPE))
+            env = {**env, k: []}
     periods = None
     if "scan_period" in env:
         try:
@@ -353,7 +457,7 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
     for s in env.get("assume", []):
         def assumption(s: str, err: Any) -> Node:
             p = Parser(s, profile, err)
-            n = p.need_bool(p.boolean())
+            n = check_depth(p.need_bool(p.boolean()), err)
             p.done()
             reads.extend(p.reads)
             return n
@@ -362,21 +466,35 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
             assumptions.append(n)
     items = data.get("requirement", [])
     if not isinstance(items, list):
+        problems.append(Diagnostic("requirement: an array of tables expected ([[requirement]])"
+                                   f", got {type(items).__name__}", file,
+                                   *_key(where, "requirement"), code=Code.TYPE))
         items = []
     for i, item in enumerate(items):
         if not isinstance(item, dict) or "check" not in item:
             problems.append(Diagnostic(f"requirement {i + 1}: no 'check' key", file,
-                                       code=Code.SYNTAX))
+                                       *_nth_table(where, i), code=Code.SYNTAX))
             continue
+        for k in sorted(set(item) - set(REQUIREMENT_KEYS)):
+            problems.append(Diagnostic(f"requirement {i + 1}: unknown key {k}", file,
+                                       *_key(where, k), expected=", ".join(REQUIREMENT_KEYS),
+                                       code=Code.SYNTAX))
+        if not isinstance(item.get("name", ""), str):
+            problems.append(Diagnostic(f"requirement {i + 1}: name must be a string", file,
+                                       *_key(where, "name"), code=Code.TYPE))
         name = str(item.get("name", item["check"]))
         r = parse_one(item["check"], "check", lambda s, err, n=name: parse_check(
             s, n, profile, err))
         if r is not None:
             reqs.append(r)
     for s in exprs:
-        r = parse_one(s, "--require-expr", lambda s, err: parse_check(s, s, profile, err))
+        r = parse_one(s, EXPR_ARG, lambda s, err: parse_check(s, s, profile, err))
         if r is not None:
             reqs.append(r)
+    if not reqs and not problems:
+        problems.append(Diagnostic("no requirement to check", file,
+                                   expected='[[requirement]] with check = "..."',
+                                   code=Code.SYNTAX))
     if problems:
         raise VerifyError(problems)
     for r in reqs:
@@ -405,6 +523,13 @@ def parse_periods(value: Any) -> tuple[int, int]:
         raise ValueError("0 < shortest <= longest <= 1min, the longest a multiple of the "
                          "shortest")
     return lo, hi
+
+
+def _nth_table(where: _Where, i: int) -> tuple[int, int]:
+    """line:col of the `i`-th [[requirement]] header."""
+    headers = [n for n, ln in enumerate(where.lines, 1) if ln.strip().startswith(
+        "[[requirement]]")]
+    return (headers[i], 1) if i < len(headers) else (0, 0)
 
 
 def _key(where: _Where, key: str) -> tuple[int, int]:

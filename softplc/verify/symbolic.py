@@ -48,6 +48,51 @@ class Z3Domain:
         return a / b  # bvsdiv truncates towards zero, as the Twido does
 
 
+class Z3State:
+    """The value domain of the function blocks' rules (softplc/blocks/) on solver terms in
+    the state's own sorts: words as 16-bit bit-vectors, a timer's elapsed time in its
+    width, bits as Booleans; a Python int takes the sort of the term it meets."""
+
+    @staticmethod
+    def ite(c: Any, a: Any, b: Any) -> Any:
+        c = as_bool(c)
+        if z3.is_true(c):
+            return a
+        if z3.is_false(c):
+            return b
+        return z3.If(c, a, b)
+
+    and_, or_, not_ = Z3Domain.and_, Z3Domain.or_, Z3Domain.not_
+
+    @staticmethod
+    def bit(a: Any) -> Any:
+        return as_bool(a)
+
+    @staticmethod
+    def ne(a: Any, b: Any) -> Any:
+        return as_bool(a) != as_bool(b)
+
+    @staticmethod
+    def any_(terms: list[Any]) -> Any:
+        return z3.Or([as_bool(t) for t in terms]) if terms else z3.BoolVal(False)
+
+    @staticmethod
+    def resize(v: Any, like: Any) -> Any:
+        """`v` (non-negative) zero-extended or cut to the width of `like`."""
+        if isinstance(v, int) or not z3.is_bv(like):
+            return v
+        n, m = v.size(), like.size()
+        return v if n == m else z3.ZeroExt(m - n, v) if m > n else z3.Extract(m - 1, 0, v)
+
+    @staticmethod
+    def udiv(a: Any, b: Any) -> Any:
+        return z3.UDiv(a, b)
+
+    @staticmethod
+    def lshr(a: Any, n: Any) -> Any:
+        return z3.LShR(a, n)
+
+
 def as_bool(v: Any) -> Any:
     if isinstance(v, bool):
         return z3.BoolVal(v)

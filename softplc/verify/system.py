@@ -1,6 +1,6 @@
 """System bits and words as the model sees them, from a cold start in RUN (the system
-objects of twido.md, in the engine's scan order: runtime/engine.py, runtime/rtc.py,
-runtime/analog.py).
+objects of docs/twido.md#system-bits-and-words, in the engine's scan order:
+runtime/engine.py, runtime/rtc.py, runtime/analog.py).
 
 Definite (modelled exactly):
 - %S0 %S13 %S21: 1 in the first scan, then 0 (`FIRST_SCAN_BITS`); %S1 0 (a cold start,

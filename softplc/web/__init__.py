@@ -3,7 +3,7 @@
 `control.Controller` is the API without HTTP over the access port (`softplc.access`:
 checks, queued changes, scan-boundary reads);
 `server.WebServer` serves it and the page (`static/`) with aiohttp on the daemon's asyncio
-loop; `attach` is the daemon's hook. See README "Web monitor and `softplc io`".
+loop; `attach` is the daemon's hook. See docs/web.md.
 """
 
 from __future__ import annotations

@@ -22,12 +22,12 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
-import tomllib
 from dataclasses import asdict
 from typing import Any
 
 from softplc import online
 from softplc.access.program import ProgramAccess
+from softplc.config import parse_toml
 from softplc.config.files import carried_files
 from softplc.errors import ConfigError, ProgramError, SoftPLCError
 from softplc.modbus import tags
@@ -104,8 +104,8 @@ class ProgramChanges:
         raw = None
         if config is not None:
             try:
-                raw = tomllib.loads(config)
-            except tomllib.TOMLDecodeError as e:
+                raw = parse_toml(config)
+            except ConfigError as e:
                 raise ApiError(f"configuration: {e}") from None
         try:
             files = carried_files(data.get("files"))

@@ -38,6 +38,7 @@ from typing import Any
 
 from aiohttp import web
 
+from softplc.limits import BoundsError, check_digits
 from softplc.modbus.server import RateLimitedLog
 from softplc.web.control import ApiError, Controller
 from softplc.web.live import LiveViews, dumps
@@ -53,6 +54,15 @@ MAX_BODY = 64 * 1024
 
 def static_dir() -> Path:
     return Path(str(resources.files("softplc.web") / "static"))
+
+
+def _json_int(text: str) -> int:
+    check_digits(text)  # before int(): Python's own limit is a ValueError at 4,300 digits
+    return int(text)
+
+
+def _json_constant(text: str) -> float:
+    raise BoundsError(f"{text} is no JSON number (a finite number is expected)")
 
 
 def _json(data: Any, status: int = 200) -> web.Response:
@@ -164,7 +174,10 @@ class WebServer(Site):
                 raise too_big
             chunks.append(chunk)
         try:
-            data = json.loads(b"".join(chunks))
+            data = json.loads(b"".join(chunks), parse_int=_json_int,
+                              parse_constant=_json_constant)
+        except BoundsError as e:
+            raise ApiError(f"the request body: {e}") from None
         except (ValueError, UnicodeDecodeError, RecursionError):  # deep nesting too
             raise ApiError("the request body must be a JSON object") from None
         if not isinstance(data, dict):

@@ -363,14 +363,14 @@ def test_seed_mode_error_names_the_op():
         p.segments(seed=True)
 
 
-def test_the_readme_piece_example_loads():
-    import re
+def test_the_docs_piece_example_loads():
     import tomllib
 
-    readme = (PIECES.parents[1] / "README.md").read_text()
-    start = readme.index("A piece file (`ladder_programs/pieces/*.toml`")
-    block = re.compile(r"```toml\n(.*?)```", re.S).search(readme, start).group(1)
-    p = piece_from_dict(tomllib.loads(block), "README.md")
+    from docs_util import fenced, page
+
+    block = fenced(page("docs/machines/cutting-table.md"),
+                   "A piece file (`ladder_programs/pieces/*.toml`", "toml")
+    p = piece_from_dict(tomllib.loads(block), "docs/machines/cutting-table.md")
     kinds = [s.kind for s in p.segments()]
     assert kinds[0] == "move" and kinds.count("move") == 2  # to the contour, to the circle
     arcs = [e.shape for e in p.elements if isinstance(e.shape, Arc)]

@@ -1,7 +1,7 @@
 """EXCH3 / %MSG3: the Twido as a Modbus TCP client (issue 11 B, runtime/exch.py).
 
 The table layouts are the Twido's Modbus master tables [manual: TWD USE 10AE, "Modbus
-master", from memory: see docs/NOTES.md "## Communication: EXCH / %MSG"]: word 0 = command
+master", from memory: see docs/twido.md#exch-and-msg]: word 0 = command
 (high byte) | transmission length in bytes, word 1 = reception offset | transmission
 offset, then the transmission table, then the reception table. All run on the virtual
 clock: the reply lands at the first scan boundary after the request (deterministic).

@@ -180,12 +180,10 @@ def test_drawn_plot_is_in_cm_with_both_paths_and_the_legend_outside(tmp_path):
     assert box.x0 >= ax.get_window_extent().x1  # right of the plot area, not over it
 
 
-def test_readme_config_error_example_is_what_softplc_prints(tmp_path, capsys):
-    import re
+def test_the_docs_config_error_example_is_what_softplc_prints(tmp_path, capsys):
+    from docs_util import fenced, page
 
-    readme = (ROOT / "README.md").read_text()
-    start = readme.index("checked against one typed schema")
-    shown = re.compile(r"```text\n(.*?)```", re.S).search(readme, start).group(1)
+    shown = fenced(page("docs/configuration.md"), "checked against one typed schema", "text")
     cfg = tmp_path / "m.toml"
     cfg.write_text('scan_period = 10\n[timers."%TM0"]\npreset = "3"\n[devices.X]\n'
                    'type = "stepper"\nphases = ["%Q1.0", "%Q1.1", "%Q1.2", "%Q1.3"]\n'

@@ -248,9 +248,9 @@ def test_over_modbus_homing_order_refusal_read_only_status_and_servo_command(tmp
         fe = max_fe_counts(out)
         # TABLA 4-3, Y: 11.8 counts. After the approach moves and a rest, the 12-bit DAC,
         # the friction and the integrator hunt at standstill and the stored integral adds
-        # to the peak (docs/NOTES.md "Servo axis"). How long the axis rests depends on the
-        # host's polling against the PLC's speed (--speed max): 14.54 counts for a host
-        # that answers at once, up to 21.39 for a rest of 1 s or more
+        # to the peak (docs/machines/servo-table.md, "The thesis reproduced"). How long the
+        # axis rests depends on the host's polling against the PLC's speed (--speed max):
+        # 14.54 counts for a host that answers at once, up to 21.39 for a rest of 1 s or more
         # (test_scurve_fe_depends_on_the_rest_before_the_move), so the band is wider than
         # the device test's (loop closed fresh at rest: 10.2, +-40 %).
         assert 0.6 * 11.8 <= fe <= 1.85 * 11.8
@@ -375,8 +375,8 @@ def test_servo_set_and_get_ivars_while_running(tmp_path, monkeypatch, capsys):
     assert plc.devices["Y"].disturbance == 40.0
 
 
-def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
-    """The README's `softplc servo` lines, then the command's own --help examples (their
+def test_the_docs_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
+    """The servo table page's `softplc servo` lines, then the command's own --help examples (their
     daemon replaced by the in-process PLC): none refused."""
     import re
     import shlex
@@ -385,8 +385,9 @@ def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
     from softplc.machines.servo.command import _EXAMPLES
 
     plc = in_process(tmp_path, monkeypatch)
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = readme.split("## The servo XY table")[1].split("\n## ")[0]
+    from docs_util import page
+
+    section = page("docs/machines/servo-table.md")
     lines = [ln.split("#")[0].strip() for ln in re.findall(r"^softplc servo .*$", section,
                                                            re.M)]
     helps = [ln.strip() for ln in re.findall(r"^  softplc servo .*$", _EXAMPLES, re.M)]
@@ -399,9 +400,9 @@ def test_readme_servo_examples_run_as_printed(tmp_path, monkeypatch, capsys):
         assert softplc(argv + ([] if sim else ["--port", "1"])) == 0, line
         out = capsys.readouterr()
         assert "refused" not in out.err, line
-        if argv[1] == "scurve" and "--start" in argv:  # the README's figure
+        if argv[1] == "scurve" and "--start" in argv:  # the page's figure
             assert 14 <= max_fe_counts(out.out) <= 22
-    assert plc.devices["X"].gains.kp == 8000  # the README's `set` reached the axis
+    assert plc.devices["X"].gains.kp == 8000  # the page's `set` reached the axis
 
 
 def test_a_value_the_axis_refuses_is_refused_where_it_is_written(cell):

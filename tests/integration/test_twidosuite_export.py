@@ -1,6 +1,7 @@
 """A realistic TwidoSuite "List" export: SECTION headers, (*SECTTITLE:*) and
 (*SECTCOMMENT:*) comments, padded opcodes, trailing comments, subroutines SRn: after END,
-labels with backward jumps, and %S17 carry loops like the sample in twido.md [sure].
+labels with backward jumps, and %S17 carry loops like the sample in docs/twido.md
+(#instruction-list) [sure].
 It parses, keeps its structure, prints back to an equivalent program, and computes.
 """
 

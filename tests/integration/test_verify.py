@@ -246,11 +246,10 @@ def test_repl_replays_a_counterexample(tmp_path):
         r.stdout + r.stderr
 
 
-def test_readme_requirement_example_loads(tmp_path):
-    import re
-    readme = (ROOT / "README.md").read_text()
-    start = readme.index("## Formal verification")
-    toml = re.compile(r"```toml\n(.*?)```", re.S).search(readme, start).group(1)
+def test_the_docs_requirement_example_loads(tmp_path):
+    from docs_util import fenced, page
+
+    toml = fenced(page("docs/verify.md"), "## Requirement files", "toml")
     plc = PLC.from_source("LD %I0.0\nANDN %Q0.2\nST %Q0.1\n", devices=False)
     spec = load_spec(write(tmp_path, toml), [], plc.profile)
     assert spec.periods == (10_000, 1_000_000) and len(spec.host) == 10

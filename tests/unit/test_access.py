@@ -189,9 +189,10 @@ def test_a_block_word_that_is_not_a_clamped_preset_takes_a_whole_word():
 
 
 def test_a_host_cannot_write_a_preset_the_program_could_never_store():
-    """One range for %Ci.P: the program's store clamps to MAX_VALUE (twido.md: presets
-    0-9999), so the port (web, `softplc io`) and the REPL's `set` refuse what is above it,
-    and a Modbus host, which can only reach %MW, gets its word clamped by the store."""
+    """One range for %Ci.P: the program's store clamps to MAX_VALUE
+    (docs/twido.md#function-blocks: presets 0-9999), so the port (web, `softplc io`) and
+    the REPL's `set` refuse what is above it, and a Modbus host, which can only reach %MW,
+    gets its word clamped by the store."""
     from softplc.debug.session import Session
 
     src = "LD 1\n[ %C0.P := %MW10 ]\nLD %M0\nCU %C0\n"

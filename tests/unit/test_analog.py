@@ -3,7 +3,7 @@ device, and the analog thermostat example (ladder_programs/analog_thermostat.il)
 
 Sources: TwidoSuite's analog module configuration (signal type; range normal 0-4095,
 custom min..max, celsius/fahrenheit in tenths for temperature sensors) [manual, from
-memory, see docs/NOTES.md "Analog I/O"]; the status-word layout is our choice.
+memory, see docs/twido.md#analog-io]; the status-word layout is our choice.
 """
 
 from __future__ import annotations

@@ -9,7 +9,8 @@ from fuzz_budget import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from softplc.runtime.blocks import MAX_VALUE, Counter
+from softplc.blocks.counter import Counter
+from softplc.runtime.blocks import MAX_VALUE
 
 STATE = st.fixed_dictionaries({
     "P": st.integers(0, MAX_VALUE), "V": st.sampled_from([0, 1, 5, MAX_VALUE - 1, MAX_VALUE]),

@@ -4,7 +4,7 @@ from a simulated encoder, and the example ladder_programs/fast_counter.il.
 Sources: TWD USE 10AE (Twido software reference), the %FC and %VFC function blocks, and
 the TWDLCAE40DRF wiring (inputs %I0.2-%I0.5 for %FC0-3 at 5 kHz; %VFC0 on %I0.1/%I0.0
 with preset %I0.2, catch %I0.3 and reflex outputs %Q0.2/%Q0.3, 20 kHz), all from memory:
-not found in the search corpora (see docs/NOTES.md "Fast counters"). Counting between
+not found in the search corpora (see docs/twido.md#fast-counters). Counting between
 scans, the reflex outputs at the encoder's tick and losing pulses above the input's
 frequency are our model of the hardware (softplc/runtime/fastcount.py).
 """

@@ -3,7 +3,7 @@
 the short form (`IN %TM0`, `CU %C0`, `LD %TM0.Q`).
 
 Type, time base and preset are configuration [m221]. Semantics from
-../shared/reference/twido.md ([sure]/[m221]/[manual] tags as there).
+docs/twido.md ([sure]/[m221]/[manual] tags as there).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Boolean accumulator instructions of Twido IL: loads, logic, stores, edges,
 parentheses, the MPS/MRD/MPP stack, constants, comparisons, rung segmentation.
 
-Semantics from ../shared/reference/twido.md; tags [sure]/[m221]/[manual] as there.
+Semantics from docs/twido.md; tags [sure]/[m221]/[manual] as there.
 """
 
 from __future__ import annotations

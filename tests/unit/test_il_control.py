@@ -1,7 +1,7 @@
 """Program control: JMP/JMPC/JMPCN (forward and backward: loops), labels, subroutine
 calls SRi / SRi: / RET(C/CN), END/ENDC/ENDCN, the watchdog on endless loops, Grafcet.
 
-Semantics from ../shared/reference/twido.md ([sure]/[m221]/[manual] tags as there).
+Semantics from docs/twido.md ([sure]/[m221]/[manual] tags as there).
 """
 
 from __future__ import annotations
@@ -432,8 +432,9 @@ class _StalledWallClock:
 
 
 def test_host_load_alone_does_not_trip_the_watchdog(plc_from_source, monkeypatch):
-    # The watchdog limits the controller's own execution time [manual: twido.md, %S11]:
-    # wall time the OS gave to other processes is not the program's (docs/NOTES.md)
+    # The watchdog limits the controller's own execution time [manual: docs/twido.md#scan-cycle]:
+    # wall time the OS gave to other processes is not the program's
+    # (docs/decisions/watchdog-cpu-time.md)
     from softplc.runtime import engine
 
     plc = plc_from_source("LD %I0.0\nST %Q0.0\n", {"watchdog": "20ms"})

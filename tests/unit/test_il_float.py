@@ -1,7 +1,7 @@
 """Floats: %MF arithmetic, float functions, conversions (with the INTO_TO_REAL alias of
 the seed document), %S18 on domain errors, and the %MF/%MD over %MW overlay.
 
-Semantics from ../shared/reference/twido.md ([sure]/[m221]/[manual] tags as there).
+Semantics from docs/twido.md ([sure]/[m221]/[manual] tags as there).
 """
 
 from __future__ import annotations

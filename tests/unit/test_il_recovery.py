@@ -6,13 +6,13 @@ time itself is measured by `tools/bench.py --sections parse`)."""
 from __future__ import annotations
 
 import random
-import re
 from pathlib import Path
 
 import pytest
 from fuzz_budget import examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from input_fuzz import mutate_tokens
 
 from softplc import PLC
 from softplc.errors import Code, ParseError, ProgramError, SoftPLCError
@@ -153,7 +153,6 @@ def test_nested_sum_value():
 
 
 # ---- program mutation fuzzer --------------------------------------------------------------------
-TOKEN = re.compile(r"%?[A-Za-z_]+[\d.:]*|\d+(\.\d+)?|\S")
 REPLACEMENTS = ["(", ")", "[", "]", ":=", "%MW0", "%MF2", "%M0", "%TM0", "%Q0.0", "%I0.1", "%X3",
                 "%L1", "LD", "AND(", "ST", "BLK", "END_BLK", "OUT_BLK", "JMPC", "SR9", "=*=",
                 "#", "65536", "-1", "1.5E40", "#FFFF", "SQRT(", "+", "/", "", "((((((((", "%C99",
@@ -161,24 +160,7 @@ REPLACEMENTS = ["(", ")", "[", "]", ":=", "%MW0", "%MF2", "%M0", "%TM0", "%Q0.0"
 
 
 def mutate(text: str, data) -> str:
-    tokens = list(TOKEN.finditer(text))
-    out = text
-    for _ in range(data.draw(st.integers(1, 4))):
-        m = data.draw(st.sampled_from(tokens))
-        new = data.draw(st.sampled_from(REPLACEMENTS) | st.sampled_from(
-            [t.group(0) for t in tokens]))
-        kind = data.draw(st.sampled_from(["replace", "insert", "delete", "duplicate"]))
-        a, b = m.span()
-        if kind == "replace":
-            out = out[:a] + new + out[b:]
-        elif kind == "insert":
-            out = out[:a] + new + " " + out[a:]
-        elif kind == "delete":
-            out = out[:a] + out[b:]
-        else:
-            out = out[:a] + out[a:b] * data.draw(st.integers(2, 40)) + out[b:]
-        tokens = list(TOKEN.finditer(out)) or tokens
-    return out
+    return mutate_tokens(text, data, REPLACEMENTS)
 
 
 @settings(max_examples=examples(40), deadline=None, suppress_health_check=[HealthCheck.too_slow])

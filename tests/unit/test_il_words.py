@@ -1,7 +1,7 @@
 """Word objects in operation blocks: assignments, arithmetic and %S18, word logic, shifts
 and rotations with %S17, indexed words and %S20, tables and bit strings, double words.
 
-Semantics from ../shared/reference/twido.md ([sure]/[m221]/[manual] tags as there).
+Semantics from docs/twido.md ([sure]/[m221]/[manual] tags as there).
 """
 
 from __future__ import annotations

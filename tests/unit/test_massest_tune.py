@@ -104,13 +104,12 @@ def test_words_of_a_result(example):
     assert handshake.error_words(8, err) == [8, 5]
 
 
-def test_readme_example_output(tmp_path, monkeypatch, capsys):
-    import re
+def test_the_docs_example_output(tmp_path, monkeypatch, capsys):
+    from docs_util import fenced, page
 
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    start = readme.index("### The host", readme.index("## The machining centre"))
-    cmds = re.compile(r"```sh\n(.*?)```", re.S).search(readme, start)[1]
-    shown = re.compile(r"```text\n(.*?)```", re.S).search(readme, start)[1]
+    text = page("docs/machines/machining-centre.md")
+    cmds = fenced(text, "## The host", "sh")
+    shown = fenced(text, "## The host", "text")
     monkeypatch.chdir(tmp_path)
     for line in cmds.splitlines():
         argv = line.split("#")[0].split()

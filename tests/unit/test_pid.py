@@ -5,7 +5,7 @@ Sources: auto-tuning preconditions from Schneider FAQ FA213467 ("open-loop, stab
 system", "steady state with a null process input" at the start, no disturbance, periodic
 scan with Ts an exact multiple of the scan period) [manual]; parameter units and the
 0..10000 output range from TWD USE 10AE / the TwidoSuite PID quick start guide (from
-memory, see docs/NOTES.md). The control law, the identification and the tuning rule are
+memory, see docs/twido.md#pid). The control law, the identification and the tuning rule are
 our choices (softplc/runtime/pid.py), and so are the tolerances below: no Twido document
 found gives closed-loop tolerances.
 """

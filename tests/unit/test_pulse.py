@@ -4,8 +4,8 @@ ladder_programs/pulse_axis.il (%PWM: tests/unit/test_pwm.py).
 
 Sources: the TWDLCAE40DRF has 14 relay and 2 transistor outputs and offers PLS and PWM
 [manual: Twido hardware guide, quoted in seed thesis 003]; the blocks' fields, inputs,
-time bases and ranges [manual, from memory of TWD USE 10AE: see docs/NOTES.md "Pulse
-outputs"]; pause/resume on IN, a new period from the next pulse [our choice].
+time bases and ranges [manual, from memory of TWD USE 10AE: see
+docs/twido.md#pulse-outputs]; pause/resume on IN, a new period from the next pulse [our choice].
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ example ladder_programs/pwm_heater.il.
 
 Sources: the TWDLCAE40DRF offers PLS and PWM on its 2 transistor outputs [manual: Twido
 hardware guide, quoted in seed thesis 003]; the block's fields, input, time bases and
-ranges [manual, from memory of TWD USE 10AE: see docs/NOTES.md "Pulse outputs"].
+ranges [manual, from memory of TWD USE 10AE: see docs/twido.md#pulse-outputs].
 """
 
 from __future__ import annotations

@@ -7,10 +7,12 @@ import struct
 
 import pytest
 
+from softplc.blocks.counter import Counter
+from softplc.blocks.timer import Timer
 from softplc.modbus.image import ModbusImage
 from softplc.persist import retain
 from softplc.persist.retain import StateFileError, StateStore
-from softplc.runtime.blocks import Counter, Timer, TimeSource
+from softplc.runtime.blocks import TimeSource
 from softplc.runtime.memory import MemoryImage
 
 

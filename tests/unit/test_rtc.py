@@ -4,7 +4,7 @@ the virtual clock, schedule blocks, and the example ladder_programs/rtc_schedule
 Source: TWD USE 10AE system words %SW49 (day of the week, 1 = Monday), %SW50 seconds,
 %SW51 HHMM, %SW52 MMDD, %SW53 CCYY, all BCD, %S50 (update the clock from %SW50-53),
 %SW114 (schedule blocks enabled); schedule blocks configured in TwidoSuite [manual, from
-memory: see docs/NOTES.md "Real-time clock"].
+memory: see docs/twido.md#real-time-clock].
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ bits %S0/%S1/%S13, clocks %S4-%S7, scan times %SW30-%SW32, forcing, RUN/STOP/HAL
 cold and warm start, the deterministic virtual clock, plc[...] access, configuration as a
 dict or a TOML file.
 
-Semantics from ../shared/reference/twido.md ([sure]/[m221]/[manual] tags as there).
+Semantics from docs/twido.md ([sure]/[m221]/[manual] tags as there).
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """The structure rules (CONTRIBUTING.md, issue 22) hold on softplc/, as
 `tools/check_structure.py` measures them: no file over 700 lines, no class over 25 methods
-(tables of one method per instruction exempt), each block kind named in at most 3 files,
+(tables of one method per instruction exempt), each block family named in at most 2 files
+(its module and the catalog),
 no import cycle between files (every import statement counted), nothing in web/ reaching
 the PLC object."""
 
@@ -61,6 +62,38 @@ def test_the_checker_sees_what_it_counts(tmp_path):
     assert rep.web_reach == ["softplc/web/v.py"]
     assert rep.big_classes == ["softplc/big.py:8 Big 26"]
     assert ast.parse((pkg / "big.py").read_text())  # the sample itself is valid Python
+
+
+def test_every_family_is_counted_and_where_its_kind_goes(tmp_path):
+    """Every block family is counted, the basic ones included. A one-letter kind counts
+    where a kind goes (a key of `blocks`, a `kind` test, `family(...)`, an address "%C{i}"),
+    not as a pin or a field ("R" resets) nor as the date format "%R"; an example in a
+    sentence (a message) does not count, a format does; a module importing a family's
+    runtime class by name names the family."""
+    assert {"TM", "C", "DR", "SBR", "SC", "R", "PLS", "PWM", "FC", "VFC", "PID"} <= \
+        set(check_structure.KINDS)
+    pkg = tmp_path / "softplc"
+    (pkg / "twido").mkdir(parents=True)
+    (pkg / "blocks").mkdir()
+    for d in (pkg, pkg / "twido", pkg / "blocks"):
+        (d / "__init__.py").write_text("")
+    (pkg / "twido" / "catalog.py").write_text(
+        "from dataclasses import dataclass\n\n@dataclass(frozen=True)\nclass Family:\n"
+        "    kind: str\n    runtime: str\n\n"
+        "FAMILIES = {f.kind: f for f in (Family('C', 'softplc.blocks.counter:Counter'),)}\n")
+    (pkg / "blocks" / "counter.py").write_text("class Counter:\n    PINS = ('R', 'CU')\n")
+    (pkg / "pins.py").write_text("PINS = ('R', 'S')\nFIELDS = {'C': 1}\n"
+                                 "STAMP = '%H:%R'\ndef r(self, v):\n    pass\n")
+    (pkg / "keys.py").write_text("def f(mem):\n    return mem.blocks['C']\n")
+    (pkg / "test.py").write_text("def f(ref):\n    return ref.kind == 'R'\n")
+    (pkg / "fmt.py").write_text("def f(i):\n    return f'%C{i}'\n")
+    (pkg / "message.py").write_text("HINT = 'a full address such as %C0.D'\n")
+    (pkg / "user.py").write_text("from softplc.blocks.counter import Counter\n")
+    rep = check_structure.measure(pkg)
+    assert rep.per_kind["C"] == ["softplc/blocks/counter.py", "softplc/fmt.py",
+                                 "softplc/keys.py", "softplc/twido/catalog.py",
+                                 "softplc/user.py"]
+    assert rep.per_kind["R"] == ["softplc/test.py"]
 
 
 def test_the_layers_refuse_an_upward_import_and_one_machine_reaching_another():

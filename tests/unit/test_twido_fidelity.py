@@ -1,6 +1,6 @@
 """Issue 11 part A: deviations from the controller, one test (or a few) per point, each
-citing its source. Tags as in ../shared/reference/twido.md; the facts are in docs/NOTES.md
-("Twido fidelity (issue 11)").
+citing its source. Tags and facts as in docs/twido.md (the project's page of the Twido facts
+the code relies on).
 """
 
 from __future__ import annotations
@@ -358,7 +358,7 @@ def test_sw17_records_the_float_fault(plc_from_source, expr, bit):
 
 
 # ---- every instruction of the reference's tables compiles ----------------------------------
-# Source: the instruction tables of ../shared/reference/twido.md (List section), one line
+# Source: the instruction lists of docs/twido.md#instruction-list, one line
 # each; a syntax or compile error names the one missing.
 EVERY_INSTRUCTION = """
 LD %I0.0

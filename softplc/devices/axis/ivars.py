@@ -10,7 +10,7 @@ new law's on that first tick's terms (FE, CV, CA, IE, AV), so the output the DAC
 does not jump. With Ixx33 = 0 there is no integrator to take it, and the
 output follows the new law from the next tick [choice: PMAC itself is not bumpless].
 
-Word table (option `ivar_words`, a %MW address; the README's register map):
+Word table (option `ivar_words`, a %MW address; the servo table page's word map):
 
     +0  %MW  the I-variable number (xx) of the last write refused, 0 = none (device)
     +1  %MW  changes applied (device; wraps at 65536)

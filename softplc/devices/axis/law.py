@@ -25,7 +25,7 @@ from typing import Any
 
 from pydantic import ConfigDict, Field, create_model, model_validator
 
-# One table: (I-variable, plain name, default, meaning). The README's table is generated
+# One table: (I-variable, plain name, default, meaning). The docs' table is generated
 # from the same rows (`markdown_table`).
 IVARS: tuple[tuple[str, str, float, str], ...] = (
     ("Ixx08", "pos_scale", 96, "position-loop scale factor"),
@@ -140,7 +140,7 @@ def range_table() -> str:
 
 
 def markdown_table() -> str:
-    """The I-variable table as markdown (README)."""
+    """The I-variable table as markdown (docs/machines/servo-table.md)."""
     rows = ["| I-variable | plain name | default | meaning |", "|---|---|---|---|"]
     rows += [f"| {i} | `{n}` | {d:g} | {m} |" for i, n, d, m in IVARS]
     return "\n".join(rows)

@@ -10,8 +10,8 @@ exact too: a tick in which the velocity would change sign is split at the zero c
 (found in closed form), and the carriage sticks there while |w| <= F_c (stiction).
 
 The transfer function of the linear part, X/W = K / (s (s + a)), discretised with a ZOH
-of period T (the corrected form of the thesis's chapter 1; see docs/NOTES.md
-"Servo axis" for what the thesis printed):
+of period T (the corrected form of the thesis's chapter 1; see docs/machines/servo-table.md,
+"The thesis reproduced", for what the thesis printed):
 
     X(z)/W(z) = (k1 z + k2) / ((z - 1)(z - p)),   p = exp(-a T)
     k1 = (K / a^2) (a T - 1 + p),   k2 = (K / a^2) (1 - p - a T p)

@@ -11,7 +11,7 @@
 Geometry in `geometry.py` (line, arc, fillet, Newton curve, chord tolerance), the axis split
 in `motion.py`, the thesis's defective algorithms in `seed.py`, pieces from TOML / G-code in
 `piece.py` (from DXF in `dxf.py`; `load.py` picks by suffix), the register words in
-`regmap.py`. See `../shared/reference/cutting-table.md`.
+`regmap.py`. See docs/machines/cutting-table.md.
 """
 
 from softplc.machines.lazy import lazy_exports

@@ -18,9 +18,13 @@ check, speeds and chord tolerance as for G-code (`piece.piece_from_gcode`).
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
+from softplc.limits import MAX_DXF_BYTES
 from softplc.machines.cutting.geometry import SAME_POINT, Arc, GeometryError, Line, Point, distance
 from softplc.machines.cutting.motion import DEFAULT_ACCEL, DEFAULT_SPEED
 from softplc.machines.cutting.piece import WORK_AREA, Element, Piece, PieceError
@@ -30,6 +34,15 @@ MM_PER_UNIT = {0: 1.0, 4: 1.0, 1: 25.4, 5: 10.0, 6: 1000.0}
 CUT_TYPES = ("LINE", "ARC", "CIRCLE", "LWPOLYLINE")
 
 Shape = Line | Arc
+#: Largest coordinate or radius read, in drawing units: a kilometre in mm, far beyond any
+#: work area (the piece check refuses points outside it), small enough that the arc
+#: arithmetic keeps its precision. NaN and the infinities are refused as well.
+MAX_COORD = 1e6
+#: Largest |bulge| of a polyline vertex: tan(θ/4) of an arc of θ = 359.9999° is 2.3e6;
+#: beyond, the arc is a full circle to rounding (and 1e300 divided by zero).
+MAX_BULGE = 1e7
+_TAIL = 64  # bytes read at the end of a file for its EOF
+BINARY_SENTINEL = b"AutoCAD Binary DXF"  # how a binary DXF file starts [ezdxf, AutoCAD]
 
 
 def bulge_arc(p1: Point, p2: Point, bulge: float) -> Arc:
@@ -61,22 +74,27 @@ def _shapes(e: object, scale: float) -> list[Shape]:
     dxf = e.dxf  # type: ignore[attr-defined]
 
     def mm(v: object) -> Point:
-        return (float(v[0]) * scale, float(v[1]) * scale)  # type: ignore[index]
+        return (_num(v[0], "a coordinate") * scale,  # type: ignore[index]
+                _num(v[1], "a coordinate") * scale)  # type: ignore[index]
 
     if kind == "LINE":
         a, b = mm(dxf.start), mm(dxf.end)
         return [] if distance(a, b) <= SAME_POINT else [Line(a, b)]
     if kind in ("ARC", "CIRCLE"):
-        c, r = mm(dxf.center), float(dxf.radius) * scale
-        a0 = math.radians(dxf.start_angle) if kind == "ARC" else 0.0
-        sweep = math.radians((dxf.end_angle - dxf.start_angle) % 360.0) if kind == "ARC" \
-            else 0.0
+        c, r = mm(dxf.center), _num(dxf.radius, "the radius") * scale
+        if r <= 0.0:
+            raise GeometryError(f"radius {r:g}: a positive number expected")
+        a0, a1 = (_num(dxf.start_angle, "the start angle"), _num(dxf.end_angle, "the end "
+                  "angle")) if kind == "ARC" else (0.0, 0.0)
+        sweep = math.radians((a1 - a0) % 360.0)
+        a0 = math.radians(a0)
         start = (c[0] + r * math.cos(a0), c[1] + r * math.sin(a0))
         if sweep == 0.0:  # a CIRCLE, or an ARC from an angle to itself: the whole circle
             return [Arc(c, start, 2 * math.pi)]
         end = (c[0] + r * math.cos(a0 + sweep), c[1] + r * math.sin(a0 + sweep))
         return [Arc(c, start, sweep, end)]
-    pts = [(float(x) * scale, float(y) * scale, float(b))  # (ezdxf gives numpy floats)
+    pts = [(_num(x, "a coordinate") * scale, _num(y, "a coordinate") * scale,
+            _num(b, "a bulge", MAX_BULGE))  # (ezdxf gives numpy floats)
            for x, y, b in e.get_points("xyb")]  # type: ignore[attr-defined]
     if e.closed and pts:  # type: ignore[attr-defined]
         pts.append(pts[0])
@@ -87,6 +105,41 @@ def _shapes(e: object, scale: float) -> list[Shape]:
             continue
         out.append(bulge_arc(p1, p2, b) if b else Line(p1, p2))
     return out
+
+
+def _num(v: object, what: str, limit: float = MAX_COORD) -> float:
+    """A number of the drawing, finite and within ±`limit`; GeometryError otherwise."""
+    x = float(v)  # type: ignore[arg-type]
+    if not (math.isfinite(x) and abs(x) <= limit):
+        raise GeometryError(f"{what} of {x:g}: a finite number within ±{limit:g} expected")
+    return x
+
+
+def _line_of(file: str, handle: str) -> int:
+    """The line of the file where the entity with this handle starts (group code 5 then
+    the handle), for messages; 0 if it is not found."""
+    try:
+        with open(file, encoding="utf-8", errors="replace") as f:
+            prev = ""
+            for n, ln in enumerate(f, 1):
+                ln = ln.strip()
+                if prev == "5" and ln == handle:
+                    return n - 1
+                prev = ln
+    except OSError:
+        pass
+    return 0
+
+
+def _check_complete(file: str) -> None:
+    """A DXF file ends with the group `0` / `EOF`: one cut short (a copy or a download
+    that stopped) would otherwise be read up to where it stops, a part of the piece."""
+    with open(file, "rb") as f:
+        f.seek(max(os.fstat(f.fileno()).st_size - _TAIL, 0))
+        tail = f.read().split()
+    if tail[-2:] != [b"0", b"EOF"]:
+        raise PieceError(f"{file}: not a readable DXF file: it does not end with 0 / EOF "
+                         "(truncated?)")
 
 
 def _upright(e: object, where: str) -> None:
@@ -107,6 +160,8 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
                    tolerance: float = 0.01, work_area: Point = WORK_AREA) -> Piece:
     """A piece from the LINE, ARC, CIRCLE and LWPOLYLINE entities of a DXF file."""
     import ezdxf
+    from ezdxf.addons import iterdxf
+    from ezdxf.filemanagement import dxf_file_info
     from ezdxf.lldxf.const import DXFError
 
     file = str(path)
@@ -115,12 +170,33 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
         if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
             raise PieceError(f"{file}: {name} must be a positive number, not {v!r}")
     try:
-        doc = ezdxf.readfile(file)
+        if os.stat(file).st_size > MAX_DXF_BYTES:
+            raise PieceError(f"{file}: larger than {MAX_DXF_BYTES // 2**20} MiB")
+        with open(file, "rb") as f:
+            binary = f.read(len(BINARY_SENTINEL)) == BINARY_SENTINEL
+        if binary:  # iterdxf reads text files only: the whole document then
+            doc = ezdxf.readfile(file)
+            entities, units = doc.modelspace(), doc.header.get("$INSUNITS", 0)
+        else:  # streamed (ezdxf's iterdxf): never the whole document in memory
+            _check_complete(file)
+            entities, units = iterdxf.modelspace(file), dxf_file_info(file).insert_units
+        return _piece(entities, units, file, speed, move_speed, accel, tolerance, work_area)
     except OSError as e:
         raise PieceError(f"{file}: cannot read the file: {e.strerror or e}") from None
-    except (DXFError, ValueError, UnicodeDecodeError) as e:
-        raise PieceError(f"{file}: not a readable DXF file: {e}") from None
-    units = int(doc.header.get("$INSUNITS", 0))
+    except (DXFError, ValueError, UnicodeDecodeError, IndexError, KeyError, TypeError,
+            OverflowError, StopIteration, RuntimeError) as e:  # ezdxf's, on a garbled
+        # or truncated file (OverflowError: 1e999 where an integer group code stands)
+        why = str(e) if type(e).__name__ in str(e) else f"{type(e).__name__}: {e}"
+        if isinstance(e, IndexError | StopIteration | RuntimeError):  # (in a generator,
+            # a StopIteration becomes a RuntimeError)
+            why = "it ends in the middle of an entry (truncated?)"
+        raise PieceError(f"{file}: not a readable DXF file: {why}") from None
+
+
+def _piece(entities: Iterable[Any], units: Any, file: str, speed: float,
+           move_speed: float | None, accel: float, tolerance: float, work_area: Point
+           ) -> Piece:
+    """The piece of a drawing's modelspace entities (`piece_from_dxf`)."""
     if units not in MM_PER_UNIT:
         raise PieceError(f"{file}: $INSUNITS = {units}: only unitless, mm, cm, m and inch "
                          "drawings are read")
@@ -128,7 +204,7 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
     elements: list[Element] = []
     skipped: Counter[str] = Counter()
     pos: Point = (0.0, 0.0)
-    for e in doc.modelspace():
+    for e in entities:
         kind = e.dxftype()
         if kind not in CUT_TYPES:
             skipped[kind] += 1
@@ -137,8 +213,10 @@ def piece_from_dxf(path: str | Path, speed: float = DEFAULT_SPEED,
         _upright(e, f"{file}: {where}")
         try:
             shapes = _shapes(e, scale)
-        except GeometryError as err:
-            raise PieceError(f"{file}: {where}: {err}") from None
+        except (GeometryError, TypeError, ValueError) as err:
+            line = _line_of(file, str(e.dxf.handle))
+            raise PieceError(f"{file}:{line}: {where}: {err}" if line else
+                             f"{file}: {where}: {err}") from None
         if not shapes:
             continue
         if distance(pos, shapes[0].start) > SAME_POINT >= distance(pos, shapes[-1].end):

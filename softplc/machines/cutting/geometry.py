@@ -1,6 +1,6 @@
 """Path geometry of the cutting table: lines, arcs, fillets, Newton curves, in mm.
 
-The corrected algorithms of `../shared/reference/cutting-table.md` §2 (the thesis's defects
+The corrected algorithms of docs/machines/cutting-table.md ("Path library"; the thesis's defects
 are reproduced separately in `seed.py`). Every shape is a frozen dataclass that knows its
 start, end and length and turns itself into chord end points (`chords`), each chord a line
 move of the table. Arcs use the drawing host's chord count (`softplc.machines.gcode.arcs`):
@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from softplc.errors import SoftPLCError
-from softplc.machines.gcode.arcs import TAU, segments_needed
+from softplc.machines.gcode.arcs import TAU, ArcGeometryError, segments_needed
 
 Point = tuple[float, float]
 
@@ -195,7 +195,10 @@ class Arc:
     def chord_count(self, tolerance: float = DEFAULT_TOLERANCE,
                     max_chord: float | None = None) -> int:
         """n = ceil(|θ| / α_max), α_max from the sagitta tolerance (and a chord limit)."""
-        n = segments_needed(self.radius, self.sweep, tolerance)
+        try:
+            n = segments_needed(self.radius, self.sweep, tolerance)
+        except ArcGeometryError as e:
+            raise GeometryError(str(e)) from None
         if max_chord is not None:
             if max_chord <= 0:
                 raise GeometryError(f"chord limit {max_chord:g} mm must be positive")

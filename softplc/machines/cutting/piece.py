@@ -236,10 +236,20 @@ class Piece:
     work_area: Point = WORK_AREA
     file: str = "<string>"
     warnings: list[str] = field(default_factory=list)
+    _segments: tuple[object, list[Segment]] = field(default=(None, []), init=False,
+                                                     repr=False, compare=False)
 
     def segments(self, seed: bool | str = False) -> list[Segment]:
         """Numbered straight segments; seed=True (or "matlab", "cpu": the arc's variant)
-        uses the thesis's arc and Newton code."""
+        uses the thesis's arc and Newton code. Made once for the piece as it stands (a
+        command asks for them several times: 400,000 segments each time for 200,000
+        LINEs); the list is shared, not to be changed."""
+        key = (seed, self.start, self.tolerance, len(self.elements))
+        if self._segments[0] != key:
+            self._segments = (key, self._make_segments(seed))
+        return self._segments[1]
+
+    def _make_segments(self, seed: bool | str) -> list[Segment]:
         out: list[Segment] = []
         pos = self.start
         for el in self.elements:

@@ -1,7 +1,7 @@
 """The cutting table's segment words: what the host writes to the PLC for each segment.
 
-Register map of `../shared/reference/cutting-table.md` §5.4 [choice]; holding register n is
-%MWn; %MD/%MF take two registers, low word first (README, Modbus register map):
+The segment words of docs/machines/cutting-table.md ("Segment words") [choice]; holding register
+n is %MWn; %MD/%MF take two registers, low word first (docs/twido.md#memory-objects):
 
 | word | name | by | meaning |
 |---|---|---|---|

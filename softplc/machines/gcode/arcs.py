@@ -15,6 +15,11 @@ from softplc.errors import SoftPLCError
 Point = tuple[float, float]
 
 TAU = 2.0 * math.pi
+#: Chords one arc may become. An arc of the largest table (a 240 mm radius) cut at a 1 nm
+#: tolerance needs about 34,000; more means a tolerance below any machine's resolution
+#: (the cutting table's setpoints are in µm, %MD100) and memory without bound (a 1e-12 mm
+#: tolerance asked 2.7 GB).
+MAX_ARC_SEGMENTS = 65_536
 
 
 class ArcGeometryError(SoftPLCError, ValueError):
@@ -67,13 +72,23 @@ def sweep_angle(start: Point, end: Point, centre: Point, clockwise: bool,
 
 
 def segments_needed(radius: float, sweep: float, tolerance: float) -> int:
-    """Number of chords so that no chord strays more than `tolerance` from the arc."""
+    """Number of chords so that no chord strays more than `tolerance` from the arc;
+    ArcGeometryError if a value is not finite or more than MAX_ARC_SEGMENTS are needed."""
+    if not (math.isfinite(radius) and math.isfinite(sweep) and math.isfinite(tolerance)
+            and tolerance > 0.0):
+        raise ArcGeometryError(f"arc of radius {radius:g}, sweep {sweep:g} rad, chord "
+                               f"tolerance {tolerance:g}: finite numbers (a tolerance > 0) "
+                               "expected")
     if radius <= 0.0:
         return 1
     if tolerance >= radius:
         max_step = math.pi
     else:
         max_step = 2.0 * math.acos(1.0 - tolerance / radius)
+    if max_step <= 0.0 or abs(sweep) / max_step > MAX_ARC_SEGMENTS:
+        raise ArcGeometryError(f"an arc of radius {radius:g} would be more than "
+                               f"{MAX_ARC_SEGMENTS} chords at a chord tolerance of "
+                               f"{tolerance:g}: use a larger tolerance")
     n = max(1, math.ceil(abs(sweep) / max_step - 1e-12))
     if abs(sweep) >= TAU - 1e-12:
         n = max(n, 3)  # a full circle needs at least a triangle

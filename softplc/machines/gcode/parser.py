@@ -33,6 +33,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from softplc.errors import ConfigError, Diagnostic, ProgramError
+from softplc.limits import MAX_GCODE_BYTES, MAX_NUMBER_DIGITS, BoundsError, read_bytes
 from softplc.machines.gcode.arcs import (
     ArcGeometryError,
     Point,
@@ -277,6 +278,12 @@ def _tokenize(text: str, lineno: int, file: str,
             continue
         m = _WORD_RE.match(text, i)
         end = m.end() if m else i
+        if m and len(m.group(2)) > MAX_NUMBER_DIGITS:  # before float(): 1e400 is inf
+            errors.append(Diagnostic(f"a number of {len(m.group(2))} characters", file,
+                                     lineno, i + 1, m.group(0)[:20] + "...",
+                                     f"at most {MAX_NUMBER_DIGITS}"))
+            i = end
+            continue
         if m and (end >= n or not (text[end].isdigit() or text[end] == ".")):
             letter = m.group(1).upper()
             word = _Word(letter, float(m.group(2)), m.group(0), i + 1)
@@ -531,11 +538,11 @@ class _Reader:
             else:
                 letters = " ".join(sorted(_OFFSET_LETTER[a] for a in self.cfg.plane))
                 raise ArcGeometryError(f"arc needs R or centre offsets ({letters})")
+            return linearise_arc(start, end, centre, sweep, self.cfg.chord_tolerance)
         except ArcGeometryError as e:
             self.err(line, r_word.col if r_word else col, str(e),
                      r_word.text if r_word else "")
             return None
-        return linearise_arc(start, end, centre, sweep, self.cfg.chord_tolerance)
 
     @property
     def ambiguity_checked(self) -> bool:
@@ -587,9 +594,10 @@ def parse_file(path: str | Path, config: GCodeConfig | None = None) -> Program:
     """Read a program file (UTF-8, or Latin-1 as old Windows editors wrote it)."""
     p = Path(path)
     try:
-        data = p.read_bytes()
-    except OSError as e:
-        raise GCodeError(Diagnostic(f"cannot read the file: {e.strerror or e}", str(p))) from None
+        data = read_bytes(p, MAX_GCODE_BYTES, "the file")
+    except (OSError, BoundsError) as e:
+        why = getattr(e, "strerror", None) or e
+        raise GCodeError(Diagnostic(f"cannot read the file: {why}", str(p))) from None
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:

@@ -239,7 +239,7 @@ def compare_loads(loads: list[float], directory: Path, *, table: str = "machine"
 
 
 def markdown_table(results: list[LoadRetune]) -> str:
-    """The README's table of `softplc tune --compare`."""
+    """The table of `softplc tune --compare` (docs/machines/machining-centre.md)."""
     rows = ["| load kg | estimate kg (closed loop) | row | Ixx30 x | peak FE before µm "
             "| after µm | RMS FE before µm | after µm | estimate, retuned kg | ideal axis kg |",
             "|---|---|---|---|---|---|---|---|---|---|"]

@@ -1,4 +1,4 @@
-"""The thesis's formulas AS PRINTED, wrong ones included: used only by tests and the README
+"""The thesis's formulas AS PRINTED, wrong ones included: used only by tests and the docs
 to show the defects. Never used by the estimator or `softplc tune`.
 
 - eq. 3-9: the normal equations of the paired fit with ``-n1`` in X^T X (should be +n1);
