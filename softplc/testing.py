@@ -28,13 +28,16 @@ Helpers: `pulse(plc, "%I0.1")` (one-scan pulse), `scan_until(plc, cond, timeout)
 from __future__ import annotations
 
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 import pytest
 
 from softplc.plc import PLC
+
+P = ParamSpec("P")
+T = TypeVar("T")
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -45,16 +48,7 @@ def pytest_configure(config: pytest.Config) -> None:
 @pytest.fixture
 def plc_from_source() -> Callable[..., PLC]:
     """Factory: plc_from_source(text, config=None) -> PLC on the virtual clock."""
-    made: list[PLC] = []
-
-    def make(text: str, config: Any = None, **kw: Any) -> PLC:
-        p = PLC.from_source(text, config, **kw)
-        made.append(p)
-        return p
-
-    yield make
-    for p in made:
-        p.close()
+    yield from closing_factory(PLC.from_source)
 
 
 @pytest.fixture
@@ -63,12 +57,10 @@ def plc(request: pytest.FixtureRequest) -> PLC:
     marker = request.node.get_closest_marker("plc_program")
     if marker is None:
         pytest.fail("the `plc` fixture needs @pytest.mark.plc_program(path, config=...)")
-    here = Path(str(request.node.path)).parent
-    root = Path(str(request.config.rootpath))
-    path = _locate(marker.args[0], here, root)
+    path = locate(request, marker.args[0])
     config = marker.kwargs.get("config", marker.args[1] if len(marker.args) > 1 else None)
     if isinstance(config, (str, Path)):
-        config = _locate(config, here, root)
+        config = locate(request, config)
     p = PLC.from_file(path, config)
     yield p
     p.close()
@@ -84,8 +76,6 @@ def plc_factory(request: pytest.FixtureRequest) -> Callable[..., PLC]:
     fixture runs once for all of a `@given` test's examples, which hypothesis refuses
     (HealthCheck.function_scoped_fixture); the factory holds no PLC state between calls.
     PLCs not closed by their `with` are closed when the module's tests end."""
-    here = Path(str(request.node.path)).parent
-    root = Path(str(request.config.rootpath))
     made: weakref.WeakSet[PLC] = weakref.WeakSet()  # closed and dropped ones go
 
     def make(path: str | Path | None = None, config: Any = None, **kw: Any) -> PLC:
@@ -98,8 +88,8 @@ def plc_factory(request: pytest.FixtureRequest) -> Callable[..., PLC]:
             config = marker.kwargs.get("config",
                                        marker.args[1] if len(marker.args) > 1 else None)
         if isinstance(config, (str, Path)):
-            config = _locate(config, here, root)
-        p = PLC.from_file(_locate(path, here, root), config, **kw)
+            config = locate(request, config)
+        p = PLC.from_file(locate(request, path), config, **kw)
         made.add(p)
         return p
 
@@ -108,10 +98,26 @@ def plc_factory(request: pytest.FixtureRequest) -> Callable[..., PLC]:
         p.close()
 
 
-def _locate(name: str | Path, here: Path, root: Path) -> Path:
+def closing_factory(build: Callable[P, T]) -> Iterator[Callable[P, T]]:
+    """A factory fixture's body (`yield from`): `build`, and what it made closed when the
+    test ends."""
+    made: list[T] = []
+
+    def make(*args: P.args, **kw: P.kwargs) -> T:
+        made.append(build(*args, **kw))
+        return made[-1]
+
+    yield make
+    for x in made:
+        x.close()  # type: ignore[attr-defined]
+
+
+def locate(request: pytest.FixtureRequest, name: str | Path) -> Path:
     """A marker's file: relative to the test file's folder, as a user writes it next to
     the test (`pytest /elsewhere/test_motor.py` then works from any directory); else to
     the rootdir or the current directory, where earlier projects put their paths."""
+    here = Path(str(request.node.path)).parent
+    root = Path(str(request.config.rootpath))
     path = Path(name)
     if path.is_absolute():
         return path

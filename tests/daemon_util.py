@@ -69,6 +69,12 @@ class Daemon:
                 return line
         raise AssertionError(f"no line matching {pattern!r} in {''.join(self.out)}")
 
+    def web_port(self) -> int:
+        """The port of the web monitor, from the banner's `web monitor on URL` line (read
+        before the address line that `wait_listening` waits for)."""
+        line = next(x for x in self.out if "web monitor on" in x)
+        return int(re.search(r":(\d+)/", line)[1])
+
     def client(self) -> RawClient:
         return RawClient("127.0.0.1", self.port, timeout=5)
 

@@ -29,7 +29,14 @@ from typing import Any
 from softplc.config import duration
 from softplc.debug.report import position_text, run_text
 from softplc.debug.session import CONTINUE_LIMIT, Session
-from softplc.debug.stepper import HISTORY, STOPS_A_COMMAND, DebugError, Ran, StopKind
+from softplc.debug.stepper import (
+    HISTORY,
+    STOPS_A_COMMAND,
+    DebugError,
+    Ran,
+    StopKind,
+    pop_back,
+)
 from softplc.errors import ConfigError, SoftPLCError
 from softplc.plant import Plant
 from softplc.plant.history import checkpoint, rewind
@@ -207,12 +214,7 @@ class PlantSession:
 
     def back(self, n: int) -> None:
         """Back n instants (the one in progress counts as one)."""
-        if n > len(self.ring):
-            raise DebugError(f"only {len(self.ring)} instants of history")
-        cp = None
-        for _ in range(n):
-            cp = self.ring.pop()
-        assert cp is not None
+        cp = pop_back(self.ring, n, "instants")
         rewind(self.plant, cp["plant"])
         for name, snap in cp["controllers"].items():
             self.sessions[name].ctl.rewind(snap)

@@ -55,6 +55,16 @@ class DebugError(SoftPLCError):
     """A command the debugger cannot do (bad argument, unknown rung...)."""
 
 
+def pop_back(ring: deque[dict[str, Any]], n: int, unit: str) -> dict[str, Any]:
+    """Drop the last n entries of a history ring (1 <= n); the oldest dropped, the state
+    to go back to."""
+    if n > len(ring):
+        raise DebugError(f"only {len(ring)} {unit} of history")
+    for _ in range(n - 1):
+        ring.pop()
+    return ring.pop()
+
+
 @dataclasses.dataclass(frozen=True)
 class Executed:
     """What a step ran: a scan's start (`rung` None), one instruction of the debug build
@@ -411,13 +421,7 @@ class Stepper:
 
     def back(self, n: int) -> None:
         """Go back n scans (1 <= n <= len(ring); a scan in progress counts as one)."""
-        if n > len(self.ring):
-            raise DebugError(f"only {len(self.ring)} scans of history")
-        snap = None
-        for _ in range(n):
-            snap = self.ring.pop()
-        assert snap is not None
-        self.rewind(snap)
+        self.rewind(pop_back(self.ring, n, "scans"))
 
     def rewind(self, snap: dict[str, Any]) -> None:
         """Back to a `snapshot()`: a scan in progress is abandoned, the writes queued

@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 from softplc.plant import Plant
-from softplc.testing import _locate
+from softplc.testing import closing_factory, locate
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -33,18 +33,7 @@ def pytest_configure(config: pytest.Config) -> None:
 @pytest.fixture
 def plant_from_file(request: pytest.FixtureRequest) -> Iterator[Callable[[str | Path], Plant]]:
     """Factory: plant_from_file(path) -> a Plant at time 0 (closed after the test)."""
-    made: list[Plant] = []
-    here = Path(str(request.node.path)).parent
-    root = Path(str(request.config.rootpath))
-
-    def make(path: str | Path) -> Plant:
-        p = Plant.from_file(_locate(path, here, root))
-        made.append(p)
-        return p
-
-    yield make
-    for p in made:
-        p.close()
+    yield from closing_factory(lambda path: Plant.from_file(locate(request, path)))
 
 
 @pytest.fixture

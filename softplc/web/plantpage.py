@@ -20,6 +20,7 @@ from aiohttp import web
 
 from softplc.web.errors import ApiError
 from softplc.web.security import Guard
+from softplc.web.site import http_url, serve
 
 HOST = "127.0.0.1"
 START_TIMEOUT_S = 10.0
@@ -91,17 +92,13 @@ class PlantPage:
         app.router.add_get("/", lambda _: web.Response(text=PAGE, content_type="text/html"))
         app.router.add_get("/api/plant", lambda _: web.Response(
             text=json.dumps(self.view), content_type="application/json"))
-        self._runner = web.AppRunner(app, access_log=None)
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, HOST, self.port)
-        await site.start()
-        self.port = site._server.sockets[0].getsockname()[1]  # type: ignore[union-attr]
+        self._runner, self.port = await serve(app, HOST, self.port)
 
     def start(self) -> str:
         """Serve; the page's URL."""
         self._thread.start()
         asyncio.run_coroutine_threadsafe(self._start(), self.loop).result(START_TIMEOUT_S)
-        return f"http://{HOST}:{self.port}/"
+        return http_url(HOST, self.port)
 
     def stop(self) -> None:
         if self._runner is not None:

@@ -23,13 +23,14 @@ from softplc.web.control import ApiError
 from softplc.web.live import dumps
 from softplc.web.security import Guard, is_loopback
 from softplc.web.server import static_dir
+from softplc.web.site import Site
 
 
 def _json(data: Any, status: int = 200) -> web.Response:
     return web.Response(text=dumps(data), status=status, content_type="application/json")
 
 
-class ReplayServer:
+class ReplayServer(Site):
     def __init__(self, player: TracePlayer, program: str, host: str = "127.0.0.1",
                  port: int = 0):
         if not is_loopback(host):
@@ -39,29 +40,12 @@ class ReplayServer:
         self.program = program
         self.host, self.port = host, port
         self.guard = Guard(host)
-        self._runner: web.AppRunner | None = None
         self.app = web.Application(middlewares=[self._errors])
         r = self.app.router
         r.add_get("/", self._index)
         r.add_get("/api/replay", self._info)
         r.add_get("/api/replay/scan/{n}", self._scan)
         r.add_static("/static/", static_dir())
-
-    async def start(self) -> None:
-        self._runner = web.AppRunner(self.app, access_log=None)
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port, reuse_address=True)
-        await site.start()
-        self.port = site._server.sockets[0].getsockname()[1]  # type: ignore[union-attr]
-
-    async def close(self) -> None:
-        if self._runner is not None:
-            await self._runner.cleanup()
-
-    @property
-    def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"http://{host}:{self.port}/"
 
     @web.middleware
     async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:

@@ -45,6 +45,7 @@ from softplc.web.live import LiveViews, dumps
 from softplc.web.pages import MAX_PAGES, UPDATE_HZ, Pages
 from softplc.web.program import MAX_PROGRAM_BODY, ProgramChanges
 from softplc.web.security import COOKIE, Guard
+from softplc.web.site import Site
 
 log = logging.getLogger("softplc.web")
 
@@ -74,7 +75,7 @@ async def _resolve(ctl: Controller, request: web.Request) -> web.Response:
     return _json({"address": ctl.objects.address_of(request.query.get("obj"))})
 
 
-class WebServer:
+class WebServer(Site):
     def __init__(self, controller: Controller, host: str = "127.0.0.1", port: int = 8020, *,
                  token: str | None = None, read_token: str | None = None,
                  allowed_hosts: tuple[str, ...] = (), max_pages: int = MAX_PAGES,
@@ -88,7 +89,6 @@ class WebServer:
         self.program = ProgramChanges(controller)
         self.pages = Pages(controller, self.views, max_pages=max_pages, update_hz=update_hz)
         self.warn = RateLimitedLog(log)
-        self._runner: web.AppRunner | None = None
         self.app = self._make_app()
 
     @property
@@ -122,23 +122,12 @@ class WebServer:
         return app
 
     async def start(self) -> None:
-        self._runner = web.AppRunner(self.app, access_log=None)
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port, reuse_address=True)
-        await site.start()
-        sock = site._server.sockets[0]  # type: ignore[union-attr]
-        self.port = sock.getsockname()[1]  # the real one if port was 0
+        await super().start()
         self.pages.start()
 
     async def close(self) -> None:
         await self.pages.close()
-        if self._runner is not None:
-            await self._runner.cleanup()
-
-    @property
-    def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"http://{host}:{self.port}/"
+        await super().close()
 
     # -- plumbing ----------------------------------------------------------------------------
     @web.middleware

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import Daemon, started
+from waits import until
 
 from softplc.modbus.rawclient import ModbusExceptionReply, RawClient
 from softplc.persist import retain
@@ -55,20 +56,13 @@ def failed_start(daemons, tmp, *args, **kw) -> str:
     return err
 
 
-def wait_until(cond, timeout: float = 10.0) -> None:
-    end = time.monotonic() + timeout
-    while not cond():
-        assert time.monotonic() < end, "timed out"
-        time.sleep(0.02)
-
-
 # -- 1, 2: a second daemon harms nothing ------------------------------------------------------
 def test_second_daemon_on_same_port_leaves_the_trace_alone(daemons, tmp_path):
     table = ROOT / "ladder_programs"
     args = ("--config", str(table / "drawing_table.toml"), "--trace", "t.csv")
     d = start(daemons, tmp_path, *args, program=table / "drawing_table.il")
     trace = tmp_path / "t.csv"
-    wait_until(lambda: trace.exists() and trace.read_text().count("\n") >= 3)
+    until(lambda: trace.exists() and trace.read_text().count("\n") >= 3)
     before = trace.read_text()
     err = failed_start(daemons, tmp_path, *args, "--port", str(d.port),
                        program=table / "drawing_table.il")
@@ -124,7 +118,7 @@ def test_slow_scan_coalesces_writes(daemons, tmp_path):
                         if ln.startswith("VmRSS")))
 
     with d.client() as c:
-        wait_until(lambda: c.read_registers(12, 1) == [1])
+        until(lambda: c.read_registers(12, 1) == [1])
         c.write_registers(1000, [1] * 120)
         before = rss_kb()
         for k in range(WRITES):
@@ -134,7 +128,7 @@ def test_slow_scan_coalesces_writes(daemons, tmp_path):
         grown = rss_kb() - before
         assert c.read_registers(12, 1) == [1]  # all of it before the second scan
         assert c.read_registers(1000, 2) == [WRITES - 1] * 2  # reads show pending writes
-        wait_until(lambda: c.read_registers(12, 1) == [2], timeout=10)
+        until(lambda: c.read_registers(12, 1) == [2], timeout=10)
         assert c.read_registers(300, 1) == [0]  # the last frame landed whole
         assert c.read_registers(1000, 120) == [WRITES - 1] * 120
         assert c.read_registers(5, 1) == [77]
@@ -152,7 +146,7 @@ def test_changed_config_stops_the_start_unless_keep_state_or_cold(daemons, tmp_p
     d = start(daemons, tmp_path, *args, program=TIMER_PROGRAM)
     with d.client() as c:
         c.write_registers(5, [77])
-        wait_until(lambda: c.read_registers(20, 1) == [50])
+        until(lambda: c.read_registers(20, 1) == [50])
     assert d.stop() == 0
     d = start(daemons, tmp_path, *args, program=TIMER_PROGRAM)
     assert "warm start (same program and configuration)" in "".join(d.out)
@@ -162,7 +156,7 @@ def test_changed_config_stops_the_start_unless_keep_state_or_cold(daemons, tmp_p
     d = start(daemons, tmp_path, *args, "--keep-state", program=TIMER_PROGRAM)
     assert "warm start (program or configuration changed, data kept" in "".join(d.out)
     with d.client() as c:
-        wait_until(lambda: c.read_registers(20, 1) == [50])  # the retained preset
+        until(lambda: c.read_registers(20, 1) == [50])  # the retained preset
         assert c.read_registers(5, 1) == [77]
     assert d.stop() == 0
     cfg.write_text(TIMER.format(8))
@@ -172,7 +166,7 @@ def test_changed_config_stops_the_start_unless_keep_state_or_cold(daemons, tmp_p
     d = start(daemons, tmp_path, *args, "--cold", program=TIMER_PROGRAM)
     assert "cold start (--cold)" in "".join(d.out)
     with d.client() as c:
-        wait_until(lambda: c.read_registers(20, 1) == [8])
+        until(lambda: c.read_registers(20, 1) == [8])
         assert c.read_registers(5, 1) == [0]
     assert d.stop() == 0
 
@@ -201,7 +195,7 @@ def test_signal_stops_an_endless_loop_at_once(daemons, tmp_path, sig):
     d = start(daemons, tmp_path, "--config", str(cfg), "--state", str(state),
               program=LOOP_PROGRAM)
     with d.client() as c:
-        wait_until(lambda: c.read_registers(12, 1)[0] >= 3)
+        until(lambda: c.read_registers(12, 1)[0] >= 3)
         c.write_registers(3, [1])  # the next scan loops for ever
         time.sleep(0.3)
     t0 = time.monotonic()
@@ -345,12 +339,12 @@ def test_storm_is_refused_before_any_protocol_object_or_log(caplog, monkeypatch)
                         refused += 1
                 assert refused == 60
                 assert a.read_registers(0, 1) == [0]  # still served
-            wait_until(lambda: th.stats.clients == 0)
+            until(lambda: th.stats.clients == 0)
             for _ in range(30):  # bad headers: each closes its connection, one warning
                 with socket.create_connection(("127.0.0.1", th.port)) as s:
                     s.sendall(b"\x00\x01\x00\x07\x00\x06\x01\x03\x00\x00\x00\x01")
                     assert s.recv(100) == b""
-                wait_until(lambda: th.stats.clients == 0)
+                until(lambda: th.stats.clients == 0)
         assert made[0] == 2 + 30  # the two accepted clients, then the bad-header ones
         assert th.stats.rejected == 60
         warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]

@@ -166,7 +166,7 @@ def test_e8_homing_and_e9_limit_stop_through_the_daemon(table):
     stops within v^2/2a = 2.0 mm (+ 2 scans, 0.04 mm) of where the torch went out, Y does
     not move; RESET is refused while the input is made and accepted once it is released."""
     daemon, trace = table("e8e9", "--web", "0", start_mm=None)
-    web = int(re.search(r"web monitor on http://127\.0\.0\.1:(\d+)", "".join(daemon.out))[1])
+    web = daemon.web_port()
     with CutClient("127.0.0.1", daemon.port, progress=None, poll_interval=0.002) as client:
         homed = client.wait_for(lambda s: s.step == 4, 30.0, "homing")
         client.offer(SegmentWords(200_000, 0, 20.0, 1, 1), "a long cut along X")
@@ -269,7 +269,7 @@ def test_softplc_cut_reports_the_faulted_segment_then_jog_reset_home(table, tmp_
                      '[[op]]\nkind = "line"\nto = [90, 10]\n[[op]]\nkind = "line"\n'
                      'to = [90, 20]\n', encoding="utf-8")
     daemon, _ = table("jog", "--web", "0")
-    web = int(re.search(r"web monitor on http://127\.0\.0\.1:(\d+)", "".join(daemon.out))[1])
+    web = daemon.web_port()
     port = str(daemon.port)
     watcher = force_when(web, daemon.port, "%I0.9", 1,
                          lambda s: s.step == 5 and s.pos_um[0] > 20_000)
@@ -305,7 +305,7 @@ def test_a_fault_mid_piece_resumes_after_reset_from_the_faulted_segment(table):
     the host had queued is not cut (refused, issue 23); resuming from it cuts the rest,
     with the torch off back to that segment's start."""
     daemon, trace = table("estop", "--web", "0")
-    web = int(re.search(r"web monitor on http://127\.0\.0\.1:(\d+)", "".join(daemon.out))[1])
+    web = daemon.web_port()
     piece = load_piece(PIECES / "escudo.toml", speed=10.0, move_speed=10.0)
     watcher = force_when(web, daemon.port, "%I0.16", 0,  # the E-stop pressed from segment 3
                          lambda s: s.seg_done >= 2 and s.step == 5)  # (a late poll: 4, 5...)

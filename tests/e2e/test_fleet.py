@@ -8,16 +8,15 @@ import re
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 from pymodbus.client import ModbusTcpClient
+from waits import until_equal
 
 ROOT = Path(__file__).resolve().parents[2]
 PLUS_ONE = "LD 1\n[ %MW1 := %MW0 + 1 ]\n"
 TIMES_TWO = "LD 1\n[ %MW1 := %MW0 * 2 ]\n"
 COUNT = 4
-WAIT_S = 10.0  # bounds a failing test only
 
 
 def _fleet(tmp: Path, *args: str) -> subprocess.Popen[str]:
@@ -25,13 +24,6 @@ def _fleet(tmp: Path, *args: str) -> subprocess.Popen[str]:
     return subprocess.Popen([sys.executable, "-m", "softplc", "fleet", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env, cwd=tmp)
-
-
-def _until(read, want):
-    end = time.monotonic() + WAIT_S
-    while time.monotonic() < end and read() != want:
-        time.sleep(0.02)
-    return read()
 
 
 def test_a_fleet_of_two_programs_answers_each_client_on_its_own_port(tmp_path):
@@ -56,7 +48,7 @@ def test_a_fleet_of_two_programs_answers_each_client_on_its_own_port(tmp_path):
             assert not c.write_register(0, 10 + i).isError()
         for i, c in enumerate(clients):
             want = [10 + i, 11 + i if i % 2 == 0 else 2 * (10 + i)]
-            assert _until(lambda c=c: c.read_holding_registers(0, count=2).registers,
+            assert until_equal(lambda c=c: c.read_holding_registers(0, count=2).registers,
                           want) == want
             c.close()
     finally:

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import signal
 import socket
-import time
 from pathlib import Path
 
 import pytest
+from waits import until_equal
 
 from softplc.plc import PLC
 from softplc.runtime import linktcp
@@ -41,7 +41,6 @@ scan_period = "10ms"
 [remote_link]
 address = 1
 """
-WAIT_S = 10.0  # generous: this only bounds a failing test; the cycles are counted apart
 
 
 def _free_port() -> int:
@@ -58,16 +57,6 @@ def _files(tmp: Path) -> tuple[Path, Path]:
     return tmp / "master", tmp / "peer"
 
 
-def _until(read, want, timeout: float = WAIT_S):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        got = read()
-        if got == want:
-            return got
-        time.sleep(0.02)
-    return read()
-
-
 def test_two_daemons_exchange_words_and_survive_a_peer_restart(daemons, tmp_path):  # noqa: F811
     mdir, pdir = _files(tmp_path)
     link_port = _free_port()
@@ -80,23 +69,23 @@ def test_two_daemons_exchange_words_and_survive_a_peer_restart(daemons, tmp_path
     mc, pc = master.client(), peer.client()
     mc.write_registers(10, [41])
     # the master's %QNW1.0 reaches the peer's %INW0.0; the peer's answer comes back
-    assert _until(lambda: pc.read_registers(0, 2), [41, 1]) == [41, 1]
-    assert _until(lambda: mc.read_registers(0, 3), [42, 1, 0]) == [42, 1, 0]
+    assert until_equal(lambda: pc.read_registers(0, 2), [41, 1]) == [41, 1]
+    assert until_equal(lambda: mc.read_registers(0, 3), [42, 1, 0]) == [42, 1, 0]
 
     peer.kill()  # SIGKILL: no goodbye on the link
-    assert _until(lambda: mc.read_registers(1, 2), [0, ERR_TIMEOUT]) == [0, ERR_TIMEOUT]
+    assert until_equal(lambda: mc.read_registers(1, 2), [0, ERR_TIMEOUT]) == [0, ERR_TIMEOUT]
     assert mc.read_registers(0, 1) == [42]  # the last words are held (HOLD_LAST_VALUES)
 
     peer2 = started(daemons, pdir, "--config", "peer.toml",
                     "--link-listen", f"127.0.0.1:{link_port}", program=PEER_IL)
     mc.write_registers(10, [7])
-    assert _until(lambda: mc.read_registers(0, 3), [8, 1, 0]) == [8, 1, 0]  # rejoined
+    assert until_equal(lambda: mc.read_registers(0, 3), [8, 1, 0]) == [8, 1, 0]  # rejoined
     assert master.proc.poll() is None  # the same master process all along
     p2 = peer2.client()
-    assert _until(lambda: p2.read_registers(0, 2), [7, 1]) == [7, 1]
+    assert until_equal(lambda: p2.read_registers(0, 2), [7, 1]) == [7, 1]
 
     master.stop(signal.SIGINT)  # the peer sees its master go silent
-    assert _until(lambda: p2.read_registers(1, 1), [0]) == [0]
+    assert until_equal(lambda: p2.read_registers(1, 1), [0]) == [0]
     for c in (mc, pc, p2):
         c.close()
 
@@ -123,7 +112,7 @@ def test_a_killed_peer_is_absent_after_misses_link_cycles(tmp_path):
         for _ in range(3):
             svc.run_cycle()
             master.scan()
-            _until(lambda: remote.polls >= svc.cycles, True)
+            until_equal(lambda: remote.polls >= svc.cycles, True)
             peer.scan()
         assert master.mem.sw.uw[SW_LINK_STATUS] == 1
         assert master.mem.mw.w[0] == 6

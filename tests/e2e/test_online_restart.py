@@ -6,10 +6,8 @@ leaving the state file as it was (softplc.persist.kept, softplc.online.choose_pr
 
 from __future__ import annotations
 
-import re
-import time
-
 from daemon_util import Daemon, started
+from waits import until
 
 from softplc.cli import main as cli
 from softplc.commands.io import Client
@@ -18,19 +16,6 @@ from softplc.commands.io import Client
 P = "LD 1\n[ %MW12 := %MW12 + 1 ]\n[ %MW10 := 1 ]\nEND\n"
 NEW = "LD 1\n[ %MW12 := %MW12 + 1 ]\n[ %MW10 := 2 ]\nEND\n"
 OTHER = "LD 1\n[ %MW12 := %MW12 + 1 ]\n[ %MW10 := 3 ]\nEND\n"
-
-
-def until(ok, timeout: float = 10.0) -> None:
-    end = time.monotonic() + timeout
-    while not ok():
-        assert time.monotonic() < end, "timed out"
-        time.sleep(0.02)
-
-
-def web_port(d: Daemon) -> int:
-    """The port of a daemon's web monitor, from its banner (read before the address line)."""
-    line = next(x for x in d.out if "web monitor on" in x)
-    return int(re.search(r":(\d+)/", line)[1])
 
 
 def words(d: Daemon, addr: int, n: int) -> list[int]:
@@ -52,7 +37,7 @@ def test_an_online_change_and_its_data_survive_kill_9(daemons, tmp_path, capsys)
     new.write_text(NEW)
     args = ("--state", str(tmp_path / "S"), "--web", "0", "--stats-interval", "0")
     d = started(daemons, tmp_path, *args, program=prog)
-    port = str(web_port(d))
+    port = str(d.web_port())
     until(lambda: words(d, 10, 1) == [1])
     assert cli(["load", str(new), "--port", port]) == 0
     assert "version 1" in capsys.readouterr().out
@@ -70,7 +55,7 @@ def test_an_online_change_and_its_data_survive_kill_9(daemons, tmp_path, capsys)
     assert "the command line's program is the one it replaced" in banner
     assert words(d, 11, 1) == [777]  # with its data
     runs(d, 2)  # NEW runs
-    info = Client("127.0.0.1", web_port(d)).request("program")
+    info = Client("127.0.0.1", d.web_port()).request("program")
     assert info["source"] == NEW and info["info"]["version"] == 1
     assert info["info"]["file"].endswith("NEW.il")
     d.kill()

@@ -10,10 +10,10 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from waits import until_equal
 
 from softplc.plant import hosts
 
@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 WHY = hosts.netns_works()
 pytestmark = pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}")
 WAIT_S = 15.0  # bounds a failing test only
+READ_S = 0.1  # between reads: each starts a process in the SCADA's namespace
 
 PLANT = """
 name = "two"
@@ -68,13 +69,6 @@ def _from_scada(ns: str, host: str, *args: str) -> list[int]:
     return [int(v) for v in out.stdout.split()]
 
 
-def _until(read, want):
-    end = time.monotonic() + WAIT_S
-    while time.monotonic() < end and read() != want:
-        time.sleep(0.1)
-    return read()
-
-
 def test_plant_up_runs_each_controller_in_its_namespace_and_down_removes_all(tmp_path):
     for name, text in FILES.items():
         (tmp_path / name).write_text(text)
@@ -88,14 +82,16 @@ def test_plant_up_runs_each_controller_in_its_namespace_and_down_removes_all(tmp
         assert all(f"sp{t}-{n}" in made for n in ("scada", "master", "peer"))
         # the SCADA namespace reaches the master; the link runs between the namespaces
         _from_scada(scada, "10.35.0.1", "41")
-        assert _until(lambda: _from_scada(scada, "10.35.0.1"), [42, 1]) == [42, 1]
+        assert until_equal(lambda: _from_scada(scada, "10.35.0.1"), [42, 1],
+                           WAIT_S, READ_S) == [42, 1]
         again = _softplc(tmp_path, "plant", "up", "plant.toml", "--netns", "--state-dir",
                          str(state))
         assert again.returncode != 0 and "already up" in again.stderr
         # the peer crashes: the master runs on and shows it absent on the link
         record = json.loads((state / f"sp{t}.json").read_text())
         os.killpg(record["controllers"]["peer"]["pid"], signal.SIGKILL)
-        assert _until(lambda: _from_scada(scada, "10.35.0.1"), [42, 0]) == [42, 0]
+        assert until_equal(lambda: _from_scada(scada, "10.35.0.1"), [42, 0],
+                           WAIT_S, READ_S) == [42, 0]
     finally:
         down = _softplc(tmp_path, "plant", "down", "plant.toml", "--state-dir", str(state))
     assert down.returncode == 0, down.stderr

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import started
+from waits import until
 
 from softplc.daemon import Daemon as InProcessDaemon
 from softplc.daemon import DaemonOptions
@@ -32,13 +33,6 @@ from softplc.runtime.memory import MemoryImage
 ROOT = Path(__file__).resolve().parents[2]
 TABLE = ROOT / "ladder_programs"
 COUNTER = "LD 1\n[ %MW12 := %MW12 + 1 ]\nEND\n"  # %MW12 counts scans
-
-
-def wait_until(cond, timeout: float = 10.0) -> None:
-    end = time.monotonic() + timeout
-    while not cond():
-        assert time.monotonic() < end, "timed out"
-        time.sleep(0.02)
 
 
 # -- the trace on a full disk -----------------------------------------------------------------
@@ -89,7 +83,7 @@ def test_daemon_keeps_running_when_the_trace_disk_fills(daemons, tmp_path):
     csv = tmp_path / "t.csv"
     d = started(daemons, tmp_path, "--config", str(TABLE / "drawing_table.toml"), "--trace",
                 str(csv), program=TABLE / "drawing_table.il")
-    wait_until(lambda: csv.exists() and csv.stat().st_size > 0)
+    until(lambda: csv.exists() and csv.stat().st_size > 0)
     csv.unlink()
     csv.symlink_to("/dev/full")  # the next flush (every simulated second) hits ENOSPC
     err = stderr_until(d, "trace file stops here", 15)
@@ -216,7 +210,7 @@ def test_state_file_gone_is_recreated_with_every_acknowledged_write(tmp_path, ho
             os.replace(other, path)
         for k in range(100, 200):  # acknowledged before the keeper notices
             img.write_words(k, [k + 1])
-        wait_until(lambda: keeper.recreated == 1, 5)
+        until(lambda: keeper.recreated == 1, 5)
         assert not changes  # nothing refused: nothing was lost
         assert store.check() == ""
         with pytest.raises(StateFileError, match="in use by another softplc"):
@@ -235,11 +229,11 @@ def test_state_file_that_cannot_be_recreated_stops_acknowledging(tmp_path):
     store, img, keeper, changes = kept_image(path)
     try:
         shutil.rmtree(folder)  # nowhere to re-create it
-        wait_until(lambda: bool(changes), 5)
+        until(lambda: bool(changes), 5)
         assert "was deleted" in changes[0] and "cannot be re-created" in changes[0]
         assert not keeper.check()
         folder.mkdir()  # back: re-created at the next check, writes kept again
-        wait_until(lambda: len(changes) == 2, 5)
+        until(lambda: len(changes) == 2, 5)
         assert changes[1] == "" and keeper.recreated == 1
     finally:
         keeper.stop()

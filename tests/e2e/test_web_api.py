@@ -542,7 +542,6 @@ def test_port_taken_default_falls_back_explicit_fails():
 
 
 def test_run_command_web_options(tmp_path):
-    import re
     import sys
 
     sys.path.insert(0, str(ROOT / "tests"))
@@ -553,7 +552,7 @@ def test_run_command_web_options(tmp_path):
     try:
         line = next(x for x in d.out if "web monitor on" in x)
         assert line.rstrip().endswith("(read-only)")
-        port = int(re.search(r":(\d+)/", line)[1])
+        port = d.web_port()
         assert Client("127.0.0.1", port).request("info")["read_only"] is True
     finally:
         assert d.stop() == 0

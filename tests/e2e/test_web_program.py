@@ -4,14 +4,13 @@ the Modbus map routes, and `softplc load` (issue 24), on the daemon's stack in p
 from __future__ import annotations
 
 import json
-import re
-import time
 import urllib.request
 from pathlib import Path
 
 import pytest
 from daemon_util import Daemon, started
 from test_web_api import STAR, Stack
+from waits import until
 
 from softplc.cli import main as cli
 from softplc.commands.io import Client, IoError
@@ -193,24 +192,12 @@ def test_symbols_follow_the_new_configuration(star):
     assert c.request("info")["symbols"]["%MW10"][0] == "STARTS"  # the file's still there
 
 
-def until(ok, timeout: float = 5.0) -> None:
-    end = time.monotonic() + timeout
-    while not ok():
-        assert time.monotonic() < end, "timed out"
-        time.sleep(0.02)
-
-
-def web_port(d: Daemon) -> str:
-    """The port of a daemon's web monitor, from its banner."""
-    return re.search(r":(\d+)/", next(x for x in d.out if "web monitor on" in x))[1]
-
-
 def test_load_into_a_running_daemon(tmp_path, capsys, daemons):
     """`softplc load` against a real `softplc run`: the counter counted by the old program
     survives the change, and the new program runs."""
     d = started(daemons, tmp_path, "--config", str(STAR.with_suffix(".toml")), "--web", "0",
                 "--stats-interval", "0", program=STAR)
-    port = web_port(d)
+    port = str(d.web_port())
     c = Client("127.0.0.1", int(port))
     c.set("%I0.1", 1)  # stop (NC) and overload relay (NC) closed, fault reset pulsed
     c.set("%I0.2", 1)
@@ -242,7 +229,7 @@ def test_the_state_file_follows_the_loaded_program(tmp_path, capsys, daemons):
     def start(program: Path) -> tuple[Daemon, str]:
         d = started(daemons, tmp_path, "--config", cfg, "--state", state, "--web", "0",
                     "--stats-interval", "0", program=program)
-        return d, web_port(d)
+        return d, str(d.web_port())
 
     d, port = start(old)
     c = Client("127.0.0.1", int(port))

@@ -331,7 +331,6 @@ def test_bits_read_as_0_and_1_everywhere(star):
 
 
 def test_run_takes_allowed_hosts_and_page_limit_from_the_config(tmp_path):
-    import re
     import sys
 
     from softplc.errors import ConfigError
@@ -348,8 +347,7 @@ def test_run_takes_allowed_hosts_and_page_limit_from_the_config(tmp_path):
     d = Daemon(tmp_path, "--config", str(cfg), "--web", "0", "--stats-interval", "0",
                program=STAR)
     try:
-        line = next(x for x in d.out if "web monitor on" in x)
-        port = int(re.search(r":(\d+)/", line)[1])
+        port = d.web_port()
         assert http(port, "GET", "/api/status", None, {"Host": "plc.lan:80"})[0] == 200
         assert http(port, "GET", "/api/status", None, {"Host": "plc.lan.evil:80"})[0] == 403
 

@@ -56,14 +56,21 @@ def test_pid_output_limits_proven_through_the_abstraction(capsys):
     assert "PROVEN" in out
 
 
-def test_spurious_counterexample_refined_until_the_engine_confirms(tmp_path, capsys):
-    """%PLS0.Q is free in the model; with %I0.0 = 0 the engine never sets it, so such a
-    counterexample is excluded; the one reported has the generator running and replays."""
+def _pulse_generator(tmp_path: Path, enable: str) -> tuple[Path, Path]:
+    """A program whose %Q0.4 copies %PLS0.Q, the generator run by `enable`, and its
+    configuration (base 0.57 ms, preset 4, pulses = 0)."""
     prog = tmp_path / "p.il"
-    prog.write_text("LD %I0.0\nIN %PLS0\nLD %PLS0.Q\nST %Q0.4\n")
+    prog.write_text(f"LD {enable}\nIN %PLS0\nLD %PLS0.Q\nST %Q0.4\n")
     cfg = tmp_path / "p.toml"
     cfg.write_text('scan_period = "10ms"\n[pls."%PLS0"]\nbase = "0.57ms"\npreset = 4\n'
                    "pulses = 0\n")
+    return prog, cfg
+
+
+def test_spurious_counterexample_refined_until_the_engine_confirms(tmp_path, capsys):
+    """%PLS0.Q is free in the model; with %I0.0 = 0 the engine never sets it, so such a
+    counterexample is excluded; the one reported has the generator running and replays."""
+    prog, cfg = _pulse_generator(tmp_path, "%I0.0")
     args = ["verify", str(prog), "--config", str(cfg), "--require-expr", "never %Q0.4",
             "-q", "--timeout", "60"]
     assert main(args) == 2
@@ -76,11 +83,7 @@ def test_spurious_counterexample_refined_until_the_engine_confirms(tmp_path, cap
 def test_unconfirmed_counterexamples_never_violated(tmp_path, capsys):
     """Without the generator's input the engine never pulses: the abstraction's
     counterexamples are all excluded and the answer is not VIOLATED."""
-    prog = tmp_path / "p.il"
-    prog.write_text("LD 0\nIN %PLS0\nLD %PLS0.Q\nST %Q0.4\n")
-    cfg = tmp_path / "p.toml"
-    cfg.write_text('scan_period = "10ms"\n[pls."%PLS0"]\nbase = "0.57ms"\npreset = 4\n'
-                   "pulses = 0\n")
+    prog, cfg = _pulse_generator(tmp_path, "0")
     args = ["verify", str(prog), "--config", str(cfg), "--require-expr", "never %Q0.4",
             "-q", "--timeout", "8", "--depth", "3", "--no-spacer"]
     assert main(args) == 1

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from doc_paths import at, key_paths
 from fuzz_budget import examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -48,17 +49,6 @@ values = st.one_of(
 )
 
 
-def _paths(node: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
-    """Every key path and list index in a parsed TOML document."""
-    out = []
-    items = node.items() if isinstance(node, dict) else (
-        enumerate(node) if isinstance(node, list) else ())
-    for k, v in items:
-        out.append(prefix + (k,))
-        out += _paths(v, prefix + (k,))
-    return out
-
-
 @cache
 def _seed(path: Path) -> tuple[dict[str, Any], Any, list[tuple[Any, ...]]]:
     cfg = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -67,14 +57,8 @@ def _seed(path: Path) -> tuple[dict[str, Any], Any, list[tuple[Any, ...]]]:
     # the daemon's sections too, so that their values get mutated as well
     cfg.setdefault("modbus", {"port": 5020, "read_only": ["%MW100:4"], "frame_timeout": "2s"})
     cfg.setdefault("daemon", {"save_interval": "5s", "rt_priority": 10})
-    tables = [()] + [p for p in _paths(cfg) if isinstance(_get(cfg, p), dict)]
-    return cfg, parse_file(path.with_suffix(".il")), _paths(cfg) + [("+",) + t for t in tables]
-
-
-def _get(node: Any, path: tuple[Any, ...]) -> Any:
-    for k in path:
-        node = node[k]
-    return node
+    tables = [()] + [p for p in key_paths(cfg) if isinstance(at(cfg, p), dict)]
+    return cfg, parse_file(path.with_suffix(".il")), key_paths(cfg) + [("+",) + t for t in tables]
 
 
 @st.composite
@@ -86,10 +70,10 @@ def mutated(draw: st.DrawFn) -> tuple[Path, dict[str, Any], Any]:
         where = draw(st.sampled_from(paths))
         try:
             if where[0] == "+":  # an unknown key in a table
-                _get(cfg, where[1:])[draw(st.sampled_from(["bogus", "Type", "presets"]))] = \
+                at(cfg, where[1:])[draw(st.sampled_from(["bogus", "Type", "presets"]))] = \
                     draw(values)
                 continue
-            parent = _get(cfg, where[:-1])
+            parent = at(cfg, where[:-1])
             if draw(st.integers(0, 5)) == 0 and isinstance(parent, dict):
                 del parent[where[-1]]
             else:

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from doc_paths import at, key_paths
 from fuzz_budget import examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -58,17 +59,7 @@ def toml_value(x: Any) -> str:
                             for k, v in x.items()) + " }"
 
 
-def _paths(node: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
-    out = []
-    items = node.items() if isinstance(node, dict) else (
-        enumerate(node) if isinstance(node, list) else ())
-    for k, v in items:
-        out.append(prefix + (k,))
-        out += _paths(v, prefix + (k,))
-    return out
-
-
-PATHS = _paths(PLANT)
+PATHS = key_paths(PLANT)
 
 
 @st.composite
@@ -77,9 +68,7 @@ def mutated(draw: st.DrawFn) -> dict[str, Any]:
     for _ in range(draw(st.integers(1, 3))):
         where = draw(st.sampled_from(PATHS))
         try:
-            parent: Any = doc
-            for k in where[:-1]:
-                parent = parent[k]
+            parent = at(doc, where[:-1])
             kind = draw(st.integers(0, 5))
             if kind == 0 and isinstance(parent, dict):
                 del parent[where[-1]]

@@ -1,0 +1,32 @@
+"""Polling waits for the end-to-end tests: a daemon, a fleet or a peer reached over a
+socket changes in its own time; the timeout only bounds a failing test."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+WAIT_S = 10.0  # generous: it bounds a failing test only
+POLL_S = 0.02  # how often to look again
+
+
+def until(ok: Callable[[], Any], timeout: float = WAIT_S, period: float = POLL_S) -> None:
+    """Wait until `ok()` is true; fail the test ("timed out") past `timeout`."""
+    end = time.monotonic() + timeout
+    while not ok():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(period)
+
+
+def until_equal(read: Callable[[], Any], want: Any, timeout: float = WAIT_S,
+                period: float = POLL_S) -> Any:
+    """Read until `read()` gives `want`, at most `timeout` seconds; the last value read
+    (for the test's assert to show what came instead)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        got = read()
+        if got == want:
+            return got
+        time.sleep(period)
+    return read()
