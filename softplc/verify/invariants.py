@@ -5,7 +5,7 @@
 A proof that needs the relation between timers (a two-hand control: both hands within the
 window of a third timer) is k-inductive only at a k as long as the timer's window in scans
 (0.5 s at 50 ms: k = 11), each step with every timer's divider: too slow. Stated as
-invariants, the same proof is 1-inductive.
+invariants, the same proof is k-inductive at k = 1 or 2.
 
 Candidates, over the state at the end of a scan (`_in` a timer's last IN,
 `_el` its elapsed time in units, advanced by the period at the end of the scan:
@@ -18,7 +18,8 @@ Candidates, over the state at the end of a scan (`_in` a timer's last IN,
   clamped at P;
 - per pair of on-delay timers a, b counting in the same unit: IN_a -> IN_b (b's input is
   on whenever a's is) and, both on, el_a <= el_b (b started no later); both directions
-  together: timers that share an input have equal elapsed times;
+  together: timers that share an input have equal elapsed times (only pairs whose
+  inputs, as one scan computes them, imply each other: `related_pairs`);
 - with a response requirement's monitor (`checker.response_step`: scans since the
   unanswered rising edge, `_mon`), per on-delay timer: an unanswered edge means the timer
   runs and has run at least since that edge (its elapsed time at least `_mon` periods),
