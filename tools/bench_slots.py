@@ -29,8 +29,8 @@ import threading
 import time
 from pathlib import Path
 
-from softplc.modbus.codec import frame as mbap_frame
 from softplc.modbus.rawclient import RawClient
+from softplc.modbus_codec import frame as mbap_frame
 
 ROOT = Path(__file__).resolve().parents[1]
 REQUEST = mbap_frame(1, 1, struct.pack(">BHH", 3, 0, 125))  # 12 bytes in, 259 bytes out

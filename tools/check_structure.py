@@ -48,7 +48,7 @@ CLASS_ALLOW = {"Ops", "_ToAST"}
 # module's layer is that of the longest prefix naming it.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("softplc.errors", "softplc.limits"),    # errors; the input limits every reader applies
-    ("softplc.modbus.codec",),                # MBAP and word pairs: the server, EXCH, hosts
+    ("softplc.modbus_codec",),                # MBAP and word pairs: the server, EXCH, hosts
     ("softplc.twido",),                       # the Twido object model
     ("softplc.il",),                          # program text -> typed AST
     ("softplc.program",),                     # the compiled code's contract

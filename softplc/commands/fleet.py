@@ -21,9 +21,12 @@ def _ports(text: str) -> list[int]:
     return [port(p) for p in text.split(",") if p.strip()]
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
-    from softplc.fleet import MAX_CONTROLLERS
+# softplc.fleet.MAX_CONTROLLERS, repeated so that `softplc --help` need not import the fleet
+# (tests/e2e/test_check_command.py checks that the two agree)
+MAX_CONTROLLERS = 1000
 
+
+def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "fleet", help="serve many soft Twidos from one process, one Modbus port each",
         description="Run COUNT controllers in one process, each cold started with its "

@@ -469,9 +469,22 @@ def validate_config(raw: Any, device_types: Mapping[str, Any] | None = None) -> 
             if cfg is not None:
                 cfg.devices[name]._options = model
     if issues:
-        raise ConfigError(issues)
+        raise ConfigError(_in_file_order(issues, raw))
     assert cfg is not None
     return cfg
+
+
+def _in_file_order(issues: list[ConfigIssue], raw: Any) -> list[ConfigIssue]:
+    """The issues in the order their top-level keys stand in the file (the schema's own
+    order otherwise: the block sections come from the catalog), one key's in the order
+    found."""
+    order = {key_path((k,)): i for i, k in enumerate(raw)} if isinstance(raw, dict) else {}
+
+    def rank(issue: ConfigIssue) -> int:
+        top = re.match(r'"[^"]*"|[^.\[]+', issue.path)
+        return order.get(top.group(0) if top else "", len(order))
+
+    return sorted(issues, key=rank)
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:

@@ -1,8 +1,8 @@
 """Modbus TCP server of the soft Twido: %MW as registers, %M as coils (see `regmap`).
 
-The names below load their module on first use (PEP 562): importing the low
-`softplc.modbus.codec` (the runtime's EXCH does) must not pull in the server, the image
-and the persistence above the runtime."""
+The names below load their module on first use (PEP 562): a command that needs only the
+register map does not load the server, the image and the persistence. The codec every side
+shares is the top-level `softplc.modbus_codec` (the runtime's EXCH uses it too)."""
 
 from importlib import import_module
 from typing import Any

@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, Self, TextIO
 
 from softplc.errors import HostError
-from softplc.modbus.codec import float_to_words, words_to_float
+from softplc.modbus_codec import float_to_words, words_to_float
 
 # pymodbus logs failed connects itself; without a handler Python would print them raw to
 # stderr next to our own message. Records still reach handlers an application installs.

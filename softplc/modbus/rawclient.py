@@ -6,7 +6,7 @@ from __future__ import annotations
 import socket
 from struct import pack, unpack
 
-from softplc.modbus.codec import MBAP_SIZE, bad_header, frame, header
+from softplc.modbus_codec import MBAP_SIZE, bad_header, frame, header
 
 
 class ModbusExceptionReply(Exception):

@@ -49,9 +49,9 @@ from struct import pack, unpack_from
 from typing import Any, cast
 
 from softplc.errors import SoftPLCError
-from softplc.modbus.codec import GOOD_LENGTHS, MBAP_SIZE, PROTOCOL_MODBUS, bad_header, frame, header
 from softplc.modbus.image import ModbusImage
 from softplc.modbus.protocol import ExceptionCode, exception, process_pdu
+from softplc.modbus_codec import GOOD_LENGTHS, MBAP_SIZE, PROTOCOL_MODBUS, bad_header, frame, header
 
 log = logging.getLogger("softplc.modbus")
 

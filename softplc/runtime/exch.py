@@ -52,7 +52,7 @@ from dataclasses import dataclass
 from queue import SimpleQueue
 from typing import Any
 
-from softplc.modbus.codec import MBAP_SIZE, bad_header, frame, header
+from softplc.modbus_codec import MBAP_SIZE, bad_header, frame, header
 from softplc.runtime.blocks import Block
 
 # Error codes of the EXCH status word [manual, %SW63/%SW64 list, from memory; check]

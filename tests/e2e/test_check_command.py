@@ -119,10 +119,13 @@ def test_missing_file(capsys):
 
 def test_command_line_defaults_match_the_modules_they_stand_for():
     """Constants the commands repeat so that `softplc --help` need not import them."""
+    from softplc import fleet
     from softplc.commands import _args
+    from softplc.commands import fleet as fleet_command
     from softplc.modbus.regmap import DEFAULT_PORT
 
     assert _args.DEFAULT_MODBUS_PORT == DEFAULT_PORT
+    assert fleet_command.MAX_CONTROLLERS == fleet.MAX_CONTROLLERS
 
 
 def test_help_does_not_import_the_plc_or_pydantic():

@@ -27,7 +27,7 @@ from softplc.machines.cutting import (
 )
 from softplc.machines.cutting.geometry import distance, distance_to, unit
 from softplc.machines.cutting.regmap import FRAME_LEN, SEG_BASE, seg_no
-from softplc.modbus.codec import words_to_float, words_to_long
+from softplc.modbus_codec import words_to_float, words_to_long
 
 PIECES = Path(__file__).resolve().parents[2] / "ladder_programs" / "pieces"
 

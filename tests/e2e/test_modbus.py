@@ -23,9 +23,9 @@ from pyModbusTCP.client import ModbusClient
 
 from softplc.config import validate_config
 from softplc.modbus import ModbusImage, ReadOnly, ServerThread, read_only_of
-from softplc.modbus.codec import frame as mbap_frame
 from softplc.modbus.rawclient import RawClient
 from softplc.modbus.regmap import DEVICE_IDENTIFICATION, FUNCTIONS, describe, markdown_table
+from softplc.modbus_codec import frame as mbap_frame
 from softplc.runtime.memory import MemoryImage
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)

@@ -18,9 +18,9 @@ import pytest
 
 from softplc.modbus import ModbusImage, ServerThread
 from softplc.modbus import server as srv
-from softplc.modbus.codec import frame as mbap_frame
 from softplc.modbus.rawclient import RawClient
 from softplc.modbus.server import DEFAULT_IDLE_TIMEOUT
+from softplc.modbus_codec import frame as mbap_frame
 from softplc.runtime.memory import MemoryImage
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))

@@ -12,7 +12,7 @@ from softplc.cli import main
 from softplc.errors import UncertaintyError
 from softplc.machines.machining import handshake, tuning
 from softplc.machines.machining.mpfile import MPFile
-from softplc.modbus.codec import float_to_words, words_to_float
+from softplc.modbus_codec import float_to_words, words_to_float
 
 
 @pytest.fixture(scope="module")

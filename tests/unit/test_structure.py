@@ -100,7 +100,7 @@ def test_the_layers_refuse_an_upward_import_and_one_machine_reaching_another():
     graph = {"softplc.runtime.engine": {"softplc.twido.address", "softplc.web.server"},
              "softplc.machines.cutting.client": {"softplc.machines.gcode.parser",
                                                  "softplc.machines.servo.client",
-                                                 "softplc.modbus.codec"},
+                                                 "softplc.modbus_codec"},
              "softplc.web.live": {"softplc.machines.machining.handshake"}}
     assert check_structure.upward_imports(graph) == [
         "softplc.machines.cutting.client -> softplc.machines.servo.client",

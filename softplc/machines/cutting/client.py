@@ -50,8 +50,8 @@ from softplc.machines.cutting.regmap import (
     seg_no,
     to_um,
 )
-from softplc.modbus.codec import signed_word, words_to_long
 from softplc.modbus.host import ModbusHost, ProgressLine
+from softplc.modbus_codec import signed_word, words_to_long
 from softplc.runtime.engine import RUN
 
 READY_STEP = 4

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 from softplc.machines.cutting.piece import CUT, DWELL, Segment
 from softplc.machines.gcode.parser import steps_of
-from softplc.modbus.codec import float_to_words, long_to_words
+from softplc.modbus_codec import float_to_words, long_to_words
 
 SEG_BASE = 100
 SEG_X, SEG_Y, SEG_V, SEG_KIND, SEG_NO, INICIO = 100, 102, 104, 106, 107, 108

@@ -32,8 +32,8 @@ from typing import Any, TextIO
 from softplc.errors import HostError, MassEstimationError, UncertaintyError
 from softplc.machines.machining.params import MP_NAMES
 from softplc.machines.machining.tuning import TuneResult
-from softplc.modbus.codec import float_to_words
 from softplc.modbus.host import ModbusHost
+from softplc.modbus_codec import float_to_words
 
 W_STATE, W_REQ, W_ACK, W_STATUS, W_ROW, W_AXIS = 400, 401, 402, 403, 404, 405
 F_MASS, F_UNCERT, F_ACCEL = 406, 408, 410

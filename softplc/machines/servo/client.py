@@ -15,14 +15,14 @@ from typing import TextIO
 
 from softplc.devices.axis.options import DEFAULT_SERVO_CLOCK_HZ, Mode, St, Word
 from softplc.errors import HostError, SoftPLCError
-from softplc.modbus.codec import (
+from softplc.modbus.host import ModbusHost
+from softplc.modbus_codec import (
     float_to_words,
     long_to_words,
     signed_word,
     words_to_float,
     words_to_long,
 )
-from softplc.modbus.host import ModbusHost
 
 REQ_BLOCK = 100  # %MW100.. (servo_table.il header)
 REQ_MOVE, REQ_HOME, REQ_RESET, REQ_STOP, REQ_START = 1, 2, 3, 4, 5

@@ -2,9 +2,9 @@
 instruction's client) and the 32-bit values carried in two registers (the hosts, the
 register maps, the servo table's words).
 
-It imports nothing of softplc, so the runtime (EXCH) may use it although the rest of
-`softplc.modbus` sits above the runtime (tools/check_structure.py puts this module in a
-low layer of its own: docs/decisions/one-modbus-codec.md).
+It imports nothing of softplc and stands outside the `softplc.modbus` package, so the
+runtime (EXCH) may use it although that package sits above the runtime (a low layer of its
+own in tools/check_structure.py; no package cycle: docs/decisions/one-modbus-codec.md).
 
 MBAP header [Modbus Messaging on TCP/IP Implementation Guide v1.0b, 3.1.3]: transaction
 id, protocol id (0 = Modbus), length (the bytes that follow: unit id + PDU), unit id; big
