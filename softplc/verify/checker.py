@@ -83,6 +83,7 @@ class Checker:
         self.inp = self.model.fresh("cone")[1]
         self.post: dict[str, Any] | None = None
         self.lemma_ids: list[int] = []  # `candidates` proven inductive (`lemmas.houdini`)
+        self.timer_pairs: list[tuple[str, str]] | None = None  # `invariants.related_pairs`
         self._slice()
 
     def _slice(self) -> None:
@@ -205,7 +206,8 @@ class Checker:
             # the trigger's last value is the trigger on the state (it reads no input)
             out.append(st["_prev"] == as_bool(evaluate(Z3Domain, self.req.cond,
                                                         self.read(st))))
-        return out
+        from softplc.verify.invariants import timer_relations
+        return out + timer_relations(self, st)
 
 
 def _put(terms: dict[str, Any], pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
