@@ -101,3 +101,10 @@ def started(daemons: list[Daemon], tmp: Path, *args: str, **kw) -> Daemon:
     d = Daemon(tmp, *args, **kw)
     daemons.append(d)
     return d
+
+
+def default_sigint() -> None:
+    """`preexec_fn` of a child the test interrupts with SIGINT (Ctrl-C): the default
+    disposition, whatever the suite inherited (a shell's background job, CI, starts with
+    SIGINT ignored, and Python then raises no KeyboardInterrupt in the child)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

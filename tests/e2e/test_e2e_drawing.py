@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from daemon_util import ROOT, Daemon
+from daemon_util import ROOT, Daemon, default_sigint
 
 from softplc.cli import main as softplc
 from softplc.machines.drawing import max_deviation
@@ -118,7 +118,7 @@ def test_ctrl_c_lifts_the_pen_and_the_drawing_resumes(table, tmp_path):
     cmd = [sys.executable, "-m", "softplc", "draw", str(gcode), "--port", str(d.port),
            "--poll", "0.01"]
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, env=env)
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, env=env, preexec_fn=default_sigint)
     seen = b""
     deadline = time.monotonic() + 30
     # interrupt as the first segment starts (the progress line "0/N", written at once

@@ -14,6 +14,8 @@ import urllib.error
 import urllib.request
 from pathlib import Path
 
+from daemon_util import default_sigint
+
 ROOT = Path(__file__).resolve().parents[2]
 PLANT = ROOT / "ladder_programs" / "plant" / "plant.toml"
 WAIT_S = 15.0  # bounds a failing test only
@@ -34,7 +36,8 @@ def test_the_plant_page_shows_controllers_links_and_words():
     proc = subprocess.Popen(
         [sys.executable, "-m", "softplc", "plant", "run", str(PLANT), "--speed", "1",
          "--set", "master:%I0.0=1", "--web", "0"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        preexec_fn=default_sigint)
     try:
         line = proc.stdout.readline()  # type: ignore[union-attr]
         url = re.search(r"plant page: (http://127\.0\.0\.1:\d+/)", line)[1]
