@@ -14,12 +14,13 @@ before the scan and the inputs):
 - a word whose every assignment is a constant (its next value an if-then-else of numerals
   and its own value): it stays in {its cold-start value, those constants} (a state or
   fault word, EJECUTANDO 0/100);
-- bits that hold state (their next value reads their own: Grafcet steps, set/reset coils),
-  for every pair p, q: p -> q and p -> NOT q (steps of one chart mutually exclusive, a
+- bits that hold state (their next value reads their own: Grafcet steps, set/reset coils):
+  NOT p (never set at the end of a scan: a tag the same scan clears), and for every
+  pair p, q: p -> q and p -> NOT q (steps of one chart mutually exclusive, a
   step and its flags); in a program with a Grafcet, p is one of its steps (a program of
   100 rungs has some 40 such bits: every pair would be 3,000 candidates);
 - such a bit p (a step, with a Grafcet) against a word w with constant assignments:
-  p -> w = c and p -> w <> c for each constant, and, where w is also computed,
+  p -> w = c for each constant, and, where w is also computed,
   p -> w in {cold value, its constants} (a count reset to a constant while a flag is set).
 
 Each candidate is checked, never assumed: first on random runs of the scan engine (the
@@ -44,7 +45,7 @@ from softplc.verify.model import Model, is_object, sort_of
 
 MAX_BITS = 40  # state-holding bits paired (p -> q): 2 x 40 x 39 = 3,120 candidates at most
 MAX_VALUES = 12  # constants per word: more is a computed word, not a table of states
-MAX_CANDIDATES = 6000  # the candidates of one model, at most (a Houdini round's term)
+MAX_CANDIDATES = 2500  # the candidates of one model, at most (Houdini asks each)
 PROVE_S = 60.0  # s for the whole proof, at most (once per model; then every requirement)
 ROUND_S = 5.0  # s per solver call of Houdini, at most
 RUNS, SCANS = 24, 120  # random engine runs that sift the candidates, scans each
@@ -147,6 +148,7 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
         return rnd.choice(POOL) if rnd.random() < 0.8 else rnd.randint(-SIGN, SIGN - 1)
 
     alive = list(facts)
+    seen: set[tuple[int, ...]] = set()
     for run in range(runs):
         # inputs held for stretches (a run of all-random bits would fault at once: an
         # E-stop released half the time); half the runs change them more often
@@ -159,7 +161,10 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
                 set_inputs(plc, now)
                 plc.scan()
                 v = {k: int(plc[k]) for k in keys}
-                alive = [f for f in alive if f.test(v)]
+                seen_before = tuple(v.values())
+                if seen_before not in seen:  # a state seen already breaks nothing new
+                    seen.add(seen_before)
+                    alive = [f for f in alive if f.test(v)]
     return alive
 
 
@@ -194,17 +199,24 @@ def candidates(model: Model) -> list[Fact]:
         if exact:
             out.append(Fact(f"{w} in {vals}", frozenset({w}), among(w, vals),
                             lambda v, w=w, vals=vals: _signed(v[w]) in vals))
+    for p in bits:  # a bit that holds state and is never set (a tag the program clears)
+        out.append(Fact(f"NOT {p}", frozenset({p}), lambda s, p=p: z3.Not(s[p]),
+                        lambda v, p=p: not v[p]))
     # a Grafcet's steps are the antecedents (its facts are the step's), else every bit
     heads = [k for k in bits if k.startswith("%X")] or bits
-    for p in heads:
+    for p in heads:  # exclusions first (cut last when there are too many)
         for q in bits:
-            if p != q:
-                out.append(Fact(f"{p} -> {q}", frozenset({p, q}),
-                                lambda s, p=p, q=q: z3.Implies(s[p], s[q]),
-                                lambda v, p=p, q=q: not v[p] or bool(v[q])))
+            if p != q and not (q in heads and q < p):  # p -> NOT q is q -> NOT p
                 out.append(Fact(f"{p} -> NOT {q}", frozenset({p, q}),
                                 lambda s, p=p, q=q: z3.Implies(s[p], z3.Not(s[q])),
                                 lambda v, p=p, q=q: not (v[p] and v[q])))
+    for p in heads:
+        for q in bits:
+            if p != q and not (p.startswith("%X") and q.startswith("%X")):  # a step
+                out.append(Fact(f"{p} -> {q}", frozenset({p, q}),  # needs no other
+                                lambda s, p=p, q=q: z3.Implies(s[p], s[q]),
+                                lambda v, p=p, q=q: not v[p] or bool(v[q])))
+    for p in heads:
         for w, (vals, exact) in tables.items():
             keys = frozenset({p, w})
             if not exact:
@@ -217,19 +229,17 @@ def candidates(model: Model) -> list[Fact]:
                 out.append(Fact(f"{p} -> {w} = {c}", keys, lambda s, p=p, w=w, c=c:
                                 z3.Implies(s[p], s[w] == _word(c)),
                                 lambda v, p=p, w=w, c=c: not v[p] or _signed(v[w]) == c))
-                out.append(Fact(f"{p} -> {w} <> {c}", keys, lambda s, p=p, w=w, c=c:
-                                z3.Implies(s[p], s[w] != _word(c)),
-                                lambda v, p=p, w=w, c=c: not v[p] or _signed(v[w]) != c))
     return out[:MAX_CANDIDATES]
 
 
 def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[str]:
     """The texts of the facts that hold at the cold start and together are inductive
-    ([] when the time runs out first: nothing is assumed then). One solver throughout:
-    each fact assumed before the scan under its own literal (dropping one drops its
-    literal, what the solver learnt stays), each asked after the scan on its own (a
-    disjunction of hundreds is far slower than hundreds of small queries); a model that
-    breaks one drops every fact it breaks. Passes until one drops nothing."""
+    ([] when the time runs out first: nothing is assumed then). The facts alive are
+    asserted before the scan (in a scope, re-asserted when some are dropped: assumption
+    literals for each, tried first, made one query of the mass tuning take a minute), and
+    each is asked after the scan on its own (a disjunction of hundreds is far slower than
+    hundreds of small queries); a model that breaks one drops every fact it breaks.
+    Passes until one drops nothing."""
     import time
     end = time.monotonic() + seconds
     init = model.init_state()
@@ -241,13 +251,13 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
     s.add(*model.invariants(pre), *model.input_constraints(inp))
     if "_facts" in post:
         s.add(post["_facts"])
-    lit = {i: z3.Bool(f"fact{i}@si") for i in alive}
-    for i in alive:
-        s.add(z3.Implies(lit[i], facts[i].term(pre)))
+    before = {i: facts[i].term(pre) for i in alive}
     after = {i: facts[i].term(post) for i in alive}
     changed = True
     while changed and alive:
         changed = False
+        s.push()
+        s.add(*[before[i] for i in sorted(alive)])
         for i in sorted(alive):
             if i not in alive:
                 continue
@@ -255,16 +265,20 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
             if left <= 0:
                 return []
             s.set("timeout", int(1000 * min(left, ROUND_S)))
-            r = s.check(*[lit[j] for j in sorted(alive)], z3.Not(after[i]))
+            r = s.check(z3.Not(after[i]))
             if r == z3.unsat:
                 continue
             changed = True
             if r != z3.sat:  # undecided in its time: not assumed
                 alive.discard(i)
-                continue
-            m = s.model()
-            alive -= {j for j in alive
-                      if not z3.is_true(m.eval(after[j], model_completion=True))}
+            else:
+                m = s.model()
+                alive -= {j for j in alive
+                          if not z3.is_true(m.eval(after[j], model_completion=True))}
+            s.pop()  # the facts dropped were asserted: assert those alive again
+            s.push()
+            s.add(*[before[j] for j in sorted(alive)])
+        s.pop()
     return [facts[i].text for i in sorted(alive)]
 
 
