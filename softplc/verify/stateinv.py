@@ -147,6 +147,11 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
             return rnd.randint(lo, hi)
         return rnd.choice(POOL) if rnd.random() < 0.8 else rnd.randint(-SIGN, SIGN - 1)
 
+    from softplc.errors import SoftPLCError
+    try:  # the engine from the model's program and configuration, as the replay builds it
+        PLC(model.plc.ast, model.plc.config, devices=False).close()
+    except SoftPLCError:  # e.g. a symbol file named relative to another directory
+        return facts  # not sifted: Houdini alone decides (sifting only saves it time)
     alive = list(facts)
     seen: set[tuple[int, ...]] = set()
     for run in range(runs):
