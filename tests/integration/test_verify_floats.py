@@ -124,3 +124,18 @@ def test_bad_float_in_require_expr_is_located_on_its_own_line():
                   PLC.from_source("LD 1\n", devices=False).profile)
     d = e.value.diagnostics[0]
     assert (d.file, d.line, d.column, d.code) == ("--require-expr", 1, 16, Code.CONSTANT)
+
+
+# ---- functions without a solver theory: anchors and monotony (issue 34 item 1) -----------
+@pytest.mark.parametrize("prog, check", [
+    # EXP(0) = 1 and EXP non-decreasing: EXP(x) >= 1 for x >= 0 (overflow: inf, %S18)
+    ("LD 1\n[ %MF10 := EXP(%MF0) ]\n", "%MF0 >= 0.0 -> %MF10 >= 1.0"),
+    # two applications in one scan: in the order of their arguments
+    ("LD [ LN(%MF0) > LN(%MF2) ]\nST %Q0.0\n", "%MF0 > 0.0 AND %MF0 <= %MF2 -> NOT %Q0.0"),
+    ("LD [ ATAN(%MF0) > ATAN(%MF2) ]\nST %Q0.0\n", "%MF0 <= %MF2 -> NOT %Q0.0"),
+])
+def test_monotone_facts_prove_what_bounds_alone_cannot(prog, check):
+    """With the range facts only, each ended UNKNOWN (the refinement excluded hundreds of
+    counterexamples the engine did not confirm, one input at a time)."""
+    res = run(prog, check, host=(0, 1, 2, 3))
+    assert res.status == "PROVEN", res
