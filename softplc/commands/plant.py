@@ -89,6 +89,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f"where the record of what was made and the logs go "
                         f"(default {STATE_DIR})")
     u.set_defaults(func=_up)
+    h = verbs.add_parser("process", help="the plant's shared devices and wires on the real "
+                                         "clock, the controllers' wired I/O over TCP "
+                                         "(the plant host `plant up` starts)")
+    h.add_argument("plant", help="the plant file (plant.toml)")
+    h.add_argument("--port", type=port, default=None,
+                   help="the controllers' --wire-listen port (default: plant up's)")
+    h.add_argument("--for", dest="duration", type=_duration, default=None, metavar="TIME",
+                   help="stop after this much time (default: SIGTERM or Ctrl-C)")
+    h.set_defaults(func=_process)
     d = verbs.add_parser("down", help="stop the daemons and remove the namespaces "
                                       "`plant up` made")
     d.add_argument("plant", help="the plant file (plant.toml)")
@@ -111,11 +120,43 @@ def _up(args: argparse.Namespace) -> int:
     for name, c in record["controllers"].items():
         print(f"  {name}: namespace {c['namespace']}, Modbus {c['host']}:{hosts.MODBUS_PORT}, "
               f"pid {c['pid']}, log {c['log']}")
-    if spec.data.wires or spec.data.devices:
-        print(f"  not carried between hosts: {len(spec.data.wires)} wires, "
-              f"{len(spec.data.devices)} shared devices (one process' objects: plant run)")
+    for name, c in record["processes"].items():
+        print(f"  {name} host (shared devices, wires): namespace {c['namespace']}, "
+              f"{c['host']}, pid {c['pid']}, log {c['log']}")
+    if record["root"]:
+        print(f"  this machine: {record['root']} on the plant network ({record['root_veth']})")
+    else:
+        print("  this machine has an address in the plant's network already (another "
+              "plant?): no veth to it; reach the controllers from the SCADA namespace")
     print(f"e.g. ip netns exec {record['namespaces'][0]} softplc io ... ; stop with: "
           f"softplc plant down {args.plant}")
+    return 0
+
+
+def _process(args: argparse.Namespace) -> int:
+    import signal
+
+    from softplc.plant import hosts
+    from softplc.plant.model import load_plant
+    from softplc.plant.process import WIRE_PORT, PhysicalProcess
+
+    spec = load_plant(args.plant)
+    addr = hosts.addresses(spec)
+    proc = PhysicalProcess(spec, addr, WIRE_PORT if args.port is None else args.port)
+    stopping: list[int] = []
+    signal.signal(signal.SIGTERM, lambda *_: stopping.append(1))
+    to = ", ".join(f"{n} {c.where[0]}:{c.where[1]}" for n, c in proc.clients.items())
+    print(f"{args.plant}: {len(proc.devices)} shared devices, {len(spec.wires)} wires, "
+          f"wired controllers: {to or 'none'}", flush=True)
+    print(f"plant process: ticking every {proc.tick_s * 1000:g} ms", flush=True)
+    end = None if args.duration is None else time.monotonic() + args.duration
+    try:
+        proc.run(lambda: bool(stopping) or (end is not None and time.monotonic() >= end))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        proc.close()
+        print(json.dumps(proc.status()), flush=True)
     return 0
 
 

@@ -25,6 +25,7 @@ import hashlib
 import ipaddress
 import json
 import os
+import secrets
 import shutil
 import signal
 import subprocess
@@ -36,12 +37,22 @@ from typing import Any
 
 from softplc.errors import PlantStateError
 from softplc.plant.model import PlantSpec
+from softplc.plant.process import WIRE_PORT, wired_io
 
 MODBUS_PORT = 502  # a real Twido's Modbus TCP port [Modbus TCP spec: port 502]
 LINK_PORT = 5101  # where a remote answers the link (a softplc choice)
 DEFAULT_NET = ipaddress.ip_network("10.35.0.0/24")  # private (RFC 1918), issue 35's number
 SCADA_HOST = 254  # the SCADA's address in the /24
+ROOT_HOST = 253  # this machine's own address on the plant network (the plant page, a browser)
+PLANT_HOST = 252  # the plant host's (the shared devices and wires: `plant process`)
+WEB_PORT = 8020  # each controller's web monitor, on its own address (softplc.web's default)
 START_TIMEOUT_S = 30.0  # a daemon's banner must appear within this (a slow, loaded host)
+BANNER_POLL_S = 0.02  # how often `up` looks at the logs for the banners
+# the last banner line of `softplc run` (tools and tests wait for it) and `plant process`
+BANNERS = ("Modbus TCP server listening on", "plant process: ticking")
+PLANT = "plant"  # the plant host's name in the record; its namespace is spTAG.plant (a
+# controller's name has no '.': never the same)
+TOKEN_BYTES = 24  # the monitors' token (secrets.token_urlsafe)
 STOP_TIMEOUT_S = 10.0
 
 
@@ -78,8 +89,12 @@ def addresses(spec: PlantSpec) -> dict[str, str]:
     return out
 
 
-def _commands(spec: PlantSpec, hosts: dict[str, str]) -> dict[str, list[str]]:
-    """Each controller's `softplc run` command line (the link options from the plant)."""
+def _commands(spec: PlantSpec, hosts: dict[str, str], plant_host: str = "",
+              web: bool = False) -> dict[str, list[str]]:
+    """Each controller's `softplc run` command line: the link options from the plant, the
+    wire options (its wired inputs, driven by `plant_host` only), its web monitor on its
+    own address (`web`; its token from the environment) or none."""
+    io = wired_io(spec)
     masters = {e.master: e for e in spec.data.links.values() if e.type == "remote_link"}
     linked = {p for e in masters.values() for p in e.peers}
     out = {}
@@ -89,7 +104,14 @@ def _commands(spec: PlantSpec, hosts: dict[str, str]) -> dict[str, list[str]]:
             raise PlantStateError(f"{name}: a remote I/O controller has no program to run "
                                   "as a daemon; `plant up` runs program controllers")
         cmd = [sys.executable, "-m", "softplc", "run", str(program.resolve()), "--host",
-               hosts[name], "--port", str(MODBUS_PORT), "--web", "off", "--cold"]
+               hosts[name], "--port", str(MODBUS_PORT), "--cold"]
+        # the token travels in the environment (SOFTPLC_WEB_TOKEN), not on the command line
+        cmd += ["--web", str(WEB_PORT), "--web-host", hosts[name]] if web else \
+            ["--web", "off"]
+        if name in io:
+            ins, outs = io[name]
+            cmd += ["--wire-listen", f"{hosts[name]}:{WIRE_PORT}", "--wire-peer", plant_host,
+                    "--wire-in", ",".join(ins), "--wire-out", ",".join(outs)]
         config = spec.data.controllers[name].config
         if config is not None:
             path = (spec.file.parent / config).resolve()
@@ -109,96 +131,152 @@ def _commands(spec: PlantSpec, hosts: dict[str, str]) -> dict[str, list[str]]:
     return out
 
 
-def up(spec: PlantSpec, state_dir: Path) -> dict[str, Any]:
-    """Make the namespaces and start every daemon; the record of what was made."""
+def up(spec: PlantSpec, state_dir: Path, web: bool = True) -> dict[str, Any]:
+    """Make the namespaces, start every daemon (and the plant host, when the plant has
+    wires or shared devices) at once, wait for them all; the record of what was made.
+    `web`: each daemon's web monitor on its own address, a token for them all."""
     t = tag(spec.file)
     record_file = state_dir / f"sp{t}.json"
     if record_file.exists():
         raise PlantStateError(f"{spec.file}: already up ({record_file}); `plant down` first")
     hosts = addresses(spec)
-    commands = _commands(spec, hosts)
-    state_dir.mkdir(parents=True, exist_ok=True)
+    net = ipaddress.ip_network(f"{next(iter(hosts.values()))}/24", strict=False)
+    plant_host = str(net.network_address + PLANT_HOST)
+    token = secrets.token_urlsafe(TOKEN_BYTES) if web else ""
+    commands = _commands(spec, hosts, plant_host, web)
+    physical = bool(spec.data.wires or spec.data.devices)
+    state_dir.mkdir(mode=0o700, parents=True, exist_ok=True)
     scada = f"sp{t}-scada"
     record: dict[str, Any] = {"plant": str(spec.file.resolve()), "namespaces": [scada],
-                              "scada": "", "controllers": {}}
+                              "scada": str(net.network_address + SCADA_HOST),
+                              "root": str(net.network_address + ROOT_HOST),
+                              "root_veth": f"v{t}r", "token": token, "controllers": {},
+                              "processes": {}}
 
     def keep() -> None:
-        record_file.write_text(json.dumps(record, indent=1))
+        fd = os.open(record_file, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w") as f:  # owner only: it holds the monitors' token
+            json.dump(record, f, indent=1)
 
     keep()  # before anything is made: `down` removes a half-made plant too
     try:
-        net = ipaddress.ip_network(f"{next(iter(hosts.values()))}/24", strict=False)
-        record["scada"] = str(net.network_address + SCADA_HOST)
         _ip("netns", "add", scada)
         bridge = f"br{t}"
         _ip("link", "add", bridge, "type", "bridge", ns=scada)
         _ip("addr", "add", f"{record['scada']}/{net.prefixlen}", "dev", bridge, ns=scada)
         _ip("link", "set", bridge, "up", ns=scada)
         _ip("link", "set", "lo", "up", ns=scada)
-        for i, name in enumerate(commands):
-            ns = f"sp{t}-{name}"
+        # this machine on the plant network: a veth from the root namespace into the
+        # bridge; not when this machine has an address there already (another plant up in
+        # the same network: two routes to it would be a lottery)
+        if _root_has(net):
+            record["root"] = record["root_veth"] = ""
+        else:
+            root_veth = record["root_veth"]
+            keep()
+            _ip("link", "add", root_veth, "type", "veth", "peer", "name", f"v{t}rb",
+                "netns", scada)
+            _ip("link", "set", f"v{t}rb", "master", bridge, "up", ns=scada)
+            _ip("addr", "add", f"{record['root']}/{net.prefixlen}", "dev", root_veth)
+            _ip("link", "set", root_veth, "up")
+        members = {f"sp{t}-{name}": hosts[name] for name in commands}
+        if physical:
+            members[f"sp{t}.{PLANT}"] = plant_host
+        for i, (ns, addr) in enumerate(members.items()):
             record["namespaces"].append(ns)
             keep()
             _ip("netns", "add", ns)
-            a, b = f"v{t}{i}a", f"v{t}{i}b"
-            _ip("link", "add", a, "netns", ns, "type", "veth", "peer", "name", b,
+            va, vb = f"v{t}{i}a", f"v{t}{i}b"
+            _ip("link", "add", va, "netns", ns, "type", "veth", "peer", "name", vb,
                 "netns", scada)
-            _ip("link", "set", b, "master", bridge, "up", ns=scada)
-            _ip("addr", "add", f"{hosts[name]}/{net.prefixlen}", "dev", a, ns=ns)
-            _ip("link", "set", a, "up", ns=ns)
+            _ip("link", "set", vb, "master", bridge, "up", ns=scada)
+            _ip("addr", "add", f"{addr}/{net.prefixlen}", "dev", va, ns=ns)
+            _ip("link", "set", va, "up", ns=ns)
             _ip("link", "set", "lo", "up", ns=ns)
-        for name, cmd in commands.items():
-            ns = f"sp{t}-{name}"
-            log = state_dir / f"sp{t}-{name}.log"
-            with open(log, "w") as out:
-                proc = subprocess.Popen(["ip", "netns", "exec", ns, *cmd], stdout=out,
-                                        stderr=subprocess.STDOUT, start_new_session=True,
-                                        env=dict(os.environ, PYTHONUNBUFFERED="1"))
-            record["controllers"][name] = {"pid": proc.pid, "namespace": ns,
-                                           "host": hosts[name], "log": str(log)}
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        daemon_env = dict(env, SOFTPLC_WEB_TOKEN=token) if token else env  # not in `ps`
+        for name, cmd in commands.items():  # every daemon at once; then wait for them all
+            c = _start(f"sp{t}-{name}", cmd, state_dir / f"sp{t}-{name}.log", daemon_env)
+            record["controllers"][name] = {**c, "host": hosts[name]}
             keep()
-        for name, c in record["controllers"].items():
-            _wait_banner(name, Path(c["log"]), c["pid"])
+        if physical:
+            cmd = [sys.executable, "-m", "softplc", "plant", "process", str(spec.file)]
+            c = _start(f"sp{t}.{PLANT}", cmd, state_dir / f"sp{t}.{PLANT}.log", env)
+            record["processes"][PLANT] = {**c, "host": plant_host}
+            keep()
+        _wait_banners({**record["controllers"], **record["processes"]})
     except BaseException:
         down(record_file)
         raise
     return record
 
 
-def _wait_banner(name: str, log: Path, pid: int) -> None:
+def _root_has(net: ipaddress.IPv4Network | ipaddress.IPv6Network) -> bool:
+    """This machine (the root namespace) has an address in `net` already."""
+    r = subprocess.run(["ip", "-o", "addr", "show", "to", str(net)], capture_output=True,
+                       text=True)
+    return bool(r.stdout.strip())
+
+
+def _start(ns: str, cmd: list[str], log: Path, env: dict[str, str]) -> dict[str, Any]:
+    """Start `cmd` in namespace `ns`, in a session of its own, its output to `log`."""
+    fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)  # the monitor's token
+    with os.fdopen(fd, "w") as out:
+        proc = subprocess.Popen(["ip", "netns", "exec", ns, *cmd], stdout=out,
+                                stderr=subprocess.STDOUT, start_new_session=True, env=env)
+    return {"pid": proc.pid, "namespace": ns, "log": str(log)}
+
+
+def _wait_banners(started: dict[str, dict[str, Any]]) -> None:
+    """Wait for every process' last banner line at once (they start in parallel)."""
     end = time.monotonic() + START_TIMEOUT_S
-    while time.monotonic() < end:
-        text = log.read_text()
-        if "Modbus TCP server listening on" in text:
-            return
-        try:
-            if os.waitpid(pid, os.WNOHANG)[0]:
-                raise PlantStateError(f"{name} did not start: {text.strip()[-500:]}")
-        except ChildProcessError:
-            pass
-        time.sleep(0.05)
-    raise PlantStateError(f"{name}: no banner within {START_TIMEOUT_S:g} s ({log})")
+    waiting = dict(started)
+    while waiting:
+        for name, c in list(waiting.items()):
+            text = Path(c["log"]).read_text()
+            if any(b in text for b in BANNERS):
+                del waiting[name]
+                continue
+            try:
+                if os.waitpid(c["pid"], os.WNOHANG)[0]:
+                    raise PlantStateError(f"{name} did not start: {text.strip()[-500:]}")
+            except ChildProcessError:
+                pass
+        if waiting and time.monotonic() >= end:
+            raise PlantStateError(f"{', '.join(waiting)}: no banner within "
+                                  f"{START_TIMEOUT_S:g} s (logs: "
+                                  f"{', '.join(c['log'] for c in waiting.values())})")
+        time.sleep(BANNER_POLL_S)
 
 
 def down(record_file: Path) -> list[str]:
-    """Stop every daemon `up` started and remove every namespace it made; what was done."""
+    """Stop every process `up` started and remove every namespace and the veth it made;
+    what was done."""
     if not record_file.exists():
         raise PlantStateError(f"{record_file}: no plant is up (nothing recorded)")
     record = json.loads(record_file.read_text())
     done = []
-    for name, c in record["controllers"].items():
-        pid = c["pid"]
-        try:  # the session `up` gave it: `ip netns exec` and the daemon under it
-            os.killpg(pid, signal.SIGTERM)
+    stopping = {}
+    for name, c in {**record.get("processes", {}), **record["controllers"]}.items():
+        try:  # the session `up` gave it: `ip netns exec` and the process under it
+            os.killpg(c["pid"], signal.SIGTERM)
         except ProcessLookupError:
             done.append(f"{name}: already gone")
             continue
-        end = time.monotonic() + STOP_TIMEOUT_S
-        while time.monotonic() < end and _alive(pid):
-            time.sleep(0.05)
+        stopping[name] = c["pid"]
+    end = time.monotonic() + STOP_TIMEOUT_S  # they all stop at once
+    while time.monotonic() < end and any(_alive(p) for p in stopping.values()):
+        time.sleep(BANNER_POLL_S)
+    for name, pid in stopping.items():
         if _alive(pid):
             os.killpg(pid, signal.SIGKILL)
-        done.append(f"{name}: stopped")
+            done.append(f"{name}: killed (no stop within {STOP_TIMEOUT_S:g} s)")
+        else:
+            done.append(f"{name}: stopped")
+    veth = record.get("root_veth")
+    if veth:  # removed with its peer in the SCADA namespace; here if that was not made
+        r = subprocess.run(["ip", "link", "del", veth], capture_output=True, text=True)
+        done.append(f"veth {veth}: " + ("removed" if not r.returncode else "not there"))
     for ns in reversed(record["namespaces"]):
         r = subprocess.run(["ip", "netns", "del", ns], capture_output=True, text=True)
         done.append(f"namespace {ns}: " + ("removed" if not r.returncode else "not there"))
