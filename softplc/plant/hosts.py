@@ -21,7 +21,9 @@ run`); EXCH links reach the named controller's host as they do on a network.
 
 from __future__ import annotations
 
+import ctypes
 import hashlib
+import importlib
 import ipaddress
 import json
 import os
@@ -30,8 +32,10 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 import tomllib
+import traceback
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +57,13 @@ BANNERS = ("Modbus TCP server listening on", "plant process: ticking")
 PLANT = "plant"  # the plant host's name in the record; its namespace is spTAG.plant (a
 # controller's name has no '.': never the same)
 TOKEN_BYTES = 24  # the monitors' token (secrets.token_urlsafe)
+NETNS_DIR = Path("/var/run/netns")  # where `ip netns add` keeps a namespace [ip-netns(8)]
+CLONE_NEWNET = 0x40000000  # setns(2)'s namespace type [linux/sched.h]
+# what `softplc run` (with its web monitor and wires) and `plant process` import: loaded
+# once by `plant up`, shared by every forked daemon
+PRELOAD = ("softplc.cli", "softplc.commands.run", "softplc.commands.plant", "softplc.daemon",
+           "softplc.plc", "softplc.access.port", "softplc.access.wires", "softplc.web",
+           "softplc.web.server", "softplc.plant.process", "softplc.runtime.linktcp")
 STOP_TIMEOUT_S = 10.0
 
 
@@ -74,9 +85,11 @@ def netns_works() -> str:
     return ""
 
 
-def _ip(*args: str, ns: str | None = None) -> None:
-    cmd = ["ip", *(["-n", ns] if ns else []), *args]
-    r = subprocess.run(cmd, capture_output=True, text=True)
+def _ip_batch(lines: list[str], ns: str | None = None) -> None:
+    """iproute2 commands, one `ip -batch` process (in namespace `ns`); the first that
+    fails stops it and is reported."""
+    cmd = ["ip", *(["-n", ns] if ns else []), "-batch", "-"]
+    r = subprocess.run(cmd, input="\n".join(lines) + "\n", capture_output=True, text=True)
     if r.returncode:
         raise PlantStateError(f"{' '.join(cmd)}: {r.stderr.strip()}")
 
@@ -159,40 +172,19 @@ def up(spec: PlantSpec, state_dir: Path, web: bool = True) -> dict[str, Any]:
             json.dump(record, f, indent=1)
 
     keep()  # before anything is made: `down` removes a half-made plant too
+    # the imports the daemons share, while iproute2 makes the network (its own processes)
+    loading = threading.Thread(target=preload, name="preload")
+    loading.start()
     try:
-        _ip("netns", "add", scada)
-        bridge = f"br{t}"
-        _ip("link", "add", bridge, "type", "bridge", ns=scada)
-        _ip("addr", "add", f"{record['scada']}/{net.prefixlen}", "dev", bridge, ns=scada)
-        _ip("link", "set", bridge, "up", ns=scada)
-        _ip("link", "set", "lo", "up", ns=scada)
-        # this machine on the plant network: a veth from the root namespace into the
-        # bridge; not when this machine has an address there already (another plant up in
-        # the same network: two routes to it would be a lottery)
-        if _root_has(net):
-            record["root"] = record["root_veth"] = ""
-        else:
-            root_veth = record["root_veth"]
-            keep()
-            _ip("link", "add", root_veth, "type", "veth", "peer", "name", f"v{t}rb",
-                "netns", scada)
-            _ip("link", "set", f"v{t}rb", "master", bridge, "up", ns=scada)
-            _ip("addr", "add", f"{record['root']}/{net.prefixlen}", "dev", root_veth)
-            _ip("link", "set", root_veth, "up")
         members = {f"sp{t}-{name}": hosts[name] for name in commands}
         if physical:
             members[f"sp{t}.{PLANT}"] = plant_host
-        for i, (ns, addr) in enumerate(members.items()):
-            record["namespaces"].append(ns)
-            keep()
-            _ip("netns", "add", ns)
-            va, vb = f"v{t}{i}a", f"v{t}{i}b"
-            _ip("link", "add", va, "netns", ns, "type", "veth", "peer", "name", vb,
-                "netns", scada)
-            _ip("link", "set", vb, "master", bridge, "up", ns=scada)
-            _ip("addr", "add", f"{addr}/{net.prefixlen}", "dev", va, ns=ns)
-            _ip("link", "set", va, "up", ns=ns)
-            _ip("link", "set", "lo", "up", ns=ns)
+        record["namespaces"] += list(members)
+        if _root_has(net):  # see _network
+            record["root"] = record["root_veth"] = ""
+        keep()
+        _network(t, net, record, members)
+        loading.join()
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         daemon_env = dict(env, SOFTPLC_WEB_TOKEN=token) if token else env  # not in `ps`
         for name, cmd in commands.items():  # every daemon at once; then wait for them all
@@ -206,9 +198,38 @@ def up(spec: PlantSpec, state_dir: Path, web: bool = True) -> dict[str, Any]:
             keep()
         _wait_banners({**record["controllers"], **record["processes"]})
     except BaseException:
+        loading.join()
         down(record_file)
         raise
     return record
+
+
+def _network(t: str, net: Any, record: dict[str, Any], members: dict[str, str]) -> None:
+    """The SCADA namespace and its bridge, a namespace for each of `members` ({namespace:
+    address}) joined to the bridge by a veth pair, and this machine's veth into the bridge
+    (`record["root_veth"]`; none when this machine has an address in `net` already:
+    another plant up in the same network, two routes to it would be a lottery). In 2 +
+    len(members) `ip -batch` runs, not one `ip` process per step."""
+    scada, bridge, n = record["namespaces"][0], f"br{t}", net.prefixlen
+    root = [f"netns add {ns}" for ns in [scada, *members]]
+    inside = [f"link add {bridge} type bridge",
+              f"addr add {record['scada']}/{n} dev {bridge}",
+              f"link set {bridge} up", "link set lo up"]
+    if record["root_veth"]:
+        v = record["root_veth"]
+        root += [f"link add {v} type veth peer name {v}b netns {scada}",
+                 f"addr add {record['root']}/{n} dev {v}", f"link set {v} up"]
+        inside.append(f"link set {v}b master {bridge} up")
+    for i, ns in enumerate(members):
+        va, vb = f"v{t}{i}a", f"v{t}{i}b"
+        root.append(f"link add {va} netns {ns} type veth peer name {vb} netns {scada}")
+        inside.append(f"link set {vb} master {bridge} up")
+    _ip_batch(root)
+    _ip_batch(inside, scada)
+    for i, (ns, addr) in enumerate(members.items()):
+        va = f"v{t}{i}a"
+        _ip_batch([f"addr add {addr}/{n} dev {va}", f"link set {va} up", "link set lo up"],
+                  ns)
 
 
 def _root_has(net: ipaddress.IPv4Network | ipaddress.IPv6Network) -> bool:
@@ -219,12 +240,57 @@ def _root_has(net: ipaddress.IPv4Network | ipaddress.IPv6Network) -> bool:
 
 
 def _start(ns: str, cmd: list[str], log: Path, env: dict[str, str]) -> dict[str, Any]:
-    """Start `cmd` in namespace `ns`, in a session of its own, its output to `log`."""
+    """Start `softplc` command line `cmd` in namespace `ns`, in a session of its own, its
+    output to `log`: a fork of this process (whose imports the child shares: no Python
+    start-up and no imports per daemon) that enters the namespace and runs the command as
+    `python -m softplc` would (softplc.cli.main)."""
+    argv = cmd[3:]  # [python, -m, softplc, ...]
     fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)  # the monitor's token
-    with os.fdopen(fd, "w") as out:
-        proc = subprocess.Popen(["ip", "netns", "exec", ns, *cmd], stdout=out,
-                                stderr=subprocess.STDOUT, start_new_session=True, env=env)
-    return {"pid": proc.pid, "namespace": ns, "log": str(log)}
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        rc = 1
+        try:
+            os.setsid()
+            os.dup2(fd, 1)
+            os.dup2(fd, 2)
+            os.close(fd)
+            sys.stdout.reconfigure(line_buffering=True)  # type: ignore[union-attr]
+            _enter(ns)
+            os.environ.clear()
+            os.environ.update(env)
+            from softplc.cli import main
+
+            rc = main(argv)
+        except SystemExit as e:
+            rc = e.code if isinstance(e.code, int) else 1
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(rc)
+    os.close(fd)
+    return {"pid": pid, "namespace": ns, "log": str(log)}
+
+
+def _enter(ns: str) -> None:
+    """This process into network namespace `ns` (setns(2), as `ip netns exec` does)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    fd = os.open(NETNS_DIR / ns, os.O_RDONLY)
+    try:
+        if libc.setns(fd, CLONE_NEWNET):
+            err = ctypes.get_errno()
+            raise OSError(err, f"setns {ns}: {os.strerror(err)}")
+    finally:
+        os.close(fd)
+
+
+def preload() -> None:
+    """Import what the daemons and the plant host run, once, before forking them."""
+    for name in PRELOAD:
+        importlib.import_module(name)
 
 
 def _wait_banners(started: dict[str, dict[str, Any]]) -> None:
@@ -258,7 +324,9 @@ def down(record_file: Path) -> list[str]:
     done = []
     stopping = {}
     for name, c in {**record.get("processes", {}), **record["controllers"]}.items():
-        try:  # the session `up` gave it: `ip netns exec` and the process under it
+        try:  # the session `up` gave it
+            if not _alive(c["pid"]):
+                raise ProcessLookupError
             os.killpg(c["pid"], signal.SIGTERM)
         except ProcessLookupError:
             done.append(f"{name}: already gone")
@@ -294,4 +362,8 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    return True
+    try:  # a zombie (dead, its new parent has not reaped it yet) is gone
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rpartition(")")[2].split()[0] != "Z"
