@@ -88,7 +88,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     u.add_argument("--state-dir", type=Path, default=STATE_DIR,
                    help=f"where the record of what was made and the logs go "
                         f"(default {STATE_DIR})")
+    u.add_argument("--web", type=_page_port, default=None, metavar="PORT|off",
+                   help="the plant page on 127.0.0.1:PORT of this machine (default 8030; 0 = "
+                        "any free port) and each controller's web monitor on its own "
+                        "address; off = neither")
     u.set_defaults(func=_up)
+    g = verbs.add_parser("page", help="the plant page of a plant that is up (`plant up` "
+                                      "starts it)")
+    g.add_argument("plant", help="the plant file (plant.toml)")
+    g.add_argument("--record", type=Path, required=True,
+                   help="`plant up`'s record (spTAG.json in its state folder)")
+    g.add_argument("--port", type=port, default=0, help="on 127.0.0.1 (0 = any free port)")
+    g.set_defaults(func=_page)
     h = verbs.add_parser("process", help="the plant's shared devices and wires on the real "
                                          "clock, the controllers' wired I/O over TCP "
                                          "(the plant host `plant up` starts)")
@@ -106,6 +117,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.set_defaults(func=_down)
 
 
+_PAGE_OFF = -1
+
+
+def _page_port(text: str) -> int:
+    return _PAGE_OFF if text.strip().lower() == "off" else port(text)
+
+
+def _page(args: argparse.Namespace) -> int:
+    from softplc.commands.plantweb import serve
+
+    return serve(args)
+
+
 def _up(args: argparse.Namespace) -> int:
     from softplc.plant import hosts
     from softplc.plant.model import load_plant
@@ -114,17 +138,22 @@ def _up(args: argparse.Namespace) -> int:
     if why:
         raise PlantStateError(f"plant up --netns: network namespaces do not work here: {why}")
     spec = load_plant(args.plant)
-    record = hosts.up(spec, args.state_dir)
+    page = hosts.PAGE_PORT if args.web is None else None if args.web == _PAGE_OFF else args.web
+    record = hosts.up(spec, args.state_dir, page)
     print(f"{args.plant}: up; SCADA namespace {record['namespaces'][0]} at "
           f"{record['scada']}")
     for name, c in record["controllers"].items():
         print(f"  {name}: namespace {c['namespace']}, Modbus {c['host']}:{hosts.MODBUS_PORT}, "
               f"pid {c['pid']}, log {c['log']}")
-    for name, c in record["processes"].items():
-        print(f"  {name} host (shared devices, wires): namespace {c['namespace']}, "
-              f"{c['host']}, pid {c['pid']}, log {c['log']}")
+    plant = record["processes"].get(hosts.PLANT)
+    if plant is not None:
+        print(f"  plant host (shared devices, wires): namespace {plant['namespace']}, "
+              f"{plant['host']}, pid {plant['pid']}, log {plant['log']}")
     if record["root"]:
         print(f"  this machine: {record['root']} on the plant network ({record['root_veth']})")
+        if record["page"]:
+            print(f"plant page: {record['page']} (each controller's monitor: "
+                  f"http://ADDRESS:{hosts.WEB_PORT}/, the token in {args.state_dir})")
     else:
         print("  this machine has an address in the plant's network already (another "
               "plant?): no veth to it; reach the controllers from the SCADA namespace")

@@ -25,7 +25,8 @@ from typing import Any
 from softplc.commands._args import add_program_arguments, load_plc, port
 from softplc.errors import ConfigError
 
-WEB_TOKEN_ENV = "SOFTPLC_WEB_TOKEN"  # the token kept out of the command line (`ps`)
+# the tokens kept out of the command line (`ps`): `plant up` gives them so
+WEB_TOKEN_ENV, WEB_READ_TOKEN_ENV = "SOFTPLC_WEB_TOKEN", "SOFTPLC_WEB_READ_TOKEN"
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
 
 
@@ -212,8 +213,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="token for changes through the web API; beyond loopback for every "
                         f"request (default: ${WEB_TOKEN_ENV}, else a random one there)")
     p.add_argument("--web-read-token", metavar="TOKEN",
+                   default=os.environ.get(WEB_READ_TOKEN_ENV),
                    help="beyond loopback, a second token that only reads (page, API, "
-                        "websocket)")
+                        f"websocket; default: ${WEB_READ_TOKEN_ENV})")
     p.add_argument("--web-allow-host", action="append", default=[], metavar="NAME,...",
                    help="a Host name the monitor answers to besides localhost, this "
                         "machine's name and IP addresses (repeatable; * = any; or [web] "

@@ -53,7 +53,10 @@ WEB_PORT = 8020  # each controller's web monitor, on its own address (softplc.we
 START_TIMEOUT_S = 30.0  # a daemon's banner must appear within this (a slow, loaded host)
 BANNER_POLL_S = 0.02  # how often `up` looks at the logs for the banners
 # the last banner line of `softplc run` (tools and tests wait for it) and `plant process`
-BANNERS = ("Modbus TCP server listening on", "plant process: ticking")
+PAGE_BANNER = "plant page: "  # then its URL
+BANNERS = ("Modbus TCP server listening on", "plant process: ticking", PAGE_BANNER)
+PAGE = "page"  # the plant page's process in the record
+PAGE_PORT = 8030  # the plant page's default port, on 127.0.0.1 (docs/plant.md)
 PLANT = "plant"  # the plant host's name in the record; its namespace is spTAG.plant (a
 # controller's name has no '.': never the same)
 TOKEN_BYTES = 24  # the monitors' token (secrets.token_urlsafe)
@@ -63,7 +66,8 @@ CLONE_NEWNET = 0x40000000  # setns(2)'s namespace type [linux/sched.h]
 # once by `plant up`, shared by every forked daemon
 PRELOAD = ("softplc.cli", "softplc.commands.run", "softplc.commands.plant", "softplc.daemon",
            "softplc.plc", "softplc.access.port", "softplc.access.wires", "softplc.web",
-           "softplc.web.server", "softplc.plant.process", "softplc.runtime.linktcp")
+           "softplc.web.server", "softplc.plant.process", "softplc.runtime.linktcp",
+           "softplc.commands.plantweb", "softplc.web.plantpage")
 STOP_TIMEOUT_S = 10.0
 
 
@@ -144,10 +148,13 @@ def _commands(spec: PlantSpec, hosts: dict[str, str], plant_host: str = "",
     return out
 
 
-def up(spec: PlantSpec, state_dir: Path, web: bool = True) -> dict[str, Any]:
+def up(spec: PlantSpec, state_dir: Path, page_port: int | None = PAGE_PORT,
+       ) -> dict[str, Any]:
     """Make the namespaces, start every daemon (and the plant host, when the plant has
     wires or shared devices) at once, wait for them all; the record of what was made.
-    `web`: each daemon's web monitor on its own address, a token for them all."""
+    `page_port`: the plant page on 127.0.0.1 of this machine (0: any free port) and each
+    daemon's web monitor on its own address (tokens for them all); None: neither."""
+    web = page_port is not None
     t = tag(spec.file)
     record_file = state_dir / f"sp{t}.json"
     if record_file.exists():
@@ -156,6 +163,7 @@ def up(spec: PlantSpec, state_dir: Path, web: bool = True) -> dict[str, Any]:
     net = ipaddress.ip_network(f"{next(iter(hosts.values()))}/24", strict=False)
     plant_host = str(net.network_address + PLANT_HOST)
     token = secrets.token_urlsafe(TOKEN_BYTES) if web else ""
+    read_token = secrets.token_urlsafe(TOKEN_BYTES) if web else ""
     commands = _commands(spec, hosts, plant_host, web)
     physical = bool(spec.data.wires or spec.data.devices)
     state_dir.mkdir(mode=0o700, parents=True, exist_ok=True)
@@ -163,7 +171,8 @@ def up(spec: PlantSpec, state_dir: Path, web: bool = True) -> dict[str, Any]:
     record: dict[str, Any] = {"plant": str(spec.file.resolve()), "namespaces": [scada],
                               "scada": str(net.network_address + SCADA_HOST),
                               "root": str(net.network_address + ROOT_HOST),
-                              "root_veth": f"v{t}r", "token": token, "controllers": {},
+                              "root_veth": f"v{t}r", "token": token,
+                              "read_token": read_token, "page": "", "controllers": {},
                               "processes": {}}
 
     def keep() -> None:
@@ -186,17 +195,29 @@ def up(spec: PlantSpec, state_dir: Path, web: bool = True) -> dict[str, Any]:
         _network(t, net, record, members)
         loading.join()
         env = dict(os.environ, PYTHONUNBUFFERED="1")
-        daemon_env = dict(env, SOFTPLC_WEB_TOKEN=token) if token else env  # not in `ps`
+        daemon_env = dict(env, SOFTPLC_WEB_TOKEN=token, SOFTPLC_WEB_READ_TOKEN=read_token) \
+            if web else env  # not on the command line (`ps`)
         for name, cmd in commands.items():  # every daemon at once; then wait for them all
             c = _start(f"sp{t}-{name}", cmd, state_dir / f"sp{t}-{name}.log", daemon_env)
-            record["controllers"][name] = {**c, "host": hosts[name]}
+            record["controllers"][name] = {**c, "host": hosts[name],
+                                           "web_port": WEB_PORT if web else None}
             keep()
         if physical:
             cmd = [sys.executable, "-m", "softplc", "plant", "process", str(spec.file)]
             c = _start(f"sp{t}.{PLANT}", cmd, state_dir / f"sp{t}.{PLANT}.log", env)
             record["processes"][PLANT] = {**c, "host": plant_host}
             keep()
+        if web and record["root"]:  # the page reaches the monitors through the root veth
+            cmd = [sys.executable, "-m", "softplc", "plant", "page", str(spec.file),
+                   "--record", str(record_file), "--port", str(page_port)]
+            record["processes"][PAGE] = _start(None, cmd, state_dir / f"sp{t}.{PAGE}.log",
+                                               env)
+            keep()
         _wait_banners({**record["controllers"], **record["processes"]})
+        if PAGE in record["processes"]:
+            log = Path(record["processes"][PAGE]["log"]).read_text()
+            record["page"] = log.split(PAGE_BANNER, 1)[1].split()[0]
+            keep()
     except BaseException:
         loading.join()
         down(record_file)
@@ -239,11 +260,11 @@ def _root_has(net: ipaddress.IPv4Network | ipaddress.IPv6Network) -> bool:
     return bool(r.stdout.strip())
 
 
-def _start(ns: str, cmd: list[str], log: Path, env: dict[str, str]) -> dict[str, Any]:
-    """Start `softplc` command line `cmd` in namespace `ns`, in a session of its own, its
-    output to `log`: a fork of this process (whose imports the child shares: no Python
-    start-up and no imports per daemon) that enters the namespace and runs the command as
-    `python -m softplc` would (softplc.cli.main)."""
+def _start(ns: str | None, cmd: list[str], log: Path, env: dict[str, str]) -> dict[str, Any]:
+    """Start `softplc` command line `cmd` in namespace `ns` (None: this machine's own), in
+    a session of its own, its output to `log`: a fork of this process (whose imports the
+    child shares: no Python start-up and no imports per daemon) that enters the namespace
+    and runs the command as `python -m softplc` would (softplc.cli.main)."""
     argv = cmd[3:]  # [python, -m, softplc, ...]
     fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)  # the monitor's token
     sys.stdout.flush()
@@ -257,7 +278,8 @@ def _start(ns: str, cmd: list[str], log: Path, env: dict[str, str]) -> dict[str,
             os.dup2(fd, 2)
             os.close(fd)
             sys.stdout.reconfigure(line_buffering=True)  # type: ignore[union-attr]
-            _enter(ns)
+            if ns is not None:
+                _enter(ns)
             os.environ.clear()
             os.environ.update(env)
             from softplc.cli import main
