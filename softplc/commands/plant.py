@@ -118,6 +118,19 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 _PAGE_OFF = -1
+# what `softplc run` (with its web monitor and wires), `plant process` and `plant page`
+# import: loaded once by `plant up`, shared by every daemon it forks
+PRELOAD = ("softplc.cli", "softplc.commands.run", "softplc.daemon", "softplc.plc",
+           "softplc.access.port", "softplc.access.wires", "softplc.web", "softplc.web.server",
+           "softplc.plant.process", "softplc.runtime.linktcp", "softplc.commands.plantweb",
+           "softplc.web.plantpage")
+
+
+def _preload() -> None:
+    import importlib
+
+    for name in PRELOAD:
+        importlib.import_module(name)
 
 
 def _page_port(text: str) -> int:
@@ -139,7 +152,7 @@ def _up(args: argparse.Namespace) -> int:
         raise PlantStateError(f"plant up --netns: network namespaces do not work here: {why}")
     spec = load_plant(args.plant)
     page = hosts.PAGE_PORT if args.web is None else None if args.web == _PAGE_OFF else args.web
-    record = hosts.up(spec, args.state_dir, page)
+    record = hosts.up(spec, args.state_dir, _preload, page)
     print(f"{args.plant}: up; SCADA namespace {record['namespaces'][0]} at "
           f"{record['scada']}")
     for name, c in record["controllers"].items():

@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import importlib
 import ipaddress
 import json
 import os
+import runpy
 import secrets
 import shutil
 import signal
@@ -36,6 +36,7 @@ import threading
 import time
 import tomllib
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -62,12 +63,6 @@ PLANT = "plant"  # the plant host's name in the record; its namespace is spTAG.p
 TOKEN_BYTES = 24  # the monitors' token (secrets.token_urlsafe)
 NETNS_DIR = Path("/var/run/netns")  # where `ip netns add` keeps a namespace [ip-netns(8)]
 CLONE_NEWNET = 0x40000000  # setns(2)'s namespace type [linux/sched.h]
-# what `softplc run` (with its web monitor and wires) and `plant process` import: loaded
-# once by `plant up`, shared by every forked daemon
-PRELOAD = ("softplc.cli", "softplc.commands.run", "softplc.commands.plant", "softplc.daemon",
-           "softplc.plc", "softplc.access.port", "softplc.access.wires", "softplc.web",
-           "softplc.web.server", "softplc.plant.process", "softplc.runtime.linktcp",
-           "softplc.commands.plantweb", "softplc.web.plantpage")
 STOP_TIMEOUT_S = 10.0
 
 
@@ -148,12 +143,14 @@ def _commands(spec: PlantSpec, hosts: dict[str, str], plant_host: str = "",
     return out
 
 
-def up(spec: PlantSpec, state_dir: Path, page_port: int | None = PAGE_PORT,
-       ) -> dict[str, Any]:
+def up(spec: PlantSpec, state_dir: Path, preload: Callable[[], Any],
+       page_port: int | None = PAGE_PORT) -> dict[str, Any]:
     """Make the namespaces, start every daemon (and the plant host, when the plant has
     wires or shared devices) at once, wait for them all; the record of what was made.
-    `page_port`: the plant page on 127.0.0.1 of this machine (0: any free port) and each
-    daemon's web monitor on its own address (tokens for them all); None: neither."""
+    Each is a fork of this process running its `softplc` command line, once `preload`
+    imported what they run. `page_port`: the plant page on 127.0.0.1
+    of this machine (0: any free port) and each daemon's web monitor on its own address
+    (tokens for them all); None: neither."""
     web = page_port is not None
     t = tag(spec.file)
     record_file = state_dir / f"sp{t}.json"
@@ -210,8 +207,8 @@ def up(spec: PlantSpec, state_dir: Path, page_port: int | None = PAGE_PORT,
         if web and record["root"]:  # the page reaches the monitors through the root veth
             cmd = [sys.executable, "-m", "softplc", "plant", "page", str(spec.file),
                    "--record", str(record_file), "--port", str(page_port)]
-            record["processes"][PAGE] = _start(None, cmd, state_dir / f"sp{t}.{PAGE}.log",
-                                               env)
+            record["processes"][PAGE] = _start(None, cmd,
+                                               state_dir / f"sp{t}.{PAGE}.log", env)
             keep()
         _wait_banners({**record["controllers"], **record["processes"]})
         if PAGE in record["processes"]:
@@ -264,7 +261,7 @@ def _start(ns: str | None, cmd: list[str], log: Path, env: dict[str, str]) -> di
     """Start `softplc` command line `cmd` in namespace `ns` (None: this machine's own), in
     a session of its own, its output to `log`: a fork of this process (whose imports the
     child shares: no Python start-up and no imports per daemon) that enters the namespace
-    and runs the command as `python -m softplc` would (softplc.cli.main)."""
+    and runs the command as `python -m softplc` does (softplc/__main__.py)."""
     argv = cmd[3:]  # [python, -m, softplc, ...]
     fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)  # the monitor's token
     sys.stdout.flush()
@@ -282,9 +279,9 @@ def _start(ns: str | None, cmd: list[str], log: Path, env: dict[str, str]) -> di
                 _enter(ns)
             os.environ.clear()
             os.environ.update(env)
-            from softplc.cli import main
-
-            rc = main(argv)
+            sys.argv = ["softplc", *argv]
+            runpy.run_module("softplc", run_name="__main__", alter_sys=True)
+            rc = 0
         except SystemExit as e:
             rc = e.code if isinstance(e.code, int) else 1
         except BaseException:
@@ -307,12 +304,6 @@ def _enter(ns: str) -> None:
             raise OSError(err, f"setns {ns}: {os.strerror(err)}")
     finally:
         os.close(fd)
-
-
-def preload() -> None:
-    """Import what the daemons and the plant host run, once, before forking them."""
-    for name in PRELOAD:
-        importlib.import_module(name)
 
 
 def _wait_banners(started: dict[str, dict[str, Any]]) -> None:
