@@ -1,22 +1,30 @@
 """`softplc plant up --netns` / `plant down`: each controller of a plant file as its own
 `softplc run` daemon in its own network namespace, the Remote Link over TCP between them
-(softplc.runtime.linktcp), plus a namespace for a SCADA (issue 35).
+(softplc.runtime.linktcp), the shared devices and wires as a host of their own (`plant
+process`, softplc.plant.process: the wired I/O over TCP, softplc.runtime.wiretcp), a
+namespace for a SCADA, and the plant page on this machine (issue 35).
 
-The network, all of it inside namespaces made here (iproute2):
+The network, all of it inside namespaces made here (iproute2), but one veth:
 
     namespace spTAG-scada: bridge brTAG, address .254 (the SCADA's host)
       veth vTAGNb -- vTAGNa in namespace spTAG-NAME, the controller's address
+      veth vTAGNb -- vTAGNa in namespace spTAG.plant, .252 (the plant host)
+      veth vTAGrb -- vTAGr in this machine's namespace, .253 (the page, a browser)
 
 TAG: 6 hex digits of the plant file's absolute path (two plants never share names; an
 interface name stays within Linux's 15 characters). Addresses: each controller's `host`
 from the plant file, else 10.35.0.N (N its place in the file); a /24 around them.
-Each daemon: Modbus on port 502 of its address, a remote answers the link on `LINK_PORT`.
-What `up` made (namespaces, processes) is written to `spTAG.json` in the state folder,
-which `down` reads to remove it all; a daemon that dies leaves the others running (each is
-a process of its own, in a session of its own).
+Each daemon: Modbus on port 502 of its address, a remote answers the link on `LINK_PORT`,
+the plant host's wires on `WIRE_PORT`, the web monitor on `WEB_PORT` (tokens made here,
+given in the environment). What `up` made (namespaces, the veth, processes, tokens) is
+written to `spTAG.json` (owner only) in the state folder before it is made, which `down`
+reads to remove it all; a process that dies leaves the others running (each is a process
+of its own, in a session of its own).
 
-Not carried between hosts: wires and shared devices (they are one process' objects: `plant
-run`); EXCH links reach the named controller's host as they do on a network.
+Start-up: the imports every daemon needs are loaded once here (while `ip -batch` makes the
+network), then each daemon, the plant host and the page are forks of this process that
+enter their namespace (setns) and run their `softplc` command line: no Python start-up and
+no imports per daemon. EXCH links reach the named controller's host as on a network.
 """
 
 from __future__ import annotations
