@@ -160,7 +160,8 @@ def measure_netns(path: Path, state: Path) -> tuple[float, float, float]:
 
     all_peers = (1 << (NETNS_CONTROLLERS - 1)) - 1
     t0 = time.perf_counter()
-    up = _softplc("plant", "up", str(path), "--netns", "--state-dir", str(state))
+    up = _softplc("plant", "up", str(path), "--netns", "--state-dir", str(state), "--web",
+                  "0")  # the monitors and the page, as by default, on any free page port
     t_up = time.perf_counter() - t0
     try:
         if up.returncode:

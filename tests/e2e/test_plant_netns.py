@@ -74,7 +74,8 @@ def test_plant_up_runs_each_controller_in_its_namespace_and_down_removes_all(tmp
         (tmp_path / name).write_text(text)
     state = tmp_path / "state"
     t = hosts.tag(tmp_path / "plant.toml")
-    up = _softplc(tmp_path, "plant", "up", "plant.toml", "--netns", "--state-dir", str(state))
+    up = _softplc(tmp_path, "plant", "up", "plant.toml", "--netns", "--state-dir", str(state),
+                  "--web", "0")  # the page on any free port: 8030 may be another's
     try:
         assert up.returncode == 0, up.stderr
         scada = f"sp{t}-scada"
@@ -96,8 +97,7 @@ def test_plant_up_runs_each_controller_in_its_namespace_and_down_removes_all(tmp
         down = _softplc(tmp_path, "plant", "down", "plant.toml", "--state-dir", str(state))
     assert down.returncode == 0, down.stderr
     assert "master: stopped" in down.stdout and "peer: already gone" in down.stdout
-    left = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout
-    assert f"sp{t}" not in left
+    assert _leftovers(t) == []  # no namespace, veth or process
     assert not (state / f"sp{t}.json").exists()
 
 
@@ -122,7 +122,7 @@ def test_plant_up_carries_the_belt_and_a_broken_wire_reads_0(tmp_path):
     state = tmp_path / "state"
     t = hosts.tag(EXAMPLE)
     up = _softplc(tmp_path, "plant", "up", str(EXAMPLE), "--netns", "--state-dir",
-                  str(state))
+                  str(state), "--web", "0")
     try:
         assert up.returncode == 0, up.stderr
         record = json.loads((state / f"sp{t}.json").read_text())
