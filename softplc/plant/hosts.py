@@ -345,10 +345,13 @@ def down(record_file: Path) -> list[str]:
     done = []
     stopping = {}
     for name, c in {**record.get("processes", {}), **record["controllers"]}.items():
-        try:  # the session `up` gave it
+        try:  # the session `up` gave it (the process alone if it has not made it yet)
             if not _alive(c["pid"]):
                 raise ProcessLookupError
-            os.killpg(c["pid"], signal.SIGTERM)
+            try:
+                os.killpg(c["pid"], signal.SIGTERM)
+            except ProcessLookupError:
+                os.kill(c["pid"], signal.SIGTERM)
         except ProcessLookupError:
             done.append(f"{name}: already gone")
             continue
@@ -358,7 +361,10 @@ def down(record_file: Path) -> list[str]:
         time.sleep(BANNER_POLL_S)
     for name, pid in stopping.items():
         if _alive(pid):
-            os.killpg(pid, signal.SIGKILL)
+            try:
+                os.killpg(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                os.kill(pid, signal.SIGKILL)
             done.append(f"{name}: killed (no stop within {STOP_TIMEOUT_S:g} s)")
         else:
             done.append(f"{name}: stopped")
