@@ -3,8 +3,13 @@
     softplc plant check plant.toml                 # load and build; every error, with its line
     softplc plant run plant.toml [--speed max] [--for 60s] [--set master:%I0.0=1]
                                  [--print master:%MW0] [--every 10s] [--json]
-    softplc plant up plant.toml --netns            # each controller a daemon, its own host
+    softplc plant up plant.toml --netns [--web PORT|off]   # each controller a daemon, its
+                                                   # own host; the plant page on PORT
     softplc plant down plant.toml                  # stop them, remove the namespaces
+    softplc plant process plant.toml               # the shared devices and wires, their
+                                                   # I/O over TCP (`up` starts it)
+    softplc plant page plant.toml --record FILE    # the page of a plant that is up (`up`
+                                                   # starts it)
 
 `run` runs every controller, link, wire and shared device of the plant file in this
 process on one virtual clock (softplc.plant): the same result on every run. `--speed N`
@@ -170,7 +175,12 @@ def _up(args: argparse.Namespace) -> int:
     else:
         print("  this machine has an address in the plant's network already (another "
               "plant?): no veth to it; reach the controllers from the SCADA namespace")
-    print(f"e.g. ip netns exec {record['namespaces'][0]} softplc io ... ; stop with: "
+    first = next(iter(record["controllers"].values()))["host"]
+    if record["token"]:
+        print(f"e.g. softplc io --host {first} --token TOKEN get %MW0 (TOKEN: \"token\" in "
+              f"the record, {args.state_dir}/sp{hosts.tag(Path(args.plant))}.json)")
+    print(f"Modbus: {first}:{hosts.MODBUS_PORT} ... from the SCADA namespace (ip netns exec "
+          f"{record['namespaces'][0]} ...) or this machine; stop with: "
           f"softplc plant down {args.plant}")
     return 0
 
