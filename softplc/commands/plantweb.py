@@ -18,6 +18,7 @@ import time
 from typing import Any
 
 from softplc.commands.io import Client, IoError
+from softplc.errors import PlantStateError
 from softplc.twido.address import LINK_WORDS
 
 POLL_S = 0.5  # the page refreshes twice a second (softplc.web.plantpage)
@@ -102,7 +103,14 @@ def serve(args: argparse.Namespace) -> int:
     since = time.monotonic()
     page = PlantPage(args.port)
     page.publish(remote_view(spec, record, clients, since))
-    print(f"plant page: {page.start()}", flush=True)
+    try:
+        url = page.start()
+    except OSError as e:
+        page.stop()
+        raise PlantStateError(f"plant page: cannot listen on 127.0.0.1:{args.port}: "
+                              f"{e.strerror or e}; choose another --web PORT (0: any free "
+                              f"one) or --web off") from None
+    print(f"plant page: {url}", flush=True)
     try:
         while not stopping:
             time.sleep(POLL_S)

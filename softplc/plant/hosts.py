@@ -62,7 +62,7 @@ WEB_PORT = 8020  # each controller's web monitor, on its own address (softplc.we
 START_TIMEOUT_S = 30.0  # a daemon's banner must appear within this (a slow, loaded host)
 BANNER_POLL_S = 0.02  # how often `up` looks at the logs for the banners
 # the last banner line of `softplc run` (tools and tests wait for it) and `plant process`
-PAGE_BANNER = "plant page: "  # then its URL
+PAGE_BANNER = "plant page: http://"  # the page's URL
 BANNERS = ("Modbus TCP server listening on", "plant process: ticking", PAGE_BANNER)
 PAGE = "page"  # the plant page's process in the record
 PAGE_PORT = 8030  # the plant page's default port, on 127.0.0.1 (docs/plant.md)
@@ -221,7 +221,7 @@ def up(spec: PlantSpec, state_dir: Path, preload: Callable[[], Any],
         _wait_banners({**record["controllers"], **record["processes"]})
         if PAGE in record["processes"]:
             log = Path(record["processes"][PAGE]["log"]).read_text()
-            record["page"] = log.split(PAGE_BANNER, 1)[1].split()[0]
+            record["page"] = "http://" + log.split(PAGE_BANNER, 1)[1].split()[0]
             keep()
     except BaseException:
         loading.join()
