@@ -269,6 +269,7 @@ class Model(ObjectModel):
         self.calls: list[int] = []
         self.overflow: Any = z3.BoolVal(False)
         self.facts: list[Any] = []  # what is known of abstracted float functions' values
+        self.applied: dict[str, list[tuple[Any, Any]]] = {}  # their (argument, value)
         self.post_done = False
         self.function(self.plc.ast.main, main=True)
         if self.grafcet and not self.post_done:
