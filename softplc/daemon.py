@@ -109,6 +109,9 @@ class DaemonOptions:
     # the Remote Link over TCP (softplc.runtime.linktcp: a MasterService or RemoteService,
     # already bound): it meets the scans at their boundaries, runs in threads of its own
     link: Any = None
+    # the wired inputs and outputs over TCP (softplc.access.wires.WireService, already
+    # bound): its input changes go through the access port's queue, as the web monitor's
+    wires: Any = None
 
 
 def percentiles(samples: list[float], *ps: float) -> list[float]:
@@ -211,8 +214,9 @@ class Daemon:
             self.say("  read-only: every write is answered with exception 01")
         if opt.allow is not None:
             self.say("  clients allowed from: " + ", ".join(str(n) for n in opt.allow))
-        if opt.link is not None:
-            self.say(opt.link.banner())
+        for service in (opt.link, opt.wires):
+            if service is not None:
+                self.say(service.banner())
         for line in self.web.banner() if self.web is not None else ():  # web monitor hook
             self.say(line)
         # The last banner line: tools and tests wait for it.
@@ -319,15 +323,22 @@ class Daemon:
                 if opt.speed != math.inf:  # the Modbus thread's priority (see _realtime)
                     opt.link.priority = max(0, opt.rt_priority - 1)
                 opt.link.start()
-            # web monitor hook: served on the Modbus server's event loop (softplc.web)
-            if opt.web is not None and opt.web.port is not None:
+            web = opt.web is not None and opt.web.port is not None
+            access = None
+            if web or opt.wires is not None:  # one access port, one command queue
                 from softplc.access import AccessPort
+
+                access = AccessPort(plc, image)
+                access.program.files_root = opt.config_dir
+                access.program.keeper = self.keeper  # an online change is kept with the state
+            if opt.wires is not None:
+                opt.wires.attach_access(plc, access)
+                opt.wires.start()
+            # web monitor hook: served on the Modbus server's event loop (softplc.web)
+            if web:
                 from softplc.web import attach
 
-                port = AccessPort(plc, image)
-                port.program.files_root = opt.config_dir
-                port.program.keeper = self.keeper  # an online change is kept with the state
-                self.web = attach(self, server, port, opt.web)
+                self.web = attach(self, server, access, opt.web)
             for hook in opt.on_serving:
                 hook(server, image)
         except BaseException:
@@ -335,8 +346,9 @@ class Daemon:
                 self.web.stop()
             if self._server is not None:
                 self._server.stop()
-            if opt.link is not None:
-                opt.link.stop()
+            for service in (opt.link, opt.wires):
+                if service is not None:
+                    service.stop()
             for s in sockets:
                 s.close()
             if store is not None:
@@ -519,8 +531,9 @@ class Daemon:
     def _shutdown(self, server: ServerThread, store: retain.StateStore | None,
                   keeper: StateKeeper | None) -> None:
         plc = self.plc
-        if self.opt.link is not None:  # off the link before the outputs go to 0
-            self.opt.link.stop()
+        for service in (self.opt.link, self.opt.wires):  # off the link and the wires
+            if service is not None:  # before the outputs go to 0
+                service.stop()
         plc.engine.stop_outputs()
         if self.web is not None:  # web monitor hook
             self.web.stop()

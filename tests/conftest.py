@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from daemon_util import daemons  # noqa: F401 (the `daemons` fixture)
+from daemon_util import daemons, kill_all  # noqa: F401 (the `daemons` fixture)
 from tiers import TIERS, tier_of
 
 # Test modules import each other's helpers across tiers (an e2e web test the unit tier's
@@ -20,6 +20,11 @@ for _tier in TIERS:
 # module from source again (about 0.5 s of CPU per start); with it unset the first one
 # writes the __pycache__ (git-ignored) and the others load it.
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """No daemon outlives the suite, whichever test failed before stopping its own."""
+    kill_all()
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

@@ -18,6 +18,22 @@ from softplc.modbus.rawclient import RawClient
 
 ROOT = Path(__file__).resolve().parents[1]
 
+# How long a daemon may take to print its banner: generous, as the wait ends at the line
+# (a loaded machine starts Python slowly; the test must not depend on its speed).
+START_TIMEOUT_S = 90.0
+# Every daemon started by a test: the session's end kills any still running (a test that
+# failed before its fixture could stop it must not leave a `--speed max` daemon burning a
+# core under the rest of the suite).
+LIVE: set[subprocess.Popen] = set()
+
+
+def kill_all() -> None:
+    for proc in list(LIVE):
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
+    LIVE.clear()
+
 
 class Daemon:
     """`python -m softplc run` on a free port; stdout lines collected by a thread."""
@@ -35,17 +51,22 @@ class Daemon:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "softplc", "run", str(prog), "--port", "0", *args],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp)
+        LIVE.add(self.proc)
         self.lines: queue.Queue[str] = queue.Queue()
         self.out: list[str] = []
         threading.Thread(target=self._read, daemon=True).start()
         self.port = 0
         if wait:
-            self.wait_listening()
+            try:
+                self.wait_listening()
+            except BaseException:
+                self.kill()  # no caller holds it yet: nobody else would
+                raise
 
     def wait_listening(self) -> int:
         """Wait for the banner's address line (`wait=False` starts several daemons at once,
         overlapping their start-up); the port."""
-        line = self.wait_for(r"listening on 127\.0\.0\.1:(\d+)")
+        line = self.wait_for(r"listening on 127\.0\.0\.1:(\d+)", START_TIMEOUT_S)
         self.port = int(re.search(r":(\d+)$", line.strip())[1])
         return self.port
 
@@ -86,6 +107,7 @@ class Daemon:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait(10)
+        LIVE.discard(self.proc)
 
 
 @pytest.fixture

@@ -103,6 +103,8 @@ class AccessPort:
         self.reading = Reading(plc)  # typed reads at a scan boundary
         self.machine = MachineInfo(plc)  # I/O layout, analog channels, devices, rungs
         self.program = ProgramAccess(plc, image)  # listing, symbols, map, online change
+        # inputs a wire drives ({address: by what}, softplc.access.wires): only forced here
+        self.wired: dict[str, str] = {}
         if hooks:
             plc.before_scan.append(self.queue.apply)
             plc.after_scan.append(self.reading.serve)
@@ -140,6 +142,9 @@ class AccessPort:
         if ref.kind == "I" and not forcing and str(ref) in device_io:
             return (f"{ref.label} is driven by the simulated device "
                     f"{device_io[str(ref)]!r}: force it to override")
+        if ref.kind == "I" and not forcing and str(ref) in self.wired:
+            return (f"{ref.label} is driven by {self.wired[str(ref)]}: force it to "
+                    f"override")
         if self.image is not None and ref.kind in IMAGE_KINDS and not forcing \
                 and ref.offset is None \
                 and self.image.read_only_object(ref.kind, ref.index, ref.bit):

@@ -3,8 +3,13 @@
     softplc plant check plant.toml                 # load and build; every error, with its line
     softplc plant run plant.toml [--speed max] [--for 60s] [--set master:%I0.0=1]
                                  [--print master:%MW0] [--every 10s] [--json]
-    softplc plant up plant.toml --netns            # each controller a daemon, its own host
+    softplc plant up plant.toml --netns [--web PORT|off]   # each controller a daemon, its
+                                                   # own host; the plant page on PORT
     softplc plant down plant.toml                  # stop them, remove the namespaces
+    softplc plant process plant.toml               # the shared devices and wires, their
+                                                   # I/O over TCP (`up` starts it)
+    softplc plant page plant.toml --record FILE    # the page of a plant that is up (`up`
+                                                   # starts it)
 
 `run` runs every controller, link, wire and shared device of the plant file in this
 process on one virtual clock (softplc.plant): the same result on every run. `--speed N`
@@ -88,13 +93,59 @@ def register(sub: argparse._SubParsersAction) -> None:
     u.add_argument("--state-dir", type=Path, default=STATE_DIR,
                    help=f"where the record of what was made and the logs go "
                         f"(default {STATE_DIR})")
+    u.add_argument("--web", type=_page_port, default=None, metavar="PORT|off",
+                   help="the plant page on 127.0.0.1:PORT of this machine (default 8030; 0 = "
+                        "any free port) and each controller's web monitor on its own "
+                        "address; off = neither")
     u.set_defaults(func=_up)
+    g = verbs.add_parser("page", help="the plant page of a plant that is up (`plant up` "
+                                      "starts it)")
+    g.add_argument("plant", help="the plant file (plant.toml)")
+    g.add_argument("--record", type=Path, required=True,
+                   help="`plant up`'s record (spTAG.json in its state folder)")
+    g.add_argument("--port", type=port, default=0, help="on 127.0.0.1 (0 = any free port)")
+    g.set_defaults(func=_page)
+    h = verbs.add_parser("process", help="the plant's shared devices and wires on the real "
+                                         "clock, the controllers' wired I/O over TCP "
+                                         "(the plant host `plant up` starts)")
+    h.add_argument("plant", help="the plant file (plant.toml)")
+    h.add_argument("--port", type=port, default=None,
+                   help="the controllers' --wire-listen port (default: plant up's)")
+    h.add_argument("--for", dest="duration", type=_duration, default=None, metavar="TIME",
+                   help="stop after this much time (default: SIGTERM or Ctrl-C)")
+    h.set_defaults(func=_process)
     d = verbs.add_parser("down", help="stop the daemons and remove the namespaces "
                                       "`plant up` made")
     d.add_argument("plant", help="the plant file (plant.toml)")
     d.add_argument("--state-dir", type=Path, default=STATE_DIR,
                    help=f"the --state-dir of `plant up` (default {STATE_DIR})")
     d.set_defaults(func=_down)
+
+
+_PAGE_OFF = -1
+# what `softplc run` (with its web monitor and wires), `plant process` and `plant page`
+# import: loaded once by `plant up`, shared by every daemon it forks
+PRELOAD = ("softplc.cli", "softplc.commands.run", "softplc.daemon", "softplc.plc",
+           "softplc.access.port", "softplc.access.wires", "softplc.web", "softplc.web.server",
+           "softplc.plant.process", "softplc.runtime.linktcp", "softplc.commands.plantweb",
+           "softplc.web.plantpage")
+
+
+def _preload() -> None:
+    import importlib
+
+    for name in PRELOAD:
+        importlib.import_module(name)
+
+
+def _page_port(text: str) -> int:
+    return _PAGE_OFF if text.strip().lower() == "off" else port(text)
+
+
+def _page(args: argparse.Namespace) -> int:
+    from softplc.commands.plantweb import serve
+
+    return serve(args)
 
 
 def _up(args: argparse.Namespace) -> int:
@@ -105,17 +156,59 @@ def _up(args: argparse.Namespace) -> int:
     if why:
         raise PlantStateError(f"plant up --netns: network namespaces do not work here: {why}")
     spec = load_plant(args.plant)
-    record = hosts.up(spec, args.state_dir)
+    page = hosts.PAGE_PORT if args.web is None else None if args.web == _PAGE_OFF else args.web
+    record = hosts.up(spec, args.state_dir, _preload, page)
     print(f"{args.plant}: up; SCADA namespace {record['namespaces'][0]} at "
           f"{record['scada']}")
     for name, c in record["controllers"].items():
         print(f"  {name}: namespace {c['namespace']}, Modbus {c['host']}:{hosts.MODBUS_PORT}, "
               f"pid {c['pid']}, log {c['log']}")
-    if spec.data.wires or spec.data.devices:
-        print(f"  not carried between hosts: {len(spec.data.wires)} wires, "
-              f"{len(spec.data.devices)} shared devices (one process' objects: plant run)")
-    print(f"e.g. ip netns exec {record['namespaces'][0]} softplc io ... ; stop with: "
+    plant = record["processes"].get(hosts.PLANT)
+    if plant is not None:
+        print(f"  plant host (shared devices, wires): namespace {plant['namespace']}, "
+              f"{plant['host']}, pid {plant['pid']}, log {plant['log']}")
+    if record["root"]:
+        print(f"  this machine: {record['root']} on the plant network ({record['root_veth']})")
+        if record["page"]:
+            print(f"plant page: {record['page']} (each controller's monitor: "
+                  f"http://ADDRESS:{hosts.WEB_PORT}/, the token in {args.state_dir})")
+    else:
+        print("  this machine has an address in the plant's network already (another "
+              "plant?): no veth to it; reach the controllers from the SCADA namespace")
+    first = next(iter(record["controllers"].values()))["host"]
+    if record["token"]:
+        print(f"e.g. softplc io --host {first} --token TOKEN get %MW0 (TOKEN: \"token\" in "
+              f"the record, {args.state_dir}/sp{hosts.tag(Path(args.plant))}.json)")
+    print(f"Modbus: {first}:{hosts.MODBUS_PORT} ... from the SCADA namespace (ip netns exec "
+          f"{record['namespaces'][0]} ...) or this machine; stop with: "
           f"softplc plant down {args.plant}")
+    return 0
+
+
+def _process(args: argparse.Namespace) -> int:
+    import signal
+
+    from softplc.plant import hosts
+    from softplc.plant.model import load_plant
+    from softplc.plant.process import WIRE_PORT, PhysicalProcess
+
+    spec = load_plant(args.plant)
+    addr = hosts.addresses(spec)
+    proc = PhysicalProcess(spec, addr, WIRE_PORT if args.port is None else args.port)
+    stopping: list[int] = []
+    signal.signal(signal.SIGTERM, lambda *_: stopping.append(1))
+    to = ", ".join(f"{n} {c.where[0]}:{c.where[1]}" for n, c in proc.clients.items())
+    print(f"{args.plant}: {len(proc.devices)} shared devices, {len(spec.wires)} wires, "
+          f"wired controllers: {to or 'none'}", flush=True)
+    print(f"plant process: ticking every {proc.tick_s * 1000:g} ms", flush=True)
+    end = None if args.duration is None else time.monotonic() + args.duration
+    try:
+        proc.run(lambda: bool(stopping) or (end is not None and time.monotonic() >= end))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        proc.close()
+        print(json.dumps(proc.status()), flush=True)
     return 0
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,8 @@ from typing import Any
 from softplc.commands._args import add_program_arguments, load_plc, port
 from softplc.errors import ConfigError
 
+# the tokens kept out of the command line (`ps`): `plant up` gives them so
+WEB_TOKEN_ENV, WEB_READ_TOKEN_ENV = "SOFTPLC_WEB_TOKEN", "SOFTPLC_WEB_READ_TOKEN"
 _BARE_NUMBER = re.compile(r"^\s*[0-9]*\.?[0-9]+\s*$")
 
 
@@ -185,6 +188,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    metavar="ADDR=HOST:PORT",
                    help="the master ([remote_link] address 0): where remote ADDR listens; "
                         "one for each declared remote (repeatable)")
+    # hardwired signals from the plant host (softplc.access.wires)
+    p.add_argument("--wire-listen", type=_endpoint, metavar="HOST:PORT",
+                   help="take the wired inputs from the plant host (`softplc plant "
+                        "process`) and give it the wired outputs on this TCP address")
+    p.add_argument("--wire-peer", metavar="ADDR",
+                   help="with --wire-listen: the plant host's address, the only one that "
+                        "may connect")
+    p.add_argument("--wire-in", default="", metavar="%I0.0,...",
+                   help="with --wire-listen: the inputs the plant host drives, in order "
+                        "(written at scan boundaries; 0 when the plant host is gone)")
+    p.add_argument("--wire-out", default="", metavar="%Q0.0,...",
+                   help="with --wire-listen: the outputs the plant host reads, in order")
     # web monitor options (softplc.web)
     p.add_argument("--web", type=_web_port, default=None, metavar="PORT|off",
                    help="web monitor port (default 8020, on 127.0.0.1; 0 = any free port; "
@@ -194,11 +209,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "address every request needs the token printed at start")
     p.add_argument("--web-read-only", action="store_true",
                    help="the web monitor and its API only show: no writes, forcing, RUN/STOP")
-    p.add_argument("--web-token", help="token for changes through the web API; beyond "
-                   "loopback for every request (default: a random one there)")
+    p.add_argument("--web-token", default=os.environ.get(WEB_TOKEN_ENV),
+                   help="token for changes through the web API; beyond loopback for every "
+                        f"request (default: ${WEB_TOKEN_ENV}, else a random one there)")
     p.add_argument("--web-read-token", metavar="TOKEN",
+                   default=os.environ.get(WEB_READ_TOKEN_ENV),
                    help="beyond loopback, a second token that only reads (page, API, "
-                        "websocket)")
+                        f"websocket; default: ${WEB_READ_TOKEN_ENV})")
     p.add_argument("--web-allow-host", action="append", default=[], metavar="NAME,...",
                    help="a Host name the monitor answers to besides localhost, this "
                         "machine's name and IP addresses (repeatable; * = any; or [web] "
@@ -214,6 +231,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
     p.set_defaults(func=run)
+    # what --replay leaves unused: refused when given, never silently ignored
+    _DAEMON_DEFAULTS.update({a.dest: a.default for a in p._actions
+                             if a.option_strings and a.dest not in _REPLAY_USES})
+
+
+# The options a replay uses (the rest belong to the daemon it replaces: refused with it).
+_REPLAY_USES = {"help", "config", "replay", "web", "log_level", "symbols"}
+_DAEMON_DEFAULTS: dict[str, Any] = {}
+
+
+def _replay_refuses(args: argparse.Namespace) -> None:
+    given = sorted(f"--{d.replace('_', '-')}" for d, default in _DAEMON_DEFAULTS.items()
+                   if getattr(args, d, default) != default)
+    if given:
+        raise ConfigError(f"--replay plays a counterexample without a daemon: "
+                          f"{', '.join(given)} would have no effect (drop them; the page "
+                          f"is on 127.0.0.1 at the --web port)")
 
 
 def _endpoint(text: str) -> tuple[str, int]:
@@ -262,6 +296,27 @@ def _link(args: argparse.Namespace, plc: Any) -> Any:
     return linktcp.RemoteService(station, *args.link_listen)
 
 
+def _wires(args: argparse.Namespace) -> Any:
+    """The wire service --wire-listen asks for, bound (None: none)."""
+    given = args.wire_peer or args.wire_in or args.wire_out
+    if not args.wire_listen:
+        if given:
+            raise ConfigError("--wire-peer / --wire-in / --wire-out go with --wire-listen")
+        return None
+    if not args.wire_peer:
+        raise ConfigError("--wire-listen: --wire-peer ADDR names the plant host, the only "
+                          "address that may drive the wired inputs")
+    from softplc.access.wires import WireService
+
+    def names(text: str) -> list[str]:
+        return [n.strip() for n in text.split(",") if n.strip()]
+    try:
+        return WireService(*args.wire_listen, args.wire_peer, names(args.wire_in),
+                           names(args.wire_out))
+    except ValueError as e:
+        raise ConfigError(str(e)) from None
+
+
 def _pick(cli: Any, configured: Any) -> Any:
     """The command-line value if given, else the configuration's (validated, defaulted)."""
     return configured if cli is None else cli
@@ -273,6 +328,8 @@ _LOCKED: list[int] = []  # descriptors held open (and locked) until the process 
 def run(args: argparse.Namespace) -> int:
     if args.replay is not None:
         from softplc.commands.replay import play
+
+        _replay_refuses(args)
         from softplc.web import DEFAULT_WEB_PORT
 
         web = None if args.web == _WEB_OFF else _pick(args.web, DEFAULT_WEB_PORT)
@@ -338,6 +395,7 @@ def run(args: argparse.Namespace) -> int:
         gc_freeze=not args.no_gc_freeze,
         config_dir=_folder(args.config_dir),
         link=_link(args, plc),
+        wires=_wires(args),
     )
     app = application_id(plc.machine, args.program.read_bytes())
     return Daemon(plc, opts, program_name=str(args.program), app=app).run()

@@ -74,18 +74,18 @@ class StateKeeper:
         except StateFileError as e:
             if not self.lost:  # loud once; retried at every check
                 self.lost = f"{where} {what} and cannot be re-created ({e})"
+                self.on_change(self.lost)  # refuse first: whoever reads the line sees it so
                 log.error("%s: host writes are refused from now on", self.lost)
                 self.say(f"ERROR: {self.lost}; host writes are refused until it can be")
-                self.on_change(self.lost)
             return False
         self.recreated += 1
         text = (f"{where} {what} while the daemon ran: re-created from memory with every "
                 f"acknowledged write, locked again")
-        log.error("%s", text)
-        self.say(f"WARNING: {text}")
         if self.lost:
             self.lost = ""
             self.on_change("")
+        log.error("%s", text)
+        self.say(f"WARNING: {text}")
         return True
 
     def stop(self) -> None:

@@ -1,47 +1,76 @@
 """`softplc plant up --netns` / `plant down`: each controller of a plant file as its own
 `softplc run` daemon in its own network namespace, the Remote Link over TCP between them
-(softplc.runtime.linktcp), plus a namespace for a SCADA (issue 35).
+(softplc.runtime.linktcp), the shared devices and wires as a host of their own (`plant
+process`, softplc.plant.process: the wired I/O over TCP, softplc.runtime.wiretcp), a
+namespace for a SCADA, and the plant page on this machine (issue 35).
 
-The network, all of it inside namespaces made here (iproute2):
+The network, all of it inside namespaces made here (iproute2), but one veth:
 
     namespace spTAG-scada: bridge brTAG, address .254 (the SCADA's host)
       veth vTAGNb -- vTAGNa in namespace spTAG-NAME, the controller's address
+      veth vTAGNb -- vTAGNa in namespace spTAG.plant, .252 (the plant host)
+      veth vTAGrb -- vTAGr in this machine's namespace, .253 (the page, a browser)
 
 TAG: 6 hex digits of the plant file's absolute path (two plants never share names; an
 interface name stays within Linux's 15 characters). Addresses: each controller's `host`
 from the plant file, else 10.35.0.N (N its place in the file); a /24 around them.
-Each daemon: Modbus on port 502 of its address, a remote answers the link on `LINK_PORT`.
-What `up` made (namespaces, processes) is written to `spTAG.json` in the state folder,
-which `down` reads to remove it all; a daemon that dies leaves the others running (each is
-a process of its own, in a session of its own).
+Each daemon: Modbus on port 502 of its address, a remote answers the link on `LINK_PORT`,
+the plant host's wires on `WIRE_PORT`, the web monitor on `WEB_PORT` (tokens made here,
+given in the environment). What `up` made (namespaces, the veth, processes, tokens) is
+written to `spTAG.json` (owner only) in the state folder before it is made, which `down`
+reads to remove it all; a process that dies leaves the others running (each is a process
+of its own, in a session of its own).
 
-Not carried between hosts: wires and shared devices (they are one process' objects: `plant
-run`); EXCH links reach the named controller's host as they do on a network.
+Start-up: the imports every daemon needs are loaded once here (while `ip -batch` makes the
+network), then each daemon, the plant host and the page are forks of this process that
+enter their namespace (setns) and run their `softplc` command line: no Python start-up and
+no imports per daemon. EXCH links reach the named controller's host as on a network.
 """
 
 from __future__ import annotations
 
+import ctypes
 import hashlib
 import ipaddress
 import json
 import os
+import runpy
+import secrets
 import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 import tomllib
+import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from softplc.errors import PlantStateError
 from softplc.plant.model import PlantSpec
+from softplc.plant.process import WIRE_PORT, wired_io
 
 MODBUS_PORT = 502  # a real Twido's Modbus TCP port [Modbus TCP spec: port 502]
 LINK_PORT = 5101  # where a remote answers the link (a softplc choice)
 DEFAULT_NET = ipaddress.ip_network("10.35.0.0/24")  # private (RFC 1918), issue 35's number
 SCADA_HOST = 254  # the SCADA's address in the /24
+ROOT_HOST = 253  # this machine's own address on the plant network (the plant page, a browser)
+PLANT_HOST = 252  # the plant host's (the shared devices and wires: `plant process`)
+WEB_PORT = 8020  # each controller's web monitor, on its own address (softplc.web's default)
 START_TIMEOUT_S = 30.0  # a daemon's banner must appear within this (a slow, loaded host)
+BANNER_POLL_S = 0.02  # how often `up` looks at the logs for the banners
+# the last banner line of `softplc run` (tools and tests wait for it) and `plant process`
+PAGE_BANNER = "plant page: http://"  # the page's URL
+BANNERS = ("Modbus TCP server listening on", "plant process: ticking", PAGE_BANNER)
+PAGE = "page"  # the plant page's process in the record
+PAGE_PORT = 8030  # the plant page's default port, on 127.0.0.1 (docs/plant.md)
+PLANT = "plant"  # the plant host's name in the record; its namespace is spTAG.plant (a
+# controller's name has no '.': never the same)
+TOKEN_BYTES = 24  # the monitors' token (secrets.token_urlsafe)
+NETNS_DIR = Path("/var/run/netns")  # where `ip netns add` keeps a namespace [ip-netns(8)]
+CLONE_NEWNET = 0x40000000  # setns(2)'s namespace type [linux/sched.h]
 STOP_TIMEOUT_S = 10.0
 
 
@@ -63,9 +92,11 @@ def netns_works() -> str:
     return ""
 
 
-def _ip(*args: str, ns: str | None = None) -> None:
-    cmd = ["ip", *(["-n", ns] if ns else []), *args]
-    r = subprocess.run(cmd, capture_output=True, text=True)
+def _ip_batch(lines: list[str], ns: str | None = None) -> None:
+    """iproute2 commands, one `ip -batch` process (in namespace `ns`); the first that
+    fails stops it and is reported."""
+    cmd = ["ip", *(["-n", ns] if ns else []), "-batch", "-"]
+    r = subprocess.run(cmd, input="\n".join(lines) + "\n", capture_output=True, text=True)
     if r.returncode:
         raise PlantStateError(f"{' '.join(cmd)}: {r.stderr.strip()}")
 
@@ -78,8 +109,12 @@ def addresses(spec: PlantSpec) -> dict[str, str]:
     return out
 
 
-def _commands(spec: PlantSpec, hosts: dict[str, str]) -> dict[str, list[str]]:
-    """Each controller's `softplc run` command line (the link options from the plant)."""
+def _commands(spec: PlantSpec, hosts: dict[str, str], plant_host: str = "",
+              web: bool = False) -> dict[str, list[str]]:
+    """Each controller's `softplc run` command line: the link options from the plant, the
+    wire options (its wired inputs, driven by `plant_host` only), its web monitor on its
+    own address (`web`; its token from the environment) or none."""
+    io = wired_io(spec)
     masters = {e.master: e for e in spec.data.links.values() if e.type == "remote_link"}
     linked = {p for e in masters.values() for p in e.peers}
     out = {}
@@ -89,7 +124,14 @@ def _commands(spec: PlantSpec, hosts: dict[str, str]) -> dict[str, list[str]]:
             raise PlantStateError(f"{name}: a remote I/O controller has no program to run "
                                   "as a daemon; `plant up` runs program controllers")
         cmd = [sys.executable, "-m", "softplc", "run", str(program.resolve()), "--host",
-               hosts[name], "--port", str(MODBUS_PORT), "--web", "off", "--cold"]
+               hosts[name], "--port", str(MODBUS_PORT), "--cold"]
+        # the token travels in the environment (SOFTPLC_WEB_TOKEN), not on the command line
+        cmd += ["--web", str(WEB_PORT), "--web-host", hosts[name]] if web else \
+            ["--web", "off"]
+        if name in io:
+            ins, outs = io[name]
+            cmd += ["--wire-listen", f"{hosts[name]}:{WIRE_PORT}", "--wire-peer", plant_host,
+                    "--wire-in", ",".join(ins), "--wire-out", ",".join(outs)]
         config = spec.data.controllers[name].config
         if config is not None:
             path = (spec.file.parent / config).resolve()
@@ -109,96 +151,227 @@ def _commands(spec: PlantSpec, hosts: dict[str, str]) -> dict[str, list[str]]:
     return out
 
 
-def up(spec: PlantSpec, state_dir: Path) -> dict[str, Any]:
-    """Make the namespaces and start every daemon; the record of what was made."""
+def up(spec: PlantSpec, state_dir: Path, preload: Callable[[], Any],
+       page_port: int | None = PAGE_PORT) -> dict[str, Any]:
+    """Make the namespaces, start every daemon (and the plant host, when the plant has
+    wires or shared devices) at once, wait for them all; the record of what was made.
+    Each is a fork of this process running its `softplc` command line, once `preload`
+    imported what they run. `page_port`: the plant page on 127.0.0.1
+    of this machine (0: any free port) and each daemon's web monitor on its own address
+    (tokens for them all); None: neither."""
+    web = page_port is not None
     t = tag(spec.file)
     record_file = state_dir / f"sp{t}.json"
     if record_file.exists():
         raise PlantStateError(f"{spec.file}: already up ({record_file}); `plant down` first")
     hosts = addresses(spec)
-    commands = _commands(spec, hosts)
-    state_dir.mkdir(parents=True, exist_ok=True)
+    net = ipaddress.ip_network(f"{next(iter(hosts.values()))}/24", strict=False)
+    plant_host = str(net.network_address + PLANT_HOST)
+    token = secrets.token_urlsafe(TOKEN_BYTES) if web else ""
+    read_token = secrets.token_urlsafe(TOKEN_BYTES) if web else ""
+    commands = _commands(spec, hosts, plant_host, web)
+    physical = bool(spec.data.wires or spec.data.devices)
+    state_dir.mkdir(mode=0o700, parents=True, exist_ok=True)
     scada = f"sp{t}-scada"
     record: dict[str, Any] = {"plant": str(spec.file.resolve()), "namespaces": [scada],
-                              "scada": "", "controllers": {}}
+                              "scada": str(net.network_address + SCADA_HOST),
+                              "root": str(net.network_address + ROOT_HOST),
+                              "root_veth": f"v{t}r", "token": token,
+                              "read_token": read_token, "page": "", "controllers": {},
+                              "processes": {}}
 
     def keep() -> None:
-        record_file.write_text(json.dumps(record, indent=1))
+        fd = os.open(record_file, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w") as f:  # owner only: it holds the monitors' token
+            json.dump(record, f, indent=1)
 
     keep()  # before anything is made: `down` removes a half-made plant too
+    # the imports the daemons share, while iproute2 makes the network (its own processes)
+    loading = threading.Thread(target=preload, name="preload")
+    loading.start()
     try:
-        net = ipaddress.ip_network(f"{next(iter(hosts.values()))}/24", strict=False)
-        record["scada"] = str(net.network_address + SCADA_HOST)
-        _ip("netns", "add", scada)
-        bridge = f"br{t}"
-        _ip("link", "add", bridge, "type", "bridge", ns=scada)
-        _ip("addr", "add", f"{record['scada']}/{net.prefixlen}", "dev", bridge, ns=scada)
-        _ip("link", "set", bridge, "up", ns=scada)
-        _ip("link", "set", "lo", "up", ns=scada)
-        for i, name in enumerate(commands):
-            ns = f"sp{t}-{name}"
-            record["namespaces"].append(ns)
+        members = {f"sp{t}-{name}": hosts[name] for name in commands}
+        if physical:
+            members[f"sp{t}.{PLANT}"] = plant_host
+        record["namespaces"] += list(members)
+        if _root_has(net):  # see _network
+            record["root"] = record["root_veth"] = ""
+        keep()
+        _network(t, net, record, members)
+        loading.join()
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        daemon_env = dict(env, SOFTPLC_WEB_TOKEN=token, SOFTPLC_WEB_READ_TOKEN=read_token) \
+            if web else env  # not on the command line (`ps`)
+        for name, cmd in commands.items():  # every daemon at once; then wait for them all
+            c = _start(f"sp{t}-{name}", cmd, state_dir / f"sp{t}-{name}.log", daemon_env)
+            record["controllers"][name] = {**c, "host": hosts[name],
+                                           "web_port": WEB_PORT if web else None}
             keep()
-            _ip("netns", "add", ns)
-            a, b = f"v{t}{i}a", f"v{t}{i}b"
-            _ip("link", "add", a, "netns", ns, "type", "veth", "peer", "name", b,
-                "netns", scada)
-            _ip("link", "set", b, "master", bridge, "up", ns=scada)
-            _ip("addr", "add", f"{hosts[name]}/{net.prefixlen}", "dev", a, ns=ns)
-            _ip("link", "set", a, "up", ns=ns)
-            _ip("link", "set", "lo", "up", ns=ns)
-        for name, cmd in commands.items():
-            ns = f"sp{t}-{name}"
-            log = state_dir / f"sp{t}-{name}.log"
-            with open(log, "w") as out:
-                proc = subprocess.Popen(["ip", "netns", "exec", ns, *cmd], stdout=out,
-                                        stderr=subprocess.STDOUT, start_new_session=True,
-                                        env=dict(os.environ, PYTHONUNBUFFERED="1"))
-            record["controllers"][name] = {"pid": proc.pid, "namespace": ns,
-                                           "host": hosts[name], "log": str(log)}
+        if physical:
+            cmd = [sys.executable, "-m", "softplc", "plant", "process", str(spec.file)]
+            c = _start(f"sp{t}.{PLANT}", cmd, state_dir / f"sp{t}.{PLANT}.log", env)
+            record["processes"][PLANT] = {**c, "host": plant_host}
             keep()
-        for name, c in record["controllers"].items():
-            _wait_banner(name, Path(c["log"]), c["pid"])
+        if web and record["root"]:  # the page reaches the monitors through the root veth
+            cmd = [sys.executable, "-m", "softplc", "plant", "page", str(spec.file),
+                   "--record", str(record_file), "--port", str(page_port)]
+            record["processes"][PAGE] = _start(None, cmd,
+                                               state_dir / f"sp{t}.{PAGE}.log", env)
+            keep()
+        _wait_banners({**record["controllers"], **record["processes"]})
+        if PAGE in record["processes"]:
+            log = Path(record["processes"][PAGE]["log"]).read_text()
+            record["page"] = "http://" + log.split(PAGE_BANNER, 1)[1].split()[0]
+            keep()
     except BaseException:
+        loading.join()
         down(record_file)
         raise
     return record
 
 
-def _wait_banner(name: str, log: Path, pid: int) -> None:
-    end = time.monotonic() + START_TIMEOUT_S
-    while time.monotonic() < end:
-        text = log.read_text()
-        if "Modbus TCP server listening on" in text:
-            return
+def _network(t: str, net: Any, record: dict[str, Any], members: dict[str, str]) -> None:
+    """The SCADA namespace and its bridge, a namespace for each of `members` ({namespace:
+    address}) joined to the bridge by a veth pair, and this machine's veth into the bridge
+    (`record["root_veth"]`; none when this machine has an address in `net` already:
+    another plant up in the same network, two routes to it would be a lottery). In 2 +
+    len(members) `ip -batch` runs, not one `ip` process per step."""
+    scada, bridge, n = record["namespaces"][0], f"br{t}", net.prefixlen
+    root = [f"netns add {ns}" for ns in [scada, *members]]
+    inside = [f"link add {bridge} type bridge",
+              f"addr add {record['scada']}/{n} dev {bridge}",
+              f"link set {bridge} up", "link set lo up"]
+    if record["root_veth"]:
+        v = record["root_veth"]
+        root += [f"link add {v} type veth peer name {v}b netns {scada}",
+                 f"addr add {record['root']}/{n} dev {v}", f"link set {v} up"]
+        inside.append(f"link set {v}b master {bridge} up")
+    for i, ns in enumerate(members):
+        va, vb = f"v{t}{i}a", f"v{t}{i}b"
+        root.append(f"link add {va} netns {ns} type veth peer name {vb} netns {scada}")
+        inside.append(f"link set {vb} master {bridge} up")
+    _ip_batch(root)
+    _ip_batch(inside, scada)
+    for i, (ns, addr) in enumerate(members.items()):
+        va = f"v{t}{i}a"
+        _ip_batch([f"addr add {addr}/{n} dev {va}", f"link set {va} up", "link set lo up"],
+                  ns)
+
+
+def _root_has(net: ipaddress.IPv4Network | ipaddress.IPv6Network) -> bool:
+    """This machine (the root namespace) has an address in `net` already."""
+    r = subprocess.run(["ip", "-o", "addr", "show", "to", str(net)], capture_output=True,
+                       text=True)
+    return bool(r.stdout.strip())
+
+
+def _start(ns: str | None, cmd: list[str], log: Path, env: dict[str, str]) -> dict[str, Any]:
+    """Start `softplc` command line `cmd` in namespace `ns` (None: this machine's own), in
+    a session of its own, its output to `log`: a fork of this process (whose imports the
+    child shares: no Python start-up and no imports per daemon) that enters the namespace
+    and runs the command as `python -m softplc` does (softplc/__main__.py)."""
+    argv = cmd[3:]  # [python, -m, softplc, ...]
+    fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)  # the monitor's token
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        rc = 1
         try:
-            if os.waitpid(pid, os.WNOHANG)[0]:
-                raise PlantStateError(f"{name} did not start: {text.strip()[-500:]}")
-        except ChildProcessError:
-            pass
-        time.sleep(0.05)
-    raise PlantStateError(f"{name}: no banner within {START_TIMEOUT_S:g} s ({log})")
+            os.setsid()
+            os.dup2(fd, 1)
+            os.dup2(fd, 2)
+            os.close(fd)
+            sys.stdout.reconfigure(line_buffering=True)  # type: ignore[union-attr]
+            if ns is not None:
+                _enter(ns)
+            os.environ.clear()
+            os.environ.update(env)
+            sys.argv = ["softplc", *argv]
+            runpy.run_module("softplc", run_name="__main__", alter_sys=True)
+            rc = 0
+        except SystemExit as e:
+            rc = e.code if isinstance(e.code, int) else 1
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(rc)
+    os.close(fd)
+    return {"pid": pid, "namespace": ns, "log": str(log)}
+
+
+def _enter(ns: str) -> None:
+    """This process into network namespace `ns` (setns(2), as `ip netns exec` does)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    fd = os.open(NETNS_DIR / ns, os.O_RDONLY)
+    try:
+        if libc.setns(fd, CLONE_NEWNET):
+            err = ctypes.get_errno()
+            raise OSError(err, f"setns {ns}: {os.strerror(err)}")
+    finally:
+        os.close(fd)
+
+
+def _wait_banners(started: dict[str, dict[str, Any]]) -> None:
+    """Wait for every process' last banner line at once (they start in parallel)."""
+    end = time.monotonic() + START_TIMEOUT_S
+    waiting = dict(started)
+    while waiting:
+        for name, c in list(waiting.items()):
+            text = Path(c["log"]).read_text()
+            if any(b in text for b in BANNERS):
+                del waiting[name]
+                continue
+            try:
+                if os.waitpid(c["pid"], os.WNOHANG)[0]:
+                    raise PlantStateError(f"{name} did not start: {text.strip()[-500:]}")
+            except ChildProcessError:
+                pass
+        if waiting and time.monotonic() >= end:
+            raise PlantStateError(f"{', '.join(waiting)}: no banner within "
+                                  f"{START_TIMEOUT_S:g} s (logs: "
+                                  f"{', '.join(c['log'] for c in waiting.values())})")
+        time.sleep(BANNER_POLL_S)
 
 
 def down(record_file: Path) -> list[str]:
-    """Stop every daemon `up` started and remove every namespace it made; what was done."""
+    """Stop every process `up` started and remove every namespace and the veth it made;
+    what was done."""
     if not record_file.exists():
         raise PlantStateError(f"{record_file}: no plant is up (nothing recorded)")
     record = json.loads(record_file.read_text())
     done = []
-    for name, c in record["controllers"].items():
-        pid = c["pid"]
-        try:  # the session `up` gave it: `ip netns exec` and the daemon under it
-            os.killpg(pid, signal.SIGTERM)
+    stopping = {}
+    for name, c in {**record.get("processes", {}), **record["controllers"]}.items():
+        try:  # the session `up` gave it (the process alone if it has not made it yet)
+            if not _alive(c["pid"]):
+                raise ProcessLookupError
+            try:
+                os.killpg(c["pid"], signal.SIGTERM)
+            except ProcessLookupError:
+                os.kill(c["pid"], signal.SIGTERM)
         except ProcessLookupError:
             done.append(f"{name}: already gone")
             continue
-        end = time.monotonic() + STOP_TIMEOUT_S
-        while time.monotonic() < end and _alive(pid):
-            time.sleep(0.05)
+        stopping[name] = c["pid"]
+    end = time.monotonic() + STOP_TIMEOUT_S  # they all stop at once
+    while time.monotonic() < end and any(_alive(p) for p in stopping.values()):
+        time.sleep(BANNER_POLL_S)
+    for name, pid in stopping.items():
         if _alive(pid):
-            os.killpg(pid, signal.SIGKILL)
-        done.append(f"{name}: stopped")
+            try:
+                os.killpg(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                os.kill(pid, signal.SIGKILL)
+            done.append(f"{name}: killed (no stop within {STOP_TIMEOUT_S:g} s)")
+        else:
+            done.append(f"{name}: stopped")
+    veth = record.get("root_veth")
+    if veth:  # removed with its peer in the SCADA namespace; here if that was not made
+        r = subprocess.run(["ip", "link", "del", veth], capture_output=True, text=True)
+        done.append(f"veth {veth}: " + ("removed" if not r.returncode else "not there"))
     for ns in reversed(record["namespaces"]):
         r = subprocess.run(["ip", "netns", "del", ns], capture_output=True, text=True)
         done.append(f"namespace {ns}: " + ("removed" if not r.returncode else "not there"))
@@ -216,4 +389,8 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    return True
+    try:  # a zombie (dead, its new parent has not reaped it yet) is gone
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rpartition(")")[2].split()[0] != "Z"

@@ -1,4 +1,6 @@
-"""The plant page of `softplc plant run --web PORT` (issue 35): each controller's state,
+"""The plant page of `softplc plant run --web PORT` and `plant up` (issue 35; the view of
+`plant up` comes from the daemons' monitors, softplc.commands.plantweb, with a link to
+each one's own monitor): each controller's state,
 scans, scan time and link health, and the Remote Link words moving, refreshed twice a
 second (the view: softplc.plant.view). Read-only, on loopback only, with the monitor's
 Host and Origin checks (`Guard`: no DNS rebinding). The plant loop publishes a view
@@ -34,7 +36,7 @@ td,th{border:1px solid #999;padding:2px 8px;text-align:left}.bad{color:#b00}
 <h1>plant <span id="name"></span> <small>t = <span id="time"></span> s</small></h1>
 <table><thead><tr><th>controller</th><th>state</th><th>scans</th><th>scan &micro;s</th>
 <th>link</th><th>%SW111</th><th>%SW112</th><th>words (station: sent / received)</th>
-</tr></thead><tbody id="rows"></tbody></table>
+<th>monitor</th></tr></thead><tbody id="rows"></tbody></table>
 <script>
 function cell(tr, text, cls) {
   const td = document.createElement("td"); td.textContent = text;
@@ -55,6 +57,12 @@ async function refresh() {
       cell(tr, c.link ? c.link.error : "-", c.link && c.link.error ? "bad" : "ok");
       cell(tr, Object.entries(c.words).map(([s, w]) => s + ": " + w.sent.join(",")
         + " / " + w.received.join(",") + (w.present === false ? " (absent)" : "")).join("; "));
+      const td = document.createElement("td");  // `plant up`: the controller's own monitor
+      if (c.monitor) {
+        const a = document.createElement("a"); a.href = c.monitor; a.target = "_blank";
+        a.className = "monitor"; a.textContent = "open"; td.appendChild(a);
+      } else td.textContent = "-";
+      tr.appendChild(td);
       rows.appendChild(tr);
     }
   } catch (e) { document.getElementById("time").textContent = "(plant stopped)"; }

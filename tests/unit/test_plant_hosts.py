@@ -9,6 +9,7 @@ import pytest
 from softplc.errors import PlantStateError
 from softplc.plant import hosts
 from softplc.plant.model import load_plant
+from softplc.plant.process import PhysicalProcess, wired_io
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "ladder_programs" / "plant" / "plant.toml"
@@ -45,3 +46,57 @@ def test_a_linked_controller_without_its_remote_link_section_is_refused(tmp_path
 def test_down_without_a_record_says_so(tmp_path):
     with pytest.raises(PlantStateError, match="no plant is up"):
         hosts.down(tmp_path / "sp000000.json")
+
+
+def test_each_wired_controller_gets_its_wire_options_and_the_plant_host_as_peer():
+    spec = load_plant(EXAMPLE)
+    cmds = hosts._commands(spec, hosts.addresses(spec), "10.0.35.252", web=True)
+    io = wired_io(spec)
+    assert io["master"] == (["%I0.1", "%I0.2", "%I0.3"], ["%Q0.0", "%Q0.2"])
+    assert io["filler"] == (["%I0.0", "%I0.5"], ["%Q0.1"])
+    for name, (ins, outs) in io.items():
+        cmd = cmds[name]
+        assert cmd[cmd.index("--wire-peer") + 1] == "10.0.35.252"
+        assert cmd[cmd.index("--wire-in") + 1] == ",".join(ins)
+        assert cmd[cmd.index("--wire-out") + 1] == ",".join(outs)
+        assert cmd[cmd.index("--web-host") + 1] == hosts.addresses(spec)[name]
+        assert not any("token" in part.lower() for part in cmd)  # not in `ps`
+
+
+class FakeClient:
+    """A controller's end of the wires: its outputs as set, the inputs it got."""
+
+    def __init__(self, outputs: dict[str, bool]):
+        self.outputs = outputs
+        self.got: dict[str, bool] = {}
+        self.connected = True
+
+    def exchange(self, inputs: list[bool]) -> tuple[bool, ...] | None:
+        self.got = inputs
+        return tuple(self.outputs.values()) if self.connected else None
+
+    def close(self) -> None:
+        pass
+
+
+def test_the_plant_host_runs_the_belt_from_the_controllers_wired_outputs():
+    spec = load_plant(EXAMPLE)
+    proc = PhysicalProcess(spec, hosts.addresses(spec))
+    master = FakeClient({"%Q0.0": True, "%Q0.2": True})  # belt motor, line enable
+    proc.clients = {"master": master, "filler": FakeClient({"%Q0.1": True}),
+                    "capper": FakeClient({"%Q0.1": False})}
+    t = 0.0
+    for _ in range(round(5.0 / proc.tick_s)):  # 5 s: the first box reaches the filler
+        proc.step(t)
+        t += proc.tick_s
+    belt = proc.devices["belt"]
+    assert belt.inputs["run"] and belt.inputs["hold_fill"]
+    assert proc.inputs["filler"] == {"%I0.0": True, "%I0.5": True}  # the fill eye, enable
+    assert proc.inputs["master"]["%I0.1"] is True  # the same eye, the master's input
+    assert proc.clients["filler"].got == [True, True]
+    # the master loses power: its outputs read 0, the belt stops, the enable drops
+    master.connected = False
+    proc.step(t)
+    proc.step(t + proc.tick_s)
+    assert belt.inputs["run"] is False
+    assert proc.inputs["capper"]["%I0.5"] is False
