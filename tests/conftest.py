@@ -67,3 +67,16 @@ def star():
     s = Stack(STAR, STAR.with_suffix(".toml"))
     yield s
     s.close()
+
+
+@pytest.fixture
+def netns_serial():
+    """One `plant up` of the shipped example at a time on this machine, whichever xdist
+    worker runs it: two would make the same namespaces (named from the plant file's path)
+    and claim the same /24 from the root namespace."""
+    import fcntl
+    import tempfile
+
+    with open(Path(tempfile.gettempdir()) / "softplc-tests-netns.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        yield

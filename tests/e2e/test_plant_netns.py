@@ -19,7 +19,8 @@ from softplc.plant import hosts
 
 ROOT = Path(__file__).resolve().parents[2]
 WHY = hosts.netns_works()
-pytestmark = pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}")
+pytestmark = [pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}"),
+              pytest.mark.usefixtures("netns_serial")]
 WAIT_S = 15.0  # bounds a failing test only
 READ_S = 0.1  # between reads: each starts a process in the SCADA's namespace
 

@@ -20,7 +20,8 @@ from softplc.plant import hosts
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "ladder_programs" / "plant" / "plant.toml"
 WHY = hosts.netns_works()
-pytestmark = pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}")
+pytestmark = [pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}"),
+              pytest.mark.usefixtures("netns_serial")]
 WAIT_MS = 20_000  # bounds a failing test only
 
 
