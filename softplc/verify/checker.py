@@ -109,6 +109,7 @@ class Checker:
         self.post: dict[str, Any] | None = None
         self.lemma_ids: list[int] = []  # `candidates` proven inductive (`lemmas.houdini`)
         self.timer_pairs: list[tuple[str, str]] | None = None  # `invariants.related_pairs`
+        self.proven: list[Any] = []  # the model's proven facts over the cone (`stateinv`)
         self._slice()
 
     def _slice(self) -> None:
@@ -213,7 +214,16 @@ class Checker:
         if self.lemma_ids:  # the candidate invariants found inductive (`lemmas.houdini`)
             cands = self.candidates(st)
             out += [cands[i] for i in self.lemma_ids]
-        return out
+        return out + self.facts(st)
+
+    def use_facts(self, facts: list[Any]) -> None:
+        """Assume the model's facts proven invariant (`stateinv.prove`) that read only the
+        cone's state: true in every reachable state of the model, so of the cone."""
+        self.proven = [f for f in facts if f.keys <= set(self.keys)]
+
+    def facts(self, st: dict[str, Any]) -> list[Any]:
+        """The model's proven facts (`use_facts`) over state `st`."""
+        return [f.term(st) for f in self.proven]
 
     def candidates(self, st: dict[str, Any]) -> list[Any]:
         """The model's candidate invariants (`lemmas`) over the timers in the cone."""

@@ -31,6 +31,7 @@ from softplc.verify.clock import Clock, TimeUp
 from softplc.verify.defaults import DEPTH, MAX_K, TIMEOUT_S
 from softplc.verify.model import Model, run_concrete, sort_of
 from softplc.verify.requirements import Node, Requirement, Spec
+from softplc.verify.stateinv import prove
 from softplc.verify.symbolic import value_of
 
 Progress = Callable[[str, int, float], None]
@@ -188,7 +189,7 @@ def k_induction(ck: Checker, max_k: int, until: float, clock: Clock,
             return None, time.monotonic() - t0
         clock.doing = f"k-induction at k={k}"
         post = u.extend()
-        s.add(*ck.lemma_terms(post))  # proven invariants hold after every scan
+        s.add(*ck.lemma_terms(post), *ck.facts(post))  # proven invariants: every scan
         left = until - time.monotonic()
         if left <= 0:
             return None, time.monotonic() - t0
@@ -223,7 +224,7 @@ def horn_clauses(ck: Checker, shuffle: int = 0) -> str:
     # the range invariants (checked inductive) and the proven lemmas hold in every
     # reachable state: given, Spacer need not find them
     body = z3.And(inv(*[cur[k] for k in names]), *ck.invariants(cur), *ck.assumed(post, inp),
-                  *ck.lemma_terms(post))
+                  *ck.lemma_terms(post), *ck.facts(post))
     s.add(z3.ForAll(xs, z3.Implies(body, inv(*[post[k] for k in names]))))
     s.add(z3.ForAll(xs, z3.Implies(z3.And(body, z3.Not(ck.holds(post))), False)))
     return s.sexpr()
@@ -341,7 +342,10 @@ def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],
             use_spacer: bool, progress: Progress | None) -> Result:
     if not invariants_inductive(ck, clock):  # pragma: no cover - a modelling bug
         ck.invariants = lambda st: []  # type: ignore[method-assign]  # prove without them
-    elif ck.candidates(ck.init()):  # the timers' facts, kept where inductive
+    # the model's facts (proven once, `stateinv`), after the check: a subset of an
+    # inductive set need not be inductive on its own, but each is true in every state
+    ck.use_facts(prove(ck.model, seconds=max(0.0, clock.left() / 2)))
+    if ck.candidates(ck.init()):  # the timers' facts, kept where inductive
         from softplc.verify.lemmas import houdini
         ck.lemma_ids = houdini(ck, clock)
     # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),

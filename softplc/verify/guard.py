@@ -25,13 +25,17 @@ from typing import Any
 
 from softplc.verify.defaults import MARGIN_S
 from softplc.verify.engines import FOUND, Limits, Progress, Result, requirement
+from softplc.verify.stateinv import prove
 
 TRACE_S = 120.0  # s it waits for a counterexample's trace (concrete scans) once found
 
 
 def check(model: Any, spec: Any, req: Any, lemmas: list[Any], limits: Limits,
           watch: list[str], progress: Progress | None = None) -> Result:
-    """`engines.requirement` in a child process (see the module's docstring)."""
+    """`engines.requirement` in a child process (see the module's docstring); the model's
+    own facts (`stateinv.prove`) proven first, once, and inherited by every child."""
+    prove(model, isolated)
+
     def work(report: Progress | None) -> Result:
         return requirement(model, spec, req, lemmas, limits, watch, report)
     return isolated(work, limits.seconds, progress)

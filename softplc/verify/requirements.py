@@ -3,7 +3,7 @@
 A requirement file (TOML) beside the program:
 
     [environment]
-    host = ["%MW0:10"]            # words a host writes: any value at the start of a scan
+    host = ["%MW0:10"]            # words (coils) a host writes: any value at a scan's start
     held = ["%M0"]                # kept at its cold-start value (default: objects the
                                   # program reads, never writes, a host can write are free)
     assume = ["NOT (%I0.0 AND %I0.1)"]   # what the environment never does
@@ -497,11 +497,12 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
                     refs = expand(table.address_of(s), table.profile)
                 except AddressError as e:
                     raise err(f"unknown address: {e}", 1) from None
-                kinds = {"host": ("MW", "MD"), "held": ("MW", "MD", "M")}.get(
+                # host: a handshake word or coil (a RESET coil the program consumes)
+                kinds = {"host": ("MW", "MD", "M"), "held": ("MW", "MD", "M")}.get(
                     key, ("MW", "MD", "M", "Q", "I"))
                 if any(r.kind not in kinds for r in refs):
                     raise err(f"{s}: {key} objects are " + {
-                        "host": "%MW / %MD words", "held": "%M, %MW, %MD"}.get(
+                        "host": "%M, %MW, %MD", "held": "%M, %MW, %MD"}.get(
                         key, "%M, %MW, %MD (%I are free anyway)"), 1)
                 return [Ref("MW", r.index + k) if r.kind in ("MW", "MD") else r
                         for r in refs for k in range(2 if r.kind == "MD" else 1)]

@@ -31,3 +31,47 @@ def test_servo_cell_requirements_proven(capsys):
     out = capsys.readouterr().out
     assert out.count("PROVEN") == 3
     assert "free, written by device X" in out  # the drives' status words
+
+
+# The cutting table: home, a fault (E-stop), an offer written during it, RESET, READY.
+# Axis status words (servo_axis): X0 ENABLED, X2 IN_POS, X3 DONE (docs/machines/
+# servo-table.md); the min switches %I0.8 / %I0.10 end the homing search.
+ENABLED, AT_REST = 1, 1 + 4 + 8
+AXES_AT_REST = {"%MW218": AT_REST, "%MW248": AT_REST}
+FAULT_OFFER = [
+    {"%I0.16": 1, "%MW218": ENABLED, "%MW248": ENABLED},        # INIT -> HOME_SEARCH
+    {"%I0.8": 1, "%I0.10": 1},                                  # both min switches: zeroed
+    {"%I0.8": 0, "%I0.10": 0},                                  # -> HOME_SET
+    {},                                                         # -> HOME_RETRACT
+    AXES_AT_REST,                                               # -> READY, homed
+    {"%I0.16": 0},                                              # E-stop: FAULT
+    {"%I0.16": 1, "%MW106": 2, "%MW107": 7, "%MW108": 1},       # a move offered in FAULT
+    {"%M102": 1},                                               # RESET: READY (homed)
+    {},                                                         # READY: nothing to run
+]
+NEVER_RUNS = "never %M45 AND %M51"  # cutting_table.req.toml
+REFUSAL = """LD    %X9
+AND   [ %MW108 = 1 ]
+[ %MW108 := -1 ]
+"""
+
+
+def test_cutting_table_fault_offer_never_runs():
+    """An offer written during a fault is refused (INICIO := -1) and nothing runs after
+    the RESET: the requirement holds on the whole run."""
+    with PLC.from_file(LP / "cutting_table.il", LP / "cutting_table.toml",
+                       devices=False) as plc:
+        assert first_failure(plc, NEVER_RUNS, FAULT_OFFER) is None
+        assert plc["%X4"] == 1 and plc["%MW108"] == -1 and plc["%MW128"] == 0
+
+
+def test_cutting_table_requirement_catches_a_queued_fault_offer():
+    """Without the refusal rung the offer stands through the fault and runs in the scan
+    after the RESET (MOVING's first scan takes it): the requirement's tags see it, so
+    `never %M45 AND %M51` is no vacuous proof."""
+    text = (LP / "cutting_table.il").read_text()
+    assert REFUSAL in text
+    with PLC.from_source(text.replace(REFUSAL, ""), LP / "cutting_table.toml",
+                         file="cutting_table_no_refusal.il", devices=False) as plc:
+        assert first_failure(plc, NEVER_RUNS, FAULT_OFFER) == len(FAULT_OFFER)
+        assert plc["%X5"] == 1 and plc["%MW148"] == 7  # segment 7 taken
