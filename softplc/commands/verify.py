@@ -110,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from softplc.verify.advice import unknown_hints
     from softplc.verify.engines import Limits
-    from softplc.verify.guard import check
+    from softplc.verify.guard import check, facts
     from softplc.verify.model import Model
     from softplc.verify.replay import emit_test, replay, write_cex
     from softplc.verify.requirements import check_environment, load_spec
@@ -148,6 +148,12 @@ def _run(args: argparse.Namespace) -> int:
     from softplc.verify.junit import Case
     worst, cexs, lemmas, cases = 0, [], [], []
     limits = Limits(args.depth, args.max_k, args.timeout, not args.no_spacer)
+    if not args.quiet and sys.stderr.isatty():
+        print("  proving the program's own facts (once)...", end="\r", file=sys.stderr)
+    t0 = time.monotonic()
+    known = facts(model, limits)
+    print(f"the program's own facts (Grafcet steps, step flags, constant words): "
+          f"{len(known)} proven in {time.monotonic() - t0:.1f} s, assumed by every requirement")
     for req in spec.requirements:
         watch = list(dict.fromkeys(str(r) for r in req.reads))
         res = check(model, spec, req, lemmas, limits, watch, _progress(args.quiet))

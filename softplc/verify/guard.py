@@ -25,7 +25,7 @@ from typing import Any
 
 from softplc.verify.defaults import MARGIN_S
 from softplc.verify.engines import FOUND, Limits, Progress, Result, requirement
-from softplc.verify.stateinv import prove
+from softplc.verify.stateinv import PROVE_S, prove
 
 TRACE_S = 120.0  # s it waits for a counterexample's trace (concrete scans) once found
 
@@ -34,11 +34,17 @@ def check(model: Any, spec: Any, req: Any, lemmas: list[Any], limits: Limits,
           watch: list[str], progress: Progress | None = None) -> Result:
     """`engines.requirement` in a child process (see the module's docstring); the model's
     own facts (`stateinv.prove`) proven first, once, and inherited by every child."""
-    prove(model, isolated)
+    facts(model, limits)
 
     def work(report: Progress | None) -> Result:
         return requirement(model, spec, req, lemmas, limits, watch, report)
     return isolated(work, limits.seconds, progress)
+
+
+def facts(model: Any, limits: Limits) -> list[Any]:
+    """The model's own facts (`stateinv.prove`), proven once in a child within a
+    requirement's time at most, kept on the model for every requirement after."""
+    return prove(model, isolated, min(PROVE_S, limits.seconds))
 
 
 def isolated(work: Callable[[Progress | None], Result], seconds: float,
