@@ -8,7 +8,7 @@ from pathlib import Path
 
 from softplc.cli import main
 from softplc.plc import PLC
-from softplc.verify.replay import first_failure
+from softplc.verify.replay import first_failure, set_inputs
 
 ROOT = Path(__file__).resolve().parents[2]
 LP = ROOT / "ladder_programs"
@@ -22,6 +22,45 @@ def test_mass_tuning_amber_lamp_off_in_fault():
     with PLC.from_file(LP / "mass_tuning.il", LP / "mass_tuning.toml", devices=False) as plc:
         assert first_failure(plc, "never %X40 AND %Q0.2", scans) is None
         assert plc["%X40"] == 1  # the fault did happen: the lamp is what changed
+
+
+# Found by verify (29 scans, replayed in the engine): a press in the scan in which the
+# clearance ends and the chart returns to step 0. The press rung ran before the chart (it
+# saw step 3), the scan ended in step 0 with the lamp off: the press was lost. The rung
+# is now in POST, after the chart.
+PRESS_PERIODS = ([1000] * 10 + [430, 1000, 1000, 1000, 10] + [1000] * 8
+                 + [300, 1000, 1000, 1000, 110, 320])  # ms, each scan's (a free period)
+PRESS_SCANS = [12, 23, 29]
+PRESS_AT_GREEN = "%I0.0 rising -> %Q0.5 OR NOT %X0 within 0 scans"
+
+
+def test_traffic_light_keeps_a_press_at_the_return_to_green():
+    scans = [{"%I0.0": int(n in PRESS_SCANS), "period_ms": ms}
+             for n, ms in enumerate(PRESS_PERIODS, 1)]
+    shipped = (LP / "traffic_light.il").read_text()
+    rung = "LDR   %I0.0\nAND   %X0\nS     %M0\n\n"
+    before = shipped.replace(rung, "").replace("=*= 0\n", rung + "=*= 0\n", 1)
+    assert before != shipped
+    config = LP / "traffic_light.toml"
+    with PLC.from_source(before, config, devices=False) as plc:  # verify's counterexample
+        assert first_failure(plc, PRESS_AT_GREEN, scans) == len(scans)
+        assert plc["%X0"] == 1 and plc["%Q0.5"] == 0  # back to green, the press lost
+
+    def cycle(text: str, presses: set[int]) -> tuple[int, int]:
+        """A press at scan 2 starts a crossing (1 s scans); the scan in which the chart is
+        back in step 0, and the wait lamp after it, with `presses`."""
+        with PLC.from_source(text, config, devices=False) as plc:
+            left = False
+            for n in range(1, 200):
+                set_inputs(plc, {"%I0.0": int(n in presses), "period_ms": 1000})
+                plc.scan()
+                left = left or not plc["%X0"]
+                if left and plc["%X0"]:
+                    return n, plc["%Q0.5"]
+        raise AssertionError("the crossing did not end")
+    for text, lit in ((before, 0), (shipped, 1)):
+        back, _ = cycle(text, {2})
+        assert cycle(text, {2, back}) == (back, lit)
 
 
 def test_servo_cell_requirements_proven(capsys):
