@@ -72,6 +72,11 @@ class Device:
     def reset(self) -> None:
         """Back to the configured initial state."""
 
+    def cold_start(self) -> None:
+        """The engine has just cleared %M and %MW (a cold start, the first one at build):
+        a device that keeps words of its own there writes them again now, before a host's
+        write can land in the cleared words (the next scan's first step)."""
+
     def state(self) -> dict[str, Any]:
         """The simulated state (for the debugger's `back`, its history, retained state)."""
         st: dict[str, Any] = {k: getattr(self, k) for k in self.STATE}
