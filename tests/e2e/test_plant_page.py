@@ -15,10 +15,10 @@ import urllib.request
 from pathlib import Path
 
 from daemon_util import default_sigint
+from waits import WAIT_S
 
 ROOT = Path(__file__).resolve().parents[2]
 PLANT = ROOT / "ladder_programs" / "plant" / "plant.toml"
-WAIT_S = 15.0  # bounds a failing test only
 BOTH_PEERS = 0b11  # the master's %SW111: peers 1 and 2 answer
 
 

@@ -10,12 +10,12 @@ from pathlib import Path
 from daemon_util import ROOT, started
 from docs_util import fenced, page
 from modbus_util import free_port
+from waits import WAIT_S
 
 from softplc.cli import main as softplc
 from softplc.commands.io import Client
 
 SCANS_BETWEEN_LINES = 2  # each line's change applied before the next line is sent
-WAIT_S = 15.0  # at most, for those scans (a loaded machine); never a measured figure
 
 
 def wait_scans(client: Client, n: int) -> None:
