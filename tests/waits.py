@@ -11,6 +11,7 @@ from typing import Any
 # 2-core machine shared with a busy process and parallel workers a daemon's step can
 # take seconds (issue 33).
 WAIT_S = 60.0
+WAIT_MS = int(WAIT_S * 1000)  # the same, for Playwright
 POLL_S = 0.02  # how often to look again
 
 

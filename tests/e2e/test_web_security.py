@@ -14,6 +14,7 @@ import time
 
 import pytest
 from test_web_api import ROOT, STAR, Stack
+from waits import until
 
 from softplc.access import commands, objects
 from softplc.web import pages
@@ -388,9 +389,7 @@ def test_forcing_bursts_recompile_at_most_twice_per_scan(star, monkeypatch):
         assert http(s.port, "POST", "/api/force",
                     b'{"object": "%M10:40", "value": 1}')[0] == 200
         assert http(s.port, "POST", "/api/unforce", b'{"object": "%M10"}')[0] == 200
-    deadline = time.monotonic() + 10
-    while s.web.controller.pending and time.monotonic() < deadline:
-        s.scans(1)
+    until(lambda: not s.web.controller.pending)  # (scans go on: s's thread)
     s.scans(2)
     # 39 forcings: the unforce dropped %M10's queued forcing, and had nothing to release
     assert max(per_scan) <= 2 and sum(per_scan) == 39
