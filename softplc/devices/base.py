@@ -1,6 +1,7 @@
 """The device interface: the whole contract between the scan engine and a simulated machine.
 
-After every scan the engine calls `update(t, dt)` on each device, in configuration order.
+After every scan the engine calls `update(t, dt)` on each device, in configuration order
+(and `cold_start()` when a cold start has just cleared the memory).
 A device reads the field outputs (`mem.q_field`, published at the end of the scan), moves
 its physics on by `dt` seconds to time `t`, and writes field inputs (`mem.i_field`), which
 the next scan latches into its input image. Devices resolve their addresses once, in
