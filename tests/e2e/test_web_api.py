@@ -483,12 +483,10 @@ def test_softplc_io_command(star, capsys):
 
 
 def test_softplc_io_without_daemon(capsys):
-    import socket
+    from modbus_util import refused_port
 
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]  # nobody listens there once closed
-    assert cli(["io", "--port", str(port), "status"]) == 1
+    with refused_port() as port:  # nobody listens there, and no parallel worker takes it
+        assert cli(["io", "--port", str(port), "status"]) == 1
     assert "no softplc web API" in capsys.readouterr().err
 
 
