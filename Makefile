@@ -34,13 +34,17 @@ run: $(STAMP)
 draw: $(STAMP)
 	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png
 
-# Unit and integration tiers on every core (pytest-xdist); the end-to-end tier alone after
-# them, as its daemons keep real time and would compete with the workers (the folders
-# tests/unit, tests/integration, tests/e2e are the tiers).
+# The three tiers (the folders tests/unit, tests/integration, tests/e2e) in one pytest-xdist
+# run of TEST_WORKERS workers, more than the cores: an end-to-end test spends much of its
+# time waiting for a daemon, a browser or a client, and a unit test fills that time. Each
+# test module stays on one worker (--dist loadfile), so a module's daemon or browser
+# fixture starts once; the end-to-end modules, the longest, are handed out first so that
+# none is left alone at the end. The tests wait for conditions, never for the machine's
+# speed.
+TEST_WORKERS ?= 4
 test: $(STAMP) sysdeps filesizes docs
 	$(BIN)/ruff check softplc tests tools
-	$(BIN)/python -m pytest -q -n auto tests/unit tests/integration
-	$(BIN)/python -m pytest -q tests/e2e
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile tests/e2e tests/integration tests/unit
 
 # The documentation site (mkdocs.yml, docs/) into site/: --strict fails on a broken link or
 # anchor, and its hook on a generated reference page that differs from the code

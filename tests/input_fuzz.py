@@ -66,7 +66,10 @@ def _file(tmp: str, name: str, text: str, data: Any) -> Path:
 REQUIREMENTS = sorted(EXAMPLES.glob("*.req.toml"))
 REQ_TOKENS = HOSTILE + ["host", "free", "assume", "scan_period", "[environment]",
                         "[[requirement]]", "check", "within", "rising", "->", "%MW0",
-                        "%Q0.1", "= 5", "= []", "= {}", "scans", "ms"]
+                        "%Q0.1", "= 5", "= []", "= {}", "scans", "ms",
+                        # floats (issue 34 item 1): objects, literals in and out of range
+                        "%MF10", "%KF2", "100.0", "-2.5e-3", "1e400", "3.5e38", "NAN", "INF",
+                        "1." + "0" * 200, "/", "*"]
 
 
 def requirements(data: Any) -> str:

@@ -231,6 +231,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    choices=["debug", "info", "warning", "error"],
                    help="level of server log messages on stderr (default warning)")
     p.set_defaults(func=run)
+    # what --replay leaves unused: refused when given, never silently ignored
+    _DAEMON_DEFAULTS.update({a.dest: a.default for a in p._actions
+                             if a.option_strings and a.dest not in _REPLAY_USES})
+
+
+# The options a replay uses (the rest belong to the daemon it replaces: refused with it).
+_REPLAY_USES = {"help", "config", "replay", "web", "log_level", "symbols"}
+_DAEMON_DEFAULTS: dict[str, Any] = {}
+
+
+def _replay_refuses(args: argparse.Namespace) -> None:
+    given = sorted(f"--{d.replace('_', '-')}" for d, default in _DAEMON_DEFAULTS.items()
+                   if getattr(args, d, default) != default)
+    if given:
+        raise ConfigError(f"--replay plays a counterexample without a daemon: "
+                          f"{', '.join(given)} would have no effect (drop them; the page "
+                          f"is on 127.0.0.1 at the --web port)")
 
 
 def _endpoint(text: str) -> tuple[str, int]:
@@ -311,6 +328,8 @@ _LOCKED: list[int] = []  # descriptors held open (and locked) until the process 
 def run(args: argparse.Namespace) -> int:
     if args.replay is not None:
         from softplc.commands.replay import play
+
+        _replay_refuses(args)
         from softplc.web import DEFAULT_WEB_PORT
 
         web = None if args.web == _WEB_OFF else _pick(args.web, DEFAULT_WEB_PORT)

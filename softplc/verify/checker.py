@@ -11,8 +11,9 @@ import z3
 
 from softplc.twido.address import BOOL, Ref
 from softplc.twido.semantics import IntDomain
+from softplc.verify import floats
 from softplc.verify.model import Model, sort_of
-from softplc.verify.requirements import Node, Requirement, Spec
+from softplc.verify.requirements import FLOAT, Node, Requirement, Spec
 from softplc.verify.symbolic import Z3Domain, as_bool, wide
 
 CMP: dict[str, Callable[[Any, Any], Any]] = {
@@ -21,10 +22,13 @@ CMP: dict[str, Callable[[Any, Any], Any]] = {
 
 
 def evaluate(D: Any, n: Node, read: Callable[[Ref], Any]) -> Any:
-    """A requirement expression's value; words exact (no wrap-around)."""
+    """A requirement expression's value; words exact (no wrap-around), floats doubles
+    (`_float`)."""
     op, a = n.op, n.args
     if op == "addr":
         return read(a[0])
+    if n.type == FLOAT or op.startswith("cmp:") and a[0].type == FLOAT:
+        return _float(D, n, read)
     if op in ("num", "bool"):
         return a[0] if D is IntDomain else (z3.BoolVal(bool(a[0])) if op == "bool"
                                             else wide(a[0]))
@@ -50,6 +54,27 @@ def evaluate(D: Any, n: Node, read: Callable[[Ref], Any]) -> Any:
         return x * y
     q = D.tdiv(x, D.ite(y == 0, 1, y))
     return q if op == "/" else x - q * y
+
+
+def _float(D: Any, n: Node, read: Callable[[Ref], Any]) -> Any:
+    """A float node as the engine computes it: in doubles (a %MF or %KF read is its
+    single widened exactly), `+ - *` rounded to nearest-even (Python's floats; z3's RNE
+    operations in `floats.binop`), comparisons IEEE's (`compiler/values.py` compiles `[
+    %MF0 > 1.0 ]` to Python's `>`: a NaN is unordered, `<>` holds with a NaN, -0.0 =
+    0.0), the same rule as the model's (`floats.compare`)."""
+    op, a = n.op, n.args
+    if op == "num":
+        return float(a[0]) if D is IntDomain else floats.const(float(a[0]))
+    x = evaluate(D, a[0], read)
+    if op == "neg":
+        return -x if D is IntDomain else z3.fpNeg(x)
+    y = evaluate(D, a[1], read)
+    if D is IntDomain:
+        return CMP[op[4:]](x, y) if op.startswith("cmp:") else \
+            x + y if op == "+" else x - y if op == "-" else x * y
+    if op.startswith("cmp:"):
+        return floats.compare(op[4:], x, y)
+    return floats.binop(op, x, y)[0]  # + - *: no fault (`/` is refused by the parser)
 
 
 def response_step(D: Any, count: Any, prev: Any, x: Any, y: Any, n: int) -> Any:

@@ -90,13 +90,14 @@ def _trace(ck: Checker, u: _Unroll, model: z3.ModelRef, watch: list[str]) -> lis
     if ck.model.abstract.ranges:  # the values are the engine's (it confirmed the run)
         every = engine_run(ck.model, ck.req.text,
                            [real_inputs(ck.model, g) for g in given])[1]
+    from softplc.verify.replay import shown
     rows = []
     for raw, post, objects in zip(given, u.posts, every, strict=True):
         rd = ck.read(post)
         values = {}
         for a in watch:
             ref = parse_address(a, ck.model.plc.profile)
-            values[a] = value_of(model, rd(ref))
+            values[a] = shown(value_of(model, rd(ref)))
         ins = real_inputs(ck.model, raw)
         if ck.model.abstract.ranges:
             values = {a: objects.get(a, values[a]) for a in values}

@@ -106,29 +106,36 @@ def writers(read_only: ReadOnly, device_words: dict[str, list[tuple[int, int]]]
     return who
 
 
+def keys_of(ref: Ref) -> list[str]:
+    """The state keys of a %M bit or %MW word object (a %MD, %MF: both words; a word's bit:
+    the word; a bit string: its bits); [] for anything else."""
+    where = span(Ref(ref.kind, ref.index, length=ref.length))
+    if where is None:
+        return []
+    space, start, count = where
+    prefix = "%M" if space == COILS else "%MW"
+    return [f"{prefix}{start + k}" for k in range(count)]
+
+
 def program_reads(program: Any) -> set[str]:
-    """The state keys of the %M bits and %MW words the program reads (a %MD, %MF: both
-    words; a word's bit: the word; a bit string: its bits); indexed objects left out."""
+    """The state keys of the %M bits and %MW words the program reads; indexed objects left
+    out."""
     out: set[str] = set()
     for ref, (role, _pos) in object_uses(program).items():
-        if role not in (READ, READ_WRITE) or ref.offset is not None:
-            continue
-        where = span(Ref(ref.kind, ref.index, length=ref.length))
-        if where is None:
-            continue
-        space, start, count = where
-        prefix = "%M" if space == COILS else "%MW"
-        out.update(f"{prefix}{start + k}" for k in range(count))
+        if role in (READ, READ_WRITE) and ref.offset is None:
+            out.update(keys_of(ref))
     return out
 
 
 def decide(program: Any, written: dict[str, Any], who: Any, held: set[str],
-           host: set[str]) -> Environment:
+           host: set[str], required: set[str] = frozenset()) -> Environment:
     """The environment of a program: `written` the keys it writes (the model's), `who`
-    from `writers`, `held` / `host` the requirement file's declarations."""
+    from `writers`, `held` / `host` the requirement file's declarations, `required` the
+    keys the requirements read (one the program never reads is still a host's to write:
+    a proof must not rest on it staying 0)."""
     env = Environment(declared_held=set(held))
     indexed = INDEXED in written  # any %MW may be the one written: none is free
-    for key in sorted(program_reads(program)):
+    for key in sorted(program_reads(program) | set(required)):
         if key in written or key in host or indexed and key.startswith("%MW"):
             continue
         w = who(key)

@@ -63,6 +63,7 @@ class ExprModel:
     def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None: ...
     def mark_written(self, key: str, pos: A.Pos | None) -> None: ...
     facts: list[Any]
+    applied: dict[str, list[tuple[Any, Any]]]  # this scan's abstracted calls: f -> (x, r)
     st: dict[str, Any]
     inp: dict[str, Any]
     def run_called(self, stmt: A.BlockCall, g: Any) -> bool: ...
@@ -278,6 +279,10 @@ class ExprModel:
             r, fault = self.inp[key], self.inp[key + "!"]
             self.abstract.ranges.setdefault(key + "!", ("bool", 0, 1))
             self.facts += floats.abstract_function(f, [a for a, _ in args], r, fault)
+            self.facts += floats.anchor_facts(f, x, r)
+            for x0, r0 in self.applied.setdefault(f, []):  # earlier ones of this scan
+                self.facts += floats.monotone_facts(f, x0, r0, x, r)
+            self.applied[f].append((x, r))
             faults = [(fault, floats.FLOAT_INVALID)]
         for c, kind in faults:
             self.float_fault(g, c, kind)

@@ -15,7 +15,18 @@ any NaN, a sound over-approximation.
 SIN, COS, TAN, ASIN, ACOS, ATAN, EXP, LN, LOG and EXPT have no solver theory: their value
 is an abstraction (`abstract`), fresh where they run, within the function's true range
 (|SIN| <= 1, 0 <= ACOS <= pi...; NaN in, NaN out), and %S18 where the engine's domain
-errors may set it.
+errors may set it. Besides (`anchor_facts`, `monotone_facts`):
+- the exact values C's math library gives at its anchor points [ISO/IEC 9899:1999
+  Annex F.9 (IEC 60559 floating point): exp(+-0) = 1, log(1) = log10(1) = +0,
+  sin/tan/asin/atan(+-0) = +-0, cos(+-0) = 1, acos(1) = +0]: CPython's `math` calls the
+  C library for these (`Ops._dom`);
+- monotony: EXP, LN, LOG, ATAN, ASIN non-decreasing and ACOS non-increasing on their
+  domains, as the engine computes them (glibc's double functions, faithfully rounded:
+  monotony is not promised by C, so it is checked on the engine, on adjacent doubles
+  too: `tests/integration/test_verify_diff.py`): with the anchor, one application's
+  value is on the anchor's side of its argument's (x >= 0 -> EXP(x) >= 1, LN(x) < 0 for
+  0 < x < 1 ...), and two applications of one function in a scan are in the order of
+  their arguments (x1 <= x2 -> f(x1) <= f(x2)).
 """
 
 from __future__ import annotations
@@ -38,6 +49,14 @@ BOUNDS = {"SIN": (-1.0, 1.0), "COS": (-1.0, 1.0), "ATAN": (-HALF_PI, HALF_PI),
           "ASIN": (-HALF_PI, HALF_PI), "ACOS": (0.0, math.pi), "EXP": (0.0, math.inf)}
 ABSTRACTED = frozenset({"SIN", "COS", "TAN", "ASIN", "ACOS", "ATAN", "EXP", "LN", "LOG",
                         "EXPT"})
+#: f -> (a, f(a)), exact [C99 Annex F.9]; a zero argument gives the zero of its sign
+#: where the value is a zero (sin, tan, asin, atan).
+ANCHORS = {"EXP": (0.0, 1.0), "LN": (1.0, 0.0), "LOG": (1.0, 0.0), "COS": (0.0, 1.0),
+           "ACOS": (1.0, 0.0), "SIN": (0.0, 0.0), "TAN": (0.0, 0.0), "ASIN": (0.0, 0.0),
+           "ATAN": (0.0, 0.0)}
+ODD_AT_ZERO = frozenset({"SIN", "TAN", "ASIN", "ATAN"})
+#: f -> +1 (non-decreasing) or -1 (non-increasing) on its domain (`in_domain`)
+MONOTONE = {"EXP": 1, "LN": 1, "LOG": 1, "ATAN": 1, "ASIN": 1, "ACOS": -1}
 INT_RANGES = {16: (-32768, 32767), 32: (-2147483648, 2147483647)}
 
 
@@ -143,6 +162,47 @@ def abstract_function(f: str, args: list[Any], r: Any, fault: Any) -> list[Any]:
         facts.append(z3.Implies(z3.And(finite(x), z3.Not(fault)),
                                 z3.And(z3.fpGEQ(r, const(lo)), z3.fpLEQ(r, const(hi)))))
     return facts
+
+
+def in_domain(f: str, x: Any) -> Any:
+    """x is in the domain on which `MONOTONE[f]` holds (not NaN; LN, LOG: above 0; ASIN,
+    ACOS: within [-1, 1])."""
+    if f in ("LN", "LOG"):
+        return z3.fpGT(x, const(0.0))
+    if f in ("ASIN", "ACOS"):
+        return z3.fpLEQ(z3.fpAbs(x), const(1.0))
+    return z3.Not(z3.fpIsNaN(x))
+
+
+def _ordered(sign: int, x1: Any, r1: Any, x2: Any, r2: Any) -> Any:
+    """x1 <= x2 -> r1 <= r2 (sign +1) or r1 >= r2 (sign -1)."""
+    return z3.Implies(z3.fpLEQ(x1, x2), z3.fpLEQ(r1, r2) if sign > 0 else z3.fpGEQ(r1, r2))
+
+
+def anchor_facts(f: str, x: Any, r: Any) -> list[Any]:
+    """One application `r` = f(x): its exact value at the anchor, and, for a monotone f,
+    its value on the anchor's side."""
+    if f not in ANCHORS:
+        return []
+    a, b = ANCHORS[f]
+    at = z3.fpIsZero(x) if a == 0.0 else z3.fpEQ(x, const(a))
+    exact = r == x if f in ODD_AT_ZERO else r == const(b)  # `==`: the same zero's sign
+    facts = [z3.Implies(at, exact)]
+    if f in MONOTONE:
+        ok = in_domain(f, x)
+        facts += [z3.Implies(ok, _ordered(MONOTONE[f], x, r, const(a), const(b))),
+                  z3.Implies(ok, _ordered(MONOTONE[f], const(a), const(b), x, r))]
+    return facts
+
+
+def monotone_facts(f: str, x1: Any, r1: Any, x2: Any, r2: Any) -> list[Any]:
+    """Two applications of a monotone f (in one scan): in the order of their arguments,
+    both ways."""
+    if f not in MONOTONE:
+        return []
+    both = z3.And(in_domain(f, x1), in_domain(f, x2))
+    return [z3.Implies(both, _ordered(MONOTONE[f], x1, r1, x2, r2)),
+            z3.Implies(both, _ordered(MONOTONE[f], x2, r2, x1, r1))]
 
 
 FAULT_KINDS = (FLOAT_INVALID, FLOAT_DIV0, FLOAT_OVERFLOW)

@@ -27,6 +27,11 @@ Candidates, over the state at the end of a scan (`_in` a timer's last IN,
 - per counter: D = (V = P); E -> V = 9999; F -> V = 0 (its status bits against its
   value). A counter's value against the count of its input's edges is not stated (the
   edges are the program's expressions, not state the model keeps).
+- per off-delay (TOF) and pulse (TP) timer (`_pulse_candidates`): its Q against its last
+  IN and `_on` (timing), V = 0 when neither times nor holds it, V < P while timing and
+  (fixed period) V its elapsed time;
+- per counter (`_counter_bounds`): V <= P and V < P (a counter counted up to its preset,
+  or reset in the scan it gets there).
 
 A candidate is kept only if it holds at the cold start and is kept by every scan from any
 state satisfying the range invariants and the kept candidates (a greatest fixpoint,
@@ -73,15 +78,71 @@ def _timer_candidates(ck: Any, name: str) -> list[Candidate]:
     if t.type == "TON" and not m.variable:
         u = time_unit(t, m.period_us)
         base, step = t.base_us // u, m.period_us // u
-
-        def counted(s: dict[str, Any]) -> Any:  # V from the elapsed time before the advance
-            el, P, V = _ew(s[k["_el"]]), _ew(s[k["P"]]), _ew(s[k["V"]])
-            e = el - step
-            return z3.Implies(s[k["_in"]], z3.And(
-                z3.UGE(el, step), V == z3.If(z3.UGE(e, P * base), P, z3.UDiv(e, base))))
         out.append(Candidate(f"{name} IN on -> {name}.V = its elapsed time (clamped at P)",
-                             frozenset({k["_in"], k["_el"], k["P"], k["V"]}), counted))
+                             frozenset({k["_in"], k["_el"], k["P"], k["V"]}),
+                             lambda s: _counted(s, k, "_in", base, step)))
     return out
+
+
+def _counted(s: dict[str, Any], k: dict[str, str], running: str, base: int, step: int
+             ) -> Any:
+    """`running` on -> V is the elapsed time before the scan's advance, in time bases,
+    clamped at P (`timer_rule`: V = el // base below P)."""
+    el, P, V = _ew(s[k["_el"]]), _ew(s[k["P"]]), _ew(s[k["V"]])
+    e = el - step
+    return z3.Implies(s[k[running]], z3.And(
+        z3.UGE(el, step), V == z3.If(z3.UGE(e, P * base), P, z3.UDiv(e, base))))
+
+
+def _pulse_candidates(ck: Any, name: str) -> list[Candidate]:
+    """An off-delay (TOF) or pulse (TP) timer's outputs against its last IN and `_on`
+    (timing), as `timer_rule` leaves them after every execution [TWD USE 10AE, "Timer
+    function block": TOF, Q is 1 while IN is 1 and until V reaches P after IN falls; TP,
+    a rising edge gives a pulse of length P; manual, from memory; twido.md]:
+    TOF: Q = (IN or timing); IN -> V = 0 and not timing; neither -> V = 0 or P (timed
+    out);
+    TP: Q = timing; neither timing nor IN -> V = 0;
+    both, timing: V below P, and (fixed period) V is the elapsed time in time bases."""
+    m = ck.model
+    t = m.timers[name]
+    k = {f: f"{name}.{f}" for f in ("P", "V", "Q", "_in", "_on", "_el")}
+    Q, i, on, V, P = (k[f] for f in ("Q", "_in", "_on", "V", "P"))
+    if t.type == "TOF":
+        out = [Candidate(f"{name}.Q = (IN or timing)", frozenset({Q, i, on}),
+                         lambda s: s[Q] == z3.Or(s[i], s[on])),
+               Candidate(f"{name} IN on -> V = 0, not timing", frozenset({i, on, V}),
+                         lambda s: z3.Implies(s[i], z3.And(s[V] == 0, z3.Not(s[on]))))]
+        out.append(Candidate(f"{name} neither timing nor IN -> V = 0 or V = P",
+                             frozenset({i, on, V, P}),
+                             lambda s: z3.Implies(z3.Not(z3.Or(s[i], s[on])),
+                                                  z3.Or(s[V] == 0, s[V] == s[P]))))
+    else:
+        out = [Candidate(f"{name}.Q = timing", frozenset({Q, on}),
+                         lambda s: s[Q] == s[on]),
+               Candidate(f"{name} neither timing nor IN -> V = 0", frozenset({i, on, V}),
+                         lambda s: z3.Implies(z3.Not(z3.Or(s[i], s[on])), s[V] == 0))]
+    out.append(Candidate(f"{name} timing -> V < P", frozenset({on, V, P}),
+                         lambda s: z3.Implies(s[on], s[V] < s[P])))
+    if not m.variable:
+        u = time_unit(t, m.period_us)
+        base, step = t.base_us // u, m.period_us // u
+        out.append(Candidate(f"{name} timing -> {name}.V = its elapsed time",
+                             frozenset({on, k["_el"], P, V}),
+                             lambda s: _counted(s, k, "_on", base, step)))
+    return out
+
+
+def _counter_bounds(name: str) -> list[Candidate]:
+    """A counter's value against its preset (`softplc/blocks/counter.py`): V <= P where
+    nothing counts it past its preset (counted only up to it, or reset when it gets
+    there: then V < P at every scan's end, the scan's reset included). Its value changes
+    only on an edge of CU or CD, by one (or to 0 / P on R / S): that is the model's
+    transition itself, exact, not a fact to add."""
+    v, p = f"{name}.V", f"{name}.P"
+    return [Candidate(f"{name}.V <= {name}.P", frozenset({v, p}),
+                      lambda s: s[v] <= s[p]),
+            Candidate(f"{name}.V < {name}.P", frozenset({v, p}),
+                      lambda s: s[v] < s[p])]
 
 
 def _pair_candidates(ck: Any, a: str, b: str) -> list[Candidate]:
@@ -162,6 +223,10 @@ def timer_relations(ck: Any, st: dict[str, Any]) -> list[Any]:
         out += _pair_candidates(ck, a, b)
     out += [c for n in sorted(m.used) if m.used[n][0] is counter.MODEL
             for c in _counter_candidates(n)]
+    out += [c for n in names if m.timers[n].type in ("TOF", "TP")
+            for c in _pulse_candidates(ck, n)]
+    out += [c for n in sorted(m.used) if m.used[n][0] is counter.MODEL
+            for c in _counter_bounds(n)]
     if ck.monitor and not m.variable and "_mon" in keys:
         out += [c for n in ton for c in _monitor_candidates(ck, n)]
     return [c.term(st) for c in out if c.keys <= set(keys)]

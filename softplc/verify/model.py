@@ -124,9 +124,11 @@ class Model(ObjectModel):
         self.discovering = True
         who = environment.of_plc(plc, devices)
         held_keys, declared = {str(r) for r in held}, set(self.host)
+        required = {k for r in reads if r.offset is None for k in environment.keys_of(r)}
         while True:
             self._discover(plc, reads)
-            self.env = environment.decide(plc.ast, self.written, who, held_keys, declared)
+            self.env = environment.decide(plc.ast, self.written, who, held_keys, declared,
+                                          required)
             extra = set(self.env.free) - self.host
             if not extra:
                 break
@@ -269,6 +271,7 @@ class Model(ObjectModel):
         self.calls: list[int] = []
         self.overflow: Any = z3.BoolVal(False)
         self.facts: list[Any] = []  # what is known of abstracted float functions' values
+        self.applied: dict[str, list[tuple[Any, Any]]] = {}  # their (argument, value)
         self.post_done = False
         self.function(self.plc.ast.main, main=True)
         if self.grafcet and not self.post_done:

@@ -18,7 +18,7 @@ from typing import Any
 
 from softplc import ladder
 from softplc.errors import SoftPLCError
-from softplc.verify.replay import first_failure, set_inputs
+from softplc.verify.replay import first_failure, set_inputs, shown
 
 #: What the page calls each position's relation to the requirement.
 COLD, HOLDS, VIOLATED, AFTER = "cold start", "holds", "VIOLATED", "after the violation"
@@ -139,5 +139,5 @@ def highlight(svg: str, names: list[str]) -> str:
 
 
 def _plain(v: Any) -> Any:
-    """A bit as 0/1, the way the verifier writes it."""
-    return int(v) if isinstance(v, bool) else v
+    """A bit as 0/1, a NaN or infinity as text: the way the verifier writes them."""
+    return int(v) if isinstance(v, bool) else shown(v)

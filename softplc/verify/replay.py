@@ -10,17 +10,27 @@ lists every object whose value differs: engine and model must agree exactly.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from softplc.errors import SoftPLCError
+from softplc.twido.address import REAL
 from softplc.twido.semantics import IntDomain
 from softplc.verify.checker import evaluate, response_step
 from softplc.verify.requirements import parse_check
 
 CEX_FORMAT = "softplc-cex/1"
+#: A float a requirement reads that is no JSON number: written as its text
+NOT_FINITE = ("nan", "inf", "-inf")
+
+
+def shown(v: Any) -> Any:
+    """A value as a counterexample holds it: a NaN or an infinity (a %MF a requirement
+    reads) as "nan", "inf", "-inf" (JSON has no such numbers: `read_cex` refuses them)."""
+    return str(v) if isinstance(v, float) and not math.isfinite(v) else v
 
 
 def set_inputs(plc: Any, inputs: dict[str, int]) -> None:
@@ -59,15 +69,16 @@ def replay(plc: Any, trace: list[dict[str, Any]]) -> list[str]:
 def first_failure(plc: Any, check: str, scans: list[dict[str, int]]) -> int | None:
     """Replay inputs on `plc` and evaluate the requirement on the engine's values after
     each scan: the first scan (from 1) where it fails, or None."""
-    def err(msg: str, col: int) -> SoftPLCError:
+    def err(msg: str, col: int, code: object = None) -> SoftPLCError:
         return SoftPLCError(f"{check!r}: {msg} (column {col})")
     req = parse_check(check, check, plc.symbols, err)  # names as written
     count, prev = 0, False
     n_resp = req.within if req.within >= 0 else (-req.within * 1000) // round(
         plc.scan_period * 1e6)
 
-    def read(ref: Any) -> int:
-        return int(plc.mem.read(ref))
+    def read(ref: Any) -> int | float:
+        v = plc.mem.read(ref)
+        return float(v) if ref.type == REAL else int(v)  # a %MF, %KF: the single's value
     for n, inputs in enumerate(scans, 1):
         set_inputs(plc, inputs)
         plc.scan()
@@ -119,7 +130,8 @@ def _check_cex(path: Path, items: Any) -> None:
             if not isinstance(row, dict):
                 raise SoftPLCError(f"{where}, scan {n}: an object with \"inputs\"")
             for key in ("inputs", "values"):  # values: what the requirement reads
-                if not _numbers(row.get(key, {} if key == "values" else None)):
+                if not _numbers(row.get(key, {} if key == "values" else None),
+                                NOT_FINITE if key == "values" else ()):
                     raise SoftPLCError(f"{where}, scan {n}: \"{key}\" maps at most "
                                        f"{MAX_CEX_INPUTS} addresses to numbers")
             period = row["inputs"].get("period_ms", 1)
@@ -128,9 +140,10 @@ def _check_cex(path: Path, items: Any) -> None:
                                    f"{MAX_CEX_PERIOD_MS}")
 
 
-def _numbers(d: Any) -> bool:
+def _numbers(d: Any, texts: tuple[str, ...] = ()) -> bool:
     return isinstance(d, dict) and len(d) <= MAX_CEX_INPUTS and all(
-        isinstance(k, str) and len(k) <= MAX_NAME and isinstance(v, int | float)
+        isinstance(k, str) and len(k) <= MAX_NAME and (isinstance(v, int | float)
+                                                      or v in texts)
         for k, v in d.items())
 
 

@@ -23,6 +23,7 @@ the configured span). Errors carry the line:col in the file (`VerifyError`).
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -39,12 +40,14 @@ from softplc.limits import (
     decode_text,
     read_bytes,
 )
-from softplc.twido.address import BOOL, Ref, expand
+from softplc.twido.address import BOOL, REAL, Ref, expand
+from softplc.twido.numeric import F32_MAX
 from softplc.twido.profile import Profile
 from softplc.twido.symbols import SymbolTable
 
 _TOKEN = re.compile(r"""\s*(?:
     (?P<addr>%[A-Za-z]+[0-9][0-9A-Za-z.:\[\]%]*) |
+    (?P<real>-?(?:\d+\.\d*(?:[eE][-+]?\d+)?|\d+[eE][-+]?\d+)) |
     (?P<num>-?\d+|16\#[0-9A-Fa-f]+|\#[0-9A-Fa-f]+) |
     (?P<op>->|<=|>=|<>|[-+*/()=<>]) |
     (?P<word>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z]+[0-9]*)?(?::X?[0-9]+)?))""", re.X)
@@ -66,6 +69,10 @@ MAX_WITHIN_MS = 86_400_000
 #: the left): the checker and the replay walk it recursively, a few frames a level, well
 #: inside Python's recursion limit (1,000) at this depth.
 MAX_EXPR_TREE_DEPTH = 2 * MAX_EXPR_NESTING
+#: Words that would be a float's non-finite values (`float("nan")` takes them): refused,
+#: as in an IL program (`il/literals.py`), where a REAL constant must be finite.
+NOT_FINITE = frozenset({"NAN", "INF", "INFINITY"})
+INT, FLOAT = "int", "real"  # a Node's number types (and BOOL)
 EXPR_ARG = "--require-expr"
 SHOWN = 80  # characters of an expression quoted in an error
 
@@ -73,7 +80,8 @@ SHOWN = 80  # characters of an expression quoted in an error
 @dataclass(frozen=True)
 class Node:
     """An expression node: op ("addr", "num", "not", "and", "or", "xor", "cmp:<=",
-    "+", "-", "*", "/", "rem", "neg") with its children, type BOOL or "int", column."""
+    "+", "-", "*", "/", "rem", "neg") with its children, type BOOL, INT (a word, exact)
+    or FLOAT (a double, as the engine computes a float expression), column."""
 
     op: str
     args: tuple[Any, ...]
@@ -171,6 +179,21 @@ class Parser:
                            f"({lo} .. {hi}, #0 .. #FFFFFFFF)", col)
         return v
 
+    def real(self, val: str, col: int) -> float:
+        """The value of a float literal: bounded in digits, finite and within a single's
+        range (as an IL REAL constant: `il/literals.py`); a double, as the engine holds
+        a literal of a float comparison (`compiler/values.py`: `repr(float(...))`)."""
+        if len(val) > MAX_NUMBER_DIGITS:
+            raise self.err(f"a number of {len(val)} characters (at most "
+                           f"{MAX_NUMBER_DIGITS})", col, Code.CONSTANT)
+        v = float(val)  # the token's syntax is a decimal float's: never a ValueError
+        if math.isinf(v):  # an exponent too large for a double
+            raise self.err(f"the float {val} is not finite", col, Code.CONSTANT)
+        if abs(v) > F32_MAX:
+            raise self.err(f"the float {val} is beyond the range of a %MF (an IEEE-754 "
+                           f"single: at most {F32_MAX:.7g} in magnitude)", col, Code.CONSTANT)
+        return v
+
     def peek(self) -> tuple[str, str, int]:
         return self.toks[self.i] if self.i < len(self.toks) else ("end", "", len(self.text) + 1)
 
@@ -222,23 +245,42 @@ class Parser:
                     raise self.err("type mismatch: a bit compared with a number", col)
                 return Node("cmp:" + op, (b, Node("bool", (other.args[0],), BOOL, other.col)),
                             BOOL, n.col)
+            n, m = self.same_type(n, m, col)
             return Node("cmp:" + op, (n, m), BOOL, n.col)
         return n
+
+    def same_type(self, n: Node, m: Node, col: int) -> tuple[Node, Node]:
+        """Two numbers of one type: a literal takes the other side's (as
+        `ValueCompiler.operand_pair`); a float with a word is refused, as the IL compiler
+        refuses it (no implicit conversion)."""
+        if n.type == m.type:
+            return n, m
+        if m.type == INT and _literal(m):
+            return n, _as_float(m)
+        if n.type == INT and _literal(n):
+            return _as_float(n), m
+        raise self.err("type mismatch: a float (%MF, %KF) with a word: compare it with a "
+                       "float literal (100.0) or a float object", col, Code.TYPE)
+
+    def arith(self, op: str, n: Node, m: Node, col: int) -> Node:
+        n, m = self.same_type(self.need_num(n), self.need_num(m), col)
+        if n.type == FLOAT and op in ("/", "rem"):  # the engine's `fdiv` faults: not here
+            raise self.err(f"{op.upper()} on floats: compare the %MF the program computes",
+                           col, Code.TYPE)
+        return Node(op, (n, m), n.type, n.col)
 
     def sum(self) -> Node:
         n = self.term()
         while self.at("+", "-"):
             _, op, col = self.take()
-            n = Node(op, (self.need_int(n), self.need_int(self.nested(self.term, col))), "int",
-                     n.col)
+            n = self.arith(op, n, self.nested(self.term, col), col)
         return n
 
     def term(self) -> Node:
         n = self.factor()
         while self.at("*", "/", "REM"):
             _, op, col = self.take()
-            n = Node(op.lower(), (self.need_int(n), self.need_int(self.nested(self.factor, col))),
-                     "int", n.col)
+            n = self.arith(op.lower(), n, self.nested(self.factor, col), col)
         return n
 
     def factor(self) -> Node:
@@ -250,21 +292,29 @@ class Parser:
             return n
         if kind == "op" and val == "-":
             self.take()
-            return Node("neg", (self.need_int(self.nested(self.factor, col)),), "int", col)
+            n = self.need_num(self.nested(self.factor, col))
+            return Node("neg", (n,), n.type, col)
         if kind == "num":
             self.take()
-            return Node("num", (self.number(val, col),), "int", col)
+            return Node("num", (self.number(val, col),), INT, col)
+        if kind == "real":
+            self.take()
+            return Node("num", (self.real(val, col),), FLOAT, col)
         if kind == "addr" or (kind == "word" and val.split(".")[0] not in KEYWORDS):
             self.take()
             try:
                 ref = self.names.ref(val)
             except AddressError as e:
+                if val in NOT_FINITE:
+                    raise self.err(f"{val}: a float in a requirement must be finite", col,
+                                   Code.CONSTANT) from None
                 raise self.err(f"unknown address: {e}" if kind == "addr" else str(e),
                                col) from None
             if ref.length is not None or ref.offset is not None or ref.is_block:
                 raise self.err(f"{val}: a single bit or word", col)
             self.reads.append(ref)
-            return Node("addr", (ref,), BOOL if ref.type == BOOL else "int", col)
+            typ = BOOL if ref.type == BOOL else FLOAT if ref.type == REAL else INT
+            return Node("addr", (ref,), typ, col)
         raise self.err(f"expected a value, found {val or 'the end'!r}", col)
 
     def need_bool(self, n: Node) -> Node:
@@ -273,10 +323,22 @@ class Parser:
                            "(compare it, e.g. %MW10 > 0)", n.col)
         return n
 
-    def need_int(self, n: Node) -> Node:
+    def need_num(self, n: Node) -> Node:
         if n.type == BOOL:
             raise self.err("type mismatch: a bit where a number is expected", n.col)
         return n
+
+
+def _literal(n: Node) -> bool:
+    """A number written in the expression (a sign and parentheses allowed)."""
+    return n.op == "num" or n.op == "neg" and _literal(n.args[0])
+
+
+def _as_float(n: Node) -> Node:
+    """An integer literal taking a float's type: its value as a double (exact: at most
+    32 bits)."""
+    args = (float(n.args[0]),) if n.op == "num" else (_as_float(n.args[0]),)
+    return Node(n.op, args, FLOAT, n.col)
 
 
 def tree_depth(n: Node) -> tuple[int, Node]:
@@ -386,9 +448,9 @@ def load_spec(path: Path | None, exprs: list[str], profile: SymbolTable | Profil
         src, (line, col0) = (what, (1, 1)) if what == EXPR_ARG else (file, where.find(s))
         shown = s if len(s) <= SHOWN else s[:SHOWN] + "..."
 
-        def err(msg: str, col: int) -> VerifyError:
-            code = Code.ADDRESS if "address" in msg else Code.SYMBOL if "symbol" in msg \
-                else Code.TYPE if "mismatch" in msg else Code.SYNTAX
+        def err(msg: str, col: int, code: Code | None = None) -> VerifyError:
+            code = code or (Code.ADDRESS if "address" in msg else Code.SYMBOL if "symbol"
+                            in msg else Code.TYPE if "mismatch" in msg else Code.SYNTAX)
             return VerifyError(Diagnostic(msg, src, line, col0 + col - 1 if line else col,
                                           shown, "", code))
         try:

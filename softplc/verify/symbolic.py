@@ -7,6 +7,7 @@ values exists before the Twido rule (`semantics.checked`) wraps it. Bits are z3 
 
 from __future__ import annotations
 
+import math
 import struct
 from typing import Any
 
@@ -118,14 +119,18 @@ def narrow(v: Any, bits: int) -> Any:
     return z3.simplify(z3.Extract(bits - 1, 0, wide(v)))
 
 
-def value_of(model: z3.ModelRef, term: Any) -> int:
-    """A term's value in a solver model: 0/1 for bits, signed ints for words."""
+def value_of(model: z3.ModelRef, term: Any) -> int | float:
+    """A term's value in a solver model: 0/1 for bits, signed ints for words, a float
+    for a float term (a NaN as NaN: its IEEE bits are left open by z3)."""
     v = model.eval(term, model_completion=True)
     if z3.is_bool(v):
         return 1 if z3.is_true(v) else 0
     if z3.is_bv_value(v):
         return v.as_signed_long()
-    if z3.is_fp(v):  # a float (an abstracted function's value): its double
+    if z3.is_fp_value(v) and v.isNaN():
+        return math.nan
+    if z3.is_fp(v):  # a float (%MF read, an abstracted function's value): its double
+        v = z3.fpToFP(z3.RNE(), v, z3.Float64())  # exact: a single widened
         bits = model.eval(z3.fpToIEEEBV(v), model_completion=True).as_long()
         return struct.unpack("<d", bits.to_bytes(8, "little"))[0]
     return int(str(v))

@@ -121,6 +121,14 @@ def test_run_replay_is_the_same_replay(cex_files, capsys):
     assert out.rstrip().endswith("VIOLATED") and "%I0.2=0 %Q0.0=1" in out
 
 
+def test_run_replay_refuses_the_daemons_options(cex_files, capsys):
+    """A daemon option with --replay would do nothing: refused, named, nothing played."""
+    assert main(["run", *DEFECT, "--replay", str(cex_files["shipped"]), "--web", "off",
+                 "--state", "plc.state", "--port", "1502"]) == 1
+    err = capsys.readouterr().err
+    assert "--port, --state would have no effect" in err and "Traceback" not in err
+
+
 def test_a_trace_the_engine_does_not_break_exits_1(cex_files, tmp_path, capsys):
     data = json.loads(cex_files["delta"].read_text())
     data["counterexamples"][0]["scans"].pop()  # without its last scan: no violation

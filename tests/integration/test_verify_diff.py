@@ -9,7 +9,9 @@ BCD, Gray, LW/HW/CONCATW, SQRT), subroutines with conditional returns, ENDC, loo
 
 from __future__ import annotations
 
+import math
 import random
+import struct
 
 from fuzz_budget import examples
 from hypothesis import HealthCheck, given, settings
@@ -322,3 +324,72 @@ def test_float_abstractions_contain_the_engines_value(bits, func, y):
     s = z3.Solver()
     s.add(*facts)
     assert s.check() == z3.sat, f"{func}({x!r}) = {got!r}, fault {fault}"
+
+
+# ---- what the abstraction states of two applications (issue 34 item 1) --------------------
+SPECIAL = [0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 10.0, math.inf, -math.inf, math.nan, 5e-324,
+           1e308, 709.78, 710.0, -745.2, 1.0000000000000002, 0.9999999999999999, 1e-300,
+           math.pi / 2]
+single = st.integers(0, 2**32 - 1).map(
+    lambda b: struct.unpack("<f", b.to_bytes(4, "little"))[0])
+argument = st.one_of(st.floats(), single, st.sampled_from(SPECIAL))
+MONOTONE_SWEEP = 2000  # random arguments per function, each with NEIGHBOURS successors
+NEIGHBOURS = 8
+
+
+def _apply(func: str, x: float) -> tuple[float, bool]:
+    """The engine's value of func(x) and whether it set %S18."""
+    ops = Ops([0] * 32)
+    return getattr(ops, "f" + func.lower())(x), bool(ops.s[18])
+
+
+def _facts_hold(func: str, x1: float, x2: float) -> None:
+    import z3
+    (r1, f1), (r2, f2) = _apply(func, x1), _apply(func, x2)
+    c = floats.const
+    facts = [*floats.abstract_function(func, [c(x1)], c(r1), z3.BoolVal(f1)),
+             *floats.abstract_function(func, [c(x2)], c(r2), z3.BoolVal(f2)),
+             *floats.anchor_facts(func, c(x1), c(r1)), *floats.anchor_facts(func, c(x2), c(r2)),
+             *floats.monotone_facts(func, c(x1), c(r1), c(x2), c(r2))]
+    s = z3.Solver()
+    s.add(*facts)
+    assert s.check() == z3.sat, f"{func}({x1!r}) = {r1!r} (S18 {f1}), {func}({x2!r}) = " \
+        f"{r2!r} (S18 {f2})"
+
+
+@settings(max_examples=examples(400), deadline=None)
+@given(func=st.sampled_from(sorted(floats.ABSTRACTED - {"EXPT"})), x1=argument,
+       data=st.data())
+def test_anchor_and_monotone_facts_hold_for_the_engines_values(func, x1, data):
+    """Two applications of one function (an argument and another, or its neighbour a few
+    doubles away, where a rounding would break monotony first): the exact anchors, the
+    anchor's side and the order of the values hold of the engine's (NaN, infinities,
+    domain errors with %S18 included)."""
+    step = data.draw(st.integers(-NEIGHBOURS, NEIGHBOURS))
+    x2 = x1
+    for _ in range(abs(step)):
+        x2 = math.nextafter(x2, math.copysign(math.inf, step))
+    x2 = data.draw(st.one_of(st.just(x2), argument))
+    _facts_hold(func, x1, x2)
+
+
+def test_the_monotone_functions_are_monotone_on_adjacent_doubles():
+    """The engine's EXP, LN, LOG, ATAN, ASIN, ACOS never step back between neighbouring
+    doubles (C does not promise it of glibc's faithfully rounded functions), on random
+    arguments across their domains: a seeded sweep, the same every run."""
+    r = random.Random(34)
+    spans = {"EXP": (-745.0, 709.0), "LN": (1e-300, 1e300), "LOG": (1e-300, 1e300),
+             "ATAN": (-1e17, 1e17), "ASIN": (-1.0, 1.0), "ACOS": (-1.0, 1.0)}
+    for func, sign in floats.MONOTONE.items():
+        lo, hi = spans[func]
+        log_scale = func in ("LN", "LOG")
+        for _ in range(MONOTONE_SWEEP):
+            x = math.exp(r.uniform(math.log(lo), math.log(hi))) if log_scale else \
+                r.uniform(lo, hi) * (r.random() ** 8 if func == "ATAN" else 1.0)
+            values = []
+            for _ in range(NEIGHBOURS):
+                if x > hi:  # out of the domain (ASIN, ACOS past 1): no value to order
+                    break
+                values.append(_apply(func, x)[0] * sign)
+                x = math.nextafter(x, math.inf)
+            assert values == sorted(values), (func, x, values)

@@ -46,6 +46,17 @@ def test_held_objects_flag_a_vacuous_proof(tmp_path, capsys):
     assert "VACUOUS" not in second  # true whatever %M0 / %M1 do
 
 
+def test_an_object_only_the_requirement_reads_is_free_too(tmp_path, capsys):
+    """A word and a coil the program never reads, a host may still write: free, so `never
+    %MW5 = 7` is VIOLATED (it was PROVEN, %MW5 held at 0 without a word)."""
+    prog = write(tmp_path, "p.il", "LD 1\nST %Q0.0\n")
+    assert main(["verify", prog, "--require-expr", "never %MW5 = 7",
+                 "--require-expr", "never %M3"]) == 2
+    out = capsys.readouterr().out
+    assert "written by a Modbus host (read, never written by the program): %M3 %MW5" in out
+    assert out.count("VIOLATED") == 2 and "PROVEN" not in out
+
+
 def test_read_only_range_is_held_and_program_words_stay_the_programs():
     prog = ("LD %M5\nST %Q0.0\nLD [ %MW3 > 0 ]\nST %Q0.1\n"
             "LD %I0.0\n[ %MW4 := %MW4 + 1 ]\n")

@@ -424,7 +424,9 @@ class _StalledWallClock:
     thread_time = staticmethod(time.thread_time)
 
     def __init__(self) -> None:
-        self.t = 0.0
+        # from the real reading: the scan's own start (its deadline's base) is one, and a
+        # clock from 0 would stay 10^5 readings behind it (seconds of CPU to catch up)
+        self.t = time.perf_counter()
 
     def perf_counter(self) -> float:
         self.t += 0.1

@@ -35,6 +35,9 @@ class CountingLark:
         self.parses += 1
         return self.lark.parse(text)
 
+    def __getattr__(self, name):  # the rest of Lark's interface (e.g. get_terminal) as is
+        return getattr(self.lark, name)
+
 
 @pytest.fixture
 def counted(monkeypatch):
