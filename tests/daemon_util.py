@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from waits import WAIT_S
 
 from softplc.modbus.rawclient import RawClient
 
@@ -75,7 +76,7 @@ class Daemon:
             self.lines.put(line)
         self.lines.put("")
 
-    def wait_for(self, pattern: str, timeout: float = 15.0) -> str:
+    def wait_for(self, pattern: str, timeout: float = WAIT_S) -> str:
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             try:
@@ -99,7 +100,7 @@ class Daemon:
     def client(self) -> RawClient:
         return RawClient("127.0.0.1", self.port, timeout=5)
 
-    def stop(self, sig: int = signal.SIGINT, timeout: float = 10.0) -> int:
+    def stop(self, sig: int = signal.SIGINT, timeout: float = WAIT_S) -> int:
         self.proc.send_signal(sig)
         return self.proc.wait(timeout)
 

@@ -6,16 +6,21 @@ from __future__ import annotations
 import asyncio
 import socket
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import SimDevice
 
 
-def free_port() -> int:
-    """A TCP port free on 127.0.0.1 now (for a server a test starts itself)."""
+@contextmanager
+def refused_port() -> Iterator[int]:
+    """A loopback port where nothing listens, for the test's duration: held bound (not
+    listening: a connection is refused), so that no other test, a parallel worker's, can
+    take it meanwhile (a port found free and let go can be)."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        yield s.getsockname()[1]
 
 
 def closed_or_reply(sock: socket.socket, timeout: float = 2.0) -> bytes:

@@ -7,7 +7,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-WAIT_S = 10.0  # generous: it bounds a failing test only
+# Generous: it bounds a failing test only (a hang), never a step of a passing one: on a
+# 2-core machine shared with a busy process and parallel workers a daemon's step can
+# take seconds (issue 33).
+WAIT_S = 60.0
+WAIT_MS = int(WAIT_S * 1000)  # the same, for Playwright
 POLL_S = 0.02  # how often to look again
 
 

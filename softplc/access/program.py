@@ -100,6 +100,10 @@ class ProgramAccess:
         store = getattr(self.image, "store", None)
         if store is not None:  # the state file now belongs to the new program: a restart
             store.app = app  # runs it (kept beside the file) with its data
+            # committed now, with this boundary's data: the answer "applied" must hold
+            # even if the daemon stops before this scan's end commits (a stop cuts the
+            # scan short, which then commits nothing: the file named the old program)
+            self.image.snapshot_boundary()
         if kept is not None and self.keeper is not None:
             self.keeper.running = kept
         return self.info()

@@ -1,6 +1,7 @@
 """The device interface: the whole contract between the scan engine and a simulated machine.
 
-After every scan the engine calls `update(t, dt)` on each device, in configuration order.
+After every scan the engine calls `update(t, dt)` on each device, in configuration order
+(and `cold_start()` when a cold start has just cleared the memory).
 A device reads the field outputs (`mem.q_field`, published at the end of the scan), moves
 its physics on by `dt` seconds to time `t`, and writes field inputs (`mem.i_field`), which
 the next scan latches into its input image. Devices resolve their addresses once, in
@@ -71,6 +72,11 @@ class Device:
 
     def reset(self) -> None:
         """Back to the configured initial state."""
+
+    def cold_start(self) -> None:
+        """The engine has just cleared %M and %MW (a cold start, the first one at build):
+        a device that keeps words of its own there writes them again now, before a host's
+        write can land in the cleared words (the next scan's first step)."""
 
     def state(self) -> dict[str, Any]:
         """The simulated state (for the debugger's `back`, its history, retained state)."""

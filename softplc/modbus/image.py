@@ -152,6 +152,12 @@ class ModbusImage:
         """Copy %MW and %M for readers (and commit them to the store). After each scan."""
         if self.hold:
             return
+        self.snapshot_boundary()
+
+    def snapshot_boundary(self) -> None:
+        """`take_snapshot` whatever `hold`: for a caller in the scan thread between two
+        scans (an online change's swap), whose memory is a boundary's even when the scan
+        that follows is cut short."""
         regs = words_to_wire(self.mem.mw.buf)
         coils = bytes(self.mem.m)
         blocks = self._blocks() if self._blocks is not None else None

@@ -181,9 +181,7 @@ def up(spec: PlantSpec, state_dir: Path, preload: Callable[[], Any],
                               "processes": {}}
 
     def keep() -> None:
-        fd = os.open(record_file, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-        with os.fdopen(fd, "w") as f:  # owner only: it holds the monitors' token
-            json.dump(record, f, indent=1)
+        write_record(record_file, record)
 
     keep()  # before anything is made: `down` removes a half-made plant too
     # the imports the daemons share, while iproute2 makes the network (its own processes)
@@ -228,6 +226,17 @@ def up(spec: PlantSpec, state_dir: Path, preload: Callable[[], Any],
         down(record_file)
         raise
     return record
+
+
+def write_record(path: Path, record: dict[str, Any]) -> None:
+    """`up`'s record, written whole or not at all (a new file renamed over the old one):
+    the plant page's process reads it while `up` goes on adding to it, and read a file
+    truncated for rewriting ("Expecting value": the page did not start, issue 33)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w") as f:  # owner only: it holds the monitors' token
+        json.dump(record, f, indent=1)
+    os.replace(tmp, path)
 
 
 def _network(t: str, net: Any, record: dict[str, Any], members: dict[str, str]) -> None:

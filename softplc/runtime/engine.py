@@ -212,6 +212,10 @@ class Engine:
         for buf in (m.m, m.q, m.q_field, m.x):
             buf[:] = [False] * len(buf)
         m.mw.buf[:] = bytes(len(m.mw.buf))
+        for dev in self.devices.values():  # their own words, before a host's write lands
+            rewrite = getattr(dev, "cold_start", None)  # (optional: Device.cold_start)
+            if rewrite is not None:
+                rewrite()
         for (kind, i), st in self.cold_states.items():
             m.blocks[kind][i].set_state(st)
         if self.program is not None:

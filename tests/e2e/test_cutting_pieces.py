@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import csv
 import math
-import socket
 from pathlib import Path
 
 import pytest
+from modbus_util import refused_port
 
 from softplc import PLC
 from softplc.cli import main
@@ -295,10 +295,8 @@ def test_cut_command_errors(tmp_path, capsys):
     bad = write(tmp_path, '[[op]]\nkind = "line"\nto = [1, 2]\nspeeed = 3\n')
     assert main(["cut", str(bad), "--dry-run"]) == 1
     assert "op[0].speeed: unknown key" in capsys.readouterr().err
-    with socket.socket() as sock:  # a free port: nobody listens there
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]
-    assert main(["cut", str(PIECES / "cuadrado.toml"), "--port", str(port)]) == 1
+    with refused_port() as port:  # nobody listens there, and no parallel worker takes it
+        assert main(["cut", str(PIECES / "cuadrado.toml"), "--port", str(port)]) == 1
     assert "cannot reach the PLC" in capsys.readouterr().err
     assert main(["cut", str(PIECES / "cuadrado.toml"), "--dry-run", "--start-at", "9"]) == 1
     assert main(["cut", str(PIECES / "cuadrado.toml"), "--dry-run", "--preview",

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import Daemon, started
+from waits import WAIT_S
 
 from softplc.modbus.rawclient import RawClient
 
@@ -47,7 +48,7 @@ def start(daemons, tmp, *args, **kw) -> Daemon:
     return started(daemons, tmp, *args, **kw)
 
 
-def wait_scans(c: RawClient, n: int, timeout: float = 5.0) -> int:
+def wait_scans(c: RawClient, n: int, timeout: float = WAIT_S) -> int:
     """Wait until the scan counter %MW12 has moved n times; return it."""
     start_ = c.read_registers(12, 1)[0]
     end = time.monotonic() + timeout
@@ -102,7 +103,7 @@ def test_host_write_seen_at_next_scan_not_earlier(daemons, tmp_path):
             after = c.read_registers(10, 5)
             if after[2] == before[2]:  # no scan finished since: only the write shows
                 assert after == [value, *before[1:]]
-            end = time.monotonic() + 5
+            end = time.monotonic() + WAIT_S
             while c.read_registers(11, 1) != [value]:
                 assert time.monotonic() < end
                 time.sleep(0.005)
@@ -151,7 +152,7 @@ def test_corrupt_state_file_needs_cold(daemons, tmp_path):
     assert d.stop() == 0
     state.write_bytes(state.read_bytes()[:-10])  # truncated
     d = start(daemons, tmp_path, "--state", str(state), wait=False)
-    assert d.proc.wait(15) == 1
+    assert d.proc.wait(WAIT_S) == 1
     err = d.proc.stderr.read()  # type: ignore[union-attr]
     assert "truncated" in err and "--cold" in err and "Traceback" not in err
     d = start(daemons, tmp_path, "--state", str(state), "--cold")
@@ -170,7 +171,7 @@ def test_kill9_keeps_every_acknowledged_write(daemons, tmp_path):
         wait_scans(c, 2)
         c.write_registers(6, [2222])  # acknowledged, maybe not yet scanned
     d.proc.kill()
-    d.proc.wait(10)
+    d.proc.wait(WAIT_S)
     d = start(daemons, tmp_path, "--state", str(state))
     assert "warm start" in "".join(d.out)
     with d.client() as c:
@@ -200,12 +201,12 @@ def test_speed_max_runs_the_virtual_clock_and_serves(daemons, tmp_path):
               program=TIMER_PROGRAM)
     assert "as fast as possible" in "".join(d.out)
     with d.client() as c:
-        end = time.monotonic() + 20
+        end = time.monotonic() + WAIT_S
         while c.call(struct.pack(">BHH", 1, 50, 1)) != b"\x01\x01\x01":  # %TM0.Q -> %M50
             assert time.monotonic() < end, "the virtual clock does not run fast"
             time.sleep(0.01)
         c.write_registers(100, [5])  # writes still go through at full speed
-        end = time.monotonic() + 5
+        end = time.monotonic() + WAIT_S
         while c.read_registers(100, 1) != [5]:
             assert time.monotonic() < end
     assert d.stop() == 0
@@ -213,7 +214,7 @@ def test_speed_max_runs_the_virtual_clock_and_serves(daemons, tmp_path):
 
 def test_bad_arguments_are_clear_errors(daemons, tmp_path):
     d = start(daemons, tmp_path, "--period", "1.5ms", wait=False)
-    assert d.proc.wait(15) == 1
+    assert d.proc.wait(WAIT_S) == 1
     assert "whole number of ms" in d.proc.stderr.read()  # type: ignore[union-attr]
     busy = socket.socket()
     busy.bind(("127.0.0.1", 0))

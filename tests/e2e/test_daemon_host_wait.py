@@ -9,6 +9,7 @@ import time
 import urllib.request
 
 from daemon_util import Daemon, started
+from waits import WAIT_S
 
 # %M0: waiting while %MW0 = 0; %MW1 counts scans; a write to %MW0 is consumed at once
 PROGRAM = """\
@@ -37,7 +38,7 @@ def scans(d: Daemon) -> int:
 
 def test_the_virtual_clock_waits_for_the_host(daemons, tmp_path):
     d = start(daemons, tmp_path, "--speed", "max", web="0")
-    end = time.monotonic() + 5
+    end = time.monotonic() + WAIT_S
     while scans(d) == 0:  # the banner comes before the first scan
         assert time.monotonic() < end
     time.sleep(0.2)  # thousands of scans at --speed max, if any ran
@@ -45,7 +46,7 @@ def test_the_virtual_clock_waits_for_the_host(daemons, tmp_path):
     with d.client() as c:
         for k in range(1, 4):
             c.write_registers(0, [7])  # each write: one scan consumes it, one sets the bit
-            end = time.monotonic() + 5
+            end = time.monotonic() + WAIT_S
             while c.read_registers(1, 1)[0] != 1 + 2 * k:
                 assert time.monotonic() < end
             time.sleep(0.05)
@@ -55,7 +56,7 @@ def test_the_virtual_clock_waits_for_the_host(daemons, tmp_path):
         req = urllib.request.Request(web + "/api/force", b'{"object": "%M7", "value": 1}',
                                      {"Content-Type": "application/json"})
         urllib.request.urlopen(req, timeout=10).close()
-        end = time.monotonic() + 5
+        end = time.monotonic() + WAIT_S
         while c.read_registers(1, 1)[0] != 8:
             assert time.monotonic() < end
         time.sleep(0.2)
@@ -67,7 +68,7 @@ def test_no_host_wait_and_real_time_ignore_the_bit(daemons, tmp_path):
     for args in (("--speed", "max", "--no-host-wait"), ("--period", "2ms")):
         d = start(daemons, tmp_path, *args)
         first = scans(d)
-        end = time.monotonic() + 5
+        end = time.monotonic() + WAIT_S
         while scans(d) < first + 20:  # scans go on with nobody writing
             assert time.monotonic() < end
             time.sleep(0.01)

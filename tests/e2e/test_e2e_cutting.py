@@ -19,7 +19,9 @@ from pathlib import Path
 
 import pytest
 from daemon_util import ROOT, Daemon
+from waits import WAIT_S, until
 
+from softplc.commands.io import Client
 from softplc.errors import HostError
 from softplc.machines.cutting import Piece, load_piece
 from softplc.machines.cutting.client import CutClient, CutResult, TraceReport, trace_deviation
@@ -68,7 +70,7 @@ def cut(daemon: Daemon, trace: Path, piece_file: str, poll: float = 0.01,
         frames = client.frames_sent
     # the daemon flushes the trace when the clock stops to wait for the host: the file is
     # complete while the daemon still runs (`softplc cut --trace` reads it then)
-    end, size = time.monotonic() + 5, -1
+    end, size = time.monotonic() + WAIT_S, -1
     while trace.stat().st_size != size:
         assert time.monotonic() < end
         size = trace.stat().st_size
@@ -152,8 +154,16 @@ def settled_at(rows: list, i: int, window: float) -> float:
 def web_post(port: int, path: str, body: dict) -> dict:
     req = urllib.request.Request(f"http://127.0.0.1:{port}{path}", json.dumps(body).encode(),
                                  {"Content-Type": "application/json"})
-    with urllib.request.urlopen(req, timeout=10) as r:
+    with urllib.request.urlopen(req, timeout=WAIT_S) as r:
         return json.loads(r.read())
+
+
+def unforce(port: int, obj: str) -> None:
+    """Release a forced input through the web monitor on `port` and wait until the daemon
+    applied it (at a scan boundary: that scan reads the input), not a fixed time."""
+    web_post(port, "/api/unforce", {"object": obj})
+    status = Client("127.0.0.1", port).status
+    until(lambda: obj not in status()["forced"])
 
 
 def test_e8_homing_and_e9_limit_stop_through_the_daemon(table):
@@ -168,21 +178,20 @@ def test_e8_homing_and_e9_limit_stop_through_the_daemon(table):
     daemon, trace = table("e8e9", "--web", "0", start_mm=None)
     web = daemon.web_port()
     with CutClient("127.0.0.1", daemon.port, progress=None, poll_interval=0.002) as client:
-        homed = client.wait_for(lambda s: s.step == 4, 30.0, "homing")
+        homed = client.wait_for(lambda s: s.step == 4, WAIT_S, "homing")
         client.offer(SegmentWords(200_000, 0, 20.0, 1, 1), "a long cut along X")
-        client.wait_for(lambda s: s.pos_um[0] >= 20_000, 10.0, "cruising")
+        client.wait_for(lambda s: s.pos_um[0] >= 20_000, WAIT_S, "cruising")
         web_post(web, "/api/force", {"object": "%I0.9", "value": 1})
-        state = client.poll(client.read_state, lambda s: s.step == 9, 5.0, "the fault")
+        state = client.poll(client.read_state, lambda s: s.step == 9, WAIT_S, "the fault")
         assert state.fault == 1
         client.write_bit(102, True)  # RESET, refused while the switch is made
         deadline = time.monotonic() + 0.3
         while time.monotonic() < deadline:
             s = client.read_state()
             assert s.step == 9 and s.fault == 1
-        web_post(web, "/api/unforce", {"object": "%I0.9"})
-        time.sleep(0.05)  # the input is seen at the next scan
+        unforce(web, "%I0.9")
         client.write_bit(102, True)
-        state = client.poll(client.read_state, lambda s: s.step == 4, 5.0, "READY after RESET")
+        state = client.poll(client.read_state, lambda s: s.step == 4, WAIT_S, "READY after RESET")
         assert state.fault == 0 and state.ejecutando == 0
     assert daemon.stop() == 0
     rows = trace_rows(trace)
@@ -248,7 +257,7 @@ def force_when(web: int, port: int, obj: str, value: int, ready) -> threading.Th
     polling the PLC, as an operator watching the table would)."""
     def watch() -> None:
         with CutClient("127.0.0.1", port, progress=None, poll_interval=0.002) as c:
-            c.poll(c.read_state, ready, 30.0, "the moment to force")
+            c.poll(c.read_state, ready, WAIT_S, "the moment to force")
             web_post(web, "/api/force", {"object": obj, "value": value})
 
     t = threading.Thread(target=watch, daemon=True)
@@ -274,7 +283,7 @@ def test_softplc_cut_reports_the_faulted_segment_then_jog_reset_home(table, tmp_
     watcher = force_when(web, daemon.port, "%I0.9", 1,
                          lambda s: s.step == 5 and s.pos_um[0] > 20_000)
     assert main(["cut", str(piece), "--port", port]) == 3
-    watcher.join(5)
+    watcher.join(WAIT_S)
     out = capsys.readouterr().out
     assert "stopped by a fault: 1 segments" in out
     assert "fault 1 (limit switch) during segment 2/3 (op[1])" in out
@@ -287,8 +296,7 @@ def test_softplc_cut_reports_the_faulted_segment_then_jog_reset_home(table, tmp_
     assert main(["cut", "jog", "X-", "3", "--port", port]) == 0
     moved = float(re.search(r"moved (\S+) mm", capsys.readouterr().out)[1])
     assert moved >= 3.0
-    web_post(web, "/api/unforce", {"object": "%I0.9"})
-    time.sleep(0.05)
+    unforce(web, "%I0.9")
     assert main(["cut", "reset", "--port", port]) == 0
     assert "RESET accepted: READY" in capsys.readouterr().out
     assert main(["cut", "home", "--port", port]) == 0
@@ -311,15 +319,14 @@ def test_a_fault_mid_piece_resumes_after_reset_from_the_faulted_segment(table):
                          lambda s: s.seg_done >= 2 and s.step == 5)  # (a late poll: 4, 5...)
     with CutClient("127.0.0.1", daemon.port, progress=None) as client:
         res = client.stream(piece)
-        watcher.join(5)
+        watcher.join(WAIT_S)
         assert res.fault == 5 and not res.interrupted
         n = res.next_number
         assert 3 <= n <= 8 and res.last_number == n - 1
         assert res.fault_where == piece.segments()[n - 1].where
         with pytest.raises(HostError, match="E-stop pressed"):
             client.reset()
-        web_post(web, "/api/unforce", {"object": "%I0.16"})
-        time.sleep(0.05)
+        unforce(web, "%I0.16")
         state = client.reset()
         assert state.step == 4 and state.seg_done == n - 1 and not state.ejecutando
         res2 = client.stream(piece, start_at=res.next_number)

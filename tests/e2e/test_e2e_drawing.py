@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import ROOT, Daemon, default_sigint
+from modbus_util import refused_port
 
 from softplc.cli import main as softplc
 from softplc.machines.drawing import max_deviation
@@ -91,13 +92,9 @@ def test_bad_gcode_is_refused_before_anything_is_sent(table, tmp_path, capsys):
 
 
 def test_unreachable_daemon_is_a_clear_error(tmp_path, capsys):
-    import socket
-
-    with socket.socket() as s:  # a port with nobody listening
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    rc = softplc(["draw", str(SAMPLES / "square.gcode"), "--port", str(port),
-                  "--no-progress", "--retries", "0", "--request-timeout", "0.5"])
+    with refused_port() as port:  # nobody listening, and no parallel worker takes it
+        rc = softplc(["draw", str(SAMPLES / "square.gcode"), "--port", str(port),
+                      "--no-progress", "--retries", "0", "--request-timeout", "0.5"])
     assert rc == 1
     err = capsys.readouterr().err
     assert f"127.0.0.1:{port}" in err and "Traceback" not in err

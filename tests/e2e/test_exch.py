@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import started
-from modbus_util import PymodbusThread, free_port
+from modbus_util import PymodbusThread, refused_port
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from softplc.errors import ConfigError, ProgramError
@@ -138,8 +138,9 @@ def test_timeout_counts_in_virtual_time(silent_port):
 
 
 def test_nothing_listening():
-    plc = PLC.from_source(ONE_SHOT.format(n=10), config(free_port()))
-    run_table(plc, READ_WORD_0, 10)
+    with refused_port() as port:
+        plc = PLC.from_source(ONE_SHOT.format(n=10), config(port))
+        run_table(plc, READ_WORD_0, 10)
     assert plc["%MSG3.D"] and plc["%MSG3.E"] and plc["%SW65"] == exch.ERR_TX
     assert plc.state == "RUN"
 
@@ -306,10 +307,11 @@ def test_repl_prints_the_block(tmp_path):
 
     prog = tmp_path / "p.il"
     prog.write_text(ONE_SHOT.format(n=10))
-    plc = PLC.from_file(prog, config(free_port()))
-    s = Session(plc, prog)
-    assert s.execute("print %MSG3") == "%MSG3 = D=1 E=0"
-    run_table(plc, READ_WORD_0, 10)  # nothing listening: error 6
+    with refused_port() as port:
+        plc = PLC.from_file(prog, config(port))
+        s = Session(plc, prog)
+        assert s.execute("print %MSG3") == "%MSG3 = D=1 E=0"
+        run_table(plc, READ_WORD_0, 10)  # nothing listening: error 6
     assert s.execute("print %MSG3.E %SW65") == "%MSG3.E = 1\n%SW65 = 6"
     plc.close()
 

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 import pytest
-from modbus_util import PymodbusThread, free_port
+from modbus_util import PymodbusThread, refused_port
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from softplc.cli import main
@@ -183,17 +183,15 @@ def test_plc_fault_stops_the_run():
 
 
 def test_unreachable_daemon_is_a_clear_error():
-    port = free_port()
-    c = DrawClient("127.0.0.1", port, request_timeout=0.5, progress=None)
-    with pytest.raises(HostError) as e:
-        c.connect()
+    with refused_port() as port, pytest.raises(HostError) as e:
+        DrawClient("127.0.0.1", port, request_timeout=0.5, progress=None).connect()
     assert f"127.0.0.1:{port}" in str(e.value) and "daemon" in str(e.value)
 
 
 def test_cli_unreachable_gives_message_not_traceback(capsys):
-    port = free_port()
-    rc = main(["draw", str(SAMPLES / "square.gcode"), "--port", str(port),
-               "--request-timeout", "0.5", "--no-progress"])
+    with refused_port() as port:
+        rc = main(["draw", str(SAMPLES / "square.gcode"), "--port", str(port),
+                   "--request-timeout", "0.5", "--no-progress"])
     err = capsys.readouterr().err
     assert rc == 1 and "cannot reach the PLC" in err and "Traceback" not in err
 

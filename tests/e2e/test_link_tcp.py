@@ -4,6 +4,7 @@ peer rejoining without restarting the master, bad frames refused."""
 
 from __future__ import annotations
 
+import re
 import signal
 import socket
 from pathlib import Path
@@ -43,12 +44,6 @@ address = 1
 """
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _files(tmp: Path) -> tuple[Path, Path]:
     (tmp / "master").mkdir()
     (tmp / "peer").mkdir()
@@ -59,10 +54,10 @@ def _files(tmp: Path) -> tuple[Path, Path]:
 
 def test_two_daemons_exchange_words_and_survive_a_peer_restart(daemons, tmp_path):  # noqa: F811
     mdir, pdir = _files(tmp_path)
-    link_port = _free_port()
-    peer = started(daemons, pdir, "--config", "peer.toml",
-                   "--link-listen", f"127.0.0.1:{link_port}", program=PEER_IL)
-    assert any(f"answering polls on 127.0.0.1:{link_port} (TCP)" in ln for ln in peer.out)
+    peer = started(daemons, pdir, "--config", "peer.toml",  # port 0: parallel workers
+                   "--link-listen", "127.0.0.1:0", program=PEER_IL)
+    said = next(ln for ln in peer.out if "answering polls on 127.0.0.1:" in ln)
+    link_port = int(re.search(r"127\.0\.0\.1:(\d+) \(TCP\)", said)[1])
     master = started(daemons, mdir, "--config", "master.toml",
                      "--link-remote", f"1=127.0.0.1:{link_port}", program=MASTER_IL)
     assert any("Remote Link: master, every 20 ms" in ln for ln in master.out)

@@ -85,35 +85,26 @@ def test_online_request_over_modbus(tmp_path, capsys):
         daemon.stop()
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]  # nobody listens there once closed
-
-
 def test_online_waits_for_a_daemon_not_listening_yet(tmp_path, capsys):
     """`tune --port` started before the daemon waits for it (one message), then gives up
     with a clear error after --connect-timeout."""
     import socket
 
-    port = _free_port()
-    assert main(["tune", "--dir", str(tmp_path), "--port", str(port), "--once",
-                 "--connect-timeout", "0.3"]) == 1
-    err = capsys.readouterr().err
-    assert err.count("waiting up to 0.3 s for the PLC at 127.0.0.1:") == 1
-    assert "cannot reach the PLC" in err
-    # a listener that comes up after the first refusals is reached
-    seen: list[str] = []
-    srv = socket.socket()
-    srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    timer = threading.Timer(0.4, lambda: (srv.bind(("127.0.0.1", port)), srv.listen()))
-    timer.start()
-    try:
-        host = ModbusHost("127.0.0.1", port).connect_within(10, seen.append)
-        host.close()
-    finally:
-        timer.join()
-        srv.close()
+    with socket.socket() as srv:  # bound, not listening: refused; no parallel worker takes it
+        srv.bind(("127.0.0.1", 0))
+        port = srv.getsockname()[1]
+        assert main(["tune", "--dir", str(tmp_path), "--port", str(port), "--once",
+                     "--connect-timeout", "0.3"]) == 1
+        err = capsys.readouterr().err
+        assert err.count("waiting up to 0.3 s for the PLC at 127.0.0.1:") == 1
+        assert "cannot reach the PLC" in err
+        # a listener that comes up after the first refusals is reached
+        seen: list[str] = []
+        timer = threading.Timer(0.4, srv.listen)
+        timer.start()
+        try:
+            host = ModbusHost("127.0.0.1", port).connect_within(10, seen.append)
+            host.close()
+        finally:
+            timer.join()
     assert len(seen) == 1 and "waiting up to 10 s" in seen[0]

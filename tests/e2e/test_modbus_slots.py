@@ -27,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 
 from bench_slots import Attack, first_answer  # noqa: E402
 from modbus_util import closed_or_reply  # noqa: E402
+from waits import until  # noqa: E402
 
 
 @pytest.fixture
@@ -111,9 +112,12 @@ def test_a_client_leaving_replies_unread_is_evicted_first():
             assert b.read_registers(0, 1) == [0]
             u = socket.create_connection(("127.0.0.1", th.port))
             u.sendall(mbap_frame(1, 1, struct.pack(">BHH", 3, 0, 125)) * 2000)  # 518 kB out
-            time.sleep(0.3)
-            (conn,) = [c for c in th.server.connections if c.peer[1] == u.getsockname()[1]]
-            assert conn.unread() > srv.UNREAD_EVICT
+            def unread() -> list:  # u's connection once it holds replies unread
+                return [c for c in list(th.server.connections) if c.peer[1] ==
+                        u.getsockname()[1] and c.unread() > srv.UNREAD_EVICT]
+
+            until(unread)  # at the server's own pace, not after a fixed 0.3 s
+            (conn,) = unread()
             with RawClient("127.0.0.1", th.port) as n:  # u has completed requests, but
                 assert n.read_registers(0, 1) == [0]  # does not read: its slot goes
                 assert b.read_registers(0, 1) == [0]

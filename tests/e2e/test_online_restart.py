@@ -7,7 +7,7 @@ leaving the state file as it was (softplc.persist.kept, softplc.online.choose_pr
 from __future__ import annotations
 
 from daemon_util import Daemon, started
-from waits import until
+from waits import WAIT_S, until
 
 from softplc.cli import main as cli
 from softplc.commands.io import Client
@@ -82,7 +82,7 @@ def test_a_program_file_that_differs_stops_the_start_until_the_operator_chooses(
 
     prog.write_text(OTHER)  # the operator edits the file: not a silent cold start
     d = started(daemons, tmp_path, *args, program=prog, wait=False)
-    assert d.proc.wait(20) == 1
+    assert d.proc.wait(WAIT_S) == 1
     err = d.proc.stderr.read()
     assert "Traceback" not in err
     assert "P.il (started, loaded" in err, err

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from waits import until_equal
+from waits import WAIT_S, until_equal
 
 from softplc.plant import hosts
 
@@ -21,7 +21,6 @@ ROOT = Path(__file__).resolve().parents[2]
 WHY = hosts.netns_works()
 pytestmark = [pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}"),
               pytest.mark.usefixtures("netns_serial")]
-WAIT_S = 15.0  # bounds a failing test only
 READ_S = 0.1  # between reads: each starts a process in the SCADA's namespace
 
 PLANT = """

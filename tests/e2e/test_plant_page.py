@@ -15,17 +15,17 @@ import urllib.request
 from pathlib import Path
 
 from daemon_util import default_sigint
+from waits import WAIT_S
 
 ROOT = Path(__file__).resolve().parents[2]
 PLANT = ROOT / "ladder_programs" / "plant" / "plant.toml"
-WAIT_S = 15.0  # bounds a failing test only
 BOTH_PEERS = 0b11  # the master's %SW111: peers 1 and 2 answer
 
 
 def _get(url: str, host: str | None = None) -> tuple[int, str]:
     req = urllib.request.Request(url, headers={"Host": host} if host else {})
     try:
-        with urllib.request.urlopen(req, timeout=5) as r:
+        with urllib.request.urlopen(req, timeout=WAIT_S) as r:
             return r.status, r.read().decode()
     except urllib.error.HTTPError as e:
         return e.code, e.read().decode()

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from test_web_browser import browser, shot, sync_api  # noqa: F401 (fixture)
+from waits import WAIT_MS
 
 from softplc.plant import hosts
 
@@ -22,7 +23,6 @@ EXAMPLE = ROOT / "ladder_programs" / "plant" / "plant.toml"
 WHY = hosts.netns_works()
 pytestmark = [pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}"),
               pytest.mark.usefixtures("netns_serial")]
-WAIT_MS = 20_000  # bounds a failing test only
 
 
 def _softplc(*args: str) -> subprocess.CompletedProcess[str]:

@@ -9,13 +9,12 @@ from pathlib import Path
 
 from daemon_util import ROOT, started
 from docs_util import fenced, page
-from modbus_util import free_port
+from waits import WAIT_S
 
 from softplc.cli import main as softplc
 from softplc.commands.io import Client
 
 SCANS_BETWEEN_LINES = 2  # each line's change applied before the next line is sent
-WAIT_S = 15.0  # at most, for those scans (a loaded machine); never a measured figure
 
 
 def wait_scans(client: Client, n: int) -> None:
@@ -30,10 +29,9 @@ def test_the_readme_run_and_operate_lines(tmp_path, daemons, capsys):
     run = shlex.split(fenced(readme, "**Run** it", "sh"))
     assert run[:2] == ["softplc", "run"]
     args = run[2:]
-    web = free_port()
-    args[args.index("--web") + 1] = str(web)
+    args[args.index("--web") + 1] = "0"  # a free port, read from the banner (parallel workers)
     args[args.index("--config") + 1] = str(ROOT / args[args.index("--config") + 1])
-    started(daemons, tmp_path, *args[1:], program=Path(ROOT / args[0]))
+    web = started(daemons, tmp_path, *args[1:], program=Path(ROOT / args[0])).web_port()
     client = Client(port=web)
     wait_scans(client, 1)
     for line in fenced(readme, "**Operate** it", "sh").splitlines():

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import started
-from waits import until
+from waits import WAIT_S, until
 
 from softplc.daemon import Daemon as InProcessDaemon
 from softplc.daemon import DaemonOptions
@@ -73,7 +73,7 @@ def test_trace_to_dev_full_is_an_error_at_start():
 def test_daemon_trace_dev_full_is_a_clear_error(daemons, tmp_path):
     d = started(daemons, tmp_path, "--config", str(TABLE / "drawing_table.toml"), "--trace",
                 "/dev/full", program=TABLE / "drawing_table.il", wait=False)
-    assert d.proc.wait(20) == 1
+    assert d.proc.wait(WAIT_S) == 1
     err = d.proc.stderr.read()
     assert "Traceback" not in err
     assert "trace file /dev/full: cannot write: No space left on device" in err
@@ -278,7 +278,7 @@ def test_daemon_state_file_deleted_while_running_loses_nothing(daemons, tmp_path
         d.wait_for(r"was deleted .* re-created from memory", 5)
         second = started(daemons, tmp_path, "--state", str(state), program=COUNTER,
                          wait=False)
-        assert second.proc.wait(20) == 1
+        assert second.proc.wait(WAIT_S) == 1
         assert "in use by another softplc" in second.proc.stderr.read()
     assert d.stop() == 0
     assert f"state saved to {state}" in d.wait_for("stopped after")
@@ -312,7 +312,7 @@ def test_daemon_refuses_a_symlinked_state_file(daemons, tmp_path):
     (tmp_path / "plc.state").symlink_to(foreign)
     d = started(daemons, tmp_path, "--state", "plc.state", "--cold", program=COUNTER,
                 wait=False)
-    assert d.proc.wait(20) == 1
+    assert d.proc.wait(WAIT_S) == 1
     err = d.proc.stderr.read()
     assert "symbolic link" in err and "--state-symlink" in err and "Traceback" not in err
     assert foreign.read_bytes() == b"someone's data"
@@ -361,7 +361,7 @@ def test_numeric_settings_are_bounded(raw, message):
 @pytest.mark.parametrize("flag", ["--stats-interval", "--save-interval"])
 def test_interval_flags_are_bounded(daemons, tmp_path, flag):
     d = started(daemons, tmp_path, flag, "1us", program=COUNTER, wait=False)
-    assert d.proc.wait(20) == 2
+    assert d.proc.wait(WAIT_S) == 2
     assert "0 (off) or at least 10 ms" in d.proc.stderr.read()
 
 

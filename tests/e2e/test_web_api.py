@@ -15,6 +15,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from waits import until
 
 from softplc.access import AccessPort
 from softplc.cli import main as cli
@@ -65,9 +66,7 @@ class Stack:
         """Wait for n more scan boundaries (queued changes are then applied), in STOP too
         (where the scan count stands still)."""
         end = self.boundaries + n
-        deadline = time.monotonic() + 5
-        while self.boundaries < end and time.monotonic() < deadline:
-            time.sleep(0.002)
+        until(lambda: self.boundaries >= end, period=0.002)
 
     def client(self, token: str | None = None) -> Client:
         return Client("127.0.0.1", self.port, token)
@@ -484,12 +483,10 @@ def test_softplc_io_command(star, capsys):
 
 
 def test_softplc_io_without_daemon(capsys):
-    import socket
+    from modbus_util import refused_port
 
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]  # nobody listens there once closed
-    assert cli(["io", "--port", str(port), "status"]) == 1
+    with refused_port() as port:  # nobody listens there, and no parallel worker takes it
+        assert cli(["io", "--port", str(port), "status"]) == 1
     assert "no softplc web API" in capsys.readouterr().err
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from daemon_util import ROOT, Daemon, started
+from waits import WAIT_MS, WAIT_S, until
 
 from softplc.commands.io import Client
 
@@ -23,6 +24,8 @@ if CHROMIUM is None:
                 allow_module_level=True)
 sync_api = pytest.importorskip("playwright.sync_api",
                                reason="playwright is not installed (the test extra)")
+# every expect() waits as long as a hang takes (its own default, 5 s, ran out under load)
+sync_api.expect.set_options(timeout=WAIT_MS)
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -56,6 +59,7 @@ def start(daemons: list[Daemon], tmp_path: Path, name: str,
 
 def open_page(browser, url: str):
     page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page.set_default_timeout(WAIT_MS)  # its waits too
     # confirm() of RUN/STOP accepted; prompt() of a force answers 1
     page.on("dialog", lambda d: d.accept("1") if d.type == "prompt" else d.accept())
     page.goto(url)
@@ -109,11 +113,11 @@ def test_star_delta_from_the_simulation_panel(browser, star_daemon):
     sync_api.expect(led(page, "%I0.2")).to_have_class(re.compile(r"\bon\b"))
     sync_api.expect(led(page, "%Q0.3")).not_to_have_class(re.compile(r"\bon\b"))
     push(page, "%I0.0")  # start push button
-    sync_api.expect(led(page, "%Q0.0")).to_have_class(re.compile(r"\bon\b"), timeout=3000)
-    sync_api.expect(led(page, "%Q0.1")).to_have_class(re.compile(r"\bon\b"), timeout=3000)
+    sync_api.expect(led(page, "%Q0.0")).to_have_class(re.compile(r"\bon\b"), timeout=WAIT_MS)
+    sync_api.expect(led(page, "%Q0.1")).to_have_class(re.compile(r"\bon\b"), timeout=WAIT_MS)
     assert "on" not in led(page, "%Q0.2").get_attribute("class").split()
     sync_api.expect(led(page, "%I0.0")).not_to_have_class(re.compile(r"\bon\b"))  # released
-    sync_api.expect(led(page, "%Q0.2")).to_have_class(re.compile(r"\bon\b"), timeout=5000)
+    sync_api.expect(led(page, "%Q0.2")).to_have_class(re.compile(r"\bon\b"), timeout=WAIT_MS)
     sync_api.expect(led(page, "%Q0.1")).not_to_have_class(re.compile(r"\bon\b"))
 
     # force an input: the F button, prompt answered 1; the marker shows, the switch locks
@@ -153,7 +157,7 @@ def test_animation_table_write_read_back_with_mbpoll(browser, star_daemon):
     sync_api.expect(row.locator(".val")).to_have_text("4321")
     out = subprocess.run([MBPOLL, "-m", "tcp", "-p", str(star_daemon.port), "-0", "-1",
                           "-o", "2", "-t", "4", "-r", "3", "127.0.0.1"],
-                         capture_output=True, text=True, timeout=10)
+                         capture_output=True, text=True, timeout=WAIT_S)
     assert re.search(r"^\[3\]:\s+4321$", out.stdout, re.M), out.stdout + out.stderr
     row.locator("select").select_option("hex")
     sync_api.expect(row.locator(".val")).to_have_text("16#10E1")
@@ -173,21 +177,19 @@ def test_drawing_table_machine_view(browser, tmp_path, daemons):
     page = open_page(browser, url)
     page.click("#tabs button[data-tab=machine]")
     sync_api.expect(page.locator("#table-outline")).to_be_visible()
-    for _ in range(200):  # homing done: both axes at 0
-        if api.get("%MW3")["%MW3"] == 0 and page.locator("#pen-path").count() == 0 and \
-                api.request("machine?since=0")["devices"]["X"]["pos"] == 0 and \
-                api.request("machine?since=0")["devices"]["Z"]["pos"] == 0:
-            break
-        page.wait_for_timeout(50)
+    until(lambda: api.get("%MW3")["%MW3"] == 0 and page.locator("#pen-path").count() == 0
+          and api.request("machine?since=0")["devices"]["X"]["pos"] == 0
+          and api.request("machine?since=0")["devices"]["Z"]["pos"] == 0,
+          period=0.05)  # homing done: both axes at 0
     api.request("write", {"writes": [{"object": "%MW0", "value": 600},
                                      {"object": "%MW1", "value": 400},
                                      {"object": "%MW5", "value": 1}]})
     api.set("%MW3", 120)  # start the segment, as the host does
     path = page.locator("#pen-path")
-    sync_api.expect(path).to_have_count(1, timeout=15000)
+    sync_api.expect(path).to_have_count(1, timeout=WAIT_MS)
     page.wait_for_function(
         "() => { const p = document.querySelector('#pen-path');"
-        " return p && p.getTotalLength() > 100; }", timeout=15000)
+        " return p && p.getTotalLength() > 100; }", timeout=WAIT_MS)
     shot(page, "machine")
     page.close()
 
@@ -200,10 +202,7 @@ def test_analog_slider_reaches_the_plc(browser, tmp_path, daemons):
     pot = page.locator('#analog .aio[data-addr="%IW0.0"]')
     assert pot.locator(".lo").inner_text() == "0" and pot.locator(".hi").inner_text() == "1"
     pot.locator("input[type=range]").fill("0.5")  # input + change, as a drag released
-    for _ in range(100):
-        if api.get("%MW0")["%MW0"] == 128:
-            break
-        page.wait_for_timeout(50)
+    until(lambda: api.get("%MW0")["%MW0"] == 128, period=0.05)
     assert api.get("%IW0.0", "%MW0") == {"%IW0.0": 512, "%MW0": 128}  # 0.5 * 1023, / 4
     sync_api.expect(pot.locator(".aword")).to_have_text("(%IW0.0 = 512)")
     sync_api.expect(pot.locator(".aval")).to_have_text("0.5")

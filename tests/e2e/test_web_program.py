@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from daemon_util import Daemon, started
 from test_web_api import STAR, Stack
-from waits import until
+from waits import WAIT_S, until
 
 from softplc.cli import main as cli
 from softplc.commands.io import Client, IoError
@@ -61,7 +61,7 @@ def test_errors_are_listed_with_line_and_column_and_nothing_changes(star):
                                  json.dumps({"program": bad}).encode(),
                                  {"Content-Type": "application/json"})
     try:
-        urllib.request.urlopen(req, timeout=5)
+        urllib.request.urlopen(req, timeout=WAIT_S)
     except urllib.error.HTTPError as err:
         body = json.loads(err.read())
     lines = {(d["line"], d["column"]) for d in body["errors"]}
@@ -147,7 +147,7 @@ def test_map_json_and_csv(star):
     assert hidden["%Q0.1"]["symbol"] == "KM2_STAR" and "%M" in hidden["%Q0.1"]["why"]
     assert "%TM0" in hidden and "not on the map" in m["note"]
     with urllib.request.urlopen(f"http://127.0.0.1:{star.port}/api/map?format=csv",
-                                timeout=5) as r:
+                                timeout=WAIT_S) as r:
         assert r.headers["Content-Type"].startswith("text/csv")
         assert "attachment" in r.headers["Content-Disposition"]
         rows = r.read().decode().splitlines()
@@ -243,6 +243,6 @@ def test_the_state_file_follows_the_loaded_program(tmp_path, capsys, daemons):
     assert d.stop() == 0
     d = started(daemons, tmp_path, "--config", cfg, "--state", state, "--web", "0",
                 program=old, wait=False)
-    assert d.proc.wait(20) == 1
+    assert d.proc.wait(WAIT_S) == 1
     err = d.proc.stderr.read()
     assert "steady.il (started" in err and "--program-from-state" in err, err

@@ -11,6 +11,7 @@ import time
 import pytest
 from daemon_util import started
 from test_web_browser import PROGRAMS, browser, open_page, shot, start, sync_api, web_url
+from waits import WAIT_MS, WAIT_S
 
 __all__ = ["browser"]  # the fixture, shared
 
@@ -30,7 +31,7 @@ def test_servo_table_view_follows_homing(browser, tmp_path, daemons):
     api.set("%MW100", 2)  # home X then Y: the axes move, the FE moves
     page.wait_for_function(
         "() => /X = 0\\.0\\d\\d mm/.test(document.querySelector('#machine-hint')"
-        ".textContent)", timeout=20000)
+        ".textContent)", timeout=WAIT_MS)
     fe = page.locator('#fe-chart polyline.fe-line[data-axis="X"]')
     pts = [tuple(map(float, p.split(","))) for p in fe.get_attribute("points").split()]
     assert len({y for _, y in pts}) > 3  # the FE of the homing move is not flat
@@ -69,7 +70,7 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
     assert res.done == len(piece.segments())
     page.wait_for_function(
         "() => { const p = document.querySelector('#pen-path');"
-        " return p && p.getTotalLength() > 80; }", timeout=20000)
+        " return p && p.getTotalLength() > 80; }", timeout=WAIT_MS)
     box = page.locator("#pen-path").bounding_box()  # the 15 mm square: about 25 px
     assert 20 < box["width"] < 40 and abs(box["width"] - box["height"]) < 2, box
     assert page.locator("#travel-path").count() == 1  # homing and the move to the start
@@ -78,7 +79,7 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
     # %MD112 / %MD114)
     sync_api.expect(page.locator("#machine-hint")).to_contain_text(
         f"X = {res.pos_mm[0]:.3f} mm, Y = {res.pos_mm[1]:.3f} mm (work coordinates, as the "
-        "host reports them; machine: ", timeout=20000)
+        "host reports them; machine: ", timeout=WAIT_MS)
     assert "torch off;" in page.locator("#machine-hint").inner_text()
     assert "X (mm, work)" in page.locator("#table-view").inner_html()
     area, outline = page.evaluate("""() => ['#work-area', '#table-outline'].map(
@@ -106,7 +107,7 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(browser, tmp_path, daemo
         window.loading.push(document.querySelector("#trace-loading") ? "still" : "");
       }; }""")
     machine_tab(page)
-    page.wait_for_function("() => window.loading.length === 2", timeout=20000)
+    page.wait_for_function("() => window.loading.length === 2", timeout=WAIT_MS)
     first, after = page.evaluate("window.loading")
     assert re.fullmatch(r"loading the trace: 50 % \(\d+ of \d+ samples\)…", first), first
     assert after == ""
@@ -124,18 +125,18 @@ def test_machining_centre_view_shows_axis_step_and_estimate(browser, tmp_path, d
     assert "no estimate yet" in page.locator("#machine-estimate").inner_text()
     api.set("%M205", 1)  # automatic mode from the HMI, then the softkey
     api.set("%M200", 1)
-    sync_api.expect(step).to_have_text(re.compile(r"^step [12]:"), timeout=5000)
+    sync_api.expect(step).to_have_text(re.compile(r"^step [12]:"), timeout=WAIT_MS)
     # the axis runs to Q26 (-480 mm): the carriage moves left on the travel
     page.wait_for_function(
         "() => { const m = /X = (-?[\\d.]+) mm/.exec(document.querySelector("
-        "'#table-view').textContent); return m && +m[1] < -20; }", timeout=20000)
+        "'#table-view').textContent); return m && +m[1] < -20; }", timeout=WAIT_MS)
     # the host's answer, as softplc tune writes it: mass, uncertainty, row, then EST_ACK
     api.request("write", {"writes": [{"object": "%MF406", "value": 22650.5},
                                      {"object": "%MF408", "value": 310.0},
                                      {"object": "%MW404", "value": 3},
                                      {"object": "%MW402", "value": 1}]})
     est = page.locator("#machine-estimate")
-    sync_api.expect(est).to_contain_text("22650.5 kg", timeout=5000)
+    sync_api.expect(est).to_contain_text("22650.5 kg", timeout=WAIT_MS)
     assert "± 310.0 kg" in est.inner_text()
     shot(page, "machine-centre")
     page.close()
@@ -166,7 +167,7 @@ def test_trends_give_bits_lanes_and_words_their_own_axes(browser, tmp_path, daem
                                          {"object": "%M100", "value": bit}]})
         if n == 0:  # trend from the first values on: under load the page could
             # otherwise sample the zeros before the first write reached the PLC
-            deadline = time.monotonic() + 10
+            deadline = time.monotonic() + WAIT_S
             while api.get(*first) != first and time.monotonic() < deadline:
                 time.sleep(0.05)
             page.fill("#trend-add", "%MD100 %MW120 %M100")
@@ -207,12 +208,12 @@ def test_header_says_disconnected_and_reconnects(browser, tmp_path, daemons):
     # a daemon that hangs (SIGSTOP): the socket stays open but nothing comes
     d.proc.send_signal(signal.SIGSTOP)
     try:
-        sync_api.expect(state).to_have_text("DISCONNECTED", timeout=8000)
+        sync_api.expect(state).to_have_text("DISCONNECTED", timeout=WAIT_MS)
     finally:
         d.proc.send_signal(signal.SIGCONT)
-    sync_api.expect(state).to_have_text("RUN", timeout=5000)  # updates again: live
+    sync_api.expect(state).to_have_text("RUN", timeout=WAIT_MS)  # updates again: live
     d.stop()  # Ctrl-C: the daemon ends, its websocket closes
-    sync_api.expect(state).to_have_text("DISCONNECTED", timeout=5000)
+    sync_api.expect(state).to_have_text("DISCONNECTED", timeout=WAIT_MS)
     assert "disconnected" in page.locator("body").get_attribute("class")
     colour = "e => getComputedStyle(e).backgroundColor"
     assert state.evaluate(colour) == "rgb(90, 101, 112)"  # grey, not RUN's green
@@ -220,7 +221,7 @@ def test_header_says_disconnected_and_reconnects(browser, tmp_path, daemons):
     # the daemon comes back on the same port: the page reconnects by itself
     started(daemons, tmp_path, "--config", str(PROGRAMS / "star_delta.toml"), "--web", port,
             "--stats-interval", "0", program=PROGRAMS / "star_delta.il")
-    sync_api.expect(state).to_have_text("RUN", timeout=10000)
+    sync_api.expect(state).to_have_text("RUN", timeout=WAIT_MS)
     assert state.evaluate(colour) != "rgb(90, 101, 112)"
     assert "disconnected" not in (page.locator("body").get_attribute("class") or "")
     page.close()
@@ -260,7 +261,7 @@ def test_a_write_the_axis_refuses_is_refused_where_it_was_made(browser, tmp_path
 
     web_port = url.rstrip("/").rsplit(":", 1)[1]
     r = subprocess.run([sys.executable, "-m", "softplc", "io", "--port", web_port, "set",
-                        "%MF328", "-5"], capture_output=True, text=True, timeout=30)
+                        "%MF328", "-5"], capture_output=True, text=True, timeout=WAIT_S)
     assert r.returncode != 0 and "%MF328 := -5 refused: device 'X': Ixx30 (kp)" in r.stderr, r
     wire = struct.unpack(">2H", struct.pack(">f", -5.0))  # %MF: low word first (twido.md)
     with RawClient("127.0.0.1", d.port) as mb:

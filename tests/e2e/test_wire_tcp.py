@@ -9,6 +9,7 @@ import socket
 import time
 
 import pytest
+from waits import WAIT_S
 
 from softplc.access import AccessPort
 from softplc.access.errors import AccessError
@@ -19,7 +20,6 @@ from softplc.runtime.wiretcp import OUTPUTS, SET, WireClient, encode, layout
 IL = "LD %I0.0\nST %Q0.1\nLD %I0.2\nST %Q0.3\n"
 INS, OUTS = ["%I0.0", "%I0.2"], ["%Q0.1"]
 HOLD_S = 0.3  # short here: the silent case ends quickly
-WAIT_S = 10.0  # bounds a failing test only
 
 
 @pytest.fixture

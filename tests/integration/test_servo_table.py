@@ -450,3 +450,30 @@ def test_a_value_the_axis_refuses_is_refused_where_it_is_written(cell):
     assert fc16(328, wire(7000.0)) == pack(">BHH", 16, 328, 2)
     assert fc16(329, wire(-5.0)) == pack(">BHH", 16, 329, 2)  # no %MF of the table whole
     assert image.pending == 2
+
+
+@pytest.mark.parametrize("when", ["built", "cold start"])
+def test_a_host_write_after_a_cold_start_changes_that_i_variable_only(when):
+    """A cold start clears %MW, the I-variable table with it (issue 33: the e2e test saw
+    %MW300 = 69). A host's %MF328 (X's kp) landing before the axis's next scan, the first
+    scan of a daemon or the one after a cold start, is the only change applied: the other
+    I-variables keep their values (they were taken as written 0: kd := 0, Ixx69 := 0
+    refused) and nothing is refused."""
+    from softplc.modbus import ModbusImage
+
+    plc = PLC.from_file(IL, config())  # its build ends with a cold start
+    try:
+        image = ModbusImage(plc.mem)
+        plc.before_scan.append(image.apply_writes)  # the daemon's first step of a scan
+        x = plc.devices["X"]
+        if when == "cold start":
+            plc.scan(3)
+            plc.cold_start()
+        before = x.gains
+        image.queue_value("MF", 328, before.kp * 2)  # a host's write, waiting for a scan
+        plc.scan(3)
+        assert x.gains == before.model_copy(update={"kp": before.kp * 2})
+        assert plc["%MW300"] == 0 and plc["%MW301"] == 1 and plc["%MF328"] == before.kp * 2
+        assert plc["%MF346"] == before.output_limit  # Ixx69, the table's last row
+    finally:
+        plc.close()

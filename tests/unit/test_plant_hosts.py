@@ -100,3 +100,48 @@ def test_the_plant_host_runs_the_belt_from_the_controllers_wired_outputs():
     proc.step(t + proc.tick_s)
     assert belt.inputs["run"] is False
     assert proc.inputs["capper"]["%I0.5"] is False
+
+
+def test_the_record_is_never_read_half_written(tmp_path, monkeypatch):
+    """Issue 33: `plant up` rewrites its record while the page's process reads it (the
+    page failed to start on an empty file under load). A reader beside a writer that keeps
+    rewriting it, with a pause after each write's open (where a truncating write leaves
+    the file empty), always finds a whole record."""
+    import json
+    import os
+    import threading
+
+    path = tmp_path / "sp.json"
+    record: dict = {"controllers": {}}
+    hosts.write_record(path, record)
+    real_fdopen, opened = os.fdopen, threading.Event()
+
+    def slow_fdopen(fd, *a, **k):  # the injected delay: the file open, not yet written
+        opened.set()
+        threading.Event().wait(0.005)
+        return real_fdopen(fd, *a, **k)
+
+    writes, reads, bad = 40, [], []
+    done = threading.Event()
+
+    def read() -> None:
+        while not done.is_set():
+            try:
+                reads.append(len(json.loads(path.read_text())["controllers"]))
+            except ValueError as e:
+                bad.append(e)
+
+    reader = threading.Thread(target=read)
+    monkeypatch.setattr(os, "fdopen", slow_fdopen)
+    reader.start()
+    try:
+        for i in range(writes):
+            record["controllers"][f"c{i}"] = {"pid": i}
+            hosts.write_record(path, record)
+    finally:
+        done.set()
+        reader.join()
+        monkeypatch.undo()
+    assert opened.is_set() and reads and not bad, bad[:1]
+    assert json.loads(path.read_text())["controllers"] == record["controllers"]
+    assert path.stat().st_mode & 0o777 == 0o600 and not list(tmp_path.glob(".*.tmp"))

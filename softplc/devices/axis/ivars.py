@@ -18,8 +18,10 @@ Word table (option `ivar_words`, a %MW address; the servo table page's word map)
     +4  %MF  the first I-variable of `IVARS` (Ixx08), then one %MF per row in its order
 
 A host writes a %MF; the device reads the table every scan, applies what changed, and
-writes back the value in force (the old one when refused). A table found all zero (the
-image cleared by a cold start) is written again, not applied.
+writes back the value in force (the old one when refused). A cold start clears %MW: the
+device writes the table again at once (`Device.cold_start`), so a host's write landing
+before its next scan is the only change seen; a table found all zero otherwise (a memory
+image restored cleared) is written again, not applied.
 """
 
 from __future__ import annotations

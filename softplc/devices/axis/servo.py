@@ -205,6 +205,10 @@ class ServoAxis(AxisDevice):
         if self.opt.ivar_words is not None:
             self.ivars.bind(_word_block(self, mem, self.opt.ivar_words, iv.SIZE, "ivar_words"))
             self.word_check = self.ivars  # a host's refused value is refused when written
+            # Device.cold_start: the table written again (the values in force) as soon as
+            # the image is cleared, so a host's write landing before the next poll is the
+            # only change the poll sees (not every I-variable "written" 0)
+            self.cold_start = self.ivars.write_words  # type: ignore[method-assign]
         self.words.write()
         self._scan = self.runner.scan_function()
 
