@@ -51,7 +51,8 @@ class Daemon:
             "PYTHONPATH", ""))
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "softplc", "run", str(prog), "--port", "0", *args],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp)
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp,
+            preexec_fn=default_sigint)  # `stop()` sends SIGINT: it must not be ignored
         LIVE.add(self.proc)
         self.lines: queue.Queue[str] = queue.Queue()
         self.out: list[str] = []
