@@ -28,7 +28,7 @@ from typing import Any
 
 from softplc.access.commands import Write
 from softplc.access.errors import AccessError
-from softplc.runtime.linktcp import _hang_up, _listen, _Service
+from softplc.runtime.linktcp import _hang_up, _listen, _Listening
 from softplc.runtime.wiretcp import (
     HOLD_S,
     MAX_WIRED,
@@ -59,7 +59,7 @@ def wired_refs(names: Sequence[str], kind: str, option: str) -> list[Ref]:
     return refs
 
 
-class WireService(_Service):
+class WireService(_Listening):
     """Listens on `host:port` for the plant host `peer`; drives the `inputs` through the
     access port's queue, answers with the `outputs` of the last scan."""
 
@@ -182,14 +182,3 @@ class WireService(_Service):
                 return
             for k, v in changed:
                 self.queued[k] = v
-
-    def _close(self) -> None:
-        try:
-            self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
-        self.sock.close()
-        with self.lock:
-            conn, self.conn = self.conn, None
-        if conn is not None:
-            _hang_up(conn)

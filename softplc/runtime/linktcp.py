@@ -253,6 +253,25 @@ class _Service:
         raise NotImplementedError
 
 
+class _Listening(_Service):
+    """A service answering on a listening socket `sock`, one connection `conn` at a time
+    (a remote's link, a daemon's wires)."""
+
+    sock: socket.socket
+    conn: socket.socket | None
+
+    def _close(self) -> None:
+        try:  # wakes the thread blocked in accept() (close alone does not, on Linux)
+            self.sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        self.sock.close()
+        with self.lock:
+            conn, self.conn = self.conn, None
+        if conn is not None:
+            _hang_up(conn)
+
+
 class MasterService(_Service):
     """The master's link thread: one `run_cycle()` per link cycle."""
 
@@ -324,7 +343,7 @@ class MasterService(_Service):
         self.transport.close()
 
 
-class RemoteService(_Service):
+class RemoteService(_Listening):
     """A remote's listening socket: answers each poll from its last scan, queues what the
     master sent, ticks once per master cycle."""
 
@@ -412,16 +431,6 @@ class RemoteService(_Service):
         finally:
             conn.close()
 
-    def _close(self) -> None:
-        try:  # wakes the thread blocked in accept() (close alone does not, on Linux)
-            self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
-        self.sock.close()
-        with self.lock:
-            conn, self.conn = self.conn, None
-        if conn is not None:
-            _hang_up(conn)
 
 
 def _hang_up(conn: socket.socket) -> None:
