@@ -35,7 +35,7 @@ run, assumed or not.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,9 +64,8 @@ class Fact:
     test: Callable[[dict[str, int]], bool]  # the fact, over an engine's values
 
 
-def _names(term: Any) -> set[str]:
-    """The names of the constants (variables) in `term`."""
-    out: set[str] = set()
+def _walk(term: Any, below: Callable[[Any], list[Any]]) -> Iterator[Any]:
+    """Each node of `term`'s DAG once, descending into `below(node)`."""
     seen: set[int] = set()
     todo = [term]
     while todo:
@@ -74,11 +73,18 @@ def _names(term: Any) -> set[str]:
         if t.get_id() in seen:
             continue
         seen.add(t.get_id())
-        if z3.is_const(t) and t.decl().kind() == z3.Z3_OP_UNINTERPRETED:
-            out.add(t.decl().name())
-        else:
-            todo.extend(t.children())
-    return out
+        yield t
+        todo.extend(below(t))
+
+
+def _is_var(t: Any) -> bool:
+    return z3.is_const(t) and t.decl().kind() == z3.Z3_OP_UNINTERPRETED
+
+
+def _names(term: Any) -> set[str]:
+    """The names of the constants (variables) in `term`."""
+    return {t.decl().name() for t in _walk(term, lambda t: [] if _is_var(t) else t.children())
+            if _is_var(t)}
 
 
 def _leaves(term: Any, own: str) -> tuple[set[int], bool]:
@@ -86,16 +92,12 @@ def _leaves(term: Any, own: str) -> tuple[set[int], bool]:
     and whether every leaf is a numeral or the variable named `own` (the word kept)."""
     vals: set[int] = set()
     exact = True
-    todo = [term]
-    seen: set[int] = set()
-    while todo:
-        t = todo.pop()
-        if t.get_id() in seen:
-            continue
-        seen.add(t.get_id())
+    def branches(t: Any) -> list[Any]:  # an if-then-else's two values, not its condition
+        return t.children()[1:] if z3.is_app_of(t, z3.Z3_OP_ITE) else []
+    for t in _walk(term, branches):
         if z3.is_app_of(t, z3.Z3_OP_ITE):
-            todo += t.children()[1:]
-        elif z3.is_bv_value(t):
+            continue
+        if z3.is_bv_value(t):
             vals.add(t.as_signed_long())
         elif not (z3.is_const(t) and t.decl().name() == own):
             exact = False
@@ -104,17 +106,8 @@ def _leaves(term: Any, own: str) -> tuple[set[int], bool]:
 
 def _floating(term: Any) -> bool:
     """`term` computes with floating-point values (a float's bits stored in a word)."""
-    seen: set[int] = set()
-    todo = [term]
-    while todo:
-        t = todo.pop()
-        if t.get_id() in seen:
-            continue
-        seen.add(t.get_id())
-        if t.sort().kind() in (z3.Z3_FLOATING_POINT_SORT, z3.Z3_ROUNDING_MODE_SORT):
-            return True
-        todo.extend(t.children())
-    return False
+    return any(t.sort().kind() in (z3.Z3_FLOATING_POINT_SORT, z3.Z3_ROUNDING_MODE_SORT)
+               for t in _walk(term, lambda t: t.children()))
 
 
 def _word(v: int) -> Any:
