@@ -12,7 +12,7 @@ import urllib.request
 
 import pytest
 from test_web_api import STAR
-from waits import until
+from waits import WAIT_S, until
 
 from softplc.access.program import ProgramAccess
 from softplc.commands.io import IoError
@@ -97,19 +97,22 @@ def test_a_swap_longer_than_both_deadlines_is_reported_pending(star, slow_swap, 
 def test_a_swap_not_begun_at_the_deadline_never_applies(star, slow_swap):
     """The scan thread held (no scan boundary) past the deadline: "not changed", and it
     stays true once the scans go on."""
-    held = threading.Event()
+    held, answered = threading.Event(), threading.Event()
 
-    def hold() -> None:
-        with star.lock:
+    def hold() -> None:  # until the answer came, however long planning took (a loaded
+        with star.lock:  # machine: a fixed 0.8 s hold once ended before the swap was queued)
             held.set()
-            time.sleep(0.8)
+            answered.wait(WAIT_S)
 
     t = threading.Thread(target=hold)
     t.start()
     held.wait()
-    with pytest.raises(IoError, match=r"not changed \(HTTP 503\)"):
-        star.client().request("program", {"program": CHANGED})
-    t.join()
+    try:
+        with pytest.raises(IoError, match=r"not changed \(HTTP 503\)"):
+            star.client().request("program", {"program": CHANGED})
+    finally:
+        answered.set()
+        t.join()
     star.scans(10)
     assert star.plc.program_version == 0 and star.plc.ast.source == SOURCE
 
