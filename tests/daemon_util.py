@@ -47,8 +47,10 @@ class Daemon:
             prog.write_text(program)
         if "--web" not in args:  # no web monitor unless the test asks (a faster start, and
             args = (*args, "--web", "off")  # no daemon on the default port 8020)
-        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get(
-            "PYTHONPATH", ""))
+        # PYTHONFAULTHANDLER: a daemon that does not stop is sent SIGABRT and prints every
+        # thread's stack (`stop`), so a hang says where it hangs
+        env = dict(os.environ, PYTHONFAULTHANDLER="1", PYTHONPATH=str(ROOT) + os.pathsep
+                   + os.environ.get("PYTHONPATH", ""))
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "softplc", "run", str(prog), "--port", "0", *args],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp,
@@ -57,6 +59,12 @@ class Daemon:
         self.lines: queue.Queue[str] = queue.Queue()
         self.out: list[str] = []
         threading.Thread(target=self._read, daemon=True).start()
+        # stderr is drained as it comes: a daemon whose unread pipe filled up (64 KiB of
+        # warnings) would block on its next write, and then not even stop
+        self._err: list[str] = []
+        self._err_changed = threading.Condition()
+        self._err_reader = threading.Thread(target=self._read_err, daemon=True)
+        self._err_reader.start()
         self.port = 0
         if wait:
             try:
@@ -77,6 +85,26 @@ class Daemon:
             self.lines.put(line)
         self.lines.put("")
 
+    def _read_err(self) -> None:
+        for line in self.proc.stderr:  # type: ignore[union-attr]
+            with self._err_changed:
+                self._err.append(line)
+                self._err_changed.notify_all()
+
+    def stderr(self) -> str:
+        """All the daemon's stderr: after it exited, the whole of it."""
+        if self.proc.poll() is not None:
+            self._err_reader.join(10)
+        with self._err_changed:
+            return "".join(self._err)
+
+    def stderr_until(self, text: str, timeout: float = WAIT_S) -> str:
+        """The daemon's stderr so far, once it contains `text` (read while it runs)."""
+        with self._err_changed:
+            if not self._err_changed.wait_for(lambda: text in "".join(self._err), timeout):
+                raise AssertionError(f"no {text!r} in stderr: {''.join(self._err)}")
+            return "".join(self._err)
+
     def wait_for(self, pattern: str, timeout: float = WAIT_S) -> str:
         end = time.monotonic() + timeout
         while time.monotonic() < end:
@@ -86,7 +114,7 @@ class Daemon:
                 break
             if line == "":
                 raise AssertionError(f"daemon exited; output: {''.join(self.out)}; "
-                                     f"stderr: {self.proc.stderr.read()}")  # type: ignore
+                                     f"stderr: {self.stderr()}")
             self.out.append(line)
             if re.search(pattern, line):
                 return line
@@ -103,7 +131,14 @@ class Daemon:
 
     def stop(self, sig: int = signal.SIGINT, timeout: float = WAIT_S) -> int:
         self.proc.send_signal(sig)
-        return self.proc.wait(timeout)
+        try:
+            return self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.send_signal(signal.SIGABRT)  # faulthandler: every thread's stack
+            self.proc.wait(10)
+            raise AssertionError(f"the daemon did not stop within {timeout:g} s of signal "
+                                 f"{sig}; its output: {''.join(self.out)}; stderr: "
+                                 f"{self.stderr()[-20000:]}") from None
 
     def kill(self) -> None:
         if self.proc.poll() is None:

@@ -153,7 +153,7 @@ def test_corrupt_state_file_needs_cold(daemons, tmp_path):
     state.write_bytes(state.read_bytes()[:-10])  # truncated
     d = start(daemons, tmp_path, "--state", str(state), wait=False)
     assert d.proc.wait(WAIT_S) == 1
-    err = d.proc.stderr.read()  # type: ignore[union-attr]
+    err = d.stderr()
     assert "truncated" in err and "--cold" in err and "Traceback" not in err
     d = start(daemons, tmp_path, "--state", str(state), "--cold")
     assert "cold start" in "".join(d.out)
@@ -215,7 +215,7 @@ def test_speed_max_runs_the_virtual_clock_and_serves(daemons, tmp_path):
 def test_bad_arguments_are_clear_errors(daemons, tmp_path):
     d = start(daemons, tmp_path, "--period", "1.5ms", wait=False)
     assert d.proc.wait(WAIT_S) == 1
-    assert "whole number of ms" in d.proc.stderr.read()  # type: ignore[union-attr]
+    assert "whole number of ms" in d.stderr()
     busy = socket.socket()
     busy.bind(("127.0.0.1", 0))
     busy.listen()

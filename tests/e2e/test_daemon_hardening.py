@@ -51,7 +51,7 @@ def failed_start(daemons, tmp, *args, **kw) -> str:
     """Start a daemon that must refuse to run; its stderr."""
     d = start(daemons, tmp, *args, wait=False, **kw)
     assert d.proc.wait(20) == 1
-    err = d.proc.stderr.read()  # type: ignore[union-attr]
+    err = d.stderr()
     assert "Traceback" not in err
     return err
 
@@ -220,7 +220,7 @@ def test_repeated_sigint_during_shutdown(daemons, tmp_path):
             d.proc.send_signal(signal.SIGINT)
             time.sleep(0.002)
         assert d.proc.wait(WAIT_S) == 0
-        err = d.proc.stderr.read()  # type: ignore[union-attr]
+        err = d.stderr()
         assert "Traceback" not in err and "KeyboardInterrupt" not in err
         assert struct.unpack_from("<h", retain.load(state).mw, 14)[0] == 1234
 
@@ -256,7 +256,7 @@ def test_allow_list(daemons, tmp_path):
     assert "clients allowed from: 10.0.0.0/8, 192.168.1.7/32" in "".join(d.out)
     assert _refused_before_reading(d.port)
     assert d.stop() == 0
-    assert "not in the allow list" in d.proc.stderr.read()  # type: ignore[union-attr]
+    assert "not in the allow list" in d.stderr()
     d = start(daemons, tmp_path, "--allow", "10.0.0.0/8", "--allow", "127.0.0.0/8")
     with d.client() as c:
         assert len(c.read_registers(0, 2)) == 2

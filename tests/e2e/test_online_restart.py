@@ -83,7 +83,7 @@ def test_a_program_file_that_differs_stops_the_start_until_the_operator_chooses(
     prog.write_text(OTHER)  # the operator edits the file: not a silent cold start
     d = started(daemons, tmp_path, *args, program=prog, wait=False)
     assert d.proc.wait(WAIT_S) == 1
-    err = d.proc.stderr.read()
+    err = d.stderr()
     assert "Traceback" not in err
     assert "P.il (started, loaded" in err, err
     assert "differs in the program text (from line 3" in err, err

@@ -74,7 +74,7 @@ def test_daemon_trace_dev_full_is_a_clear_error(daemons, tmp_path):
     d = started(daemons, tmp_path, "--config", str(TABLE / "drawing_table.toml"), "--trace",
                 "/dev/full", program=TABLE / "drawing_table.il", wait=False)
     assert d.proc.wait(WAIT_S) == 1
-    err = d.proc.stderr.read()
+    err = d.stderr()
     assert "Traceback" not in err
     assert "trace file /dev/full: cannot write: No space left on device" in err
 
@@ -86,32 +86,16 @@ def test_daemon_keeps_running_when_the_trace_disk_fills(daemons, tmp_path):
     until(lambda: csv.exists() and csv.stat().st_size > 0)
     csv.unlink()
     csv.symlink_to("/dev/full")  # the next flush (every simulated second) hits ENOSPC
-    err = stderr_until(d, "trace file stops here", 15)
+    err = d.stderr_until("trace file stops here", 15)
     time.sleep(1.2)  # past the next flush time: not tried again
     assert d.proc.poll() is None  # still running
     with d.client() as c:  # and serving
         n = c.read_registers(0, 1)
         assert len(n) == 1
     assert d.stop() == 0
-    err += d.proc.stderr.read()
+    err = d.stderr()
     assert "Traceback" not in err
     assert err.count("trace file stops here") == 1 and "No space left on device" in err
-
-
-def stderr_until(d, text: str, timeout: float) -> str:
-    """The daemon's stderr up to a line containing `text` (read while it runs)."""
-    fd = d.proc.stderr.fileno()
-    os.set_blocking(fd, False)
-    out = b""
-    end = time.monotonic() + timeout
-    while text.encode() not in out:
-        assert time.monotonic() < end, f"no {text!r} in stderr: {out.decode()}"
-        try:
-            out += os.read(fd, 65536) or b""
-        except BlockingIOError:
-            time.sleep(0.05)
-    os.set_blocking(fd, True)
-    return out.decode()
 
 
 # -- scan timing the program sees -------------------------------------------------------------
@@ -279,7 +263,7 @@ def test_daemon_state_file_deleted_while_running_loses_nothing(daemons, tmp_path
         second = started(daemons, tmp_path, "--state", str(state), program=COUNTER,
                          wait=False)
         assert second.proc.wait(WAIT_S) == 1
-        assert "in use by another softplc" in second.proc.stderr.read()
+        assert "in use by another softplc" in second.stderr()
     assert d.stop() == 0
     assert f"state saved to {state}" in d.wait_for("stopped after")
     d = started(daemons, tmp_path, "--state", str(state), program=COUNTER)
@@ -313,7 +297,7 @@ def test_daemon_refuses_a_symlinked_state_file(daemons, tmp_path):
     d = started(daemons, tmp_path, "--state", "plc.state", "--cold", program=COUNTER,
                 wait=False)
     assert d.proc.wait(WAIT_S) == 1
-    err = d.proc.stderr.read()
+    err = d.stderr()
     assert "symbolic link" in err and "--state-symlink" in err and "Traceback" not in err
     assert foreign.read_bytes() == b"someone's data"
 
@@ -362,7 +346,7 @@ def test_numeric_settings_are_bounded(raw, message):
 def test_interval_flags_are_bounded(daemons, tmp_path, flag):
     d = started(daemons, tmp_path, flag, "1us", program=COUNTER, wait=False)
     assert d.proc.wait(WAIT_S) == 2
-    assert "0 (off) or at least 10 ms" in d.proc.stderr.read()
+    assert "0 (off) or at least 10 ms" in d.stderr()
 
 
 # -- the garbage collector ---------------------------------------------------------------------

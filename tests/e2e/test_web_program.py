@@ -244,5 +244,5 @@ def test_the_state_file_follows_the_loaded_program(tmp_path, capsys, daemons):
     d = started(daemons, tmp_path, "--config", cfg, "--state", state, "--web", "0",
                 program=old, wait=False)
     assert d.proc.wait(WAIT_S) == 1
-    err = d.proc.stderr.read()
+    err = d.stderr()
     assert "steady.il (started" in err and "--program-from-state" in err, err
