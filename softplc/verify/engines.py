@@ -40,6 +40,7 @@ from softplc.verify.symbolic import value_of
 Progress = Callable[[str, int, float], None]
 FOUND = "counterexample"  # progress: BMC found one at that depth (its trace comes next)
 Stop = Callable[[], bool]  # polled between solver calls: a proof came from elsewhere
+INDUCTION_SHARE = 0.5  # of a requirement's time, at most, in k-induction's own steps
 
 
 @dataclass
@@ -205,14 +206,14 @@ class Induction:
     """k-induction one k at a time (`step`): from any state satisfying the range
     invariants, k scans in which the requirement (and the lemmas, the model's facts) holds
     force it in the next one. `k` is the smallest such k once found; `over` once no
-    larger k will be tried (a proof, `max_k`, its time `until`, the solver gave up). The
-    caller checks the base case (BMC clean to depth k)."""
+    larger k will be tried (a proof, `max_k`, its `budget` of seconds spent in its own
+    steps, the solver gave up). The caller checks the base case (BMC clean to depth k)."""
 
-    def __init__(self, ck: Checker, clock: Clock, max_k: int, until: float,
+    def __init__(self, ck: Checker, clock: Clock, max_k: int, budget: float,
                  progress: Progress | None = None):
-        self.ck, self.clock, self.max_k, self.until = ck, clock, max_k, until
+        self.ck, self.clock, self.max_k, self.budget = ck, clock, max_k, budget
         self.progress = progress
-        self.t0 = time.monotonic()
+        self.spent = 0.0  # s in its steps (BMC's, in between, are not its time)
         self.s: z3.Solver | None = z3.Solver()
         self.u: _Unroll | None = _Unroll(ck, self.s, None, "k")
         self.tried = 0  # the largest k tried
@@ -224,14 +225,21 @@ class Induction:
         self.s = self.u = None  # its terms: freed for the other engines
 
     def step(self) -> None:
-        """Try k = `tried + 1`. TimeUp when the clock (not `until`) runs out."""
+        """Try k = `tried + 1`. TimeUp when the clock (not the budget) runs out."""
+        t0 = time.monotonic()
+        try:
+            self._try(self.tried + 1, t0)
+        finally:
+            self.spent += time.monotonic() - t0
+
+    def _try(self, k: int, t0: float) -> None:
         assert self.s is not None and self.u is not None and not self.over
         ck, s, clock = self.ck, self.s, self.clock
-        k = self.tried = self.tried + 1
+        self.tried = k
         clock.doing = f"k-induction at k={k}"
         post = self.u.extend()
         s.add(*ck.lemma_terms(post), *ck.facts(post))  # proven invariants: every scan
-        left = self.until - time.monotonic()
+        left = self.budget - self.spent - (time.monotonic() - t0)
         if left <= 0:
             return self._end()
         r = clock.check(s, z3.Not(ck.holds(post)), what="", cap=left)
@@ -241,7 +249,7 @@ class Induction:
             return self._end()
         s.add(ck.holds(post))
         if self.progress:
-            self.progress("k-induction", k, time.monotonic() - self.t0)
+            self.progress("k-induction", k, self.spent + time.monotonic() - t0)
         if k >= self.max_k:
             self._end()
 
@@ -397,7 +405,7 @@ def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],
     # k with BMC clean to k. Spacer runs beside them (the time of the slower, not of the
     # sum), started once 1-induction has failed: most simple requirements end there
     base = BaseCase(ck, clock, watch, progress)
-    step = Induction(ck, clock, max_k, clock.start + clock.seconds / 2, progress)
+    step = Induction(ck, clock, max_k, clock.seconds * INDUCTION_SHARE, progress)
     spacer: Spacer | None = None
     try:
         while True:
