@@ -85,3 +85,13 @@ def test_each_engine_goes_on_alone_when_the_other_is_done():
     res, seen = run(PRESSES, "always %MW0 < 3", 2, 4)
     assert (res.status, res.depth) == ("UNKNOWN", 2), res
     assert seen == [*turns(2), ("k-induction", 3), ("k-induction", 4)]
+
+
+def test_spacer_is_waited_for_once_both_engines_are_done():
+    """Clean to 2 scans, no k up to 2: Spacer (started after 1-induction failed) is the
+    last word; it finds the requirement fails later (the five scans), which BMC did not
+    reach: UNKNOWN saying so, never a VIOLATED without a trace."""
+    res, seen = run(PRESSES, "always %MW0 < 3", 2, 2, spacer=True)
+    assert (res.status, res.method, res.depth) == (
+        "UNKNOWN", "Spacer: fails after more scans than searched", 2), res
+    assert seen[:4] == turns(2)
