@@ -7,13 +7,15 @@ import queue
 import re
 import signal
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
 
 import pytest
 from waits import WAIT_S
+from zygote import default_sigint, popen
+
+__all__ = ["default_sigint"]  # the children's SIGINT disposition, for the tests' own Popens
 
 from softplc.modbus.rawclient import RawClient
 
@@ -25,7 +27,7 @@ START_TIMEOUT_S = 90.0
 # Every daemon started by a test: the session's end kills any still running (a test that
 # failed before its fixture could stop it must not leave a `--speed max` daemon burning a
 # core under the rest of the suite).
-LIVE: set[subprocess.Popen] = set()
+LIVE: set = set()  # subprocess.Popen or zygote.Forked
 
 
 def kill_all() -> None:
@@ -51,10 +53,8 @@ class Daemon:
         # thread's stack (`stop`), so a hang says where it hangs
         env = dict(os.environ, PYTHONFAULTHANDLER="1", PYTHONPATH=str(ROOT) + os.pathsep
                    + os.environ.get("PYTHONPATH", ""))
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "softplc", "run", str(prog), "--port", "0", *args],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp,
-            preexec_fn=default_sigint)  # `stop()` sends SIGINT: it must not be ignored
+        # forked from a pre-imported process (tests/zygote.py), SIGINT as in a new python
+        self.proc = popen(["run", str(prog), "--port", "0", *args], tmp, env)
         LIVE.add(self.proc)
         self.lines: queue.Queue[str] = queue.Queue()
         self.out: list[str] = []
@@ -160,10 +160,3 @@ def started(daemons: list[Daemon], tmp: Path, *args: str, **kw) -> Daemon:
     d = Daemon(tmp, *args, **kw)
     daemons.append(d)
     return d
-
-
-def default_sigint() -> None:
-    """`preexec_fn` of a child the test interrupts with SIGINT (Ctrl-C): the default
-    disposition, whatever the suite inherited (a shell's background job, CI, starts with
-    SIGINT ignored, and Python then raises no KeyboardInterrupt in the child)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, SupportsIndex
 
 from softplc.program import Names, Watchdog
 from softplc.runtime.clock import Clock, RealClock, VirtualClock
+from softplc.runtime.codecache import compile_code
 from softplc.runtime.runstate import RUN, S_FALLBACK
 
 if TYPE_CHECKING:
@@ -329,5 +330,5 @@ def build(eng: ScanHost, before: bool = True) -> tuple[Callable[[], None],
                                                      Callable[[float], None]]:
     """(scan, begin, finish) for the engine as it is now."""
     text, ns = source(eng, before)
-    exec(compile(text, "<scan>", "exec"), ns)
+    exec(compile_code(text, "<scan>"), ns)
     return ns["make"]()

@@ -9,6 +9,9 @@ k-induction: from any state satisfying the range invariants (`Checker.invariants
 checked inductive themselves), k scans in which the requirement (and the requirements
 already proven, `Checker.lemmas`) holds force it in the next one; with BMC clean to
 depth k that proves it for every run.
+`verify` advances the two in turn, one depth each (BMC at scan d, then the induction step
+at k = d): a short counterexample is found before the induction goes deep, a proof comes
+as soon as the step holds with BMC clean to its k.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from softplc.verify.symbolic import value_of
 Progress = Callable[[str, int, float], None]
 FOUND = "counterexample"  # progress: BMC found one at that depth (its trace comes next)
 Stop = Callable[[], bool]  # polled between solver calls: a proof came from elsewhere
+INDUCTION_SHARE = 0.5  # of a requirement's time, at most, in k-induction's own steps
 
 
 @dataclass
@@ -112,31 +116,43 @@ def _loop_hit(s: z3.Solver, post: dict[str, Any]) -> bool:
                                                          model_completion=True))
 
 
-def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
-        progress: Progress | None = None, stop: Stop | None = None) -> Result:
-    """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth;
-    also when `stop()` says a proof came from elsewhere). TimeUp when `clock` runs out
-    (`clock.clean`: the scans searched clean)."""
-    t0 = time.monotonic()
-    s = z3.Solver()
-    u = _Unroll(ck, s, ck.init(), "b")
-    spurious = 0
-    for d in range(depth):
-        if stop is not None and stop():
-            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0)
+class BaseCase:
+    """BMC one scan at a time (`step`): from the cold-start state, is there a run whose
+    first failure is at the next scan? The first scan that has one gives a shortest
+    counterexample. Abstractions are refined at each scan: a counterexample the engine
+    does not confirm is excluded (at that scan only: a longer run may still fail)."""
+
+    def __init__(self, ck: Checker, clock: Clock, watch: list[str],
+                 progress: Progress | None = None):
+        self.ck, self.clock, self.watch, self.progress = ck, clock, watch, progress
+        self.t0 = time.monotonic()
+        self.s = z3.Solver()
+        self.u = _Unroll(ck, self.s, ck.init(), "b")
+        self.spurious = 0
+        self.clean = 0  # scans searched with no counterexample
+
+    def unknown(self, note: str = "") -> Result:
+        return Result("UNKNOWN", "BMC", self.clean, time.monotonic() - self.t0, note=note)
+
+    def step(self) -> Result | None:
+        """Search scan `clean + 1`: None when no run fails first there (clean to it), else
+        VIOLATED (a shortest counterexample, with its trace) or UNKNOWN with a note (a
+        run needs more passes of a loop than unrolled; the solver gave up). TimeUp when
+        the clock runs out (`clock.clean`: the scans searched clean)."""
+        ck, s, clock, d = self.ck, self.s, self.clock, self.clean
         clock.doing = f"BMC at scan {d + 1}"
-        post = u.extend()
+        post = self.u.extend()
         bad = z3.Not(ck.holds(post))
         abstract = bool(ck.model.abstract.ranges)
         if abstract:  # exclusions hold at this depth only: a longer run may still fail
             s.push()
         r = clock.check(s, bad, what="")
         while r == z3.sat and abstract and not _loop_hit(s, post) \
-                and not confirmed(ck.model, ck.req.text, given_inputs(u.inputs, s.model())):
-            spurious += 1  # the abstraction allowed it, the engine does not: refine
-            s.add(exclusion(ck.model, u.inputs, s.model()))
+                and not confirmed(ck.model, ck.req.text, given_inputs(self.u.inputs, s.model())):
+            self.spurious += 1  # the abstraction allowed it, the engine does not: refine
+            s.add(exclusion(ck.model, self.u.inputs, s.model()))
             clock.doing = (f"BMC at scan {d + 1}, refining the abstractions "
-                           f"({spurious} counterexample(s) the engine did not confirm "
+                           f"({self.spurious} counterexample(s) the engine did not confirm "
                            "excluded)")
             r = clock.check(s, bad, what="")
         m = s.model() if r == z3.sat else None
@@ -144,21 +160,32 @@ def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
             s.pop()
         if m is not None:
             if "_loop" in post and z3.is_true(m.eval(post["_loop"], model_completion=True)):
-                return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
-                              note=ck.model.loops.note(d + 1))
-            if progress:  # the verdict is in (`guard` waits for its trace, off the clock)
-                progress(FOUND, d + 1, time.monotonic() - t0)
+                return self.unknown(ck.model.loops.note(d + 1))
+            if self.progress:  # the verdict is in (`guard` waits for its trace, off the clock)
+                self.progress(FOUND, d + 1, time.monotonic() - self.t0)
             ck.model.loops.clock = None  # the trace's scans are concrete: no time out
-            return Result("VIOLATED", "BMC", d + 1, time.monotonic() - t0,
-                          _trace(ck, u, m, watch))
+            return Result("VIOLATED", "BMC", d + 1, time.monotonic() - self.t0,
+                          _trace(ck, self.u, m, self.watch))
         if r == z3.unknown:
-            return Result("UNKNOWN", "BMC", d, time.monotonic() - t0,
-                          note=f"the solver gave up at scan {d + 1}: {s.reason_unknown()}")
+            return self.unknown(f"the solver gave up at scan {d + 1}: {s.reason_unknown()}")
         s.add(ck.holds(post))  # the first failure is at a later scan
-        clock.clean = d + 1
-        if progress:
-            progress("BMC", d + 1, time.monotonic() - t0)
-    return Result("UNKNOWN", "BMC", depth, time.monotonic() - t0)
+        self.clean = clock.clean = d + 1
+        if self.progress:
+            self.progress("BMC", d + 1, time.monotonic() - self.t0)
+        return None
+
+
+def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
+        progress: Progress | None = None, stop: Stop | None = None) -> Result:
+    """A shortest counterexample within `depth` scans, or UNKNOWN (clean to that depth;
+    also when `stop()` says a proof came from elsewhere). TimeUp when `clock` runs out
+    (`clock.clean`: the scans searched clean)."""
+    base = BaseCase(ck, clock, watch, progress)
+    while base.clean < depth and not (stop is not None and stop()):
+        res = base.step()
+        if res is not None:
+            return res
+    return base.unknown()
 
 
 def invariants_inductive(ck: Checker, clock: Clock) -> bool:
@@ -175,33 +202,56 @@ def invariants_inductive(ck: Checker, clock: Clock) -> bool:
                        what="after a scan", cap=20) == z3.unsat
 
 
-def k_induction(ck: Checker, max_k: int, until: float, clock: Clock,
-                progress: Progress | None = None, stop: Stop | None = None
-                ) -> tuple[int | None, float]:
-    """The smallest k <= max_k for which the requirement is k-inductive (None: none found
-    by the time `until`, or `stop()`). The caller checks the base case (BMC clean to
-    depth k). TimeUp when `clock` runs out."""
-    t0 = time.monotonic()
-    s = z3.Solver()
-    u = _Unroll(ck, s, None, "k")
-    for k in range(1, max_k + 1):
-        if stop is not None and stop():
-            return None, time.monotonic() - t0
+class Induction:
+    """k-induction one k at a time (`step`): from any state satisfying the range
+    invariants, k scans in which the requirement (and the lemmas, the model's facts) holds
+    force it in the next one. `k` is the smallest such k once found; `over` once no
+    larger k will be tried (a proof, `max_k`, its `budget` of seconds spent in its own
+    steps, the solver gave up). The caller checks the base case (BMC clean to depth k)."""
+
+    def __init__(self, ck: Checker, clock: Clock, max_k: int, budget: float,
+                 progress: Progress | None = None):
+        self.ck, self.clock, self.max_k, self.budget = ck, clock, max_k, budget
+        self.progress = progress
+        self.spent = 0.0  # s in its steps (BMC's, in between, are not its time)
+        self.s: z3.Solver | None = z3.Solver()
+        self.u: _Unroll | None = _Unroll(ck, self.s, None, "k")
+        self.tried = 0  # the largest k tried
+        self.k: int | None = None
+        self.over = max_k < 1
+
+    def _end(self, k: int | None = None) -> None:
+        self.k, self.over = k, True
+        self.s = self.u = None  # its terms: freed for the other engines
+
+    def step(self) -> None:
+        """Try k = `tried + 1`. TimeUp when the clock (not the budget) runs out."""
+        t0 = time.monotonic()
+        try:
+            self._try(self.tried + 1, t0)
+        finally:
+            self.spent += time.monotonic() - t0
+
+    def _try(self, k: int, t0: float) -> None:
+        assert self.s is not None and self.u is not None and not self.over
+        ck, s, clock = self.ck, self.s, self.clock
+        self.tried = k
         clock.doing = f"k-induction at k={k}"
-        post = u.extend()
+        post = self.u.extend()
         s.add(*ck.lemma_terms(post), *ck.facts(post))  # proven invariants: every scan
-        left = until - time.monotonic()
+        left = self.budget - self.spent - (time.monotonic() - t0)
         if left <= 0:
-            return None, time.monotonic() - t0
+            return self._end()
         r = clock.check(s, z3.Not(ck.holds(post)), what="", cap=left)
         if r == z3.unsat:
-            return k, time.monotonic() - t0
+            return self._end(k)
         if r == z3.unknown:
-            return None, time.monotonic() - t0
+            return self._end()
         s.add(ck.holds(post))
-        if progress:
-            progress("k-induction", k, time.monotonic() - t0)
-    return None, time.monotonic() - t0
+        if self.progress:
+            self.progress("k-induction", k, self.spent + time.monotonic() - t0)
+        if k >= self.max_k:
+            self._end()
 
 
 def horn_clauses(ck: Checker, shuffle: int = 0) -> str:
@@ -327,7 +377,8 @@ def requirement(model: Model, spec: Spec, req: Requirement, lemmas: list[Node],
 
 def verify(ck: Checker, depth: int, max_k: int, seconds: float | Clock, watch: list[str],
            use_spacer: bool = True, progress: Progress | None = None) -> Result:
-    """BMC for a counterexample, k-induction (then Spacer) for a proof, within `seconds`
+    """BMC for a counterexample and k-induction for a proof, in turn one depth each, with
+    Spacer beside them for a proof without a k, within `seconds`
     (or what is left of a requirement's clock): every solver call, the model's included,
     gets the time left; when it runs out, UNKNOWN saying what was running."""
     clock = seconds if isinstance(seconds, Clock) else Clock(seconds)
@@ -348,44 +399,45 @@ def _verify(ck: Checker, depth: int, max_k: int, clock: Clock, watch: list[str],
     if ck.candidates(ck.init()):  # the timers' facts, kept where inductive
         from softplc.verify.lemmas import houdini
         ck.lemma_ids = houdini(ck, clock)
-    # Spacer runs beside k-induction and BMC (the time of the slower, not of the sum),
-    # started once 1-induction has failed: most simple requirements end there
-    child: list[Spacer] = []
-    polls = [0]
-
-    def stop() -> bool:
-        if not child:
-            child.append(Spacer(ck))
-        return child[0].proven()
-
-    def stop_from_k2() -> bool:
-        polls[0] += 1
-        return polls[0] > 1 and stop()
-
+    # the base case and the induction step advance in turn, one depth each: BMC at scan
+    # d, then k-induction at k = d. A counterexample is reported as soon as BMC finds it
+    # (the shortest: every shorter depth was clean), a proof as soon as the step holds at
+    # k with BMC clean to k. Spacer runs beside them (the time of the slower, not of the
+    # sum), started once 1-induction has failed: most simple requirements end there
+    base = BaseCase(ck, clock, watch, progress)
+    step = Induction(ck, clock, max_k, clock.seconds * INDUCTION_SHARE, progress)
+    spacer: Spacer | None = None
     try:
-        k, _ = k_induction(ck, max_k, clock.start + clock.seconds / 2, clock, progress,
-                           stop_from_k2 if use_spacer else None)
-        base = bmc(ck, k if k is not None else depth, clock, watch, progress,
-                   stop if use_spacer and k is None else None)
-        base.seconds = clock.elapsed()
-        if base.status == "VIOLATED" or base.note:
-            return base
-        if k is not None and base.depth >= k:
-            return Result("PROVEN", f"k-induction (k={k})", base.depth, clock.elapsed())
-        if not use_spacer:
-            return Result("UNKNOWN", "BMC", base.depth, clock.elapsed())
-        stop()  # started if not yet
-        clock.doing = f"waiting for Spacer, BMC clean to {base.depth} scans"
-        if progress and child[0].done() is None:
-            progress("Spacer", base.depth, clock.elapsed())
-        found = child[0].wait(clock.left())
+        while True:
+            if step.k is not None and base.clean >= step.k:
+                return Result("PROVEN", f"k-induction (k={step.k})", base.clean,
+                              clock.elapsed())
+            if use_spacer and spacer is None and step.k is None and (step.tried or step.over):
+                spacer = Spacer(ck)
+            if spacer is not None and spacer.proven():
+                return Result("PROVEN", "Spacer (IC3/PDR)", base.clean, clock.elapsed())
+            if base.clean < max(depth, step.k or 0):  # a proof at k needs BMC to k
+                res = base.step()
+                if res is not None:
+                    res.seconds = clock.elapsed()
+                    return res
+            elif step.over:
+                break
+            if not step.over:
+                step.step()
+        if spacer is None:  # (no Spacer asked)
+            return Result("UNKNOWN", "BMC", base.clean, clock.elapsed())
+        clock.doing = f"waiting for Spacer, BMC clean to {base.clean} scans"
+        if progress and spacer.done() is None:
+            progress("Spacer", base.clean, clock.elapsed())
+        found = spacer.wait(clock.left())
     finally:
-        if child:
-            child[0].kill()
+        if spacer is not None:
+            spacer.kill()
     if found == "PROVEN":
-        return Result("PROVEN", "Spacer (IC3/PDR)", base.depth, clock.elapsed())
+        return Result("PROVEN", "Spacer (IC3/PDR)", base.clean, clock.elapsed())
     if found == "VIOLATED":  # no trace from Spacer: say so, keep it unconfirmed
         return Result("UNKNOWN", "Spacer: fails after more scans than searched",
-                      base.depth, clock.elapsed())
+                      base.clean, clock.elapsed())
     note = str(clock.up()) if clock.left() <= 0 else "Spacer gave up (unknown)"
-    return Result("UNKNOWN", "BMC", base.depth, clock.elapsed(), note=note)
+    return Result("UNKNOWN", "BMC", base.clean, clock.elapsed(), note=note)

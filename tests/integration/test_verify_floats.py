@@ -13,7 +13,7 @@ from softplc.errors import Code, VerifyError
 from softplc.plc import PLC
 from softplc.twido.address import Ref
 from softplc.verify.checker import Checker
-from softplc.verify.engines import verify
+from softplc.verify.engines import Result, verify
 from softplc.verify.model import Model
 from softplc.verify.replay import first_failure, read_cex, replay
 from softplc.verify.requirements import load_spec
@@ -24,14 +24,20 @@ SPEED = ("LD %I0.0\n[ %MF10 := 150.0 ]\nLDN %I0.0\n[ %MF10 := 50.0 ]\n"
 SECONDS = 120  # per requirement: the answers below take a few seconds on an idle machine
 
 
-def run(prog: str, check: str, host: tuple[int, ...] = (), config: dict | None = None,
-        watch: tuple[str, ...] = ()):
+def run_all(prog: str, checks: list[str], host: tuple[int, ...] = (),
+            config: dict | None = None, watch: tuple[str, ...] = ()) -> list[Result]:
+    """Each requirement checked on one model of the program (its facts proven once, as
+    `softplc verify` does for a requirement file)."""
     plc = PLC.from_source(prog, config, devices=False)
-    spec = load_spec(None, [check], plc.symbols)
+    spec = load_spec(None, checks, plc.symbols)
     model = Model(plc, spec.reads, [Ref("MW", k) for k in host])
-    res = verify(Checker(model, spec, spec.requirements[0]), 4, 4, SECONDS, list(watch),
-                 use_spacer=True)
-    return res
+    return [verify(Checker(model, spec, req), 4, 4, SECONDS, list(watch), use_spacer=True)
+            for req in spec.requirements]
+
+
+def run(prog: str, check: str, host: tuple[int, ...] = (), config: dict | None = None,
+        watch: tuple[str, ...] = ()) -> Result:
+    return run_all(prog, [check], host, config, watch)[0]
 
 
 def replays(prog: str, check: str, res, config: dict | None = None) -> None:
@@ -44,15 +50,15 @@ def replays(prog: str, check: str, res, config: dict | None = None) -> None:
 
 
 def test_a_float_limit_proven_and_violated_with_a_replayed_counterexample():
-    res = run(SPEED, "never %MF10 > 100.0", watch=("%MF10",))
+    res, *proven = run_all(SPEED, [
+        "never %MF10 > 100.0",
+        "always %MF10 <= 150.0 AND %MF10 >= 50",  # an integer literal takes the float's
+        "never %MF10 <> %MF12",                   # type, as in an IL comparison
+        "always -%MF10 < -49.5 AND %MF10 * 2.0 - 1.0 < 299.5"], watch=("%MF10",))
     replays(SPEED, "never %MF10 > 100.0", res)
     assert res.depth == 1 and res.trace[0]["inputs"] == {"%I0.0": 1}
     assert res.trace[0]["values"] == {"%MF10": 150.0}
-    # an integer literal takes the float's type, as in an IL comparison
-    assert run(SPEED, "always %MF10 <= 150.0 AND %MF10 >= 50").status == "PROVEN"
-    assert run(SPEED, "never %MF10 <> %MF12").status == "PROVEN"
-    assert run(SPEED, "always -%MF10 < -49.5 AND %MF10 * 2.0 - 1.0 < 299.5"
-               ).status == "PROVEN"
+    assert [r.status for r in proven] == ["PROVEN"] * 3, proven
 
 
 def test_constants_and_symbols_of_floats():

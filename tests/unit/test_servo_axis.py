@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 from daemon_util import ROOT
-from scipy.signal import cont2discrete
 
 from softplc.devices.axis import Ctl, Err, Mode, St, Word
 from softplc.devices.axis import trajectory as tj
@@ -29,6 +28,10 @@ LINEAR = {"plant.coulomb": 0.0, "plant.amp_offset": 0.0, "ivars.Ixx29": 0,
 
 # -- plant -----------------------------------------------------------------------------------
 def _scipy_tf(K: float, a: float, T: float) -> tuple[float, float, float]:
+    # imported here: scipy.signal takes about a second to import, in every test worker that
+    # collects this module, for the one test that uses it
+    from scipy.signal import cont2discrete
+
     A = np.array([[0.0, 1.0], [0.0, -a]])
     B = np.array([[0.0], [K]])
     Ad, Bd, *_ = cont2discrete((A, B, np.array([[1.0, 0.0]]), np.zeros((1, 1))), T, "zoh")
@@ -59,6 +62,8 @@ def test_thesis_zoh_formulas_are_wrong():
 
 
 def test_plant_step_equals_the_discrete_state_space():
+    from scipy.signal import cont2discrete  # see _scipy_tf
+
     K, a = 11157.2, 4.975
     A = np.array([[0.0, 1.0], [0.0, -a]])
     Ad, Bd, *_ = cont2discrete((A, np.array([[0.0], [K]]), np.eye(2), np.zeros((2, 1))), T,
