@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import functools
 import importlib.util
 import re
 import sys
@@ -79,9 +80,16 @@ SHARED_MACHINE_LIBS = ("softplc.machines.gcode", "softplc.machines.examples",
 MACHINE_REGISTRY = ("softplc.machines", "softplc.machines.devices")
 
 
+@functools.cache
+def _walk(tree: ast.AST) -> tuple[ast.AST, ...]:
+    """Every node of `tree` (ast.walk's order), walked once: six rules read each module's
+    nodes, and six walks of 240 modules were half this tool's time (`measure` clears it)."""
+    return tuple(ast.walk(tree))
+
+
 def _docstring_nodes(tree: ast.AST) -> set[int]:
     ids: set[int] = set()
-    for node in ast.walk(tree):
+    for node in _walk(tree):
         if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
             body = getattr(node, "body", [])
             if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
@@ -99,7 +107,7 @@ def _kind_slots(tree: ast.AST) -> set[int]:
         return any(re.search(rf"\b{w}\b", text) for w in words)
 
     out: set[int] = set()
-    for node in ast.walk(tree):
+    for node in _walk(tree):
         places: list[ast.AST] = []
         if isinstance(node, ast.Compare) and any(
                 named(n, ("kind",)) for n in [node.left, *node.comparators]):
@@ -134,7 +142,7 @@ def kind_names(tree: ast.AST, kinds: tuple[str, ...] = KINDS) -> set[str]:
              for k in kinds if len(k) > 1}
     if "PID" in ident:  # set_pid: a process
         ident["PID"] = re.compile(r"(?:^|_)pid(?:_|$)(?<!set_pid)|Pid[A-Z]|^PID")
-    for node in ast.walk(tree):
+    for node in _walk(tree):
         if isinstance(node, ast.Constant) and isinstance(node.value, str) \
                 and id(node) not in docs and not re.search(r"\s", node.value):
             for k, rx in words.items():
@@ -169,7 +177,7 @@ def class_names(tree: ast.Module, mod: str, is_pkg: bool,
     """The kinds whose runtime class `mod` defines or imports by name (the verifier naming a
     timer by `Timer` names the family as surely as by "TM")."""
     found = {k for k, (m, _c) in families.items() if m == mod}
-    for st in ast.walk(tree):
+    for st in _walk(tree):
         if isinstance(st, ast.ImportFrom):
             base = mod.split(".")
             target = ".".join(base[: len(base) - st.level + (1 if is_pkg else 0)]
@@ -185,7 +193,7 @@ def methods(tree: ast.Module) -> list[tuple[str, int, int]]:
     makers = {f.name for f in tree.body if isinstance(f, ast.FunctionDef) and f.returns
               and "Callable" in ast.unparse(f.returns)}
     out = []
-    for node in ast.walk(tree):
+    for node in _walk(tree):
         if isinstance(node, ast.ClassDef):
             n = sum(isinstance(b, (ast.FunctionDef, ast.AsyncFunctionDef)) or (
                 isinstance(b, ast.Assign) and isinstance(b.value, ast.Call)
@@ -208,7 +216,7 @@ def _imports(tree: ast.Module, mod: str, is_pkg: bool, modules: set[str]) -> set
     function, under `if TYPE_CHECKING:` (a reader of the code sees each one as a
     dependency)."""
     out: set[str] = set()
-    for st in ast.walk(tree):
+    for st in _walk(tree):
         if isinstance(st, ast.Import):
             out.update(a.name for a in st.names if a.name.startswith("softplc"))
         elif isinstance(st, ast.ImportFrom):
@@ -341,6 +349,7 @@ def measure(root: Path = ROOT, kinds: tuple[str, ...] = KINDS) -> Report:
     inner = {m: {t for t in deps if t in known and t != m} for m, deps in graph.items()}
     rep.cycles = cycles(inner)
     rep.upward = upward_imports(inner) if root == ROOT else []
+    _walk.cache_clear()  # the trees go with the report (an exception: the next call)
     return rep
 
 

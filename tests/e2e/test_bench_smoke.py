@@ -160,6 +160,7 @@ def test_bench_floor_parts_removes_each_part_it_names() -> None:
 
 
 _LOOP_CHILD = r"""
+import os
 import sys
 import instr_count
 def work(k):
@@ -171,6 +172,8 @@ k = int(sys.argv[2])
 instr_count.start()
 for _ in range(int(sys.argv[1])):
     work(k)
+sys.stdout.flush()
+os._exit(0)  # no interpreter teardown: 20 M instructions, instrumented, in every run
 """
 
 
@@ -178,7 +181,7 @@ def test_instruction_count_is_per_iteration_and_repeatable(tmp_path: Path) -> No
     """Issue 32 item 6: the count under callgrind grows by the same amount for each 50 more
     iterations of the child's loop (the start-up cancels out in a difference), and a run
     repeated gives the same total, whatever the machine's load. Four callgrind runs (each
-    costs about 3 s of CPU in valgrind's start-up alone)."""
+    about 2 s of CPU, nearly all of it Python's start-up under valgrind)."""
     import instr_count
 
     if not instr_count.available():

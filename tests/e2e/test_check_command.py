@@ -34,10 +34,10 @@ def test_summary_rungs_json_format_and_python(capsys):
             "ladder_programs/drawing_table.toml"]
     assert softplc([*args, "--rungs"]) == 0
     out = capsys.readouterr().out
-    assert "OK - 29 rungs" in out and "rung   9" in out and "INICIO > 100 while idle" in out
+    assert "OK - 30 rungs" in out and "rung   9" in out and "INICIO > 100 while idle" in out
     assert softplc([*args, "--json"]) == 0
     rungs = json.loads(capsys.readouterr().out)["rungs"]
-    assert len(rungs) == 29 and rungs[0]["title"].startswith("PULSOS")
+    assert len(rungs) == 30 and rungs[0]["title"].startswith("PULSOS")
     assert softplc([*args, "--format"]) == 0
     text = capsys.readouterr().out  # the program only: `> new.il` gives a program
     original = parse(open("ladder_programs/drawing_table.il").read())

@@ -347,3 +347,113 @@ def test_seed_broken_home_switch_runs_forever():
     p.scan(3000)
     assert p.devices["X"].missed_steps > 100
     assert p["%M25"] and p[EJECUTANDO] == BUSY, "still homing"
+
+
+# ---- the host-wait bit (both programs): [daemon] host_wait = "%M37" ---------------------------
+HOST_WAIT = "%M37"
+OSC_SCANS = round(STEP_PERIOD_S * 1000)  # scans per step-clock cycle (1 ms scan)
+# what a waiting PLC still changes scan after scan: the step clock (its timers, PULSOS) and
+# the system objects (scan counters, first-scan bit); the trace's next flush time
+CLOCK_BLOCKS, PULSOS, TRACE_TIMER = ("TM", (0, 1)), 20, "_next_flush"
+
+
+def frozen(plc: PLC) -> dict:
+    """Everything but the step clock and the system objects: what must not change while
+    the PLC waits for its host (then a held clock changes nothing a host can see)."""
+    snap = plc.mem.snapshot()
+    m = bytearray(snap.pop("m"))
+    m[PULSOS] = 0
+    family, clock = CLOCK_BLOCKS
+    for k in ("s", "sw"):
+        snap.pop(k)
+    snap["blocks"][family] = {i: st for i, st in snap["blocks"][family].items()
+                              if i not in clock}
+    devices = {n: {k: v for k, v in d.state().items() if k != TRACE_TIMER}
+               for n, d in plc.devices.items()}
+    return {"m": bytes(m), **snap, "devices": devices}
+
+
+def until_host_wait(plc: PLC, max_scans: int) -> dict:
+    """Scan until %M37; check that a PLC that sets it shows the host "idle" (or a fault)
+    and that scans meanwhile (several step-clock cycles) change nothing but the clock.
+    Returns how many scans, and those where EJECUTANDO read 0 without the bit."""
+    ready_early = 0
+    for n in range(1, max_scans + 1):
+        plc.scan()
+        if not plc[HOST_WAIT]:
+            ready_early += plc[EJECUTANDO] == 0
+            continue
+        assert plc[FAULT] or (plc[INICIO], plc[EJECUTANDO]) == (0, 0)
+        before = frozen(plc)
+        for _ in range(4 * OSC_SCANS):
+            plc.scan()
+            assert plc[HOST_WAIT]
+        assert frozen(plc) == before, "a scan while waiting for the host changed something"
+        return {"scans": n, "ready_early": ready_early}
+    raise AssertionError(f"%M37 not set within {max_scans} scans")
+
+
+def test_both_programs_name_the_host_wait_bit():
+    for program in (CORRECTED, SEED):
+        assert PLC.from_file(program, config=CONFIG).settings.daemon.host_wait_bit == 37
+
+
+@pytest.mark.parametrize("program", [CORRECTED, SEED], ids=["corrected", "seed"])
+def test_host_wait_only_where_a_scan_would_change_nothing(program):
+    """%M37 (the daemon's host-wait bit: with --speed it runs no scan while the bit is 1
+    and no write is pending) is 0 while homing and moving, and 1 once the move is over, at
+    a point where further scans change nothing but the step clock: holding the virtual
+    clock there is invisible, except that the host no longer waits for nothing."""
+    p = PLC.from_file(program, config=CONFIG)
+    homing = until_host_wait(p, homing_scans(500))
+    assert pos(p) == (0, 0) and homing["scans"] > 300
+    rnd = random.Random(5)
+    # a random walk, a vertical line (the seed never moves Z), a zero-length segment
+    targets = [(rnd.randint(0, 700), rnd.randint(0, 700)) for _ in range(5)]
+    targets += [(targets[-1][0], 650), (targets[-1][0], 650)]
+    early = 0
+    for x, z in targets:
+        steps = max(abs(x - pos(p)[0]), abs(z - pos(p)[1]), 700)  # the seed's Z: far
+        write_frame(p, x, z, 1)
+        early += until_host_wait(p, 2 * steps * OSC_SCANS + 20)["ready_early"]
+        if program == CORRECTED:
+            assert pos(p) == (x, z)
+    # the corrected program: EJECUTANDO 0 without the bit only in the scan that takes the
+    # zero-length segment (its one-scan DIFERENTE pulse is on); the seed: EJECUTANDO
+    # flickers to 0 at every intermediate step target, the bit does not
+    assert early == 1 if program == CORRECTED else early > 100
+
+
+def test_a_fault_waits_for_the_host_too():
+    """The corrected program in fault (homing timeout): nothing moves until a restart, so
+    %M37 is 1 and the clock may stand still."""
+    p = PLC.from_file(CORRECTED, config=CONFIG)
+    p.devices["home_X"].set_fault("stuck_open")
+    until_host_wait(p, 3100 * OSC_SCANS + 100)
+    assert p[FAULT] == 1
+
+
+def test_seed_waits_for_its_phase_to_catch_up_after_homing():
+    """The seed zeroes TRAYEZ when PZ makes but updates the phase index only at the next
+    PULSOS (rungs 21, 24): with a switch that makes off phase A (here: made early, at a
+    count that is not a multiple of 4) that pulse still moves the motor, so %M37 waits
+    for it."""
+    p = PLC.from_file(SEED, config=CONFIG)
+    scan_until(p, lambda: pos(p)[0] == 0 and pos(p)[1] % 4 == 1, homing_scans(500))
+    p.devices["home_Z"].set_fault("stuck_closed")  # PZ makes here, off phase A
+    scan_until(p, lambda: p["%MW36"] == 0, 2)  # the switch's input: the next scan's
+    assert p["%MW37"] != 0, "the count is zeroed, the phase is not yet"
+    until_host_wait(p, 2 * OSC_SCANS)
+    assert p["%MW37"] == 0
+
+
+def test_corrected_waits_for_the_alignment_pulse_when_already_home():
+    """Started on both home switches (just past them) the corrected program is homed in
+    its first scans, but the power-up alignment (phases A+B) lasts until the first PULSOS
+    and phase A alone comes a scan later: %M37 waits for it."""
+    p = PLC.from_file(CORRECTED, config=CONFIG)
+    p.devices["X"].position = p.devices["Z"].position = -4
+    scan_until(p, lambda: p[EJECUTANDO] == 0, 2)
+    assert p["%M35"] and not p[HOST_WAIT]
+    until_host_wait(p, 2 * OSC_SCANS)
+    assert not p["%M35"] and pos(p) == (-4, -4)

@@ -84,8 +84,15 @@ class Rig:
         self.mem.mw.uw[self.base(axis) + Word.CONTROL] = Ctl.ENABLE
 
     def word(self, axis: str, offset: int, kind: str = "w") -> Any:
+        # read once per simulated scan by a waiting caller (run_until): no closures built
         mw, i = self.mem.mw, self.base(axis) + offset
-        return {"w": lambda: mw.w[i], "d": lambda: mw.get_d(i), "f": lambda: mw.get_f(i)}[kind]()
+        if kind == "w":
+            return mw.w[i]
+        if kind == "d":
+            return mw.get_d(i)
+        if kind == "f":
+            return mw.get_f(i)
+        raise KeyError(kind)
 
     def step(self, n: int = 1) -> None:
         for _ in range(n):

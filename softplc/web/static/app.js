@@ -123,19 +123,27 @@ function connect() {
 }
 
 // ---- header ------------------------------------------------------------------------------
+// A live field is written only when its value changed: an equal write still costs the
+// browser a style, layout and paint pass, ten updates a second (about 40 % of a headless
+// Chromium's CPU on the Simulation tab, docs/web.md).
+function put(el, key, value) {
+  if (el[key] !== value) el[key] = value;
+}
+const putText = (el, text) => put(el, "textContent", String(text));
+
 const ms = (v) => (v === undefined ? "–" : v.toFixed(3) + " ms");
 function showStatus(st) {
   state.status = st; state.forced = st.forced || {};
-  const s = $("#state"); s.textContent = st.state; s.className = "state " + st.state;
-  $("#scan").textContent = ms(st.scan_last_ms);
-  $("#scanminmax").textContent = `${st.scan_min_ms.toFixed(3)} / ${st.scan_max_ms.toFixed(3)} ms`;
-  $("#overruns").textContent = st.overruns + (st.late_starts === undefined ? "" :
-    ` (${st.late_starts} late, ${st.skipped_starts} skipped)`);
-  $("#scans").textContent = st.scans;
-  $("#plctime").textContent = st.time.toFixed(1) + " s";
-  $("#clients").textContent = st.modbus_clients ?? "–";
-  $("#forcedcount").textContent = Object.keys(state.forced).length;
-  const f = $("#fault"); f.hidden = !st.fault; f.textContent = st.fault ? "HALT: " + st.fault : "";
+  const s = $("#state"); putText(s, st.state); put(s, "className", "state " + st.state);
+  putText($("#scan"), ms(st.scan_last_ms));
+  putText($("#scanminmax"), `${st.scan_min_ms.toFixed(3)} / ${st.scan_max_ms.toFixed(3)} ms`);
+  putText($("#overruns"), st.overruns + (st.late_starts === undefined ? "" :
+    ` (${st.late_starts} late, ${st.skipped_starts} skipped)`));
+  putText($("#scans"), st.scans);
+  putText($("#plctime"), st.time.toFixed(1) + " s");
+  putText($("#clients"), st.modbus_clients ?? "–");
+  putText($("#forcedcount"), Object.keys(state.forced).length);
+  const f = $("#fault"); put(f, "hidden", !st.fault); putText(f, st.fault ? "HALT: " + st.fault : "");
 }
 
 const ACTION_TEXT = {
@@ -230,8 +238,8 @@ function showIO(io) {
     if (t) {
       t.classList.toggle("on", on);
       const locked = (row.classList.contains("driven") || forced);
-      t.disabled = locked; row.querySelector(".push").disabled = locked;
-      t.title = forced ? "forced: unforce first" : locked ? "driven by a simulated device: force it to override" : "switch: toggles";
+      put(t, "disabled", locked); put(row.querySelector(".push"), "disabled", locked);
+      put(t, "title", forced ? "forced: unforce first" : locked ? "driven by a simulated device: force it to override" : "switch: toggles");
     }
   }
 }
@@ -284,19 +292,19 @@ function showAnalog(values) {
     const ch = state.info.analog.find((c) => c.address === a);
     const forced = a in state.forced;
     row.classList.toggle("forced", forced);
-    row.querySelector(".aword").textContent = `(${a} = ${v.word})`;
+    putText(row.querySelector(".aword"), `(${a} = ${v.word})`);
     const slider = row.querySelector("input[type=range]");
     if (slider) {
-      slider.disabled = state.info.read_only || !ch.configured || (row.classList.contains("driven") && !forced);
-      slider.title = !ch.configured ? "not configured in [analog]: give it a signal type to drive it"
-        : slider.disabled ? "driven by a simulated device: force it (F) to override" : span(ch);
+      put(slider, "disabled", !!(state.info.read_only || !ch.configured || (row.classList.contains("driven") && !forced)));
+      put(slider, "title", !ch.configured ? "not configured in [analog]: give it a signal type to drive it"
+        : slider.disabled ? "driven by a simulated device: force it (F) to override" : span(ch));
       if (row.dataset.moving) continue;  // the user is dragging: leave the slider alone
-      if (v.value !== null) slider.value = v.value;
+      if (v.value !== null) put(slider, "value", String(v.value));
     }
     const meter = row.querySelector("meter");
-    if (meter && v.value !== null) meter.value = v.value;
+    if (meter && v.value !== null) put(meter, "value", v.value);
     // an unconfigured channel: its word means nothing physical (word 0 of a PT100 = -200 °C)
-    row.querySelector(".aval").textContent = v.value === null ? "no signal" : (num(v.value) + " " + ch.unit).trim();
+    putText(row.querySelector(".aval"), v.value === null ? "no signal" : (num(v.value) + " " + ch.unit).trim());
   }
 }
 
@@ -424,7 +432,7 @@ function showTable() {
     const obj = tr.dataset.obj, v = state.values[obj];
     let text;
     try { text = fmt(obj, v, state.formats[obj] || "dec"); } catch (e) { text = String(v); }
-    tr.querySelector(".val").textContent = text;
+    putText(tr.querySelector(".val"), text);
     tr.classList.toggle("forced", obj in state.forced);
   }
 }
