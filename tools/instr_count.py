@@ -65,8 +65,16 @@ def available() -> bool:
 def start() -> None:
     """In a child run by `count`: instrument from here on (elsewhere: nothing)."""
     if os.environ.get(UNDER):
-        subprocess.run([CONTROL, "-i", "on", str(os.getpid())], capture_output=True,
-                       check=True)
+        # valgrind switches instrumentation on while this process is blocked in one
+        # waitpid(): the instructions counted after it are the same in every run. Waiting
+        # with subprocess.run's communicate() loop would count a number of its iterations
+        # that depends on the machine's load (a repeated run differed by 3 %).
+        ctl = subprocess.Popen([CONTROL, "-i", "on", str(os.getpid())],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        _, status = os.waitpid(ctl.pid, 0)
+        ctl.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
+        if ctl.returncode:
+            raise RuntimeError(f"{CONTROL} -i on: exit status {ctl.returncode}")
 
 
 def _run(child: str, n: int, out: Path, args: tuple[str, ...]) -> tuple[int, int]:
