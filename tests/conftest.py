@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from chromium import browser, chromium  # noqa: F401 (fixtures: one browser per worker)
 from daemon_util import daemons, kill_all  # noqa: F401 (the `daemons` fixture)
 from tiers import TIERS, tier_of
 

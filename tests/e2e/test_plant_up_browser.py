@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_web_browser import browser, shot, sync_api  # noqa: F401 (fixture)
+from test_web_browser import shot, sync_api
 from waits import WAIT_MS
 
 from softplc.plant import hosts
@@ -31,7 +31,7 @@ def _softplc(*args: str) -> subprocess.CompletedProcess[str]:
                           capture_output=True, text=True, timeout=120)
 
 
-def test_the_plant_page_lists_the_controllers_and_opens_their_monitors(browser, tmp_path):  # noqa: F811
+def test_the_plant_page_lists_the_controllers_and_opens_their_monitors(browser, tmp_path):
     state = tmp_path / "state"
     up = _softplc("plant", "up", str(EXAMPLE), "--netns", "--state-dir", str(state),
                   "--web", "0")

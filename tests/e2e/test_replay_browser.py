@@ -16,7 +16,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
-from test_web_browser import ARGS, CHROMIUM, ROOT, shot, sync_api
+from test_web_browser import ROOT, shot
 
 from softplc.cli import main
 
@@ -88,38 +88,36 @@ def test_the_api_plays_the_trace_and_takes_no_writes(served):
     assert e.value.code == 405  # no route changes anything
 
 
-def test_the_slider_shows_the_violation_on_the_ladder(served):
+def test_the_slider_shows_the_violation_on_the_ladder(served, browser):
     url, total = served
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        try:
-            page = browser.new_page(viewport={"width": 1400, "height": 1000})
-            page.goto(url)
-            page.wait_for_selector('body[data-scan="0"]')  # paused at the cold start
-            assert page.locator("#status").inner_text() == "cold start"
-            page.locator("#slider").fill(str(total))
-            page.wait_for_selector(f'body[data-scan="{total}"]')
-            assert page.locator("#status").inner_text() == "VIOLATED"
-            row = page.locator("#values tbody tr").first
-            assert row.locator("td").nth(0).inner_text() == "%Q0.2"
-            assert row.locator("td").nth(1).inner_text() == "1"
-            labels = page.locator("#rungs svg text.req")
-            assert labels.count() >= 2 and set(labels.all_text_contents()) == {"%Q0.2"}
-            red = labels.first.evaluate("e => getComputedStyle(e).fill")
-            assert red == "rgb(176, 0, 32)"  # replay.css: the requirement's labels
-            assert page.locator("#history tr.current td").first.inner_text() == str(total)
-            path: Path = shot(page, "replay-violation")
-            page.locator("#slider").focus()
-            page.keyboard.press("ArrowLeft")  # the range input's own step: one scan back
-            page.wait_for_selector(f'body[data-scan="{total - 1}"]')
-            assert page.locator("#status").inner_text() == "holds"
-            assert page.locator("#values tbody tr td").nth(1).inner_text() == "0"
-            assert path.exists()
-            page.locator("#first").click()
-            page.wait_for_selector('body[data-scan="0"]')
-            page.locator("#play").click()  # plays to the end and stops there
-            page.wait_for_selector(f'body[data-scan="{total}"]', timeout=60_000)
-            page.wait_for_function("document.getElementById('play').textContent === 'play'")
-            assert page.locator("#status").inner_text() == "VIOLATED"
-        finally:
-            browser.close()
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    try:
+        page.goto(url)
+        page.wait_for_selector('body[data-scan="0"]')  # paused at the cold start
+        assert page.locator("#status").inner_text() == "cold start"
+        page.locator("#slider").fill(str(total))
+        page.wait_for_selector(f'body[data-scan="{total}"]')
+        assert page.locator("#status").inner_text() == "VIOLATED"
+        row = page.locator("#values tbody tr").first
+        assert row.locator("td").nth(0).inner_text() == "%Q0.2"
+        assert row.locator("td").nth(1).inner_text() == "1"
+        labels = page.locator("#rungs svg text.req")
+        assert labels.count() >= 2 and set(labels.all_text_contents()) == {"%Q0.2"}
+        red = labels.first.evaluate("e => getComputedStyle(e).fill")
+        assert red == "rgb(176, 0, 32)"  # replay.css: the requirement's labels
+        assert page.locator("#history tr.current td").first.inner_text() == str(total)
+        path: Path = shot(page, "replay-violation")
+        page.locator("#slider").focus()
+        page.keyboard.press("ArrowLeft")  # the range input's own step: one scan back
+        page.wait_for_selector(f'body[data-scan="{total - 1}"]')
+        assert page.locator("#status").inner_text() == "holds"
+        assert page.locator("#values tbody tr td").nth(1).inner_text() == "0"
+        assert path.exists()
+        page.locator("#first").click()
+        page.wait_for_selector('body[data-scan="0"]')
+        page.locator("#play").click()  # plays to the end and stops there
+        page.wait_for_selector(f'body[data-scan="{total}"]', timeout=60_000)
+        page.wait_for_function("document.getElementById('play').textContent === 'play'")
+        assert page.locator("#status").inner_text() == "VIOLATED"
+    finally:
+        page.close()

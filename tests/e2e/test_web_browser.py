@@ -1,7 +1,6 @@
-"""The web monitor in a real browser: Debian's headless Chromium driven by Playwright.
-
-Playwright's own browser download is never used (`playwright install` is not run): the
-system browser is launched by path. Screenshots go to out/ and are checked for content.
+"""The web monitor in a real browser: Debian's headless Chromium driven by Playwright
+(tests/chromium.py: the browser, one per test worker). Screenshots go to out/ and are
+checked for content.
 """
 
 from __future__ import annotations
@@ -12,34 +11,22 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from chromium import CHROMIUM, MISSING
 from daemon_util import ROOT, Daemon, started
 from waits import WAIT_MS, WAIT_S, until
 
 from softplc.commands.io import Client
 
-CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium"
-                                        if Path("/usr/bin/chromium").exists() else None)
 if CHROMIUM is None:
-    pytest.skip("chromium is not installed (Debian package `chromium`; `make sysdeps` as root)",
-                allow_module_level=True)
+    pytest.skip(MISSING, allow_module_level=True)
 sync_api = pytest.importorskip("playwright.sync_api",
                                reason="playwright is not installed (the test extra)")
 # every expect() waits as long as a hang takes (its own default, 5 s, ran out under load)
 sync_api.expect.set_options(timeout=WAIT_MS)
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 OUT = ROOT / "out"
 PROGRAMS = ROOT / "ladder_programs"
 MBPOLL = shutil.which("mbpoll")
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with sync_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        yield b
-        b.close()
 
 
 def web_url(d: Daemon) -> str:

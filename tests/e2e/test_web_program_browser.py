@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 
 from test_web_api import Stack
-from test_web_browser import browser, open_page, shot, sync_api  # noqa: F401 (fixture)
+from test_web_browser import open_page, shot, sync_api
 from test_web_program import NO_COUNTER, NO_COUNTER_CONFIG, SOURCE, STEADY
 
 
@@ -28,7 +28,7 @@ def load(page, program: str, config: str = "") -> None:
     page.click("#prog-load")
 
 
-def test_upload_errors_losses_and_a_kept_counter(browser, star, tmp_path):  # noqa: F811
+def test_upload_errors_losses_and_a_kept_counter(browser, star, tmp_path):
     set_counter(star, 6)
     page = open_page(browser, url(star))
     sync_api.expect(page.locator("#version")).to_contain_text("v0 · ")
@@ -81,7 +81,7 @@ def test_upload_errors_losses_and_a_kept_counter(browser, star, tmp_path):  # no
     page.close()
 
 
-def test_modbus_map_page(browser, star):  # noqa: F811
+def test_modbus_map_page(browser, star):
     page = open_page(browser, url(star))
     page.click("#tabs button[data-tab=map]")
     row = page.locator('#map-tags tr[data-address="%MW10"]')
@@ -100,7 +100,7 @@ def test_modbus_map_page(browser, star):  # noqa: F811
     page.close()
 
 
-def test_symbols_in_an_animation_table(browser, star):  # noqa: F811
+def test_symbols_in_an_animation_table(browser, star):
     page = open_page(browser, url(star))
     page.evaluate("() => localStorage.removeItem('softplc.tables')")
     page.reload()

@@ -7,9 +7,7 @@ from __future__ import annotations
 
 import pytest
 from daemon_util import Daemon
-from test_web_browser import PROGRAMS, browser, open_page, shot, sync_api, web_url
-
-__all__ = ["browser"]  # the module-scoped browser fixture, shared
+from test_web_browser import PROGRAMS, open_page, shot, sync_api, web_url
 
 
 @pytest.fixture(scope="module")

@@ -10,10 +10,8 @@ import time
 
 import pytest
 from daemon_util import started
-from test_web_browser import PROGRAMS, browser, open_page, shot, start, sync_api, web_url
+from test_web_browser import PROGRAMS, open_page, shot, start, sync_api, web_url
 from waits import WAIT_MS, WAIT_S
-
-__all__ = ["browser"]  # the fixture, shared
 
 
 def machine_tab(page) -> None:
