@@ -35,13 +35,15 @@ draw: $(STAMP)
 	$(BIN)/softplc draw ladder_programs/samples/star.gcode --host 127.0.0.1 --port $(PORT) --preview out/star-preview.png --trace out/trace.csv --plot out/star-drawn.png
 
 # The three tiers (the folders tests/unit, tests/integration, tests/e2e) in one pytest-xdist
-# run of TEST_WORKERS workers, more than the cores: an end-to-end test spends much of its
-# time waiting for a daemon, a browser or a client, and a unit test fills that time. Each
+# run of TEST_WORKERS workers, one more than the cores: an end-to-end test spends much of
+# its time waiting for a daemon, a browser or a client, and a unit test fills that time;
+# each worker more collects every test and starts its own daemon zygote and browser (on 2
+# cores: 2 workers 257 s, 3 237 s, 4 263 s, 6 278 s; docs/performance.md). Each
 # test module stays on one worker (--dist loadfile), so a module's daemon or browser
 # fixture starts once; the end-to-end modules, the longest, are handed out first so that
 # none is left alone at the end. The tests wait for conditions, never for the machine's
 # speed.
-TEST_WORKERS ?= 4
+TEST_WORKERS ?= 3
 test: $(STAMP) sysdeps filesizes docs
 	$(BIN)/ruff check softplc tests tools
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile tests/e2e tests/integration tests/unit
