@@ -28,7 +28,9 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from softplc.modbus.rawclient import RawClient
 from softplc.persist.kept import path_of
@@ -39,13 +41,22 @@ PROGRAM = "LD 1\n[ %MW0 := %MW0 + 1 ]\nEND\n"
 BASE = 100  # writer i owns %MW(BASE + 2i) (high word) and %MW(BASE + 2i + 1) (low word)
 
 
-def start_daemon(program: Path, state: Path, save_interval: str) -> tuple[subprocess.Popen, int]:
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "softplc", "run", str(program), "--port", "0", "--state",
-         str(state), "--save-interval", save_interval, "--stats-interval", "0",
-         "--rt-priority", "0", "--web", "off"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        cwd=program.parent)
+# How a daemon is started: `softplc` command-line arguments and a folder -> a process with
+# text stdout and stderr pipes (`subprocess.Popen`'s interface). The test suite passes its
+# own (tests/zygote.py: forked from a pre-imported process).
+Launch = Callable[[list[str], Path], Any]
+
+
+def python_m_softplc(argv: list[str], cwd: Path) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "softplc", *argv], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=cwd)
+
+
+def start_daemon(program: Path, state: Path, save_interval: str,
+                 launch: Launch = python_m_softplc) -> tuple[Any, int]:
+    proc = launch(["run", str(program), "--port", "0", "--state", str(state),
+                   "--save-interval", save_interval, "--stats-interval", "0",
+                   "--rt-priority", "0", "--web", "off"], program.parent)
     for line in proc.stdout:  # type: ignore[union-attr]
         m = re.search(r"listening on [\d.]+:(\d+)", line)
         if m:
@@ -83,7 +94,8 @@ def _attack(state: Path, attack: str) -> None:
 
 def run(kills: int = 100, writers: int = 4, save_interval: str = "0.5s",
         seed: int = 1, progress: bool = False, attack: str = "none",
-        sig: signal.Signals = signal.SIGKILL) -> dict[str, object]:
+        sig: signal.Signals = signal.SIGKILL, launch: Launch = python_m_softplc
+        ) -> dict[str, object]:
     rng = random.Random(seed)
     lost: list[int] = []
     acked_total = 0
@@ -91,7 +103,7 @@ def run(kills: int = 100, writers: int = 4, save_interval: str = "0.5s",
         program = Path(tmp) / "bench.il"
         program.write_text(PROGRAM)
         state = Path(tmp) / "plc.state"
-        proc, port = start_daemon(program, state, save_interval)
+        proc, port = start_daemon(program, state, save_interval, launch)
         counters = [0] * writers
         t0 = time.monotonic()
         try:
@@ -112,7 +124,7 @@ def run(kills: int = 100, writers: int = 4, save_interval: str = "0.5s",
                 for t in threads:
                     t.join()
                 acked_total += sum(a - c for a, c in zip(acked, counters, strict=True))
-                proc, port = start_daemon(program, state, save_interval)
+                proc, port = start_daemon(program, state, save_interval, launch)
                 restored = _read_counters(port, writers)
                 lost.append(sum(max(0, a - r) for a, r in zip(acked, restored, strict=True)))
                 counters = [max(a, r) for a, r in zip(acked, restored, strict=True)]

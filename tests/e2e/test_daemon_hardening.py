@@ -4,6 +4,7 @@ Subprocess tests of `softplc run` (real clock, loopback TCP, real signals)."""
 
 from __future__ import annotations
 
+import os
 import signal
 import socket
 import struct
@@ -14,6 +15,7 @@ from pathlib import Path
 import pytest
 from daemon_util import Daemon, started
 from waits import WAIT_S, until
+from zygote import popen
 
 from softplc.modbus.rawclient import ModbusExceptionReply, RawClient
 from softplc.persist import retain
@@ -95,8 +97,10 @@ def test_second_daemon_on_same_state_file_refuses(daemons, tmp_path):
 
 # -- 3: kill -9 -------------------------------------------------------------------------------
 def test_kill9_loses_no_acknowledged_write():
-    """The short version of tools/bench_kill.py: 5 kills with writes in flight."""
-    r = bench_kill.run(kills=5, writers=3, seed=7)
+    """The short version of tools/bench_kill.py: 5 kills with writes in flight (its daemons
+    forked from the test zygote, as the other tests' are)."""
+    r = bench_kill.run(kills=5, writers=3, seed=7,
+                       launch=lambda argv, cwd: popen(argv, cwd, dict(os.environ)))
     assert r["acknowledged_writes"] > 0
     assert r["lost_total"] == 0 and r["leftover_files"] == []
 
