@@ -131,6 +131,7 @@ def serve(fd: int) -> None:
     sel.register(sock, selectors.EVENT_READ)
     sel.register(wake_r, selectors.EVENT_READ)
     buf = b""
+    pending: list[int] = []  # the stdio fds of the request being read (its first chunk's)
     while True:
         for key, _ in sel.select():
             if key.fileobj == wake_r:
@@ -143,8 +144,11 @@ def serve(fd: int) -> None:
                     os.kill(pid, signal.SIGKILL)
                 return
             buf += data
+            pending += fds
+            if b"\n" not in buf:  # a request may come in several chunks
+                continue
             line, _, buf = buf.partition(b"\n")
-            req = json.loads(line)
+            req, fds, pending = json.loads(line), pending, []
             sys.stdout.flush()
             sys.stderr.flush()
             pid = os.fork()
@@ -218,7 +222,8 @@ class Zygote:
              fds: list[int]) -> int:
         req = json.dumps({"argv": argv, "cwd": str(cwd), "env": env}).encode() + b"\n"
         with self.lock:
-            socket.send_fds(self.sock, [req], fds)
+            sent = socket.send_fds(self.sock, [req], fds)  # one sendmsg: may be short
+            self.sock.sendall(req[sent:])
             with self.changed:
                 if not self.changed.wait_for(lambda: self.replies, REPLY_TIMEOUT_S):
                     raise RuntimeError("the test zygote did not fork in time")
