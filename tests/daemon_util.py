@@ -1,4 +1,5 @@
-"""`python -m softplc run` as a subprocess on a free loopback port, for end-to-end tests."""
+"""`python -m softplc run` on a free loopback port, for end-to-end tests (forked from the
+test zygote: tests/zygote.py)."""
 
 from __future__ import annotations
 
@@ -13,13 +14,9 @@ from pathlib import Path
 
 import pytest
 from waits import WAIT_S
-from zygote import default_sigint, popen
-
-__all__ = ["default_sigint"]  # the children's SIGINT disposition, for the tests' own Popens
+from zygote import ROOT, popen
 
 from softplc.modbus.rawclient import RawClient
-
-ROOT = Path(__file__).resolve().parents[1]
 
 # How long a daemon may take to print its banner: generous, as the wait ends at the line
 # (a loaded machine starts Python slowly; the test must not depend on its speed).

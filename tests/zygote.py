@@ -41,10 +41,11 @@ REPLY_TIMEOUT_S = 60.0
 
 # -- the zygote (its own process) ---------------------------------------------------------
 def _child(argv: list[str], cwd: str, env: dict[str, str], fds: list[int]) -> None:
-    """In the forked child: become `python -m softplc ARGV` in `cwd` with `env`; never
-    returns."""
-    rc = 1
-    try:
+    """In the forked child: become `python -m softplc ARGV` in `cwd` with `env`, as
+    `softplc plant up`'s daemons do (`run_forked`); never returns."""
+    from softplc.plant.hosts import run_forked
+
+    def setup() -> None:
         for target, fd in enumerate(fds):
             os.dup2(fd, target)
         os.closerange(STDIO_FDS, os.sysconf("SC_OPEN_MAX"))  # as Popen's close_fds
@@ -60,39 +61,8 @@ def _child(argv: list[str], cwd: str, env: dict[str, str], fds: list[int]) -> No
             import faulthandler
 
             faulthandler.enable()
-        import runpy
 
-        sys.argv = ["softplc", *argv]
-        try:
-            runpy.run_module("softplc", run_name="__main__", alter_sys=True)
-            rc = 0
-        except SystemExit as e:
-            if e.code is None or isinstance(e.code, int):
-                rc = e.code or 0
-            else:  # sys.exit("message"), as the interpreter prints it
-                print(e.code, file=sys.stderr)
-        except KeyboardInterrupt:  # as the interpreter: a traceback, then death by SIGINT
-            import traceback
-
-            traceback.print_exc()
-            rc = -signal.SIGINT
-        # what the interpreter does at its end: wait for non-daemon threads, atexit
-        threading._shutdown()  # type: ignore[attr-defined]
-        atexit._run_exitfuncs()
-    except BaseException:
-        import traceback
-
-        traceback.print_exc()
-    finally:
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except Exception:  # noqa: BLE001 - a closed pipe: nothing more to say
-                pass
-        if rc < 0:
-            signal.signal(-rc, signal.SIG_DFL)
-            os.kill(os.getpid(), -rc)
-        os._exit(rc & 0xFF)
+    run_forked(argv, setup)
 
 
 def _stdio(unbuffered: bool) -> None:

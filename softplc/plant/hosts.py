@@ -29,6 +29,7 @@ no imports per daemon. EXCH links reach the named controller's host as on a netw
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import hashlib
 import ipaddress
@@ -46,7 +47,7 @@ import tomllib
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from softplc.errors import PlantStateError
 from softplc.plant.model import PlantSpec
@@ -285,8 +286,8 @@ def _start(ns: str | None, cmd: list[str], log: Path, env: dict[str, str]) -> di
     sys.stderr.flush()
     pid = os.fork()
     if pid == 0:  # the child: never returns
-        rc = 1
-        try:
+
+        def setup() -> None:
             os.setsid()
             os.dup2(fd, 1)
             os.dup2(fd, 2)
@@ -296,19 +297,48 @@ def _start(ns: str | None, cmd: list[str], log: Path, env: dict[str, str]) -> di
                 _enter(ns)
             os.environ.clear()
             os.environ.update(env)
-            sys.argv = ["softplc", *argv]
+
+        run_forked(argv, setup)
+    os.close(fd)
+    return {"pid": pid, "namespace": ns, "log": str(log)}
+
+
+def run_forked(argv: list[str], setup: Callable[[], None]) -> NoReturn:
+    """In a forked child: `setup()` (its stdio, namespace, environment), then `softplc
+    ARGV` run as `python -m softplc` runs it (softplc/__main__.py), and the process ended
+    as an interpreter ends: sys.exit's status (a message printed, status 1), the
+    non-daemon threads waited for, the atexit functions run, an uncaught Ctrl-C a
+    traceback then death by SIGINT; anything else a traceback and status 1. The test
+    suite's daemons start the same way (tests/zygote.py)."""
+    rc = 1
+    try:
+        setup()
+        sys.argv = ["softplc", *argv]
+        try:
             runpy.run_module("softplc", run_name="__main__", alter_sys=True)
             rc = 0
         except SystemExit as e:
-            rc = e.code if isinstance(e.code, int) else 1
-        except BaseException:
+            if e.code is None or isinstance(e.code, int):
+                rc = e.code or 0
+            else:  # sys.exit("message"), as the interpreter prints it
+                print(e.code, file=sys.stderr)
+        except KeyboardInterrupt:
             traceback.print_exc()
-        finally:
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(rc)
-    os.close(fd)
-    return {"pid": pid, "namespace": ns, "log": str(log)}
+            rc = -signal.SIGINT
+        threading._shutdown()  # type: ignore[attr-defined]
+        atexit._run_exitfuncs()
+    except BaseException:
+        traceback.print_exc()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except Exception:  # noqa: BLE001 - a closed pipe: nothing more to say
+                pass
+        if rc < 0:
+            signal.signal(-rc, signal.SIG_DFL)
+            os.kill(os.getpid(), -rc)
+        os._exit(rc & 0xFF)
 
 
 def _enter(ns: str) -> None:

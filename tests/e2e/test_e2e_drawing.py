@@ -7,8 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from daemon_util import ROOT, Daemon, default_sigint
+from daemon_util import ROOT, Daemon
 from modbus_util import refused_port
+from zygote import default_sigint
 
 from softplc.cli import main as softplc
 from softplc.machines.drawing import max_deviation

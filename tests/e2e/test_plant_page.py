@@ -14,8 +14,8 @@ import urllib.error
 import urllib.request
 from pathlib import Path
 
-from daemon_util import default_sigint
 from waits import WAIT_S
+from zygote import default_sigint
 
 ROOT = Path(__file__).resolve().parents[2]
 PLANT = ROOT / "ladder_programs" / "plant" / "plant.toml"
