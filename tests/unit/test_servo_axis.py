@@ -13,7 +13,7 @@ from softplc.devices.axis import Ctl, Err, Mode, St, Word
 from softplc.devices.axis import trajectory as tj
 from softplc.devices.axis.law import IVARS, Gains
 from softplc.devices.axis.plant import step, thesis_zoh_coefficients, zoh_coefficients
-from softplc.devices.axis.rig import Rig
+from softplc.devices.axis.rig import Rig, load_axes
 from softplc.errors import ConfigError
 
 TOML = ROOT / "ladder_programs" / "servo_table.toml"
@@ -640,17 +640,35 @@ def test_a_drive_quick_stop_on_its_end_switch_ends_at_standstill():
 AXES = [("cutting_table.toml", 12_340_000.0),  # ideal encoder, frictionless, a = 0
         ("servo_table.toml", -50_000.0),  # friction, 12-bit DAC, integrator, trace
         ("mass_tuning.toml", -300_000.0)]  # viscous term, load table, current limit
+# ... and with what the scan checks besides: the drive's READY wired to the E-stop input
+# and the contactor output (the servo table's wiring), a load mass word
+WIRED = [("servo_table.toml", -50_000.0, "estop"), ("servo_table.toml", -50_000.0, "contactor"),
+         ("mass_tuning.toml", -300_000.0, "mass")]
+MASS_RATIO = 0.25  # the load mass word's value from scan 600 (moving, jogging)
+DROP_SCANS = (650, 680)  # the E-stop pressed (the contactor opened) while jogging, then back
 
 
-def scenario(toml: str, start: float, tweak=None) -> list:
-    """Every scan's status words, state and last trace row: enable, a move, a jog, rest."""
+def scenario(toml: str, start: float, tweak=None, extra: str = "") -> list:
+    """Every scan's status words, state and last trace row: enable, a move, a jog, rest;
+    `extra`: "estop", "contactor" (the drive wired, its contactor on, then that READY
+    input dropped while jogging), "mass" (a new load mass while jogging)."""
+    wired = extra in ("estop", "contactor")
     rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
-                        require_home=False, load_mass_word=None)
+                        require_home=False, wired=wired,
+                        **({} if extra == "mass" else {"load_mass_word": None}))
     ax, b = rig.axes["X"], rig.base("X")
     if tweak is not None:
         tweak(ax)
+    if wired:
+        rig.mem.q_field[ax._power_idx] = True  # the contactor the program would close
     seen = []
     for scan in range(1200):
+        if extra == "mass" and scan == 600:
+            rig.mem.mw.set_f(ax._mass_word, MASS_RATIO)
+        if extra == "estop" and scan in DROP_SCANS:
+            rig.mem.i_field[ax._estop_idx] = scan == DROP_SCANS[0]
+        if extra == "contactor" and scan in DROP_SCANS:
+            rig.mem.q_field[ax._power_idx] = scan != DROP_SCANS[0]
         if scan == 1:
             rig.command("X", Ctl.ENABLE)
         elif scan == 300:
@@ -671,8 +689,9 @@ def scenario(toml: str, start: float, tweak=None) -> list:
     return seen
 
 
-@pytest.mark.parametrize("toml, start", AXES)
-def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml, start):
+@pytest.mark.parametrize("toml, start, extra", [(*a, "") for a in AXES] + WIRED)
+def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml, start,
+                                                               extra):
     """Every scan's status words, state and trace rows with the generated scan of the
     closed loop (moving, or at a fixed point) equal those of the generic update."""
     from softplc.devices.axis.runner import LoopRunner
@@ -684,12 +703,20 @@ def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml,
         return None if fn is None else lambda *a: used.append(fn(*a)) or used[-1]
 
     monkeypatch.setattr(LoopRunner, "scan_function", counted)
-    fast = scenario(toml, start)
-    assert used.count(True) > 800  # (the rest: commands, the moves' ends, the probes)
+    fast = scenario(toml, start, extra=extra)
+    # (the rest: commands, the moves' ends, the probes; wired: the loop READY's drop opened)
+    assert used.count(True) > (600 if extra in ("estop", "contactor") else 800)
     monkeypatch.setattr(LoopRunner, "scan_function", lambda self: None)
-    generic = scenario(toml, start)
+    generic = scenario(toml, start, extra=extra)
     for i, (f, g) in enumerate(zip(fast, generic, strict=True)):
         assert f == g, f"scan {i}"
+    if extra in ("estop", "contactor"):  # READY's drop opened the loop (update's work)
+        st = fast[DROP_SCANS[0]][1]
+        assert not st["closed"] and not st["_ready"]
+    if extra == "mass":  # the new mass is in force (the scan left the change to update)
+        assert fast[-1][1]["load_mass_ratio"] == pytest.approx(
+            MASS_RATIO + load_axes(ROOT / "ladder_programs" / toml, "X")["X"]["plant"]
+            .get("load_mass_ratio", 0.0))
 
 
 @pytest.mark.parametrize("toml, start", AXES)
