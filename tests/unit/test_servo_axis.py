@@ -27,14 +27,23 @@ LINEAR = {"plant.coulomb": 0.0, "plant.amp_offset": 0.0, "ivars.Ixx29": 0,
 
 
 # -- plant -----------------------------------------------------------------------------------
-def _scipy_tf(K: float, a: float, T: float) -> tuple[float, float, float]:
-    # imported here: scipy.signal takes about a second to import, in every test worker that
-    # collects this module, for the one test that uses it
-    from scipy.signal import cont2discrete
+def _zoh(A: np.ndarray, B: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Ad, Bd) of x' = A x + B u under a zero-order hold of T: the matrix exponential of
+    the augmented matrix [[A, B], [0, 0]] T, exactly as scipy.signal.cont2discrete's
+    "zoh" computes it (scipy 1.17 signal/_lti_conversion.py). scipy.linalg alone: importing
+    scipy.signal costs several times more CPU, in every worker that runs this module."""
+    from scipy.linalg import expm
 
+    n, m = A.shape[0], B.shape[1]
+    em = np.vstack((np.hstack((A, B)), np.zeros((m, n + m))))
+    ms = expm(T * em)[:n, :]
+    return ms[:, :n], ms[:, n:]
+
+
+def _scipy_tf(K: float, a: float, T: float) -> tuple[float, float, float]:
     A = np.array([[0.0, 1.0], [0.0, -a]])
     B = np.array([[0.0], [K]])
-    Ad, Bd, *_ = cont2discrete((A, B, np.array([[1.0, 0.0]]), np.zeros((1, 1))), T, "zoh")
+    Ad, Bd = _zoh(A, B, T)
     # X/W = C (zI - Ad)^-1 Bd = (k1 z + k2) / ((z - 1)(z - p)), Ad upper triangular
     p = Ad[1, 1]
     k1 = Bd[0, 0]
@@ -62,12 +71,9 @@ def test_thesis_zoh_formulas_are_wrong():
 
 
 def test_plant_step_equals_the_discrete_state_space():
-    from scipy.signal import cont2discrete  # see _scipy_tf
-
     K, a = 11157.2, 4.975
     A = np.array([[0.0, 1.0], [0.0, -a]])
-    Ad, Bd, *_ = cont2discrete((A, np.array([[0.0], [K]]), np.eye(2), np.zeros((2, 1))), T,
-                               "zoh")
+    Ad, Bd = _zoh(A, np.array([[0.0], [K]]), T)
     x, v = 10.0, 3000.0
     for w in (12.0, -40.0, 0.5):
         ref = Ad @ np.array([x, v]) + Bd[:, 0] * w
