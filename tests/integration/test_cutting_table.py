@@ -4,16 +4,13 @@ IL, the torch, the work-area check, limit switch and E-stop stops (E9), RESET.""
 
 from __future__ import annotations
 
-import functools
 import math
 import tomllib
 from pathlib import Path
 
 import pytest
+from parsed import parsed
 
-from softplc.assembly.machine import symbol_table
-from softplc.il.ast import Program
-from softplc.il.parser import parse_file
 from softplc.machines.cutting.regmap import (
     EJECUTANDO,
     FAULT,
@@ -35,20 +32,12 @@ COUNTS_PER_MM = 100_000.0
 READY, MOVING, FAULT_STEP = 4, 5, 9
 
 
-@functools.cache
-def program() -> Program:
-    """cutting_table.il parsed once for the module (with the machine's symbols, which no
-    test changes): a parsed program is never changed, each PLC compiles and runs its own,
-    and parsing was about half of building one (0.05 of 0.085 CPU-s)."""
-    return parse_file(IL, symbol_table(TOML))
-
-
 def machine(start_mm: tuple[float, float] | None = None) -> PLC:
     cfg = tomllib.loads(TOML.read_text(encoding="utf-8"))
     if start_mm is not None:
         cfg["devices"]["X"]["start"] = start_mm[0] * COUNTS_PER_MM
         cfg["devices"]["Y"]["start"] = start_mm[1] * COUNTS_PER_MM
-    return PLC(program(), cfg)
+    return PLC(parsed(IL, TOML), cfg)
 
 
 def homed(start_mm: tuple[float, float] = (1.0, 1.0)) -> PLC:
@@ -101,7 +90,7 @@ def test_broken_min_switch_fails_homing_at_the_timeout():
     del cfg["devices"]["X"]["geometry"]["hard_stop_minus"]
     assert cfg["timers"]["%TM0"]["preset"] == 360  # 100 ms base: 36 s
     cfg["timers"]["%TM0"]["preset"] = 20
-    plc = PLC(program(), cfg)
+    plc = PLC(parsed(IL, TOML), cfg)
     assert plc.run_until(lambda p: p[f"%MW{STATE}"] == FAULT_STEP, timeout=5)
     assert plc[f"%MW{FAULT}"] == 2
     assert plc.time == pytest.approx(2.0, abs=0.11)
@@ -186,7 +175,7 @@ def test_a_max_switch_reached_for_real_stops_x_under_control_and_x_holds_there()
     cfg["devices"]["X"]["geometry"]["limit_plus"] = 100.0 * COUNTS_PER_MM
     for axis in ("X", "Y"):
         cfg["devices"][axis]["start"] = COUNTS_PER_MM
-    plc = PLC(program(), cfg)
+    plc = PLC(parsed(IL, TOML), cfg)
     assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=20)
     offer(plc, 150_000, 0, 20.0)  # user 150 mm = true 179.5 mm: through the switch
     assert plc.run_until(lambda p: p.devices["SensX_Max"].made, timeout=10)
