@@ -62,17 +62,21 @@ def _module_page(browser):
     p.close()
 
 
-def open_page(page, url: str):
-    """`page` (the module's) on the monitor at `url`, as a new page would find it: what an
-    earlier test kept in the browser for that origin (the tables, the trends' objects in
-    localStorage) is cleared first; the old monitor's websocket closes with the
-    navigation."""
-    origin = re.match(r"https?://[^/]+", url)[0]
+def clear_origin(page, url: str) -> None:
+    """Forget what an earlier test kept in the browser for `url`'s origin (the tables and
+    the trends' objects in localStorage, a token), as a new page would."""
     cdp = page.context.new_cdp_session(page)
     try:
-        cdp.send("Storage.clearDataForOrigin", {"origin": origin, "storageTypes": "all"})
+        cdp.send("Storage.clearDataForOrigin", {"origin": re.match(r"https?://[^/]+", url)[0],
+                                                "storageTypes": "all"})
     finally:
         cdp.detach()
+
+
+def open_page(page, url: str):
+    """`page` (the module's) on the monitor at `url`, as a new page would find it
+    (`clear_origin`); the old monitor's websocket closes with the navigation."""
+    clear_origin(page, url)
     page.set_viewport_size(VIEWPORT)
     page.goto(url)
     page.wait_for_selector("#link.up")
@@ -286,7 +290,7 @@ def test_animation_table_of_output_bits_survives_any_value_and_resets(module_pag
     assert page.locator("#table-select option").all_inner_texts() == ["Table 1"]
 
 
-def test_page_beyond_loopback_with_the_read_only_token(browser):
+def test_page_beyond_loopback_with_the_read_only_token(module_page):
     """The monitor as if bound to a LAN address (the guard's loopback flag off; the page
     still talks to 127.0.0.1): without a token the page is refused; opened with the
     read-only token's URL it runs (its files, API reads and websocket carry the cookie)
@@ -296,8 +300,8 @@ def test_page_beyond_loopback_with_the_read_only_token(browser):
     s = Stack(STAR, STAR.with_suffix(".toml"), token="full", read_token="look")
     try:
         s.web.server.guard.loopback = False
-        page = browser.new_page()
-        page.on("dialog", lambda d: d.accept())
+        page = module_page
+        clear_origin(page, f"http://127.0.0.1:{s.port}/")
         assert page.goto(f"http://127.0.0.1:{s.port}/").status == 401
         assert page.goto(f"http://127.0.0.1:{s.port}/?token=look").status == 200
         page.wait_for_selector("#link.up")
@@ -312,6 +316,6 @@ def test_page_beyond_loopback_with_the_read_only_token(browser):
             "the read-only token cannot change anything")
         s.scans()
         assert s.plc["%MW3"] == 0
-        page.close()
     finally:
+        module_page.context.clear_cookies()  # the token's: 127.0.0.1's, whatever the port
         s.close()
