@@ -83,7 +83,9 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(module_page, tmp_path, d
     page.wait_for_function(
         "() => { const p = document.querySelector('#pen-path');"
         " return p && p.getTotalLength() > 80; }", timeout=WAIT_MS)
-    box = page.locator("#pen-path").bounding_box()  # the 15 mm square: about 25 px
+    # the 15 mm square: about 25 px (read in one go: the element is redrawn each update)
+    box = page.evaluate("""() => { const r = document.querySelector('#pen-path')
+      .getBoundingClientRect(); return { width: r.width, height: r.height }; }""")
     assert 20 < box["width"] < 40 and abs(box["width"] - box["height"]) < 2, box
     assert page.locator("#travel-path").count() == 1  # homing and the move to the start
     assert errors == []  # (a machine message without devices threw in machineHistory)
@@ -225,11 +227,13 @@ def test_header_says_disconnected_and_reconnects(module_page, tmp_path, daemons)
     d.proc.send_signal(signal.SIGSTOP)
     try:
         sync_api.expect(state).to_have_text("DISCONNECTED", timeout=WAIT_MS)
+        assert "no update for" in state.get_attribute("title")  # (the next update clears it)
     finally:
         d.proc.send_signal(signal.SIGCONT)
-    assert "no update for" in state.get_attribute("title")
     page.evaluate("() => { link.staleMs = STALE_MS; }")  # the page's own from here on
     sync_api.expect(state).to_have_text("RUN", timeout=WAIT_MS)  # updates again: live
+    sync_api.expect(page.locator("#link")).to_have_class(re.compile(r"\bup\b"))  # the dot too
+    assert page.evaluate("() => link.up")  # and a second hang would be told again
     d.stop()  # Ctrl-C: the daemon ends, its websocket closes
     sync_api.expect(state).to_have_text("DISCONNECTED", timeout=WAIT_MS)
     assert "disconnected" in page.locator("body").get_attribute("class")

@@ -30,9 +30,11 @@ async function linkOpened() {
   } catch (e) { /* the next close shows it */ }
 }
 
-// every update: live again
+// every update: live again (after a hang the socket is the same: it is up again, and a
+// second hang is told as the first was)
 function linkUpdate() {
   link.last = Date.now();
+  if (!link.up) { link.up = true; $("#link").classList.add("up"); }
   if (document.body.classList.contains("disconnected")) {
     document.body.classList.remove("disconnected"); $("#state").title = "";
   }
