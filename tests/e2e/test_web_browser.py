@@ -1,6 +1,7 @@
 """The web monitor in a real browser: Debian's headless Chromium driven by Playwright
-(tests/chromium.py: the browser, one per test worker). Screenshots go to out/ and are
-checked for content.
+(tests/chromium.py: the browser, one per test worker; `module_page`: one page per test
+module, which each test navigates to its monitor). Screenshots go to out/ and are checked
+for content.
 """
 
 from __future__ import annotations
