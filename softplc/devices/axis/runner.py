@@ -89,8 +89,7 @@ class LoopRunner:
                      use_av=self._flags["av"], estop=a._estop_idx is not None,
                      power=a._power_idx is not None, wired=a._wired,
                      mass=a._mass_word is not None)  # (cycles' key of the case)
-        return loop.compile_cycles(loop.render(values, flags, loop.scan_source()), _interp,
-                                   step, "scan")
+        return loop.generated(values, flags, _interp, step, loop.scan_source(), "scan")
 
     def run(self, due: int) -> None:
         """The servo cycles due by the scan's time (the cycle count `due`). (The device's
@@ -243,8 +242,7 @@ class LoopRunner:
                          special=not ready or key[4], ready=ready, capture=capture,
                          use_ca=self._flags["ca"] or capture,
                          use_av=self._flags["av"] or capture)
-            fn = self._loops[key] = loop.compile_cycles(
-                loop.render(self._values, flags), _interp, step)
+            fn = self._loops[key] = loop.generated(self._values, flags, _interp, step)
         return fn(a, n)
 
     def on_event(self, event: Any) -> None:
