@@ -59,8 +59,8 @@ class AnalogSource(Device):
         self._mem = mem
         if mem.analog is None:
             raise self.problem("input", "no analog channels", ConfigCode.MODULE)
-        try:
-            mem.analog.channel(self.input, "IW")
+        try:  # (looked up once: the source writes it every scan)
+            self._ch = mem.analog.channel(self.input, "IW")
         except ConfigError as e:
             raise self.problem("input", str(e), ConfigCode.ADDRESS) from None
         self._write(0.0)
@@ -74,7 +74,7 @@ class AnalogSource(Device):
 
     def _write(self, t: float) -> None:
         self.value = self.at(t)
-        self._mem.analog.set_input(self.input, self.value)
+        self._mem.analog.drive(self._ch, self.value)
 
     def update(self, t: float, dt: float) -> None:
         self._write(t)

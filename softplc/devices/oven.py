@@ -31,7 +31,7 @@ from pydantic import Field, model_validator
 from softplc.config import Address, FiniteFloat, Section
 from softplc.devices.base import Device, register_device
 from softplc.errors import AddressError, ConfigCode
-from softplc.runtime.analog import SIGNAL_SPAN
+from softplc.runtime.analog import SIGNAL_SPAN, AnalogChannel
 from softplc.runtime.memory import MemoryImage
 from softplc.twido.address import parse_address
 
@@ -74,6 +74,9 @@ class Oven(Device):
     def bind(self, mem: MemoryImage, devices: dict[str, Device]) -> None:
         self._mem = mem
         analog = mem.analog
+        # the channels looked up once, not per scan (an address parsed per scan was most
+        # of the oven's cost)
+        chans: dict[str, AnalogChannel] = {}
         for option, addr, kind in (("sensor", self.sensor, "IW"), ("heater", self.heater, "QW")):
             if addr is None:
                 continue
@@ -85,6 +88,11 @@ class Oven(Device):
                 raise self.problem(option, f"{addr!r} is not a configured analog "
                                    f"{'input' if kind == 'IW' else 'output'}",
                                    ConfigCode.MODULE)
+            chans[option] = analog.channels[ref]
+        self._sensor_ch = chans["sensor"]
+        self._heater_ch = chans.get("heater")
+        if self._heater_ch is not None:
+            self._span = SIGNAL_SPAN[self._heater_ch.signal]
         self._pulse = None
         if self.heater_bit is not None:
             self._bit = self.io_index(mem, self.heater_bit, "Q", "heater_bit")
@@ -103,12 +111,11 @@ class Oven(Device):
             return self._pulse.duty()
         if self.heater_bit is not None:
             return 1.0 if mem.q_field[self._bit] else 0.0
-        ch = mem.analog.channel(self.heater, "QW")
-        a, b = SIGNAL_SPAN[ch.signal]
-        return (mem.analog.output(self.heater) - a) / (b - a)
+        a, b = self._span
+        return (mem.analog.signal(self._heater_ch) - a) / (b - a)
 
     def _write_sensor(self) -> None:
-        self._mem.analog.set_input(self.sensor, self.temperature)
+        self._mem.analog.drive(self._sensor_ch, self.temperature)
 
     def update(self, t: float, dt: float) -> None:
         self.power = self._heater_power()

@@ -115,7 +115,11 @@ class AnalogIO:
     def set_input(self, address: str | Ref, value: float) -> int:
         """Drive an analog input with a physical value (V, mA, degrees C, pot position);
         returns the word the program will read. Out of span: clamped, status set."""
-        ch = self.channel(address, "IW")
+        return self.drive(self.channel(address, "IW"), value)
+
+    def drive(self, ch: AnalogChannel, value: float) -> int:
+        """`set_input` on a channel looked up once (a device's, driven every scan: no
+        address parsed per scan)."""
         word, status = ch.to_word(float(value))
         self.mem.iw.w[ch.ref.index] = max(-32768, min(32767, word))
         self._status(ch.ref, status)
@@ -123,7 +127,10 @@ class AnalogIO:
 
     def output(self, address: str | Ref) -> float:
         """The physical value of an analog output (V or mA) from the program's %QW word."""
-        ch = self.channel(address, "QW")
+        return self.signal(self.channel(address, "QW"))
+
+    def signal(self, ch: AnalogChannel) -> float:
+        """`output` of a channel looked up once (read by a device every scan)."""
         return ch.to_physical(self.mem.qw.w[ch.ref.index])
 
     def _status(self, ref: Ref, status: int) -> None:

@@ -19,9 +19,19 @@ SAMPLES = Path(__file__).resolve().parents[2] / "ladder_programs" / "samples"
 LINE = "G00 X1 Z1\nY1\nG01 X3 Z1\nZ3\nY0\nG00 X10 Z10\n"
 
 
-def test_preview_png_and_svg(tmp_path):
-    png = preview(SAMPLES / "star.gcode", tmp_path / "star.png")
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+@pytest.fixture(scope="module")
+def star_plots(tmp_path_factory) -> Path:
+    """The star's preview and drawn trace, each as PNG and SVG, drawn once for the tests
+    that look at them (each render costs a few tenths of a second of CPU)."""
+    d = tmp_path_factory.mktemp("star")
+    for ext in ("png", "svg"):
+        preview(SAMPLES / "star.gcode", d / f"preview.{ext}")
+        _draw_star(d / f"drawn.{ext}")
+    return d
+
+
+def test_preview_png_and_svg(tmp_path, star_plots):
+    assert (star_plots / "preview.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     svg = preview(parse_gcode(LINE), tmp_path / "line.svg")
     text = svg.read_text()
     assert "<svg" in text and "pen down" in text and "pen up (travel)" in text
@@ -156,26 +166,21 @@ def _draw_star(out: Path) -> None:
                  travel_steps=(25 * spu, 25 * spu), title="trace.csv", full_area=True)
 
 
-def test_plots_keep_the_legend_off_the_top_edge_and_name_axes_alike(tmp_path):
+def test_plots_keep_the_legend_off_the_top_edge_and_name_axes_alike(star_plots):
     import matplotlib.image
 
-    preview(SAMPLES / "star.gcode", tmp_path / "preview.png")
-    _draw_star(tmp_path / "drawn.png")
     for name in ("preview.png", "drawn.png"):
-        top = matplotlib.image.imread(tmp_path / name)[:4, :, :3]
+        top = matplotlib.image.imread(star_plots / name)[:4, :, :3]
         assert top.min() == 1.0, f"{name}: something touches the image's top edge"
-    preview(SAMPLES / "star.gcode", tmp_path / "preview.svg")
-    _draw_star(tmp_path / "drawn.svg")
     for name in ("preview.svg", "drawn.svg"):  # matplotlib keeps each text as a comment
-        text = (tmp_path / name).read_text()
+        text = (star_plots / name).read_text()
         assert "<!-- X (cm) -->" in text and "<!-- Z (cm) -->" in text, name
 
 
-def test_drawn_plot_start_marker_visible_under_the_end_at_the_same_point(tmp_path):
+def test_drawn_plot_start_marker_visible_under_the_end_at_the_same_point(star_plots):
     import matplotlib.image
 
-    _draw_star(tmp_path / "drawn.png")
-    rgb = matplotlib.image.imread(tmp_path / "drawn.png")[:, :, :3]
+    rgb = matplotlib.image.imread(star_plots / "drawn.png")[:, :, :3]
     green = np.array([0x2C, 0xA0, 0x2C]) / 255  # tab:green: only the start marker uses it
     blue = np.array([0x1F, 0x77, 0xB4]) / 255  # tab:blue: the end marker
     near = lambda c: (np.abs(rgb - c).max(axis=2) < 0.05).sum()  # noqa: E731

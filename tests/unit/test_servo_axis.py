@@ -13,7 +13,7 @@ from softplc.devices.axis import Ctl, Err, Mode, St, Word
 from softplc.devices.axis import trajectory as tj
 from softplc.devices.axis.law import IVARS, Gains
 from softplc.devices.axis.plant import step, thesis_zoh_coefficients, zoh_coefficients
-from softplc.devices.axis.rig import Rig
+from softplc.devices.axis.rig import Rig, load_axes
 from softplc.errors import ConfigError
 
 TOML = ROOT / "ladder_programs" / "servo_table.toml"
@@ -27,14 +27,23 @@ LINEAR = {"plant.coulomb": 0.0, "plant.amp_offset": 0.0, "ivars.Ixx29": 0,
 
 
 # -- plant -----------------------------------------------------------------------------------
-def _scipy_tf(K: float, a: float, T: float) -> tuple[float, float, float]:
-    # imported here: scipy.signal takes about a second to import, in every test worker that
-    # collects this module, for the one test that uses it
-    from scipy.signal import cont2discrete
+def _zoh(A: np.ndarray, B: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Ad, Bd) of x' = A x + B u under a zero-order hold of T: the matrix exponential of
+    the augmented matrix [[A, B], [0, 0]] T, exactly as scipy.signal.cont2discrete's
+    "zoh" computes it (scipy 1.17 signal/_lti_conversion.py). scipy.linalg alone: importing
+    scipy.signal costs several times more CPU, in every worker that runs this module."""
+    from scipy.linalg import expm
 
+    n, m = A.shape[0], B.shape[1]
+    em = np.vstack((np.hstack((A, B)), np.zeros((m, n + m))))
+    ms = expm(T * em)[:n, :]
+    return ms[:, :n], ms[:, n:]
+
+
+def _scipy_tf(K: float, a: float, T: float) -> tuple[float, float, float]:
     A = np.array([[0.0, 1.0], [0.0, -a]])
     B = np.array([[0.0], [K]])
-    Ad, Bd, *_ = cont2discrete((A, B, np.array([[1.0, 0.0]]), np.zeros((1, 1))), T, "zoh")
+    Ad, Bd = _zoh(A, B, T)
     # X/W = C (zI - Ad)^-1 Bd = (k1 z + k2) / ((z - 1)(z - p)), Ad upper triangular
     p = Ad[1, 1]
     k1 = Bd[0, 0]
@@ -62,12 +71,9 @@ def test_thesis_zoh_formulas_are_wrong():
 
 
 def test_plant_step_equals_the_discrete_state_space():
-    from scipy.signal import cont2discrete  # see _scipy_tf
-
     K, a = 11157.2, 4.975
     A = np.array([[0.0, 1.0], [0.0, -a]])
-    Ad, Bd, *_ = cont2discrete((A, np.array([[0.0], [K]]), np.eye(2), np.zeros((2, 1))), T,
-                               "zoh")
+    Ad, Bd = _zoh(A, np.array([[0.0], [K]]), T)
     x, v = 10.0, 3000.0
     for w in (12.0, -40.0, 0.5):
         ref = Ad @ np.array([x, v]) + Bd[:, 0] * w
@@ -640,17 +646,35 @@ def test_a_drive_quick_stop_on_its_end_switch_ends_at_standstill():
 AXES = [("cutting_table.toml", 12_340_000.0),  # ideal encoder, frictionless, a = 0
         ("servo_table.toml", -50_000.0),  # friction, 12-bit DAC, integrator, trace
         ("mass_tuning.toml", -300_000.0)]  # viscous term, load table, current limit
+# ... and with what the scan checks besides: the drive's READY wired to the E-stop input
+# and the contactor output (the servo table's wiring), a load mass word
+WIRED = [("servo_table.toml", -50_000.0, "estop"), ("servo_table.toml", -50_000.0, "contactor"),
+         ("mass_tuning.toml", -300_000.0, "mass")]
+MASS_RATIO = 0.25  # the load mass word's value from scan 600 (moving, jogging)
+DROP_SCANS = (650, 680)  # the E-stop pressed (the contactor opened) while jogging, then back
 
 
-def scenario(toml: str, start: float, tweak=None) -> list:
-    """Every scan's status words, state and last trace row: enable, a move, a jog, rest."""
+def scenario(toml: str, start: float, tweak=None, extra: str = "") -> list:
+    """Every scan's status words, state and last trace row: enable, a move, a jog, rest;
+    `extra`: "estop", "contactor" (the drive wired, its contactor on, then that READY
+    input dropped while jogging), "mass" (a new load mass while jogging)."""
+    wired = extra in ("estop", "contactor")
     rig = Rig.from_toml(ROOT / "ladder_programs" / toml, "X", start=start,
-                        require_home=False, load_mass_word=None)
+                        require_home=False, wired=wired,
+                        **({} if extra == "mass" else {"load_mass_word": None}))
     ax, b = rig.axes["X"], rig.base("X")
     if tweak is not None:
         tweak(ax)
+    if wired:
+        rig.mem.q_field[ax._power_idx] = True  # the contactor the program would close
     seen = []
     for scan in range(1200):
+        if extra == "mass" and scan == 600:
+            rig.mem.mw.set_f(ax._mass_word, MASS_RATIO)
+        if extra == "estop" and scan in DROP_SCANS:
+            rig.mem.i_field[ax._estop_idx] = scan == DROP_SCANS[0]
+        if extra == "contactor" and scan in DROP_SCANS:
+            rig.mem.q_field[ax._power_idx] = scan != DROP_SCANS[0]
         if scan == 1:
             rig.command("X", Ctl.ENABLE)
         elif scan == 300:
@@ -671,8 +695,9 @@ def scenario(toml: str, start: float, tweak=None) -> list:
     return seen
 
 
-@pytest.mark.parametrize("toml, start", AXES)
-def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml, start):
+@pytest.mark.parametrize("toml, start, extra", [(*a, "") for a in AXES] + WIRED)
+def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml, start,
+                                                               extra):
     """Every scan's status words, state and trace rows with the generated scan of the
     closed loop (moving, or at a fixed point) equal those of the generic update."""
     from softplc.devices.axis.runner import LoopRunner
@@ -684,12 +709,20 @@ def test_the_generated_scan_is_the_generic_update_bit_for_bit(monkeypatch, toml,
         return None if fn is None else lambda *a: used.append(fn(*a)) or used[-1]
 
     monkeypatch.setattr(LoopRunner, "scan_function", counted)
-    fast = scenario(toml, start)
-    assert used.count(True) > 800  # (the rest: commands, the moves' ends, the probes)
+    fast = scenario(toml, start, extra=extra)
+    # (the rest: commands, the moves' ends, the probes; wired: the loop READY's drop opened)
+    assert used.count(True) > (600 if extra in ("estop", "contactor") else 800)
     monkeypatch.setattr(LoopRunner, "scan_function", lambda self: None)
-    generic = scenario(toml, start)
+    generic = scenario(toml, start, extra=extra)
     for i, (f, g) in enumerate(zip(fast, generic, strict=True)):
         assert f == g, f"scan {i}"
+    if extra in ("estop", "contactor"):  # READY's drop opened the loop (update's work)
+        st = fast[DROP_SCANS[0]][1]
+        assert not st["closed"] and not st["_ready"]
+    if extra == "mass":  # the new mass is in force (the scan left the change to update)
+        assert fast[-1][1]["load_mass_ratio"] == pytest.approx(
+            MASS_RATIO + load_axes(ROOT / "ladder_programs" / toml, "X")["X"]["plant"]
+            .get("load_mass_ratio", 0.0))
 
 
 @pytest.mark.parametrize("toml, start", AXES)

@@ -72,22 +72,24 @@ class LoopRunner:
 
     def scan_function(self) -> Any:
         """The generated scan of the common case (`loop._SCAN`), or None where it does not
-        apply: before bind, a variant's own cycles (feed_axis), a drive wired to I/O, a
-        load mass word, a gather."""
+        apply: before bind, a variant's own cycles (feed_axis), a gather."""
         a = self.a
         if (getattr(a, "_mem", None) is None or type(self).cycles is not LoopRunner.cycles
-                or a._wired or a._mass_word is not None or a.gather is not None):
+                or a.gather is not None):
             return None
         values = dict(self._values, ctl_i=a._ctl_i, hz_us=a._hz_us, trim_at=a._trim_at,
+                      estop_idx=a._estop_idx, power_idx=a._power_idx,
+                      mass_word=a._mass_word,
                       plim_lo=a._plo, plim_hi=a._phi, in_pos=a._in_pos, lp=a._lp, lm=a._lm,
                       cur_scale=a._cur_scale, status_at=a._status_at,
                       ticks_at=a._status_at + status.TICKS_AT,
                       status_end=a._status_at + status.END_AT)
         flags = dict(self._flags, closed=True, open_loop=False, killed=False, search=False,
                      special=False, ready=True, capture=False, use_ca=self._flags["ca"],
-                     use_av=self._flags["av"])  # (cycles' key of the case)
-        return loop.compile_cycles(loop.render(values, flags, loop.scan_source()), _interp,
-                                   step, "scan")
+                     use_av=self._flags["av"], estop=a._estop_idx is not None,
+                     power=a._power_idx is not None, wired=a._wired,
+                     mass=a._mass_word is not None)  # (cycles' key of the case)
+        return loop.generated(values, flags, _interp, step, loop.scan_source(), "scan")
 
     def run(self, due: int) -> None:
         """The servo cycles due by the scan's time (the cycle count `due`). (The device's
@@ -240,8 +242,7 @@ class LoopRunner:
                          special=not ready or key[4], ready=ready, capture=capture,
                          use_ca=self._flags["ca"] or capture,
                          use_av=self._flags["av"] or capture)
-            fn = self._loops[key] = loop.compile_cycles(
-                loop.render(self._values, flags), _interp, step)
+            fn = self._loops[key] = loop.generated(self._values, flags, _interp, step)
         return fn(a, n)
 
     def on_event(self, event: Any) -> None:

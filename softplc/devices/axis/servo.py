@@ -197,6 +197,7 @@ class ServoAxis(AxisDevice):
         self._i, self._q = mem.i_field, mem.q_field
         if self.opt.load_mass_word is not None:
             self._mass_word = _float_word(self, mem, self.opt.load_mass_word, "load_mass_word")
+            self._mass_get = mem.mw.get_f  # (read by the generated scan every scan)
         if self.opt.estop_input is not None:
             self._estop_idx = self.io_index(mem, self.opt.estop_input, "I", "estop_input")
         if self.opt.power_output is not None:

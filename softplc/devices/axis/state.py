@@ -113,6 +113,12 @@ class ServoState(Protocol):
     _status_at: int
     _st_slow: int
     _mass_word: int | None
+    _mass_get: Callable[[int], float]
+    _mass_f: float
+    _estop_idx: int | None
+    _power_idx: int | None
+    _i: list[bool]
+    _q: list[bool]
     _wired: bool
     _watch: bool
     _ivars_clean: Callable[[], bool]

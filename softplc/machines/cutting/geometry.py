@@ -429,14 +429,20 @@ def _max_on_chord(curve: NewtonCurve, a: Point, b: Point) -> tuple[float, float]
     return f(x), x
 
 
+def _pick(left: bool, a: float, b: float) -> float:
+    """np.where on one pair of floats, without numpy's cost per call (the same values)."""
+    return a if left else b
+
+
 def _golden_min(f, lo, hi, iterations: int = 80):
     """x in [lo, hi] minimising a unimodal f; lo and hi may be arrays (one search per
     element, f evaluated on arrays)."""
     g = (math.sqrt(5) - 1) / 2
+    pick = _pick if np.ndim(lo) == 0 and np.ndim(hi) == 0 else np.where
     for _ in range(iterations):
         m1, m2 = hi - g * (hi - lo), lo + g * (hi - lo)
         left = f(m1) < f(m2)
-        hi, lo = np.where(left, m2, hi), np.where(left, lo, m1)
+        hi, lo = pick(left, m2, hi), pick(left, lo, m1)
     x = (lo + hi) / 2
     return float(x) if np.ndim(x) == 0 else x
 

@@ -7,6 +7,8 @@ import csv
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from softplc.machines.cutting import (
     Arc,
     CuttingError,
@@ -16,6 +18,7 @@ from softplc.machines.cutting import (
     piece_words,
     split_line,
 )
+from softplc.machines.cutting.geometry import Point
 from softplc.machines.cutting.motion import simulate
 from softplc.machines.cutting.piece import DWELL
 from softplc.machines.cutting.preview import preview
@@ -80,12 +83,22 @@ def _report_simulation(piece: Piece, dt: float, seed: bool | str) -> None:
                      thesis_split))
     for name, segs, split in runs:
         samples = simulate(segs, piece.accel, dt, split)
-        worst, at = max(((piece.deviation((s.x, s.y)), (s.x, s.y)) for s in samples
-                         if s.torch), default=(0.0, piece.start))
+        worst, at = _worst_deviation(piece, [(s.x, s.y) for s in samples if s.torch])
         print(f"simulated, {name}: {samples[-1].t if samples else 0:.3f} s of motion, "
               f"{len(samples)} samples (dt {dt:g} s); the torch-on path is at most "
               f"{worst:.6f} mm from the ideal shape (at {at[0]:.4f}, {at[1]:.4f}; chord "
               f"tolerance {piece.tolerance:g})")
+
+
+def _worst_deviation(piece: Piece, points: list[Point]) -> tuple[float, Point]:
+    """The largest `piece.deviation` of the points and the point (of equal deviations the
+    largest (x, y), as max over (deviation, point) pairs), all points at once."""
+    if not points:
+        return 0.0, piece.start
+    xy = np.array(points, float)
+    dev = piece.deviations(xy[:, 0], xy[:, 1])
+    worst = float(dev.max())
+    return worst, max(p for p, d in zip(points, dev.tolist(), strict=True) if d == worst)
 
 
 def _report_seed(piece: Piece, variant: str) -> None:

@@ -111,7 +111,8 @@ class MachiningCentre:
         speed = feed * 1e3 * self.cpm
         rig.pulse(name, Ctl.EXECUTE, target=round(target_m * 1e3 * self.cpm),
                   speed=round(speed), mode=Mode.TRAPEZOID, acc_ms=round(feed / accel * 1e3))
-        if not rig.run_until(lambda: not rig.word(name, Word.STATUS) & St.BUSY, 120):
+        w, status = rig.mem.mw.w, rig.base(name) + Word.STATUS  # (read every scan)
+        if not rig.run_until(lambda: not w[status] & St.BUSY, 120):
             raise ConfigError("the axis did not finish its move within 120 s")
         if rig.word(name, Word.ERROR):
             raise ConfigError(f"axis error {rig.word(name, Word.ERROR)} during a move")

@@ -43,32 +43,37 @@ class _IdealRunner(LoopRunner):
         if not a.closed or a.open_loop or not a._ready or a.fault != "none":
             return super().cycles(n, capture)
         p = a.opt.plant
-        K, acc, fc, table = a.K, a.a, p.coulomb, p.load_table
+        K, acc, fc, table, load, uoff = a.K, a.a, p.coulomb, p.load_table, p.load, \
+            p.amp_offset
         hz = a.loop_hz
         x0 = a._start if a._ideal else a._enc0  # true position of raw count 0
         traj, k0, tail_v = a._traj, a._k0, a._tail_v
+        ntraj = len(traj)
         cp, cpp, cvp = a._cp, a._cpp, a._cvp
         rec, origin = a._rec, a.origin
         w = a.w
         for k in range(a.k + 1, a.k + n + 1):
-            if traj:
+            if ntraj:
                 j = k - k0
-                cp = traj[j] if j < len(traj) else traj[-1] + tail_v * (j - len(traj) + 1)
+                cp = traj[j] if j < ntraj else traj[-1] + tail_v * (j - ntraj + 1)
             elif tail_v:
                 cp += tail_v
             cv = cp - cpp
             ca = cv - cvp
             x, v = cp + x0, cv * hz
-            w = ca * hz * hz / K + acc / K * v + p.load \
+            w = ca * hz * hz / K + acc / K * v + load \
                 + (fc if v > 0 else -fc if v < 0 else 0.0) + (_interp(table, x) if table else 0.0)
             cpp, cvp = cp, cv
             if rec is not None:
-                rec((k, cp - origin, cp - origin, w - p.amp_offset))
+                rec((k, cp - origin, cp - origin, w - uoff))
         a.k += n
-        a.x, a.v = cp + x0, cvp * hz
-        a._cp, a._cpp, a._cvp, a._app = cp, cpp, cvp, cp
-        a.w, a.u = w, w - p.amp_offset
-        a.fe = 0.0
+        # (the fields, then the caches made from them dropped once: what the properties'
+        # setters do, state.guard, without their cost eight times a scan)
+        a.x_, a.v_ = cp + x0, cvp * hz
+        a._cp_, a._cpp_, a._cvp_, a._app_ = cp, cpp, cvp, cp
+        a.w_, a.u_ = w, w - uoff
+        a.fe_ = 0.0
+        a._rest_words, a._st_slow, a._fixed = None, -1, False
         return 0
 
 
