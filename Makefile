@@ -44,11 +44,13 @@ draw: $(STAMP)
 # the modules are handed out in the order given (--no-loadscope-reorder: xdist would
 # sort them by test count), the end-to-end ones, the longest, first and the unit tier's
 # small ones last, so that no long module is left alone at the end. The tests wait for
-# conditions, never for the machine's speed.
+# conditions, never for the machine's speed. PYTHONDONTWRITEBYTECODE, if the shell sets
+# it, would make each worker rewrite and compile every test module and plugin again (the
+# daemons and commands the tests start lose it too: tests/conftest.py).
 TEST_WORKERS ?= 3
 test: $(STAMP) sysdeps filesizes docs
 	$(BIN)/ruff check softplc tests tools
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder tests/e2e tests/integration tests/unit
+	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder tests/e2e tests/integration tests/unit
 
 # The documentation site (mkdocs.yml, docs/) into site/: --strict fails on a broken link or
 # anchor, and its hook on a generated reference page that differs from the code
