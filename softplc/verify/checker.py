@@ -14,7 +14,7 @@ from softplc.twido.semantics import IntDomain
 from softplc.verify import floats
 from softplc.verify.model import Model, sort_of
 from softplc.verify.requirements import FLOAT, Node, Requirement, Spec
-from softplc.verify.symbolic import Z3Domain, as_bool, wide
+from softplc.verify.symbolic import Z3Domain, as_bool, substitute_all, wide
 
 CMP: dict[str, Callable[[Any, Any], Any]] = {
     "=": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,
@@ -135,7 +135,8 @@ class Checker:
         self.filler = {k: init[k] for k in self.keys if k not in need}
         self.keys = {k: s for k, s in self.keys.items() if k in need}
         if self.post is not None and self.filler:  # the state outside the cone put in
-            self.post = _put(self.post, [(self.pre[k], v) for k, v in self.filler.items()])
+            self.post = substitute_all(self.post,
+                                       [(self.pre[k], v) for k, v in self.filler.items()])
         self.pre = {k: v for k, v in self.pre.items() if k in need}
 
     def read(self, st: dict[str, Any]) -> Callable[[Ref], Any]:
@@ -201,7 +202,7 @@ class Checker:
             self.post = self.model.scan(dict(self.pre), self.inp)
         if pre is self.pre and inp is self.inp:
             return dict(self.post)
-        return _put(self.post, [(v, pre[k]) for k, v in self.pre.items()]
+        return substitute_all(self.post, [(v, pre[k]) for k, v in self.pre.items()]
                     + [(v, inp[k]) for k, v in self.inp.items()])
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
@@ -243,18 +244,6 @@ class Checker:
                                                         self.read(st))))
         from softplc.verify.invariants import timer_relations
         return out + timer_relations(self, st)
-
-
-def _put(terms: dict[str, Any], pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
-    """`terms` with each pair's variable replaced by its term, in one substitution (what
-    the terms share is done once); simplified where a value, not a variable, went in."""
-    keys = list(terms)
-    pack = z3.Function("scan@", *[terms[k].sort() for k in keys], z3.BoolSort())
-    out = z3.substitute(pack(*[terms[k] for k in keys]), *pairs).children()
-    if not all(z3.is_const(t) and t.decl().kind() == z3.Z3_OP_UNINTERPRETED
-               for _, t in pairs):
-        out = [z3.simplify(t) for t in out]
-    return dict(zip(keys, out, strict=True))
 
 
 def _reads(term: Any, names: dict[str, str]) -> set[str]:

@@ -30,7 +30,7 @@ from softplc.verify.blocks import apply, sort_name
 from softplc.verify.defaults import LOOP_BOUND
 from softplc.verify.loops import Loops
 from softplc.verify.objects import BLOCK_KEY, CLOCK_WRAP_US, MODELLED, MW_ARRAY, ObjectModel
-from softplc.verify.symbolic import Z3State
+from softplc.verify.symbolic import Z3State, substitute_all
 from softplc.verify.system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
 
@@ -581,23 +581,16 @@ def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, in
 
 class _Substituted:
     """One scan of `model` as terms over the pre-state's and inputs' variables; called
-    with values, the post-state's values. The terms are the arguments of one application
-    of a function symbol, so that one substitution and one simplification (each a
-    single solver call) give them all."""
+    with values, the post-state's values (`substitute_all`: one substitution and one
+    simplification per term, each a single solver call)."""
 
     def __init__(self, model: Model):
         self.pre, self.inp = model.fresh("concrete")
-        post = model.scan(self.pre, self.inp)
-        self.keys = list(post)
-        terms = [post[k] for k in self.keys]
-        pack = z3.Function("scan@concrete", *[t.sort() for t in terms], z3.BoolSort())
-        self.term = pack(*terms)
+        self.post = model.scan(self.pre, self.inp)
 
     def __call__(self, st: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
-        pairs = [(v, st[k]) for k, v in self.pre.items()]
-        pairs += [(v, inp[k]) for k, v in self.inp.items()]
-        done = z3.simplify(z3.substitute(self.term, *pairs))
-        return {k: done.arg(i) for i, k in enumerate(self.keys)}
+        return substitute_all(self.post, [(v, st[k]) for k, v in self.pre.items()]
+                              + [(v, inp[k]) for k, v in self.inp.items()])
 
 
 def _current(model: Model, st: dict[str, Any], key: str) -> Any:
