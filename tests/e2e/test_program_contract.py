@@ -1,15 +1,15 @@
 """The contract between compiled code and the runtime (softplc/program.py).
 
-Every name generated code refers to is in the one bindings table; the package graph has no
-cycle (the runtime does not import the compiler, semantics does not import the runtime);
-an edge-heavy program runs; a fault inside compiled code puts the PLC in HALT.
+Every name generated code refers to is in the one bindings table; an edge-heavy program
+runs; a fault inside compiled code puts the PLC in HALT. (That the package graph has no
+cycle and the runtime does not import the compiler is tools/check_structure.py's to
+check: tests/unit/test_structure.py.)
 """
 
 from __future__ import annotations
 
 import ast
 import builtins
-import graphlib
 from pathlib import Path
 
 import pytest
@@ -141,58 +141,6 @@ def test_random_programs_keep_the_contract(lines):
     except ProgramError:
         return
     assert_contract(plc)
-
-
-# ---- the package graph -------------------------------------------------------------------------
-def imports_of(path: Path) -> set[str]:
-    """Absolute names of the softplc modules a module imports."""
-    tree = ast.parse(path.read_text())
-    pkg = ".".join(path.relative_to(ROOT).with_suffix("").parts[:-1])
-    out = set()
-    for n in ast.walk(tree):
-        if isinstance(n, ast.ImportFrom):
-            base = pkg.split(".")[: len(pkg.split(".")) - (n.level - 1)] if n.level else []
-            mod = ".".join(base + ([n.module] if n.module else []))
-            out.add(mod)
-            out |= {f"{mod}.{a.name}" for a in n.names}
-        elif isinstance(n, ast.Import):
-            out |= {a.name for a in n.names}
-    return out
-
-
-@pytest.mark.parametrize("package, forbidden", [
-    ("runtime", "softplc.compiler"), ("semantics.py", "softplc.runtime"),
-    ("program.py", "softplc.compiler"), ("program.py", "softplc.runtime"),
-    ("numeric.py", "softplc.runtime"),
-])
-def test_dependencies_point_one_way(package, forbidden):
-    base = ROOT / "softplc" / package
-    files = [base] if base.is_file() else sorted(base.glob("*.py"))
-    for f in files:
-        bad = sorted(m for m in imports_of(f) if m == forbidden or m.startswith(forbidden + "."))
-        assert not bad, f"{f.relative_to(ROOT)} imports {bad}"
-
-
-def test_the_package_graph_has_no_cycle():
-    """Every package and top-level module of softplc, with every import (those inside
-    functions too): the graph they form is acyclic."""
-    pkg = ROOT / "softplc"
-    graph: dict[str, set[str]] = {}
-    for f in sorted(pkg.rglob("*.py")):
-        if f == pkg / "__init__.py":  # the root re-exports the API
-            continue
-        unit = f.relative_to(pkg).with_suffix("").parts[0]
-        deps = graph.setdefault(unit, set())
-        for m in imports_of(f):
-            p = m.split(".")
-            if len(p) > 1 and p[0] == "softplc" and p[1] != unit and \
-                    ((pkg / p[1]).is_dir() or (pkg / f"{p[1]}.py").is_file()):
-                deps.add(p[1])
-    assert {"runtime", "compiler", "devices", "web", "commands"} <= set(graph)
-    try:
-        graphlib.TopologicalSorter(graph).prepare()
-    except graphlib.CycleError as e:
-        pytest.fail(f"import cycle: {' -> '.join(e.args[1])}")
 
 
 # ---- bugs the contract fixed -------------------------------------------------------------------

@@ -1,6 +1,7 @@
 """The web monitor in a real browser: Debian's headless Chromium driven by Playwright
-(tests/chromium.py: the browser, one per test worker). Screenshots go to out/ and are
-checked for content.
+(tests/chromium.py: the browser, one per test worker; `module_page`: one page per test
+module, which each test navigates to its monitor). Screenshots go to out/ and are checked
+for content.
 """
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -16,6 +18,7 @@ from daemon_util import ROOT, Daemon, started
 from waits import WAIT_MS, WAIT_S, until
 
 from softplc.commands.io import Client
+from softplc.runtime.blocks import MAX_VALUE
 
 if CHROMIUM is None:
     pytest.skip(MISSING, allow_module_level=True)
@@ -41,14 +44,41 @@ def start(daemons: list[Daemon], tmp_path: Path, name: str,
     d = started(daemons, tmp_path, "--config", str(PROGRAMS / f"{name}.toml"), "--web", "0",
                 "--stats-interval", "0", *args, program=PROGRAMS / f"{name}.il")
     url = web_url(d)
-    return d, url, Client("127.0.0.1", int(re.search(r":(\d+)/$", url)[1]))
+    return d, url, api_of(url)
 
 
-def open_page(browser, url: str):
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
-    page.set_default_timeout(WAIT_MS)  # its waits too
+VIEWPORT = {"width": 1400, "height": 900}
+
+
+@pytest.fixture(scope="module", name="module_page")
+def _module_page(browser):
+    """One page for the module's tests, each navigating it to its monitor (`open_page`): a
+    new page is a browser context and a renderer process of its own, about 1.4 s more
+    Chromium CPU than a navigation (docs/performance.md). Closed at the module's end."""
+    p = browser.new_page(viewport=VIEWPORT)
+    p.set_default_timeout(WAIT_MS)  # its waits too
     # confirm() of RUN/STOP accepted; prompt() of a force answers 1
-    page.on("dialog", lambda d: d.accept("1") if d.type == "prompt" else d.accept())
+    p.on("dialog", lambda d: d.accept("1") if d.type == "prompt" else d.accept())
+    yield p
+    p.close()
+
+
+def clear_origin(page, url: str) -> None:
+    """Forget what an earlier test kept in the browser for `url`'s origin (the tables and
+    the trends' objects in localStorage, a token), as a new page would."""
+    cdp = page.context.new_cdp_session(page)
+    try:
+        cdp.send("Storage.clearDataForOrigin", {"origin": re.match(r"https?://[^/]+", url)[0],
+                                                "storageTypes": "all"})
+    finally:
+        cdp.detach()
+
+
+def open_page(page, url: str):
+    """`page` (the module's) on the monitor at `url`, as a new page would find it
+    (`clear_origin`); the old monitor's websocket closes with the navigation."""
+    clear_origin(page, url)
+    page.set_viewport_size(VIEWPORT)
     page.goto(url)
     page.wait_for_selector("#link.up")
     return page
@@ -83,8 +113,6 @@ def push(page, addr: str, hold_ms: int = 150) -> None:
 
 @pytest.fixture(scope="module")
 def star_daemon(tmp_path_factory):
-    # real time: the 5 s star time is the window in which the page must show the star
-    # contactor (at --speed 5 its 1 s passed unseen once on a loaded machine)
     d = Daemon(tmp_path_factory.mktemp("star"), "--config", str(PROGRAMS / "star_delta.toml"),
                "--web", "0", "--stats-interval", "0",
                program=PROGRAMS / "star_delta.il")
@@ -92,8 +120,31 @@ def star_daemon(tmp_path_factory):
     d.kill()
 
 
-def test_star_delta_from_the_simulation_panel(browser, star_daemon):
-    page = open_page(browser, web_url(star_daemon))
+def api_of(url: str) -> Client:
+    """The monitor's API at `url` (`softplc io`'s client)."""
+    return Client("127.0.0.1", int(re.search(r":(\d+)/$", url)[1]))
+
+
+# star_delta.toml's star time (%TM0.P, 5 s): the test holds the star phase with the largest
+# preset (the page must show it however late its updates come on a loaded machine) and
+# ends it with the smallest one, then puts the configured one back for the module's tests
+STAR_PRESET = tomllib.loads((PROGRAMS / "star_delta.toml").read_text())["timers"]["%TM0"][
+    "preset"]
+
+
+def test_star_delta_from_the_simulation_panel(module_page, star_daemon):
+    page = open_page(module_page, web_url(star_daemon))
+    api = api_of(web_url(star_daemon))
+    api.set("%TM0.P", MAX_VALUE)  # the star time runs until the test ends it
+    try:
+        star_then_delta(page, api)
+    finally:
+        api.set("%TM0.P", STAR_PRESET)
+
+
+def star_then_delta(page, api: Client) -> None:
+    """The Simulation tab starts the motor: star until the test ends the star time, then
+    delta; a forced input; the live ladder (`api`: the daemon's monitor API)."""
     sw = page.locator
     sw('#modules .io[data-addr="%I0.1"] button.toggle').click()  # stop button: NC, closed
     sw('#modules .io[data-addr="%I0.2"] button.toggle').click()  # overload relay: NC, OK
@@ -105,6 +156,8 @@ def test_star_delta_from_the_simulation_panel(browser, star_daemon):
     sync_api.expect(led(page, "%Q0.1")).to_have_class(re.compile(r"\bon\b"), timeout=WAIT_MS)
     assert "on" not in led(page, "%Q0.2").get_attribute("class").split()
     sync_api.expect(led(page, "%I0.0")).not_to_have_class(re.compile(r"\bon\b"))  # released
+    assert "on" in led(page, "%Q0.1").get_attribute("class").split()  # star held
+    api.set("%TM0.P", 1)  # the star time is over at the next scan: delta after the dead time
     sync_api.expect(led(page, "%Q0.2")).to_have_class(re.compile(r"\bon\b"), timeout=WAIT_MS)
     sync_api.expect(led(page, "%Q0.1")).not_to_have_class(re.compile(r"\bon\b"))
 
@@ -130,12 +183,11 @@ def test_star_delta_from_the_simulation_panel(browser, star_daemon):
     sync_api.expect(rung5).to_be_visible()
     assert rung5.locator("line.on").count() >= 3
     shot(page, "ladder")
-    page.close()
 
 
 @pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (Debian package mbpoll)")
-def test_animation_table_write_read_back_with_mbpoll(browser, star_daemon):
-    page = open_page(browser, web_url(star_daemon))
+def test_animation_table_write_read_back_with_mbpoll(module_page, star_daemon):
+    page = open_page(module_page, web_url(star_daemon))
     page.click("#tabs button[data-tab=tables]")
     page.fill("#table-add", "%MW3, %MW10:2, %TM0, %MF40")
     page.click("#table-add-btn")
@@ -157,12 +209,11 @@ def test_animation_table_write_read_back_with_mbpoll(browser, star_daemon):
     page.click("#trend-add-btn")
     page.wait_for_timeout(1200)
     shot(page, "trends")
-    page.close()
 
 
-def test_drawing_table_machine_view(browser, tmp_path, daemons):
+def test_drawing_table_machine_view(module_page, tmp_path, daemons):
     _, url, api = start(daemons, tmp_path, "drawing_table", "--speed", "4")
-    page = open_page(browser, url)
+    page = open_page(module_page, url)
     page.click("#tabs button[data-tab=machine]")
     sync_api.expect(page.locator("#table-outline")).to_be_visible()
     until(lambda: api.get("%MW3")["%MW3"] == 0 and page.locator("#pen-path").count() == 0
@@ -179,14 +230,13 @@ def test_drawing_table_machine_view(browser, tmp_path, daemons):
         "() => { const p = document.querySelector('#pen-path');"
         " return p && p.getTotalLength() > 100; }", timeout=WAIT_MS)
     shot(page, "machine")
-    page.close()
 
 
-def test_analog_slider_reaches_the_plc(browser, tmp_path, daemons):
+def test_analog_slider_reaches_the_plc(module_page, tmp_path, daemons):
     """analog_thermostat: the base's potentiometer %IW0.0 is a slider; the program copies it
     to %MW0 (/4). The PT100 %IW2.0 follows the oven (slider locked), %QW2.0 is a value."""
     _, url, api = start(daemons, tmp_path, "analog_thermostat")
-    page = open_page(browser, url)
+    page = open_page(module_page, url)
     pot = page.locator('#analog .aio[data-addr="%IW0.0"]')
     assert pot.locator(".lo").inner_text() == "0" and pot.locator(".hi").inner_text() == "1"
     pot.locator("input[type=range]").fill("0.5")  # input + change, as a drag released
@@ -205,14 +255,13 @@ def test_analog_slider_reaches_the_plc(browser, tmp_path, daemons):
     sync_api.expect(heater.locator(".aval")).to_have_text(re.compile(r"^(10|0) V$"))
     assert heater.locator("input").count() == 0
     shot(page, "analog")
-    page.close()
 
 
-def test_animation_table_of_output_bits_survives_any_value_and_resets(browser, star_daemon):
+def test_animation_table_of_output_bits_survives_any_value_and_resets(module_page, star_daemon):
     """An output range in an animation table (issue 22): bits read 0/1, a value of any
     type (true, a string, NaN) shows as text instead of stopping the page's updates, a
     malformed saved table is dropped, and "Reset tables" clears what the browser kept."""
-    page = open_page(browser, web_url(star_daemon))
+    page = open_page(module_page, web_url(star_daemon))
     page.click("#tabs button[data-tab=tables]")
     page.fill("#table-add", "%Q0.0:4, %M1")
     page.click("#table-add-btn")
@@ -240,10 +289,9 @@ def test_animation_table_of_output_bits_survives_any_value_and_resets(browser, s
     page.reload()
     page.wait_for_selector("#link.up")
     assert page.locator("#table-select option").all_inner_texts() == ["Table 1"]
-    page.close()
 
 
-def test_page_beyond_loopback_with_the_read_only_token(browser):
+def test_page_beyond_loopback_with_the_read_only_token(module_page):
     """The monitor as if bound to a LAN address (the guard's loopback flag off; the page
     still talks to 127.0.0.1): without a token the page is refused; opened with the
     read-only token's URL it runs (its files, API reads and websocket carry the cookie)
@@ -253,8 +301,8 @@ def test_page_beyond_loopback_with_the_read_only_token(browser):
     s = Stack(STAR, STAR.with_suffix(".toml"), token="full", read_token="look")
     try:
         s.web.server.guard.loopback = False
-        page = browser.new_page()
-        page.on("dialog", lambda d: d.accept())
+        page = module_page
+        clear_origin(page, f"http://127.0.0.1:{s.port}/")
         assert page.goto(f"http://127.0.0.1:{s.port}/").status == 401
         assert page.goto(f"http://127.0.0.1:{s.port}/?token=look").status == 200
         page.wait_for_selector("#link.up")
@@ -269,6 +317,6 @@ def test_page_beyond_loopback_with_the_read_only_token(browser):
             "the read-only token cannot change anything")
         s.scans()
         assert s.plc["%MW3"] == 0
-        page.close()
     finally:
+        module_page.context.clear_cookies()  # the token's: 127.0.0.1's, whatever the port
         s.close()

@@ -7,7 +7,12 @@ from __future__ import annotations
 import re
 
 from test_web_api import Stack
-from test_web_browser import open_page, shot, sync_api
+from test_web_browser import (
+    _module_page,  # noqa: F401 (the module_page fixture)
+    open_page,
+    shot,
+    sync_api,
+)
 from test_web_program import NO_COUNTER, NO_COUNTER_CONFIG, SOURCE, STEADY
 
 
@@ -28,9 +33,9 @@ def load(page, program: str, config: str = "") -> None:
     page.click("#prog-load")
 
 
-def test_upload_errors_losses_and_a_kept_counter(browser, star, tmp_path):
+def test_upload_errors_losses_and_a_kept_counter(module_page, star, tmp_path):
     set_counter(star, 6)
-    page = open_page(browser, url(star))
+    page = open_page(module_page, url(star))
     sync_api.expect(page.locator("#version")).to_contain_text("v0 · ")
     page.click("#tabs button[data-tab=program]")
     sync_api.expect(page.locator("#prog-listing .ln")).to_have_count(
@@ -78,11 +83,10 @@ def test_upload_errors_losses_and_a_kept_counter(browser, star, tmp_path):
     assert "END_BLK" in hit.last.inner_text()
     sync_api.expect(page.locator('#ladder div[data-rung="3"] svg')).to_be_visible()
     shot(page, "ladder-listing")
-    page.close()
 
 
-def test_modbus_map_page(browser, star):
-    page = open_page(browser, url(star))
+def test_modbus_map_page(module_page, star):
+    page = open_page(module_page, url(star))
     page.click("#tabs button[data-tab=map]")
     row = page.locator('#map-tags tr[data-address="%MW10"]')
     sync_api.expect(row).to_be_visible()
@@ -97,14 +101,10 @@ def test_modbus_map_page(browser, star):
     text = open(dl.value.path(), encoding="utf-8").read()
     assert text.startswith("tag,address,type") and "STARTS,%MW10," in text
     shot(page, "modbus-map")
-    page.close()
 
 
-def test_symbols_in_an_animation_table(browser, star):
-    page = open_page(browser, url(star))
-    page.evaluate("() => localStorage.removeItem('softplc.tables')")
-    page.reload()
-    page.wait_for_selector("#link.up")
+def test_symbols_in_an_animation_table(module_page, star):
+    page = open_page(module_page, url(star))  # (no table kept: open_page clears them)
     page.click("#tabs button[data-tab=tables]")
     page.fill("#table-add", "starts, star_time.p, %MW11")  # symbols typed, any case
     page.click("#table-add-btn")
@@ -122,4 +122,3 @@ def test_symbols_in_an_animation_table(browser, star):
     sync_api.expect(preset.locator(".val")).to_have_text("30")
     assert star.plc["%TM0.P"] == 30
     shot(page, "symbols-table")
-    page.close()

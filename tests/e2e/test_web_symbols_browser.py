@@ -7,7 +7,14 @@ from __future__ import annotations
 
 import pytest
 from daemon_util import Daemon
-from test_web_browser import PROGRAMS, open_page, shot, sync_api, web_url
+from test_web_browser import (
+    PROGRAMS,
+    _module_page,  # noqa: F401 (the module_page fixture)
+    open_page,
+    shot,
+    sync_api,
+    web_url,
+)
 
 
 @pytest.fixture(scope="module")
@@ -20,8 +27,8 @@ def star_daemon(tmp_path_factory):
     d.kill()
 
 
-def test_simulation_tab_shows_the_symbols_beside_the_addresses(browser, star_daemon):
-    page = open_page(browser, web_url(star_daemon))
+def test_simulation_tab_shows_the_symbols_beside_the_addresses(module_page, star_daemon):
+    page = open_page(module_page, web_url(star_daemon))
     sym = page.locator('#modules .io[data-addr="%I0.0"] .iosym')
     sync_api.expect(sym).to_have_text("START_PB")
     sync_api.expect(sym).to_be_visible()  # a column, not a tooltip only
@@ -31,7 +38,6 @@ def test_simulation_tab_shows_the_symbols_beside_the_addresses(browser, star_dae
     sync_api.expect(page.locator('#modules .io[data-addr="%I0.5"] .iosym')).to_have_text("")
     path = shot(page, "symbols-simulation")
     assert path.exists()
-    page.close()
 
 
 def visible_rungs(page, text: str) -> list[int]:
@@ -40,8 +46,8 @@ def visible_rungs(page, text: str) -> list[int]:
             if li.is_visible()]
 
 
-def test_ladder_find_box_finds_rungs_by_the_symbols_they_use(browser, star_daemon):
-    page = open_page(browser, web_url(star_daemon))
+def test_ladder_find_box_finds_rungs_by_the_symbols_they_use(module_page, star_daemon):
+    page = open_page(module_page, web_url(star_daemon))
     page.click("#tabs button[data-tab=ladder]")
     page.wait_for_selector("#rung-list li")
     by_address = visible_rungs(page, "%m10")  # STAR_DONE = %M10 (star_delta_symbols.csv)
@@ -55,14 +61,13 @@ def test_ladder_find_box_finds_rungs_by_the_symbols_they_use(browser, star_daemo
     visible_rungs(page, "star_done")
     path = shot(page, "symbols-ladder-find")
     assert path.exists()
-    page.close()
 
 
-def test_animation_table_resolves_what_is_typed_by_the_daemons_resolver(browser, star_daemon):
+def test_animation_table_resolves_what_is_typed_by_the_daemons_resolver(module_page, star_daemon):
     """A symbol, a symbol's range or field typed in the table: the daemon's one resolver
     (GET /api/resolve) turns it into the address the row keeps; an unknown name is refused
     with the resolver's guess, and nothing is added."""
-    page = open_page(browser, web_url(star_daemon))
+    page = open_page(module_page, web_url(star_daemon))
     page.click("#tabs button[data-tab=tables]")
     page.fill("#table-add", "starts:2 star_time.p")
     page.click("#table-add-btn")
@@ -77,4 +82,3 @@ def test_animation_table_resolves_what_is_typed_by_the_daemons_resolver(browser,
         "unknown symbol 'STRATS' (did you mean STARTS?)")
     assert page.locator("#anim tbody tr[data-obj]").count() == rows  # STATE not added alone
     assert page.input_value("#table-add") == "STATE STRATS"  # kept, to be corrected
-    page.close()

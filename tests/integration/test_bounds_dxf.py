@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import ezdxf
 import pytest
 
 from softplc.machines.cutting import load_piece
@@ -20,6 +19,8 @@ NAN, INF = float("nan"), float("inf")
 
 
 def saved(tmp_path: Path, add, name: str = "part.dxf") -> Path:
+    import ezdxf  # here, not at the top: every worker collects this module (0.7 s)
+
     doc = ezdxf.new()
     doc.header["$INSUNITS"] = 4
     msp = doc.modelspace()
@@ -75,6 +76,8 @@ def test_an_infinite_integer_group_is_a_clear_error(tmp_path):
 
 
 def test_a_binary_dxf_is_still_read(tmp_path):
+    import ezdxf
+
     doc = ezdxf.new()
     doc.header["$INSUNITS"] = 4
     doc.modelspace().add_line((10, 10), (30, 20))

@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import ezdxf
 import pytest
 
 from softplc.machines.cutting import Arc, Line, load_piece
@@ -20,6 +19,8 @@ QUARTER = math.tan(math.pi / 8)  # the bulge of a 90 degree arc: tan(θ/4)
 
 
 def drawing(units: int = 4):
+    import ezdxf  # here, not at the top: every worker collects this module (0.7 s)
+
     doc = ezdxf.new()
     doc.header["$INSUNITS"] = units
     return doc, doc.modelspace()

@@ -2,8 +2,10 @@
 `tools/check_structure.py` measures them: no file over 700 lines, no class over 25 methods
 (tables of one method per instruction exempt), each block family named in at most 2 files
 (its module and the catalog),
-no import cycle between files (every import statement counted), nothing in web/ reaching
-the PLC object."""
+no import cycle between files (every import statement counted) nor between the top-level
+packages (the runtime importing the compiler and the compiler the runtime would be one;
+an import up the layers, as the runtime importing the compiler, is refused on its own),
+nothing in web/ reaching the PLC object."""
 
 from __future__ import annotations
 
@@ -22,10 +24,12 @@ def test_the_structure_rules_hold():
     assert rep.long_files == []
     assert rep.big_classes == []
     assert rep.cycles == []
+    assert rep.package_cycles == []
     assert rep.web_reach == []
     assert rep.upward == []
     assert {k: v for k, v in rep.per_kind.items() if len(v) > check_structure.MAX_KIND_FILES} == {}
     assert rep.broken == 0
+    assert all(rep.per_kind.values())  # the tree was read: the catalog names every kind
 
 
 def test_the_checker_sees_what_it_counts(tmp_path):
@@ -55,10 +59,20 @@ def test_the_checker_sees_what_it_counts(tmp_path):
     (pkg / "__init__.py").write_text("from . import top\n")
     (pkg / "top.py").write_text("from . import leaf\n")
     (pkg / "leaf.py").write_text("X = 1\n")
+    # no cycle between files, one between the packages p and q (p.x -> q.y, q.z -> p.w)
+    for sub, text in (("p/x.py", "import softplc.q.y\n"), ("p/w.py", ""),
+                      ("q/y.py", ""), ("q/z.py", "from ..p import w\n")):
+        (pkg / sub).parent.mkdir(exist_ok=True)
+        (pkg / sub).parent.joinpath("__init__.py").touch()
+        (pkg / sub).write_text(text)
     rep = check_structure.measure(pkg)
     assert rep.per_kind["PLS"] == ["softplc/a.py"] and rep.per_kind["PWM"] == ["softplc/b.py"]
     assert sorted(rep.cycles) == [["softplc.a", "softplc.b"], ["softplc.hint", "softplc.hinted"],
                                   ["softplc.late", "softplc.lazy"]]
+    assert sorted(rep.package_cycles) == [["softplc.a", "softplc.b"],
+                                          ["softplc.hint", "softplc.hinted"],
+                                          ["softplc.late", "softplc.lazy"],
+                                          ["softplc.p", "softplc.q"]]
     assert rep.web_reach == ["softplc/web/v.py"]
     assert rep.big_classes == ["softplc/big.py:8 Big 26"]
     assert ast.parse((pkg / "big.py").read_text())  # the sample itself is valid Python
