@@ -14,11 +14,16 @@ from softplc.twido.semantics import IntDomain
 from softplc.verify import floats
 from softplc.verify.model import Model, sort_of
 from softplc.verify.requirements import FLOAT, Node, Requirement, Spec
-from softplc.verify.symbolic import Z3Domain, as_bool, wide
+from softplc.verify.symbolic import Z3Domain, as_bool, substitute_all, wide
 
 CMP: dict[str, Callable[[Any, Any], Any]] = {
     "=": lambda a, b: a == b, "<>": lambda a, b: a != b, "<": lambda a, b: a < b,
     "<=": lambda a, b: a <= b, ">": lambda a, b: a > b, ">=": lambda a, b: a >= b}
+FLOAT_LEAVES = {z3.Z3_FLOATING_POINT_SORT, z3.Z3_ROUNDING_MODE_SORT}
+# the engines' solver where the cone has floats: z3's QF_FPBV tactic (floats bit-blasted
+# afresh at each check) answers the float requirements of tests/integration/
+# test_verify_floats.py about 10 times faster than the incremental solver's float theory
+FLOAT_TACTIC = "qffpbv"
 
 
 def evaluate(D: Any, n: Node, read: Callable[[Ref], Any]) -> Any:
@@ -110,6 +115,7 @@ class Checker:
         self.lemma_ids: list[int] = []  # `candidates` proven inductive (`lemmas.houdini`)
         self.timer_pairs: list[tuple[str, str]] | None = None  # `invariants.related_pairs`
         self.proven: list[Any] = []  # the model's proven facts over the cone (`stateinv`)
+        self.floats = False  # the cone has float terms (`_slice`)
         self._slice()
 
     def _slice(self) -> None:
@@ -120,12 +126,15 @@ class Checker:
         pre, inp = self.pre, self.inp
         names = {f"{k}@cone": k for k in pre}
         post = self.step(pre, inp)
-        need = _reads(z3.And(self.holds(post), *self.assumed(post, inp)), names)
+        leaves: set[int] = set()
+        need = _reads(z3.And(self.holds(post), *self.assumed(post, inp)), names, leaves)
         work = list(need)
         while work:
-            for d in _reads(post[work.pop()], names) - need:
+            for d in _reads(post[work.pop()], names, leaves) - need:
                 need.add(d)
                 work.append(d)
+        # every float term has a float or rounding-mode leaf (`floats`: values, reads)
+        self.floats = bool(leaves & FLOAT_LEAVES)
         # a lemma on other state would only widen the cone (and Spacer's `Inv`)
         self.lemmas = [n for n, t in zip(self.lemmas, self.lemma_terms(post), strict=True)
                        if _reads(t, names) <= need]
@@ -135,8 +144,13 @@ class Checker:
         self.filler = {k: init[k] for k in self.keys if k not in need}
         self.keys = {k: s for k, s in self.keys.items() if k in need}
         if self.post is not None and self.filler:  # the state outside the cone put in
-            self.post = _put(self.post, [(self.pre[k], v) for k, v in self.filler.items()])
+            self.post = substitute_all(self.post,
+                                       [(self.pre[k], v) for k, v in self.filler.items()])
         self.pre = {k: v for k, v in self.pre.items() if k in need}
+
+    def solver(self) -> z3.Solver:
+        """A solver for the engines' queries (BMC, k-induction, the range invariants)."""
+        return z3.Tactic(FLOAT_TACTIC).solver() if self.floats else z3.Solver()
 
     def read(self, st: dict[str, Any]) -> Callable[[Ref], Any]:
         m = self.model
@@ -201,7 +215,7 @@ class Checker:
             self.post = self.model.scan(dict(self.pre), self.inp)
         if pre is self.pre and inp is self.inp:
             return dict(self.post)
-        return _put(self.post, [(v, pre[k]) for k, v in self.pre.items()]
+        return substitute_all(self.post, [(v, pre[k]) for k, v in self.pre.items()]
                     + [(v, inp[k]) for k, v in self.inp.items()])
 
     def invariants(self, st: dict[str, Any]) -> list[Any]:
@@ -245,20 +259,9 @@ class Checker:
         return out + timer_relations(self, st)
 
 
-def _put(terms: dict[str, Any], pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
-    """`terms` with each pair's variable replaced by its term, in one substitution (what
-    the terms share is done once); simplified where a value, not a variable, went in."""
-    keys = list(terms)
-    pack = z3.Function("scan@", *[terms[k].sort() for k in keys], z3.BoolSort())
-    out = z3.substitute(pack(*[terms[k] for k in keys]), *pairs).children()
-    if not all(z3.is_const(t) and t.decl().kind() == z3.Z3_OP_UNINTERPRETED
-               for _, t in pairs):
-        out = [z3.simplify(t) for t in out]
-    return dict(zip(keys, out, strict=True))
-
-
-def _reads(term: Any, names: dict[str, str]) -> set[str]:
-    """The state keys whose variables (named in `names`) occur in `term`."""
+def _reads(term: Any, names: dict[str, str], sorts: set[int] | None = None) -> set[str]:
+    """The state keys whose variables (named in `names`) occur in `term`; `sorts`: gets
+    the sort kinds of its leaves (variables and values)."""
     out: set[str] = set()
     seen: set[int] = set()
     todo = [term]
@@ -272,6 +275,8 @@ def _reads(term: Any, names: dict[str, str]) -> set[str]:
             k = names.get(t.decl().name())
             if k is not None:
                 out.add(k)
+            if sorts is not None:
+                sorts.add(t.sort_kind())
         else:
             todo.extend(t.children())
     return out

@@ -126,7 +126,7 @@ class BaseCase:
                  progress: Progress | None = None):
         self.ck, self.clock, self.watch, self.progress = ck, clock, watch, progress
         self.t0 = time.monotonic()
-        self.s = z3.Solver()
+        self.s = ck.solver()
         self.u = _Unroll(ck, self.s, ck.init(), "b")
         self.spurious = 0
         self.clean = 0  # scans searched with no counterexample
@@ -191,7 +191,7 @@ def bmc(ck: Checker, depth: int, clock: Clock, watch: list[str],
 def invariants_inductive(ck: Checker, clock: Clock) -> bool:
     """The range invariants hold initially and are kept by every scan."""
     clock.doing = "checking the range invariants"
-    s = z3.Solver()
+    s = ck.solver()
     init = ck.init()
     if clock.check(s, z3.Not(z3.And(*ck.invariants(init))), what="at the cold start",
                    cap=20) != z3.unsat:
@@ -214,7 +214,7 @@ class Induction:
         self.ck, self.clock, self.max_k, self.budget = ck, clock, max_k, budget
         self.progress = progress
         self.spent = 0.0  # s in its steps (BMC's, in between, are not its time)
-        self.s: z3.Solver | None = z3.Solver()
+        self.s: z3.Solver | None = ck.solver()
         self.u: _Unroll | None = _Unroll(ck, self.s, None, "k")
         self.tried = 0  # the largest k tried
         self.k: int | None = None

@@ -30,7 +30,7 @@ from softplc.verify.blocks import apply, sort_name
 from softplc.verify.defaults import LOOP_BOUND
 from softplc.verify.loops import Loops
 from softplc.verify.objects import BLOCK_KEY, CLOCK_WRAP_US, MODELLED, MW_ARRAY, ObjectModel
-from softplc.verify.symbolic import Z3State
+from softplc.verify.symbolic import Z3State, substitute_all
 from softplc.verify.system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
 
@@ -357,7 +357,17 @@ class Model(ObjectModel):
                 else:
                     step = marker.step
                 continue
+            if self.unreached(r):
+                continue
             self.rung(r, step, (pending, seen, nxt), main)
+
+    def unreached(self, r: A.Rung) -> bool:
+        """The rung cannot run (jumped over, after a return, before the label a loop's
+        later pass enters at): every effect of it is guarded by `live`, so it is left
+        out. Not while discovering (that pass reads and writes what any pass does), nor
+        a Grafcet END (it ends the sequential part, run or not)."""
+        return (not self.discovering and z3.is_false(self.live)
+                and not (self.grafcet and any(isinstance(i, A.End) for i in r.instructions)))
 
     def grafcet_pre(self) -> None:
         """End of preprocessing: %S21 (initial steps on), %S22 (all off), %S23 (freeze)."""
@@ -536,29 +546,51 @@ def is_object(key: str) -> bool:
 def run_concrete(model: Model, scans: list[dict[str, int]]) -> list[dict[str, int]]:
     """The model's values scan by scan for concrete inputs (missing inputs are 0): every
     object it models after each scan, for comparison with the engine; it stops before a
-    scan in which a loop ran past the passes modelled (that scan is not modelled)."""
+    scan in which a loop ran past the passes modelled (that scan is not modelled).
+
+    Without a loop the scan is built once on variables (the transition relation the
+    engines unroll) and each scan substitutes the state's and inputs' values into it: one
+    solver call per object instead of thousands of term constructions per scan. A loop's
+    passes are decided on the state's values, so a program with one is run scan by scan."""
     from softplc.verify.symbolic import value_of
     st = model.init_state()
+    step = _Substituted(model) if not model.loops.sites else None
     out = []
+    m = z3.Solver()
+    m.check()
+    empty = m.model()  # no constraint: the values are those of the constant terms
     for given in scans:
         # an object the environment may write and did not: it keeps its value
         inp = {k: model.const(sort, given.get(k, lo if sort == "w16" else 0))
                if k in given or k not in model.env.free else _current(model, st, k)
                for k, (sort, lo, _hi) in model.inputs.items()}
-        post = model.scan(st, inp)
-        post = {k: z3.simplify(v) for k, v in post.items()}
+        if step is not None:
+            post = step(st, inp)
+        else:
+            post = {k: z3.simplify(v) for k, v in model.scan(st, inp).items()}
         if z3.is_true(post.get("_loop", False)):
             break
         st = {k: post[k] for k in model.vars}
-        s = z3.Solver()
-        s.check()
-        m = s.model()
-        values = {k: value_of(m, v) for k, v in post.items() if is_object(k)}
+        values = {k: value_of(empty, v) for k, v in post.items() if is_object(k)}
         if model.mw_array:  # the words named, read from the array
             for i in sorted(model.mw_named):
-                values[f"%MW{i}"] = value_of(m, z3.Select(post[MW_ARRAY], i))
+                values[f"%MW{i}"] = value_of(empty, z3.Select(post[MW_ARRAY], i))
         out.append(values)
     return out
+
+
+class _Substituted:
+    """One scan of `model` as terms over the pre-state's and inputs' variables; called
+    with values, the post-state's values (`substitute_all`: one substitution and one
+    simplification per term, each a single solver call)."""
+
+    def __init__(self, model: Model):
+        self.pre, self.inp = model.fresh("concrete")
+        self.post = model.scan(self.pre, self.inp)
+
+    def __call__(self, st: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
+        return substitute_all(self.post, [(v, st[k]) for k, v in self.pre.items()]
+                              + [(v, inp[k]) for k, v in self.inp.items()])
 
 
 def _current(model: Model, st: dict[str, Any], key: str) -> Any:

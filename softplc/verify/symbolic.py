@@ -134,3 +134,16 @@ def value_of(model: z3.ModelRef, term: Any) -> int | float:
         bits = model.eval(z3.fpToIEEEBV(v), model_completion=True).as_long()
         return struct.unpack("<d", bits.to_bytes(8, "little"))[0]
     return int(str(v))
+
+
+def substitute_all(terms: dict[str, Any], pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
+    """`terms` with each pair's variable replaced by its term, in one substitution (what
+    the terms share is done once: they are the arguments of one application of a function
+    symbol); simplified where a value, not a variable, went in."""
+    keys = list(terms)
+    pack = z3.Function("scan@", *[terms[k].sort() for k in keys], z3.BoolSort())
+    out = z3.substitute(pack(*[terms[k] for k in keys]), *pairs)
+    if not all(z3.is_const(t) and t.decl().kind() == z3.Z3_OP_UNINTERPRETED
+               for _, t in pairs):
+        out = z3.simplify(out)  # the arguments, in one call
+    return dict(zip(keys, out.children(), strict=True))

@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import z3
 
 from softplc.cli import main
 from softplc.errors import Code, VerifyError
@@ -59,6 +60,26 @@ def test_a_float_limit_proven_and_violated_with_a_replayed_counterexample():
     assert res.depth == 1 and res.trace[0]["inputs"] == {"%I0.0": 1}
     assert res.trace[0]["values"] == {"%MF10": 150.0}
     assert [r.status for r in proven] == ["PROVEN"] * 3, proven
+
+
+@pytest.mark.parametrize(("prog", "check", "floats"), [
+    (SPEED, "always %MF10 <= 150.0 AND %MF10 >= 50", True),  # read and written as floats
+    (SPEED, "always %MW13 = %MW11", True),  # the words of %MF12, a float copied
+    # the high words of 150.0 and 50.0 as singles (0x4316, 0x4248): a constant stored is
+    # its bits (folded when the model is built), no float term is left
+    (SPEED, "always %MW11 = 17174 OR %MW11 = 16968", False),
+    (SPEED + "LD %I0.1\nST %Q0.0\n", "always %Q0.0 = %I0.1", False),  # floats off its cone
+    ("LD %I0.0\nST %Q0.0\n", "always %Q0.0 = %I0.0", False)])
+def test_the_float_solver_is_for_cones_with_floats(prog, check, floats):
+    """A requirement whose cone has float terms gets the bit-blasting solver for floats
+    (`Checker.solver`, docs/decisions/verify-float-solver.md), any other the incremental
+    one; the verdict is the same either way (the other tests of this file)."""
+    plc = PLC.from_source(prog, None, devices=False)
+    spec = load_spec(None, [check], plc.symbols)
+    ck = Checker(Model(plc, spec.reads), spec, spec.requirements[0])
+    assert ck.floats == floats
+    assert isinstance(ck.solver(), z3.Solver)
+    assert verify(ck, 2, 2, SECONDS, []).status == "PROVEN"
 
 
 def test_constants_and_symbols_of_floats():
