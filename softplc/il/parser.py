@@ -13,7 +13,6 @@ import dataclasses
 import difflib
 import heapq
 import itertools
-import os
 import re
 import sys
 from collections.abc import Iterator
@@ -26,7 +25,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 
 from softplc.errors import AddressError, Code, Diagnostic, ParseError
 from softplc.il import ast as A
-from softplc.il import fastlines, literals
+from softplc.il import fastlines, literals, parsecache
 from softplc.il.fastlines import FastLines
 from softplc.limits import MAX_PROGRAM_BYTES, BoundsError, read_bytes
 from softplc.twido import catalog
@@ -73,27 +72,11 @@ def _did_you_mean(word: str) -> str:
     return f" (did you mean {', '.join(close[:-1]) + ' or ' if close[1:] else ''}{close[-1]}?)"
 
 
-def _grammar_cache() -> str | bool:
-    """Where lark keeps the analysed grammar (its LALR tables): building them costs about
-    0.25 s in every process (each `softplc` command, each daemon start), loading them about
-    0.02 s. Lark checks the grammar's hash in the file and rebuilds when it differs. In the
-    user's cache directory rather than lark's default shared temp directory (the file is a
-    pickle); False (no cache) when that directory cannot be written."""
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "softplc"
-    try:
-        base.mkdir(parents=True, exist_ok=True)
-    except OSError:
-        return False
-    if not os.access(base, os.W_OK):
-        return False
-    return str(base / f"il-grammar-py{sys.version_info[0]}{sys.version_info[1]}.lark")
-
-
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
     text = GRAMMAR.read_text().replace("@BLOCK_CALLS@", "|".join(catalog.by_instruction()))
     return Lark(text, parser="lalr", lexer="contextual",
-                propagate_positions=True, maybe_placeholders=False, cache=_grammar_cache())
+                propagate_positions=True, maybe_placeholders=False, cache=parsecache.grammar_file())
 
 
 @lru_cache(maxsize=1)
@@ -678,9 +661,15 @@ def segment(items: list, comments: list[tuple[int, int, str]], file: str, source
 
 def parse(text: str, file: str = "<string>", symbols: SymbolTable | None = None
           ) -> A.Program:
-    """Parse a whole program. Raises ParseError listing every syntax problem; the error's
-    `program` holds what parsed (bad lines left out) so later checks can still run.
-    `symbols`: the names the program may use for addresses (softplc.twido.symbols)."""
+    """Parse a whole program (a text parsed before: a copy, il/parsecache.py). Raises
+    ParseError listing every syntax problem; the error's `program` holds what parsed (bad
+    lines left out) so later checks can still run. `symbols`: the names the program may use
+    for addresses (softplc.twido.symbols)."""
+    key = (text, file, None if symbols is None else symbols.key())
+    return parsecache.parsed(key, text, lambda: _parse(text, file, symbols))
+
+
+def _parse(text: str, file: str, symbols: SymbolTable | None) -> A.Program:
     items, comments, diags = parse_lines(text, file, symbols)
     if diags:
         err = ParseError(diags)

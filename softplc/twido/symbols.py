@@ -113,6 +113,11 @@ class SymbolTable:
     def __len__(self) -> int:
         return len(self._by_name)
 
+    def key(self) -> tuple:
+        """What decides how the table resolves names (its profile and symbols), hashable:
+        two tables with equal keys give every program text the same references."""
+        return repr(self.profile), tuple(self._by_name.values())
+
     def __iter__(self):
         return iter(sorted(self._by_name.values(), key=lambda s: _address_key(s.address)))
 
