@@ -9,7 +9,6 @@ import tomllib
 from pathlib import Path
 
 import pytest
-from parsed import parsed
 
 from softplc.machines.cutting.regmap import (
     EJECUTANDO,
@@ -37,7 +36,7 @@ def machine(start_mm: tuple[float, float] | None = None) -> PLC:
     if start_mm is not None:
         cfg["devices"]["X"]["start"] = start_mm[0] * COUNTS_PER_MM
         cfg["devices"]["Y"]["start"] = start_mm[1] * COUNTS_PER_MM
-    return PLC(parsed(IL, TOML), cfg)
+    return PLC.from_file(IL, cfg)
 
 
 def homed(start_mm: tuple[float, float] = (1.0, 1.0)) -> PLC:
@@ -90,7 +89,7 @@ def test_broken_min_switch_fails_homing_at_the_timeout():
     del cfg["devices"]["X"]["geometry"]["hard_stop_minus"]
     assert cfg["timers"]["%TM0"]["preset"] == 360  # 100 ms base: 36 s
     cfg["timers"]["%TM0"]["preset"] = 20
-    plc = PLC(parsed(IL, TOML), cfg)
+    plc = PLC.from_file(IL, cfg)
     assert plc.run_until(lambda p: p[f"%MW{STATE}"] == FAULT_STEP, timeout=5)
     assert plc[f"%MW{FAULT}"] == 2
     assert plc.time == pytest.approx(2.0, abs=0.11)
@@ -175,7 +174,7 @@ def test_a_max_switch_reached_for_real_stops_x_under_control_and_x_holds_there()
     cfg["devices"]["X"]["geometry"]["limit_plus"] = 100.0 * COUNTS_PER_MM
     for axis in ("X", "Y"):
         cfg["devices"][axis]["start"] = COUNTS_PER_MM
-    plc = PLC(parsed(IL, TOML), cfg)
+    plc = PLC.from_file(IL, cfg)
     assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=20)
     offer(plc, 150_000, 0, 20.0)  # user 150 mm = true 179.5 mm: through the switch
     assert plc.run_until(lambda p: p.devices["SensX_Max"].made, timeout=10)

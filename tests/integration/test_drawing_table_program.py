@@ -15,7 +15,6 @@ from itertools import pairwise
 from pathlib import Path
 
 import pytest
-from parsed import parsed
 
 from softplc import PLC
 
@@ -77,7 +76,7 @@ def homing_scans(start_steps: float) -> int:
 @pytest.fixture
 def plc() -> PLC:
     """The corrected program, homed."""
-    p = PLC(parsed(CORRECTED, CONFIG), CONFIG)
+    p = PLC.from_file(CORRECTED, config=CONFIG)
     p.scan()
     assert p[EJECUTANDO] == BUSY
     scan_until(p, lambda: p[EJECUTANDO] == 0, homing_scans(500))
@@ -104,7 +103,7 @@ def draw(plc: PLC, x: int, z: int, y: int = 1) -> dict:
 
 
 def test_homing_comes_first_and_a_segment_waits_for_it():
-    p = PLC(parsed(CORRECTED, CONFIG), CONFIG)
+    p = PLC.from_file(CORRECTED, config=CONFIG)
     x0, z0 = pos(p)
     assert x0 > 100 and z0 > 100, "the config starts the carriage away from home"
     p.scan()
@@ -134,7 +133,7 @@ def test_homing_ends_exactly_at_zero(plc):
 @pytest.mark.parametrize("start_x", [332, 333, 334, 335])
 def test_homing_from_any_rotor_phase_loses_no_step(start_x):
     """The power-up A+B alignment pulls the rotor whatever its phase: no opposite-phase miss."""
-    p = PLC(parsed(CORRECTED, CONFIG), CONFIG)
+    p = PLC.from_file(CORRECTED, config=CONFIG)
     p.devices["X"].position = start_x
     p.scan()
     scan_until(p, lambda: p[EJECUTANDO] == 0, homing_scans(500))
@@ -252,7 +251,7 @@ def test_segment_end_clamped_to_travel(plc):
 
 def test_broken_home_switch_stops_homing():
     """Homing gives up after %KW1 pulses (more than the travel) instead of running forever."""
-    p = PLC(parsed(CORRECTED, CONFIG), CONFIG)
+    p = PLC.from_file(CORRECTED, config=CONFIG)
     p.devices["home_X"].set_fault("stuck_open")
     p.scan()
     scan_until(p, lambda: p[FAULT] == 1, 3100 * 5 + 100)
@@ -268,7 +267,7 @@ def test_broken_home_switch_stops_homing():
 # ---- the seed program: its documented defects -----------------------------------------------
 @pytest.fixture
 def seed() -> PLC:
-    p = PLC(parsed(SEED, CONFIG), CONFIG)
+    p = PLC.from_file(SEED, config=CONFIG)
     p.scan()
     scan_until(p, lambda: p[EJECUTANDO] == 0, homing_scans(500))
     return p
@@ -343,7 +342,7 @@ def test_seed_slope_is_computed_before_the_end_point_is_read(seed):
 def test_seed_broken_home_switch_runs_forever():
     """SEED DEFECT: homing counts down from 32000 and stops only at the switch; with a
     broken X switch the axis drives into its mechanical stop and keeps losing steps."""
-    p = PLC(parsed(SEED, CONFIG), CONFIG)
+    p = PLC.from_file(SEED, config=CONFIG)
     p.devices["home_X"].set_fault("stuck_open")
     p.scan(3000)
     assert p.devices["X"].missed_steps > 100
@@ -428,7 +427,7 @@ def test_host_wait_only_where_a_scan_would_change_nothing(program):
 def test_a_fault_waits_for_the_host_too():
     """The corrected program in fault (homing timeout): nothing moves until a restart, so
     %M37 is 1 and the clock may stand still."""
-    p = PLC(parsed(CORRECTED, CONFIG), CONFIG)
+    p = PLC.from_file(CORRECTED, config=CONFIG)
     p.devices["home_X"].set_fault("stuck_open")
     until_host_wait(p, 3100 * OSC_SCANS + 100)
     assert p[FAULT] == 1
@@ -439,7 +438,7 @@ def test_seed_waits_for_its_phase_to_catch_up_after_homing():
     PULSOS (rungs 21, 24): with a switch that makes off phase A (here: made early, at a
     count that is not a multiple of 4) that pulse still moves the motor, so %M37 waits
     for it."""
-    p = PLC(parsed(SEED, CONFIG), CONFIG)
+    p = PLC.from_file(SEED, config=CONFIG)
     scan_until(p, lambda: pos(p)[0] == 0 and pos(p)[1] % 4 == 1, homing_scans(500))
     p.devices["home_Z"].set_fault("stuck_closed")  # PZ makes here, off phase A
     scan_until(p, lambda: p["%MW36"] == 0, 2)  # the switch's input: the next scan's
@@ -452,7 +451,7 @@ def test_corrected_waits_for_the_alignment_pulse_when_already_home():
     """Started on both home switches (just past them) the corrected program is homed in
     its first scans, but the power-up alignment (phases A+B) lasts until the first PULSOS
     and phase A alone comes a scan later: %M37 waits for it."""
-    p = PLC(parsed(CORRECTED, CONFIG), CONFIG)
+    p = PLC.from_file(CORRECTED, config=CONFIG)
     p.devices["X"].position = p.devices["Z"].position = -4
     scan_until(p, lambda: p[EJECUTANDO] == 0, 2)
     assert p["%M35"] and not p[HOST_WAIT]

@@ -8,7 +8,6 @@ from collections.abc import Sequence
 
 import pytest
 from daemon_util import ROOT, Daemon
-from parsed import parsed
 
 from softplc.devices.axis import Err, St
 from softplc.modbus.rawclient import ModbusExceptionReply
@@ -32,7 +31,7 @@ def config(**constants: int) -> dict:
 
 @pytest.fixture
 def cell():
-    plc = PLC(parsed(IL, TOML), config())
+    plc = PLC.from_file(IL, config())
     plc.scan()
     yield plc
     plc.close()
@@ -147,7 +146,7 @@ def test_estop_stops_and_recovery_needs_start_and_reset(cell):
 def test_limit_switch_ends_in_a_fatal_error_with_the_limit_code():
     """A wrong travel constant lets a move run into END-1: the drive refuses torque, the
     PMAC keeps commanding, the warning and then the fatal error follow (spec section 5)."""
-    plc = PLC(parsed(IL, TOML), config(**{"%KD2": 20000}))
+    plc = PLC.from_file(IL, config(**{"%KD2": 20000}))
     plc.scan()
     started(plc)
     assert request(plc, 1, 0, 20000, 20000) == 1
@@ -307,7 +306,7 @@ def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, ca
     import softplc.machines.servo.client as servo_client
     from softplc.cli import main as softplc
 
-    plc = PLC(parsed(IL, TOML), tomllib.loads(open(near_home_toml(tmp_path)).read()))
+    plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
     monkeypatch.setattr(servo_client, "ModbusHost", lambda *a, **k: _WordsClient(plc))
     # the client's own `time` only: its sleeps run the PLC, its timeouts stay wall time
     monkeypatch.setattr(servo_client, "time", SimpleNamespace(
@@ -349,7 +348,7 @@ def in_process(tmp_path, monkeypatch, poll_ms: float = 0) -> PLC:
 
     import softplc.machines.servo.client as servo_client
 
-    plc = PLC(parsed(IL, TOML), tomllib.loads(open(near_home_toml(tmp_path)).read()))
+    plc = PLC.from_file(IL, tomllib.loads(open(near_home_toml(tmp_path)).read()))
     monkeypatch.setattr(servo_client, "ModbusHost", lambda *a, **k: _WordsClient(plc))
     monkeypatch.setattr(servo_client, "time", SimpleNamespace(
         sleep=lambda s: plc.run(max(poll_ms / 1000, plc.scan_period)),
@@ -462,7 +461,7 @@ def test_a_host_write_after_a_cold_start_changes_that_i_variable_only(when):
     refused) and nothing is refused."""
     from softplc.modbus import ModbusImage
 
-    plc = PLC(parsed(IL, TOML), config())  # its build ends with a cold start
+    plc = PLC.from_file(IL, config())  # its build ends with a cold start
     try:
         image = ModbusImage(plc.mem)
         plc.before_scan.append(image.apply_writes)  # the daemon's first step of a scan
