@@ -84,8 +84,11 @@ def test_daemon_keeps_running_when_the_trace_disk_fills(daemons, tmp_path):
     d = started(daemons, tmp_path, "--config", str(TABLE / "drawing_table.toml"), "--trace",
                 str(csv), program=TABLE / "drawing_table.il")
     until(lambda: csv.exists() and csv.stat().st_size > 0)
-    csv.unlink()
-    csv.symlink_to("/dev/full")  # the next flush (every simulated second) hits ENOSPC
+    full = tmp_path / "full"
+    full.symlink_to("/dev/full")
+    # in one rename (an unlink then a symlink raced the daemon's next flush, which made the
+    # file again in between on a loaded machine): the next flush hits ENOSPC
+    full.replace(csv)
     err = d.stderr_until("trace file stops here", 15)
     time.sleep(1.2)  # past the next flush time: not tried again
     assert d.proc.poll() is None  # still running
