@@ -1,4 +1,5 @@
-"""One cache of the code objects of generated Python source (a program's rungs, a scan).
+"""One cache of the code objects of generated Python source (a program's rungs, a scan, a
+servo loop).
 
 The same text is compiled again and again: a scan is regenerated at every force, state or
 online change and is often the same text as before, an online change back to a program

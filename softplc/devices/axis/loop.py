@@ -32,6 +32,7 @@ from string import Template
 from typing import Any
 
 from softplc.devices.axis import status
+from softplc.runtime.codecache import compile_code
 
 _HEAD = """\
     x = dev.x_
@@ -261,7 +262,6 @@ def scan(dev, t, dt):
 $status
     return True
 """
-_CACHE: dict[str, Callable[..., Any]] = {}
 
 
 def _keep(tags: str, flags: dict[str, bool]) -> bool:
@@ -314,6 +314,10 @@ def scan_source() -> str:
     return _SCAN.replace("$status\n", status.indent(status.FAST + status.PACK))
 
 
+# Generated functions kept, the oldest first out: an axis has a few cases (its flags) and
+# renders them again after a snapshot's restore or a new load mass; a host that keeps
+# writing new constants must not grow the process without bound.
+RENDERED_ENTRIES = 128
 _RENDERED: dict[tuple[Any, ...], Callable[..., Any]] = {}
 
 
@@ -328,16 +332,17 @@ def generated(values: dict[str, Any], flags: dict[str, bool], interp: Callable[.
            tuple(flags.items()))
     fn = _RENDERED.get(key)
     if fn is None:
+        if len(_RENDERED) >= RENDERED_ENTRIES:
+            del _RENDERED[next(iter(_RENDERED))]
         fn = _RENDERED[key] = compile_cycles(render(values, flags, source), interp, step, name)
     return fn
 
 
 def compile_cycles(source: str, interp: Callable[..., float], step: Callable[..., Any],
                    name: str = "cycles") -> Callable[..., Any]:
-    fn = _CACHE.get(source)
-    if fn is None:
-        ns: dict[str, Any] = {**status.NAMESPACE, "floor": math.floor, "_interp": interp,
-                              "_step": step, "inf": math.inf}
-        exec(compile(source, "<servo loop>", "exec"), ns)  # noqa: S102 (our own template)
-        fn = _CACHE[source] = ns[name]
-    return fn
+    """The function `name` of `source` (its code object from the shared cache of generated
+    source, softplc.runtime.codecache)."""
+    ns: dict[str, Any] = {**status.NAMESPACE, "floor": math.floor, "_interp": interp,
+                          "_step": step, "inf": math.inf}
+    exec(compile_code(source, "<servo loop>"), ns)  # noqa: S102 (our own template)
+    return ns[name]
