@@ -220,6 +220,7 @@ def test_drawing_table_machine_view(module_page, tmp_path, daemons):
           and api.request("machine?since=0")["devices"]["X"]["pos"] == 0
           and api.request("machine?since=0")["devices"]["Z"]["pos"] == 0,
           period=0.05)  # homing done: both axes at 0
+    assert_view_unchanged(page, "#tab-machine")  # at rest: its updates change no element
     api.request("write", {"writes": [{"object": "%MW0", "value": 600},
                                      {"object": "%MW1", "value": 400},
                                      {"object": "%MW5", "value": 1}]})
@@ -230,6 +231,28 @@ def test_drawing_table_machine_view(module_page, tmp_path, daemons):
         "() => { const p = document.querySelector('#pen-path');"
         " return p && p.getTotalLength() > 100; }", timeout=WAIT_MS)
     shot(page, "machine")
+
+
+UPDATES_WATCHED = 5  # websocket updates the page takes while a view is watched
+
+
+def assert_view_unchanged(page, view: str) -> None:
+    """The page takes UPDATES_WATCHED updates with the machine's state while nothing in
+    `view` changes (a MutationObserver on it): an update equal to the last one shown is no
+    DOM work, so no style, layout or repaint either."""
+    page.evaluate("""(view) => {
+        window.viewChanges = []; window.machineUpdates = 0;
+        new MutationObserver((ms) => { for (const m of ms) window.viewChanges.push(
+            (m.target.id || m.target.nodeName) + " " + m.type); })
+          .observe(document.querySelector(view),
+                   {subtree: true, childList: true, attributes: true, characterData: true});
+        const ws = state.ws, on = ws.onmessage;
+        ws.onmessage = (ev) => {
+            on(ev); if (ev.data.includes('"machine"')) window.machineUpdates++; };
+    }""", view)
+    page.wait_for_function(f"() => window.machineUpdates >= {UPDATES_WATCHED}")
+    page.wait_for_timeout(0)  # the observer's records of the last update are delivered
+    assert page.evaluate("window.viewChanges") == []
 
 
 def test_analog_slider_reaches_the_plc(module_page, tmp_path, daemons):

@@ -130,6 +130,17 @@ function put(el, key, value) {
   if (el[key] !== value) el[key] = value;
 }
 const putText = (el, text) => put(el, "textContent", String(text));
+// A view rebuilt from markup each update (the Machine tab's drawing, its tables): markup
+// equal to what the element shows already is no DOM work (an idle machine costs the page
+// nothing; a rebuild is a parse, a style, a layout and a repaint of the whole view).
+const shownHTML = new WeakMap();
+function putAttr(el, name, value) {
+  if (el.getAttribute(name) !== value) el.setAttribute(name, value);
+}
+function putHTML(el, html) {
+  if (shownHTML.get(el) === html) return;
+  shownHTML.set(el, html); el.innerHTML = html;
+}
 
 const ms = (v) => (v === undefined ? "–" : v.toFixed(3) + " ms");
 function showStatus(st) {
