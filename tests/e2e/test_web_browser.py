@@ -255,6 +255,42 @@ def assert_view_unchanged(page, view: str) -> None:
     assert page.evaluate("window.viewChanges") == []
 
 
+def set_hidden(page, hidden: bool) -> None:
+    """The page as the browser hides it (another tab in front) or shows it again: its
+    document's `hidden` and `visibilityState`, then the `visibilitychange` event (a headless
+    browser's pages are all shown)."""
+    page.evaluate("""(hidden) => {
+        if (hidden) for (const [k, v] of [["hidden", true], ["visibilityState", "hidden"]])
+          Object.defineProperty(document, k, {get: () => v, configurable: true});
+        else { delete document.hidden; delete document.visibilityState; }
+        document.dispatchEvent(new Event("visibilitychange"));
+    }""", hidden)
+
+
+def test_hidden_page_asks_for_the_status_alone(module_page, star_daemon):
+    """A hidden page asks the daemon for the status alone: while it stays hidden its
+    updates carry no I/O and no rung, and the link stays up; shown again, the I/O and the
+    live rungs come back."""
+    page = open_page(module_page, web_url(star_daemon))
+    page.click("#tabs button[data-tab=ladder]")
+    page.evaluate("""() => { window.updates = []; const ws = state.ws, on = ws.onmessage;
+        ws.onmessage = (ev) => {
+            on(ev); window.updates.push(Object.keys(JSON.parse(ev.data)).sort().join(" ")); };
+    }""")
+    page.wait_for_function("() => updates.some((k) => k.includes('io'))")
+    set_hidden(page, True)
+    page.wait_for_function("() => updates.at(-1) === 'status type'")
+    seen = page.evaluate("updates.length")
+    page.wait_for_function(f"() => updates.length >= {seen + UPDATES_WATCHED}")
+    assert set(page.evaluate(f"updates.slice({seen})")) == {"status type"}
+    assert page.locator("#link.up").count() == 1
+    assert page.locator("#state").inner_text() != "DISCONNECTED"
+    set_hidden(page, False)
+    page.wait_for_function("() => updates.at(-1).includes('io')")
+    page.wait_for_function(f"() => updates.slice({seen}).some((k) => k.includes('ladder'))")
+    sync_api.expect(page.locator('#ladder div[data-rung="0"] svg')).to_be_visible()
+
+
 def test_analog_slider_reaches_the_plc(module_page, tmp_path, daemons):
     """analog_thermostat: the base's potentiometer %IW0.0 is a slider; the program copies it
     to %MW0 (/4). The PT100 %IW2.0 follows the oven (slider locked), %QW2.0 is a value."""

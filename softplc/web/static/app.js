@@ -79,12 +79,20 @@ function subscribe() {
       if (w && state.formats[obj] === "float") objects.add("%MF" + w[1]);
     }
   }
+  const shown = !document.hidden;  // a hidden page: see the visibilitychange listener
   ws.send(JSON.stringify({ subscribe: {
-    objects: [...objects], io: true,
-    rungs: state.tab === "ladder" ? shownRungs() : [],
-    machine: state.tab === "machine" } }));
-  if (state.tab === "machine") state.machine.trace = [];
+    objects: [...objects], io: shown,
+    rungs: shown && state.tab === "ladder" ? shownRungs() : [],
+    machine: shown && state.tab === "machine" } }));
+  if (shown && state.tab === "machine") state.machine.trace = [];
 }
+// A hidden page (another tab in front, a minimised window) asks only for the status, which
+// tells it the link is alive, and the objects it records (the trends go on); the I/O, the
+// live rungs and the machine's state come back, and the trends are drawn, once it is shown.
+document.addEventListener("visibilitychange", () => {
+  subscribe();
+  if (!document.hidden && state.tab === "trends") drawTrend();
+});
 
 // one view that fails on an unexpected value must not stop the others (nor the next updates)
 function guarded(what, fn) {
