@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from chromium import CHROMIUM, MISSING
 from daemon_util import ROOT, Daemon, started
-from waits import WAIT_MS, WAIT_S, until
+from waits import PAGE_POLL_MS, WAIT_MS, WAIT_S, until
 
 from softplc.commands.io import Client
 from softplc.runtime.blocks import MAX_VALUE
@@ -229,7 +229,7 @@ def test_drawing_table_machine_view(module_page, tmp_path, daemons):
     sync_api.expect(path).to_have_count(1, timeout=WAIT_MS)
     page.wait_for_function(
         "() => { const p = document.querySelector('#pen-path');"
-        " return p && p.getTotalLength() > 100; }", timeout=WAIT_MS)
+        " return p && p.getTotalLength() > 100; }", timeout=WAIT_MS, polling=PAGE_POLL_MS)
     shot(page, "machine")
 
 
@@ -250,7 +250,8 @@ def assert_view_unchanged(page, view: str) -> None:
         ws.onmessage = (ev) => {
             on(ev); if (ev.data.includes('"machine"')) window.machineUpdates++; };
     }""", view)
-    page.wait_for_function(f"() => window.machineUpdates >= {UPDATES_WATCHED}")
+    page.wait_for_function(f"() => window.machineUpdates >= {UPDATES_WATCHED}",
+                           polling=PAGE_POLL_MS)
     page.wait_for_timeout(0)  # the observer's records of the last update are delivered
     assert page.evaluate("window.viewChanges") == []
 
@@ -277,17 +278,19 @@ def test_hidden_page_asks_for_the_status_alone(module_page, star_daemon):
         ws.onmessage = (ev) => {
             on(ev); window.updates.push(Object.keys(JSON.parse(ev.data)).sort().join(" ")); };
     }""")
-    page.wait_for_function("() => updates.some((k) => k.includes('io'))")
+    page.wait_for_function("() => updates.some((k) => k.includes('io'))", polling=PAGE_POLL_MS)
     set_hidden(page, True)
-    page.wait_for_function("() => updates.at(-1) === 'status type'")
+    page.wait_for_function("() => updates.at(-1) === 'status type'", polling=PAGE_POLL_MS)
     seen = page.evaluate("updates.length")
-    page.wait_for_function(f"() => updates.length >= {seen + UPDATES_WATCHED}")
+    page.wait_for_function(f"() => updates.length >= {seen + UPDATES_WATCHED}",
+                           polling=PAGE_POLL_MS)
     assert set(page.evaluate(f"updates.slice({seen})")) == {"status type"}
     assert page.locator("#link.up").count() == 1
     assert page.locator("#state").inner_text() != "DISCONNECTED"
     set_hidden(page, False)
-    page.wait_for_function("() => updates.at(-1).includes('io')")
-    page.wait_for_function(f"() => updates.slice({seen}).some((k) => k.includes('ladder'))")
+    page.wait_for_function("() => updates.at(-1).includes('io')", polling=PAGE_POLL_MS)
+    page.wait_for_function(f"() => updates.slice({seen}).some((k) => k.includes('ladder'))",
+                           polling=PAGE_POLL_MS)
     sync_api.expect(page.locator('#ladder div[data-rung="0"] svg')).to_be_visible()
 
 
@@ -334,7 +337,8 @@ def test_animation_table_of_output_bits_survives_any_value_and_resets(module_pag
     }""")
     assert shown == ["1", "x", "NaN", "0=1"]
     scans = int(page.locator("#scans").inner_text())
-    page.wait_for_function(f"() => +document.querySelector('#scans').textContent > {scans}")
+    page.wait_for_function(f"() => +document.querySelector('#scans').textContent > {scans}",
+                           polling=PAGE_POLL_MS)
     page.reload()  # the table is kept in the browser: the page still works with it
     page.wait_for_selector("#link.up")
     page.click("#tabs button[data-tab=tables]")
