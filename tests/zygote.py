@@ -91,6 +91,9 @@ def serve(fd: int) -> None:
 
     for name in PRELOAD:
         importlib.import_module(name)
+    from softplc.daemon import prefork_warm_up
+
+    prefork_warm_up()  # each daemon's first-start work, done once for all of them
     # what the children share stays out of their collector's walks (and their pages stay
     # shared: a collection writes to every object it walks), as in a pre-fork server
     gc.collect()
