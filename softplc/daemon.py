@@ -114,32 +114,6 @@ class DaemonOptions:
     wires: Any = None
 
 
-#: The program `prefork_warm_up` builds (any program would do: it reads one input bit and
-#: writes one output, so its parse, compilation and scan take each path a daemon's first
-#: ones take)
-WARM_UP_PROGRAM = "LD %I0.0\nST %Q0.0\n"
-
-
-def prefork_warm_up() -> None:
-    """Do once, in a process that forks daemons (the test suite's zygote, a pre-forking
-    server), what every daemon's start would otherwise do again: import the machines'
-    device types (the registry imports them at the first configuration), build the
-    parser's tables, and build, scan and snapshot a small controller (the configuration
-    models', compiler's and scan generator's first use). A fork shares all that
-    copy-on-write: about 170 ms of CPU less per forked daemon (docs/performance.md).
-    Starts no thread and opens nothing: safe before `fork`."""
-    from softplc.devices.base import device_types
-    from softplc.plc import PLC
-
-    device_types()
-    plc = PLC.from_source(WARM_UP_PROGRAM)
-    image = ModbusImage(plc.mem)
-    plc.before_scan.append(image.apply_writes)
-    plc.after_scan.append(image.take_snapshot)
-    plc.scan()
-    plc.close()
-
-
 def percentiles(samples: list[float], *ps: float) -> list[float]:
     """Nearest-rank percentiles (0 for no samples)."""
     if not samples:
