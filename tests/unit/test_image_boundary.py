@@ -141,7 +141,7 @@ step = st.one_of(
 scan = st.tuples(st.lists(step, max_size=4), st.lists(step, max_size=2))  # before/after apply
 
 
-@settings(max_examples=examples(400), deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(st.lists(scan, min_size=1, max_size=12))
 def test_readers_see_the_boundary_image_with_the_pending_writes_over_it(scans):
     mem = MemoryImage()
