@@ -159,21 +159,22 @@ class ModbusImage:
             coils = cc.tobytes()
         return regs, coils
 
-    def take_snapshot(self) -> None:
-        """Copy %MW and %M for readers (and commit them to the store). After each scan."""
-        if self.hold:
-            return
-        self.snapshot_boundary()
-
     def snapshot_boundary(self) -> None:
         """`take_snapshot` whatever `hold`: for a caller in the scan thread between two
         scans (an online change's swap), whose memory is a boundary's even when the scan
-        that follows is cut short.
+        that follows is cut short."""
+        self.take_snapshot(force=True)
+
+    def take_snapshot(self, force: bool = False) -> None:
+        """Copy %MW and %M for readers (and commit them to the store). After each scan
+        (the daemon's `after_scan` hook), unless `hold` (`force`: whatever `hold`).
 
         Only what changed since the last boundary is converted (an idle or slow machine's
         boundary is two compares): the snapshot is rewritten when the memory differs
         from the image it was made from or host writes are laid over it; the store gets
         a commit at every boundary all the same (the blocks' state moves with time)."""
+        if self.hold and not force:
+            return
         mem = self.mem
         mw, m = mem.mw.buf, mem.m
         same_mw = mw == self._mw_seen  # a memcmp
