@@ -187,7 +187,9 @@ _SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
 
 # A whole scan of the device (ServoAxis.update) in its common cases, the loop closed and
 # moving (rendered with the flags of that state only), or held at a fixed point of the
-# loop (LoopRunner): the update's checks, the cycles above, the status words
+# loop (LoopRunner), or at rest where the runner would only run the cycles: FE != 0 with
+# the integrator free and no DAC quantisation (no fixed point, the integrator moves; no
+# creep, which needs the DAC's steps: LoopRunner.run); the update's checks, the cycles above, the status words
 # (status.SOURCE) from the locals; at the fixed point the words of the last scan again,
 # with the new servo cycle count. It reads and writes the state's fields (`x_`...): the
 # properties over them drop these caches when anyone else assigns them (state.guard).
@@ -231,8 +233,10 @@ def scan(dev, t, dt):
             buf[$status_at:$status_end] = words
             _pack_ticks(buf, $ticks_at, k & 0x7FFFFFFF)
         return True
-    if dev.v_ == 0.0:
-        return False
+?dac    if dev.v_ == 0.0:
+?dac        return False
+!dac    if dev.v_ == 0.0 and (dev.fe_ == 0.0 or dev._clamped_):
+!dac        return False
 """ + _HEAD + _LOOP + _STORE + """\
     if event is not None:
         dev.runner.on_event(event)
