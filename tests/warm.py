@@ -13,6 +13,7 @@ import copy
 from collections.abc import Callable, Hashable
 from typing import Any
 
+from softplc.devices.axis.servo import ServoAxis
 from softplc.plc import PLC
 from softplc.runtime.engine import SW_LAST, SW_MIN
 
@@ -35,10 +36,20 @@ def warm(key: Hashable, build: Callable[[], PLC], prepare: Callable[[PLC], None]
 
 def simulated(plc: PLC) -> tuple[Any, ...]:
     """The engine's snapshot but for what measures the host's wall time (the scan time
-    words %SW30-%SW32, the statistics): equal for two machines that ran the same."""
+    words %SW30-%SW32, the statistics) and the servo axes' trace row counts (a snapshot
+    does not carry their rows, ServoAxis.state: a restored axis's trace starts empty;
+    compare the rows since with `servo_rows`): equal for two machines that ran the same."""
     snap = plc.engine.snapshot()
     mem = dict(snap["mem"])
     sw = bytearray(mem["sw"])
     sw[2 * SW_LAST:2 * (SW_MIN + 1)] = bytes(2 * (SW_MIN + 1 - SW_LAST))
     mem["sw"] = bytes(sw)
-    return mem, snap["devices"], snap["program"], snap["now_us"], snap["state"]
+    devices = {name: {k: v for k, v in st.items() if not (k == "trace" and isinstance(v, int))}
+               for name, st in snap["devices"].items()}
+    return mem, devices, snap["program"], snap["now_us"], snap["state"]
+
+
+def servo_rows(plc: PLC, since: int) -> dict[str, list[Any]]:
+    """Each servo axis's trace rows after its servo cycle `since`."""
+    return {name: [row for row in dev.trace if row[0] > since]
+            for name, dev in plc.devices.items() if isinstance(dev, ServoAxis)}
