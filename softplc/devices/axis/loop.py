@@ -189,15 +189,15 @@ _SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
 # moving (rendered with the flags of that state only), or held at a fixed point of the
 # loop (LoopRunner), or at rest where the runner would only run the cycles: FE != 0 with
 # the integrator free and no DAC quantisation (no fixed point, the integrator moves; no
-# creep, which needs the DAC's steps: LoopRunner.run); the update's checks, the cycles above, the status words
-# (status.SOURCE) from the locals; at the fixed point the words of the last scan again,
-# with the new servo cycle count. It reads and writes the state's fields (`x_`...): the
-# properties over them drop these caches when anyone else assigns them (state.guard).
-# It returns False, having done nothing, when the case
-# does not hold (a command word changed, a fault, the drive's wired READY off or just
-# back, a new value in the load mass word, an I-variable change waiting...);
-# whatever is rarer after the cycles (an event, the end of a trajectory, a limit wired
-# to the PMAC) goes to the device's own code.
+# creep, which needs the DAC's steps: LoopRunner.run). The update's checks, the cycles
+# above, the status words (status.SOURCE) from the locals; at the fixed point the words
+# of the last scan again, with the new servo cycle count. It reads and writes the state's
+# fields (`x_`...): the properties over them drop these caches when anyone else assigns
+# them (state.guard). It returns False, having done nothing, when the case does not hold
+# (a command word changed, a fault, the drive's wired READY off or just back, a new value
+# in the load mass word, an I-variable change waiting...); whatever is rarer after the
+# cycles (an event, the end of a trajectory, a limit wired to the PMAC) goes to the
+# device's own code.
 _SCAN = """\
 def scan(dev, t, dt):
     if dev._w[$ctl_i] != dev._ctl_prev or not dev.closed_ or dev.fault_ != "none" \\
