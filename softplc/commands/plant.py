@@ -158,11 +158,14 @@ def _page(args: argparse.Namespace) -> int:
 
 def _up(args: argparse.Namespace) -> int:
     from softplc.plant import hosts
-    from softplc.plant.model import load_plant
 
     why = hosts.netns_works()
     if why:
         raise PlantStateError(f"plant up --netns: network namespaces do not work here: {why}")
+    hosts.not_up(Path(args.plant), args.state_dir)  # refused before loading the plant
+
+    from softplc.plant.model import load_plant
+
     spec = load_plant(args.plant)
     page = hosts.PAGE_PORT if args.web is None else None if args.web == _PAGE_OFF else args.web
     record = hosts.up(spec, args.state_dir, preload, page)
@@ -223,8 +226,7 @@ def _process(args: argparse.Namespace) -> int:
 def _down(args: argparse.Namespace) -> int:
     from softplc.plant import hosts
 
-    record = args.state_dir / f"sp{hosts.tag(Path(args.plant))}.json"
-    for line in hosts.down(record):
+    for line in hosts.down(hosts.record_path(Path(args.plant), args.state_dir)):
         print(line)
     return 0
 
