@@ -21,9 +21,12 @@ def registered_in_sources() -> dict[str, str]:
     """{type name: module} of every `@register_device("NAME")` decorator under softplc/."""
     found: dict[str, str] = {}
     for path in sorted(PACKAGE.rglob("*.py")):
+        text = path.read_text()
+        if "register_device(" not in text:  # parsing all 250 modules: 1.5 CPU-s
+            continue
         parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
         module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-        for node in ast.walk(ast.parse(path.read_text())):
+        for node in ast.walk(ast.parse(text)):
             if isinstance(node, ast.Call) and getattr(node.func, "id", None) == \
                     "register_device" and node.args:
                 name = node.args[0]
