@@ -142,23 +142,30 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
 
     from softplc.errors import SoftPLCError
     try:  # the engine from the model's program and configuration, as the replay builds it
-        PLC(model.plc.ast, model.plc.config, devices=False).close()
+        plc = PLC(model.plc.ast, model.plc.config, devices=False)
     except SoftPLCError:  # e.g. a symbol file named relative to another directory
         return facts  # not sifted: Houdini alone decides (sifting only saves it time)
     alive = list(facts)
     seen: set[tuple[int, ...]] = set()
-    for run in range(runs):
-        # inputs held for stretches (a run of all-random bits would fault at once: an
-        # E-stop released half the time); half the runs change them more often
-        change = CHANGE[run % len(CHANGE)]
-        now = {k: value(sort, lo, hi) for k, sort, lo, hi in inputs}
-        with PLC(model.plc.ast, model.plc.config, devices=False) as plc:
+    with plc:
+        # each run from the cold start: the engine put back as built (`Engine.restore`,
+        # as the trace player goes back) rather than built again (most of the sift's time)
+        cold = plc.engine.snapshot()
+        refs = [(k, plc.symbols.ref(k)) for k in keys]
+        read = plc.mem.read
+        for run in range(runs):
+            # inputs held for stretches (a run of all-random bits would fault at once: an
+            # E-stop released half the time); half the runs change them more often
+            change = CHANGE[run % len(CHANGE)]
+            now = {k: value(sort, lo, hi) for k, sort, lo, hi in inputs}
+            if run:
+                plc.engine.restore(cold)
             for _ in range(scans):
                 now = {k: value(sort, lo, hi) if rnd.random() < change else now[k]
                        for k, sort, lo, hi in inputs}
                 set_inputs(plc, now)
                 plc.scan()
-                v = {k: int(plc[k]) for k in keys}
+                v = {k: int(read(r)) for k, r in refs}
                 seen_before = tuple(v.values())
                 if seen_before not in seen:  # a state seen already breaks nothing new
                     seen.add(seen_before)
@@ -166,11 +173,20 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
     return alive
 
 
+def _scan(model: Model) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """The model's scan from variables (state `k@si`, inputs): read by `candidates`, then
+    checked by `houdini`: built once per model, kept on it."""
+    made = getattr(model, "_state_scan", None)
+    if made is None:
+        pre = {k: z3.Const(f"{k}@si", sort_of(v.sort)) for k, v in model.vars.items()}
+        _, inp = model.fresh("si")
+        made = model._state_scan = (pre, inp, model.scan(dict(pre), inp))  # type: ignore[attr-defined]
+    return made
+
+
 def candidates(model: Model) -> list[Fact]:
     """The model's candidate facts, in an order that depends on the model only."""
-    pre = {k: z3.Const(f"{k}@si", sort_of(v.sort)) for k, v in model.vars.items()}
-    _, inp = model.fresh("si")
-    post = model.scan(dict(pre), inp)
+    _, _, post = _scan(model)
     init = model.init_state()
     state = sorted(k for k, v in model.vars.items()
                    if is_object(k) and k not in model.host and k in post
@@ -239,12 +255,14 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
     hundreds of small queries); a model that breaks one drops every fact it breaks.
     Passes until one drops nothing."""
     import time
+
+    from softplc.verify.symbolic import value_of
     end = time.monotonic() + seconds
-    init = model.init_state()
-    alive = {i for i, f in enumerate(facts) if z3.is_true(z3.simplify(f.term(init)))}
-    pre = {k: z3.Const(f"{k}@si", sort_of(v.sort)) for k, v in model.vars.items()}
-    _, inp = model.fresh("si")
-    post = model.scan(dict(pre), inp)
+    # a fact read on values (`Fact.test`, as the sift reads the engine's) is the fact's
+    # term evaluated on them: the cold start's, then a refuting model's post-state
+    cold = {k: v.init for k, v in model.vars.items()}
+    alive = {i for i, f in enumerate(facts) if f.test(cold)}
+    pre, inp, post = _scan(model)
     s = z3.Solver()
     s.add(*model.invariants(pre), *model.input_constraints(inp))
     if "_facts" in post:
@@ -271,8 +289,9 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
                 alive.discard(i)
             else:
                 m = s.model()
-                alive -= {j for j in alive
-                          if not z3.is_true(m.eval(after[j], model_completion=True))}
+                now = {k: value_of(m, post[k]) for k in {k for j in alive
+                                                         for k in facts[j].keys}}
+                alive -= {j for j in alive if not facts[j].test(now)}
             s.pop()  # the facts dropped were asserted: assert those alive again
             s.push()
             s.add(*[before[j] for j in sorted(alive)])
