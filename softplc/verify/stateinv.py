@@ -35,6 +35,7 @@ run, assumed or not.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -254,6 +255,12 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
     each is asked after the scan on its own (a disjunction of hundreds is far slower than
     hundreds of small queries); a model that breaks one drops every fact it breaks.
     Passes until one drops nothing."""
+    return _houdini(model, facts, seconds)[0]
+
+
+def _houdini(model: Model, facts: list[Fact], seconds: float) -> tuple[list[str], bool]:
+    """`houdini`'s texts, and whether the solver decided every question in its time (else
+    what it kept depends on the machine's speed: not kept for another model, `prove`)."""
     import time
 
     from softplc.verify.symbolic import value_of
@@ -269,7 +276,7 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
         s.add(post["_facts"])
     before = {i: facts[i].term(pre) for i in alive}
     after = {i: facts[i].term(post) for i in alive}
-    changed = True
+    changed, decided = True, True
     while changed and alive:
         changed = False
         s.push()
@@ -279,7 +286,7 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
                 continue
             left = end - time.monotonic()
             if left <= 0:
-                return []
+                return [], False
             s.set("timeout", int(1000 * min(left, ROUND_S)))
             r = s.check(z3.Not(after[i]))
             if r == z3.unsat:
@@ -287,6 +294,7 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
             changed = True
             if r != z3.sat:  # undecided in its time: not assumed
                 alive.discard(i)
+                decided = False
             else:
                 m = s.model()
                 now = {k: value_of(m, post[k]) for k in {k for j in alive
@@ -296,27 +304,63 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
             s.push()
             s.add(*[before[j] for j in sorted(alive)])
         s.pop()
-    return [facts[i].text for i in sorted(alive)]
+    return [facts[i].text for i in sorted(alive)], decided
+
+
+# Facts proven for a model, kept in this process for another model of the same system (a
+# program verified again: the REPL, a test session, the benchmark), the least recently
+# used dropped first. The key is the system itself: the ids of its terms (the scan from
+# variables, the cold start, the range invariants, the input spans), which z3 shares
+# between equal terms; the entry holds those terms, so no other term can take their ids.
+CACHE_MODELS = 8
+_proven: OrderedDict[tuple[Any, ...], tuple[list[Fact], list[Any]]] = OrderedDict()
+
+
+def _system(model: Model) -> tuple[tuple[Any, ...], list[Any]]:
+    """The key of `model`'s transition system in `_proven`, and the terms it names."""
+    pre, inp, post = _scan(model)
+    terms = [*post.values(), *model.init_state().values(), *model.invariants(pre),
+             *model.input_constraints(inp)]
+    return (tuple(post), tuple((k, v.sort) for k, v in model.vars.items()),
+            tuple(sorted(model.host)), tuple(t.get_id() for t in terms)), terms
 
 
 def prove(model: Model, run: Callable[..., Any] | None = None,
           seconds: float = PROVE_S) -> list[Fact]:
-    """The model's proven facts, computed once and kept on the model. `run(work,
-    seconds)`: where the proof runs (`guard.isolated`: a child process, so that a solver
-    overrunning its timeout cannot hold the run, and whose answer every requirement's
-    child inherits); None: here, within `seconds`."""
+    """The model's proven facts, computed once and kept on the model (and for another
+    model of the same system: `_proven`). `run(work, seconds)`: where the proof runs
+    (`guard.isolated`: a child process, so that a solver overrunning its timeout cannot
+    hold the run, and whose answer every requirement's child inherits); None: here,
+    within `seconds`."""
     cached = getattr(model, "_state_facts", None)
     if cached is not None:
         return cached
     out: list[Fact] = []
     if not model.loops.sites:  # a loop's passes are the solver's: no scan term to read
-        facts = candidates(model)
-
-        def work(_report: Any = None) -> list[str]:
-            return houdini(model, sift(model, facts), seconds)
-        texts = ([] if not facts else work() if run is None else run(work, seconds))
-        if isinstance(texts, list):  # else an UNKNOWN Result: the time or the solver
-            kept = set(texts)
-            out = [f for f in facts if f.text in kept]
+        key, terms = _system(model)
+        if key in _proven:
+            _proven.move_to_end(key)
+            out = _proven[key][0]
+        else:
+            out = _proven_here(model, run, seconds, key, terms)
     model._state_facts = out  # type: ignore[attr-defined]
+    return out
+
+
+def _proven_here(model: Model, run: Callable[..., Any] | None, seconds: float,
+                 key: tuple[Any, ...], terms: list[Any]) -> list[Fact]:
+    facts = candidates(model)
+
+    def work(_report: Any = None) -> tuple[list[str], bool]:
+        return _houdini(model, sift(model, facts), seconds)
+    got = ([], True) if not facts else work() if run is None else run(work, seconds)
+    if not isinstance(got, tuple):  # an UNKNOWN Result: the time or the solver
+        return []
+    texts, decided = got
+    kept = set(texts)
+    out = [f for f in facts if f.text in kept]
+    if decided:  # (else a faster run may keep more)
+        _proven[key] = (out, terms)
+        while len(_proven) > CACHE_MODELS:
+            _proven.popitem(last=False)
     return out
