@@ -152,8 +152,8 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
         # each run from the cold start: the engine put back as built (`Engine.restore`,
         # as the trace player goes back) rather than built again (most of the sift's time)
         cold = plc.engine.snapshot()
-        refs = [(k, plc.symbols.ref(k)) for k in keys]
-        read = plc.mem.read
+        from softplc.access.reading import Reading
+        read = Reading(plc).reader([plc.symbols.ref(k) for k in keys])  # from the arrays
         for run in range(runs):
             # inputs held for stretches (a run of all-random bits would fault at once: an
             # E-stop released half the time); half the runs change them more often
@@ -166,7 +166,7 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
                        for k, sort, lo, hi in inputs}
                 set_inputs(plc, now)
                 plc.scan()
-                v = {k: int(read(r)) for k, r in refs}
+                v = dict(zip(keys, read(), strict=True))
                 seen_before = tuple(v.values())
                 if seen_before not in seen:  # a state seen already breaks nothing new
                     seen.add(seen_before)
