@@ -85,12 +85,9 @@ def _send(sock: socket.socket, msg: dict[str, Any]) -> None:
 def serve(fd: int) -> None:
     """The zygote: import, then fork a child per request on socket `fd` and report each
     child's exit; at the socket's end (the test worker gone) kill what is left."""
-    import importlib
+    from softplc.commands.plant import preload
 
-    from softplc.commands.plant import PRELOAD
-
-    for name in PRELOAD:
-        importlib.import_module(name)
+    preload()
     # what the children share stays out of their collector's walks (and their pages stay
     # shared: a collection writes to every object it walks), as in a pre-fork server
     gc.collect()

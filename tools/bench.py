@@ -3,7 +3,7 @@
     .venv/bin/python tools/bench.py [--quick] [--json results/bench.json]
                                     [--png results/bench.png]
                                     [--sections engine,wordops,peers,modbus,drawing,servo,
-                                                cutting,mass]
+                                                cutting,mass,startup]
 
 Sections:
   engine  ns per boolean instruction, us per scan of ladder_programs/*.il (bench_engine.py)
@@ -22,6 +22,8 @@ Sections:
           >= 50x)
   mass    machining centre: one full mass-measurement sequence of mass_tuning.il at 1 ms
           scans with the host estimate, simulated s per wall and CPU s (bench_mass.py; >= 50x)
+  startup CPU s of a whole `python -m softplc ...` process for commands that end soon
+          after their start: --help, check, repl -x quit, plant down (bench_startup.py)
 
 Figures go to stdout, progress to stderr; the JSON and the bar chart go under results/.
 Absolute numbers vary from run to run and with whatever else the machine is doing (the
@@ -104,6 +106,8 @@ SECTION_RUNS: dict[str, tuple[Callable[[bool], Any], Callable[[Any], str]]] = {
     "cutting": (lambda quick: _bench("bench_cutting").run(speed=10.0 if quick else 2.0),
                 _report("bench_cutting")),
     "mass": (lambda quick: _bench("bench_mass").run(), _report("bench_mass")),
+    "startup": (lambda quick: _bench("bench_startup").run(runs=3 if quick else 5),
+                _report("bench_startup")),
 }
 SECTIONS = tuple(SECTION_RUNS)
 

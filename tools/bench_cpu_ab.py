@@ -89,6 +89,21 @@ def _copy(checkout: Path, into: Path) -> None:
         if src.is_file():  # (a tracked file deleted in the working tree is left out)
             (into / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, into / name)
+            _copy_bytecode(src, into / name)
+
+
+def _copy_bytecode(src: Path, dst: Path) -> None:
+    """The compiled module of source `src` (git-ignored) beside its copy `dst`: the side's
+    first child then loads it instead of compiling every module again (0.6 s of CPU for
+    softplc.plc). Python checks it against the copy as against the original (copy2 keeps
+    the source's size and mtime; a stale one is compiled again) and names the copy in
+    the code's file names."""
+    if src.suffix != ".py" or sys.implementation.cache_tag is None:
+        return
+    pyc = src.parent / "__pycache__" / f"{src.stem}.{sys.implementation.cache_tag}.pyc"
+    if pyc.is_file():
+        (dst.parent / "__pycache__").mkdir(exist_ok=True)
+        shutil.copy2(pyc, dst.parent / "__pycache__" / pyc.name)
 
 
 def resolve(spec: str, tmp: Path) -> Side:
@@ -131,13 +146,17 @@ def child(side: Side, argv: Sequence[str]) -> dict[str, Any]:
     return res
 
 
+def _check_rounds(rounds: int) -> None:
+    if rounds < 1:
+        raise ABError("--rounds must be >= 1")
+
+
 def alternate(sides: Sequence[Side], rounds: int, run: Run,
               what: str = "A/B") -> list[list[dict[str, Any]]]:
     """`run(side)` `rounds` times for each side, alternating, every other round in the
     reverse order (A B, B A, A B, ...: neither side always runs first); progress and an
     ETA on stderr. The results per side, in the order of `sides`."""
-    if rounds < 1:
-        raise ABError("--rounds must be >= 1")
+    _check_rounds(rounds)
     runs: list[list[dict[str, Any]]] = [[] for _ in sides]
     total, t0 = rounds * len(sides), time.monotonic()
     for i in range(rounds):
@@ -179,7 +198,9 @@ def table(sides: Sequence[Side], runs: Sequence[Sequence[dict[str, Any]]],
 def compare(a: str, rounds: int, run: Run, keys: Sequence[Key], title: str,
             b: str = str(ROOT)) -> str:
     """The whole A/B: resolve both sides (B: this checkout by default), run them
-    alternating, the table."""
+    alternating, the table. A bad --rounds is refused before the sides are made (a
+    checkout's copy, a revision's export)."""
+    _check_rounds(rounds)
     with sides([a, b]) as both:
         return table(both, alternate(both, rounds, run), keys, title)
 

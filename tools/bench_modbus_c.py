@@ -26,7 +26,6 @@ import time
 from pathlib import Path
 
 import bench_cpu_ab as ab
-from bench_modbus import DEFAULT_PROGRAM
 from peers.libmodbus_peer import LibmodbusServer
 from peers.modbus_peer import ServerProcess
 
@@ -94,6 +93,10 @@ def main(argv: list[str] | None = None) -> int:
             ab.sides([a.baseline] if a.baseline else []) as baseline:
         exe = build_load(Path(tmp))
         program = Path(tmp) / "bench.il"
+        # imported here: it loads the daemon (0.7 s of CPU); a bad --baseline is refused
+        # before that
+        from bench_modbus import DEFAULT_PROGRAM
+
         program.write_text(DEFAULT_PROGRAM)
         servers = {"softplc": softplc(program, "default"),
                    "softplc asyncio": softplc(program, "asyncio"),

@@ -21,17 +21,14 @@ count; `apt-get install -y valgrind` provides it.
 from __future__ import annotations
 
 import os
-import re
 import sys
-from collections import namedtuple
-from pathlib import Path
 
 # Each measured child imports this module to call start(), uninstrumented but under
-# valgrind (several times slower than plain): only what Python's start-up has loaded
-# already (os, re, pathlib, collections) at the top; subprocess, shutil and
-# dataclasses, half a second of CPU per child there, where they are used.
+# valgrind (several times slower than plain), and starts without `site` (`_run`): only
+# os and sys at the top; re, pathlib, subprocess, shutil and tempfile, a quarter to half
+# a second of CPU each per child there, where the parent's side uses them.
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 VALGRIND = "valgrind"
 ANNOTATE = "callgrind_annotate"
 CONTROL = "callgrind_control"
@@ -39,16 +36,23 @@ HASH_SEED = "0"  # the same dict and set orders in every run
 UNDER = "SOFTPLC_CALLGRIND"  # set in the child's environment by `_run`
 # Functions whose inclusive cost is "the clock" (glibc's entry point and its vDSO or
 # syscall path below it; the largest inclusive figure is the outermost, all of them).
-CLOCK_FUNC = re.compile(r"clock_gettime")
-_TOTAL = re.compile(r"^(?:summary|totals):\s*(\d+)", re.M)
-_ANNOTATED = re.compile(r"^\s*([\d,]+)\s+\([^)]*\)\s+(\S+)")
+CLOCK_FUNC = r"clock_gettime"
+_TOTAL = r"^(?:summary|totals):\s*(\d+)"  # (multi-line)
+_ANNOTATED = r"^\s*([\d,]+)\s+\([^)]*\)\s+(\S+)"
 MISSING = "instruction count skipped: valgrind not found (apt-get install -y valgrind)"
 
 
-class Count(namedtuple("Count", ["total", "clock"])):  # (typing is not loaded yet)
+class Count:
     """Instructions per iteration: `total` in all, of which `clock` in the clock calls."""
 
-    __slots__ = ()
+    __slots__ = ("total", "clock")
+
+    def __init__(self, total: float, clock: float) -> None:
+        self.total = total
+        self.clock = clock
+
+    def __repr__(self) -> str:
+        return f"Count(total={self.total!r}, clock={self.clock!r})"
 
     @property
     def without_clock(self) -> float:
@@ -84,24 +88,34 @@ def start() -> None:
             raise RuntimeError(f"{CONTROL} -i on: exit status {code}")
 
 
-def _run(child: str, n: int, out: Path, args: tuple[str, ...]) -> tuple[int, int]:
-    """(total Ir, inclusive Ir of the clock calls) of one run of the child."""
+def _run(child: str, n: int, out: os.PathLike[str],
+         args: tuple[str, ...]) -> tuple[int, int]:
+    """(total Ir, inclusive Ir of the clock calls) of one run of the child.
+
+    The child runs `python -S`: without `site`, whose .pth files (setuptools' editable
+    finder imports pathlib, re and urllib.parse) cost about 0.5 s of CPU per run under
+    valgrind; the site-packages folders are on its PYTHONPATH instead, after this
+    repository and tools/ (the editable install's finder only pointed at ROOT)."""
+    import re
+    import site
     import subprocess
 
+    path = [ROOT, os.path.join(ROOT, "tools"), *site.getsitepackages()]
     env = dict(os.environ, PYTHONHASHSEED=HASH_SEED, **{UNDER: "1"},
-               PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "tools")]))
+               PYTHONPATH=os.pathsep.join(path))
     cmd = [VALGRIND, "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={out}",
-           sys.executable, "-c", child, str(n), *args]
+           sys.executable, "-S", "-c", child, str(n), *args]
     r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env, check=False)
     if r.returncode:
         raise RuntimeError(f"callgrind run failed ({r.returncode}):\n{r.stderr[-2000:]}")
-    m = _TOTAL.search(out.read_text(errors="replace"))
+    with open(out, errors="replace") as f:
+        m = re.search(_TOTAL, f.read(), re.M)
     if m is None:
         raise RuntimeError(f"no total in {out}")
     ann = subprocess.run([ANNOTATE, "--inclusive=yes", "--threshold=100", str(out)],
                          capture_output=True, text=True, check=False).stdout
-    clock = [int(c.replace(",", "")) for c, fn in _ANNOTATED.findall(
-        "\n".join(ln for ln in ann.splitlines() if CLOCK_FUNC.search(ln)))]
+    clock = [int(c.replace(",", "")) for c, fn in re.findall(_ANNOTATED, "\n".join(
+        ln for ln in ann.splitlines() if re.search(CLOCK_FUNC, ln)))]
     return int(m.group(1)), max(clock, default=0)
 
 
@@ -113,6 +127,7 @@ def count(child: str, n_small: int, n_large: int, *args: str) -> Count:
     # here, not at the top: every measured child imports this module to call start(), and
     # tempfile (with random, hashlib) is 0.6 s of CPU in a child's start-up under valgrind
     import tempfile
+    from pathlib import Path
 
     with tempfile.TemporaryDirectory() as tmp:
         a = _run(child, n_small, Path(tmp) / "small.out", args)

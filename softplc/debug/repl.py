@@ -13,10 +13,13 @@ import shutil
 import signal
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from softplc.debug.plant_session import PlantSession
 from softplc.debug.session import Session
+
+if TYPE_CHECKING:  # a plant's session is made by its command: a program's REPL starts
+    # without the plant, the Modbus image and numpy
+    from softplc.debug.plant_session import PlantSession
 
 try:  # readline is missing on some platforms: the REPL then works without it
     import readline

@@ -85,6 +85,12 @@ def _fast_line() -> FastLines | None:
     return fastlines.build(_lark(), _ToAST)
 
 
+def prepare() -> None:
+    """Build the grammar and the fast line table now, not at the first parse: for a
+    process that forks parsers (`plant up`, the test zygote), so that each child does not."""
+    _fast_line()
+
+
 def _pos(tok: Token | object) -> A.Pos:
     return A.Pos(getattr(tok, "line", 0) or 0, getattr(tok, "column", 0) or 0,
                  getattr(tok, "end_line", 0) or 0, getattr(tok, "end_column", 0) or 0)

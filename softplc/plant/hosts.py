@@ -47,11 +47,13 @@ import tomllib
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from softplc.errors import PlantStateError
-from softplc.plant.model import PlantSpec
-from softplc.plant.process import WIRE_PORT, wired_io
+
+if TYPE_CHECKING:  # imported where used: `plant down` and a refused `plant up` need
+    # neither the plant model nor the process (the configuration, pydantic: 0.5 s of CPU)
+    from softplc.plant.model import PlantSpec
 
 MODBUS_PORT = 502  # a real Twido's Modbus TCP port [Modbus TCP spec: port 502]
 LINK_PORT = 5101  # where a remote answers the link (a softplc choice)
@@ -115,6 +117,8 @@ def _commands(spec: PlantSpec, hosts: dict[str, str], plant_host: str = "",
     """Each controller's `softplc run` command line: the link options from the plant, the
     wire options (its wired inputs, driven by `plant_host` only), its web monitor on its
     own address (`web`; its token from the environment) or none."""
+    from softplc.plant.process import WIRE_PORT, wired_io
+
     io = wired_io(spec)
     masters = {e.master: e for e in spec.data.links.values() if e.type == "remote_link"}
     linked = {p for e in masters.values() for p in e.peers}
@@ -152,6 +156,20 @@ def _commands(spec: PlantSpec, hosts: dict[str, str], plant_host: str = "",
     return out
 
 
+def record_path(plant_file: Path, state_dir: Path) -> Path:
+    """Where `up` records plant `plant_file` in `state_dir` (`down` reads it)."""
+    return state_dir / f"sp{tag(plant_file)}.json"
+
+
+def not_up(plant_file: Path, state_dir: Path) -> Path:
+    """The record file of a plant that is not up yet, else a clear error (before `up`
+    loads anything)."""
+    record_file = record_path(plant_file, state_dir)
+    if record_file.exists():
+        raise PlantStateError(f"{plant_file}: already up ({record_file}); `plant down` first")
+    return record_file
+
+
 def up(spec: PlantSpec, state_dir: Path, preload: Callable[[], Any],
        page_port: int | None = PAGE_PORT) -> dict[str, Any]:
     """Make the namespaces, start every daemon (and the plant host, when the plant has
@@ -162,9 +180,7 @@ def up(spec: PlantSpec, state_dir: Path, preload: Callable[[], Any],
     (tokens for them all); None: neither."""
     web = page_port is not None
     t = tag(spec.file)
-    record_file = state_dir / f"sp{t}.json"
-    if record_file.exists():
-        raise PlantStateError(f"{spec.file}: already up ({record_file}); `plant down` first")
+    record_file = not_up(spec.file, state_dir)
     hosts = addresses(spec)
     net = ipaddress.ip_network(f"{next(iter(hosts.values()))}/24", strict=False)
     plant_host = str(net.network_address + PLANT_HOST)

@@ -151,6 +151,20 @@ def test_c_load_generator_against_the_server(tmp_path: Path, fc: int) -> None:
     assert th.stats.requests >= int(words[1]) and th.stats.exceptions == 0
 
 
+def test_startup_benchmark_one_command() -> None:
+    """One short command line (the run command's help), one run: a CPU figure from the
+    child's rusage, and the report's row."""
+    import bench_startup
+
+    label, args = next(c for c in bench_startup.COMMANDS if c[1] == ("run", "--help"))
+    res = bench_startup.run(runs=1, commands=((label, args),))
+    assert set(res) == {label} and res[label]["argv"] == ["run", "--help"]
+    assert _positive(res[label]["best_s"]) and res[label]["best_s"] == res[label]["median_s"]
+    assert label in bench_startup.report(res)
+    with pytest.raises(ValueError):
+        bench_startup.run(runs=0)
+
+
 def test_bench_floor_parts_removes_each_part_it_names() -> None:
     """Every edit finds its text in the generated scan (else the tool exits), and each
     variant still runs."""

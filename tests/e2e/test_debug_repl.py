@@ -1,13 +1,26 @@
-"""The debugger as a person uses it: `python -m softplc repl` in a pseudo-terminal."""
+"""The debugger as a person uses it: `python -m softplc repl` in a pseudo-terminal.
+
+`test_small_program_session_and_ctrl_d` starts the real interpreter on a terminal of its
+own (pexpect.spawn); the longer sessions run the same command line forked from the test
+zygote (tests/zygote.py) on a pseudo-terminal: the same readline, completion, history and
+end of input, without an interpreter's start and imports each (about 1 s of CPU)."""
 
 from __future__ import annotations
 
+import fcntl
 import os
+import pty
+import signal
+import struct
 import sys
+import termios
 from pathlib import Path
 
 import pexpect
 import pytest
+from pexpect.fdpexpect import fdspawn
+from waits import WAIT_S
+from zygote import forking, zygote
 
 from softplc.cli import main
 
@@ -17,11 +30,52 @@ TABLE = ROOT / "ladder_programs" / "drawing_table.il"
 PROMPT = r"\(softplc\) "
 
 
-def spawn(tmp_path: Path, *args: str) -> pexpect.spawn:
+ROWS, COLS = 60, 200
+EXPECT_S = 20
+EOT = "\x04"  # Ctrl-D: the terminal's end of input (VEOF) [termios(3)]
+
+
+class ForkedTerminal(fdspawn):
+    """`python -m softplc ARGS` forked from the test zygote, its stdin, stdout and stderr a
+    pseudo-terminal of ROWS x COLS: pexpect's interface as far as these tests use it."""
+
+    def __init__(self, argv: list[str], env: dict[str, str]):
+        master, slave = pty.openpty()
+        fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", ROWS, COLS, 0, 0))
+        self._zygote = zygote()
+        try:
+            self.pid = self._zygote.fork(argv, ROOT, env, [slave, slave, slave])
+        finally:
+            os.close(slave)  # the child's end: EOF (EIO) here once the child has exited
+        super().__init__(master, encoding="utf-8", timeout=EXPECT_S)
+
+    def sendeof(self) -> None:
+        self.send(EOT)
+
+    def close(self, force: bool = True) -> None:
+        """As pexpect's: the child ends (killed unless its output has ended), reaped."""
+        if self._zygote.wait(self.pid, WAIT_S if self.flag_eof else 0) is None:
+            try:
+                os.kill(self.pid, signal.SIGKILL)
+            except ProcessLookupError:  # it ended, its exit not yet reported
+                pass
+            self._zygote.wait(self.pid, WAIT_S)
+        if not self.closed:
+            super().close()
+
+
+def spawn(tmp_path: Path, *args: str, fork: bool = False) -> pexpect.spawn | ForkedTerminal:
+    """The REPL on a terminal: a new interpreter, or (`fork`) forked from the zygote."""
     env = dict(os.environ, SOFTPLC_HISTORY=str(tmp_path / "hist"), TERM="dumb",
                PYTHONIOENCODING="utf-8")
-    child = pexpect.spawn(sys.executable, ["-m", "softplc", "repl", *args], cwd=str(ROOT),
-                          env=env, encoding="utf-8", timeout=20, dimensions=(60, 200))
+    argv = ["repl", *args]
+    if fork and forking():
+        # written at once, as a terminal's line-buffered stdout is at each prompt
+        child = ForkedTerminal(argv, dict(env, PYTHONUNBUFFERED="1"))
+    else:
+        child = pexpect.spawn(sys.executable, ["-m", "softplc", *argv], cwd=str(ROOT),
+                              env=env, encoding="utf-8", timeout=EXPECT_S,
+                              dimensions=(ROWS, COLS))
     child.expect(PROMPT)
     return child
 
@@ -35,7 +89,7 @@ def cmd(child: pexpect.spawn, line: str) -> str:
 @pytest.mark.skipif(not TABLE.exists(), reason="drawing table program not there")
 def test_drawing_table_session_in_a_terminal(tmp_path: Path) -> None:
     child = spawn(tmp_path, str(TABLE.relative_to(ROOT)), "--config",
-                  str(TABLE.with_suffix(".toml").relative_to(ROOT)))
+                  str(TABLE.with_suffix(".toml").relative_to(ROOT)), fork=True)
     try:  # drawing_table.toml names its objects: each shows its symbol (TRAYEX, PX)
         assert "breakpoint #1 at rung" in cmd(child, "break X home switch")
         out = cmd(child, "continue")
@@ -92,7 +146,7 @@ PLANT = ROOT / "ladder_programs" / "plant" / "plant.toml"
 def test_plant_session_in_a_terminal(tmp_path: Path) -> None:
     """`softplc repl plant.toml`: a breakpoint in a peer stops the whole line; `back`
     rewinds every controller and the belt; Ctrl-D leaves."""
-    child = spawn(tmp_path, str(PLANT.relative_to(ROOT)))
+    child = spawn(tmp_path, str(PLANT.relative_to(ROOT)), fork=True)
     try:
         assert "focus: master" in child.before  # the intro
         assert "queued" in cmd(child, "set master:%I0.0 1")

@@ -10,10 +10,12 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
 from waits import WAIT_S, until_equal
+from zygote import popen
 
 from softplc.plant import hosts
 
@@ -22,6 +24,7 @@ WHY = hosts.netns_works()
 pytestmark = [pytest.mark.skipif(bool(WHY), reason=f"network namespaces: {WHY}"),
               pytest.mark.usefixtures("netns_serial")]
 READ_S = 0.1  # between reads: each starts a process in the SCADA's namespace
+COMMAND_S = 120  # bounds a failing `softplc` command only
 
 PLANT = """
 name = "two"
@@ -56,9 +59,17 @@ print(*c.read_registers(0, 2))
 
 
 def _softplc(tmp: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    """`python -m softplc ARGS`, forked from the test zygote (tests/zygote.py), which has
+    imported what `plant up` preloads for its daemons (a second of CPU a start);
+    tests/e2e/test_plant_up_browser.py starts the real `plant up` and `plant down`."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "softplc", *args], cwd=tmp, env=env,
-                          capture_output=True, text=True, timeout=120)
+    proc = popen(list(args), tmp, env)
+    err: list[str] = []
+    reader = threading.Thread(target=lambda: err.append(proc.stderr.read()))  # type: ignore[union-attr]
+    reader.start()
+    out = proc.stdout.read()  # type: ignore[union-attr]
+    reader.join(COMMAND_S)
+    return subprocess.CompletedProcess(args, proc.wait(COMMAND_S), out, "".join(err))
 
 
 def _from_scada(ns: str, host: str, *args: str) -> list[int]:
