@@ -133,6 +133,8 @@ class Model(ObjectModel):
             if not extra:
                 break
             self.host |= extra
+            for k in self.host:  # as the scan's start will (the same order): the next
+                self.free_input(k)  # pass adds nothing unless something else is new
         self.discovering = False
 
     def _discover(self, plc: Any, reads: list[Ref]) -> None:
@@ -201,6 +203,10 @@ class Model(ObjectModel):
     def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None:
         self.inputs.setdefault(key, (sort, lo, hi))
 
+    def free_input(self, key: str) -> None:
+        """An object a host writes between scans (or the system, unmodelled), an input."""
+        self.add_input(key, "bool" if self.is_bit_key(key) else "w16", -32768, 32767)
+
     def input_constraints(self, inp: dict[str, Any]) -> list[Any]:
         """Analog inputs within their configured span."""
         return [And(inp[k] >= lo, inp[k] <= hi) for k, (s, lo, hi) in self.inputs.items()
@@ -251,7 +257,7 @@ class Model(ObjectModel):
         free = [k for k in self.sys_free if k in self.vars and k not in self.host]
         for k in [*self.host, *free]:  # words a host writes between scans, free bits
             if self.discovering:
-                self.add_input(k, "bool" if self.is_bit_key(k) else "w16", -32768, 32767)
+                self.free_input(k)
             if self.mw_array and k.startswith("%MW"):
                 self.mw_named.add(int(k[3:]))
                 st[MW_ARRAY] = z3.Store(st[MW_ARRAY], z3.BitVecVal(int(k[3:]), 16), inp[k])
