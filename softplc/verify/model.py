@@ -134,7 +134,7 @@ class Model(ObjectModel):
                 break
             self.host |= extra
             for k in self.host:  # as the scan's start will (the same order): the next
-                self.free_input(k)  # pass adds nothing unless something else is new
+                _free_input(self, k)  # pass adds nothing unless something else is new
         self.discovering = False
 
     def _discover(self, plc: Any, reads: list[Ref]) -> None:
@@ -203,10 +203,6 @@ class Model(ObjectModel):
     def add_input(self, key: str, sort: str, lo: int = 0, hi: int = 0) -> None:
         self.inputs.setdefault(key, (sort, lo, hi))
 
-    def free_input(self, key: str) -> None:
-        """An object a host writes between scans (or the system, unmodelled), an input."""
-        self.add_input(key, "bool" if self.is_bit_key(key) else "w16", -32768, 32767)
-
     def input_constraints(self, inp: dict[str, Any]) -> list[Any]:
         """Analog inputs within their configured span."""
         return [And(inp[k] >= lo, inp[k] <= hi) for k, (s, lo, hi) in self.inputs.items()
@@ -257,7 +253,7 @@ class Model(ObjectModel):
         free = [k for k in self.sys_free if k in self.vars and k not in self.host]
         for k in [*self.host, *free]:  # words a host writes between scans, free bits
             if self.discovering:
-                self.free_input(k)
+                _free_input(self, k)
             if self.mw_array and k.startswith("%MW"):
                 self.mw_named.add(int(k[3:]))
                 st[MW_ARRAY] = z3.Store(st[MW_ARRAY], z3.BitVecVal(int(k[3:]), 16), inp[k])
@@ -601,6 +597,11 @@ class _Substituted:
     def __call__(self, st: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
         return substitute_all(self.post, [(v, st[k]) for k, v in self.pre.items()]
                               + [(v, inp[k]) for k, v in self.inp.items()])
+
+
+def _free_input(model: Model, key: str) -> None:
+    """An object a host writes between scans (or the system, unmodelled): an input."""
+    model.add_input(key, "bool" if model.is_bit_key(key) else "w16", -32768, 32767)
 
 
 def _current(model: Model, st: dict[str, Any], key: str) -> Any:
