@@ -28,13 +28,15 @@ WIDE = 72  # > 2 * 32 bits + sign: any product of two double words is exact
 
 def _asts(args: tuple[Any, ...], keep: list[Any]) -> Any:
     """The C array of Boolean `args` (Python bools made terms, kept alive in `keep`), or
-    None if one is neither."""
+    None if one is neither or belongs to another context than z3's main one (the C API
+    does not check: z3's own function says why)."""
     arr = (z3.Ast * len(args))()
+    ctx = z3.main_ctx()
     for i, a in enumerate(args):
         if isinstance(a, bool):
             a = z3.BoolVal(a)
             keep.append(a)
-        elif not isinstance(a, z3.BoolRef):
+        elif not isinstance(a, z3.BoolRef) or a.ctx is not ctx:
             return None
         arr[i] = a.ast
     return arr
@@ -75,7 +77,7 @@ def If(c: Any, a: Any, b: Any) -> Any:
     """z3.If: for a Boolean term `c` and two terms of one sort, straight to the C API
     (which checks the sorts: differing ones go to z3.If, which says why)."""
     if not (isinstance(c, z3.BoolRef) and isinstance(a, z3.ExprRef)
-            and isinstance(b, z3.ExprRef)):
+            and isinstance(b, z3.ExprRef) and a.ctx is c.ctx and b.ctx is c.ctx):
         return z3.If(c, a, b)
     ctx = c.ctx
     try:

@@ -33,3 +33,20 @@ def test_what_they_do_not_take_goes_to_z3():
         If(a, x, z3.BitVec("y", 8))
     with pytest.raises(z3.Z3Exception):
         And(a, x)
+
+
+def test_terms_of_another_context_go_to_z3():
+    """The C API does not check that its arguments share a context: terms of another
+    context than z3's main one are left to z3's functions, which make them there or say
+    why not."""
+    other = z3.Context()
+    p, q = z3.Bool("p", other), z3.Bool("q", other)
+    x, y = z3.BitVec("x", 8, other), z3.BitVec("y", 8, other)
+    for ours, theirs in [(And(p, q), z3.And(p, q)), (Or(p, q), z3.Or(p, q)),
+                         (If(p, x, y), z3.If(p, x, y))]:
+        assert ours.ctx is other and ours.get_id() == theirs.get_id()
+    a = z3.Bool("a")
+    with pytest.raises(z3.Z3Exception):  # a main-context term with one of `other`
+        And(a, p)
+    with pytest.raises(z3.Z3Exception):
+        If(a, x, y)
