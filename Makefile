@@ -20,10 +20,11 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 # mbpoll (Debian): the independent Modbus client the end-to-end tests also use; chromium: the
-# headless browser of the web monitor tests (Playwright drives it; no browser download).
+# headless browser of the web monitor tests (Playwright drives it; no browser download), and
+# chromium-headless-shell, the lighter headless browser they run when it is there.
 sysdeps:
-	@{ command -v mbpoll && command -v chromium; } >/dev/null 2>&1 || { \
-	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq mbpoll chromium >/dev/null; \
+	@{ command -v mbpoll && command -v chromium && command -v chromium-headless-shell; } >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq mbpoll chromium chromium-headless-shell >/dev/null; \
 	  else echo "note: mbpoll/chromium not installed (needs root); the tests that use them are skipped"; fi; }
 
 run: $(STAMP)

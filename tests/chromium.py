@@ -1,10 +1,11 @@
 """Debian's headless Chromium for the browser tests, launched once per test worker.
 
 Playwright's own browser download is never used (`playwright install` is not run): the
-system browser is launched by path. A launch costs about 3 s of CPU, so one browser lives
-for the worker's session (`chromium`) and every browser test module opens its pages in it
-(`browser`, registered by tests/conftest.py); at a module's end its pages are closed, so
-that none goes on polling a daemon that has stopped.
+system browser is launched by path, the headless shell when it is installed (Playwright
+adds --headless). A launch costs about 3 s of CPU, so one browser lives for the worker's
+session (`chromium`) and every browser test module opens its pages in it
+(`browser`, registered by tests/conftest.py); at a module's end its pages are closed,
+so that none goes on polling a daemon that has stopped.
 """
 
 from __future__ import annotations
@@ -16,11 +17,24 @@ from typing import Any
 
 import pytest
 
-CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium"
-                                        if Path("/usr/bin/chromium").exists() else None)
+# Debian's chromium-headless-shell first: the "old" headless browser (Blink and the same
+# renderer, without the full browser's UI layer), what Playwright itself runs for headless
+# Chromium (https://playwright.dev/docs/browsers#chromium-headless-shell). Measured on the
+# star-delta monitor: a new page with the monitor loaded costs it about 0.9 s of CPU, the
+# full browser 2.5 s (docs/decisions/browser-tests-headless-shell.md).
+SHELL = "/usr/lib/chromium/chromium-headless-shell"
+# The full browser by its binary, not /usr/bin/chromium: Debian's launcher adds flags for a
+# desktop user (--enable-gpu-rasterization: rasterising in the GPU process's SwiftShader).
+FULL = "/usr/lib/chromium/chromium"
+CHROMIUM = next((p for p in (SHELL, FULL) if Path(p).exists()),
+                shutil.which("chromium"))
 MISSING = "chromium is not installed (Debian package `chromium`; `make sysdeps` as root)"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+# the full browser only: its new headless mode has the desktop browser's windows, and each
+# page's window starts a WebUI renderer for the address bar's popup (about 1 s of CPU per
+# page; Puppeteer turns these off too: puppeteer/puppeteer#15278)
+FULL_ARGS = ["--disable-features=WebUIOmniboxPopup,WebUIOmniboxAimPopup"]
 
 
 @pytest.fixture(scope="session")
@@ -30,7 +44,8 @@ def chromium() -> Iterator[Any]:
     sync_api = pytest.importorskip("playwright.sync_api",
                                    reason="playwright is not installed (the test extra)")
     with sync_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        shell = Path(CHROMIUM).name == Path(SHELL).name
+        b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS + ([] if shell else FULL_ARGS))
         yield b
         b.close()
 

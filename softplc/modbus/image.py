@@ -103,6 +103,16 @@ class ModbusImage:
         # readers in another thread never see half done: the GIL is held throughout).
         self.regs_wire = bytearray(2 * n)
         self.coils = bytearray(c)
+        # The boundary image the snapshot was last made from (%MW native, %M as the bit
+        # list) and its wire form: a boundary whose memory equals it redoes no conversion.
+        self._mw_seen = bytearray(mem.mw.buf)
+        self._m_seen = list(mem.m)
+        self._wire_seen = bytearray(words_to_wire(mem.mw.buf))
+        self._wire_view = np.frombuffer(self._wire_seen, ">u2")
+        self._coils_seen = bytes(mem.m)
+        # True while `regs_wire`/`coils` hold host writes laid over the boundary image
+        # (set by every accepted write; cleared by a snapshot taken with none pending)
+        self._laid = True
         self.writes_applied = 0
         self.take_snapshot()
 
@@ -134,7 +144,8 @@ class ModbusImage:
         self.read_only = ReadOnly(ro.registers + extra.registers, ro.coils + extra.coils)
 
     # -- scan side -----------------------------------------------------------------------
-    def _overlay(self, regs: bytes, coils: bytes) -> tuple[bytes, bytes]:
+    def _overlay(self, regs: bytes | bytearray,
+                 coils: bytes | bytearray) -> tuple[bytes | bytearray, bytes | bytearray]:
         """`regs`/`coils` with the pending writes laid over them (lock held)."""
         if self._rhi > self._rlo:
             r = np.frombuffer(regs, ">u2").copy()
@@ -148,26 +159,45 @@ class ModbusImage:
             coils = cc.tobytes()
         return regs, coils
 
-    def take_snapshot(self) -> None:
-        """Copy %MW and %M for readers (and commit them to the store). After each scan."""
-        if self.hold:
-            return
-        self.snapshot_boundary()
-
     def snapshot_boundary(self) -> None:
         """`take_snapshot` whatever `hold`: for a caller in the scan thread between two
         scans (an online change's swap), whose memory is a boundary's even when the scan
         that follows is cut short."""
-        regs = words_to_wire(self.mem.mw.buf)
-        coils = bytes(self.mem.m)
+        self.take_snapshot(force=True)
+
+    def take_snapshot(self, force: bool = False) -> None:
+        """Copy %MW and %M for readers (and commit them to the store). After each scan
+        (the daemon's `after_scan` hook), unless `hold` (`force`: whatever `hold`).
+
+        Only what changed since the last boundary is converted (an idle or slow machine's
+        boundary is two compares): the snapshot is rewritten when the memory differs
+        from the image it was made from or host writes are laid over it; the store gets
+        a commit at every boundary all the same (the blocks' state moves with time)."""
+        if self.hold and not force:
+            return
+        mem = self.mem
+        mw, m = mem.mw.buf, mem.m
+        same_mw = mw == self._mw_seen  # a memcmp
+        if not same_mw:
+            self._mw_seen[:] = mw
+            # native -> big-endian into a buffer of our own: numpy may let go of the GIL
+            # while it copies, so readers only ever see the slice assignment below
+            np.copyto(self._wire_view, self._regs_native)
+        same_m = m == self._m_seen  # identity first: a pointer compare per bit
+        if not same_m:
+            self._m_seen[:] = m
+            self._coils_seen = bytes(m)
         blocks = self._blocks() if self._blocks is not None else None
         with self._lock:
-            if self._pending:  # acknowledged but not yet scanned: still what hosts read
-                regs, coils = self._overlay(regs, coils)
-            self.regs_wire[:] = regs
-            self.coils[:] = coils
+            if self._laid or not (same_mw and same_m):
+                regs, coils = self._wire_seen, self._coils_seen
+                if self._pending:  # acknowledged but not yet scanned: still what hosts read
+                    regs, coils = self._overlay(regs, coils)
+                self.regs_wire[:] = regs
+                self.coils[:] = coils
+                self._laid = bool(self._pending)  # laid over again at the next boundary
             if self.store is not None:
-                self.store.commit(regs, coils, blocks)
+                self.store.commit(self.regs_wire, self.coils, blocks)
 
     def apply_writes(self) -> int:
         """Apply every pending write at once. Called at the start of a scan."""
@@ -218,6 +248,7 @@ class ModbusImage:
                 self._rhi = end
             self._pending += 1
             self.regs_wire[a2:a2 + nb] = wire  # read back at once (module docstring)
+            self._laid = True
             store = self.store
             if store is not None and not store.journal(J_REGISTERS, addr, wire):
                 store.commit(self.regs_wire, self.coils)  # includes this write
@@ -235,6 +266,7 @@ class ModbusImage:
                 self._chi = end
             self._pending += 1
             self.coils[addr:end] = values
+            self._laid = True
             store = self.store
             if store is not None and not store.journal(J_COILS, addr, values):
                 store.commit(self.regs_wire, self.coils)

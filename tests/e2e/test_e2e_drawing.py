@@ -43,11 +43,14 @@ def draw(port: int, gcode: Path, trace: Path, *extra: str) -> int:
                     "0.01", "--trace", str(trace), "--trace-wait", "10", *extra])
 
 
+# The figure of `--plot` is drawn for one sample (the star: lines and travel): the same
+# code for each, about 1 CPU-s a figure.
 @pytest.mark.parametrize("sample", ["square.gcode", "circle.gcode", "star.gcode"])
 def test_corrected_program_draws_within_one_step(table, sample, capsys, tmp_path):
     d, trace = table("drawing_table.il")
     plot = tmp_path / "drawn.png"
-    assert draw(d.port, SAMPLES / sample, trace, "--plot", str(plot)) == 0
+    figure = ("--plot", str(plot)) if sample == "star.gcode" else ()
+    assert draw(d.port, SAMPLES / sample, trace, *figure) == 0
     assert d.stop() == 0  # SIGINT: clean shutdown flushes the whole trace
     rows = load_trace(trace)
     prog = parse_file(SAMPLES / sample)
@@ -57,7 +60,7 @@ def test_corrected_program_draws_within_one_step(table, sample, capsys, tmp_path
     assert dev.samples > 100
     assert dev.max_steps <= 1.0, dev
     assert dev.missed_steps == 0
-    assert plot.stat().st_size > 10_000
+    assert plot.stat().st_size > 10_000 if figure else not plot.exists()
     # homing comes first: the axes reach home (0, 0) before anything is drawn
     first_down = next(i for i, r in enumerate(rows) if r[3])
     assert any(r[1] == 0 and r[2] == 0 for r in rows[:first_down])

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 from test_web_browser import ROOT, shot
+from waits import PAGE_POLL_MS
 
 from softplc.cli import main
 
@@ -122,7 +123,8 @@ def test_the_slider_shows_the_violation_on_the_ladder(served, browser):
         page.wait_for_selector(f'body[data-scan="{total - 2}"]')
         page.locator("#play").click()
         page.wait_for_selector(f'body[data-scan="{total}"]', timeout=60_000)
-        page.wait_for_function("document.getElementById('play').textContent === 'play'")
+        page.wait_for_function("document.getElementById('play').textContent === 'play'",
+                               polling=PAGE_POLL_MS)
         assert page.locator("#status").inner_text() == "VIOLATED"
     finally:
         page.close()

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from chromium import CHROMIUM, MISSING
 from daemon_util import ROOT, Daemon, started
-from waits import WAIT_MS, WAIT_S, until
+from waits import PAGE_POLL_MS, WAIT_MS, WAIT_S, until
 
 from softplc.commands.io import Client
 from softplc.runtime.blocks import MAX_VALUE
@@ -220,6 +220,7 @@ def test_drawing_table_machine_view(module_page, tmp_path, daemons):
           and api.request("machine?since=0")["devices"]["X"]["pos"] == 0
           and api.request("machine?since=0")["devices"]["Z"]["pos"] == 0,
           period=0.05)  # homing done: both axes at 0
+    assert_view_unchanged(page, "#tab-machine")  # at rest: its updates change no element
     api.request("write", {"writes": [{"object": "%MW0", "value": 600},
                                      {"object": "%MW1", "value": 400},
                                      {"object": "%MW5", "value": 1}]})
@@ -228,8 +229,69 @@ def test_drawing_table_machine_view(module_page, tmp_path, daemons):
     sync_api.expect(path).to_have_count(1, timeout=WAIT_MS)
     page.wait_for_function(
         "() => { const p = document.querySelector('#pen-path');"
-        " return p && p.getTotalLength() > 100; }", timeout=WAIT_MS)
+        " return p && p.getTotalLength() > 100; }", timeout=WAIT_MS, polling=PAGE_POLL_MS)
     shot(page, "machine")
+
+
+UPDATES_WATCHED = 5  # websocket updates the page takes while a view is watched
+
+
+def assert_view_unchanged(page, view: str) -> None:
+    """The page takes UPDATES_WATCHED updates with the machine's state while nothing in
+    `view` changes (a MutationObserver on it): an update equal to the last one shown is no
+    DOM work, so no style, layout or repaint either."""
+    page.evaluate("""(view) => {
+        window.viewChanges = []; window.machineUpdates = 0;
+        new MutationObserver((ms) => { for (const m of ms) window.viewChanges.push(
+            (m.target.id || m.target.nodeName) + " " + m.type); })
+          .observe(document.querySelector(view),
+                   {subtree: true, childList: true, attributes: true, characterData: true});
+        const ws = state.ws, on = ws.onmessage;
+        ws.onmessage = (ev) => {
+            on(ev); if (ev.data.includes('"machine"')) window.machineUpdates++; };
+    }""", view)
+    page.wait_for_function(f"() => window.machineUpdates >= {UPDATES_WATCHED}",
+                           polling=PAGE_POLL_MS)
+    page.wait_for_timeout(0)  # the observer's records of the last update are delivered
+    assert page.evaluate("window.viewChanges") == []
+
+
+def set_hidden(page, hidden: bool) -> None:
+    """The page as the browser hides it (another tab in front) or shows it again: its
+    document's `hidden` and `visibilityState`, then the `visibilitychange` event (a headless
+    browser's pages are all shown)."""
+    page.evaluate("""(hidden) => {
+        if (hidden) for (const [k, v] of [["hidden", true], ["visibilityState", "hidden"]])
+          Object.defineProperty(document, k, {get: () => v, configurable: true});
+        else { delete document.hidden; delete document.visibilityState; }
+        document.dispatchEvent(new Event("visibilitychange"));
+    }""", hidden)
+
+
+def test_hidden_page_asks_for_the_status_alone(module_page, star_daemon):
+    """A hidden page asks the daemon for the status alone: while it stays hidden its
+    updates carry no I/O and no rung, and the link stays up; shown again, the I/O and the
+    live rungs come back."""
+    page = open_page(module_page, web_url(star_daemon))
+    page.click("#tabs button[data-tab=ladder]")
+    page.evaluate("""() => { window.updates = []; const ws = state.ws, on = ws.onmessage;
+        ws.onmessage = (ev) => {
+            on(ev); window.updates.push(Object.keys(JSON.parse(ev.data)).sort().join(" ")); };
+    }""")
+    page.wait_for_function("() => updates.some((k) => k.includes('io'))", polling=PAGE_POLL_MS)
+    set_hidden(page, True)
+    page.wait_for_function("() => updates.at(-1) === 'status type'", polling=PAGE_POLL_MS)
+    seen = page.evaluate("updates.length")
+    page.wait_for_function(f"() => updates.length >= {seen + UPDATES_WATCHED}",
+                           polling=PAGE_POLL_MS)
+    assert set(page.evaluate(f"updates.slice({seen})")) == {"status type"}
+    assert page.locator("#link.up").count() == 1
+    assert page.locator("#state").inner_text() != "DISCONNECTED"
+    set_hidden(page, False)
+    page.wait_for_function("() => updates.at(-1).includes('io')", polling=PAGE_POLL_MS)
+    page.wait_for_function(f"() => updates.slice({seen}).some((k) => k.includes('ladder'))",
+                           polling=PAGE_POLL_MS)
+    sync_api.expect(page.locator('#ladder div[data-rung="0"] svg')).to_be_visible()
 
 
 def test_analog_slider_reaches_the_plc(module_page, tmp_path, daemons):
@@ -275,7 +337,8 @@ def test_animation_table_of_output_bits_survives_any_value_and_resets(module_pag
     }""")
     assert shown == ["1", "x", "NaN", "0=1"]
     scans = int(page.locator("#scans").inner_text())
-    page.wait_for_function(f"() => +document.querySelector('#scans').textContent > {scans}")
+    page.wait_for_function(f"() => +document.querySelector('#scans').textContent > {scans}",
+                           polling=PAGE_POLL_MS)
     page.reload()  # the table is kept in the browser: the page still works with it
     page.wait_for_selector("#link.up")
     page.click("#tabs button[data-tab=tables]")

@@ -19,7 +19,7 @@ from test_web_browser import (
     sync_api,
     web_url,
 )
-from waits import WAIT_MS, WAIT_S
+from waits import PAGE_POLL_MS, WAIT_MS, WAIT_S
 
 
 def machine_tab(page) -> None:
@@ -37,7 +37,7 @@ def test_servo_table_view_follows_homing(module_page, tmp_path, daemons):
     api.set("%MW100", 2)  # home X then Y: the axes move, the FE moves
     page.wait_for_function(
         "() => /X = 0\\.0\\d\\d mm/.test(document.querySelector('#machine-hint')"
-        ".textContent)", timeout=WAIT_MS)
+        ".textContent)", timeout=WAIT_MS, polling=PAGE_POLL_MS)
     fe = page.locator('#fe-chart polyline.fe-line[data-axis="X"]')
     pts = [tuple(map(float, p.split(","))) for p in fe.get_attribute("points").split()]
     assert len({y for _, y in pts}) > 3  # the FE of the homing move is not flat
@@ -82,7 +82,7 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(module_page, tmp_path, d
     assert res.done == len(piece.segments())
     page.wait_for_function(
         "() => { const p = document.querySelector('#pen-path');"
-        " return p && p.getTotalLength() > 80; }", timeout=WAIT_MS)
+        " return p && p.getTotalLength() > 80; }", timeout=WAIT_MS, polling=PAGE_POLL_MS)
     # the 15 mm square: about 25 px (read in one go: the element is redrawn each update)
     box = page.evaluate("""() => { const r = document.querySelector('#pen-path')
       .getBoundingClientRect(); return { width: r.width, height: r.height }; }""")
@@ -122,7 +122,8 @@ def test_cutting_table_view_draws_the_cut_and_the_torch(module_page, tmp_path, d
         window.loading.push(document.querySelector("#trace-loading") ? "still" : "");
       }; }""")
     machine_tab(page)
-    page.wait_for_function("() => window.loading.length === 2", timeout=WAIT_MS)
+    page.wait_for_function("() => window.loading.length === 2", timeout=WAIT_MS,
+                           polling=PAGE_POLL_MS)
     first, after = page.evaluate("window.loading")
     assert re.fullmatch(r"loading the trace: 50 % \(\d+ of \d+ samples\)…", first), first
     assert after == ""
@@ -143,7 +144,8 @@ def test_machining_centre_view_shows_axis_step_and_estimate(module_page, tmp_pat
     # the axis runs to Q26 (-480 mm): the carriage moves left on the travel
     page.wait_for_function(
         "() => { const m = /X = (-?[\\d.]+) mm/.exec(document.querySelector("
-        "'#table-view').textContent); return m && +m[1] < -20; }", timeout=WAIT_MS)
+        "'#table-view').textContent); return m && +m[1] < -20; }", timeout=WAIT_MS,
+        polling=PAGE_POLL_MS)
     # the host's answer, as softplc tune writes it: mass, uncertainty, row, then EST_ACK
     api.request("write", {"writes": [{"object": "%MF406", "value": 22650.5},
                                      {"object": "%MF408", "value": 310.0},

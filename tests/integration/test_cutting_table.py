@@ -9,6 +9,7 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from warm import simulated, warm
 
 from softplc.machines.cutting.regmap import (
     EJECUTANDO,
@@ -39,10 +40,14 @@ def machine(start_mm: tuple[float, float] | None = None) -> PLC:
     return PLC.from_file(IL, cfg)
 
 
-def homed(start_mm: tuple[float, float] = (1.0, 1.0)) -> PLC:
-    plc = machine(start_mm)
+def home(plc: PLC) -> None:
     assert plc.run_until(lambda p: p[f"%MW{STATE}"] == READY, timeout=20)
-    return plc
+
+
+def homed(start_mm: tuple[float, float] = (1.0, 1.0)) -> PLC:
+    """A machine started at `start_mm` and homed: restored to the state its homing reached
+    in this process (tests/warm.py; test_two_runs_... checks it runs on the same)."""
+    return warm(("cutting_table", start_mm), lambda: machine(start_mm), home)
 
 
 def true_mm(plc: PLC) -> tuple[float, float]:
@@ -224,9 +229,15 @@ def run_piece(plc: PLC, piece_file: str) -> list[tuple]:
 
 
 def test_two_runs_on_the_virtual_clock_give_identical_traces():
-    a = run_piece(homed(), "escudo.toml")
-    b = run_piece(homed(), "escudo.toml")
+    """Homed and cut twice, one machine homed here, the other restored to the homed state
+    of an earlier homing (what the other tests start from): the same trace, homing
+    included, and the same memory and devices after it."""
+    fresh = machine((1.0, 1.0))
+    home(fresh)
+    restored = homed()
+    a, b = run_piece(fresh, "escudo.toml"), run_piece(restored, "escudo.toml")
     assert len(a) > 1000 and a == b
+    assert simulated(fresh) == simulated(restored)
 
 
 def test_hold_while_moving_stops_now_torch_off_and_the_next_segment_starts_there():

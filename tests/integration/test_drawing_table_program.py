@@ -15,6 +15,7 @@ from itertools import pairwise
 from pathlib import Path
 
 import pytest
+from warm import simulated, warm
 
 from softplc import PLC
 
@@ -72,15 +73,36 @@ def homing_scans(start_steps: float) -> int:
     return int((start_steps + 20) * STEP_PERIOD_S * 1000) + 50
 
 
+def home(p: PLC) -> None:
+    p.scan()
+    assert p[EJECUTANDO] == BUSY
+    scan_until(p, lambda: p[EJECUTANDO] == 0, homing_scans(500))
+
+
+def homed(program: Path) -> PLC:
+    """`program` on the machine, homed: restored to the state of one homing in this
+    process (tests/warm.py; test_a_restored_homed_machine_draws_as_a_homed_one)."""
+    return warm(("drawing_table", program), lambda: PLC.from_file(program, config=CONFIG),
+                home)
+
+
+@pytest.mark.parametrize("program", [CORRECTED, SEED], ids=["corrected", "seed"])
+def test_a_restored_homed_machine_draws_as_a_homed_one(program):
+    fresh = PLC.from_file(program, config=CONFIG)
+    home(fresh)
+    restored = homed(program)
+    assert simulated(restored) == simulated(fresh)
+    for p in (fresh, restored):
+        write_frame(p, 300, 120, 1)
+        p.scan(400)
+    assert pos(fresh) != (0, 0) and simulated(restored) == simulated(fresh)
+
+
 # ---- corrected program ------------------------------------------------------------------------
 @pytest.fixture
 def plc() -> PLC:
     """The corrected program, homed."""
-    p = PLC.from_file(CORRECTED, config=CONFIG)
-    p.scan()
-    assert p[EJECUTANDO] == BUSY
-    scan_until(p, lambda: p[EJECUTANDO] == 0, homing_scans(500))
-    return p
+    return homed(CORRECTED)
 
 
 def draw(plc: PLC, x: int, z: int, y: int = 1) -> dict:
@@ -267,10 +289,7 @@ def test_broken_home_switch_stops_homing():
 # ---- the seed program: its documented defects -----------------------------------------------
 @pytest.fixture
 def seed() -> PLC:
-    p = PLC.from_file(SEED, config=CONFIG)
-    p.scan()
-    scan_until(p, lambda: p[EJECUTANDO] == 0, homing_scans(500))
-    return p
+    return homed(SEED)
 
 
 def test_seed_homes_to_zero(seed):

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import pytest
 from daemon_util import ROOT, Daemon
+from warm import servo_rows, simulated, warm
 
 from softplc.devices.axis import Err, St
 from softplc.modbus.rawclient import ModbusExceptionReply
@@ -29,10 +30,25 @@ def config(**constants: int) -> dict:
     return cfg
 
 
+def new_cell(**constants: int) -> PLC:
+    plc = PLC.from_file(IL, config(**constants))
+    plc.scan()
+    return plc
+
+
 @pytest.fixture
 def cell():
-    plc = PLC.from_file(IL, config())
-    plc.scan()
+    plc = new_cell()
+    yield plc
+    plc.close()
+
+
+@pytest.fixture
+def ready():
+    """The cell after START, both axes homed, READY: restored to the state of one such
+    start in this process (tests/warm.py; test_start_homes_x_then_y checks that it runs
+    on as the cell it started does)."""
+    plc = warm("servo_table", new_cell, started)
     yield plc
     plc.close()
 
@@ -79,6 +95,17 @@ def test_start_homes_x_then_y(cell):
     assert abs(cell["%MD210"]) <= 10 and abs(cell["%MD240"]) <= 10
     # Y started only after X had finished (homed and settled)
     assert cell[X_ST] & St.IN_POSITION and cell[Y_ST] & St.IN_POSITION
+    # the `ready` fixture's cell, restored to an earlier start's state, is this one: the
+    # same state, and the same after a move of each axis
+    restored = warm("servo_table", new_cell, started)
+    assert simulated(restored) == simulated(cell)
+    k = x.k
+    for plc in (cell, restored):
+        assert request(plc, 1, 0, -30000, 69632) == 1 and request(plc, 1, 1, -20000) == 1
+        plc.run(0.4)
+    assert simulated(restored) == simulated(cell)
+    rows = servo_rows(cell, k)
+    assert len(rows["X"]) > 800 and servo_rows(restored, k) == rows
 
 
 def test_moves_refused_before_start_and_homing(cell):
@@ -89,58 +116,55 @@ def test_moves_refused_before_start_and_homing(cell):
     assert not cell.devices["X"].error  # refused by the program, the axis never saw it
 
 
-def test_host_move_with_target_checks(cell):
-    started(cell)
-    assert request(cell, 1, 0, 1000) == OUTSIDE  # beyond X max (0)
-    assert request(cell, 1, 1, -300000) == OUTSIDE  # beyond Y min
-    assert request(cell, 1, 2, -1000) == -4  # no axis 2
-    assert request(cell, 1, 1, -20000, 69632) == 1
-    assert cell[Y_ST] & St.BUSY
-    assert request(cell, 1, 1, -10000) == BUSY
-    assert cell.run_until(lambda p: p[Y_ST] & St.DONE, 5.0)
-    cell.run(0.3)
-    assert abs(cell["%MD240"] + 20000) <= 10
-    assert cell["%MW114"] == 5  # requests handled
+def test_host_move_with_target_checks(ready):
+    assert request(ready, 1, 0, 1000) == OUTSIDE  # beyond X max (0)
+    assert request(ready, 1, 1, -300000) == OUTSIDE  # beyond Y min
+    assert request(ready, 1, 2, -1000) == -4  # no axis 2
+    assert request(ready, 1, 1, -20000, 69632) == 1
+    assert ready[Y_ST] & St.BUSY
+    assert request(ready, 1, 1, -10000) == BUSY
+    assert ready.run_until(lambda p: p[Y_ST] & St.DONE, 5.0)
+    ready.run(0.3)
+    assert abs(ready["%MD240"] + 20000) <= 10
+    assert ready["%MW114"] == 5  # requests handled
 
 
-def test_jammed_axis_fatal_following_error_latches_and_resets(cell):
-    started(cell)
-    cell.devices["X"].set_fault("jammed")
-    assert request(cell, 1, 0, -100000, 69632) == 1
-    assert cell.run_until(lambda p: p[CELL] == FAULT, 2.0)
-    assert cell["%MW112"] == Err.FATAL_FE
-    assert cell[X_ST] & St.FE_FATAL and not cell[X_ST] & St.ENABLED
-    assert not cell[GREEN]
-    assert request(cell, 1, 1, -1000) == NOT_READY  # refused while in fault
-    cell.devices["X"].set_fault("none")
-    assert request(cell, 3) == 1
-    cell.scan(3)
-    assert cell[CELL] == READY and cell["%MW112"] == 0 and cell[GREEN]
-    assert cell[X_ST] & St.HOMED  # homing stays valid
+def test_jammed_axis_fatal_following_error_latches_and_resets(ready):
+    ready.devices["X"].set_fault("jammed")
+    assert request(ready, 1, 0, -100000, 69632) == 1
+    assert ready.run_until(lambda p: p[CELL] == FAULT, 2.0)
+    assert ready["%MW112"] == Err.FATAL_FE
+    assert ready[X_ST] & St.FE_FATAL and not ready[X_ST] & St.ENABLED
+    assert not ready[GREEN]
+    assert request(ready, 1, 1, -1000) == NOT_READY  # refused while in fault
+    ready.devices["X"].set_fault("none")
+    assert request(ready, 3) == 1
+    ready.scan(3)
+    assert ready[CELL] == READY and ready["%MW112"] == 0 and ready[GREEN]
+    assert ready[X_ST] & St.HOMED  # homing stays valid
 
 
-def test_estop_stops_and_recovery_needs_start_and_reset(cell):
-    started(cell)
-    assert request(cell, 1, 0, -150000, 69632) == 1
-    cell.run(0.5)
-    x = cell.devices["X"]
+def test_estop_stops_and_recovery_needs_start_and_reset(ready):
+    assert request(ready, 1, 0, -150000, 69632) == 1
+    ready.run(0.5)
+    x = ready.devices["X"]
     assert x.v < -60000
-    cell[ESTOP] = 1
-    cell.scan()
-    assert cell[RED] and not cell[CONTACTOR] and cell[CELL] == STOPPED
-    assert cell.run_until(lambda p: x.v == 0.0, 0.05)  # drives brake at the current limit
-    cell.scan(2)
-    assert cell[X_ST] & St.AMP_FAULT and not cell[X_ST] & St.ENABLED
-    assert not cell[GREEN]
-    cell[ESTOP] = 0
-    cell.scan(2)
-    assert not cell[RED] and cell[AMBER] and cell[CELL] == FAULT
-    press(cell, START)
-    assert not cell[GREEN]  # amplifier fault still latched
-    press(cell, RESET)
-    cell.scan(2)
-    assert cell[GREEN] and cell[CELL] == READY
-    assert request(cell, 1, 0, -1000, 69632) == 1  # no re-homing needed
+    ready[ESTOP] = 1
+    ready.scan()
+    assert ready[RED] and not ready[CONTACTOR] and ready[CELL] == STOPPED
+    assert ready.run_until(lambda p: x.v == 0.0, 0.05)  # drives brake at the current limit
+    ready.scan(2)
+    assert ready[X_ST] & St.AMP_FAULT and not ready[X_ST] & St.ENABLED
+    assert not ready[GREEN]
+    ready[ESTOP] = 0
+    ready.scan(2)
+    assert not ready[RED] and ready[AMBER] and ready[CELL] == FAULT
+    press(ready, START)
+    assert not ready[GREEN]  # amplifier fault still latched
+    press(ready, RESET)
+    ready.scan(2)
+    assert ready[GREEN] and ready[CELL] == READY
+    assert request(ready, 1, 0, -1000, 69632) == 1  # no re-homing needed
 
 
 def test_limit_switch_ends_in_a_fatal_error_with_the_limit_code():
@@ -319,7 +343,7 @@ def test_scurve_fe_depends_on_the_rest_before_the_move(tmp_path, monkeypatch, ca
     assert low <= fe <= high
 
 
-def test_ivar_words_read_and_write_while_running(cell):
+def test_ivar_words_read_and_write_while_running(ready):
     """servo_table.toml maps X's I-variables at %MW300 (Y %MW350): Ixx30 is the %MF at +28
     (the 13th row of IVARS); a write applies at the next scan, a refused one reverts and
     names the I-variable in +0."""
@@ -328,17 +352,16 @@ def test_ivar_words_read_and_write_while_running(cell):
 
     row = [i for i, *_ in IVARS].index("Ixx30")
     kp = f"%MF{300 + iv.FIRST + 2 * row}"
-    started(cell)
-    assert cell[kp] == 7990 and cell["%MW300"] == 0
-    cell[kp] = 8000.0
-    cell.scan()
-    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW301"] == 1
-    cell[kp] = -5.0  # out of range: refused, the value in force written back
-    cell.scan()
-    assert cell.devices["X"].gains.kp == 8000 and cell[kp] == 8000 and cell["%MW300"] == 30
-    cell["%MF352"] = 120.0  # Y's load disturbance, DAC bits
-    cell.scan()
-    assert cell.devices["Y"].disturbance == 120.0
+    assert ready[kp] == 7990 and ready["%MW300"] == 0
+    ready[kp] = 8000.0
+    ready.scan()
+    assert ready.devices["X"].gains.kp == 8000 and ready[kp] == 8000 and ready["%MW301"] == 1
+    ready[kp] = -5.0  # out of range: refused, the value in force written back
+    ready.scan()
+    assert ready.devices["X"].gains.kp == 8000 and ready[kp] == 8000 and ready["%MW300"] == 30
+    ready["%MF352"] = 120.0  # Y's load disturbance, DAC bits
+    ready.scan()
+    assert ready.devices["Y"].disturbance == 120.0
 
 
 def in_process(tmp_path, monkeypatch, poll_ms: float = 0) -> PLC:

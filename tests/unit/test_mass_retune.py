@@ -124,10 +124,12 @@ def test_ideal_feed_axis_follows_exactly_with_the_plant_torque(tmp_path):
 def test_compare_command_retunes_and_measures(tmp_path, capsys):
     """Two loads through `softplc tune --compare`: the row for each estimate retunes the
     axis, the same move's peak FE falls by more than half, the ideal axis gives the mass
-    without the loop's bias (N14 +-0.05 %), the closed loop's bias is measured."""
+    without the loop's bias (N14 +-0.05 %), the closed loop's bias is measured. On the
+    macro's geometry (100 mm moves, 160 mm of calibration): the same checks hold as on the
+    settings file's (300 mm, 360 mm at 2000 mm/min), in 30 % less CPU."""
     out = tmp_path / "fe.svg"
     assert main(["tune", "--compare", str(out), "--loads", "18000", "22699", "--no-noise",
-                 "--json"]) == 0
+                 "--geometry", "macro", "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     assert [r["row"] for r in res] == [2, 4]
     assert [round(r["kp_scale"], 6) for r in res] == [1.2, 1.6]

@@ -187,15 +187,17 @@ _SOURCE = "def cycles(dev, n):\n" + _HEAD + _LOOP + _STORE + """\
 
 # A whole scan of the device (ServoAxis.update) in its common cases, the loop closed and
 # moving (rendered with the flags of that state only), or held at a fixed point of the
-# loop (LoopRunner): the update's checks, the cycles above, the status words
-# (status.SOURCE) from the locals; at the fixed point the words of the last scan again,
-# with the new servo cycle count. It reads and writes the state's fields (`x_`...): the
-# properties over them drop these caches when anyone else assigns them (state.guard).
-# It returns False, having done nothing, when the case
-# does not hold (a command word changed, a fault, the drive's wired READY off or just
-# back, a new value in the load mass word, an I-variable change waiting...);
-# whatever is rarer after the cycles (an event, the end of a trajectory, a limit wired
-# to the PMAC) goes to the device's own code.
+# loop (LoopRunner), or at rest where the runner would only run the cycles: FE != 0 with
+# the integrator free and no DAC quantisation (no fixed point, the integrator moves; no
+# creep, which needs the DAC's steps: LoopRunner.run). The update's checks, the cycles
+# above, the status words (status.SOURCE) from the locals; at the fixed point the words
+# of the last scan again, with the new servo cycle count. It reads and writes the state's
+# fields (`x_`...): the properties over them drop these caches when anyone else assigns
+# them (state.guard). It returns False, having done nothing, when the case does not hold
+# (a command word changed, a fault, the drive's wired READY off or just back, a new value
+# in the load mass word, an I-variable change waiting...); whatever is rarer after the
+# cycles (an event, the end of a trajectory, a limit wired to the PMAC) goes to the
+# device's own code.
 _SCAN = """\
 def scan(dev, t, dt):
     if dev._w[$ctl_i] != dev._ctl_prev or not dev.closed_ or dev.fault_ != "none" \\
@@ -231,8 +233,10 @@ def scan(dev, t, dt):
             buf[$status_at:$status_end] = words
             _pack_ticks(buf, $ticks_at, k & 0x7FFFFFFF)
         return True
-    if dev.v_ == 0.0:
-        return False
+?dac    if dev.v_ == 0.0:
+?dac        return False
+!dac    if dev.v_ == 0.0 and (dev.fe_ == 0.0 or dev._clamped_):
+!dac        return False
 """ + _HEAD + _LOOP + _STORE + """\
     if event is not None:
         dev.runner.on_event(event)

@@ -38,20 +38,25 @@ class _IdealRunner(LoopRunner):
         if self.a._rec is not None and len(self.a.trace) >= self.a._trim_at:
             self.trim()
 
+    def build(self) -> None:
+        super().build()
+        a, p = self.a, self.a.opt.plant
+        # the plant's terms of a cycle, once per mass (`acc / K`: the cycle's own first
+        # product, the same value)
+        self._plant = (a.K, a.a / a.K, p.coulomb, p.load_table, p.load, p.amp_offset,
+                       a.loop_hz, a._start if a._ideal else a._enc0)
+
     def cycles(self, n: int, capture: bool = False) -> int:
-        a = self.a
-        if not a.closed or a.open_loop or not a._ready or a.fault != "none":
+        a = self.a  # (the state's fields, not its properties: read once a scan)
+        if not a.closed_ or a.open_loop_ or not a._ready_ or a.fault_ != "none":
             return super().cycles(n, capture)
-        p = a.opt.plant
-        K, acc, fc, table, load, uoff = a.K, a.a, p.coulomb, p.load_table, p.load, \
-            p.amp_offset
-        hz = a.loop_hz
-        x0 = a._start if a._ideal else a._enc0  # true position of raw count 0
-        traj, k0, tail_v = a._traj, a._k0, a._tail_v
+        # x0: the true position of raw count 0
+        K, acc_k, fc, table, load, uoff, hz, x0 = self._plant
+        traj, k0, tail_v = a._traj_, a._k0, a._tail_v_
         ntraj = len(traj)
-        cp, cpp, cvp = a._cp, a._cpp, a._cvp
-        rec, origin = a._rec, a.origin
-        w = a.w
+        cp, cpp, cvp = a._cp_, a._cpp_, a._cvp_
+        rec, origin = a._rec, a.origin_
+        w = a.w_
         for k in range(a.k + 1, a.k + n + 1):
             if ntraj:
                 j = k - k0
@@ -61,7 +66,7 @@ class _IdealRunner(LoopRunner):
             cv = cp - cpp
             ca = cv - cvp
             x, v = cp + x0, cv * hz
-            w = ca * hz * hz / K + acc / K * v + load \
+            w = ca * hz * hz / K + acc_k * v + load \
                 + (fc if v > 0 else -fc if v < 0 else 0.0) + (_interp(table, x) if table else 0.0)
             cpp, cvp = cp, cv
             if rec is not None:

@@ -79,12 +79,20 @@ function subscribe() {
       if (w && state.formats[obj] === "float") objects.add("%MF" + w[1]);
     }
   }
+  const shown = !document.hidden;  // a hidden page: see the visibilitychange listener
   ws.send(JSON.stringify({ subscribe: {
-    objects: [...objects], io: true,
-    rungs: state.tab === "ladder" ? shownRungs() : [],
-    machine: state.tab === "machine" } }));
-  if (state.tab === "machine") state.machine.trace = [];
+    objects: [...objects], io: shown,
+    rungs: shown && state.tab === "ladder" ? shownRungs() : [],
+    machine: shown && state.tab === "machine" } }));
+  if (shown && state.tab === "machine") state.machine.trace = [];
 }
+// A hidden page (another tab in front, a minimised window) asks only for the status, which
+// tells it the link is alive, and the objects it records (the trends go on); the I/O, the
+// live rungs and the machine's state come back, and the trends are drawn, once it is shown.
+document.addEventListener("visibilitychange", () => {
+  subscribe();
+  if (!document.hidden && state.tab === "trends") drawTrend();
+});
 
 // one view that fails on an unexpected value must not stop the others (nor the next updates)
 function guarded(what, fn) {
@@ -130,6 +138,17 @@ function put(el, key, value) {
   if (el[key] !== value) el[key] = value;
 }
 const putText = (el, text) => put(el, "textContent", String(text));
+// A view rebuilt from markup each update (the Machine tab's drawing, its tables): markup
+// equal to what the element shows already is no DOM work (an idle machine costs the page
+// nothing; a rebuild is a parse, a style, a layout and a repaint of the whole view).
+const shownHTML = new WeakMap();
+function putAttr(el, name, value) {
+  if (el.getAttribute(name) !== value) el.setAttribute(name, value);
+}
+function putHTML(el, html) {
+  if (shownHTML.get(el) === html) return;
+  shownHTML.set(el, html); el.innerHTML = html;
+}
 
 const ms = (v) => (v === undefined ? "–" : v.toFixed(3) + " ms");
 function showStatus(st) {

@@ -17,21 +17,22 @@ function showMachine(m) {
   mc.total = m.trace_total; mc.next = m.trace_next;  // samples recorded; looked at so far
   mc.devices = m.devices; mc.steps = m.steps; mc.estimate = m.estimate;
   machineHistory(mc, m);
-  const body = $("#devices tbody"); body.innerHTML = "";
+  let rows = "";
   for (const [name, st] of Object.entries(m.devices)) {
     const shown = Object.entries(st).filter(([k]) => k !== "type" && k !== "view")
       .concat(st.view && st.view.work ? [[`homed (program, ${st.view.work.homed_by})`, st.view.work.homed]] : [])
       .map(([k, v]) => `${k}=${typeof v === "number" ? Number(v.toPrecision(6)) : v}`).join("  ");
-    body.append(h("tr", {}, h("td", {}, name), h("td", {}, st.type), h("td", {}, shown)));
+    rows += `<tr><td>${esc(name)}</td><td>${esc(st.type)}</td><td>${esc(shown)}</td></tr>`;
   }
+  putHTML($("#devices tbody"), rows);  // (putHTML, putText: app.js) only what changed
   showSequence(mc);
   const view = MACHINE_VIEWS.find((v) => v.fits(m.devices));
   const svg = $("#table-view");
   if (view) view.draw(svg, mc);
   else {
-    svg.setAttribute("viewBox", "0 0 600 615");
-    svg.innerHTML = `<text x="20" y="40" font-size="16" fill="#66707a">no machine view for these devices</text>`;
-    $("#machine-hint").textContent = "";
+    putAttr(svg, "viewBox", "0 0 600 615");
+    putHTML(svg, `<text x="20" y="40" font-size="16" fill="#66707a">no machine view for these devices</text>`);
+    putText($("#machine-hint"), "");
   }
 }
 
@@ -51,11 +52,11 @@ const stepText = (n, title) => (new RegExp(`^step ${n}\\b`, "i").test(title) ? t
 
 // the Grafcet's active steps and the mass estimate, beside the drawing
 function showSequence(mc) {
-  const box = $("#machine-panel"); box.innerHTML = "";
+  let out = "";
   if (mc.steps) {
     const act = mc.steps.active;
-    box.append(h("h3", {}, "Sequence"), h("p", { id: "machine-step" },
-      act.length ? act.map((n) => stepText(n, mc.steps.titles[n] || "")).join("; ") : "no step active"));
+    out += `<h3>Sequence</h3><p id="machine-step">${esc(act.length
+      ? act.map((n) => stepText(n, mc.steps.titles[n] || "")).join("; ") : "no step active")}</p>`;
   }
   const e = mc.estimate;
   if (e) {
@@ -65,9 +66,10 @@ function showSequence(mc) {
       rows.push(["estimated mass", mnum(e.mass_kg, 1) + " kg"], ["uncertainty", "± " + mnum(e.uncertainty_kg, 1) + " kg"],
         ["fitted acceleration", mnum(e.accel, 4) + " m/s²"], ["parameter row", String(e.row)]);
     else rows.push(["estimated mass", e.answers > 0 ? "refused (status above)" : "no estimate yet"]);
-    box.append(h("h3", {}, "Mass estimate"), h("table", { id: "machine-estimate", class: "devices" },
-      h("tbody", {}, ...rows.map(([k, v]) => h("tr", {}, h("td", {}, k), h("td", {}, v))))));
+    out += `<h3>Mass estimate</h3><table id="machine-estimate" class="devices"><tbody>` +
+      rows.map(([k, v]) => `<tr><td>${esc(k)}</td><td>${esc(v)}</td></tr>`).join("") + "</tbody></table>";
   }
+  putHTML($("#machine-panel"), out);
 }
 
 // an axis as a drawing sees it: unit name, axis units per unit, travel [lo, hi] in units
@@ -121,7 +123,7 @@ const traceTableView = {
     const wx = { ...gx, unit: `${gx.unit}, ${frame}`, lo: gx.lo - shift[0], hi: gx.hi - shift[0], pos: gx.pos - shift[0] };
     const wz = { ...gz, unit: `${gz.unit}, ${frame}`, lo: gz.lo - shift[1], hi: gz.hi - shift[1], pos: gz.pos - shift[1] };
     const tool = devs[tr.pen] || {}, torch = tool.type === "torch", on = torch ? tool.lit : tool.down;
-    svg.setAttribute("viewBox", "0 0 600 615");
+    putAttr(svg, "viewBox", "0 0 600 615");
     const f = planeFrame(wx, wz, [xn, zn], { x: 60, y: 20, w: 520, h: 530 });
     const { down, up } = tracePaths(mc, f, gx, gz, shift);
     const colour = torch ? "#e65100" : "#1f4fa0";
@@ -129,20 +131,20 @@ const traceTableView = {
       `height="${f.Z(0) - f.Z(work.area[1])}" fill="#fff8e1" fill-opacity="0.6" stroke="#b28704" stroke-dasharray="6 3"/>` +
       `<text x="${f.X(0) + 4}" y="${f.Z(work.area[1]) - 5}" font-size="11" fill="#8a6d00">work area ${work.area[0]} × ${work.area[1]} mm</text>` : "";
     const total = mc.total ?? mc.trace.length, got = mc.next ?? mc.trace.length, loading = got < total;
-    svg.innerHTML = f.svg.replace('<rect id="table-outline"', area + '<rect id="table-outline"') +
+    putHTML(svg, f.svg.replace('<rect id="table-outline"', area + '<rect id="table-outline"') +
       (up ? `<path id="travel-path" d="${up}" fill="none" stroke="#9aa5b1" stroke-width="1" stroke-dasharray="4 3"/>` : "") +
       (down ? `<path id="pen-path" d="${down}" fill="none" stroke="${colour}" stroke-width="2"/>` : "") +
       crosshair(f.X(wx.pos), f.Z(wz.pos), torch ? "#e65100" : "#d62728", on, "tool") +
       (loading ? `<text id="trace-loading" x="300" y="40" font-size="14" text-anchor="middle" fill="#8a4b00">` +
-        `loading the trace: ${Math.floor(100 * got / total)} % (${got} of ${total} samples)…</text>` : "");
+        `loading the trace: ${Math.floor(100 * got / total)} % (${got} of ${total} samples)…</text>` : ""));
     const what = torch ? `torch ${on ? "lit (cutting)" : "off"}` : `pen ${on ? "down" : "up"}`;
     const where = `${xn} = ${mnum(wx.pos, 3)} ${gx.unit}, ${zn} = ${mnum(wz.pos, 3)} ${gz.unit}`;
-    $("#machine-hint").textContent = (work ? `${where} (work coordinates, as the host reports them; machine: ` +
+    putText($("#machine-hint"), (work ? `${where} (work coordinates, as the host reports them; machine: ` +
       `${mnum(gx.pos, 3)}, ${mnum(gz.pos, 3)}), ` : tr.work ? `${where} (machine coordinates: not homed, ` +
       `${tr.work.homed_by} = 0, no work origin yet), ` : `${where}, `) + `${what}; ` +
       `${got} trace samples${loading ? ` of ${total} (loading)` : ""}; the ` +
       `${torch ? "orange line is what the torch cut" : "blue line is what the pen drew"}, dashed: moves with the ` +
-      (torch ? "torch off." : "pen up.");
+      (torch ? "torch off." : "pen up."));
   },
 };
 
@@ -211,19 +213,19 @@ const servoTableView = {
   fits: (devs) => servoNames(devs).length >= 2,
   draw(svg, mc) {
     const devs = mc.devices, [xn, yn] = servoNames(devs), gx = axisGeometry(devs[xn]), gy = axisGeometry(devs[yn]);
-    svg.setAttribute("viewBox", "0 0 600 615");
+    putAttr(svg, "viewBox", "0 0 600 615");
     const f = planeFrame(gx, gy, [xn, yn], { x: 70, y: 14, w: 500, h: 370 });
     const hist = mc.history || [];
     const trail = hist.filter((s) => s.axes[xn] && s.axes[yn])
       .map((s) => `${f.X(s.axes[xn].x / gx.per).toFixed(1)},${f.Z(s.axes[yn].x / gy.per).toFixed(1)}`);
     const vx = devs[xn].view, vy = devs[yn].view;
-    svg.innerHTML = f.svg +
+    putHTML(svg, f.svg +
       (trail.length > 1 ? `<polyline id="axes-trail" points="${trail.join(" ")}" fill="none" stroke="#1f4fa0" stroke-width="1.5"/>` : "") +
       `<circle cx="${f.X(vx.cmd / gx.per)}" cy="${f.Z(vy.cmd / gy.per)}" r="3" fill="#2ca02c"/>` +
       crosshair(f.X(gx.pos), f.Z(gy.pos), "#d62728", vx.enabled && vy.enabled, "carriage") +
-      feChart(mc, [xn, yn], { x: 70, y: f.bottom + 56, w: 420, h: 130 });
-    $("#machine-hint").textContent = `${axisText(xn, vx)}; ${axisText(yn, vy)}. Red: the carriage, green dot: ` +
-      `the commanded position, blue: its last ${MACHINE_HISTORY_S} s; the FE band is the servo-rate trace's min-max between two updates.`;
+      feChart(mc, [xn, yn], { x: 70, y: f.bottom + 56, w: 420, h: 130 }));
+    putText($("#machine-hint"), `${axisText(xn, vx)}; ${axisText(yn, vy)}. Red: the carriage, green dot: ` +
+      `the commanded position, blue: its last ${MACHINE_HISTORY_S} s; the FE band is the servo-rate trace's min-max between two updates.`);
   },
 };
 
@@ -233,7 +235,7 @@ const singleAxisView = {
   fits: (devs) => servoNames(devs).length === 1,
   draw(svg, mc) {
     const devs = mc.devices, [n] = servoNames(devs), v = devs[n].view, g = axisGeometry(devs[n]);
-    svg.setAttribute("viewBox", "0 0 600 360");
+    putAttr(svg, "viewBox", "0 0 600 360");
     const L = 70, W = 480, y = 60, X = (u) => L + (u - g.lo) / (g.hi - g.lo) * W;
     let out = `<rect id="axis-travel" x="${L}" y="${y}" width="${W}" height="26" fill="#f4f6f8" stroke="#4a5a6a" stroke-width="2"/>`;
     const tick = niceTick(g.hi - g.lo);
@@ -243,9 +245,9 @@ const singleAxisView = {
       `<rect id="carriage" x="${X(g.pos) - 7}" y="${y - 8}" width="14" height="42" fill="${v.enabled ? "#d62728" : "none"}" stroke="#d62728" stroke-width="2"/>` +
       `<path d="M${X(v.cmd / g.per) - 6},${y - 18} L${X(v.cmd / g.per) + 6},${y - 18} L${X(v.cmd / g.per)},${y - 9} Z" fill="#2ca02c"/>` +
       `<text x="${L}" y="${y - 26}" font-size="12">${esc(axisText(n, v))}</text>`;
-    svg.innerHTML = out + feChart(mc, [n], { x: L, y: 170, w: 420, h: 130 });
-    $("#machine-hint").textContent = `Red: the carriage (filled: loop closed), green: the commanded position; ` +
-      `moving mass: configured x ${mnum(1 + v.load_mass_ratio, 4)}.`;
+    putHTML(svg, out + feChart(mc, [n], { x: L, y: 170, w: 420, h: 130 }));
+    putText($("#machine-hint"), `Red: the carriage (filled: loop closed), green: the commanded position; ` +
+      `moving mass: configured x ${mnum(1 + v.load_mass_ratio, 4)}.`);
   },
 };
 

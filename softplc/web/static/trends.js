@@ -27,7 +27,7 @@ function trendSample(msg) {
   if (tr.data.length && row.t < tr.data[tr.data.length - 1].t) tr.data = [];  // a restart
   tr.data.push(row);
   if (tr.data.length > TREND_KEEP) tr.data.splice(0, tr.data.length - TREND_KEEP);
-  if (state.tab === "trends") drawTrend();
+  if (state.tab === "trends" && !document.hidden) drawTrend();  // (shown: app.js draws it)
 }
 
 function trendRange(shown, o) {
