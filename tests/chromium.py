@@ -37,12 +37,34 @@ ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
 FULL_ARGS = ["--disable-features=WebUIOmniboxPopup,WebUIOmniboxAimPopup"]
 
 
+PLAYWRIGHT_MISSING = "playwright is not installed (the test extra)"
+
+
+class _SyncApi:
+    """`playwright.sync_api`, imported at its first use: the browser modules run on one
+    worker (tests/conftest.py), and the others collect them without importing playwright
+    (0.1-0.2 CPU-s each). The first use sets `expect`'s timeout: it waits as long as a
+    hang takes (its own default, 5 s, ran out under load)."""
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_"):  # pytest's collection probes a module's names for markers
+            raise AttributeError(name)
+        api = pytest.importorskip("playwright.sync_api", reason=PLAYWRIGHT_MISSING)
+        if "expect" not in vars(self):
+            from waits import WAIT_MS
+
+            api.expect.set_options(timeout=WAIT_MS)
+            self.expect = api.expect
+        return getattr(api, name)
+
+
+sync_api: Any = _SyncApi()
+
+
 @pytest.fixture(scope="session")
 def chromium() -> Iterator[Any]:
     if CHROMIUM is None:
         pytest.skip(MISSING)
-    sync_api = pytest.importorskip("playwright.sync_api",
-                                   reason="playwright is not installed (the test extra)")
     with sync_api.sync_playwright() as p:
         shell = Path(CHROMIUM).name == Path(SHELL).name
         b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS + ([] if shell else FULL_ARGS))

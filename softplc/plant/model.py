@@ -45,7 +45,7 @@ from pydantic import (
     model_validator,
 )
 
-from softplc.assembly import Loaded
+from softplc.assembly import DeviceTypes, Loaded
 from softplc.config import (
     ModbusConfig,
     PositiveDuration,
@@ -283,8 +283,6 @@ def _validate(file: str, text: str, raw: dict[str, Any]) -> PlantFile:
 def load_plant(path: str | Path) -> PlantSpec:
     """Read and check a plant file and its controllers' configurations. Raises PlantError
     (every problem, with its line), or the controllers' own ConfigError (their file)."""
-    from softplc.devices import device_types
-
     p = Path(path)
     file = str(p)
     try:
@@ -330,7 +328,7 @@ def load_plant(path: str | Path) -> PlantSpec:
     configs = {}
     for name, (cfg_raw, base, cfg_file) in raws.items():
         try:
-            settings = validate_config(cfg_raw, device_types())
+            settings = validate_config(cfg_raw, DeviceTypes())
         except ConfigError as e:
             raise (e.in_file(cfg_file) if cfg_file else e) from None
         configs[name] = Loaded(cfg_raw, base, settings, cfg_file, Local())

@@ -16,7 +16,7 @@ from typing import Any
 import z3
 
 from softplc.blocks import BIT
-from softplc.verify.symbolic import as_bool
+from softplc.verify.symbolic import If, as_bool
 
 OUT = "out"  # the values of the output bits a block writes (a drum's), in the view and result
 
@@ -39,12 +39,12 @@ def _set(st: dict[str, Any], key: str, g: Any, value: Any) -> None:
     old = st[key]
     if z3.is_bool(old):
         value = as_bool(value)
-        st[key] = z3.If(g, value, old) if not z3.is_true(g) else value
+        st[key] = If(g, value, old) if not z3.is_true(g) else value
     else:
         v = value if not isinstance(value, int) else z3.BitVecVal(value, old.size())
         if z3.is_bv(v) and v.size() != old.size():
             v = z3.Extract(old.size() - 1, 0, v)
-        st[key] = z3.If(g, v, old) if not z3.is_true(g) else v
+        st[key] = If(g, v, old) if not z3.is_true(g) else v
     st[key] = z3.simplify(st[key])
 
 

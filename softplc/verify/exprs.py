@@ -32,7 +32,7 @@ from softplc.twido.semantics import (
 )
 from softplc.verify import floats
 from softplc.verify.abstract import SITE
-from softplc.verify.symbolic import Z3Domain, wide
+from softplc.verify.symbolic import And, If, Z3Domain, wide
 
 # the integer functions modelled exactly (each a rule in `semantics`)
 INT_FUNCS = frozenset({"ABS", "SQRT", "NOT", "SHL", "SHR", "ROL", "ROR", "BCD_TO_INT", "BTI",
@@ -163,7 +163,7 @@ class ExprModel:
             r, fault = int_sqrt(D, v, bits)
         elif f in ("SHL", "SHR", "ROL", "ROR"):
             r, carry, moved = shift(D, f, v, args[1][0], bits)
-            self.carry(z3.And(g, moved), carry)
+            self.carry(And(g, moved), carry)
             return r, rtype
         elif f in ("BCD_TO_INT", "BTI"):
             r, fault = bcd_to_int(D, v)
@@ -301,4 +301,4 @@ class ExprModel:
         key = self.key_for(Ref("SW", floats.SW_FLOAT))
         self.mark_written(key, None)
         w = self.st[key]
-        self.st[key] = z3.simplify(z3.If(z3.And(g, c), w | kind, w))
+        self.st[key] = z3.simplify(If(And(g, c), w | kind, w))

@@ -30,7 +30,7 @@ from softplc.verify.blocks import apply, sort_name
 from softplc.verify.defaults import LOOP_BOUND
 from softplc.verify.loops import Loops
 from softplc.verify.objects import BLOCK_KEY, CLOCK_WRAP_US, MODELLED, MW_ARRAY, ObjectModel
-from softplc.verify.symbolic import Z3State, substitute_all
+from softplc.verify.symbolic import And, If, Not, Or, Z3State, substitute_all
 from softplc.verify.system import AFTER_PROGRAM, FIRST_SCAN_BITS, cold_value, free_objects
 
 
@@ -133,6 +133,8 @@ class Model(ObjectModel):
             if not extra:
                 break
             self.host |= extra
+            for k in self.host:  # as the scan's start will (the same order): the next
+                _free_input(self, k)  # pass adds nothing unless something else is new
         self.discovering = False
 
     def _discover(self, plc: Any, reads: list[Ref]) -> None:
@@ -203,7 +205,7 @@ class Model(ObjectModel):
 
     def input_constraints(self, inp: dict[str, Any]) -> list[Any]:
         """Analog inputs within their configured span."""
-        return [z3.And(inp[k] >= lo, inp[k] <= hi) for k, (s, lo, hi) in self.inputs.items()
+        return [And(inp[k] >= lo, inp[k] <= hi) for k, (s, lo, hi) in self.inputs.items()
                 if s == "w16" and (lo, hi) != (-32768, 32767)]
 
     def fresh(self, suffix: str) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -251,7 +253,7 @@ class Model(ObjectModel):
         free = [k for k in self.sys_free if k in self.vars and k not in self.host]
         for k in [*self.host, *free]:  # words a host writes between scans, free bits
             if self.discovering:
-                self.add_input(k, "bool" if self.is_bit_key(k) else "w16", -32768, 32767)
+                _free_input(self, k)
             if self.mw_array and k.startswith("%MW"):
                 self.mw_named.add(int(k[3:]))
                 st[MW_ARRAY] = z3.Store(st[MW_ARRAY], z3.BitVecVal(int(k[3:]), 16), inp[k])
@@ -281,7 +283,7 @@ class Model(ObjectModel):
             for name, (model, _b) in self.used.items():
                 held = model.held(self.block_view(name))
                 if held is not None:
-                    self.step_block(name, z3.Not(self.executed.get(name, z3.BoolVal(False))),
+                    self.step_block(name, Not(self.executed.get(name, z3.BoolVal(False))),
                                     held)
         for b in FIRST_SCAN_BITS:
             if f"%S{b}" in st:
@@ -293,12 +295,12 @@ class Model(ObjectModel):
         if "_tmod" in self.vars or "_tmod" in st:
             t = st["_tmod"]
             t = t + (z3.ZeroExt(16, dt) if dt is not None else 1)
-            st["_tmod"] = z3.simplify(z3.If(z3.UGE(t, self.clock_wrap), t - self.clock_wrap, t))
+            st["_tmod"] = z3.simplify(If(z3.UGE(t, self.clock_wrap), t - self.clock_wrap, t))
         if "_first" in st:
             st["_first"] = z3.BoolVal(False)
         out = dict(st)
         if self.facts:
-            out["_facts"] = z3.simplify(z3.And(self.facts))
+            out["_facts"] = z3.simplify(And(self.facts))
         if self.loops.sites:  # a loop ran past the unrolled passes in this scan
             out["_loop"] = z3.simplify(self.overflow)
         out.update({k: v for k, v in inp.items() if k not in st})  # %I, %IW: as latched
@@ -316,7 +318,7 @@ class Model(ObjectModel):
         for n in range(self.loops.bound + 1):
             nxt: dict[int, Any] = {}
             self.one_pass(rungs, main, back, nxt)
-            end_live = z3.Or(end_live, self.live)
+            end_live = Or(end_live, self.live)
             if self.discovering:  # no solver: one more pass, from any state, reads and
                 if n or not nxt:  # writes what any later pass does (values a first pass
                     break  # has concrete may skip a key: INC's %S18)
@@ -327,7 +329,7 @@ class Model(ObjectModel):
                 continue
             back, past, spent = self.loops.after_pass(n, nxt, spent)
             if past is not None:
-                self.overflow = z3.Or(self.overflow, past)
+                self.overflow = Or(self.overflow, past)
             if not back or past is not None:
                 break
             self.live = z3.BoolVal(False)
@@ -343,7 +345,7 @@ class Model(ObjectModel):
         for r in rungs:
             if r.label is not None:
                 seen.add(r.label)
-                self.live = z3.simplify(z3.Or(self.live, pending.pop(r.label, False),
+                self.live = z3.simplify(Or(self.live, pending.pop(r.label, False),
                                               back.get(r.label, False)))
             marker = next((i for i in r.instructions if isinstance(i, A.Grafcet)
                            and i.op in ("=*=", "-*-", "POST")), None)
@@ -374,16 +376,16 @@ class Model(ObjectModel):
         st = self.st
         init = st["%S21"] if "%S21" in st else z3.BoolVal(False)
         reset = st["%S22"] if "%S22" in st or "%S22" in self.vars else z3.BoolVal(False)
-        g = z3.And(self.live, z3.Or(init, reset))
+        g = And(self.live, Or(init, reset))
         for k in self.steps():
             key = f"%X{k}"
-            st[key] = z3.simplify(z3.If(g, z3.And(init, k in self.initial_steps), st[key]))
+            st[key] = z3.simplify(If(g, And(init, k in self.initial_steps), st[key]))
         if "%S23" in st or "%S23" in self.vars:
-            self.frozen = z3.And(self.live, st["%S23"])
+            self.frozen = And(self.live, st["%S23"])
         for b in (21, 22, 23):
             key = f"%S{b}"
             if key in st or key in self.vars:
-                st[key] = z3.If(self.live, False, st[key])
+                st[key] = If(self.live, False, st[key])
         self.steps_at_start = {k: st[f"%X{k}"] for k in self.steps()}
 
     def steps(self) -> list[int]:
@@ -400,11 +402,11 @@ class Model(ObjectModel):
         """End of the sequential part: the transitions of the scan, unless frozen."""
         self.post_done = True
         st = self.st
-        g = z3.And(g, z3.Not(self.frozen))
+        g = And(g, Not(self.frozen))
         for k in self.steps():
             key = f"%X{k}"
-            new = z3.Or(self.ga.get(k, False), z3.And(st[key], z3.Not(self.gd.get(k, False))))
-            st[key] = z3.simplify(z3.If(g, new, st[key]))
+            new = Or(self.ga.get(k, False), And(st[key], Not(self.gd.get(k, False))))
+            st[key] = z3.simplify(If(g, new, st[key]))
 
     # ---- one rung -------------------------------------------------------------------------
     def rung(self, rung: A.Rung, step: int | None,
@@ -420,8 +422,12 @@ class Model(ObjectModel):
         saved: dict[int, Any] = {}
         pins: dict[str, Any] = {}
 
+        made: list[Any] = [None, None]  # (live, g): g made again only when live changes
+
         def g() -> Any:  # the rung runs: not jumped over, in its active step
-            return z3.And(self.live, guard0)
+            if made[0] is not self.live:
+                made[:] = [self.live, And(self.live, guard0)]
+            return made[1]
 
         for s in tree.steps:
             ins, blk = s.instr, s.block
@@ -437,41 +443,41 @@ class Model(ObjectModel):
             elif isinstance(ins, A.ParenClose):
                 acc = self.combine(tree.steps[s.opener].instr.op, saved[s.opener], acc)
             elif isinstance(ins, A.Negate):
-                acc = z3.Not(acc)
+                acc = Not(acc)
             elif isinstance(ins, A.Stack):
                 if ins.op == "MPS":
                     saved[s.k] = acc
                 elif s.opener is not None:
                     acc = saved[s.opener]
             elif isinstance(ins, A.Store):
-                value = {"ST": acc, "STN": z3.Not(acc), "S": True, "R": False}[ins.op]
-                cond = g() if ins.op in ("ST", "STN") else z3.And(g(), acc)
+                value = {"ST": acc, "STN": Not(acc), "S": True, "R": False}[ins.op]
+                cond = g() if ins.op in ("ST", "STN") else And(g(), acc)
                 self.write_bit(ins.target, cond, value, ins.pos)
             elif isinstance(ins, A.OpBlock):
-                self.statement(ins.stmt, z3.And(g(), acc))
+                self.statement(ins.stmt, And(g(), acc))
             elif isinstance(ins, A.Jump):
                 c = z3.BoolVal(True) if ins.op == "JMP" else acc if ins.op == "JMPC" \
-                    else z3.Not(acc)
-                take = z3.And(self.live, guard0, c)
+                    else Not(acc)
+                take = And(self.live, guard0, c)
                 if ins.label in seen:  # backward: a loop (see `function`)
                     if self.grafcet:
                         self.unsupported("a backward jump in a Grafcet program", ins.pos,
                                          f"{ins.op} %L{ins.label}")
                         continue
                     self.loops.sites.setdefault(ins.label, ins.pos)
-                    back[ins.label] = z3.Or(back.get(ins.label, False), take)
+                    back[ins.label] = Or(back.get(ins.label, False), take)
                 else:
-                    pending[ins.label] = z3.Or(pending.get(ins.label, False), take)
-                self.live = z3.simplify(z3.And(self.live, z3.Not(take)))
+                    pending[ins.label] = Or(pending.get(ins.label, False), take)
+                self.live = z3.simplify(And(self.live, Not(take)))
             elif isinstance(ins, A.SRCall):
-                self.call_sr(ins, z3.And(g(), acc))
+                self.call_sr(ins, And(g(), acc))
             elif isinstance(ins, (A.Return, A.End)):
                 c = z3.BoolVal(True) if ins.op in ("RET", "END") else \
-                    acc if ins.op in ("RETC", "ENDC") else z3.Not(acc)
-                stop = z3.And(self.live, guard0, c)
+                    acc if ins.op in ("RETC", "ENDC") else Not(acc)
+                stop = And(self.live, guard0, c)
                 if isinstance(ins, A.End) and self.grafcet and not self.post_done:
                     self.post(stop)
-                self.live = z3.simplify(z3.And(self.live, z3.Not(stop)))
+                self.live = z3.simplify(And(self.live, Not(stop)))
             elif isinstance(ins, A.Blk):
                 pins = {}
                 acc = None
@@ -485,24 +491,24 @@ class Model(ObjectModel):
                 else:
                     self.run_pin(ins.block, ins.name, g(), acc, ins.pos)
             elif isinstance(ins, A.Grafcet):
-                self.transition(ins, step, z3.And(g(), acc if acc is not None else True))
+                self.transition(ins, step, And(g(), acc if acc is not None else True))
             elif not isinstance(ins, A.Nop):
                 self.unsupported(f"instruction {rungtree.describe(ins)}", s.pos, "")
 
     @staticmethod
     def combine(op: str, a: Any, b: Any) -> Any:
         a = a if a is not None else z3.BoolVal(False)
-        return z3.And(a, b) if op == "AND" else z3.Or(a, b) if op == "OR" else z3.Xor(a, b)
+        return And(a, b) if op == "AND" else Or(a, b) if op == "OR" else z3.Xor(a, b)
 
     def modified(self, v: Any, ins: Any, g: Any) -> Any:
         mod = ins.modifier
         if mod == "N":
-            return z3.Not(v)
+            return Not(v)
         if mod in ("R", "F"):  # one memory per instruction, as the compiler's edge slots
             key = self.edge_keys.setdefault(id(ins), f"edge{len(self.edge_keys)}")
             old = self.st[key]
-            r = z3.And(v, z3.Not(old)) if mod == "R" else z3.And(z3.Not(v), old)
-            self.st[key] = z3.simplify(z3.If(g, v, old))
+            r = And(v, Not(old)) if mod == "R" else And(Not(v), old)
+            self.st[key] = z3.simplify(If(g, v, old))
             return r
         return v
 
@@ -514,7 +520,7 @@ class Model(ObjectModel):
         if n not in self.plc.ast.subroutines:
             return
         saved = self.live
-        self.live = z3.And(self.live, g)
+        self.live = And(self.live, g)
         self.calls.append(n)
         self.function(self.plc.ast.subroutine(n), main=False)
         self.calls.pop()
@@ -523,12 +529,12 @@ class Model(ObjectModel):
     def transition(self, ins: A.Grafcet, step: int | None, g: Any) -> None:
         if ins.op in ("=*=", "-*-", "POST") or step is None:
             return
-        self.gd[step] = z3.Or(self.gd.get(step, False), g)
+        self.gd[step] = Or(self.gd.get(step, False), g)
         if ins.op == "#":
             if ins.step is not None:
-                self.ga[ins.step] = z3.Or(self.ga.get(ins.step, False), g)
+                self.ga[ins.step] = Or(self.ga.get(ins.step, False), g)
         else:
-            self.gd[ins.step] = z3.Or(self.gd.get(ins.step, False), g)
+            self.gd[ins.step] = Or(self.gd.get(ins.step, False), g)
 
 
 __all__ = ["Model", "Var", "is_object", "run_concrete"]
@@ -591,6 +597,11 @@ class _Substituted:
     def __call__(self, st: dict[str, Any], inp: dict[str, Any]) -> dict[str, Any]:
         return substitute_all(self.post, [(v, st[k]) for k, v in self.pre.items()]
                               + [(v, inp[k]) for k, v in self.inp.items()])
+
+
+def _free_input(model: Model, key: str) -> None:
+    """An object a host writes between scans (or the system, unmodelled): an input."""
+    model.add_input(key, "bool" if model.is_bit_key(key) else "w16", -32768, 32767)
 
 
 def _current(model: Model, st: dict[str, Any], key: str) -> Any:

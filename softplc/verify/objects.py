@@ -21,7 +21,7 @@ from softplc.verify.abstract import AbstractModel
 from softplc.verify.blocks import apply, view
 from softplc.verify.exprs import ExprModel
 from softplc.verify.requirements import INDEXED_WORDS
-from softplc.verify.symbolic import Z3State, as_bool, narrow, wide
+from softplc.verify.symbolic import And, If, Not, Or, Z3State, as_bool, narrow, wide
 from softplc.verify.system import AFTER_PROGRAM
 
 MW_ARRAY = INDEXED_WORDS  # the state key of the %MW words when the program indexes them
@@ -103,7 +103,7 @@ class ObjectModel(AbstractModel, ExprModel):
         if name is None:
             return
         model, blk = self.used[name]
-        self.executed[name] = z3.Or(self.executed.get(name, False), g)
+        self.executed[name] = Or(self.executed.get(name, False), g)
         self.step_block(name, g, {k: pins.get(k, z3.BoolVal(False)) for k in blk.PINS}, pos)
 
     def step_block(self, name: str, g: Any, pins: dict[str, Any],
@@ -204,12 +204,12 @@ class ObjectModel(AbstractModel, ExprModel):
         if ref.kind in ("Q", "M", "S", "X") and ref.offset is None:
             key = self.key_for(ref)
             self.mark_written(key, pos)
-            self.st[key] = z3.simplify(z3.If(g, value, self.st[key]))
+            self.st[key] = z3.simplify(If(g, value, self.st[key]))
         elif ref.kind in ("MW", "SW") and ref.bit is not None and ref.offset is None:
             word = Ref(ref.kind, ref.index)
             w = self.word(word)
             mask = z3.BitVecVal(1 << ref.bit, 16)
-            self.put_word(word, g, z3.If(value, w | mask, w & ~mask), pos)
+            self.put_word(word, g, If(value, w | mask, w & ~mask), pos)
         elif (name := self.bit_object(ref, pos)) is not None:
             new = self.used[name][0].set_bit(Z3State, self.block_view(name), ref.bit, value)
             for f in new:
@@ -241,9 +241,9 @@ class ObjectModel(AbstractModel, ExprModel):
         if k == "M" and ref.length is not None and ref.offset is None and ref.length <= 32:
             bits = [self.read_bit(Ref("M", ref.index + i), pos) for i in range(ref.length)]
             width = 16 if ref.length <= 16 else 32  # %Mi:L as a number, bit i is bit 0
-            v = z3.Concat(*[z3.If(b, z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
+            v = z3.Concat(*[If(b, z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
                             for b in reversed(bits)]) if len(bits) > 1 else \
-                z3.If(bits[0], z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
+                If(bits[0], z3.BitVecVal(1, 1), z3.BitVecVal(0, 1))
             return wide(z3.ZeroExt(width - ref.length, v)), INT16 if width == 16 else INT32
         if ref.offset is not None or ref.length is not None or ref.bit is not None:
             self.unsupported("an indexed object, table or bit string", pos, str(ref))
@@ -286,7 +286,7 @@ class ObjectModel(AbstractModel, ExprModel):
                                                  (i + 1, z3.Extract(31, 16, v))]
             for at, x in parts:
                 arr = self.st[MW_ARRAY]
-                self.st[MW_ARRAY] = z3.If(g, z3.Store(arr, at, x), arr)
+                self.st[MW_ARRAY] = If(g, z3.Store(arr, at, x), arr)
             self.mark_written(MW_ARRAY, pos)
             return
         if ref.offset is not None or ref.length is not None:
@@ -299,7 +299,7 @@ class ObjectModel(AbstractModel, ExprModel):
             self.put_word(Ref("MW", ref.index + 1), g, z3.Extract(31, 16, v32), pos)
         elif (key := self.block_field(ref, 16, writable=True)) is not None:
             if catalog.family(k).clamp_preset and ref.field == "P":
-                v = z3.If(v < 0, wide(0), z3.If(v > MAX_VALUE, wide(MAX_VALUE), v))
+                v = If(v < 0, wide(0), If(v > MAX_VALUE, wide(MAX_VALUE), v))
             if key != "_none":
                 self._put(key, g, narrow(v, 16), pos)
         elif abstracted(ref) and ref.field is not None:
@@ -321,7 +321,7 @@ class ObjectModel(AbstractModel, ExprModel):
             self.mark_written(f"%MW{ref.index}", pos)
             arr = self.st[MW_ARRAY]
             new = z3.Store(arr, z3.BitVecVal(ref.index, 16), v)
-            self.st[MW_ARRAY] = new if z3.is_true(g) else z3.If(g, new, arr)
+            self.st[MW_ARRAY] = new if z3.is_true(g) else If(g, new, arr)
             return
         self._put(self.key_for(ref), g, v, pos)
 
@@ -332,32 +332,32 @@ class ObjectModel(AbstractModel, ExprModel):
         count = self.plc.profile.counts["MW"] - (1 if ref.kind == "MD" else 0)
         at = z3.BitVecVal(ref.index, 16)
         i = wide(ref.index) + wide(self.word(ref.offset))
-        ok = z3.And(i >= 0, i < count)
+        ok = And(i >= 0, i < count)
         if g is not None:
             key = self.key_for(Ref("S", 20))
             self.mark_written(key, None)
-            self.st[key] = z3.simplify(z3.Or(self.st[key], z3.And(g, z3.Not(ok))))
-        return z3.If(ok, z3.Extract(15, 0, i), at)
+            self.st[key] = z3.simplify(Or(self.st[key], And(g, Not(ok))))
+        return If(ok, z3.Extract(15, 0, i), at)
 
     def _put(self, key: str, g: Any, v: Any, pos: A.Pos | None) -> None:
         if key in AFTER_PROGRAM:
             self.unsupported(f"writing {key}, which the system rewrites after the program",
                              pos, key)
         self.mark_written(key, pos)
-        self.st[key] = z3.simplify(z3.If(g, v, self.st[key]))
+        self.st[key] = z3.simplify(If(g, v, self.st[key]))
 
     def fault(self, g: Any, f: Any) -> None:
         """%S18 set where a rule faulted (set by the system, reset only by the program)."""
-        f = z3.simplify(z3.And(g, as_bool(f)))
+        f = z3.simplify(And(g, as_bool(f)))
         if z3.is_false(f):
             return
-        self.st["%S18"] = z3.simplify(z3.Or(self.st["%S18"], f))
+        self.st["%S18"] = z3.simplify(Or(self.st["%S18"], f))
 
     def carry(self, g: Any, c: Any) -> None:
         """%S17 := the bit a shift or rotation moved out, where g holds."""
         key = self.key_for(Ref("S", 17))
         self.mark_written(key, None)
-        self.st[key] = z3.simplify(z3.If(g, as_bool(c), self.st[key]))
+        self.st[key] = z3.simplify(If(g, as_bool(c), self.st[key]))
 
     def unsupported(self, what: str, pos: A.Pos | None, text: str) -> None:
         p = pos or A.NOPOS

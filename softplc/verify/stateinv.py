@@ -35,6 +35,7 @@ run, assumed or not.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -142,23 +143,30 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
 
     from softplc.errors import SoftPLCError
     try:  # the engine from the model's program and configuration, as the replay builds it
-        PLC(model.plc.ast, model.plc.config, devices=False).close()
+        plc = PLC(model.plc.ast, model.plc.config, devices=False)
     except SoftPLCError:  # e.g. a symbol file named relative to another directory
         return facts  # not sifted: Houdini alone decides (sifting only saves it time)
     alive = list(facts)
     seen: set[tuple[int, ...]] = set()
-    for run in range(runs):
-        # inputs held for stretches (a run of all-random bits would fault at once: an
-        # E-stop released half the time); half the runs change them more often
-        change = CHANGE[run % len(CHANGE)]
-        now = {k: value(sort, lo, hi) for k, sort, lo, hi in inputs}
-        with PLC(model.plc.ast, model.plc.config, devices=False) as plc:
+    with plc:
+        # each run from the cold start: the engine put back as built (`Engine.restore`,
+        # as the trace player goes back) rather than built again (most of the sift's time)
+        cold = plc.engine.snapshot()
+        from softplc.access.reading import Reading
+        read = Reading(plc).reader([plc.symbols.ref(k) for k in keys])  # from the arrays
+        for run in range(runs):
+            # inputs held for stretches (a run of all-random bits would fault at once: an
+            # E-stop released half the time); half the runs change them more often
+            change = CHANGE[run % len(CHANGE)]
+            now = {k: value(sort, lo, hi) for k, sort, lo, hi in inputs}
+            if run:
+                plc.engine.restore(cold)
             for _ in range(scans):
                 now = {k: value(sort, lo, hi) if rnd.random() < change else now[k]
                        for k, sort, lo, hi in inputs}
                 set_inputs(plc, now)
                 plc.scan()
-                v = {k: int(plc[k]) for k in keys}
+                v = dict(zip(keys, read(), strict=True))
                 seen_before = tuple(v.values())
                 if seen_before not in seen:  # a state seen already breaks nothing new
                     seen.add(seen_before)
@@ -166,11 +174,20 @@ def sift(model: Model, facts: list[Fact], runs: int = RUNS, scans: int = SCANS,
     return alive
 
 
+def _scan(model: Model) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """The model's scan from variables (state `k@si`, inputs): read by `candidates`, then
+    checked by `houdini`: built once per model, kept on it."""
+    made = getattr(model, "_state_scan", None)
+    if made is None:
+        pre = {k: z3.Const(f"{k}@si", sort_of(v.sort)) for k, v in model.vars.items()}
+        _, inp = model.fresh("si")
+        made = model._state_scan = (pre, inp, model.scan(dict(pre), inp))  # type: ignore[attr-defined]
+    return made
+
+
 def candidates(model: Model) -> list[Fact]:
     """The model's candidate facts, in an order that depends on the model only."""
-    pre = {k: z3.Const(f"{k}@si", sort_of(v.sort)) for k, v in model.vars.items()}
-    _, inp = model.fresh("si")
-    post = model.scan(dict(pre), inp)
+    _, _, post = _scan(model)
     init = model.init_state()
     state = sorted(k for k, v in model.vars.items()
                    if is_object(k) and k not in model.host and k in post
@@ -238,20 +255,28 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
     each is asked after the scan on its own (a disjunction of hundreds is far slower than
     hundreds of small queries); a model that breaks one drops every fact it breaks.
     Passes until one drops nothing."""
+    return _houdini(model, facts, seconds)[0]
+
+
+def _houdini(model: Model, facts: list[Fact], seconds: float) -> tuple[list[str], bool]:
+    """`houdini`'s texts, and whether the solver decided every question in its time (else
+    what it kept depends on the machine's speed: not kept for another model, `prove`)."""
     import time
+
+    from softplc.verify.symbolic import value_of
     end = time.monotonic() + seconds
-    init = model.init_state()
-    alive = {i for i, f in enumerate(facts) if z3.is_true(z3.simplify(f.term(init)))}
-    pre = {k: z3.Const(f"{k}@si", sort_of(v.sort)) for k, v in model.vars.items()}
-    _, inp = model.fresh("si")
-    post = model.scan(dict(pre), inp)
+    # a fact read on values (`Fact.test`, as the sift reads the engine's) is the fact's
+    # term evaluated on them: the cold start's, then a refuting model's post-state
+    cold = {k: v.init for k, v in model.vars.items()}
+    alive = {i for i, f in enumerate(facts) if f.test(cold)}
+    pre, inp, post = _scan(model)
     s = z3.Solver()
     s.add(*model.invariants(pre), *model.input_constraints(inp))
     if "_facts" in post:
         s.add(post["_facts"])
     before = {i: facts[i].term(pre) for i in alive}
     after = {i: facts[i].term(post) for i in alive}
-    changed = True
+    changed, decided = True, True
     while changed and alive:
         changed = False
         s.push()
@@ -261,7 +286,7 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
                 continue
             left = end - time.monotonic()
             if left <= 0:
-                return []
+                return [], False
             s.set("timeout", int(1000 * min(left, ROUND_S)))
             r = s.check(z3.Not(after[i]))
             if r == z3.unsat:
@@ -269,35 +294,73 @@ def houdini(model: Model, facts: list[Fact], seconds: float = PROVE_S) -> list[s
             changed = True
             if r != z3.sat:  # undecided in its time: not assumed
                 alive.discard(i)
+                decided = False
             else:
                 m = s.model()
-                alive -= {j for j in alive
-                          if not z3.is_true(m.eval(after[j], model_completion=True))}
+                now = {k: value_of(m, post[k]) for k in {k for j in alive
+                                                         for k in facts[j].keys}}
+                alive -= {j for j in alive if not facts[j].test(now)}
             s.pop()  # the facts dropped were asserted: assert those alive again
             s.push()
             s.add(*[before[j] for j in sorted(alive)])
         s.pop()
-    return [facts[i].text for i in sorted(alive)]
+    return [facts[i].text for i in sorted(alive)], decided
+
+
+# Facts proven for a model, kept in this process for another model of the same system (a
+# program verified again: the REPL, a test session, the benchmark), the least recently
+# used dropped first. The key is the system itself: the ids of its terms (the scan from
+# variables, the cold start, the range invariants, the input spans), which z3 shares
+# between equal terms; the entry holds those terms, so no other term can take their ids.
+CACHE_MODELS = 8
+_proven: OrderedDict[tuple[Any, ...], tuple[list[Fact], list[Any]]] = OrderedDict()
+
+
+def _system(model: Model) -> tuple[tuple[Any, ...], list[Any]]:
+    """The key of `model`'s transition system in `_proven`, and the terms it names."""
+    pre, inp, post = _scan(model)
+    terms = [*post.values(), *model.init_state().values(), *model.invariants(pre),
+             *model.input_constraints(inp)]
+    return (tuple(post), tuple((k, v.sort) for k, v in model.vars.items()),
+            tuple(sorted(model.host)), tuple(t.get_id() for t in terms)), terms
 
 
 def prove(model: Model, run: Callable[..., Any] | None = None,
           seconds: float = PROVE_S) -> list[Fact]:
-    """The model's proven facts, computed once and kept on the model. `run(work,
-    seconds)`: where the proof runs (`guard.isolated`: a child process, so that a solver
-    overrunning its timeout cannot hold the run, and whose answer every requirement's
-    child inherits); None: here, within `seconds`."""
+    """The model's proven facts, computed once and kept on the model (and for another
+    model of the same system: `_proven`). `run(work, seconds)`: where the proof runs
+    (`guard.isolated`: a child process, so that a solver overrunning its timeout cannot
+    hold the run, and whose answer every requirement's child inherits); None: here,
+    within `seconds`."""
     cached = getattr(model, "_state_facts", None)
     if cached is not None:
         return cached
     out: list[Fact] = []
     if not model.loops.sites:  # a loop's passes are the solver's: no scan term to read
-        facts = candidates(model)
-
-        def work(_report: Any = None) -> list[str]:
-            return houdini(model, sift(model, facts), seconds)
-        texts = ([] if not facts else work() if run is None else run(work, seconds))
-        if isinstance(texts, list):  # else an UNKNOWN Result: the time or the solver
-            kept = set(texts)
-            out = [f for f in facts if f.text in kept]
+        key, terms = _system(model)
+        if key in _proven:
+            _proven.move_to_end(key)
+            out = _proven[key][0]
+        else:
+            out = _proven_here(model, run, seconds, key, terms)
     model._state_facts = out  # type: ignore[attr-defined]
+    return out
+
+
+def _proven_here(model: Model, run: Callable[..., Any] | None, seconds: float,
+                 key: tuple[Any, ...], terms: list[Any]) -> list[Fact]:
+    facts = candidates(model)
+
+    def work(_report: Any = None) -> tuple[list[str], bool]:
+        return _houdini(model, sift(model, facts), seconds)
+    got = ([], True) if not facts else work() if run is None else run(work, seconds)
+    if not isinstance(got, tuple):  # an UNKNOWN Result: the time or the solver
+        return []
+    texts, decided = got
+    kept = set(texts)
+    out = [f for f in facts if f.text in kept]
+    if decided:  # (else a faster run may keep more)
+        _proven[key] = (out, terms)
+        while len(_proven) > CACHE_MODELS:
+            _proven.popitem(last=False)
     return out

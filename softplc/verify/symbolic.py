@@ -12,8 +12,79 @@ import struct
 from typing import Any
 
 import z3
+from z3 import z3core
+from z3.z3 import _to_expr_ref
 
 WIDE = 72  # > 2 * 32 bits + sign: any product of two double words is exact
+
+
+# ---- the model's constructors ------------------------------------------------------------
+# z3.And / Or / Not / If first coerce their arguments (a sort asked of each, casts, checks:
+# some ten API calls each); the model builds tens of thousands of terms per requirement
+# from arguments that are already terms of the right sort. These make the same call to
+# the C API (the same term: z3 shares equal terms) without that, about five times faster;
+# anything else (a Python int, a probe, differing sorts) goes to z3's own function.
+
+
+def _asts(args: tuple[Any, ...], keep: list[Any]) -> Any:
+    """The C array of Boolean `args` (Python bools made terms, kept alive in `keep`), or
+    None if one is neither or belongs to another context than z3's main one (the C API
+    does not check: z3's own function says why)."""
+    arr = (z3.Ast * len(args))()
+    ctx = z3.main_ctx()
+    for i, a in enumerate(args):
+        if isinstance(a, bool):
+            a = z3.BoolVal(a)
+            keep.append(a)
+        elif not isinstance(a, z3.BoolRef) or a.ctx is not ctx:
+            return None
+        arr[i] = a.ast
+    return arr
+
+
+def And(*args: Any) -> Any:
+    """z3.And (also of one list)."""
+    if len(args) == 1 and isinstance(args[0], (list, tuple)):
+        args = tuple(args[0])
+    keep: list[Any] = []
+    arr = _asts(args, keep) if args else None
+    if arr is None:
+        return z3.And(*args)
+    ctx = z3.main_ctx()
+    return z3.BoolRef(z3core.Z3_mk_and(ctx.ref(), len(args), arr), ctx)
+
+
+def Or(*args: Any) -> Any:
+    """z3.Or (also of one list)."""
+    if len(args) == 1 and isinstance(args[0], (list, tuple)):
+        args = tuple(args[0])
+    keep: list[Any] = []
+    arr = _asts(args, keep) if args else None
+    if arr is None:
+        return z3.Or(*args)
+    ctx = z3.main_ctx()
+    return z3.BoolRef(z3core.Z3_mk_or(ctx.ref(), len(args), arr), ctx)
+
+
+def Not(a: Any) -> Any:
+    """z3.Not."""
+    if not isinstance(a, z3.BoolRef):
+        return z3.Not(a)
+    return z3.BoolRef(z3core.Z3_mk_not(a.ctx.ref(), a.ast), a.ctx)
+
+
+def If(c: Any, a: Any, b: Any) -> Any:
+    """z3.If: for a Boolean term `c` and two terms of one sort, straight to the C API
+    (which checks the sorts: differing ones go to z3.If, which says why)."""
+    if not (isinstance(c, z3.BoolRef) and isinstance(a, z3.ExprRef)
+            and isinstance(b, z3.ExprRef) and a.ctx is c.ctx and b.ctx is c.ctx):
+        return z3.If(c, a, b)
+    ctx = c.ctx
+    try:
+        t = z3core.Z3_mk_ite(ctx.ref(), c.ast, a.ast, b.ast)
+    except z3.Z3Exception:
+        return z3.If(c, a, b)
+    return z3.BoolRef(t, ctx) if isinstance(a, z3.BoolRef) else _to_expr_ref(t, ctx)
 
 
 class Z3Domain:
@@ -26,19 +97,19 @@ class Z3Domain:
             return wide(a)
         if z3.is_false(c):
             return wide(b)
-        return z3.If(c, wide(a), wide(b))
+        return If(c, wide(a), wide(b))
 
     @staticmethod
     def and_(a: Any, b: Any) -> Any:
-        return z3.And(as_bool(a), as_bool(b))
+        return And(as_bool(a), as_bool(b))
 
     @staticmethod
     def or_(a: Any, b: Any) -> Any:
-        return z3.Or(as_bool(a), as_bool(b))
+        return Or(as_bool(a), as_bool(b))
 
     @staticmethod
     def not_(a: Any) -> Any:
-        return z3.Not(as_bool(a))
+        return Not(as_bool(a))
 
     @staticmethod
     def wrap(v: Any, bits: int) -> Any:
@@ -61,7 +132,7 @@ class Z3State:
             return a
         if z3.is_false(c):
             return b
-        return z3.If(c, a, b)
+        return If(c, a, b)
 
     and_, or_, not_ = Z3Domain.and_, Z3Domain.or_, Z3Domain.not_
 
@@ -75,7 +146,7 @@ class Z3State:
 
     @staticmethod
     def any_(terms: list[Any]) -> Any:
-        return z3.Or([as_bool(t) for t in terms]) if terms else z3.BoolVal(False)
+        return Or([as_bool(t) for t in terms]) if terms else z3.BoolVal(False)
 
     @staticmethod
     def resize(v: Any, like: Any) -> Any:
@@ -109,7 +180,7 @@ def wide(v: Any) -> Any:
     if isinstance(v, (int, bool)):
         return z3.BitVecVal(int(v), WIDE)
     if z3.is_bool(v):
-        return z3.If(v, z3.BitVecVal(1, WIDE), z3.BitVecVal(0, WIDE))
+        return If(v, z3.BitVecVal(1, WIDE), z3.BitVecVal(0, WIDE))
     n = v.size()
     return v if n == WIDE else z3.SignExt(WIDE - n, v)
 

@@ -13,7 +13,7 @@ import tomllib
 from pathlib import Path
 
 import pytest
-from chromium import CHROMIUM, MISSING
+from chromium import CHROMIUM, MISSING, sync_api
 from daemon_util import ROOT, Daemon, started
 from waits import PAGE_POLL_MS, WAIT_MS, WAIT_S, until
 
@@ -22,10 +22,6 @@ from softplc.runtime.blocks import MAX_VALUE
 
 if CHROMIUM is None:
     pytest.skip(MISSING, allow_module_level=True)
-sync_api = pytest.importorskip("playwright.sync_api",
-                               reason="playwright is not installed (the test extra)")
-# every expect() waits as long as a hang takes (its own default, 5 s, ran out under load)
-sync_api.expect.set_options(timeout=WAIT_MS)
 
 OUT = ROOT / "out"
 PROGRAMS = ROOT / "ladder_programs"

@@ -97,3 +97,27 @@ def test_a_host_coil_is_free_in_every_scan(tmp_path, capsys):
     assert main(["verify", str(path), "--require", str(req), "-q"]) != 0
     assert "VIOLATED" in capsys.readouterr().out
     assert main(["verify", str(path), "--require-expr", "never %Q0.0", "-q"]) == 0
+
+
+def test_facts_kept_for_another_model_of_the_same_system(monkeypatch):
+    """A second model of the same program and configuration gets the facts proven for the
+    first without a proof; another configuration of the program is proven again; a proof
+    the time cut short is not kept (a later one, with time, proves them)."""
+    from softplc.verify import stateinv
+
+    def fresh() -> Model:
+        plc = PLC.from_source(CHART, {}, devices=False)
+        plc.close()
+        return Model(plc)
+    first = prove(fresh())
+    assert "%X1 -> NOT %X2" in {f.text for f in first}
+    calls: list[int] = []
+    real = stateinv._houdini
+    monkeypatch.setattr(stateinv, "_houdini", lambda *a: calls.append(1) or real(*a))
+    assert [f.text for f in prove(fresh())] == [f.text for f in first] and not calls
+    with PLC.from_source(CHART, {"scan_period": "50ms"}, devices=False) as plc:
+        other = prove(Model(plc, host=[plc.symbols.ref("%M0")]))  # %M0 free: not a flag
+    assert calls == [1] and "%X2 -> %M0" not in {f.text for f in other}
+    stateinv._proven.clear()
+    assert prove(fresh(), seconds=0.0) == [] and calls == [1, 1]
+    assert {f.text for f in prove(fresh())} == {f.text for f in first} and len(calls) == 3

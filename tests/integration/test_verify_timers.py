@@ -151,7 +151,8 @@ def test_kept_invariants_hold_on_engine_runs(data, scans):
         kept = houdini(ck, Clock(60))
         names = {f"{k}@s": k for k in ck.state_keys()}
         st_vars = {k: z3.Const(f"{k}@s", sort_of(s)) for k, s in ck.state_keys().items()}
-        terms = [ck.candidates(st_vars)[i] for i in kept]
+        cands = ck.candidates(st_vars)  # once: the same terms for every index kept
+        terms = [cands[i] for i in kept]
         with PLC.from_source(src, BLOCKS, devices=False) as eng:
             for n, inputs in enumerate(scans, 1):
                 set_inputs(eng, inputs)

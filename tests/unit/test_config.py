@@ -37,6 +37,33 @@ def test_config_mistakes_are_named(config, message):
     assert message in str(e.value)
 
 
+def test_the_device_registry_is_read_only_for_a_device_section(monkeypatch):
+    """`assembly.load` looks the device registry up (numpy and every machine's package) only
+    when the configuration has a [devices] section: a PLC without one does not import it."""
+    import softplc.devices
+    from softplc.assembly import load
+
+    calls = []
+    registry = softplc.devices.device_types()
+
+    def counted():
+        calls.append(1)
+        return registry
+
+    monkeypatch.setattr(softplc.devices, "device_types", counted)
+    assert load({"scan_period": "10ms", "timers": {"%TM0": TM0}}).settings.devices == {}
+    assert PLC.from_source(PROG, {"timers": {"%TM0": TM0}}) is not None
+    assert calls == []
+    with pytest.raises(ConfigError, match=r"devices\.X\.type: unknown device type 'nope'; "
+                       r"known: .*stepper"):
+        load({"devices": {"X": {"type": "nope"}}})
+    assert calls == [1]
+    coils = ["%Q0.0", "%Q0.1", "%Q0.2", "%Q0.3"]
+    loaded = load({"devices": {"X": {"type": "stepper", "phases": coils}}})
+    assert loaded.settings.devices["X"].options.phases == coils
+    assert calls == [1, 1]
+
+
 def test_toml_syntax_error_names_the_file(tmp_path):
     cfg = tmp_path / "m.toml"
     cfg.write_text('scan_period = "10ms\n')
