@@ -30,6 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PROGRAM = "tests/debug_sample.il"  # 9 rungs, a timer: the debugger's sample
 CONFIG = "tests/debug_sample.toml"
 PLANT = "ladder_programs/plant/plant.toml"
+# a machine's configuration: steppers, limit switches, a pen and a trace
+MACHINE, MACHINE_CONFIG = "ladder_programs/drawing_table.il", "ladder_programs/drawing_table.toml"
 # a program with no configuration (no devices): what `softplc run` costs before its work
 TINY = ("tiny.il", "LD %I0.0\nST %Q0.0\n")
 # the daemon's last banner line (softplc/daemon.py `_banner`: tools and tests wait for it)
@@ -42,6 +44,7 @@ COMMANDS: tuple[Command, ...] = (
     ("softplc --help (every command's parser)", ("--help",)),
     ("softplc run --help", ("run", "--help")),
     ("softplc check PROGRAM", ("check", PROGRAM, "--config", CONFIG)),
+    ("softplc check drawing table (devices)", ("check", MACHINE, "--config", MACHINE_CONFIG)),
     ("softplc run tiny.il, to its banner", ("run", "{tmp}/" + TINY[0], "--port", "0",
                                             "--web", "off"), BANNER_END),
     ("softplc repl PROGRAM -x quit", ("repl", PROGRAM, "--config", CONFIG, "-x", "quit")),
