@@ -14,7 +14,6 @@ from __future__ import annotations
 from softplc.assembly.compile import compile_onto, forced_bits, load_program
 from softplc.assembly.machine import (
     ConfigSource,
-    DeviceTypes,
     Loaded,
     Machine,
     application_id,
@@ -27,7 +26,6 @@ from softplc.assembly.machine import (
     symbol_table,
 )
 
-__all__ = ["ConfigSource", "DeviceTypes", "Loaded", "Machine", "application_id", "assemble",
-           "attach_devices", "attach_scan_hooks", "compile_onto", "equip", "forced_bits", "load",
-           "load_program",
+__all__ = ["ConfigSource", "Loaded", "Machine", "application_id", "assemble", "attach_devices",
+           "attach_scan_hooks", "compile_onto", "equip", "forced_bits", "load", "load_program",
            "settle_exchange", "symbol_table"]

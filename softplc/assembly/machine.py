@@ -3,7 +3,7 @@ configuration (a dict, a TOML file or None)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -83,40 +83,17 @@ class Loaded(NamedTuple):
 ConfigSource = str | Path | dict[str, Any] | Loaded | None
 
 
-class DeviceTypes(Mapping[str, Any]):
-    """The device registry (`softplc.devices.device_types()`), imported on the first look-up:
-    it imports numpy and every machine's package (about 0.25 CPU-s of each start), which a
-    configuration without `[devices]` never looks at (`validate_config` looks a type up
-    only for a device section)."""
-
-    def __init__(self) -> None:
-        self._types: Mapping[str, Any] | None = None
-
-    def _registry(self) -> Mapping[str, Any]:
-        if self._types is None:
-            from softplc.devices import device_types
-
-            self._types = device_types()
-        return self._types
-
-    def __getitem__(self, name: str) -> Any:
-        return self._registry()[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._registry())
-
-    def __len__(self) -> int:
-        return len(self._registry())
-
-
 def load(config: ConfigSource, files: FilePolicy | None = None) -> Loaded:
     """`config` read and checked (`config.load_config`, the devices' options too); a
     `Loaded` is returned as it is. `files`: where the files it names may come from
     (default: anywhere, `Local`; a configuration from the network: `Carried`). Raises
     ConfigError with every problem the schema finds."""
+    # the catalog's names: a device type's module is imported only if the config names it
+    from softplc.devices import device_types
+
     if isinstance(config, Loaded):
         return config
-    raw, config_dir, settings = load_config(config, DeviceTypes())
+    raw, config_dir, settings = load_config(config, device_types())
     return Loaded(raw, config_dir, settings, None if config_dir is None else str(config),
                   Local() if files is None else files.fresh())
 

@@ -124,11 +124,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 _PAGE_OFF = -1
 # what `softplc run` (with its web monitor and wires), `plant process` and `plant page`
-# import: loaded once by `plant up`, shared by every daemon it forks
+# import (and every device type's module, `preload`): loaded once by `plant up`, shared by
+# every daemon it forks
 PRELOAD = ("softplc.cli", "softplc.commands.run", "softplc.daemon", "softplc.plc",
            "softplc.access.port", "softplc.access.wires", "softplc.web", "softplc.web.server",
            "softplc.plant.process", "softplc.runtime.linktcp", "softplc.commands.plantweb",
-           "softplc.web.plantpage", "softplc.machines.devices", "softplc.modbus.host")
+           "softplc.web.plantpage", "softplc.modbus.host")
 
 
 def preload() -> None:
@@ -139,6 +140,10 @@ def preload() -> None:
 
     for name in PRELOAD:
         importlib.import_module(name)
+    from softplc.devices import device_types
+
+    # a daemon imports its devices' modules when its configuration names them: here, once
+    list(device_types().values())
     from softplc.il.parser import prepare
     from softplc.modbus.server import new_event_loop
 

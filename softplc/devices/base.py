@@ -18,9 +18,10 @@ in `bind`, as a ConfigError naming `devices.NAME.option`.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Protocol
 
 from softplc.config import Section, validate_config
@@ -178,19 +179,65 @@ class AxisDevice(Device):
         return 0
 
 
+#: The device types registered so far (`register_device`), by type name: those whose
+#: modules have been imported. `device_types()` is the whole catalog.
 DEVICE_TYPES: dict[str, type[Device]] = {}
 
-#: The package that registers the machines' own device types when imported (a plug-in: the
-#: core names it, never imports from it).
+#: The core's device types, by the module that defines each one (`register_device` there):
+#: a module is imported the first time a configuration names one of its types, so a PLC
+#: without devices imports none (and a stepper's machine does not import the servo axis's
+#: numpy). tests/unit/test_device_catalog.py checks it against the modules' decorators.
+DEVICE_MODULES: dict[str, str] = {
+    "analog_source": "softplc.devices.analog_source",
+    "encoder": "softplc.devices.encoder",
+    "limit_switch": "softplc.devices.switches",
+    "oven": "softplc.devices.oven",
+    "push_button": "softplc.devices.switches",
+    "servo_axis": "softplc.devices.axis.servo",
+    "stepper": "softplc.devices.stepper",
+}
+
+#: The module that names the machines' own device types, its `DEVICE_MODULES` the same way
+#: (a plug-in: the core names it, never imports from it).
 MACHINE_PLUGINS = "softplc.machines.devices"
 
 
-def device_types() -> dict[str, type[Device]]:
-    """Every registered device type, the machines' included (their package is imported on
-    the first call: the core depends on no machine, and a PLC without machines pays no
-    import)."""
-    importlib.import_module(MACHINE_PLUGINS)
-    return DEVICE_TYPES
+class DeviceTypes(Mapping[str, type[Device]]):
+    """Device type name -> class, every type of the catalog (the core's and the machines')
+    listed, a type's module imported on first lookup."""
+
+    def __init__(self, modules: Mapping[str, str]):
+        self.modules = dict(modules)
+
+    def __getitem__(self, type_name: str) -> type[Device]:
+        module = self.modules[type_name]  # KeyError: not a device type
+        if type_name not in DEVICE_TYPES:
+            importlib.import_module(module)
+            if type_name not in DEVICE_TYPES:  # the catalog is wrong: a defect, not input
+                raise ImportError(f"{module} registers no device type {type_name!r}")
+        return DEVICE_TYPES[type_name]
+
+    def __contains__(self, type_name: object) -> bool:  # Mapping's would import the module
+        return type_name in self.modules
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.modules)
+
+    def __len__(self) -> int:
+        return len(self.modules)
+
+
+@functools.cache
+def device_types() -> DeviceTypes:
+    """Every device type, the machines' included, each one's module imported when it is
+    looked up (`types["stepper"]`, `.get`, `.items()`); the names alone (`in`, iteration,
+    an unknown type's error message) import none. The core depends on no machine: their
+    catalog comes from MACHINE_PLUGINS, a module of names only."""
+    machines = importlib.import_module(MACHINE_PLUGINS).DEVICE_MODULES
+    both = DEVICE_MODULES.keys() & machines.keys()
+    if both:
+        raise ImportError(f"device types both in the core and a machine: {sorted(both)}")
+    return DeviceTypes({**DEVICE_MODULES, **machines})
 
 
 def finite_or_none(v: float | None) -> float | None:

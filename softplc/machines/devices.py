@@ -1,11 +1,14 @@
-"""Importing this module registers the machines' own device types (the core's
-`softplc.devices.base.device_types()` imports it as a plug-in the first time a configuration
-is read: the core never imports a machine)."""
+"""The machines' own device types, by the module that defines each one (its
+`register_device`): `softplc.devices.base.device_types()` reads this catalog as a plug-in
+(the core never imports a machine) and imports a type's module only when a configuration
+names it. Names only here: importing this module imports no machine.
+tests/unit/test_device_catalog.py checks it against the modules' decorators."""
 
-from softplc.machines.drawing import pen, trace  # noqa: F401  (each registers its device type)
-from softplc.machines.machining import (  # noqa: F401  (likewise)
-    centre,
-    drive_tuning,
-    feed_axis,
-    scope,
-)
+DEVICE_MODULES: dict[str, str] = {
+    "drive_tuning": "softplc.machines.machining.drive_tuning",
+    "feed_axis": "softplc.machines.machining.feed_axis",
+    "pen": "softplc.machines.drawing.pen",
+    "scope": "softplc.machines.machining.scope",
+    "torch": "softplc.machines.drawing.pen",
+    "trace": "softplc.machines.drawing.trace",
+}

@@ -45,7 +45,7 @@ from pydantic import (
     model_validator,
 )
 
-from softplc.assembly import DeviceTypes, Loaded
+from softplc.assembly import Loaded
 from softplc.config import (
     ModbusConfig,
     PositiveDuration,
@@ -56,6 +56,7 @@ from softplc.config import (
     validate_config,
 )
 from softplc.config.files import Local
+from softplc.devices import device_types
 from softplc.errors import AddressError, ConfigCode, ConfigError, ConfigIssue
 from softplc.plant.physics import SHARED_DEVICES
 from softplc.twido.address import LINK_STATIONS, parse_address
@@ -328,7 +329,7 @@ def load_plant(path: str | Path) -> PlantSpec:
     configs = {}
     for name, (cfg_raw, base, cfg_file) in raws.items():
         try:
-            settings = validate_config(cfg_raw, DeviceTypes())
+            settings = validate_config(cfg_raw, device_types())
         except ConfigError as e:
             raise (e.in_file(cfg_file) if cfg_file else e) from None
         configs[name] = Loaded(cfg_raw, base, settings, cfg_file, Local())

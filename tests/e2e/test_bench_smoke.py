@@ -165,6 +165,19 @@ def test_startup_benchmark_one_command() -> None:
         bench_startup.run(runs=0)
 
 
+def test_startup_benchmark_stops_a_command_at_its_line(tmp_path) -> None:
+    """A command line with a last line (`softplc run`'s banner) is stopped once it prints
+    it, and one that ends without printing it is an error, not a figure."""
+    import sys
+
+    import bench_startup
+
+    waits = [sys.executable, "-c", "import time; print('ready', flush=True); time.sleep(600)"]
+    assert _positive(bench_startup.cpu_of(waits, tmp_path, "ready"))  # not 600 s later
+    with pytest.raises(RuntimeError, match="without printing 'ready'"):
+        bench_startup.cpu_of([sys.executable, "-c", "print('done')"], tmp_path, "ready")
+
+
 def test_bench_floor_parts_removes_each_part_it_names() -> None:
     """Every edit finds its text in the generated scan (else the tool exits), and each
     variant still runs."""

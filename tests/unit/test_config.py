@@ -37,31 +37,34 @@ def test_config_mistakes_are_named(config, message):
     assert message in str(e.value)
 
 
-def test_the_device_registry_is_read_only_for_a_device_section(monkeypatch):
-    """`assembly.load` looks the device registry up (numpy and every machine's package) only
-    when the configuration has a [devices] section: a PLC without one does not import it."""
-    import softplc.devices
+def test_a_device_type_is_looked_up_only_when_a_device_section_names_it(monkeypatch):
+    """`assembly.load` looks a device type up (which imports its module: numpy for a servo
+    axis, a machine's package) only for the types a [devices] section names; the unknown
+    type's message lists the catalog's names without importing any. Which modules a fresh
+    process imports: tests/e2e/test_device_imports.py."""
     from softplc.assembly import load
+    from softplc.devices.base import DeviceTypes
 
-    calls = []
-    registry = softplc.devices.device_types()
+    found = []
+    lookup = DeviceTypes.__getitem__
 
-    def counted():
-        calls.append(1)
-        return registry
+    def counted(self, name):
+        cls = lookup(self, name)
+        found.append(name)
+        return cls
 
-    monkeypatch.setattr(softplc.devices, "device_types", counted)
+    monkeypatch.setattr(DeviceTypes, "__getitem__", counted)
     assert load({"scan_period": "10ms", "timers": {"%TM0": TM0}}).settings.devices == {}
     assert PLC.from_source(PROG, {"timers": {"%TM0": TM0}}) is not None
-    assert calls == []
+    assert found == []
     with pytest.raises(ConfigError, match=r"devices\.X\.type: unknown device type 'nope'; "
                        r"known: .*stepper"):
         load({"devices": {"X": {"type": "nope"}}})
-    assert calls == [1]
+    assert found == []
     coils = ["%Q0.0", "%Q0.1", "%Q0.2", "%Q0.3"]
     loaded = load({"devices": {"X": {"type": "stepper", "phases": coils}}})
     assert loaded.settings.devices["X"].options.phases == coils
-    assert calls == [1, 1]
+    assert found == ["stepper"]
 
 
 def test_toml_syntax_error_names_the_file(tmp_path):

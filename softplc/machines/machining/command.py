@@ -33,8 +33,9 @@ examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from softplc.machines.machining import tuning
-    from softplc.machines.machining.retune import TABLES
+    # names from the light module, not `tuning`: the parser is built for every `softplc
+    # --help`, which must not import numpy and the estimator
+    from softplc.machines.machining import names
 
     p = subparsers.add_parser(
         "tune", help="estimate a feed axis's mass from scope recordings; write its parameters",
@@ -47,15 +48,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     f = p.add_argument_group("files (default: the thesis's names in --dir)")
     f.add_argument("--dir", default=".", help="directory of the files (default %(default)s)")
     f.add_argument("--settings", help=f"settings and parameter table (default "
-                                      f"{tuning.SETTINGS_FILE})")
-    f.add_argument("--calibration", help=f"calibration recording (default {tuning.CAL_FILE})")
+                                      f"{names.SETTINGS_FILE})")
+    f.add_argument("--calibration", help=f"calibration recording (default {names.CAL_FILE})")
     f.add_argument("--no-calibration", action="store_true",
                    help="skip the current calibration (biased if the axis has a "
                         "position-dependent force)")
-    f.add_argument("--measurement", help=f"measurement recording (default {tuning.MEAS_FILE})")
+    f.add_argument("--measurement", help=f"measurement recording (default {names.MEAS_FILE})")
     f.add_argument("--template", help=f"parameter macro template (default "
-                                      f"{tuning.TEMPLATE_FILE})")
-    f.add_argument("--output", help=f"parameter macro to write (default {tuning.OUTPUT_FILE})")
+                                      f"{names.TEMPLATE_FILE})")
+    f.add_argument("--output", help=f"parameter macro to write (default {names.OUTPUT_FILE})")
     f.add_argument("--dry-run", action="store_true", help="estimate and select; write nothing")
     f.add_argument("--confirm", action="store_true",
                    help="show the mass and row and ask before writing (the thesis's mass "
@@ -88,10 +89,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="mass of the sample axis, kg (default %(default)s)")
     e.add_argument("--seed", type=int, default=0, help="noise seed (default %(default)s)")
     e.add_argument("--no-noise", action="store_true", help="noise-free sample recordings")
-    e.add_argument("--geometry", choices=tuning.GEOMETRIES, default="settings",
+    e.add_argument("--geometry", choices=names.GEOMETRIES, default="settings",
                    help="sample moves: the settings file's 300 mm at 0.22 m/s² or the NC "
                         "macro's 100 mm triangles at 0.4 m/s² (default %(default)s)")
-    e.add_argument("--table", choices=TABLES,
+    e.add_argument("--table", choices=names.TABLES,
                    help="parameter table: the thesis's (Fig. 3-40) or the simulated "
                         "machine's, one row per 3 t (default: thesis; machine with "
                         "--compare)")

@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from softplc.errors import ConfigError
+from softplc.machines.machining.names import TABLES
 from softplc.machines.machining.params import MP_NAMES, TEMPLATE_VALUES, parse_table
 from softplc.machines.machining.settings import Settings, thesis_settings
 
@@ -82,9 +83,6 @@ def machine_table_text() -> str:
         lines.append(f"{n}, {inert:g}, {REFERENCE['MP2500'] * s:g}, "
                      f"{REFERENCE['MP2510'] * s:g},")
     return "\n".join(lines) + "\n"
-
-
-TABLES = ("thesis", "machine")
 
 
 def settings_with_table(base: Settings | None, table: str) -> Settings:

@@ -17,6 +17,14 @@ from softplc.machines.machining.csvrec import read_csv
 from softplc.machines.machining.estimator import Estimate, estimate
 from softplc.machines.machining.files import write_atomic
 from softplc.machines.machining.mpfile import MPFile
+from softplc.machines.machining.names import (  # noqa: F401  (this module's API too)
+    CAL_FILE,
+    GEOMETRIES,
+    MEAS_FILE,
+    OUTPUT_FILE,
+    SETTINGS_FILE,
+    TEMPLATE_FILE,
+)
 from softplc.machines.machining.params import MP_NAMES, MP_Q, Row, default_template
 from softplc.machines.machining.recording import read_recording, write_recording
 from softplc.machines.machining.settings import (
@@ -25,9 +33,6 @@ from softplc.machines.machining.settings import (
     read_settings,
     thesis_settings,
 )
-
-CAL_FILE, MEAS_FILE = "IMCal_.dta", "IMMea_.dta"  # the thesis's scope file names
-SETTINGS_FILE, TEMPLATE_FILE, OUTPUT_FILE = "settings.txt", "MPSetTemp.H", "MPSet.H"
 
 
 @dataclass(frozen=True)
@@ -101,9 +106,6 @@ def tune(s: Settings, cal: Any, meas: Any, tpl: MPFile,
         out = Path(output)
         write_atomic(out, data)
     return TuneResult(est, row, values, out, before)
-
-
-GEOMETRIES = ("settings", "macro")  # the thesis's settings file / its NC macro (§1)
 
 
 def write_example(directory: str | Path, mass: float = 22699.0, seed: int = 0,
