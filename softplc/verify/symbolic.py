@@ -42,28 +42,26 @@ def _asts(args: tuple[Any, ...], keep: list[Any]) -> Any:
     return arr
 
 
-def And(*args: Any) -> Any:
-    """z3.And (also of one list)."""
+def _nary(mk: Any, theirs: Any, args: tuple[Any, ...]) -> Any:
+    """z3.And or z3.Or (`theirs`) of `args` (also of one list) by the C API's `mk`."""
     if len(args) == 1 and isinstance(args[0], (list, tuple)):
         args = tuple(args[0])
     keep: list[Any] = []
     arr = _asts(args, keep) if args else None
     if arr is None:
-        return z3.And(*args)
+        return theirs(*args)
     ctx = z3.main_ctx()
-    return z3.BoolRef(z3core.Z3_mk_and(ctx.ref(), len(args), arr), ctx)
+    return z3.BoolRef(mk(ctx.ref(), len(args), arr), ctx)
+
+
+def And(*args: Any) -> Any:
+    """z3.And (also of one list)."""
+    return _nary(z3core.Z3_mk_and, z3.And, args)
 
 
 def Or(*args: Any) -> Any:
     """z3.Or (also of one list)."""
-    if len(args) == 1 and isinstance(args[0], (list, tuple)):
-        args = tuple(args[0])
-    keep: list[Any] = []
-    arr = _asts(args, keep) if args else None
-    if arr is None:
-        return z3.Or(*args)
-    ctx = z3.main_ctx()
-    return z3.BoolRef(z3core.Z3_mk_or(ctx.ref(), len(args), arr), ctx)
+    return _nary(z3core.Z3_mk_or, z3.Or, args)
 
 
 def Not(a: Any) -> Any:
