@@ -10,6 +10,7 @@ so that none goes on polling a daemon that has stopped.
 
 from __future__ import annotations
 
+import functools
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
@@ -40,22 +41,26 @@ FULL_ARGS = ["--disable-features=WebUIOmniboxPopup,WebUIOmniboxAimPopup"]
 PLAYWRIGHT_MISSING = "playwright is not installed (the test extra)"
 
 
+@functools.cache
+def _playwright() -> Any:
+    """`playwright.sync_api`, imported once, `expect` waiting as long as a hang takes (its
+    own default, 5 s, ran out under load)."""
+    from waits import WAIT_MS
+
+    api = pytest.importorskip("playwright.sync_api", reason=PLAYWRIGHT_MISSING)
+    api.expect.set_options(timeout=WAIT_MS)
+    return api
+
+
 class _SyncApi:
     """`playwright.sync_api`, imported at its first use: the browser modules run on one
     worker (tests/conftest.py), and the others collect them without importing playwright
-    (0.1-0.2 CPU-s each). The first use sets `expect`'s timeout: it waits as long as a
-    hang takes (its own default, 5 s, ran out under load)."""
+    (0.1-0.2 CPU-s each)."""
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):  # pytest's collection probes a module's names for markers
             raise AttributeError(name)
-        api = pytest.importorskip("playwright.sync_api", reason=PLAYWRIGHT_MISSING)
-        if "expect" not in vars(self):
-            from waits import WAIT_MS
-
-            api.expect.set_options(timeout=WAIT_MS)
-            self.expect = api.expect
-        return getattr(api, name)
+        return getattr(_playwright(), name)
 
 
 sync_api: Any = _SyncApi()
